@@ -1,0 +1,22 @@
+"""Exceptions raised by cas_freq.
+
+Each is a subclass of the matching built-in, so callers can catch ``ValueError`` or
+``TypeError`` as usual. Messages name the dotted config key, the value and what is accepted,
+e.g. ``position_loop.Kd: must be >= 0, got -0.1 A*s/rad``.
+"""
+
+
+class CasFreqError(Exception):
+    """Base class of every error cas_freq raises on purpose."""
+
+
+class ConfigError(CasFreqError, ValueError):
+    """A configuration value, key or file is not acceptable."""
+
+
+class ConfigTypeError(CasFreqError, TypeError):
+    """A configuration value has the wrong type (e.g. a list where a number is expected)."""
+
+
+class ModelError(CasFreqError, ValueError):
+    """A model cannot be built from otherwise valid parameters (e.g. an improper controller)."""

@@ -1,0 +1,74 @@
+"""Closed-form relations quoted by ARL-TR-9136, as plain functions of SI values.
+
+This module sits at the bottom of the package: it imports nothing from cas_freq, so both the
+config layer (which derives the viscous friction) and the analysis layer (which reports the
+second-order bandwidth) can use it.
+"""
+
+import math
+
+
+def viscous_friction_from_no_load(torque_constant, no_load_speed, no_load_current):
+    r"""Viscous friction coefficient from the motor's no-load point.
+
+    At no load the motor torque only overcomes friction, so :math:`K_m I_0 = \mu_v \omega_0`:
+
+    .. math:: \mu_v = \frac{K_m I_0}{\omega_0}, \qquad \omega_0 = n_0 \frac{2\pi}{60}
+
+    (ARL-TR-9136 §6; the report prints :math:`n_0` = 16,300 "rad/s" but the formula and its
+    result 1.341e-6 N·m·s/rad hold only for rpm, see MODEL.md.)
+
+    Parameters
+    ----------
+    torque_constant : float
+        Motor torque constant :math:`K_m` [N*m/A].
+    no_load_speed : float
+        No-load speed :math:`\omega_0` [rad/s] (already converted from rpm).
+    no_load_current : float
+        No-load current :math:`I_0` [A].
+
+    Returns
+    -------
+    float
+        Viscous friction :math:`\mu_v` [N*m*s/rad].
+    """
+    if no_load_speed <= 0:
+        raise ValueError(f"no_load_speed: must be > 0 rad/s, got {no_load_speed!r}")
+    return torque_constant * no_load_current / no_load_speed
+
+
+def second_order_bandwidth(natural_frequency, damping_ratio):
+    r"""-3 dB bandwidth of the standard second-order closed loop.
+
+    For :math:`T(s) = \omega_n^2 / (s^2 + 2\zeta\omega_n s + \omega_n^2)` the frequency where
+    :math:`|T(j\omega)|^2 = 1/2` is
+
+    .. math::
+        \omega_{BW} = \omega_n \sqrt{(1 - 2\zeta^2) + \sqrt{4\zeta^4 - 4\zeta^2 + 2}}
+
+    (ARL-TR-9136 §7, its ref. 5). A pure delay :math:`t_d` in front does not change the magnitude,
+    so the formula also holds for the report's second-order-plus-delay model.
+
+    Parameters
+    ----------
+    natural_frequency : float
+        Natural frequency :math:`\omega_n` [rad/s], > 0.
+    damping_ratio : float
+        Damping ratio :math:`\zeta` [-], >= 0.
+
+    Returns
+    -------
+    float
+        Bandwidth :math:`\omega_{BW}` [rad/s].
+
+    Examples
+    --------
+    >>> round(second_order_bandwidth(462.0, 0.54))
+    566
+    """
+    if not natural_frequency > 0:
+        raise ValueError(f"natural_frequency: must be > 0 rad/s, got {natural_frequency!r}")
+    if not damping_ratio >= 0:
+        raise ValueError(f"damping_ratio: must be >= 0, got {damping_ratio!r}")
+    z2 = damping_ratio**2
+    return natural_frequency * math.sqrt((1 - 2 * z2) + math.sqrt(4 * z2**2 - 4 * z2 + 2))
