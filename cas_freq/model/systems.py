@@ -1,0 +1,163 @@
+"""The actuator as python-control systems: Padé delays, composed in state space.
+
+Use these where a rational model is needed (poles, state space, linear time responses);
+frequency-domain figures come from :class:`cas_freq.model.transfer.ActuatorLoops`, which this
+module also wraps as :class:`control.FrequencyResponseData` for exact delays.
+
+The Padé delays are cascades of low-order sections (:func:`cas_freq.model.delay.pade_system`)
+and every composition is done on state-space objects, so orders 8 and 10 of sub-millisecond
+delays still give finite, accurate models.
+"""
+
+import dataclasses
+
+import control
+import numpy as np
+
+from cas_freq.model.delay import DEFAULT_PADE_ORDER, pade_system
+from cas_freq.model.transfer import (
+    current_controller,
+    current_plant,
+    position_controller,
+    position_reference_path,
+)
+
+
+def plant_system(motor):
+    """Motor and drivetrain (report Fig. 5) in state space.
+
+    States ``i`` [A], ``omega`` [rad/s], ``theta`` [rad] (motor shaft); input ``V`` [V];
+    outputs the three states.
+    """
+    mu = motor.viscous_friction
+    a = [
+        [-motor.R / motor.L, -motor.Ke / motor.L, 0.0],
+        [motor.Km / motor.J, -mu / motor.J, 0.0],
+        [0.0, 1.0, 0.0],
+    ]
+    b = [[1.0 / motor.L], [0.0], [0.0]]
+    return control.ss(
+        a, b, np.eye(3), np.zeros((3, 1)),
+        inputs="V", outputs=["i", "omega", "theta"], states=["i", "omega", "theta"],
+        name="plant",
+    )
+
+
+def _ss(rational):
+    num, den = rational.trimmed()
+    return control.ss(control.tf(num, den))
+
+
+@dataclasses.dataclass(frozen=True)
+class LinearModel:
+    """The actuator's loops as python-control state-space systems (Padé delays).
+
+    Attributes
+    ----------
+    pade_order : int
+        Padé order of both delays.
+    plant : control.StateSpace
+        V -> (i, omega, theta).
+    current_loop, current_closed_loop : control.StateSpace
+        L_i and T_i.
+    position_loop, sensitivity, closed_loop : control.StateSpace
+        L_p, S = 1/(1+L_p) and T = theta/theta_cmd.
+    """
+
+    pade_order: int
+    plant: control.StateSpace
+    current_loop: control.StateSpace
+    current_closed_loop: control.StateSpace
+    position_loop: control.StateSpace
+    sensitivity: control.StateSpace
+    closed_loop: control.StateSpace
+
+
+def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
+    """Build every loop of MODEL.md as a python-control system with Padé delays.
+
+    Parameters
+    ----------
+    params : cas_freq.config.ActuatorConfig
+        Validated parameters (SI).
+    pade_order : int
+        Padé order n >= 1 of both delays.
+
+    Returns
+    -------
+    LinearModel
+    """
+    motor = params.motor
+    plant = plant_system(motor)
+    delay_c = pade_system(params.current_loop.delay, pade_order)
+    delay_p = pade_system(params.position_loop.delay, pade_order)
+    c_i = _ss(current_controller(params.current_loop))
+    c_p = _ss(position_controller(params.position_loop))
+    c_r = _ss(position_reference_path(params.position_loop))
+
+    # Current loop, broken at the voltage: the electrical and mechanical states only (theta
+    # is not observable from i and would add a spurious pole at 0).
+    y = control.ss(plant.A[:2, :2], plant.B[:2], [[1.0, 0.0]], [[0.0]])
+    l_i = control.series(c_i, delay_c, y)
+    t_i = control.feedback(l_i, 1)
+
+    # Current loop closed around the full plant: i_cmd -> theta.
+    current_pi = control.ss(c_i, inputs="e_i", outputs="v_c", name="current_pi")
+    delay = control.ss(delay_c, inputs="v_c", outputs="V", name="current_delay")
+    error = control.summing_junction(inputs=["i_cmd", "-i"], output="e_i", name="current_error")
+    to_theta = control.interconnect(
+        [current_pi, delay, plant, error], inputs="i_cmd", outputs="theta", check_unused=False
+    )
+    # theta per controller output, then the three position-loop systems.
+    seen = control.series(delay_p, control.ss(to_theta.A, to_theta.B, to_theta.C, to_theta.D))
+    l_p = control.series(c_p, seen)
+    sensitivity = control.feedback(control.ss([], [], [], [[1.0]]), l_p)
+    closed = _position_closed_loop(params.position_loop, seen, l_p)
+    return LinearModel(pade_order, plant, l_i, t_i, l_p, sensitivity, closed)
+
+
+def _position_closed_loop(loop, seen, l_p):
+    """T = theta/theta_cmd, as a minimal realisation for either derivative placement."""
+    if loop.derivative_on == "error":
+        return control.feedback(l_p, 1)
+    # u = (Kp + Ki/s)(r - theta) - Kd s/(Tf s + 1) theta: one PI state, one filter state.
+    pi = control.ss(_ss(position_reference_path(loop)), inputs="e", outputs="u_pi", name="pi")
+    tf = loop.filter_time_constant
+    derivative = control.ss(
+        control.tf([loop.Kd, 0.0], [tf, 1.0]) if loop.Kd > 0 else control.tf([0.0], [1.0]),
+        inputs="theta", outputs="u_d", name="derivative",
+    )
+    plant = control.ss(seen, inputs="u", outputs="theta", name="seen")
+    return control.interconnect(
+        [
+            pi,
+            derivative,
+            plant,
+            control.summing_junction(inputs=["u_pi", "-u_d"], output="u", name="u_sum"),
+            control.summing_junction(inputs=["r", "-theta"], output="e", name="e_sum"),
+        ],
+        inputs="r",
+        outputs="theta",
+    )
+
+
+def exact_frequency_responses(loops, omega):
+    """The loops' exact-delay frequency responses as python-control FRD objects.
+
+    Parameters
+    ----------
+    loops : cas_freq.model.transfer.ActuatorLoops
+        Loops to evaluate (their delay model is used as it is).
+    omega : array_like
+        Frequencies [rad/s].
+
+    Returns
+    -------
+    dict of str to control.FrequencyResponseData
+        Keys ``current_loop``, ``current_closed_loop``, ``position_loop``, ``sensitivity``,
+        ``closed_loop``.
+    """
+    omega = np.asarray(omega, dtype=float)
+    s = 1j * omega
+    names = ("current_loop", "current_closed_loop", "position_loop", "sensitivity", "closed_loop")
+    return {name: control.frd(getattr(loops, name)(s), omega, name=name) for name in names}
