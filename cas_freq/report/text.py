@@ -1,0 +1,67 @@
+"""Readable plain-text tables of analysis results (no matplotlib)."""
+
+
+def _fmt(value, unit="", digits=4):
+    if value is None:
+        return "—"
+    return f"{value:.{digits}g}{(' ' + unit) if unit else ''}"
+
+
+def _loop_lines(title, margins):
+    lines = [
+        f"  {title}",
+        f"    gain crossover     {_fmt(margins.crossover_rad_s, 'rad/s')}",
+        f"    phase margin       {_fmt(margins.phase_margin_deg, 'deg')}",
+        f"    delay margin       {_fmt(margins.delay_margin_s and margins.delay_margin_s * 1e3, 'ms')}",
+        f"    gain margin        {_fmt(margins.gain_margin_db, 'dB')} "
+        f"at {_fmt(margins.phase_crossover_rad_s, 'rad/s')}",
+    ]
+    if margins.gain_margin_low_db is not None:
+        lines.append(
+            f"    lower gain margin  {_fmt(margins.gain_margin_low_db, 'dB')} "
+            f"at {_fmt(margins.phase_crossover_low_rad_s, 'rad/s')}"
+        )
+    lines += [
+        f"    sensitivity peak   {_fmt(margins.sensitivity_peak_db, 'dB')} "
+        f"at {_fmt(margins.sensitivity_peak_rad_s, 'rad/s')}",
+        f"    disk margin        ±{_fmt(margins.disk_margin_gain_db, 'dB')}, "
+        f"±{_fmt(margins.disk_margin_phase_deg, 'deg')} (alpha {_fmt(margins.disk_margin_alpha)})",
+        f"    crossings          {len(margins.gain_crossovers)} gain, "
+        f"{len(margins.phase_crossovers)} phase in range",
+    ]
+    return lines
+
+
+def analysis_table(analysis):
+    """Multi-line summary of one :class:`cas_freq.analysis.Analysis`."""
+    low, high = analysis.frequency_range_rad_s
+    head = f"{analysis.config} / {analysis.variant}"
+    if analysis.overrides:
+        head += " with " + ", ".join(analysis.overrides)
+    lines = [
+        head,
+        f"  delays {analysis.delay_model}; range {low:g}..{high:g} rad/s; closed loop "
+        f"{analysis.stability.verdict.upper()} (Padé {analysis.stability.pade_order} poles)",
+    ]
+    lines += _loop_lines("current loop L_i (broken at the voltage)", analysis.current_loop)
+    lines += _loop_lines("position loop L_p (broken at the current command)", analysis.position_loop)
+    closed = analysis.closed_loop
+    lines.append("  closed loop T = delta/delta_cmd")
+    if closed is None:
+        lines.append("    not reported: the closed loop is not stable")
+    else:
+        lines += [
+            f"    bandwidth (-3 dB)  {_fmt(closed.bandwidth_rad_s, 'rad/s')}",
+            f"    resonance peak     {_fmt(closed.peak_db, 'dB')} at {_fmt(closed.peak_rad_s, 'rad/s')}",
+            f"    phase -90 deg at   {_fmt(closed.phase_90_rad_s, 'rad/s')}",
+        ]
+    if analysis.pade_vs_exact:
+        lines.append("  Padé vs exact      PM_p [deg]  GM_p [dB]  PM_i [deg]  w_BW [rad/s]  max|dT|")
+        for row in analysis.pade_vs_exact:
+            lines.append(
+                f"    {row.delay_model:<16} {_fmt(row.position_phase_margin_deg):>10} "
+                f"{_fmt(row.position_gain_margin_db):>10} {_fmt(row.current_phase_margin_deg):>11} "
+                f"{_fmt(row.bandwidth_rad_s):>13} {row.closed_loop_max_error:>9.2e}"
+            )
+    lines += [f"  note: {note}" for note in analysis.notes]
+    return "\n".join(lines)
