@@ -77,10 +77,20 @@ def refine_roots(func, omega, values=None):
     signs = np.sign(values)
     brackets = np.nonzero(signs[:-1] * signs[1:] < 0)[0]
     for k in brackets:
-        lo, hi = math.log(omega[k]), math.log(omega[k + 1])
-        root = optimize.brentq(lambda x: func(math.exp(x)), lo, hi, xtol=RELATIVE_TOLERANCE)
-        roots.append(math.exp(root))
+        roots.append(_bracketed_root(func, omega[k], omega[k + 1]))
     return np.sort(np.asarray(roots, dtype=float))
+
+
+def _bracketed_root(func, w_low, w_high):
+    """Root of ``func`` between two grid points whose grid values differ in sign."""
+    lo, hi = math.log(w_low), math.log(w_high)
+    f_lo, f_hi = func(math.exp(lo)), func(math.exp(hi))
+    if f_lo == 0 or f_hi == 0 or f_lo * f_hi > 0:
+        # The root sits on a grid point to within rounding (the scalar and vectorised
+        # evaluations disagree on its sign): that grid point is the root.
+        return float(w_low if abs(f_lo) <= abs(f_hi) else w_high)
+    root = optimize.brentq(lambda x: func(math.exp(x)), lo, hi, xtol=RELATIVE_TOLERANCE)
+    return math.exp(root)
 
 
 def refine_maximum(func, omega, values):

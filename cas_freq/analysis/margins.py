@@ -67,11 +67,11 @@ class LoopMargins:
 
 
 def _gain_crossovers(loop, omega, response):
-    def log_magnitude(w):
-        return math.log(abs(loop(1j * w)))
+    def magnitude_minus_one(w):
+        return abs(loop(1j * w)) - 1.0
 
     found = []
-    for w in refine_roots(log_magnitude, omega, np.log(np.abs(response))):
+    for w in refine_roots(magnitude_minus_one, omega, np.abs(response) - 1.0):
         pm = math.degrees(np.angle(-loop(1j * w)))  # angle(-L) = angle(L) + 180°, wrapped
         if pm == -180.0:
             pm = 180.0
@@ -80,12 +80,13 @@ def _gain_crossovers(loop, omega, response):
 
 
 def _phase_crossovers(loop, omega, response):
-    def sine_of_phase(w):
+    def sine_of_phase(w):  # sin(angle L); 0 where L = 0 (no phase there, and not negative)
         value = loop(1j * w)
-        return value.imag / abs(value)
+        return value.imag / abs(value) if value != 0 else 0.0
 
     found = []
-    sines = response.imag / np.abs(response)
+    magnitude = np.abs(response)
+    sines = np.divide(response.imag, magnitude, out=np.zeros(len(magnitude)), where=magnitude > 0)
     for w in refine_roots(sine_of_phase, omega, sines):
         value = loop(1j * w)
         if value.real < 0:

@@ -1,0 +1,136 @@
+"""Margins and closed-loop figures against analytic loops worked out here."""
+
+import math
+
+import numpy as np
+import pytest
+
+from cas_freq.analysis.closed_loop import closed_loop_figures
+from cas_freq.analysis.frequency import frequency_grid, refine_roots
+from cas_freq.analysis.margins import loop_margins
+from cas_freq.formulas import second_order_bandwidth
+
+# Crossings are refined by Brent's method to 1e-12 in log frequency; figures computed from them
+# are accurate to ~1e-9 relative. 1e-7 leaves room for the conversion to degrees and dB.
+RTOL = 1e-7
+
+
+def integrator_with_delay(gain, tau):
+    return lambda s: gain * np.exp(-s * tau) / s
+
+
+def test_integrator_with_delay():
+    # L = K e^(-s tau)/s: |L| = K/omega, so omega_c = K; phase = -90° - omega tau, so
+    # PM = 90° - K tau [rad->deg] and the delay margin is PM/omega_c = (pi/2 - K tau)/K.
+    # Phase crossovers where -pi/2 - omega tau = -pi - 2 pi k: omega_k = (pi/2 + 2 pi k)/tau,
+    # with GM_k = 20 log10(omega_k / K).
+    gain, tau = 100.0, 1e-3
+    omega = frequency_grid(1.0, 1e5, total_delay=tau)
+    margins = loop_margins(integrator_with_delay(gain, tau), omega)
+    assert margins.crossover_rad_s == pytest.approx(gain, rel=RTOL)
+    assert margins.phase_margin_deg == pytest.approx(90 - math.degrees(gain * tau), rel=RTOL)
+    assert margins.delay_margin_s == pytest.approx((math.pi / 2 - gain * tau) / gain, rel=RTOL)
+    expected = [(math.pi / 2 + 2 * math.pi * k) / tau for k in range(20)]
+    expected = [w for w in expected if w <= 1e5]
+    found = [c.frequency_rad_s for c in margins.phase_crossovers]
+    np.testing.assert_allclose(found, expected, rtol=RTOL)
+    assert margins.phase_crossover_rad_s == pytest.approx(expected[0], rel=RTOL)
+    assert margins.gain_margin_db == pytest.approx(20 * math.log10(expected[0] / gain), rel=RTOL)
+    assert margins.gain_margin_low_db is None
+
+
+def test_integrator_disk_margin_is_unbounded_gain_and_90_degrees():
+    # L = K/s: S - 1/2 = (s - K)/(2(s + K)) has magnitude 1/2 at every frequency, so
+    # alpha = 2: the disk allows any gain increase (gain margin unbounded -> None) and
+    # 2 atan(1) = 90° of phase (Seiler et al. 2020, skew 0).
+    margins = loop_margins(lambda s: 50.0 / s, frequency_grid(1e-2, 1e4))
+    assert margins.disk_margin_alpha == pytest.approx(2.0, rel=1e-9)
+    assert margins.disk_margin_gain_db is None
+    assert margins.disk_margin_phase_deg == pytest.approx(90.0, rel=1e-7)
+    assert margins.phase_crossovers == ()
+
+
+@pytest.mark.parametrize("zeta", [0.2, 0.54, 0.7])
+def test_standard_second_order_loop(zeta):
+    # L = wn^2/(s (s + 2 zeta wn)) closes to T = wn^2/(s^2 + 2 zeta wn s + wn^2). Textbook
+    # results (e.g. Ogata, Modern Control Engineering, §7-6):
+    #   omega_c = wn sqrt(sqrt(1 + 4 zeta^4) - 2 zeta^2),  PM = atan(2 zeta wn / omega_c),
+    #   bandwidth = the report's closed form, -90° of T at exactly wn,
+    #   resonance 1/(2 zeta sqrt(1 - zeta^2)) at wn sqrt(1 - 2 zeta^2) for zeta < 1/sqrt(2).
+    wn = 462.0
+    loop = lambda s: wn**2 / (s * (s + 2 * zeta * wn))  # noqa: E731
+    closed = lambda s: wn**2 / (s**2 + 2 * zeta * wn * s + wn**2)  # noqa: E731
+    omega = frequency_grid(1e-1, 1e5)
+    margins = loop_margins(loop, omega)
+    wc = wn * math.sqrt(math.sqrt(1 + 4 * zeta**4) - 2 * zeta**2)
+    assert margins.crossover_rad_s == pytest.approx(wc, rel=RTOL)
+    assert margins.phase_margin_deg == pytest.approx(
+        math.degrees(math.atan2(2 * zeta * wn, wc)), rel=RTOL
+    )
+    assert margins.gain_margin_db is None  # phase never reaches -180°
+    figures = closed_loop_figures(closed, omega)
+    assert figures.bandwidth_rad_s == pytest.approx(second_order_bandwidth(wn, zeta), rel=RTOL)
+    assert figures.phase_90_rad_s == pytest.approx(wn, rel=RTOL)
+    assert figures.dc_gain_db == pytest.approx(0.0, abs=1e-9)
+    if zeta < 1 / math.sqrt(2):
+        peak = 1 / (2 * zeta * math.sqrt(1 - zeta**2))
+        assert figures.peak_db == pytest.approx(20 * math.log10(peak), rel=1e-7)
+        assert figures.peak_rad_s == pytest.approx(wn * math.sqrt(1 - 2 * zeta**2), rel=1e-5)
+
+
+def test_no_resonance_has_no_peak_frequency():
+    # First-order T = 1/(tau s + 1): monotone, -3 dB at 1/tau, phase never reaches -90°.
+    figures = closed_loop_figures(lambda s: 1 / (1e-3 * s + 1), frequency_grid(1e-1, 1e5))
+    assert figures.peak_rad_s is None
+    assert figures.peak_db == pytest.approx(0.0, abs=1e-6)
+    assert figures.bandwidth_rad_s == pytest.approx(1e3, rel=RTOL)
+    assert figures.phase_90_rad_s is None
+
+
+def test_bandwidth_outside_range_is_none():
+    figures = closed_loop_figures(lambda s: 1 / (1e-3 * s + 1), frequency_grid(1e-1, 1e2))
+    assert figures.bandwidth_rad_s is None
+
+
+def test_type_two_loop_has_lower_gain_margin():
+    # L = K (s + z)^2 / (s^2 (s + p)) with p < z: the phase -180° + 2 atan(w/z) - atan(w/p)
+    # starts at -180°, dips below it and comes back up where 2 atan(w/z) = atan(w/p), i.e.
+    # (taking tangents) w^2 = z (z - 2p). With K large |L| > 1 there: a lower gain margin,
+    # -20 log10 |L| < 0 dB, and no upper one (the phase ends at -90°).
+    gain, z, p = 20.0, 10.0, 2.0
+    loop = lambda s: gain * (s + z) ** 2 / (s**2 * (s + p))  # noqa: E731
+    margins = loop_margins(loop, frequency_grid(1e-3, 1e4))
+    w180 = math.sqrt(z * (z - 2 * p))
+    magnitude = gain * (w180**2 + z**2) / (w180**2 * math.hypot(w180, p))
+    assert margins.phase_crossover_low_rad_s == pytest.approx(w180, rel=RTOL)
+    assert margins.gain_margin_low_db == pytest.approx(-20 * math.log10(magnitude), rel=RTOL)
+    assert margins.gain_margin_db is None
+
+
+def test_several_gain_crossovers_are_all_reported():
+    # A loop whose magnitude crosses 1 three times: L = K (s/a + 1)^2 / (s (s/b + 1)^3) ... use
+    # a simple construction with a known magnitude: |L| = 2 at DC-ish band, dips below 1 and
+    # rises again; here L = 2 (s^2 + 1)/(s^2 + 0.1 s + 1) * 1/(1e-3 s + 1)^2 has a notch at 1
+    # rad/s (|L| -> 0) and rolls off above 1 krad/s: crossings at two notch flanks + roll-off.
+    loop = lambda s: 2 * (s**2 + 1) / (s**2 + 0.1 * s + 1) / (1e-3 * s + 1) ** 2  # noqa: E731
+    margins = loop_margins(loop, frequency_grid(1e-3, 1e6))
+    assert len(margins.gain_crossovers) == 3
+    for crossover in margins.gain_crossovers:
+        assert abs(loop(1j * crossover.frequency_rad_s)) == pytest.approx(1.0, rel=1e-9)
+    assert margins.phase_margin_deg == min(c.phase_margin_deg for c in margins.gain_crossovers)
+    assert margins.delay_margin_s == min(c.delay_margin_s for c in margins.gain_crossovers)
+
+
+def test_refine_roots_keeps_exact_grid_zeros():
+    omega = np.array([1.0, 2.0, 3.0, 4.0])
+    roots = refine_roots(lambda w: w - 2.0, omega)
+    np.testing.assert_allclose(roots, [2.0])
+
+
+def test_grid_resolves_delay_phase():
+    tau = 0.46e-3
+    omega = frequency_grid(1e-2, 1e6, total_delay=tau)
+    assert np.all(np.diff(omega) > 0)
+    assert np.max(np.diff(omega)) <= math.pi / (8 * tau) * 1.0001
+    with pytest.raises(ValueError, match="0 < w_min < w_max"):
+        frequency_grid(10.0, 1.0)
