@@ -81,6 +81,28 @@ def refine_roots(func, omega, values=None):
     return np.sort(np.asarray(roots, dtype=float))
 
 
+def continuous_phase(response, omega):
+    """Phase [rad] of a response along a grid, unwrapped and on the right branch.
+
+    The branch is set at the lowest frequency by the low-frequency asymptote: a response that
+    falls as omega^-k there (k integrators) starts near -k*90°. So a type-2 loop whose phase
+    dips just below -180° starts at -180.x°, not at +179.x°, and a phase past a whole turn of
+    delay reads -388°, not -28°.
+
+    Parameters
+    ----------
+    response : numpy.ndarray
+        Complex response on ``omega``.
+    omega : numpy.ndarray
+        Sorted grid [rad/s], fine enough for ``numpy.unwrap`` (see :func:`frequency_grid`).
+    """
+    phase = np.unwrap(np.angle(response))
+    slope = math.log(abs(response[1]) / abs(response[0])) / math.log(omega[1] / omega[0])
+    integrators = round(-slope)
+    target = -integrators * math.pi / 2
+    return phase + 2 * math.pi * round((target - phase[0]) / (2 * math.pi))
+
+
 def _bracketed_root(func, w_low, w_high):
     """Root of ``func`` between two grid points whose grid values differ in sign."""
     lo, hi = math.log(w_low), math.log(w_high)

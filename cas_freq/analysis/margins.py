@@ -3,8 +3,10 @@ r"""Stability margins of a loop from its frequency response (exact delays allowe
 Definitions (MODEL.md):
 
 - gain crossover: :math:`|L(j\omega_c)| = 1`; phase margin
-  :math:`PM = 180° + \angle L(j\omega_c)`, wrapped to (-180°, 180°]; delay margin
-  :math:`PM[\mathrm{rad}] / \omega_c`;
+  :math:`PM = 180° + \angle L(j\omega_c)` with the *continuous* phase (unwrapped from the
+  low-frequency asymptote, -90° per integrator), so a crossover past a whole turn of delay
+  phase shows PM < -180° instead of a reassuring wrapped value; delay margin
+  :math:`PM[\mathrm{rad}] / \omega_c` (negative when PM is);
 - phase crossover: :math:`L(j\omega_{180})` real and negative; gain margin
   :math:`GM = -20 \log_{10} |L(j\omega_{180})|` [dB]. Positive GM is an upper margin (gain may
   rise by that much), negative is a lower one (gain may fall by that much, as in the type-2
@@ -20,7 +22,7 @@ import math
 
 import numpy as np
 
-from cas_freq.analysis.frequency import refine_maximum, refine_roots
+from cas_freq.analysis.frequency import continuous_phase, refine_maximum, refine_roots
 
 
 @dataclasses.dataclass(frozen=True)
@@ -70,11 +72,14 @@ def _gain_crossovers(loop, omega, response):
     def magnitude_minus_one(w):
         return abs(loop(1j * w)) - 1.0
 
+    phase = continuous_phase(response, omega)
     found = []
     for w in refine_roots(magnitude_minus_one, omega, np.abs(response) - 1.0):
-        pm = math.degrees(np.angle(-loop(1j * w)))  # angle(-L) = angle(L) + 180°, wrapped
-        if pm == -180.0:
-            pm = 180.0
+        k = min(int(np.searchsorted(omega, w)), len(omega) - 1)  # nearest grid point above
+        value = loop(1j * w)
+        # continuous phase at w: the grid's phase plus the small step from the grid point
+        angle = phase[k] + np.angle(value / response[k])
+        pm = math.degrees(math.pi + angle)
         found.append(GainCrossover(float(w), pm, math.radians(pm) / w))
     return tuple(found)
 
