@@ -20,6 +20,7 @@ from cas_freq.analysis.frequency import (
 from cas_freq.analysis.margins import LoopMargins, loop_margins
 from cas_freq.analysis.stability import Stability, closed_loop_stability
 from cas_freq.model import DEFAULT_PADE_ORDER, ActuatorLoops, DelayModel
+from cas_freq.model.delay import EXACT
 
 
 @dataclasses.dataclass(frozen=True)
@@ -120,7 +121,7 @@ def pade_study(params, max_order, omega):
 
 def analyze(
     loaded,
-    delay=DelayModel(),
+    delay=EXACT,
     frequency_range=DEFAULT_RANGE_RAD_S,
     points_per_decade=DEFAULT_POINTS_PER_DECADE,
     pade_orders=0,

@@ -43,7 +43,8 @@ def frequency_grid(w_min, w_max, points_per_decade=DEFAULT_POINTS_PER_DECADE, to
     if not (0 < w_min < w_max) or not math.isfinite(w_max):
         raise ValueError(f"frequency range: need 0 < w_min < w_max, got {w_min!r}, {w_max!r}")
     decades = math.log10(w_max / w_min)
-    grid = np.logspace(math.log10(w_min), math.log10(w_max), max(int(decades * points_per_decade), 2) + 1)
+    count = max(int(decades * points_per_decade), 2) + 1
+    grid = np.logspace(math.log10(w_min), math.log10(w_max), count)
     if total_delay > 0:
         max_step = math.pi / (8.0 * total_delay)
         dense_from = max(w_min, max_step / (10 ** (1 / points_per_decade) - 1))

@@ -79,6 +79,10 @@ class DelayModel:
         return np.polyval(den, -x) / np.polyval(den, x)
 
 
+#: The exact delay model (frozen, so safe as a default argument).
+EXACT = DelayModel()
+
+
 @functools.cache
 def pade_denominator(order):
     """Denominator coefficients of the order-n Padé approximant of ``exp(-x)`` (tau = 1).

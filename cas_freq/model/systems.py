@@ -17,7 +17,6 @@ import numpy as np
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, pade_system
 from cas_freq.model.transfer import (
     current_controller,
-    current_plant,
     position_controller,
     position_reference_path,
 )
@@ -93,7 +92,6 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
     delay_p = pade_system(params.position_loop.delay, pade_order)
     c_i = _ss(current_controller(params.current_loop))
     c_p = _ss(position_controller(params.position_loop))
-    c_r = _ss(position_reference_path(params.position_loop))
 
     # Current loop, broken at the voltage: the electrical and mechanical states only (theta
     # is not observable from i and would add a spurious pole at 0).

@@ -24,7 +24,7 @@ import dataclasses
 
 import numpy as np
 
-from cas_freq.model.delay import DelayModel
+from cas_freq.model.delay import EXACT
 
 
 @dataclasses.dataclass(frozen=True)
@@ -97,7 +97,7 @@ class ActuatorLoops:
     complex response, vectorised over ``s``.
     """
 
-    def __init__(self, params, delay=DelayModel()):
+    def __init__(self, params, delay=EXACT):
         self.params = params
         self.delay = delay
         self._y = current_plant(params.motor)

@@ -7,12 +7,16 @@ def _fmt(value, unit="", digits=4):
     return f"{value:.{digits}g}{(' ' + unit) if unit else ''}"
 
 
+def _ms(seconds):
+    return None if seconds is None else seconds * 1e3
+
+
 def _loop_lines(title, margins):
     lines = [
         f"  {title}",
         f"    gain crossover     {_fmt(margins.crossover_rad_s, 'rad/s')}",
         f"    phase margin       {_fmt(margins.phase_margin_deg, 'deg')}",
-        f"    delay margin       {_fmt(margins.delay_margin_s and margins.delay_margin_s * 1e3, 'ms')}",
+        f"    delay margin       {_fmt(_ms(margins.delay_margin_s), 'ms')}",
         f"    gain margin        {_fmt(margins.gain_margin_db, 'dB')} "
         f"at {_fmt(margins.phase_crossover_rad_s, 'rad/s')}",
     ]
@@ -44,7 +48,9 @@ def analysis_table(analysis):
         f"{analysis.stability.verdict.upper()} (Padé {analysis.stability.pade_order} poles)",
     ]
     lines += _loop_lines("current loop L_i (broken at the voltage)", analysis.current_loop)
-    lines += _loop_lines("position loop L_p (broken at the current command)", analysis.position_loop)
+    lines += _loop_lines(
+        "position loop L_p (broken at the current command)", analysis.position_loop
+    )
     closed = analysis.closed_loop
     lines.append("  closed loop T = delta/delta_cmd")
     if closed is None:
@@ -52,11 +58,14 @@ def analysis_table(analysis):
     else:
         lines += [
             f"    bandwidth (-3 dB)  {_fmt(closed.bandwidth_rad_s, 'rad/s')}",
-            f"    resonance peak     {_fmt(closed.peak_db, 'dB')} at {_fmt(closed.peak_rad_s, 'rad/s')}",
+            f"    resonance peak     {_fmt(closed.peak_db, 'dB')} "
+            f"at {_fmt(closed.peak_rad_s, 'rad/s')}",
             f"    phase -90 deg at   {_fmt(closed.phase_90_rad_s, 'rad/s')}",
         ]
     if analysis.pade_vs_exact:
-        lines.append("  Padé vs exact      PM_p [deg]  GM_p [dB]  PM_i [deg]  w_BW [rad/s]  max|dT|")
+        lines.append(
+            "  Padé vs exact      PM_p [deg]  GM_p [dB]  PM_i [deg]  w_BW [rad/s]  max|dT|"
+        )
         for row in analysis.pade_vs_exact:
             lines.append(
                 f"    {row.delay_model:<16} {_fmt(row.position_phase_margin_deg):>10} "
