@@ -32,7 +32,7 @@ def viscous_friction_from_no_load(torque_constant, no_load_speed, no_load_curren
     float
         Viscous friction :math:`\mu_v` [N*m*s/rad].
     """
-    if no_load_speed <= 0:
+    if not no_load_speed > 0:
         raise ValueError(f"no_load_speed: must be > 0 rad/s, got {no_load_speed!r}")
     return torque_constant * no_load_current / no_load_speed
 

@@ -134,6 +134,7 @@ def test_unstable_loop_is_a_result():
     assert (p.phase_margin_deg is not None and p.phase_margin_deg < 0) or (
         p.gain_margin_db is None or p.gain_margin_db < 0
     )
+    assert p.disk_margin_alpha is None and p.sensitivity_peak_db is None
     data = to_dict(result)
     assert data["stable"] is False
     assert all(value is None for value in data["closed_loop"].values())

@@ -17,7 +17,7 @@ from cas_freq.analysis.frequency import (
     DEFAULT_RANGE_RAD_S,
     frequency_grid,
 )
-from cas_freq.analysis.margins import LoopMargins, loop_margins
+from cas_freq.analysis.margins import LoopMargins, loop_margins, without_closed_loop_figures
 from cas_freq.analysis.stability import Stability, closed_loop_stability
 from cas_freq.model import DEFAULT_PADE_ORDER, ActuatorLoops, DelayModel
 from cas_freq.model.delay import EXACT
@@ -165,6 +165,14 @@ def analyze(
         )
     if stability.current_loop_verdict != "stable":
         notes.append(f"the current loop alone is {stability.current_loop_verdict}")
+    current = loop_margins(loops.current_loop, omega)
+    position = loop_margins(loops.position_loop, omega)
+    if stability.current_loop_verdict != "stable":
+        current = without_closed_loop_figures(current)
+    if not stability.stable:
+        position = without_closed_loop_figures(position)
+        notes.append("sensitivity peak and disk margin are not reported for a loop that is "
+                     "not stable")
     rows = pade_study(params, pade_orders, omega) if pade_orders > 0 else ()
     return Analysis(
         config=params.name,
@@ -175,8 +183,8 @@ def analyze(
         frequency_range_rad_s=(float(omega[0]), float(omega[-1])),
         stable=stability.stable,
         stability=stability,
-        current_loop=loop_margins(loops.current_loop, omega),
-        position_loop=loop_margins(loops.position_loop, omega),
+        current_loop=current,
+        position_loop=position,
         closed_loop=closed,
         pade_vs_exact=rows,
         notes=tuple(notes),

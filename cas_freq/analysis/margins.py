@@ -59,11 +59,11 @@ class LoopMargins:
     phase_crossover_rad_s: float | None
     gain_margin_low_db: float | None
     phase_crossover_low_rad_s: float | None
-    sensitivity_peak_db: float
-    sensitivity_peak_rad_s: float
-    disk_margin_alpha: float
+    sensitivity_peak_db: float | None
+    sensitivity_peak_rad_s: float | None
+    disk_margin_alpha: float | None
     disk_margin_gain_db: float | None
-    disk_margin_phase_deg: float
+    disk_margin_phase_deg: float | None
     gain_crossovers: tuple[GainCrossover, ...]
     phase_crossovers: tuple[PhaseCrossover, ...]
 
@@ -105,6 +105,22 @@ def _disk_margin(alpha):
     if alpha >= 2.0:
         return None, phase
     return 20.0 * math.log10((2.0 + alpha) / (2.0 - alpha)), phase
+
+
+def without_closed_loop_figures(margins):
+    """The same margins with the sensitivity peak and disk margin removed (set to None).
+
+    Both describe robustness of a stable nominal closed loop; for an unstable one they are
+    numbers without meaning.
+    """
+    return dataclasses.replace(
+        margins,
+        sensitivity_peak_db=None,
+        sensitivity_peak_rad_s=None,
+        disk_margin_alpha=None,
+        disk_margin_gain_db=None,
+        disk_margin_phase_deg=None,
+    )
 
 
 def loop_margins(loop, omega):

@@ -11,7 +11,7 @@ import dataclasses
 from pathlib import Path
 
 import yaml
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
 
 from cas_freq.config.schema import BASE_VARIANT, ActuatorConfig
 from cas_freq.exceptions import ConfigError, ConfigTypeError
@@ -118,7 +118,7 @@ def _flatten(overrides, prefix=""):
     flat = {}
     for key, value in overrides.items():
         dotted = f"{prefix}{key}"
-        if isinstance(value, dict) and dotted not in _ALTERNATIVES:
+        if isinstance(value, dict):
             flat.update(_flatten(value, f"{dotted}."))
         else:
             flat[dotted] = value
@@ -148,6 +148,21 @@ def _apply(data, dotted, value, origin):
     node[parts[-1]] = value
 
 
+def _accepted_keys(loc):
+    """Keys accepted by the section holding the unknown key at ``loc``."""
+    model = ActuatorConfig
+    for part in loc[:-1]:
+        field = model.model_fields.get(str(part))
+        if field is None:
+            return None
+        candidates = [field.annotation, *getattr(field.annotation, "__args__", ())]
+        model = next((c for c in candidates if isinstance(c, type) and
+                      issubclass(c, BaseModel)), None)
+        if model is None:
+            return None
+    return ", ".join(model.model_fields)
+
+
 def _message(error):
     """One line for one pydantic error: ``dotted.key: what is wrong``."""
     loc = ".".join(str(part) for part in error["loc"])
@@ -158,7 +173,11 @@ def _message(error):
     elif kind == "missing":
         text = "required key is missing"
     elif kind == "extra_forbidden":
+        accepted = _accepted_keys(error["loc"])
         text = f"unknown key (value {value!r})"
+        if accepted:
+            section = ".".join(str(part) for part in error["loc"][:-1]) or "the top level"
+            text += f"; {section} accepts {accepted}"
     elif kind == "literal_error":
         text = f"must be one of {error['ctx']['expected']}, got {value!r}"
     elif kind in ("dict_type", "model_type", "model_attributes_type"):
@@ -229,7 +248,6 @@ def load_variant(path=None, variant=BASE_VARIANT, overrides=()):
         _apply(resolved, key, value, "--set")
     if overrides:
         origin += " with --set " + ", ".join(f"{k}={v}" for k, v in overrides)
-    # Every variant must itself be valid: check the base's variants map only once, here.
     params = validate(resolved, origin)
     return LoadedVariant(str(path), variant, params, tuple(overrides))
 

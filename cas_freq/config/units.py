@@ -50,10 +50,11 @@ def to_si(value, unit):
     ureg = registry()
     try:
         quantity = ureg.Quantity(value.strip())
-    except (pint.errors.PintError, ValueError, TypeError, AttributeError, SyntaxError) as exc:
+    except Exception as exc:  # noqa: BLE001 - pint's parser raises many kinds (TokenError, ...)
         raise ValueError(f"cannot read {value!r} as a quantity ({exc})") from None
-    if not isinstance(quantity, ureg.Quantity):  # a bare number inside a string: "0.4"
-        return float(quantity)
+    if not isinstance(quantity, ureg.Quantity) or quantity.unitless:
+        # a bare number inside a string ("0.4", or YAML's "1e-6"): already SI
+        return float(getattr(quantity, "magnitude", quantity))
     target = ureg.Unit(unit)
     if quantity.dimensionality != target.dimensionality:
         raise ValueError(

@@ -29,7 +29,8 @@ def _loop_lines(title, margins):
         f"    sensitivity peak   {_fmt(margins.sensitivity_peak_db, 'dB')} "
         f"at {_fmt(margins.sensitivity_peak_rad_s, 'rad/s')}",
         f"    disk margin        ±{_fmt(margins.disk_margin_gain_db, 'dB')}, "
-        f"±{_fmt(margins.disk_margin_phase_deg, 'deg')} (alpha {_fmt(margins.disk_margin_alpha)})",
+        f"±{_fmt(margins.disk_margin_phase_deg, 'deg')} "
+        f"(alpha {_fmt(margins.disk_margin_alpha)})",
         f"    crossings          {len(margins.gain_crossovers)} gain, "
         f"{len(margins.phase_crossovers)} phase in range",
     ]
