@@ -1,0 +1,54 @@
+"""Nonlinear time-domain simulation of the actuator loop (numpy and scipy only).
+
+- :mod:`~cas_freq.simulation.commands`: fin-angle commands (step, ramp, sine, chirp, CSV table);
+- :mod:`~cas_freq.simulation.parameters`: loop parameters of a batch of runs;
+- :mod:`~cas_freq.simulation.simulator`: :func:`simulate` and :func:`simulate_batch`;
+- :mod:`~cas_freq.simulation.step_figures`: rise, overshoot, settling, peak, limits;
+- :mod:`~cas_freq.simulation.second_order`: the report's §7 second-order-plus-delay fit.
+
+Nothing here imports python-control or matplotlib.
+"""
+
+from cas_freq.simulation.commands import (
+    Chirp,
+    Ramp,
+    Sine,
+    Step,
+    Table,
+    motor_command,
+    read_command_csv,
+)
+from cas_freq.simulation.parameters import LoopParameters
+from cas_freq.simulation.second_order import SecondOrderFit, fit_second_order, second_order_step
+from cas_freq.simulation.simulator import (
+    BatchResult,
+    SimulationResult,
+    default_time_step,
+    simulate,
+    simulate_batch,
+    step_bound,
+)
+from cas_freq.simulation.step_figures import StepFigures, simulation_step_figures, step_figures
+
+__all__ = [
+    "BatchResult",
+    "Chirp",
+    "LoopParameters",
+    "Ramp",
+    "SecondOrderFit",
+    "SimulationResult",
+    "Sine",
+    "Step",
+    "StepFigures",
+    "Table",
+    "default_time_step",
+    "fit_second_order",
+    "motor_command",
+    "read_command_csv",
+    "second_order_step",
+    "simulate",
+    "simulate_batch",
+    "simulation_step_figures",
+    "step_bound",
+    "step_figures",
+]
