@@ -6,6 +6,7 @@ traceback).
 
 import argparse
 import json
+import math
 import sys
 
 from cas_freq import __version__
@@ -73,6 +74,19 @@ def build_parser():
     )
     analyze.add_argument("--json", action="store_true", help="print JSON instead of a table")
     analyze.set_defaults(handler=_run_analyze)
+
+    simulate = commands.add_parser(
+        "simulate", help="nonlinear step response, its figures and second-order fit",
+        description="Nonlinear time-domain step of the fin (limits, anti-windup, exact delays).",
+    )
+    _add_config_arguments(simulate)
+    simulate.add_argument(
+        "--step", required=True, metavar="ANGLE",
+        help="fin step with a unit, e.g. 10deg or 0.1rad",
+    )
+    simulate.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    simulate.add_argument("--csv", metavar="FILE", help="write the time series to FILE")
+    simulate.set_defaults(handler=_run_simulate)
     return parser
 
 
@@ -106,6 +120,42 @@ def _run_analyze(args):
         print(json.dumps(payload, indent=2, allow_nan=False))
     else:
         print("\n\n".join(analysis_table(result) for result in results))
+    return EXIT_OK
+
+
+def _angle(text, option):
+    """An angle with a unit ('10deg', '0.1 rad') in radians."""
+    from cas_freq.config.units import registry, to_si
+
+    try:
+        value = to_si(text, "rad")  # raises ValueError for text pint cannot read
+        if registry().Quantity(text).unitless:
+            raise ValueError("it has no unit")
+    except (ValueError, TypeError) as exc:
+        raise CasFreqError(f"{option}: expected an angle with a unit such as 10deg, got "
+                           f"{text!r} ({exc})") from None
+    if not value != 0 or abs(value) > math.pi / 2:
+        raise CasFreqError(
+            f"{option}: must be non-zero and within ±90 deg at the fin, got {text!r}"
+        )
+    return value
+
+
+def _run_simulate(args):
+    from cas_freq.fileio import write_text_atomic
+    from cas_freq.report.text import step_table
+    from cas_freq.simulation.run import step_csv_name, step_run, step_run_csv, step_run_dict
+
+    amplitude = _angle(args.step, "--step")
+    runs = [step_run(loaded, amplitude) for loaded in _load(args)]
+    if args.csv:
+        for run in runs:
+            write_text_atomic(step_csv_name(args.csv, run, len(runs)), step_run_csv(run))
+    if args.json:
+        data = [step_run_dict(run) for run in runs]
+        print(json.dumps(data if args.all_variants else data[0], indent=2, allow_nan=False))
+    else:
+        print("\n\n".join(step_table(run) for run in runs))
     return EXIT_OK
 
 

@@ -1,5 +1,7 @@
 """Readable plain-text tables of analysis results (no matplotlib)."""
 
+import math
+
 
 def _fmt(value, unit="", digits=4):
     if value is None:
@@ -75,3 +77,33 @@ def analysis_table(analysis):
             )
     lines += [f"  note: {note}" for note in analysis.notes]
     return "\n".join(lines)
+
+
+def step_table(run):
+    """Multi-line summary of a :class:`cas_freq.simulation.run.StepRun`."""
+    step, fit, result = run.step, run.fit, run.result
+    head = f"{run.config} / {run.variant}"
+    if run.overrides:
+        head += " with " + ", ".join(run.overrides)
+    settled = "settled" if result.settled else "NOT settled"
+    extended = ", horizon extended" if result.extended else ""
+    return "\n".join([
+        head,
+        f"  nonlinear step of {step.amplitude_deg:g} deg at the fin; dt {result.dt_s * 1e6:g} us, "
+        f"{result.t_end_s * 1e3:g} ms ({settled}{extended})",
+        f"    rise time 10-90 %   {_fmt(_ms(step.rise_time_s), 'ms')}",
+        f"    overshoot           {_fmt(step.overshoot_pct, '%')}",
+        f"    settling ±2 % / ±5 % {_fmt(_ms(step.settling_time_s), 'ms')} / "
+        f"{_fmt(_ms(step.settling_time_5pct_s), 'ms')}",
+        f"    peak time           {_fmt(_ms(step.peak_time_s), 'ms')}",
+        f"    largest current     {_fmt(step.max_current_a, 'A')} "
+        f"({'limit hit' if step.current_limited else 'within limit'})",
+        f"    largest voltage     {_fmt(step.max_voltage_v, 'V')} "
+        f"({'limit hit' if step.voltage_limited else 'within limit'})",
+        "  second-order fit (report §7)",
+        f"    wn {_fmt(fit.wn_rad_s, 'rad/s')}, zeta {_fmt(fit.zeta)}, "
+        f"td {_fmt(_ms(fit.td_s), 'ms')}"
+        f", rms residual {_fmt(100 * fit.rms_residual / math.radians(abs(step.amplitude_deg)))}"
+        " % of step",
+        f"    closed-form bandwidth {_fmt(fit.bandwidth_closed_form_rad_s, 'rad/s')}",
+    ])

@@ -1,0 +1,70 @@
+"""``cas-freq simulate``: JSON keys, CSV output, exit codes (figures are tested in
+test_simulation*.py; here only the command's contract)."""
+
+import csv
+import json
+import math
+
+import pytest
+
+from cas_freq.cli import main
+
+STEP_KEYS = {"amplitude_deg", "rise_time_s", "overshoot_pct", "settling_time_s",
+             "settling_time_5pct_s", "peak_time_s", "max_current_a", "max_voltage_v",
+             "current_limited", "voltage_limited"}
+FIT_KEYS = {"wn_rad_s", "zeta", "td_s", "bandwidth_closed_form_rad_s", "rms_residual"}
+
+
+def _strict(text):
+    def reject(name):
+        raise ValueError(f"non-strict JSON constant {name}")
+
+    return json.loads(text, parse_constant=reject)
+
+
+@pytest.fixture(scope="module")
+def simulated(tmp_path_factory):
+    import contextlib
+    import io
+
+    out = tmp_path_factory.mktemp("sim") / "step.csv"
+    buffer = io.StringIO()
+    with contextlib.redirect_stdout(buffer):
+        code = main(["simulate", "--step", "10deg", "--json", "--csv", str(out)])
+    return code, _strict(buffer.getvalue()), out
+
+
+def test_json_has_step_and_fit(simulated):
+    code, data, _ = simulated
+    assert code == 0
+    assert STEP_KEYS <= set(data["step"]) and FIT_KEYS <= set(data["fit"])
+    assert data["step"]["amplitude_deg"] == pytest.approx(10.0)
+    # MODEL.md: a 10° step asks Kp * 3.49 rad ~ 22 A of a 20 A limit
+    assert data["step"]["current_limited"] is True
+    # the closed form of the fitted (wn, zeta), recomputed here from the report's formula
+    wn, zeta = data["fit"]["wn_rad_s"], data["fit"]["zeta"]
+    expected = wn * math.sqrt((1 - 2 * zeta**2) + math.sqrt(4 * zeta**4 - 4 * zeta**2 + 2))
+    assert data["fit"]["bandwidth_closed_form_rad_s"] == pytest.approx(expected, rel=1e-12)
+
+
+def test_csv_time_series(simulated):
+    _, data, path = simulated
+    with open(path, newline="") as stream:
+        rows = list(csv.reader(stream))
+    assert rows[0][:3] == ["t [s]", "command_fin [deg]", "delta [deg]"]
+    final = [float(value) for value in rows[-1]]
+    assert final[1] == pytest.approx(10.0)
+    assert abs(final[2] - 10.0) < 0.2  # settled within ±2 % by the end of the horizon
+    assert not list(path.parent.glob(".*.tmp"))  # atomic write left no temporary behind
+
+
+@pytest.mark.parametrize("step", ["10", "10m", "0deg", "200deg", "ten"])
+def test_bad_step_exits_2(capsys, step):
+    assert main(["simulate", "--step", step]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--step" in err and "Traceback" not in err
+
+
+def test_bad_config_exits_2(capsys):
+    assert main(["simulate", "--step", "1deg", "--set", "motor.J=-1"]) == 2
+    assert "motor.J" in capsys.readouterr().err
