@@ -21,3 +21,21 @@ def write_text_atomic(path, text):
         Path(temporary).unlink(missing_ok=True)
         raise
     return path
+
+
+def json_ready(value):
+    """Plain JSON data from nested dicts/lists/tuples of numbers, with numpy scalars made plain
+    and non-finite floats made None (JSON has no NaN or Infinity)."""
+    import math
+
+    import numpy as np
+
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {key: json_ready(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_ready(item) for item in value]
+    return value

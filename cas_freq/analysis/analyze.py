@@ -7,7 +7,6 @@ it into JSON-ready dicts (non-finite numbers become None).
 """
 
 import dataclasses
-import math
 
 import numpy as np
 
@@ -19,6 +18,7 @@ from cas_freq.analysis.frequency import (
 )
 from cas_freq.analysis.margins import LoopMargins, loop_margins, without_closed_loop_figures
 from cas_freq.analysis.stability import Stability, closed_loop_stability
+from cas_freq.fileio import json_ready
 from cas_freq.model import DEFAULT_PADE_ORDER, ActuatorLoops, DelayModel
 from cas_freq.model.delay import EXACT
 
@@ -191,16 +191,6 @@ def analyze(
     )
 
 
-def _clean(value):
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {key: _clean(item) for key, item in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_clean(item) for item in value]
-    return value
-
-
 def to_dict(analysis):
     """JSON-ready dict of an :class:`Analysis` (non-finite numbers become None)."""
     data = dataclasses.asdict(analysis)
@@ -213,4 +203,4 @@ def to_dict(analysis):
         data["closed_loop"] = {
             field.name: None for field in dataclasses.fields(ClosedLoopFigures)
         }
-    return _clean(data)
+    return json_ready(data)

@@ -2,10 +2,10 @@
 
 import dataclasses
 import io
-import math
 
 import numpy as np
 
+from cas_freq.fileio import json_ready
 from cas_freq.simulation.commands import Step
 from cas_freq.simulation.second_order import fit_second_order
 from cas_freq.simulation.simulator import simulate
@@ -47,22 +47,10 @@ def step_run(loaded, amplitude_rad):
     )
 
 
-def _clean(value):
-    if isinstance(value, (float, np.floating)):
-        return float(value) if math.isfinite(value) else None
-    if isinstance(value, np.bool_):
-        return bool(value)
-    if isinstance(value, dict):
-        return {key: _clean(item) for key, item in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_clean(item) for item in value]
-    return value
-
-
 def step_run_dict(run):
     """JSON-ready dict of a :class:`StepRun` (non-finite numbers become None)."""
     result = run.result
-    return _clean({
+    return json_ready({
         "config": run.config,
         "config_path": run.config_path,
         "variant": run.variant,
