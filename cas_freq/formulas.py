@@ -7,6 +7,9 @@ second-order bandwidth) can use it.
 
 import math
 
+#: |T| at the bandwidth relative to |T(0)| (MODEL.md: 3.01 dB below): 1/sqrt(2) = -3.0103 dB.
+HALF_POWER = 1.0 / math.sqrt(2.0)
+
 
 def viscous_friction_from_no_load(torque_constant, no_load_speed, no_load_current):
     r"""Viscous friction coefficient from the motor's no-load point.

@@ -104,3 +104,23 @@ def test_exact_frequency_response_objects():
 def test_tf_option_is_used():
     params = load_variant(overrides=[("position_loop.Tf", "0.2 ms")]).params
     assert params.position_loop.filter_time_constant == pytest.approx(2e-4)
+
+
+@pytest.mark.parametrize("derivative_on", ["error", "measurement"])
+def test_feedforward_closed_loop(derivative_on):
+    # With i_ff = F theta_cmd added to the controller output (MODEL.md), theta = P((C_r + F)
+    # theta_cmd - C_p theta) with P = e^(-s tau_p) T_i M, so theta/theta_cmd = T (1 + F/C_r)
+    # where T is the closed loop without feed-forward. Same algebra: rounding tolerance.
+    params = load_variant(overrides=[("position_loop.derivative_on", derivative_on)]).params
+    loops = ActuatorLoops(params)
+    s = 1j * OMEGA
+    loop = params.position_loop
+    feedforward = loop.ff_v * s + loop.ff_a * s**2
+    reference = (loop.Kp + loop.Ki / s) if derivative_on == "measurement" else (
+        position_controller(loop)(s)
+    )
+    np.testing.assert_allclose(
+        loops.closed_loop(s, feedforward=True),
+        loops.closed_loop(s) * (1 + feedforward / reference),
+        rtol=1e-10,
+    )

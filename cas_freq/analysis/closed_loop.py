@@ -12,9 +12,7 @@ import math
 import numpy as np
 
 from cas_freq.analysis.frequency import refine_maximum, refine_roots
-
-#: |T| at the bandwidth, relative to |T(0)|: -3.0103 dB.
-HALF_POWER = 1.0 / math.sqrt(2.0)
+from cas_freq.formulas import HALF_POWER
 
 
 @dataclasses.dataclass(frozen=True)

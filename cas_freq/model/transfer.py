@@ -14,7 +14,9 @@ All in motor-shaft coordinates and SI (MODEL.md):
 
 With the derivative on the measurement, only the reference path changes:
 :math:`T = (K_p + K_i/s) e^{-s\tau_p} T_i M / (1 + L_p)`; :math:`L_p` and :math:`S` are the
-same. Feed-forward is not part of these loops (MODEL.md: zero for the report's tests).
+same. Feed-forward :math:`F(s) = FF_v s + FF_a s^2` is not part of T (MODEL.md: zero for the
+report's tests); ``closed_loop(s, feedforward=True)`` gives
+:math:`(C_r + F) e^{-s\tau_p} T_i M / (1 + L_p)` for commands with a usable rate.
 
 Evaluating the factors separately keeps every polynomial at degree <= 3, so the responses stay
 accurate at any frequency, with exact delays or Padé delays of any order.
@@ -105,6 +107,9 @@ class ActuatorLoops:
         self._ci = current_controller(params.current_loop)
         self._cp = position_controller(params.position_loop)
         self._cr = position_reference_path(params.position_loop)
+        self._ff = Rational(
+            (params.position_loop.ff_a, params.position_loop.ff_v, 0.0), (1.0,)
+        )
         self._tau_c = params.current_loop.delay
         self._tau_p = params.position_loop.delay
 
@@ -129,10 +134,15 @@ class ActuatorLoops:
         """S(s) = 1/(1 + L_p) [-]."""
         return 1.0 / (1.0 + self.position_loop(s))
 
-    def closed_loop(self, s):
-        """T(s) = theta/theta_cmd = delta/delta_cmd [-]."""
+    def closed_loop(self, s, feedforward=False):
+        """T(s) = theta/theta_cmd = delta/delta_cmd [-].
+
+        With ``feedforward=True`` the command also drives i_ff = ff_v s + ff_a s^2 (added before
+        the clamp, so it goes through tau_p like the controller output).
+        """
         plant = self._plant_seen_by_position(s)
-        return self._cr(s) * plant / (1.0 + self._cp(s) * plant)
+        reference = self._cr(s) + (self._ff(s) if feedforward else 0.0)
+        return reference * plant / (1.0 + self._cp(s) * plant)
 
     @property
     def total_delay(self):

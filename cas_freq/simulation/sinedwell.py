@@ -50,12 +50,13 @@ import math
 import numpy as np
 
 from cas_freq.exceptions import ConfigError
+from cas_freq.formulas import HALF_POWER
 from cas_freq.simulation.commands import Sine
 from cas_freq.simulation.parameters import LoopParameters
 from cas_freq.simulation.simulator import default_time_step, simulate_batch, step_bound
 
-#: Half-power level [dB]: 20 log10(1/sqrt(2)).
-HALF_POWER_DB = 20.0 * math.log10(1.0 / math.sqrt(2.0))
+#: Half-power level [dB]: 20 log10(1/sqrt(2)) = -3.0103 dB.
+HALF_POWER_DB = 20.0 * math.log10(HALF_POWER)
 #: Default settling periods and the shortest settling time [s].
 DEFAULT_PERIODS_SETTLE = 3
 DEFAULT_MIN_SETTLE_S = 0.03
@@ -295,17 +296,11 @@ def limit_onset_amplitude(result):
 def linear_reference(params, omega, feedforward=True):
     """Exact-delay linear response delta/delta_cmd at ``omega`` [rad/s] (numpy only).
 
-    ``feedforward=False``: :meth:`ActuatorLoops.closed_loop` (no feed-forward);
-    ``True``: ``T (1 + F/C_r)``, ``F(s) = ff_v s + ff_a s^2`` (motor-angle units, as the
-    simulator applies it), the small-amplitude limit of :func:`sine_dwell`.
+    :meth:`ActuatorLoops.closed_loop` with or without the feed-forward
+    ``F(s) = ff_v s + ff_a s^2`` (motor-angle units, as the simulator applies it): the
+    small-amplitude limit of :func:`sine_dwell`.
     """
     from cas_freq.model import ActuatorLoops
-    from cas_freq.model.transfer import position_reference_path
 
     s = 1j * np.asarray(omega, dtype=float)
-    closed = ActuatorLoops(params).closed_loop(s)
-    if not feedforward:
-        return closed
-    loop = params.position_loop
-    ff = loop.ff_v * s + loop.ff_a * s**2
-    return closed * (1.0 + ff / position_reference_path(loop)(s))
+    return ActuatorLoops(params).closed_loop(s, feedforward=feedforward)
