@@ -1,0 +1,66 @@
+"""Pieces shared by every ``cas-freq`` command: exit codes, the parser class, config options."""
+
+import argparse
+import json
+import math
+
+from cas_freq.exceptions import CasFreqError
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with usage errors exiting 2 (as argparse does) and a one-line message."""
+
+    def error(self, message):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
+
+
+def add_config_arguments(parser, all_variants=True):
+    """CONFIG, --variant/--all-variants and --set, as every command takes them."""
+    parser.add_argument(
+        "config", nargs="?", default=None,
+        help="config YAML (default: the shipped configs/qt_cas.yaml)",
+    )
+    which = parser.add_mutually_exclusive_group()
+    which.add_argument("--variant", default="base", help="variant to use (default: base)")
+    if all_variants:
+        which.add_argument("--all-variants", action="store_true", help="base and every variant")
+    parser.add_argument(
+        "--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+        help="override a dotted key after the variant, e.g. position_loop.Kp=5 or "
+        "current_loop.delay='0.1 ms' (repeatable)",
+    )
+
+
+def load_variants(args):
+    """The variants the options select, as a list of ``LoadedVariant``."""
+    from cas_freq.config import load_all_variants, load_variant, parse_set_option
+
+    overrides = [parse_set_option(text) for text in args.overrides]
+    if getattr(args, "all_variants", False):
+        return load_all_variants(args.config, overrides)
+    return [load_variant(args.config, args.variant, overrides)]
+
+
+def print_json(data):
+    """Print strict JSON (no NaN), indented."""
+    print(json.dumps(data, indent=2, allow_nan=False))
+
+
+def angle(text, option):
+    """An angle with a unit ('10deg', '0.1 rad') in radians, non-zero and within ±90 deg."""
+    from cas_freq.config.units import registry, to_si
+
+    try:
+        value = to_si(text, "rad")  # raises ValueError for text pint cannot read
+        if registry().Quantity(text).unitless:
+            raise ValueError("it has no unit")
+    except (ValueError, TypeError) as exc:
+        raise CasFreqError(f"{option}: expected an angle with a unit such as 10deg, got "
+                           f"{text!r} ({exc})") from None
+    if not value != 0 or abs(value) > math.pi / 2:
+        raise CasFreqError(
+            f"{option}: must be non-zero and within ±90 deg at the fin, got {text!r}"
+        )
+    return value
