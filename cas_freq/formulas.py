@@ -75,3 +75,19 @@ def second_order_bandwidth(natural_frequency, damping_ratio):
         raise ValueError(f"damping_ratio: must be >= 0, got {damping_ratio!r}")
     z2 = damping_ratio**2
     return natural_frequency * math.sqrt((1 - 2 * z2) + math.sqrt(4 * z2**2 - 4 * z2 + 2))
+
+
+#: What ARL-TR-9136 measured on the bench (MODEL.md, "What the report measured"): a 10 deg fin
+#: step, its figures and the report's second-order fit to it. For comparison only, never for
+#: tuning the model. ``bandwidth_rad_s`` is the report's rounded 566 rad/s;
+#: ``second_order_bandwidth(462, 0.54)`` gives 566.2 rad/s.
+REPORT_BENCH = {
+    "step_deg": 10.0,
+    "rise_time_s": 5e-3,
+    "overshoot_pct": 13.0,
+    "settling_time_s": 30e-3,
+    "wn_rad_s": 462.0,
+    "zeta": 0.54,
+    "td_s": 2e-3,
+    "bandwidth_rad_s": 566.0,
+}

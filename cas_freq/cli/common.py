@@ -64,3 +64,30 @@ def angle(text, option):
             f"{option}: must be non-zero and within ±90 deg at the fin, got {text!r}"
         )
     return value
+
+
+class _Progress:
+    """A one-line percentage on stderr, redrawn in place."""
+
+    def __init__(self, label, stream):
+        self.label, self.stream, self.shown = label, stream, -1
+
+    def __call__(self, done, planned):
+        percent = int(100 * done / planned) if planned else 100
+        if percent != self.shown:
+            self.shown = percent
+            self.stream.write(f"\r{self.label}: {percent:3d} %")
+            self.stream.flush()
+
+    def done(self):
+        """End the line."""
+        self.stream.write("\n")
+        self.stream.flush()
+
+
+def terminal_progress(label, stream=None):
+    """A progress callable ``(done, planned)`` when ``stream`` (stderr) is a terminal, else None."""
+    import sys
+
+    stream = sys.stderr if stream is None else stream
+    return _Progress(label, stream) if stream.isatty() else None

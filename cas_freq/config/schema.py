@@ -152,6 +152,27 @@ class PositionLoop(_Section):
         return self.Kd / (10.0 * self.Kp)
 
 
+class Simulation(_Section):
+    """How the nonlinear simulation runs the controllers.
+
+    ``controllers: continuous`` (default) integrates both controllers with the simulator's fine
+    step; ``sampled`` runs them at the given rates with zero-order hold (the EPOS4 runs its
+    current loop at 25 kHz and its position loop at 2.5 kHz). The frequency-domain analysis is
+    continuous-time either way.
+    """
+
+    controllers: Literal["continuous", "sampled"] = "continuous"
+    current_loop_rate: si("Hz", gt=0) = 25e3
+    position_loop_rate: si("Hz", gt=0) = 2.5e3
+
+    @property
+    def rates_hz(self):
+        """(current, position) sample rates [Hz], or (None, None) for continuous controllers."""
+        if self.controllers == "continuous":
+            return None, None
+        return self.current_loop_rate, self.position_loop_rate
+
+
 class ActuatorConfig(_Section):
     """A whole actuator: motor, gear, both loops, and the named variants of the file."""
 
@@ -161,4 +182,5 @@ class ActuatorConfig(_Section):
     gear: Gear
     current_loop: CurrentLoop
     position_loop: PositionLoop
+    simulation: Simulation = Simulation()
     variants: dict[str, dict[str, Any] | None] = {}

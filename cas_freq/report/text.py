@@ -107,3 +107,49 @@ def step_table(run):
         " % of step",
         f"    closed-form bandwidth {_fmt(fit.bandwidth_closed_form_rad_s, 'rad/s')}",
     ])
+
+
+def sinedwell_table(data):
+    """Multi-line summary of a sine-dwell run, from its dict (``sinedwell_run_dict``)."""
+    head = f"{data['config']} / {data['variant']}"
+    if data["overrides"]:
+        head += " with " + ", ".join(data["overrides"])
+    sim = data["simulation"]
+    amplitudes = data["amplitudes"]
+    lines = [
+        head,
+        f"  nonlinear sine-dwell, feed-forward {'on' if data['feedforward'] else 'off'}, "
+        f"{sim['controllers']} controllers, dt {sim['dt_s'] * 1e6:g} us; "
+        "first harmonic of delta / command",
+        "  " + f"{'[rad/s]':>9}" + "".join(
+            f"{_fmt(a['amplitude_deg'], 'deg'):>18}" for a in amplitudes
+        ) + f"{'linear':>18}",
+    ]
+    for j, omega in enumerate(data["frequencies_rad_s"]):
+        cells = []
+        for a in amplitudes:
+            mark = "*" if a["current_limited"][j] or a["voltage_limited"][j] else " "
+            cells.append(f"{a['magnitude_db'][j]:7.2f} dB{a['phase_deg'][j]:6.0f}°{mark}")
+        linear = data["linear"]
+        cells.append(f"{linear['magnitude_db'][j]:7.2f} dB{linear['phase_deg'][j]:6.0f}° ")
+        lines.append("  " + f"{omega:9.1f}" + "".join(cells))
+    lines.append("  (* a current or voltage limit acts during the measured periods)")
+    onset = data["limit_onset_amplitude_deg"]
+    lines.append(
+        "  limits act from " + (f"{onset:g} deg" if onset is not None else "no amplitude given")
+    )
+    bench = data["report_bench"]
+    lines += [
+        "  bandwidth three ways [rad/s]  (-3.01 dB; step fit = closed form of report §7)",
+        f"    {'amplitude':>10}{'linear T':>11}{'sine-dwell':>12}{'step fit':>10}",
+    ]
+    for row in data["bandwidth_three_ways"]:
+        lines.append(
+            f"    {_fmt(row['amplitude_deg'], 'deg'):>10}{_fmt(row['linear_rad_s']):>11}"
+            f"{_fmt(row['sinedwell_rad_s']):>12}{_fmt(row['step_fit_rad_s']):>10}"
+        )
+    lines.append(
+        f"    report bench, {bench['step_deg']:g} deg step fit: {bench['bandwidth_rad_s']:g} "
+        f"(wn {bench['wn_rad_s']:g} rad/s, zeta {bench['zeta']:g})"
+    )
+    return "\n".join(lines)

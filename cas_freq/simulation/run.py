@@ -7,6 +7,7 @@ import numpy as np
 
 from cas_freq.fileio import json_ready
 from cas_freq.simulation.commands import Step
+from cas_freq.simulation.parameters import LoopParameters
 from cas_freq.simulation.second_order import fit_second_order
 from cas_freq.simulation.simulator import simulate
 from cas_freq.simulation.step_figures import simulation_step_figures
@@ -33,7 +34,11 @@ class StepRun:
 
 def step_run(loaded, amplitude_rad):
     """Simulate a fin step of ``amplitude_rad`` [rad] on one loaded variant and analyse it."""
-    result = simulate(loaded.params, Step(amplitude_rad))
+    current_rate_hz, position_rate_hz = loaded.params.simulation.rates_hz
+    result = simulate(
+        loaded.params, Step(amplitude_rad),
+        current_rate_hz=current_rate_hz, position_rate_hz=position_rate_hz,
+    )
     figures = simulation_step_figures(result, amplitude_rad)
     fit = fit_second_order(result.t, result.delta, amplitude_rad)
     return StepRun(
@@ -58,12 +63,20 @@ def step_run_dict(run):
         "step": dataclasses.asdict(run.step),
         "fit": dataclasses.asdict(run.fit),
         "simulation": {
+            "controllers": _controllers(result),
             "dt_s": result.dt_s,
             "t_end_s": result.t_end_s,
             "extended": result.extended,
             "settled": result.settled,
         },
     })
+
+
+def _controllers(result):
+    if result.current_rate_hz is None and result.position_rate_hz is None:
+        return "continuous"
+    return (f"sampled (current loop {result.current_rate_hz:g} Hz, "
+            f"position loop {result.position_rate_hz:g} Hz, zero-order hold)")
 
 
 def step_csv_name(path, run, count):
@@ -85,3 +98,185 @@ def step_run_csv(run):
     out.write(",".join(f"{name} [{unit}]" for name, unit in CSV_COLUMNS) + "\n")
     np.savetxt(out, columns, delimiter=",", fmt="%.9g")
     return out.getvalue()
+
+
+#: Default sine-dwell frequencies [rad/s]: 30 log-spaced points over 100..5000 rad/s, around the
+#: closed-loop bandwidths of the shipped variants (about 300 to 1400 rad/s).
+DEFAULT_SINEDWELL_FREQUENCIES_RAD_S = tuple(np.geomspace(100.0, 5000.0, 30))
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class SineDwellRun:
+    """The ``sinedwell`` command's data for one variant.
+
+    Attributes
+    ----------
+    config, config_path, variant, overrides
+        Which actuator.
+    feedforward : bool
+        Whether the velocity/acceleration feed-forward acted on the sine commands.
+    controllers : str
+        ``"continuous"`` or a description of the sampled controllers.
+    result : cas_freq.simulation.sinedwell.SineDwellResult
+        First-harmonic response per amplitude and frequency.
+    linear_response : numpy.ndarray
+        Exact-delay linear delta/delta_cmd at the same frequencies (with the same feed-forward
+        setting), complex, shape (n_f,).
+    linear_bandwidth_rad_s : float or None
+        MODEL.md's closed-loop bandwidth of T (no feed-forward), from ``analyze``.
+    steps : tuple of StepRun
+        A nonlinear fin step of each amplitude, with its figures and second-order fit.
+    limit_onset_rad : float or None
+        Smallest amplitude [rad] at which a limit acts somewhere in the frequency grid.
+    """
+
+    config: str
+    config_path: str
+    variant: str
+    overrides: tuple
+    feedforward: bool
+    controllers: str
+    result: object
+    linear_response: np.ndarray
+    linear_bandwidth_rad_s: float | None
+    steps: tuple
+    limit_onset_rad: float | None
+
+
+def _dwell_parameters(params, feedforward):
+    loop = LoopParameters.from_config(params)
+    if feedforward:
+        return loop
+    return loop.replace(ff_v=np.zeros(1), ff_a=np.zeros(1))
+
+
+def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward=False,
+                  progress=None):
+    """Sine-dwell the nonlinear loop of one variant, with the cross-checks beside it.
+
+    Parameters
+    ----------
+    loaded : cas_freq.config.LoadedVariant
+        The variant.
+    amplitudes_rad : sequence of float
+        Command amplitudes at the fin [rad].
+    frequencies_rad_s : sequence of float, optional
+        Dwell frequencies [rad/s]; default :data:`DEFAULT_SINEDWELL_FREQUENCIES_RAD_S`.
+    feedforward : bool
+        Let the feed-forward act on the sines (default False: MODEL.md's T, whose bandwidth is
+        the requirement's, has no feed-forward).
+    progress : callable, optional
+        ``progress(steps_done, steps_planned)`` of the sine-dwell batch.
+
+    Returns
+    -------
+    SineDwellRun
+    """
+    from cas_freq.analysis.closed_loop import closed_loop_figures
+    from cas_freq.analysis.frequency import DEFAULT_RANGE_RAD_S, frequency_grid
+    from cas_freq.model import ActuatorLoops
+    from cas_freq.simulation.simulator import simulate_batch
+    from cas_freq.simulation.sinedwell import limit_onset_amplitude, sine_dwell
+
+    params = loaded.params
+    if frequencies_rad_s is None:
+        frequencies_rad_s = DEFAULT_SINEDWELL_FREQUENCIES_RAD_S
+    current_rate_hz, position_rate_hz = params.simulation.rates_hz
+    rates = {"current_rate_hz": current_rate_hz, "position_rate_hz": position_rate_hz}
+    result = sine_dwell(
+        _dwell_parameters(params, feedforward), amplitudes_rad, frequencies_rad_s,
+        progress=progress, **rates,
+    )
+    loops = ActuatorLoops(params)
+    omega = np.asarray(result.frequencies_rad_s)
+    linear = loops.closed_loop(1j * omega, feedforward=feedforward)
+    grid = frequency_grid(*DEFAULT_RANGE_RAD_S, total_delay=loops.total_delay)
+    linear_bandwidth = closed_loop_figures(loops.closed_loop, grid).bandwidth_rad_s
+
+    amplitudes = np.asarray(result.amplitudes_rad)
+    batch = simulate_batch(
+        LoopParameters.from_configs([params] * amplitudes.size),
+        [Step(float(a)) for a in amplitudes], **rates,
+    )
+    steps = []
+    for index, amplitude in enumerate(amplitudes):
+        run = batch.run(index)
+        steps.append(StepRun(
+            config=params.name, config_path=loaded.source, variant=loaded.variant,
+            overrides=tuple(f"{key}={value}" for key, value in loaded.overrides),
+            result=run, step=simulation_step_figures(run, float(amplitude)),
+            fit=fit_second_order(run.t, run.delta, float(amplitude)),
+        ))
+    return SineDwellRun(
+        config=params.name, config_path=loaded.source, variant=loaded.variant,
+        overrides=tuple(f"{key}={value}" for key, value in loaded.overrides),
+        feedforward=feedforward,
+        controllers=_controllers(batch),
+        result=result, linear_response=linear, linear_bandwidth_rad_s=linear_bandwidth,
+        steps=tuple(steps), limit_onset_rad=limit_onset_amplitude(result),
+    )
+
+
+def _db(values):
+    return 20.0 * np.log10(np.abs(values))
+
+
+def sinedwell_run_dict(run):
+    """JSON-ready dict of a :class:`SineDwellRun` (non-finite numbers become None).
+
+    ``amplitudes`` has one entry per amplitude (sine-dwell response and bandwidth, and the
+    nonlinear step of the same size with its second-order fit); ``bandwidth_three_ways`` puts
+    the linear, sine-dwell and step-fit bandwidths side by side with the report's bench figure.
+    """
+    from cas_freq.formulas import REPORT_BENCH
+
+    r = run.result
+    amplitudes = []
+    three_ways = []
+    for index, amplitude in enumerate(r.amplitudes_rad):
+        step = run.steps[index]
+        amplitude_deg = float(np.degrees(amplitude))
+        amplitudes.append({
+            "amplitude_deg": amplitude_deg,
+            "bandwidth_rad_s": r.bandwidth_rad_s[index],
+            "magnitude_db": r.magnitude_db[index].tolist(),
+            "phase_deg": r.phase_deg[index].tolist(),
+            "current_limited": r.current_limited[index].tolist(),
+            "voltage_limited": r.voltage_limited[index].tolist(),
+            "limit_hit": bool(r.limit_hit[index].any()),
+            "step": dataclasses.asdict(step.step),
+            "fit": dataclasses.asdict(step.fit),
+        })
+        three_ways.append({
+            "amplitude_deg": amplitude_deg,
+            "linear_rad_s": run.linear_bandwidth_rad_s,
+            "sinedwell_rad_s": r.bandwidth_rad_s[index],
+            "step_fit_rad_s": step.fit.bandwidth_closed_form_rad_s,
+        })
+    onset = run.limit_onset_rad
+    return json_ready({
+        "config": run.config,
+        "config_path": run.config_path,
+        "variant": run.variant,
+        "overrides": list(run.overrides),
+        "feedforward": run.feedforward,
+        "frequencies_rad_s": np.asarray(r.frequencies_rad_s).tolist(),
+        "linear": {
+            "bandwidth_rad_s": run.linear_bandwidth_rad_s,
+            "magnitude_db": _db(run.linear_response).tolist(),
+            "phase_deg": np.degrees(np.unwrap(np.angle(run.linear_response))).tolist(),
+        },
+        "amplitudes": amplitudes,
+        "limit_onset_amplitude_deg": None if onset is None else float(np.degrees(onset)),
+        "bandwidth_three_ways": three_ways,
+        "report_bench": {"step_deg": REPORT_BENCH["step_deg"],
+                         "bandwidth_rad_s": REPORT_BENCH["bandwidth_rad_s"],
+                         "wn_rad_s": REPORT_BENCH["wn_rad_s"], "zeta": REPORT_BENCH["zeta"]},
+        "simulation": {
+            "controllers": run.controllers,
+            "dt_s": r.dt_s,
+            "t_end_s": r.t_end_s,
+            "settle_s": np.asarray(r.settle_s).tolist(),
+            "periods_measured": np.asarray(r.periods_measured).tolist(),
+        },
+    })

@@ -243,9 +243,22 @@ def _settled(t, delta, command, final, t_from):
     return np.all(np.abs(delta[window] - final) <= band, axis=0)
 
 
+def _advance(engine, done, target, record_every, progress):
+    """Advance the engine from step ``done`` to ``target``, reporting progress in pieces."""
+    pieces = 50 if progress else 1
+    size = max(1, -(-(target - done) // pieces))
+    parts = []
+    for start in range(done, target, size):
+        stop = min(start + size, target)
+        parts.append(engine.advance(stop - start, record_every))
+        if progress:
+            progress(stop, target)
+    return parts
+
+
 def simulate_batch(
     params, commands, *, dt=None, t_end=None, max_t_end=None, extend=True,
-    current_rate_hz=None, position_rate_hz=None, record_every=1,
+    current_rate_hz=None, position_rate_hz=None, record_every=1, progress=None,
 ):
     """Simulate a batch of runs at once.
 
@@ -270,6 +283,9 @@ def simulate_batch(
         Sample rates of sampled controllers (e.g. 25e3 and 2.5e3) [Hz]; continuous if None.
     record_every : int
         Keep every n-th step's sample (memory: 10 float arrays of n_runs x n_samples).
+    progress : callable, optional
+        Called as ``progress(steps_done, steps_planned)`` about 50 times per horizon (the plan
+        grows when the horizon is extended).
 
     Returns
     -------
@@ -308,7 +324,7 @@ def simulate_batch(
     extended = False
     while True:
         target = int(round(horizon / dt))
-        parts.append(engine.advance(target - steps_done, record_every))
+        parts += _advance(engine, steps_done, target, record_every, progress)
         steps_done = target
         t = np.concatenate([np.asarray(part[0]) for part in parts])
         signals = {name: np.concatenate([part[1][name] for part in parts]) for name in SIGNALS}

@@ -193,6 +193,9 @@ def sine_dwell(
     min_settle_s=DEFAULT_MIN_SETTLE_S,
     samples_per_period=DEFAULT_SAMPLES_PER_PERIOD,
     dt=None,
+    current_rate_hz=None,
+    position_rate_hz=None,
+    progress=None,
 ):
     """Sine-dwell response of the nonlinear loop at every amplitude x frequency (one batch).
 
@@ -215,6 +218,10 @@ def sine_dwell(
         Least recorded samples per period of the fastest frequency.
     dt : float, optional
         Simulation step [s]; default that of :func:`simulate_batch` (5 us for the shipped config).
+    current_rate_hz, position_rate_hz : float, optional
+        Sample rates of sampled controllers [Hz]; continuous controllers if None.
+    progress : callable, optional
+        ``progress(steps_done, steps_planned)``, passed to :func:`simulate_batch`.
 
     Returns
     -------
@@ -238,11 +245,13 @@ def sine_dwell(
     amplitude_grid, frequency_grid = np.meshgrid(amplitudes, frequencies, indexing="ij")
     runs = _repeat(p, n_a * n_f)
     if dt is None:
-        dt = default_time_step([*p.tau_c, *p.tau_p], (), step_bound(p))  # simulator's default
+        periods_c = [1.0 / rate for rate in (current_rate_hz, position_rate_hz) if rate]
+        dt = default_time_step([*p.tau_c, *p.tau_p], periods_c, step_bound(p))  # as simulate
     record_every = max(1, int(periods.min() / (samples_per_period * dt)))
     batch = simulate_batch(
         runs, Sine(amplitude_grid.ravel(), frequency_grid.ravel()), t_end=t_end, dt=dt,
-        record_every=record_every,
+        record_every=record_every, current_rate_hz=current_rate_hz,
+        position_rate_hz=position_rate_hz, progress=progress,
     )
     t = batch.t
     shape = (n_a, n_f, t.size)

@@ -1,0 +1,94 @@
+"""``cas-freq sinedwell``: the amplitude-dependent frequency response of the nonlinear loop."""
+
+import numpy as np
+
+from cas_freq.cli.common import (
+    EXIT_OK,
+    add_config_arguments,
+    angle,
+    load_variants,
+    print_json,
+    terminal_progress,
+)
+from cas_freq.exceptions import CasFreqError
+
+#: Amplitudes when none are given: small signal, mid, and the report's 10 deg step size.
+DEFAULT_AMPLITUDES = "0.5deg,2deg,10deg"
+
+
+def register(commands):
+    """Add the ``sinedwell`` sub-parser."""
+    parser = commands.add_parser(
+        "sinedwell", help="nonlinear frequency response per amplitude, and bandwidth three ways",
+        description="Sine-dwell the nonlinear loop at each amplitude and frequency, and put the "
+        "linear, sine-dwell and step-fit bandwidths side by side.",
+    )
+    add_config_arguments(parser)
+    parser.add_argument(
+        "--amplitudes", default=DEFAULT_AMPLITUDES, metavar="A,B,...",
+        help=f"fin amplitudes with units (default: {DEFAULT_AMPLITUDES})",
+    )
+    parser.add_argument(
+        "--frequencies", default=None, metavar="MIN:MAX:N|F1,F2,...",
+        help="frequencies in rad/s: N log-spaced from MIN to MAX, or a list "
+        "(default: 100:5000:30)",
+    )
+    parser.add_argument(
+        "--feedforward", action="store_true",
+        help="let the velocity/acceleration feed-forward act on the sines (default: off, as in "
+        "MODEL.md's T)",
+    )
+    parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    parser.set_defaults(handler=run)
+
+
+def parse_amplitudes(text):
+    """Comma-separated fin angles with units → list of radians."""
+    parts = [part.strip() for part in text.split(",")]
+    if not text.strip() or any(not part for part in parts):
+        raise CasFreqError(f"--amplitudes: expected angles such as 0.5deg,2deg,10deg, got {text!r}")
+    return [abs(angle(part, "--amplitudes")) for part in parts]
+
+
+def parse_frequencies(text):
+    """``MIN:MAX:N`` (log-spaced) or ``F1,F2,...`` in rad/s → sorted list of rad/s."""
+    try:
+        if ":" in text:
+            low, high, count = text.split(":")
+            low, high, n = float(low), float(high), int(count)
+            if not (0 < low < high < float("inf") and 2 <= n <= 1000):
+                raise ValueError
+            values = np.geomspace(low, high, n)
+        else:
+            values = np.array([float(part) for part in text.split(",")])
+            if values.size == 0 or not np.all((values > 0) & np.isfinite(values)):
+                raise ValueError
+    except ValueError:
+        raise CasFreqError(
+            f"--frequencies: expected MIN:MAX:N with 0 < MIN < MAX and 2 <= N <= 1000, or a "
+            f"list of positive numbers, in rad/s; got {text!r}"
+        ) from None
+    return sorted(set(values.tolist()))
+
+
+def run(args):
+    """Sine-dwell the selected variants; print a table or JSON."""
+    from cas_freq.report.text import sinedwell_table
+    from cas_freq.simulation.run import sinedwell_run, sinedwell_run_dict
+
+    amplitudes = parse_amplitudes(args.amplitudes)
+    frequencies = None if args.frequencies is None else parse_frequencies(args.frequencies)
+    data = []
+    for loaded in load_variants(args):
+        progress = terminal_progress(f"sine-dwell {loaded.variant}")
+        result = sinedwell_run(
+            loaded, amplitudes, frequencies, feedforward=args.feedforward, progress=progress
+        )
+        if progress:
+            progress.done()
+        data.append(sinedwell_run_dict(result))
+    if args.json:
+        print_json(data if args.all_variants else data[0])
+    else:
+        print("\n\n".join(sinedwell_table(item) for item in data))
+    return EXIT_OK
