@@ -207,13 +207,16 @@ class Table:
         return np.asarray(self.angle_rad[-1])
 
 
-def read_command_csv(path):
+def read_command_csv(path, negative_times=False):
     """Read a user command: two columns, time [s] and fin angle [deg]; an optional header row.
 
     Parameters
     ----------
     path : str or Path
         CSV file (comma-separated; lines starting with ``#`` are skipped).
+    negative_times : bool
+        Accept times before 0 (a measured response with pre-trigger samples); a command starts
+        at 0, so the default is False.
 
     Returns
     -------
@@ -249,7 +252,7 @@ def read_command_csv(path):
                 f"{path}: row {row_number}: time {time:g} s does not increase "
                 f"(previous {times[-1]:g} s)"
             )
-        if time < 0:
+        if time < 0 and not negative_times:
             raise ConfigError(f"{path}: row {row_number}: time must be >= 0 s, got {time:g}")
         times.append(time)
         angles.append(angle)

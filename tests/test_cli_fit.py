@@ -1,0 +1,88 @@
+"""``cas-freq fit``: the report's §7 fit applied to a step response read from a CSV.
+
+The reference data is the second-order-plus-delay model itself with the report's parameters
+(wn 462 rad/s, zeta 0.54, td 2 ms: MODEL.md), so the fit must give them back; with 0.5 % of the
+step of seeded white noise added, they must come back within a few percent and inside the
+reported confidence intervals.
+"""
+
+import contextlib
+import io
+import json
+import math
+
+import numpy as np
+import pytest
+
+from cas_freq.cli import main
+from cas_freq.simulation.second_order import second_order_step
+
+
+def _run(argv):
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(argv)
+    return code, out.getvalue(), err.getvalue()
+
+
+def _write(path, noise=0.0, t_start=-0.005):
+    t = np.arange(t_start, 0.06, 1e-4)
+    y = np.degrees(second_order_step(np.clip(t, 0, None), 462.0, 0.54, 2e-3, math.radians(10)))
+    y += noise * 10.0 * np.random.default_rng(7).standard_normal(t.size)
+    np.savetxt(path, np.column_stack([t, y]), delimiter=",", header="t [s],delta [deg]",
+               comments="")
+    return path
+
+
+def test_recovers_the_report_fit_from_clean_data(tmp_path):
+    code, out, err = _run(["fit", str(_write(tmp_path / "s.csv")), "--step", "10deg", "--json"])
+    assert code == 0, err
+    data = json.loads(out)
+    fit = data["fit"]
+    assert fit["wn_rad_s"] == pytest.approx(462.0, rel=1e-6)
+    assert fit["zeta"] == pytest.approx(0.54, rel=1e-6)
+    assert fit["td_s"] == pytest.approx(2e-3, rel=1e-6)
+    # MODEL.md: wn 462, zeta 0.54 give 566 rad/s in closed form (565.9 unrounded)
+    assert fit["bandwidth_closed_form_rad_s"] == pytest.approx(566.0, abs=0.5)
+    # the samples before t = 0 are dropped, the step figures are of the model: 13.3 % overshoot
+    assert data["samples"] == 600
+    assert data["step"]["overshoot_pct"] == pytest.approx(
+        100 * math.exp(-math.pi * 0.54 / math.sqrt(1 - 0.54**2)), rel=1e-3
+    )
+
+
+def test_noisy_data_inside_the_confidence_intervals(tmp_path):
+    code, out, _ = _run(["fit", str(_write(tmp_path / "n.csv", noise=0.005)), "--step", "10deg",
+                         "--json"])
+    fit = json.loads(out)["fit"]
+    for key, true in (("wn_rad_s", 462.0), ("zeta", 0.54)):
+        assert fit[key] == pytest.approx(true, rel=0.03)
+    low, high = fit["wn_ci_rad_s"]
+    assert low < 462.0 < high
+    # the rms residual is the noise level, 0.5 % of 10 deg in rad
+    assert fit["rms_residual"] == pytest.approx(0.005 * math.radians(10), rel=0.15)
+
+
+def test_table(tmp_path):
+    code, out, _ = _run(["fit", str(_write(tmp_path / "s.csv")), "--step", "10deg"])
+    assert code == 0 and "closed-form bandwidth 565.9 rad/s" in out
+
+
+@pytest.mark.parametrize(
+    ("content", "expect"),
+    [
+        ("t,delta\n0.01,1\n0.02,2\n", "span the step at t = 0"),
+        ("0,0\n0.001,x\n", "not numbers"),
+        ("0,0,1\n", "expected 2 columns"),
+    ],
+)
+def test_bad_files_exit_2(tmp_path, content, expect):
+    path = tmp_path / "bad.csv"
+    path.write_text(content)
+    code, _, err = _run(["fit", str(path), "--step", "10deg"])
+    assert code == 2 and expect in err and "Traceback" not in err
+
+
+def test_missing_file_exits_2(tmp_path):
+    code, _, err = _run(["fit", str(tmp_path / "none.csv"), "--step", "10deg"])
+    assert code == 2 and "cannot read" in err
