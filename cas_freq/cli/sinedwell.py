@@ -1,7 +1,5 @@
 """``cas-freq sinedwell``: the amplitude-dependent frequency response of the nonlinear loop."""
 
-import numpy as np
-
 from cas_freq.cli.common import (
     EXIT_OK,
     add_config_arguments,
@@ -52,23 +50,12 @@ def parse_amplitudes(text):
 
 def parse_frequencies(text):
     """``MIN:MAX:N`` (log-spaced) or ``F1,F2,...`` in rad/s → sorted list of rad/s."""
+    from cas_freq.config.requirement import parse_frequency_spec
+
     try:
-        if ":" in text:
-            low, high, count = text.split(":")
-            low, high, n = float(low), float(high), int(count)
-            if not (0 < low < high < float("inf") and 2 <= n <= 1000):
-                raise ValueError
-            values = np.geomspace(low, high, n)
-        else:
-            values = np.array([float(part) for part in text.split(",")])
-            if values.size == 0 or not np.all((values > 0) & np.isfinite(values)):
-                raise ValueError
-    except ValueError:
-        raise CasFreqError(
-            f"--frequencies: expected MIN:MAX:N with 0 < MIN < MAX and 2 <= N <= 1000, or a "
-            f"list of positive numbers, in rad/s; got {text!r}"
-        ) from None
-    return sorted(set(values.tolist()))
+        return list(parse_frequency_spec(text))
+    except ValueError as exc:
+        raise CasFreqError(f"--frequencies: {exc}") from None
 
 
 def run(args):

@@ -13,6 +13,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
 from pydantic_core import PydanticCustomError
 
+from cas_freq.config.requirement import Requirement
 from cas_freq.config.units import to_si
 from cas_freq.formulas import viscous_friction_from_no_load
 
@@ -183,4 +184,15 @@ class ActuatorConfig(_Section):
     current_loop: CurrentLoop
     position_loop: PositionLoop
     simulation: Simulation = Simulation()
+    requirements: tuple[Requirement, ...] = ()
     variants: dict[str, dict[str, Any] | None] = {}
+
+    @model_validator(mode="after")
+    def _unique_requirement_ids(self):
+        ids = [requirement.id for requirement in self.requirements]
+        repeated = sorted({name for name in ids if ids.count(name) > 1})
+        if repeated:
+            raise PydanticCustomError(
+                "cas_value", f"requirements: ids must be unique, repeated: {', '.join(repeated)}"
+            )
+        return self

@@ -139,15 +139,29 @@ def sinedwell_table(data):
         "  limits act from " + (f"{onset:g} deg" if onset is not None else "no amplitude given")
     )
     bench = data["report_bench"]
+    wide = 3 if data.get("bandwidth_requirement_rad_s") is not None else 0
     lines += [
         "  bandwidth three ways [rad/s]  (-3.01 dB; step fit = closed form of report §7)",
-        f"    {'amplitude':>10}{'linear T':>11}{'sine-dwell':>12}{'step fit':>10}",
+        f"    {'amplitude':>10}{'linear T':>{11 + wide}}{'sine-dwell':>{12 + wide}}"
+        f"{'step fit':>{10 + wide}}",
     ]
+    required = data.get("bandwidth_requirement_rad_s")
+
+    def cell(row, name, width):
+        text = _fmt(row[name])
+        if required is not None:
+            text += " ok" if row["meets_requirement"][name] else " LOW"
+        return f"{text:>{width}}"
+
     for row in data["bandwidth_three_ways"]:
+        wide = 3 if required is not None else 0
         lines.append(
-            f"    {_fmt(row['amplitude_deg'], 'deg'):>10}{_fmt(row['linear_rad_s']):>11}"
-            f"{_fmt(row['sinedwell_rad_s']):>12}{_fmt(row['step_fit_rad_s']):>10}"
+            f"    {_fmt(row['amplitude_deg'], 'deg'):>10}{cell(row, 'linear_rad_s', 11 + wide)}"
+            f"{cell(row, 'sinedwell_rad_s', 12 + wide)}{cell(row, 'step_fit_rad_s', 10 + wide)}"
         )
+    if required is not None:
+        lines.append(f"    (ok / LOW: against the config's required bandwidth >= {required:g} "
+                     "rad/s)")
     lines.append(
         f"    report bench, {bench['step_deg']:g} deg step fit: {bench['bandwidth_rad_s']:g} "
         f"(wn {bench['wn_rad_s']:g} rad/s, zeta {bench['zeta']:g})"

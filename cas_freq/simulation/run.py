@@ -9,7 +9,7 @@ from cas_freq.fileio import json_ready
 from cas_freq.simulation.commands import Step
 from cas_freq.simulation.parameters import LoopParameters
 from cas_freq.simulation.second_order import fit_second_order
-from cas_freq.simulation.simulator import simulate
+from cas_freq.simulation.simulator import default_time_step, simulate_batch, step_bound
 from cas_freq.simulation.step_figures import simulation_step_figures
 
 #: Columns of the time-series CSV, with their units.
@@ -34,22 +34,62 @@ class StepRun:
 
 def step_run(loaded, amplitude_rad):
     """Simulate a fin step of ``amplitude_rad`` [rad] on one loaded variant and analyse it."""
-    current_rate_hz, position_rate_hz = loaded.params.simulation.rates_hz
-    result = simulate(
-        loaded.params, Step(amplitude_rad),
-        current_rate_hz=current_rate_hz, position_rate_hz=position_rate_hz,
-    )
-    figures = simulation_step_figures(result, amplitude_rad)
-    fit = fit_second_order(result.t, result.delta, amplitude_rad)
-    return StepRun(
-        config=loaded.params.name,
-        config_path=loaded.source,
-        variant=loaded.variant,
-        overrides=tuple(f"{key}={value}" for key, value in loaded.overrides),
-        result=result,
-        step=figures,
-        fit=fit,
-    )
+    return step_runs([loaded], amplitude_rad)[0]
+
+
+def _batch_key(params):
+    """Variants with equal keys can share a batch and get exactly their solo results."""
+    rates = params.simulation.rates_hz
+    p = LoopParameters.from_config(params)
+    periods = [1.0 / rate for rate in rates if rate]
+    return rates, default_time_step([*p.tau_c, *p.tau_p], periods, step_bound(p))
+
+
+def step_runs(variants, amplitude_rad):
+    """:func:`step_run` of several variants, simulated in as few batches as possible.
+
+    Variants with the same controller sampling and default time step run in one batch; each
+    run is cut at its own settling horizon (:class:`~cas_freq.simulation.BatchResult`), so
+    every result is the one :func:`step_run` gives alone.
+
+    Returns
+    -------
+    list of StepRun
+        In the order of ``variants``.
+    """
+    return step_batch([(loaded, amplitude_rad) for loaded in variants])
+
+
+def step_batch(items):
+    """Step runs of (variant, step size [rad]) pairs, batched as :func:`step_runs` does.
+
+    Returns
+    -------
+    list of StepRun
+        In the order of ``items``.
+    """
+    groups = {}
+    for index, (loaded, _) in enumerate(items):
+        groups.setdefault(_batch_key(loaded.params), []).append(index)
+    runs = [None] * len(items)
+    for ((current_rate_hz, position_rate_hz), dt), members in groups.items():
+        batch = simulate_batch(
+            [items[index][0].params for index in members],
+            [Step(items[index][1]) for index in members], dt=dt,
+            current_rate_hz=current_rate_hz, position_rate_hz=position_rate_hz,
+        )
+        for position, index in enumerate(members):
+            (loaded, amplitude_rad), result = items[index], batch.run(position)
+            runs[index] = StepRun(
+                config=loaded.params.name,
+                config_path=loaded.source,
+                variant=loaded.variant,
+                overrides=tuple(f"{key}={value}" for key, value in loaded.overrides),
+                result=result,
+                step=simulation_step_figures(result, amplitude_rad),
+                fit=fit_second_order(result.t, result.delta, amplitude_rad),
+            )
+    return runs
 
 
 def step_run_dict(run):
@@ -128,6 +168,9 @@ class SineDwellRun:
         A nonlinear fin step of each amplitude, with its figures and second-order fit.
     limit_onset_rad : float or None
         Smallest amplitude [rad] at which a limit acts somewhere in the frequency grid.
+    bandwidth_requirement_rad_s : float or None
+        The config's required closed-loop bandwidth (:func:`bandwidth_requirement`), which
+        every estimate is shown against.
     """
 
     config: str
@@ -141,9 +184,18 @@ class SineDwellRun:
     linear_bandwidth_rad_s: float | None
     steps: tuple
     limit_onset_rad: float | None
+    bandwidth_requirement_rad_s: float | None = None
 
 
-def _dwell_parameters(params, feedforward):
+def bandwidth_requirement(params):
+    """Lower bound [rad/s] of the config's required closed-loop bandwidth, or None."""
+    bounds = [r.min for r in params.requirements
+              if r.metric == "closed_loop.bandwidth_rad_s" and r.min is not None]
+    return max(bounds) if bounds else None
+
+
+def dwell_parameters(params, feedforward):
+    """Simulator parameters of one variant, without the feed-forward unless ``feedforward``."""
     loop = LoopParameters.from_config(params)
     if feedforward:
         return loop
@@ -175,7 +227,6 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
     from cas_freq.analysis.closed_loop import closed_loop_figures
     from cas_freq.analysis.frequency import DEFAULT_RANGE_RAD_S, frequency_grid
     from cas_freq.model import ActuatorLoops
-    from cas_freq.simulation.simulator import simulate_batch
     from cas_freq.simulation.sinedwell import limit_onset_amplitude, sine_dwell
 
     params = loaded.params
@@ -184,7 +235,7 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
     current_rate_hz, position_rate_hz = params.simulation.rates_hz
     rates = {"current_rate_hz": current_rate_hz, "position_rate_hz": position_rate_hz}
     result = sine_dwell(
-        _dwell_parameters(params, feedforward), amplitudes_rad, frequencies_rad_s,
+        dwell_parameters(params, feedforward), amplitudes_rad, frequencies_rad_s,
         progress=progress, **rates,
     )
     loops = ActuatorLoops(params)
@@ -194,26 +245,15 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
     linear_bandwidth = closed_loop_figures(loops.closed_loop, grid).bandwidth_rad_s
 
     amplitudes = np.asarray(result.amplitudes_rad)
-    batch = simulate_batch(
-        LoopParameters.from_configs([params] * amplitudes.size),
-        [Step(float(a)) for a in amplitudes], **rates,
-    )
-    steps = []
-    for index, amplitude in enumerate(amplitudes):
-        run = batch.run(index)
-        steps.append(StepRun(
-            config=params.name, config_path=loaded.source, variant=loaded.variant,
-            overrides=tuple(f"{key}={value}" for key, value in loaded.overrides),
-            result=run, step=simulation_step_figures(run, float(amplitude)),
-            fit=fit_second_order(run.t, run.delta, float(amplitude)),
-        ))
+    steps = step_batch([(loaded, float(amplitude)) for amplitude in amplitudes])
     return SineDwellRun(
         config=params.name, config_path=loaded.source, variant=loaded.variant,
         overrides=tuple(f"{key}={value}" for key, value in loaded.overrides),
         feedforward=feedforward,
-        controllers=_controllers(batch),
+        controllers=_controllers(steps[0].result),
         result=result, linear_response=linear, linear_bandwidth_rad_s=linear_bandwidth,
         steps=tuple(steps), limit_onset_rad=limit_onset_amplitude(result),
+        bandwidth_requirement_rad_s=bandwidth_requirement(params),
     )
 
 
@@ -233,6 +273,7 @@ def sinedwell_run_dict(run):
     r = run.result
     amplitudes = []
     three_ways = []
+    required = run.bandwidth_requirement_rad_s
     for index, amplitude in enumerate(r.amplitudes_rad):
         step = run.steps[index]
         amplitude_deg = float(np.degrees(amplitude))
@@ -253,6 +294,11 @@ def sinedwell_run_dict(run):
             "sinedwell_rad_s": r.bandwidth_rad_s[index],
             "step_fit_rad_s": step.fit.bandwidth_closed_form_rad_s,
         })
+        if required is not None:
+            three_ways[-1]["meets_requirement"] = {
+                name: value is not None and value >= required
+                for name, value in three_ways[-1].items() if name.endswith("_rad_s")
+            }
     onset = run.limit_onset_rad
     return json_ready({
         "config": run.config,
@@ -269,6 +315,7 @@ def sinedwell_run_dict(run):
         "amplitudes": amplitudes,
         "limit_onset_amplitude_deg": None if onset is None else float(np.degrees(onset)),
         "bandwidth_three_ways": three_ways,
+        "bandwidth_requirement_rad_s": required,
         "report_bench": {"step_deg": REPORT_BENCH["step_deg"],
                          "bandwidth_rad_s": REPORT_BENCH["bandwidth_rad_s"],
                          "wn_rad_s": REPORT_BENCH["wn_rad_s"], "zeta": REPORT_BENCH["zeta"]},

@@ -110,6 +110,10 @@ class BatchResult:
     """Every run of a batch: each signal of :class:`SimulationResult` as (n_runs, n_samples).
 
     ``settled`` is a bool array (n_runs,) or None; :meth:`run` gives one run.
+    ``t_end_runs`` (n_runs,) [s], for settling commands, is the horizon each run would have had
+    alone: the first horizon of the doubling sequence at which it had settled (or the last).
+    :meth:`run` cuts the run there, so a run's figures do not depend on the other runs of the
+    batch.
     """
 
     t: np.ndarray
@@ -129,16 +133,25 @@ class BatchResult:
     settled: np.ndarray | None
     current_rate_hz: float | None
     position_rate_hz: float | None
+    t_end_runs: np.ndarray | None = None
+    first_t_end_s: float | None = None
 
     def __len__(self):
         return self.delta.shape[0]
 
     def run(self, index):
         """Run ``index`` as a :class:`SimulationResult`."""
-        fields = {name: getattr(self, name)[index] for name in _ARRAYS}
+        t, t_end, extended = self.t, self.t_end_s, self.extended
+        keep = slice(None)
+        if self.t_end_runs is not None:
+            t_end = float(self.t_end_runs[index])
+            keep = slice(0, int(np.searchsorted(t, t_end + 0.5 * self.dt_s, side="right")))
+            t = t[keep]
+            extended = t_end > self.first_t_end_s * (1 + 1e-12)
+        fields = {name: getattr(self, name)[index][keep] for name in _ARRAYS}
         settled = None if self.settled is None else bool(self.settled[index])
         return SimulationResult(
-            t=self.t, **fields, dt_s=self.dt_s, t_end_s=self.t_end_s, extended=self.extended,
+            t=t, **fields, dt_s=self.dt_s, t_end_s=t_end, extended=extended,
             settled=settled, current_rate_hz=self.current_rate_hz,
             position_rate_hz=self.position_rate_hz,
         )
@@ -322,6 +335,7 @@ def simulate_batch(
     parts = [([0.0], {name: value[None] for name, value in first.items()})]
     steps_done, horizon = 0, t_end
     extended = False
+    run_end = np.full(n, np.nan)
     while True:
         target = int(round(horizon / dt))
         parts += _advance(engine, steps_done, target, record_every, progress)
@@ -333,6 +347,7 @@ def simulate_batch(
         if settles:
             command = signals["theta_cmd"] / p.ratio
             settled = _settled(t, delta, command, final, max(0.5 * horizon, last_change))
+            run_end[settled & np.isnan(run_end)] = steps_done * dt
         if not (extend and settles) or settled.all() or horizon >= cap * (1 - 1e-12):
             break
         horizon = min(2.0 * horizon, cap)
@@ -347,6 +362,8 @@ def simulate_batch(
         voltage_limited=signals["voltage_limited"].T.copy(),
         dt_s=float(dt), t_end_s=float(steps_done * dt), extended=extended, settled=settled,
         current_rate_hz=current_rate_hz, position_rate_hz=position_rate_hz,
+        t_end_runs=np.where(np.isnan(run_end), steps_done * dt, run_end) if settles else None,
+        first_t_end_s=float(int(round(t_end / dt)) * dt),
     )
 
 

@@ -1,0 +1,274 @@
+"""A requirement of a config's ``requirements:`` list, and the figures it may refer to.
+
+A requirement names a figure by its dotted key in the JSON of ``analyze``
+(``closed_loop.bandwidth_rad_s``), ``simulate`` (``step.overshoot_pct``, ``fit.zeta``) or
+``sinedwell`` (``sinedwell.bandwidth_rad_s``), bounds it with ``min`` and/or ``max``, and states
+the test condition the figure needs (``step`` for step and fit figures, ``amplitude`` for the
+sine-dwell). Bounds are stored in the figure's own unit, the one its key's suffix names
+(``_rad_s`` rad/s, ``_deg`` deg, ``_db`` dB, ``_pct`` %, ``_s`` s, ``_a`` A, ``_v`` V); a bound
+may be a plain number in that unit or a string with any unit of the same dimension.
+"""
+
+import math
+import re
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic_core import PydanticCustomError
+
+from cas_freq.config.units import registry, to_si
+
+_LOOP_FIGURES = (
+    "crossover_rad_s", "phase_margin_deg", "delay_margin_s", "gain_margin_db",
+    "phase_crossover_rad_s", "gain_margin_low_db", "phase_crossover_low_rad_s",
+    "sensitivity_peak_db", "sensitivity_peak_rad_s", "disk_margin_alpha", "disk_margin_gain_db",
+    "disk_margin_phase_deg",
+)
+_STEP_FIGURES = (
+    "rise_time_s", "overshoot_pct", "settling_time_s", "settling_time_5pct_s", "peak_time_s",
+    "max_current_a", "max_voltage_v",
+)
+_FIT_FIGURES = ("wn_rad_s", "zeta", "td_s", "bandwidth_closed_form_rad_s", "rms_residual")
+
+#: Figure key -> the command whose JSON holds it: ``analyze``, ``step`` or ``sinedwell``.
+METRICS = {
+    **{f"{loop}.{name}": "analyze" for loop in ("current_loop", "position_loop")
+       for name in _LOOP_FIGURES},
+    **{f"closed_loop.{name}": "analyze" for name in (
+        "dc_gain_db", "bandwidth_rad_s", "peak_db", "peak_rad_s", "phase_90_rad_s")},
+    **{f"step.{name}": "step" for name in _STEP_FIGURES},
+    **{f"fit.{name}": "step" for name in _FIT_FIGURES},
+    "sinedwell.bandwidth_rad_s": "sinedwell",
+}
+
+#: Key suffix -> unit (as pint spells it; "dB" is handled without pint).
+_SUFFIX_UNITS = (
+    ("_rad_s", "rad/s"), ("_deg", "deg"), ("_db", "dB"), ("_pct", "percent"), ("_s", "s"),
+    ("_a", "A"), ("_v", "V"),
+)
+#: Figures without a unit suffix.
+_OTHER_UNITS = {"zeta": "", "disk_margin_alpha": "", "rms_residual": "rad"}
+
+#: How each unit is shown.
+UNIT_LABELS = {"rad/s": "rad/s", "deg": "deg", "dB": "dB", "percent": "%", "s": "s", "A": "A",
+               "V": "V", "rad": "rad", "": ""}
+
+
+def metric_unit(metric):
+    """Unit of a figure, from its key's suffix (pint spelling; "" for dimensionless)."""
+    last = metric.rsplit(".", 1)[-1]
+    if last in _OTHER_UNITS:
+        return _OTHER_UNITS[last]
+    for suffix, unit in _SUFFIX_UNITS:
+        if last.endswith(suffix):
+            return unit
+    raise ValueError(f"no unit known for {metric!r}")
+
+
+def convert_bound(value, metric):
+    """A bound as a float in the figure's unit.
+
+    Raises
+    ------
+    ValueError, TypeError
+        For text that does not parse, a unit of another dimension, or a frequency in Hz for
+        an angular frequency (ambiguous by 2 pi).
+    """
+    unit = metric_unit(metric)
+    if unit == "dB":
+        if isinstance(value, str):
+            match = re.fullmatch(r"\s*([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?)\s*(dB)?\s*", value)
+            if not match:
+                raise ValueError(f"expected a number of dB such as '6 dB', got {value!r}")
+            value = float(match.group(1))
+        number = to_si(value, "dimensionless")
+    elif unit == "rad/s" and isinstance(value, str) and "hz" in value.lower():
+        raise ValueError(
+            f"{value!r}: Hz is ambiguous for an angular frequency; write rad/s (1 Hz = 2 pi rad/s)"
+        )
+    else:
+        number = to_si(value, unit or "dimensionless")
+    if not math.isfinite(number):
+        raise ValueError(f"must be finite, got {value!r}")
+    return number
+
+
+def parse_frequency_spec(spec):
+    """``"MIN:MAX:N"`` (N log-spaced) or a list/comma text of frequencies [rad/s] → sorted tuple.
+
+    Raises
+    ------
+    ValueError
+        Naming what is accepted.
+    """
+    accepted = (f"expected MIN:MAX:N with 0 < MIN < MAX and 2 <= N <= 1000, or a list of "
+                f"positive numbers, in rad/s; got {spec!r}")
+    try:
+        if isinstance(spec, str) and ":" in spec:
+            low, high, count = spec.split(":")
+            low, high, n = float(low), float(high), int(count)
+            if not (0 < low < high < math.inf and 2 <= n <= 1000):
+                raise ValueError
+            values = np.geomspace(low, high, n)
+        else:
+            items = spec.split(",") if isinstance(spec, str) else list(spec)
+            if any(isinstance(item, bool) for item in items):
+                raise ValueError
+            values = np.array([float(item) for item in items])
+            if values.size == 0 or not np.all((values > 0) & np.isfinite(values)):
+                raise ValueError
+    except (ValueError, TypeError):
+        raise ValueError(accepted) from None
+    return tuple(sorted(set(values.tolist())))
+
+
+class Requirement(BaseModel):
+    """One requirement on one figure, checked for every variant by ``cas-freq verify``.
+
+    Attributes
+    ----------
+    id : str
+        Short unique name (``BW-1``).
+    metric : str
+        Dotted key of the figure (:data:`METRICS`).
+    min, max : float or None
+        Bounds in the figure's unit (:func:`metric_unit`), inclusive.
+    severity : str
+        ``required`` (a failure fails verify) or ``advisory`` (reported only).
+    source : str
+        Where the requirement comes from (free text).
+    step : float or None
+        Fin step [rad] the step and fit figures are measured on.
+    amplitude : float or None
+        Fin sine amplitude [rad] the sine-dwell bandwidth is measured at.
+    frequencies : tuple of float or None
+        Sine-dwell frequencies [rad/s] (``MIN:MAX:N`` log-spaced or a list in the config);
+        None for the ``sinedwell`` command's default grid.
+    description : str
+        Free text shown beside the verdict.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    id: Annotated[str, Field(min_length=1)]
+    metric: str
+    min: float | None = None
+    max: float | None = None
+    severity: Literal["required", "advisory"] = "required"
+    source: str = ""
+    step: float | None = None
+    amplitude: float | None = None
+    frequencies: tuple[float, ...] | None = None
+    description: str = ""
+
+    @field_validator("metric")
+    @classmethod
+    def _known_metric(cls, value):
+        if value not in METRICS:
+            raise PydanticCustomError(
+                "cas_value",
+                f"unknown figure {value!r}; accepted: {', '.join(sorted(METRICS))}",
+            )
+        return value
+
+    @field_validator("min", "max", mode="before")
+    @classmethod
+    def _bound_in_metric_unit(cls, value, info):
+        metric = info.data.get("metric")
+        if value is None or metric is None:  # an unknown metric is reported on its own
+            return value
+        try:
+            return convert_bound(value, metric)
+        except TypeError as exc:
+            raise PydanticCustomError("cas_type", f"{exc} (the unit of {metric})") from None
+        except ValueError as exc:
+            raise PydanticCustomError(
+                "cas_value", f"{exc} (the unit of {metric} is {metric_unit(metric) or '-'})"
+            ) from None
+
+    @field_validator("step", "amplitude", mode="before")
+    @classmethod
+    def _angle(cls, value):
+        if value is None:
+            return value
+        text = f"give a fin angle with a unit (e.g. '10 deg'), got {value!r}"
+        if not isinstance(value, str):
+            raise PydanticCustomError("cas_value", text)
+        try:
+            number = to_si(value, "rad")
+            unitless = registry().Quantity(value).unitless
+        except (TypeError, ValueError) as exc:
+            raise PydanticCustomError("cas_value", f"{text} ({exc})") from None
+        if unitless:
+            raise PydanticCustomError("cas_value", text)
+        if not 0 < abs(number) <= math.pi / 2:
+            raise PydanticCustomError(
+                "cas_value", f"must be non-zero and within 90 deg at the fin, got {value!r}"
+            )
+        return abs(number)
+
+    @field_validator("frequencies", mode="before")
+    @classmethod
+    def _frequency_grid(cls, value):
+        if value is None:
+            return value
+        try:
+            return parse_frequency_spec(value)
+        except ValueError as exc:
+            raise PydanticCustomError("cas_value", str(exc)) from None
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        if self.min is None and self.max is None:
+            raise PydanticCustomError("cas_value", f"{self.id}: give min, max or both")
+        if self.min is not None and self.max is not None and self.min > self.max:
+            raise PydanticCustomError(
+                "cas_value", f"{self.id}: min {self.min:g} is above max {self.max:g}"
+            )
+        kind = METRICS[self.metric]
+        needs = {"step": "step", "sinedwell": "amplitude"}.get(kind)
+        if self.frequencies is not None and kind != "sinedwell":
+            raise PydanticCustomError(
+                "cas_value", f"{self.id}: 'frequencies' does not apply to {self.metric}"
+            )
+        for condition in ("step", "amplitude"):
+            given = getattr(self, condition) is not None
+            if condition == needs and not given:
+                raise PydanticCustomError(
+                    "cas_value",
+                    f"{self.id}: {self.metric} needs the test condition '{condition}' "
+                    f"(e.g. {condition}: 10 deg)",
+                )
+            if condition != needs and given:
+                raise PydanticCustomError(
+                    "cas_value", f"{self.id}: '{condition}' does not apply to {self.metric}"
+                )
+        return self
+
+    @property
+    def unit(self):
+        """The figure's unit (pint spelling; "" for dimensionless)."""
+        return metric_unit(self.metric)
+
+    @property
+    def kind(self):
+        """``analyze``, ``step`` or ``sinedwell``: what must run to measure the figure."""
+        return METRICS[self.metric]
+
+    def passes(self, value):
+        """True when ``value`` is within the bounds (None or NaN never passes)."""
+        if value is None or not math.isfinite(value):
+            return False
+        return (self.min is None or value >= self.min) and (self.max is None or value <= self.max)
+
+    def margin(self, value):
+        """Distance to the nearest bound in the figure's unit, positive inside; None for None."""
+        if value is None or not math.isfinite(value):
+            return None
+        distances = []
+        if self.min is not None:
+            distances.append(value - self.min)
+        if self.max is not None:
+            distances.append(self.max - value)
+        return min(distances)
