@@ -6,12 +6,16 @@ moderate, and realised as a state-space cascade of first- and second-order all-p
 Multiplying out the transfer function instead overflows: at n = 8 and tau = 0.4 ms its
 coefficients span more than 60 decades and python-control's arithmetic returns NaN.
 
-python-control is imported only when a Padé delay is asked for.
+The coefficients, the poles, the frequency response and the numpy state-space cascade
+(:func:`pade_realization`) need numpy only; python-control is imported only by
+:func:`pade_system`, which returns a :class:`control.StateSpace`.
 """
 
 import dataclasses
 import functools
+import math
 import re
+from fractions import Fraction
 
 import numpy as np
 
@@ -85,23 +89,97 @@ EXACT = DelayModel()
 
 @functools.cache
 def pade_denominator(order):
-    """Denominator coefficients of the order-n Padé approximant of ``exp(-x)`` (tau = 1).
+    r"""Denominator coefficients of the order-n Padé approximant of ``exp(-x)`` (tau = 1).
 
-    Taken from python-control's :func:`control.pade`; highest power first. The numerator is the
-    same polynomial at ``-x``.
+    The [n/n] Padé approximant of :math:`e^{-x}` is :math:`D(-x)/D(x)` with
+
+    .. math::
+        D(x) = \sum_{k=0}^{n} q_k x^k, \qquad
+        q_k = \frac{(2n-k)!\, n!}{(2n)!\, k!\, (n-k)!}
+
+    (G. H. Golub and C. F. Van Loan, *Matrix Computations*, 3rd ed., 1996, §11.3.1, the
+    :math:`D_{pq}` of the matrix-exponential Padé approximant with p = q = n and z = -x; the same
+    formula python-control's ``pade`` evaluates). Each :math:`q_k` is computed exactly as a
+    fraction of integers and rounded once to float, so every coefficient is correctly rounded.
+
+    Parameters
+    ----------
+    order : int
+        Padé order n >= 1.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``n + 1`` coefficients, highest power first, constant term 1 (numerator: the same
+        polynomial at ``-x``, i.e. :math:`p_k = (-1)^k q_k`).
     """
-    import control
-
-    num, den = control.pade(1.0, order)
-    den = np.asarray(den, dtype=float)
-    if not np.allclose(np.asarray(num), den * (-1.0) ** np.arange(order, -1, -1), rtol=1e-9):
-        raise AssertionError("control.pade no longer returns D(-x)/D(x)")  # pragma: no cover
-    return den / den[-1]
+    n = order
+    coefficients = [
+        Fraction(math.factorial(2 * n - k) * math.factorial(n),
+                 math.factorial(2 * n) * math.factorial(k) * math.factorial(n - k))
+        for k in range(n, -1, -1)
+    ]
+    den = np.array([float(c) for c in coefficients])
+    den.setflags(write=False)  # cached: shared by every caller
+    return den
 
 
 def pade_poles(tau, order):
     """Poles [rad/s] of the order-n Padé approximant of a delay ``tau`` [s] (> 0)."""
     return np.roots(pade_denominator(order)) / tau
+
+
+def pade_realization(tau, order):
+    """State-space Padé approximant of a delay as numpy arrays (the cascade of :func:`pade_system`).
+
+    Each real pole p < 0 gives ``(-s - p)/(s - p) = -1 + 2|p|/(s - p)`` and each complex pair
+    ``a ± jb`` gives ``(s^2 + 2a s + r^2)/(s^2 - 2a s + r^2) = 1 + 4a s/((s - a)^2 + b^2)``,
+    realised in modal (real block-diagonal) form with input and output weights of similar size.
+    The sections are chained in series, so the product is ``D(-s tau)/D(s tau)``.
+
+    Parameters
+    ----------
+    tau : float
+        Delay [s], >= 0 (0 gives a static unit gain with no state).
+    order : int
+        Padé order n >= 1.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(A, B, C, D)`` with shapes ``(m, m), (m, 1), (1, m), (1, 1)``; ``m = order`` states
+        (0 for ``tau == 0``). Units: input and output as the delayed signal, time in [s].
+    """
+    a_all = np.zeros((0, 0))
+    b_all = np.zeros((0, 1))
+    c_all = np.zeros((1, 0))
+    d_all = np.ones((1, 1))
+    if tau == 0:
+        return a_all, b_all, c_all, d_all
+    for pole in _section_poles(pade_poles(tau, order)):
+        if pole.imag == 0:
+            p = pole.real
+            g = math.sqrt(2.0 * abs(p))
+            a, b, c, d = [[p]], [[g]], [[g if p < 0 else -g]], [[-1.0]]
+        else:
+            re_p, im_p = pole.real, abs(pole.imag)
+            g = 2.0 * math.sqrt(abs(re_p))
+            a = [[re_p, im_p], [-im_p, re_p]]
+            b = [[g], [0.0]]
+            c = [[4.0 * re_p / g, -4.0 * re_p**2 / (g * im_p)]]
+            d = [[1.0]]
+        a, b, c, d = (np.asarray(m, dtype=float) for m in (a, b, c, d))
+        # series: previous sections feed this one
+        m1, m2 = a_all.shape[0], a.shape[0]
+        a_new = np.zeros((m1 + m2, m1 + m2))
+        a_new[:m1, :m1] = a_all
+        a_new[m1:, :m1] = b @ c_all
+        a_new[m1:, m1:] = a
+        b_all = np.vstack([b_all, b @ d_all])
+        c_all = np.hstack([d @ c_all, c])
+        d_all = d @ d_all
+        a_all = a_new
+    return a_all, b_all, c_all, d_all
 
 
 def pade_system(tau, order):
