@@ -43,9 +43,9 @@ def shipped_variants():
 
 def test_shipped_variants_in_file_order(shipped_raw, shipped_variants):
     # "base" first, then the file's variants in file order.
-    assert variant_names(shipped_raw) == ["base", "fitted"]
-    assert [v.variant for v in load_all_variants()] == ["base", "fitted"]
-    assert list(shipped_variants) == ["base", "fitted"]
+    assert variant_names(shipped_raw) == ["base", "fitted", "relaxed"]
+    assert [v.variant for v in load_all_variants()] == ["base", "fitted", "relaxed"]
+    assert list(shipped_variants) == ["base", "fitted", "relaxed"]
 
 
 @pytest.mark.parametrize("variant", ["base", "fitted"])
@@ -128,7 +128,7 @@ def test_set_overrides_apply_after_the_variant(shipped_config_path):
 
 def test_overrides_apply_to_every_variant(shipped_config_path):
     loaded = load_all_variants(shipped_config_path, [("position_loop.Ki", 0.0)])
-    assert [lv.params.position_loop.Ki for lv in loaded] == [0.0, 0.0]
+    assert [lv.params.position_loop.Ki for lv in loaded] == [0.0, 0.0, 0.0]
 
 
 def test_setting_mu_v_removes_no_load(shipped_config_path):
@@ -506,7 +506,7 @@ def test_unknown_variant(shipped_config_path):
         load_variant(shipped_config_path, "fited")
     message = str(info.value)
     assert "unknown variant 'fited'" in message
-    assert "['base', 'fitted']" in message  # what is accepted
+    assert "['base', 'fitted', 'relaxed']" in message  # what is accepted
 
 
 def test_bad_yaml_syntax_names_the_line(shipped_config_path, write_config):
