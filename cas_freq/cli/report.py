@@ -1,0 +1,134 @@
+"""``cas-freq report``: index.html, report.md, results.json and the figures of a config."""
+
+import sys
+
+from cas_freq.cli.common import EXIT_OK
+
+#: Amplitudes when none are given: small signal, two intermediate sizes, the report's 10 deg.
+DEFAULT_AMPLITUDES = "0.5deg,2deg,5deg,10deg"
+#: Sine-dwell frequencies when none are given [rad/s]: 16 log-spaced over 100..5000.
+DEFAULT_FREQUENCIES = "100:5000:16"
+
+
+def register(commands):
+    """Add the ``report`` sub-parser."""
+    parser = commands.add_parser(
+        "report", help="HTML + Markdown + JSON report with every figure of a config's variants",
+        description="Write a folder with a self-contained index.html, report.md, results.json "
+        "and the figures (SVG) of every variant of a config (default: all of them).",
+    )
+    parser.add_argument(
+        "config", nargs="?", default=None,
+        help="config YAML (default: the shipped configs/qt_cas.yaml)",
+    )
+    parser.add_argument(
+        "--variant", dest="variants", action="append", default=[], metavar="NAME",
+        help="report only this variant (repeatable; default: base and every variant)",
+    )
+    parser.add_argument(
+        "--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+        help="override a dotted key after the variant (repeatable)",
+    )
+    parser.add_argument(
+        "-o", "--output", default=None, metavar="DIR",
+        help="report folder (default: reports/<config name>/); replaced as a whole",
+    )
+    parser.add_argument(
+        "--amplitudes", default=DEFAULT_AMPLITUDES, metavar="A,B,...",
+        help=f"sine-dwell and step amplitudes at the fin, with units; the smallest and the "
+        f"largest are the steps shown (default: {DEFAULT_AMPLITUDES})",
+    )
+    parser.add_argument(
+        "--frequencies", default=DEFAULT_FREQUENCIES, metavar="MIN:MAX:N|F1,F2,...",
+        help=f"sine-dwell frequencies in rad/s (default: {DEFAULT_FREQUENCIES})",
+    )
+    parser.add_argument(
+        "--pade-order", type=int, default=10, metavar="N",
+        help="Padé order of the linear step and highest order of the Padé table (default: 10)",
+    )
+    parser.add_argument("--png", action="store_true", help="also write every figure as PNG")
+    parser.set_defaults(handler=run)
+
+
+def selected_variants(config, names, overrides):
+    """The LoadedVariants of ``config`` named in ``names`` (all when empty), in file order.
+
+    Raises
+    ------
+    ConfigError
+        For an unknown name, listing the config's variants.
+    """
+    from cas_freq.config import (
+        default_config_path,
+        load_variant,
+        parse_set_option,
+        read_config_file,
+        variant_names,
+    )
+    from cas_freq.exceptions import ConfigError
+
+    path = config if config is not None else default_config_path()
+    known = variant_names(read_config_file(path))
+    unknown = [name for name in names if name not in known]
+    if unknown:
+        raise ConfigError(f"{path}: unknown variant(s) {', '.join(unknown)}; the file has "
+                          f"{', '.join(known)}")
+    chosen = [name for name in known if name in names] if names else known
+    parsed = [parse_set_option(text) for text in overrides]
+    return [load_variant(path, name, parsed) for name in chosen]
+
+
+def settings_from_args(args):
+    """ReportSettings from the command-line options."""
+    from cas_freq.cli.sinedwell import parse_amplitudes, parse_frequencies
+    from cas_freq.model.delay import DelayModel
+    from cas_freq.report.data import ReportSettings
+
+    DelayModel(args.pade_order)  # validates 1..MAX_PADE_ORDER with a clear message
+    return ReportSettings(
+        amplitudes_rad=tuple(parse_amplitudes(args.amplitudes)),
+        frequencies_rad_s=tuple(parse_frequencies(args.frequencies)),
+        pade_order=args.pade_order,
+    )
+
+
+def command_text(argv_tail):
+    """``cas-freq report ...`` as the report shows it (the options as given)."""
+    import shlex
+
+    return " ".join(["cas-freq", "report", *(shlex.quote(a) for a in argv_tail)])
+
+
+def run(args):
+    """Build the report; print the folder it was written to."""
+    from cas_freq.report.build import build_report
+
+    variants = selected_variants(args.config, args.variants, args.overrides)
+    settings = settings_from_args(args)
+
+    def progress(name):
+        if sys.stderr.isatty():
+            print(f"report: {name} ...", file=sys.stderr, flush=True)
+
+    folder = build_report(variants, args.output, settings=settings, png=args.png,
+                          command=command_text(_argv_tail(args)), progress=progress)
+    print(folder / "index.html")
+    return EXIT_OK
+
+
+def _argv_tail(args):
+    """The options that shaped the report, rebuilt from ``args`` (stable, no -o)."""
+    tail = [] if args.config is None else [str(args.config)]
+    for name in args.variants:
+        tail += ["--variant", name]
+    for text in args.overrides:
+        tail += ["--set", text]
+    if args.amplitudes != DEFAULT_AMPLITUDES:
+        tail += ["--amplitudes", args.amplitudes]
+    if args.frequencies != DEFAULT_FREQUENCIES:
+        tail += ["--frequencies", args.frequencies]
+    if args.pade_order != 10:
+        tail += ["--pade-order", str(args.pade_order)]
+    if args.png:
+        tail.append("--png")
+    return tail

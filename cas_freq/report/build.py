@@ -1,0 +1,446 @@
+"""``cas-freq report``: one folder with index.html, report.md, results.json and the figures.
+
+:func:`build_report` gathers every variant's data (:mod:`cas_freq.report.data`), draws the
+figures (:mod:`cas_freq.report.figures`), lays out the content once as blocks
+(:mod:`cas_freq.report.document`) and renders them as Markdown and self-contained HTML; the
+folder is written atomically (:mod:`cas_freq.report.outdir`). The same input gives the same
+bytes in every file.
+"""
+
+import json
+import math
+from pathlib import Path
+
+from cas_freq.fileio import json_ready
+from cas_freq.formulas import REPORT_BENCH
+from cas_freq.report.data import (
+    ReportSettings,
+    bench_rows,
+    display_path,
+    gather_variant,
+    variant_results,
+)
+from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table, number
+from cas_freq.report.outdir import sanitise_name, write_directory_atomic
+
+#: Folder that holds the reports by default (relative to the working directory).
+REPORTS_DIR = Path("reports")
+
+_VERDICT_COLUMNS = ("id", "variant", "metric", "value", "unit", "min", "max", "margin", "status",
+                    "severity", "message")
+
+
+def default_report_dir(config_name):
+    """``reports/<config name>`` with the name made safe for a folder."""
+    return REPORTS_DIR / sanitise_name(config_name)
+
+
+def results_json(value):
+    """Strict JSON text (no NaN), indented, ending with a newline."""
+    return json.dumps(json_ready(value), indent=2, allow_nan=False, ensure_ascii=False) + "\n"
+
+
+def _ms(seconds):
+    return None if seconds is None or not math.isfinite(seconds) else 1e3 * seconds
+
+
+# ---- tables ---------------------------------------------------------------------------------
+
+def verdict_blocks(datas):
+    """The requirement-verdict section: a table, or a plain sentence saying why there is none."""
+    requirements = {len(d.requirements) for d in datas}
+    if requirements == {0}:
+        return [Paragraph(f"The config {datas[0].loaded.params.name!r} has no requirements (no "
+                          "`requirements:` list), so there is nothing to verify.")]
+    blocks = []
+    missing = [d.loaded.variant for d in datas if d.verdicts is None and d.requirements]
+    if missing:
+        blocks.append(Paragraph(
+            f"The requirements were not evaluated for variant(s) {', '.join(missing)}."))
+    rows = []
+    for data in datas:
+        for verdict in data.verdicts or ():
+            rows.append(tuple(number(verdict.get(key), 5) for key in _VERDICT_COLUMNS))
+    if rows:
+        blocks.append(Table(_VERDICT_COLUMNS, tuple(rows), "requirement verdicts"))
+    return blocks
+
+
+def bench_table(datas):
+    """The report's bench figures (10° step on the bench) beside each variant's."""
+    names = [d.loaded.variant for d in datas]
+    rows_by_variant = [bench_rows(d) for d in datas]
+    rows = []
+    for k, (figure, unit, bench, _) in enumerate(rows_by_variant[0]):
+        rows.append((figure, unit, number(bench),
+                     *(number(rows[k][3]) for rows in rows_by_variant)))
+    large = {f"{d.dwell.steps[d.large_index].step.amplitude_deg:g}°" for d in datas}
+    return Table(("figure", "unit", "report bench (10° step)", *names), tuple(rows),
+                 f"model steps of {'/'.join(sorted(large))}; the bench figures are ARL-TR-9136's "
+                 "measurements (MODEL.md), for comparison only")
+
+
+def summary_rows(data):
+    """Headline figures of one variant: (figure, unit, value)."""
+    a = data.analysis
+    cl, ci, cp = a.closed_loop, a.current_loop, a.position_loop
+    rows = [
+        ("closed loop (Padé poles)", "", a.stability.verdict),
+        ("L_i phase margin", "deg", ci.phase_margin_deg),
+        ("L_i gain crossover", "rad/s", ci.crossover_rad_s),
+        ("L_i gain margin", "dB", ci.gain_margin_db),
+        ("L_p phase margin", "deg", cp.phase_margin_deg),
+        ("L_p gain crossover", "rad/s", cp.crossover_rad_s),
+        ("L_p delay margin", "ms", _ms(cp.delay_margin_s)),
+        ("L_p gain margin (upper)", "dB", cp.gain_margin_db),
+        ("L_p gain margin (lower)", "dB", cp.gain_margin_low_db),
+        ("L_p sensitivity peak Ms", "dB", cp.sensitivity_peak_db),
+        ("L_p disk margin (gain)", "±dB", cp.disk_margin_gain_db),
+        ("L_p disk margin (phase)", "±deg", cp.disk_margin_phase_deg),
+        ("ω_BW linear (−3 dB of T)", "rad/s", cl.bandwidth_rad_s if cl else None),
+        ("T resonance peak", "dB", cl.peak_db if cl else None),
+        ("T phase −90° at", "rad/s", cl.phase_90_rad_s if cl else None),
+    ]
+    result = data.dwell.result
+    for k, amplitude in enumerate(result.amplitudes_rad):
+        rows.append((f"ω_BW sine-dwell at {math.degrees(amplitude):g}°", "rad/s",
+                     result.bandwidth_rad_s[k]))
+    for k in sorted({data.small_index, data.large_index}):
+        step = data.dwell.steps[k]
+        a_deg = step.step.amplitude_deg
+        rows += [
+            (f"{a_deg:g}° step rise time", "ms", _ms(step.step.rise_time_s)),
+            (f"{a_deg:g}° step overshoot", "%", step.step.overshoot_pct),
+            (f"{a_deg:g}° step settling (2 %)", "ms", _ms(step.step.settling_time_s)),
+            (f"{a_deg:g}° step limits", "", _limits_text(step.step)),
+            (f"{a_deg:g}° step fit ω_BW (closed form)", "rad/s",
+             step.fit.bandwidth_closed_form_rad_s),
+        ]
+    return rows
+
+
+def summary_table(datas):
+    """Headline figures of every variant side by side."""
+    per_variant = [summary_rows(d) for d in datas]
+    rows = []
+    for k, (figure, unit, _) in enumerate(per_variant[0]):
+        rows.append((figure, unit, *(number(values[k][2]) for values in per_variant)))
+    return Table(("figure", "unit", *(d.loaded.variant for d in datas)), tuple(rows),
+                 "headline figures (frequency responses with exact delays)")
+
+
+def _limits_text(step):
+    hit = [name for name, flag in (("current", step.current_limited),
+                                   ("voltage", step.voltage_limited)) if flag]
+    return "none hit" if not hit else " and ".join(hit) + " limit hit"
+
+
+def margins_table(analysis):
+    """Every margin figure of both loops."""
+    ci, cp = analysis.current_loop, analysis.position_loop
+    fields = (
+        ("gain crossover (smallest PM)", "rad/s", "crossover_rad_s", 1.0),
+        ("phase margin", "deg", "phase_margin_deg", 1.0),
+        ("delay margin", "ms", "delay_margin_s", 1e3),
+        ("gain margin (upper)", "dB", "gain_margin_db", 1.0),
+        ("  at phase crossover", "rad/s", "phase_crossover_rad_s", 1.0),
+        ("gain margin (lower)", "dB", "gain_margin_low_db", 1.0),
+        ("  at phase crossover", "rad/s", "phase_crossover_low_rad_s", 1.0),
+        ("sensitivity peak Ms", "dB", "sensitivity_peak_db", 1.0),
+        ("  at", "rad/s", "sensitivity_peak_rad_s", 1.0),
+        ("disk margin α", "-", "disk_margin_alpha", 1.0),
+        ("disk margin (gain)", "±dB", "disk_margin_gain_db", 1.0),
+        ("disk margin (phase)", "±deg", "disk_margin_phase_deg", 1.0),
+    )
+    rows = []
+    for label, unit, name, scale in fields:
+        values = [getattr(loop, name) for loop in (ci, cp)]
+        rows.append((label, unit, *(number(None if v is None else v * scale) for v in values)))
+    rows.append(("crossings in range", "", f"{len(ci.gain_crossovers)} gain, "
+                 f"{len(ci.phase_crossovers)} phase", f"{len(cp.gain_crossovers)} gain, "
+                 f"{len(cp.phase_crossovers)} phase"))
+    return Table(("figure", "unit", "L_i (current loop)", "L_p (position loop)"), tuple(rows),
+                 f"stability margins ({analysis.delay_model} delays)")
+
+
+def crossings_table(analysis, frequency_range):
+    """Every gain and phase crossover of both loops inside the plotted range."""
+    low, high = frequency_range
+    rows = []
+    for name, loop in (("L_i", analysis.current_loop), ("L_p", analysis.position_loop)):
+        for c in loop.gain_crossovers:
+            if low <= c.frequency_rad_s <= high:
+                rows.append((name, "gain crossover", number(c.frequency_rad_s),
+                             f"PM {number(c.phase_margin_deg)} deg, delay margin "
+                             f"{number(_ms(c.delay_margin_s))} ms"))
+        for c in loop.phase_crossovers:
+            if low <= c.frequency_rad_s <= high:
+                rows.append((name, "phase crossover", number(c.frequency_rad_s),
+                             f"GM {number(c.gain_margin_db)} dB"))
+    return Table(("loop", "kind", "frequency [rad/s]", "margin"), tuple(rows),
+                 f"every crossover in {low:g}..{high:g} rad/s (the plotted range)")
+
+
+def closed_loop_table(analysis):
+    """Closed-loop figures of T."""
+    cl = analysis.closed_loop
+    if cl is None:
+        return Paragraph("The closed loop is not stable: no closed-loop figures.")
+    rows = (
+        ("|T(0)|", "dB", number(round(cl.dc_gain_db, 9) + 0.0)),
+        ("bandwidth ω_BW (−3.01 dB)", "rad/s", number(cl.bandwidth_rad_s)),
+        ("resonance peak", "dB", number(cl.peak_db)),
+        ("  at", "rad/s", number(cl.peak_rad_s)),
+        ("phase −90° at", "rad/s", number(cl.phase_90_rad_s)),
+    )
+    return Table(("figure", "unit", "T = δ/δ_cmd"), rows,
+                 f"closed-loop figures ({analysis.delay_model} delays)")
+
+
+def pade_table(analysis):
+    """The Padé-vs-exact table of the analysis."""
+    rows = []
+    for r in analysis.pade_vs_exact:
+        rows.append((r.delay_model, number(r.current_phase_margin_deg),
+                     number(r.position_phase_margin_deg), number(r.position_crossover_rad_s),
+                     number(r.position_gain_margin_db), number(r.position_gain_margin_low_db),
+                     number(r.bandwidth_rad_s), number(r.peak_db),
+                     number(r.closed_loop_max_error, 3)))
+    return Table(("delay model", "L_i PM [deg]", "L_p PM [deg]", "L_p crossover [rad/s]",
+                  "L_p GM [dB]", "L_p lower GM [dB]", "ω_BW [rad/s]", "peak [dB]",
+                  "max |T_pade − T_exact|"), tuple(rows),
+                 "headline figures with Padé delays of each order beside exact delays")
+
+
+def step_table(data):
+    """Step figures of the smallest and largest steps, nonlinear and linear."""
+    columns, figures = [], []
+    for k in sorted({data.small_index, data.large_index}):
+        run = data.dwell.steps[k]
+        a_deg = run.step.amplitude_deg
+        columns += [f"{a_deg:g}° nonlinear", f"{a_deg:g}° linear (Padé {data.pade_order})"]
+        figures += [run.step, data.linear_step_figures[k]]
+    fields = (
+        ("rise time 10-90 %", "ms", lambda s: _ms(s.rise_time_s)),
+        ("overshoot", "%", lambda s: s.overshoot_pct),
+        ("settling time (2 %)", "ms", lambda s: _ms(s.settling_time_s)),
+        ("settling time (5 %)", "ms", lambda s: _ms(s.settling_time_5pct_s)),
+        ("peak time", "ms", lambda s: _ms(s.peak_time_s)),
+        ("largest |current|", "A", lambda s: s.max_current_a),
+        ("largest |voltage|", "V", lambda s: s.max_voltage_v),
+        ("current limit hit", "", lambda s: s.current_limited),
+        ("voltage limit hit", "", lambda s: s.voltage_limited),
+    )
+    rows = tuple((label, unit, *(number(get(f)) for f in figures))
+                 for label, unit, get in fields)
+    return Table(("figure", "unit", *columns), rows,
+                 "step figures (nonlinear: limits and exact delays; linear: no limits)")
+
+
+def fit_table(data):
+    """Second-order fits of every step beside the report's bench fit."""
+    rows = []
+    for run in data.dwell.steps:
+        fit = run.fit
+        rows.append((f"{run.step.amplitude_deg:g}° step (model)", number(fit.wn_rad_s),
+                     number(fit.zeta, 3), number(_ms(fit.td_s), 3),
+                     number(fit.bandwidth_closed_form_rad_s), number(fit.rms_residual, 3),
+                     "yes" if fit.success else "no"))
+    bench = REPORT_BENCH
+    rows.append((f"{bench['step_deg']:g}° step (report bench)", number(bench["wn_rad_s"]),
+                 number(bench["zeta"]), number(1e3 * bench["td_s"]),
+                 number(bench["bandwidth_rad_s"]), "—", "—"))
+    return Table(("step", "ωn [rad/s]", "ζ [-]", "td [ms]", "ω_BW closed form [rad/s]",
+                  "RMS residual [rad]", "converged"), tuple(rows),
+                 "second-order-plus-delay fits (report §7)")
+
+
+def bandwidth_table(data):
+    """Bandwidth three ways per amplitude."""
+    result = data.dwell.result
+    rows = []
+    for k, amplitude in enumerate(result.amplitudes_rad):
+        hit = bool(result.limit_hit[k].any())
+        rows.append((f"{math.degrees(amplitude):g}", number(data.dwell.linear_bandwidth_rad_s),
+                     number(result.bandwidth_rad_s[k]),
+                     number(data.dwell.steps[k].fit.bandwidth_closed_form_rad_s),
+                     "yes" if hit else "no"))
+    onset = data.dwell.limit_onset_rad
+    caption = ("bandwidth three ways; a limit first acts at "
+               f"{math.degrees(onset):g}°" if onset is not None else
+               "bandwidth three ways; no limit acts at any amplitude")
+    return Table(("amplitude [deg]", "linear −3 dB of T [rad/s]", "sine-dwell −3 dB [rad/s]",
+                  "step fit closed form [rad/s]", "limit acts in the dwell"), tuple(rows),
+                 caption)
+
+
+def small_signal_sentence(data):
+    """Whether the smallest step stays clear of the limits (and so is the linear case)."""
+    run = data.dwell.steps[data.small_index]
+    step = run.step
+    params = data.loaded.params
+    head = (f"The {step.amplitude_deg:g}° step reaches {number(step.max_current_a)} A of the "
+            f"±{params.position_loop.i_max:g} A current limit and {number(step.max_voltage_v)} V "
+            f"of the ±{params.current_loop.v_max:g} V voltage limit: ")
+    if step.current_limited or step.voltage_limited:
+        return head + (f"{_limits_text(step)}, so even this step is not small-signal; the "
+                       "linear model is not its reference.")
+    return head + ("no limit is hit, so it is the small-signal case and the nonlinear "
+                   "simulation should agree with the linear model (differences come from the "
+                   f"Padé order {data.pade_order} delays of the linear model).")
+
+
+# ---- the document ---------------------------------------------------------------------------
+
+def variant_slug(data):
+    """Folder name of a variant's figures."""
+    return sanitise_name(data.loaded.variant, fallback="variant")
+
+
+def variant_blocks(data, figure_blocks, settings):
+    """The section of one variant."""
+    a = data.analysis
+    blocks = [Heading(2, f"Variant {data.loaded.variant}")]
+    blocks.append(Paragraph(
+        f"{data.label}: closed loop {a.stability.verdict} (poles of the Padé order "
+        f"{a.stability.pade_order} model); every frequency response below uses exact delays."))
+    if a.notes:
+        blocks.append(Bullets(tuple(a.notes)))
+    blocks += [Heading(3, f"Frequency response ({data.loaded.variant})"), margins_table(a),
+               crossings_table(a, settings.curve_range_rad_s), closed_loop_table(a)]
+    blocks += [figure_blocks[n] for n in ("bode_loops", "closed_loop", "sensitivity", "nichols")]
+    blocks += [Heading(3, f"Padé vs exact delays ({data.loaded.variant})"), pade_table(a)]
+    blocks += [Heading(3, f"Step responses ({data.loaded.variant})"),
+               Paragraph(small_signal_sentence(data)), step_table(data), figure_blocks["steps"],
+               fit_table(data), figure_blocks["step_fit"]]
+    blocks += [Heading(3, f"Bandwidth versus amplitude ({data.loaded.variant})"),
+               bandwidth_table(data), figure_blocks["bandwidth_vs_amplitude"],
+               figure_blocks["sinedwell"]]
+    return blocks
+
+
+def report_blocks(datas, figure_blocks, settings, command=None):
+    """Every block of the report, in order.
+
+    Parameters
+    ----------
+    datas : list of VariantData
+    figure_blocks : list of dict of str to Figure
+        Per variant, the figure blocks by file stem.
+    settings : ReportSettings
+    command : str, optional
+        The command that regenerates the report, shown near the top.
+    """
+    params = datas[0].loaded.params
+    amplitudes = ", ".join(f"{math.degrees(a):g}°" for a in settings.amplitudes_rad)
+    w = settings.frequencies_rad_s
+    blocks = [Heading(1, f"cas_freq report: {params.name}")]
+    if params.description:
+        blocks.append(Paragraph(params.description))
+    facts = [
+        f"config: {display_path(datas[0].loaded.source)}; variants: "
+        + ", ".join(d.loaded.variant for d in datas),
+        "frequency responses, margins and bandwidth: exact delays (e^(−sτ)); stability: poles "
+        "of the Padé model; linear step responses: Padé order "
+        f"{settings.pade_order}; nonlinear simulation: exact delays as delay lines, ±i_max and "
+        "±v_max clamps with anti-windup",
+        f"sine-dwell and step amplitudes at the fin: {amplitudes}; sine-dwell frequencies: "
+        f"{len(w)} points over {w[0]:g}..{w[-1]:g} rad/s (one batch per variant, "
+        "feed-forward off as in MODEL.md's T)",
+        "figure definitions: MODEL.md (motor-shaft loops, fin angle δ = θ / gear ratio)",
+    ]
+    if command:
+        facts.append(f"regenerate with: {command}")
+    blocks.append(Bullets(tuple(facts)))
+    blocks += [Heading(2, "Summary"), summary_table(datas),
+               Heading(2, "Report bench vs model"), bench_table(datas),
+               Heading(2, "Requirement verdicts"), *verdict_blocks(datas)]
+    for data, figures in zip(datas, figure_blocks, strict=True):
+        blocks += variant_blocks(data, figures, settings)
+    return blocks
+
+
+def _figure_files(data, png):
+    """Yield (path, content) of a variant's figures; returns {stem: Figure block}."""
+    from cas_freq.report import figures as plots
+
+    slug = variant_slug(data)
+    blocks = {}
+    for stem, (draw, caption) in plots.VARIANT_FIGURES.items():
+        fig = draw(data)
+        svg = plots.svg_text(fig)
+        path = f"figures/{slug}/{stem}.svg"
+        yield path, svg
+        if png:
+            yield f"figures/{slug}/{stem}.png", plots.png_bytes(fig)
+        blocks[stem] = Figure(path, f"{caption} — {data.label}", svg)
+    return blocks
+
+
+def report_files(datas, settings, *, png=False, command=None):
+    """Every file of the report folder as (relative path, content), figures first."""
+    from cas_freq.report import html, markdown
+
+    figure_blocks = []
+    for data in datas:
+        figure_blocks.append((yield from _figure_files(data, png)))
+    blocks = report_blocks(datas, figure_blocks, settings, command)
+    params = datas[0].loaded.params
+    yield "results.json", results_json({
+        "config": params.name,
+        "config_path": display_path(datas[0].loaded.source),
+        "description": params.description,
+        "settings": settings.to_dict(),
+        "report_bench": REPORT_BENCH,
+        "variants": [variant_results(d) for d in datas],
+        "figures": {d.loaded.variant: sorted(b.path for b in f.values())
+                    for d, f in zip(datas, figure_blocks, strict=True)},
+    })
+    yield "report.md", markdown.render(blocks)
+    yield "index.html", html.render(blocks, f"cas_freq report: {params.name}")
+
+
+def build_report(variants, out_dir=None, *, settings=None, verdicts=None, png=False,
+                 command=None, progress=None):
+    """Compute, draw and write the report of one config's variants.
+
+    Parameters
+    ----------
+    variants : list of cas_freq.config.LoadedVariant
+        Variants of one config (each one a section of the report).
+    out_dir : str or Path, optional
+        Report folder; default ``reports/<config name>`` (sanitised).
+    settings : ReportSettings, optional
+        Amplitudes, frequencies, Padé order (defaults: :class:`ReportSettings`).
+    verdicts : list of dict, optional
+        Requirement verdicts (``cas-freq verify`` JSON); None evaluates them through
+        :func:`cas_freq.report.data.requirement_verdicts`.
+    png : bool
+        Also write every figure as PNG.
+    command : str, optional
+        The command that regenerates the report (shown in it).
+    progress : callable, optional
+        ``progress(label)`` called before each variant's computation.
+
+    Returns
+    -------
+    Path
+        The report folder.
+    """
+    from cas_freq.exceptions import CasFreqError
+
+    if not variants:
+        raise CasFreqError("report: no variant selected")
+    names = {v.params.name for v in variants}
+    if len(names) > 1:
+        raise CasFreqError(f"report: variants of one config expected, got configs {sorted(names)}"
+                           "; use `cas-freq compare` for several configs")
+    settings = settings or ReportSettings()
+    datas = []
+    for loaded in variants:
+        if progress:
+            progress(loaded.variant)
+        datas.append(gather_variant(loaded, settings, verdicts))
+    target = Path(out_dir) if out_dir is not None else default_report_dir(variants[0].params.name)
+    return write_directory_atomic(target, report_files(datas, settings, png=png,
+                                                       command=command))

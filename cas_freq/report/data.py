@@ -1,0 +1,365 @@
+"""Everything a report shows about one variant, computed once (no matplotlib).
+
+:func:`gather_variant` runs the frequency analysis (exact delays, with the Padé-vs-exact table),
+evaluates the loops on a plotting grid, runs **one** sine-dwell batch (which also simulates the
+nonlinear step of every amplitude, :func:`cas_freq.simulation.run.sinedwell_run`), and the
+linear step of the Padé model. :func:`variant_results` turns it into the JSON of
+``results.json``: the same dicts as ``analyze --json``, ``simulate --json``,
+``sinedwell --json`` and ``verify`` (the requirement verdicts).
+"""
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+
+from cas_freq.exceptions import CasFreqError
+from cas_freq.fileio import json_ready
+from cas_freq.formulas import REPORT_BENCH
+
+#: Default sine-dwell amplitudes at the fin [deg]: small signal (no limit acts), two
+#: intermediate sizes, and the report's 10 deg step. The smallest and the largest are also the
+#: step responses the report shows.
+DEFAULT_AMPLITUDES_DEG = (0.5, 2.0, 5.0, 10.0)
+
+#: Default sine-dwell frequencies [rad/s]: 16 log-spaced points over 100..5000 rad/s, around
+#: every bandwidth of the shipped variants (about 300 to 1400 rad/s). The horizon of the batch
+#: is set by the lowest frequency (about 6 s per variant on 2 cores).
+DEFAULT_FREQUENCIES_RAD_S = tuple(float(w) for w in np.geomspace(100.0, 5000.0, 16))
+
+#: Padé order of the linear step response and of the Padé-vs-exact table.
+DEFAULT_PADE_ORDER = 10
+
+
+@dataclasses.dataclass(frozen=True)
+class ReportSettings:
+    """What a report computes.
+
+    Attributes
+    ----------
+    amplitudes_rad : tuple of float
+        Sine-dwell and step amplitudes at the fin [rad], >= 1 value; the smallest and the
+        largest are the step responses shown.
+    frequencies_rad_s : tuple of float
+        Sine-dwell frequencies [rad/s].
+    pade_order : int
+        Padé order of the linear step and the highest order of the Padé-vs-exact table.
+    curve_range_rad_s : (float, float)
+        Range of the Bode, Nichols and closed-loop plots [rad/s].
+    curve_points_per_decade : int
+        Density of the plotting grid [1/decade] (densified where the delays turn the phase).
+    """
+
+    amplitudes_rad: tuple = tuple(math.radians(a) for a in DEFAULT_AMPLITUDES_DEG)
+    frequencies_rad_s: tuple = DEFAULT_FREQUENCIES_RAD_S
+    pade_order: int = DEFAULT_PADE_ORDER
+    curve_range_rad_s: tuple = (1.0, 2.0e4)
+    curve_points_per_decade: int = 100
+
+    def __post_init__(self):
+        amplitudes = tuple(sorted({float(a) for a in self.amplitudes_rad}))
+        if not amplitudes or not all(0 < a <= math.pi / 2 for a in amplitudes):
+            raise CasFreqError(
+                f"report amplitudes: need at least one amplitude in (0, 90] deg, got "
+                f"{[math.degrees(a) for a in self.amplitudes_rad]} deg"
+            )
+        frequencies = tuple(sorted({float(w) for w in self.frequencies_rad_s}))
+        if len(frequencies) < 2 or not all(0 < w < math.inf for w in frequencies):
+            raise CasFreqError(
+                f"report frequencies: need at least two finite frequencies > 0 rad/s, got "
+                f"{list(self.frequencies_rad_s)}"
+            )
+        object.__setattr__(self, "amplitudes_rad", amplitudes)
+        object.__setattr__(self, "frequencies_rad_s", frequencies)
+
+    def to_dict(self):
+        """JSON-ready description (amplitudes in deg, as everywhere on output)."""
+        return json_ready({
+            "amplitudes_deg": [math.degrees(a) for a in self.amplitudes_rad],
+            "sinedwell_frequencies_rad_s": list(self.frequencies_rad_s),
+            "pade_order": self.pade_order,
+            "curve_range_rad_s": list(self.curve_range_rad_s),
+            "curve_points_per_decade": self.curve_points_per_decade,
+            "delay_model": "exact delays for every frequency response; Padé order "
+            f"{self.pade_order} for the linear step response",
+        })
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Curves:
+    """Exact-delay frequency responses on a plotting grid (complex, shape (n,))."""
+
+    omega_rad_s: np.ndarray
+    current_loop: np.ndarray
+    position_loop: np.ndarray
+    sensitivity: np.ndarray
+    closed_loop: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class VariantData:
+    """Everything the report shows about one variant.
+
+    Attributes
+    ----------
+    loaded : cas_freq.config.LoadedVariant
+    label : str
+        ``config / variant`` as titles show it.
+    analysis : cas_freq.analysis.Analysis
+        Exact-delay figures, with the Padé-vs-exact table.
+    curves : Curves
+    dwell : cas_freq.simulation.run.SineDwellRun
+        Sine-dwell per amplitude and the nonlinear step of each amplitude.
+    linear_steps : tuple of numpy.ndarray
+        Linear (Padé) fin-angle step response [rad] on each step's time grid, same order as
+        ``dwell.steps``.
+    linear_step_figures : tuple of StepFigures
+        Step figures of those linear responses.
+    pade_order : int
+        Padé order of the linear step responses and of the Padé-vs-exact table.
+    verdicts : tuple of dict or None
+        Requirement verdicts of this variant; None when they were not evaluated.
+    """
+
+    loaded: object
+    label: str
+    analysis: object
+    curves: Curves
+    dwell: object
+    linear_steps: tuple
+    linear_step_figures: tuple
+    pade_order: int
+    verdicts: tuple | None
+
+    @property
+    def small_index(self):
+        """Index of the smallest amplitude in ``dwell.steps``."""
+        return 0
+
+    @property
+    def large_index(self):
+        """Index of the largest amplitude in ``dwell.steps``."""
+        return len(self.dwell.steps) - 1
+
+    @property
+    def requirements(self):
+        """The config's requirements (empty if it has none)."""
+        return tuple(getattr(self.loaded.params, "requirements", ()) or ())
+
+
+def variant_label(loaded):
+    """``config / variant`` (with the ``--set`` overrides, if any)."""
+    label = f"{loaded.params.name} / {loaded.variant}"
+    if loaded.overrides:
+        label += " with " + ", ".join(f"{k}={v}" for k, v in loaded.overrides)
+    return label
+
+
+def curves(params, frequency_range_rad_s, points_per_decade):
+    """Exact-delay responses of every loop on a plotting grid.
+
+    Parameters
+    ----------
+    params : cas_freq.config.ActuatorConfig
+    frequency_range_rad_s : (float, float)
+        [rad/s].
+    points_per_decade : int
+        [1/decade].
+
+    Returns
+    -------
+    Curves
+    """
+    from cas_freq.analysis.frequency import frequency_grid
+    from cas_freq.model import ActuatorLoops
+
+    loops = ActuatorLoops(params)
+    omega = frequency_grid(*frequency_range_rad_s, points_per_decade, loops.total_delay)
+    s = 1j * omega
+    return Curves(omega, loops.current_loop(s), loops.position_loop(s), loops.sensitivity(s),
+                  loops.closed_loop(s))
+
+
+def linear_step(params, t, amplitude_rad, pade_order):
+    """Fin-angle step response [rad] of the linear closed loop T with Padé delays.
+
+    Parameters
+    ----------
+    params : cas_freq.config.ActuatorConfig
+    t : numpy.ndarray
+        Times [s], uniformly spaced from 0.
+    amplitude_rad : float
+        Step size at the fin [rad].
+    pade_order : int
+        Padé order of both delays.
+    """
+    import control
+
+    from cas_freq.model.systems import linear_model
+
+    closed = linear_model(params, pade_order).closed_loop
+    return amplitude_rad * np.asarray(control.step_response(closed, t).outputs, dtype=float)
+
+
+def requirement_verdicts(loaded, results):
+    """Requirement verdicts of one variant (``cas-freq verify --json``), [] without requirements.
+
+    The one seam between the report and :mod:`cas_freq.verify`: the verdict dicts have the keys
+    ``id, variant, metric, value, unit, min, max, margin, status, severity, source, message``
+    (and more). ``results`` is the variant's entry of ``results.json`` (``analyze``,
+    ``simulate``, ``sinedwell``); it is not used yet: ``verify`` measures its own figures under
+    each requirement's own test condition (step size, amplitude, grid), which may differ from
+    the report's.
+    """
+    del results
+    if not getattr(loaded.params, "requirements", ()):
+        return []
+    from cas_freq.verify import verdict_dict, verify_variant
+
+    return [verdict_dict(verdict) for verdict in verify_variant(loaded)]
+
+
+def select_verdicts(verdicts, loaded):
+    """The verdicts of ``verdicts`` (list of dicts) that belong to ``loaded``'s variant."""
+    chosen = []
+    for verdict in verdicts:
+        if verdict.get("variant", loaded.variant) != loaded.variant:
+            continue
+        if verdict.get("config", loaded.params.name) != loaded.params.name:
+            continue
+        chosen.append(dict(verdict))
+    return tuple(chosen)
+
+
+def gather_variant(loaded, settings=ReportSettings(), verdicts=None, progress=None):
+    """Compute everything the report shows about one variant.
+
+    Parameters
+    ----------
+    loaded : cas_freq.config.LoadedVariant
+    settings : ReportSettings
+    verdicts : list of dict, optional
+        Requirement verdicts (of any variants; those of this one are kept). None: evaluate them
+        with :func:`requirement_verdicts`.
+    progress : callable, optional
+        ``progress(done, planned)`` of the sine-dwell batch.
+
+    Returns
+    -------
+    VariantData
+    """
+    from cas_freq.analysis import analyze
+    from cas_freq.simulation.run import sinedwell_run
+    from cas_freq.simulation.step_figures import step_figures
+
+    params = loaded.params
+    analysis = analyze(loaded, pade_orders=settings.pade_order)
+    dwell = sinedwell_run(loaded, settings.amplitudes_rad, settings.frequencies_rad_s,
+                          progress=progress)
+    linear, linear_figures = [], []
+    for run in dwell.steps:
+        amplitude = math.radians(run.step.amplitude_deg)
+        response = linear_step(params, run.result.t, amplitude, settings.pade_order)
+        linear.append(response)
+        linear_figures.append(step_figures(run.result.t, response, amplitude))
+    data = VariantData(
+        loaded=loaded, label=variant_label(loaded), analysis=analysis,
+        curves=curves(params, settings.curve_range_rad_s, settings.curve_points_per_decade),
+        dwell=dwell, linear_steps=tuple(linear), linear_step_figures=tuple(linear_figures),
+        pade_order=settings.pade_order, verdicts=None,
+    )
+    if verdicts is None:
+        found = requirement_verdicts(loaded, variant_results(data))
+        chosen = None if found is None else tuple(dict(v) for v in found)
+    else:
+        chosen = select_verdicts(verdicts, loaded)
+    return dataclasses.replace(data, verdicts=chosen)
+
+
+def display_path(path):
+    """``path`` relative to the working directory when inside it (so that a report does not
+    carry the machine's absolute paths), else as given."""
+    try:
+        resolved, here = Path(path).resolve(), Path.cwd().resolve()
+    except OSError:
+        return str(path)
+    if resolved.is_relative_to(here):
+        return resolved.relative_to(here).as_posix()
+    return str(path)
+
+
+def _with_paths(value, shown):
+    if isinstance(value, dict):
+        return {k: (shown if k == "config_path" else _with_paths(v, shown))
+                for k, v in value.items()}
+    if isinstance(value, list):
+        return [_with_paths(v, shown) for v in value]
+    return value
+
+
+def bench_rows(data):
+    """The report's bench figures beside the model's, for the largest (10 deg) step.
+
+    Returns
+    -------
+    list of (str, str, float or None, float or None)
+        (figure, unit, bench value, model value) in display units (ms, %, rad/s, -).
+    """
+    large = data.dwell.steps[data.large_index]
+    step, fit = large.step, large.fit
+    closed = data.analysis.closed_loop
+    dwell_bw = data.dwell.result.bandwidth_rad_s[data.large_index]
+
+    def ms(value):
+        return None if value is None or not math.isfinite(value) else 1e3 * value
+
+    return [
+        ("rise time 10-90 %", "ms", 1e3 * REPORT_BENCH["rise_time_s"], ms(step.rise_time_s)),
+        ("overshoot", "%", REPORT_BENCH["overshoot_pct"], step.overshoot_pct),
+        ("settling time (2 %)", "ms", 1e3 * REPORT_BENCH["settling_time_s"],
+         ms(step.settling_time_s)),
+        ("fit ωn", "rad/s", REPORT_BENCH["wn_rad_s"], fit.wn_rad_s),
+        ("fit ζ", "-", REPORT_BENCH["zeta"], fit.zeta),
+        ("fit td", "ms", 1e3 * REPORT_BENCH["td_s"], ms(fit.td_s)),
+        ("ω_BW of the fit (closed form)", "rad/s", REPORT_BENCH["bandwidth_rad_s"],
+         fit.bandwidth_closed_form_rad_s),
+        ("ω_BW sine-dwell at the step's amplitude", "rad/s", None, dwell_bw),
+        ("ω_BW linear (-3 dB of T)", "rad/s", None,
+         None if closed is None else closed.bandwidth_rad_s),
+    ]
+
+
+def variant_results(data):
+    """The variant's entry of ``results.json``.
+
+    ``analyze``, ``simulate`` (smallest and largest step) and ``sinedwell`` are the JSON of
+    those commands; ``linear_steps`` the step figures of the Padé model; ``verify`` the
+    requirement verdicts (None: not evaluated); ``bench_comparison`` the table beside the
+    report's bench figures.
+    """
+    import dataclasses as dc
+
+    from cas_freq.analysis import to_dict
+    from cas_freq.simulation.run import sinedwell_run_dict, step_run_dict
+
+    shown = display_path(data.loaded.source)
+    steps = data.dwell.steps
+    chosen = sorted({data.small_index, data.large_index})
+    result = {
+        "variant": data.loaded.variant,
+        "label": data.label,
+        "analyze": to_dict(data.analysis),
+        "simulate": [step_run_dict(steps[k]) for k in chosen],
+        "sinedwell": sinedwell_run_dict(data.dwell),
+        "linear_steps": [
+            {"pade_order": data.pade_order, **dc.asdict(figures)}
+            for figures in data.linear_step_figures
+        ],
+        "verify": None if data.verdicts is None else [dict(v) for v in data.verdicts],
+        "bench_comparison": [
+            {"figure": name, "unit": unit, "bench": bench, "model": model}
+            for name, unit, bench, model in bench_rows(data)
+        ],
+    }
+    return json_ready(_with_paths(result, shown))

@@ -1,0 +1,546 @@
+"""The report's figures, drawn with matplotlib (the only module of cas_freq that imports it).
+
+Each function takes :class:`cas_freq.report.data.VariantData` (one, or a list to overlay) and
+returns a :class:`matplotlib.figure.Figure`; nothing here computes a figure of merit. Figures
+are built without pyplot (no global figure registry to leak), on the Agg backend, and
+:func:`svg_text` writes them reproducibly: fixed hash salt, no date, text kept as text.
+
+Titles name the variant and the delay model; every axis label carries its unit.
+"""
+
+import io
+import math
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import numpy as np  # noqa: E402
+from matplotlib import rc_context  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+from matplotlib.ticker import MultipleLocator  # noqa: E402
+
+from cas_freq.analysis.frequency import continuous_phase  # noqa: E402
+from cas_freq.formulas import REPORT_BENCH  # noqa: E402
+from cas_freq.simulation.second_order import second_order_step  # noqa: E402
+
+#: Style of every figure (and of the SVG writer): fixed, so output does not depend on a user's
+#: matplotlibrc.
+STYLE = {
+    "svg.hashsalt": "cas_freq-report",
+    "svg.fonttype": "none",
+    "font.size": 9,
+    "axes.titlesize": 10,
+    "figure.titlesize": 11,
+    "axes.grid": True,
+    "grid.alpha": 0.35,
+    "grid.linewidth": 0.6,
+    "legend.fontsize": 8,
+    "legend.framealpha": 0.85,
+    "lines.linewidth": 1.4,
+    "savefig.dpi": 100,
+    "path.simplify": False,
+}
+
+EXACT = "exact delays"
+HALF_POWER_DB = 20.0 * math.log10(1.0 / math.sqrt(2.0))
+
+
+def _figure(rows, cols, size, sharex=False, **kwargs):
+    with rc_context(STYLE):
+        fig = Figure(figsize=size, layout="constrained")
+        axes = fig.subplots(rows, cols, sharex=sharex, squeeze=False, **kwargs)
+    return fig, axes
+
+
+def svg_text(fig):
+    """The figure as SVG text, byte-identical for the same figure (no date, fixed ids)."""
+    out = io.StringIO()
+    with rc_context(STYLE):
+        fig.savefig(out, format="svg", metadata={"Date": None, "Creator": "cas_freq"})
+    return out.getvalue()
+
+
+def png_bytes(fig):
+    """The figure as PNG bytes with fixed metadata."""
+    out = io.BytesIO()
+    with rc_context(STYLE):
+        fig.savefig(out, format="png", metadata={"Software": "cas_freq"})
+    return out.getvalue()
+
+
+def _db(values):
+    return 20.0 * np.log10(np.abs(values))
+
+
+def _phase_deg(response, omega):
+    return np.degrees(continuous_phase(response, omega))
+
+
+def _at(omega, values, w):
+    """``values`` interpolated at ``w`` in log frequency."""
+    return float(np.interp(math.log(w), np.log(omega), values))
+
+
+def _in_range(omega, w):
+    return w is not None and omega[0] <= w <= omega[-1]
+
+
+def _log_axes(axes, omega):
+    for ax in axes:
+        ax.set_xscale("log")
+        ax.set_xlim(omega[0], omega[-1])
+    axes[-1].set_xlabel("frequency ω [rad/s]")
+
+
+def bode_loops(data):
+    """Bode of L_i and L_p, every gain and phase crossover in range marked, the headline margins
+    annotated."""
+    c = data.curves
+    w = c.omega_rad_s
+    fig, axes = _figure(2, 1, (8, 6.4), sharex=True)
+    mag, ph = axes[:, 0]
+    loops = (("L_i (current loop, broken at V)", c.current_loop, data.analysis.current_loop, "C0"),
+             ("L_p (position loop, broken at i_cmd)", c.position_loop,
+              data.analysis.position_loop, "C1"))
+    for name, response, margins, color in loops:
+        m, p = _db(response), _phase_deg(response, w)
+        mag.plot(w, m, color=color, label=name)
+        ph.plot(w, p, color=color, label=name)
+        for cross in margins.gain_crossovers:
+            if not _in_range(w, cross.frequency_rad_s):
+                continue
+            x = cross.frequency_rad_s
+            mag.plot([x], [0.0], "o", color=color, ms=5)
+            ph.plot([x], [-180.0 + cross.phase_margin_deg], "o", color=color, ms=5)
+            ph.vlines(x, -180.0, -180.0 + cross.phase_margin_deg, color=color, lw=2)
+            right = x > w[-1] / 30.0
+            ph.annotate(f"PM {cross.phase_margin_deg:.1f}° @ {x:.4g} rad/s", (x, -180.0),
+                        xytext=(-4 if right else 4, -12), textcoords="offset points",
+                        ha="right" if right else "left", color=color, fontsize=8)
+        headline = {margins.phase_crossover_rad_s, margins.phase_crossover_low_rad_s}
+        for cross in margins.phase_crossovers:
+            if not _in_range(w, cross.frequency_rad_s):
+                continue
+            x = cross.frequency_rad_s
+            mag.plot([x], [-cross.gain_margin_db], "s", color=color, ms=4, mfc="none")
+            ph.plot([x], [_at(w, p, x)], "s", color=color, ms=4, mfc="none")
+            if x in headline:
+                mag.vlines(x, -cross.gain_margin_db, 0.0, color=color, lw=2)
+                mag.annotate(f"GM {cross.gain_margin_db:+.1f} dB @ {x:.4g} rad/s",
+                             (x, -cross.gain_margin_db), xytext=(4, -12 if
+                             cross.gain_margin_db > 0 else 6), textcoords="offset points",
+                             color=color, fontsize=8)
+    mag.axhline(0.0, color="k", lw=0.8)
+    ph.axhline(-180.0, color="k", lw=0.8)
+    mag.set_ylabel("magnitude [dB]")
+    ph.set_ylabel("phase [deg]")
+    ph.yaxis.set_major_locator(MultipleLocator(180))
+    mag.set_ylim(max(mag.get_ylim()[0], -80.0), mag.get_ylim()[1])
+    mag.legend(loc="upper right")
+    mag.plot([], [], "ko", ms=4, label="gain crossover (PM)")
+    _log_axes([mag, ph], w)
+    mag.set_title("gain crossovers ●, phase crossovers □ (GM)")
+    fig.suptitle(f"{data.label}: open loops L_i and L_p ({EXACT})")
+    return fig
+
+
+def closed_loop(data):
+    """|T| with the -3 dB line, the bandwidth and the resonance peak; phase of T with -90°."""
+    c = data.curves
+    w = c.omega_rad_s
+    figures = data.analysis.closed_loop
+    fig, axes = _figure(2, 1, (8, 6), sharex=True)
+    mag, ph = axes[:, 0]
+    m, p = _db(c.closed_loop), _phase_deg(c.closed_loop, w)
+    mag.plot(w, m, color="C2", label="|T| = |δ/δ_cmd|")
+    ph.plot(w, p, color="C2", label="∠T")
+    dc = figures.dc_gain_db if figures is not None else 0.0
+    mag.axhline(dc + HALF_POWER_DB, color="k", ls="--", lw=0.9, label="−3.01 dB")
+    ph.axhline(-90.0, color="k", ls="--", lw=0.9, label="−90°")
+    if figures is not None:
+        if _in_range(w, figures.bandwidth_rad_s):
+            x = figures.bandwidth_rad_s
+            mag.axvline(x, color="C3", lw=1)
+            mag.plot([x], [dc + HALF_POWER_DB], "o", color="C3",
+                     label=f"ω_BW = {x:.4g} rad/s")
+        if _in_range(w, figures.peak_rad_s):
+            mag.plot([figures.peak_rad_s], [dc + figures.peak_db], "^", color="C4",
+                     label=f"peak {figures.peak_db:.2f} dB @ {figures.peak_rad_s:.4g} rad/s")
+        if _in_range(w, figures.phase_90_rad_s):
+            ph.plot([figures.phase_90_rad_s], [-90.0], "o", color="C3",
+                    label=f"−90° @ {figures.phase_90_rad_s:.4g} rad/s")
+    else:
+        mag.set_title("closed loop not stable: no closed-loop figures")
+    mag.set_ylim(max(mag.get_ylim()[0], -60.0), mag.get_ylim()[1])
+    ph.set_ylim(max(ph.get_ylim()[0], -720.0), 45.0)
+    ph.yaxis.set_major_locator(MultipleLocator(90))
+    mag.set_ylabel("magnitude [dB]")
+    ph.set_ylabel("phase [deg]")
+    mag.legend(loc="lower left")
+    ph.legend(loc="lower left")
+    _log_axes([mag, ph], w)
+    fig.suptitle(f"{data.label}: closed loop T = δ/δ_cmd ({EXACT})")
+    return fig
+
+
+def sensitivity(data):
+    """|S| and |T| of the position loop together, with the sensitivity peak."""
+    c = data.curves
+    w = c.omega_rad_s
+    fig, axes = _figure(1, 1, (8, 4.2))
+    ax = axes[0, 0]
+    ax.plot(w, _db(c.sensitivity), color="C0", label="|S| = |1/(1+L_p)|")
+    ax.plot(w, _db(c.closed_loop), color="C2", label="|T|")
+    margins = data.analysis.position_loop
+    if _in_range(w, margins.sensitivity_peak_rad_s):
+        ax.plot([margins.sensitivity_peak_rad_s], [margins.sensitivity_peak_db], "v", color="C3",
+                label=f"Ms {margins.sensitivity_peak_db:.2f} dB @ "
+                f"{margins.sensitivity_peak_rad_s:.4g} rad/s")
+    ax.axhline(0.0, color="k", lw=0.8)
+    ax.set_ylim(max(ax.get_ylim()[0], -60.0), ax.get_ylim()[1])
+    ax.set_ylabel("magnitude [dB]")
+    ax.legend(loc="lower right")
+    _log_axes([ax], w)
+    fig.suptitle(f"{data.label}: sensitivity S and complementary sensitivity T ({EXACT})")
+    return fig
+
+
+def nichols(data, magnitude_range_db=(-40.0, 60.0)):
+    """Nichols chart of L_p (the part within ``magnitude_range_db``), critical points marked."""
+    c = data.curves
+    w = c.omega_rad_s
+    m, p = _db(c.position_loop), _phase_deg(c.position_loop, w)
+    shown = (m >= magnitude_range_db[0]) & (m <= magnitude_range_db[1])
+    fig, axes = _figure(1, 1, (7, 5.5))
+    ax = axes[0, 0]
+    ax.plot(np.where(shown, p, np.nan), np.where(shown, m, np.nan), color="C1", label="L_p")
+    low, high = np.nanmin(p[shown]), np.nanmax(p[shown])
+    first = True
+    for k in range(int(math.floor((low + 180.0) / 360.0)), int(math.ceil((high + 180) / 360)) + 1):
+        x = -180.0 + 360.0 * k
+        if low - 30 <= x <= high + 30:
+            ax.plot([x], [0.0], "r+", ms=12, mew=2, label="critical point (−1)" if first else None)
+            first = False
+    for target in (10.0, 100.0, 1000.0, 10000.0):
+        if w[0] <= target <= w[-1]:
+            x, y = _at(w, p, target), _at(w, m, target)
+            if magnitude_range_db[0] <= y <= magnitude_range_db[1]:
+                ax.plot([x], [y], ".", color="k")
+                ax.annotate(f"{target:g} rad/s", (x, y), xytext=(5, 3),
+                            textcoords="offset points", fontsize=8)
+    for cross in data.analysis.position_loop.gain_crossovers:
+        if _in_range(w, cross.frequency_rad_s):
+            ax.plot([-180.0 + cross.phase_margin_deg], [0.0], "o", color="C1", ms=5)
+    ax.axhline(0.0, color="k", lw=0.8)
+    ax.xaxis.set_major_locator(MultipleLocator(90))
+    ax.set_xlabel("phase of L_p [deg]")
+    ax.set_ylabel("magnitude of L_p [dB]")
+    ax.legend(loc="upper right")
+    fig.suptitle(f"{data.label}: Nichols chart of L_p ({EXACT})")
+    return fig
+
+
+#: Most samples drawn per time-domain line (the simulations have tens of thousands).
+MAX_LINE_POINTS = 800
+
+
+def _thin(t, window_s):
+    """Indices of the samples up to ``window_s`` [s], strided to at most MAX_LINE_POINTS."""
+    t = np.asarray(t)
+    last = min(int(np.searchsorted(t, window_s, side="right")) + 1, t.size)
+    stride = max(1, math.ceil(last / MAX_LINE_POINTS))
+    keep = np.arange(0, last, stride)
+    return keep if keep[-1] == last - 1 else np.append(keep, last - 1)
+
+
+def _intervals(t, mask):
+    """(start, end) times of the runs where ``mask`` is true, at full resolution."""
+    mask = np.asarray(mask, bool)
+    if not mask.any():
+        return []
+    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    t = np.asarray(t)
+    return [(float(t[a]), float(t[b])) for a, b in zip(starts, ends, strict=True)]
+
+
+def _shade_limits(ax, t_ms, result):
+    for mask, color, alpha in ((result.current_limited, "C3", 0.15),
+                               (result.voltage_limited, "C1", 0.25)):
+        for start, end in _intervals(t_ms, mask):
+            ax.axvspan(start, max(end, start + 1e-3), color=color, alpha=alpha, lw=0)
+
+
+def _limit_words(step):
+    hit = [name for name, flag in (("current", step.current_limited),
+                                   ("voltage", step.voltage_limited)) if flag]
+    return ("no limit hit" if not hit else " and ".join(hit) + " limit hit")
+
+
+def _step_window_s(run):
+    settle = run.step.settling_time_s
+    t_end = float(run.result.t[-1])
+    if settle is None or not math.isfinite(settle):
+        return t_end
+    return min(t_end, max(1.3 * settle, 0.02))
+
+
+def steps(data):
+    """Smallest and largest step: nonlinear vs linear fin angle, current and voltage, with the
+    intervals where a limit acts shaded."""
+    indices = sorted({data.small_index, data.large_index})
+    fig, axes = _figure(3, len(indices), (5.2 * len(indices), 7.5))
+    params = data.loaded.params
+    for col, k in enumerate(indices):
+        run = data.dwell.steps[k]
+        r = run.result
+        window_s = _step_window_s(run)
+        keep = _thin(r.t, window_s)
+        t_ms = 1e3 * np.asarray(r.t)[keep]
+        a_deg = run.step.amplitude_deg
+        top, mid, bottom = axes[:, col]
+        for ax in (top, mid, bottom):
+            _shade_limits(ax, 1e3 * np.asarray(r.t), r)
+            ax.set_xlim(0.0, 1e3 * window_s)
+        top.plot(t_ms, np.degrees(r.command[keep]), color="k", lw=0.8, ls=":",
+                 label="command δ_cmd")
+        top.plot(t_ms, np.degrees(r.delta[keep]), color="C0",
+                 label="nonlinear (limits, exact delays)")
+        top.plot(t_ms, np.degrees(data.linear_steps[k][keep]), color="C1", ls="--",
+                 label=f"linear T (Padé {data.pade_order})")
+        top.set_ylabel("fin angle δ [deg]")
+        top.set_title(f"{a_deg:g}° step: {_limit_words(run.step)}")
+        mid.plot(t_ms, r.i[keep], color="C0", label="motor current i")
+        for sign in (1, -1):
+            mid.axhline(sign * params.position_loop.i_max, color="C3", ls="--", lw=0.9)
+            bottom.axhline(sign * params.current_loop.v_max, color="C1", ls="--", lw=0.9)
+        mid.set_ylabel("current i [A]")
+        bottom.plot(t_ms, r.V[keep], color="C0", label="motor voltage V")
+        bottom.set_ylabel("voltage V [V]")
+        bottom.set_xlabel("time [ms]")
+        if col == 0:
+            top.legend(loc="lower right")
+            mid.fill_between([], [], color="C3", alpha=0.15, label="current limit active")
+            mid.fill_between([], [], color="C1", alpha=0.25, label="voltage limit active")
+            bottom.plot([], [], color="C1", ls="--", lw=0.9, label="±v_max")
+            bottom.legend(loc="upper right")
+            mid.plot([], [], color="C3", ls="--", lw=0.9, label="±i_max")
+            mid.legend(loc="upper right")
+    fig.suptitle(f"{data.label}: fin steps, nonlinear simulation vs linear model "
+                 f"(Padé {data.pade_order}); limit intervals shaded")
+    return fig
+
+
+def step_fit(data):
+    """The largest step with its second-order fit and the report's bench fit."""
+    run = data.dwell.steps[data.large_index]
+    r, fit = run.result, run.fit
+    window_s = _step_window_s(run)
+    keep = _thin(r.t, window_s)
+    t = np.asarray(r.t)[keep]
+    a_deg = run.step.amplitude_deg
+    fig, axes = _figure(1, 1, (8, 4.5))
+    ax = axes[0, 0]
+    window = 1e3 * window_s
+    ax.plot(1e3 * t, np.degrees(r.delta[keep]), color="C0", lw=2.2, alpha=0.7,
+            label="nonlinear simulation (data)")
+    if fit.success:
+        ax.plot(1e3 * t, second_order_step(t, fit.wn_rad_s, fit.zeta, fit.td_s, a_deg),
+                color="C3", ls="--", label=f"fit: ωn {fit.wn_rad_s:.4g} rad/s, ζ {fit.zeta:.3g}, "
+                f"td {1e3 * fit.td_s:.3g} ms")
+    bench = REPORT_BENCH
+    ax.plot(1e3 * t, second_order_step(t, bench["wn_rad_s"], bench["zeta"], bench["td_s"], a_deg),
+            color="k", ls=":", label=f"report's bench fit: ωn {bench['wn_rad_s']:g} rad/s, "
+            f"ζ {bench['zeta']:g}, td {1e3 * bench['td_s']:g} ms")
+    ax.set_xlim(0.0, window)
+    ax.set_xlabel("time [ms]")
+    ax.set_ylabel("fin angle δ [deg]")
+    ax.legend(loc="lower right")
+    ax.set_title(f"{a_deg:g}° step: second-order-plus-delay fit (report §7)")
+    fig.suptitle(f"{data.label}: second-order fit to the nonlinear step (exact delays)")
+    return fig
+
+
+def _requirement_lines(ax, verdicts):
+    shown = set()
+    for verdict in verdicts or ():
+        metric = str(verdict.get("metric", ""))
+        bound = verdict.get("min")
+        if metric.endswith("bandwidth_rad_s") and bound is not None and bound not in shown:
+            shown.add(bound)
+            ax.axhline(bound, color="C3", ls="-.", lw=1,
+                       label=f"requirement ω_BW ≥ {bound:g} rad/s")
+
+
+def _bandwidth_series(ax, data, color, prefix=""):
+    dwell = data.dwell
+    amplitudes = np.degrees(np.asarray(dwell.result.amplitudes_rad))
+    sine = np.array([np.nan if b is None else b for b in dwell.result.bandwidth_rad_s], float)
+    fits = np.array([s.fit.bandwidth_closed_form_rad_s if s.fit.success else np.nan
+                     for s in dwell.steps], float)
+    ax.plot(amplitudes, sine, "o-", color=color, label=f"{prefix}sine-dwell −3 dB")
+    ax.plot(amplitudes, fits, "s:", color=color, mfc="none",
+            label=f"{prefix}second-order fit to the step")
+    if dwell.linear_bandwidth_rad_s is not None:
+        ax.axhline(dwell.linear_bandwidth_rad_s, color=color, ls="--", lw=1,
+                   label=f"{prefix}linear −3 dB of T ({dwell.linear_bandwidth_rad_s:.4g} rad/s)")
+
+
+def _amplitude_axis(ax, datas):
+    """Log amplitude axis with a tick at each amplitude, labelled in plain degrees."""
+    amplitudes = sorted({round(float(a), 12) for d in datas
+                         for a in np.degrees(np.asarray(d.dwell.result.amplitudes_rad))}
+                        | {REPORT_BENCH["step_deg"]})
+    ax.set_xscale("log")
+    ax.set_xticks(amplitudes, [f"{a:g}" for a in amplitudes])
+    ax.minorticks_off()
+    ax.set_xlabel("fin amplitude [deg]")
+
+
+def _bench_point(ax):
+    ax.plot([REPORT_BENCH["step_deg"]], [REPORT_BENCH["bandwidth_rad_s"]], "*", color="k", ms=11,
+            label=f"report bench, {REPORT_BENCH['step_deg']:g}° step fit "
+            f"({REPORT_BENCH['bandwidth_rad_s']:g} rad/s)")
+
+
+def bandwidth_vs_amplitude(data):
+    """Bandwidth versus amplitude: sine-dwell, step fit, linear, the bench point."""
+    fig, axes = _figure(1, 1, (10, 4.8))
+    ax = axes[0, 0]
+    _bandwidth_series(ax, data, "C0")
+    _bench_point(ax)
+    _requirement_lines(ax, data.verdicts)
+    _amplitude_axis(ax, [data])
+    ax.set_ylabel("bandwidth ω_BW [rad/s]")
+    ax.set_ylim(0.0, ax.get_ylim()[1] * 1.05)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    fig.suptitle(f"{data.label}: bandwidth vs amplitude (nonlinear loop and linear T, "
+                 "exact delays)")
+    return fig
+
+
+def sinedwell(data):
+    """Sine-dwell magnitude and phase per amplitude over the linear T; limited points hollow."""
+    r = data.dwell.result
+    w = np.asarray(r.frequencies_rad_s)
+    fig, axes = _figure(2, 1, (8, 6), sharex=True)
+    mag, ph = axes[:, 0]
+    lin = np.asarray(data.dwell.linear_response)
+    mag.plot(w, _db(lin), color="k", lw=1, label="linear T (exact delays)")
+    ph.plot(w, np.degrees(np.unwrap(np.angle(lin))), color="k", lw=1, label="linear T")
+    for k, amplitude in enumerate(np.degrees(np.asarray(r.amplitudes_rad))):
+        color = f"C{k % 10}"
+        hit = np.asarray(r.limit_hit[k], bool)
+        mag.plot(w, r.magnitude_db[k], "-", color=color, lw=1, label=f"{amplitude:g}°")
+        mag.plot(w[hit], r.magnitude_db[k][hit], "o", color=color, mfc="none", ms=5)
+        mag.plot(w[~hit], r.magnitude_db[k][~hit], "o", color=color, ms=4)
+        ph.plot(w, r.phase_deg[k], "o-", color=color, lw=1, ms=3)
+    mag.plot([], [], "ko", mfc="none", label="a limit acts")
+    mag.axhline(HALF_POWER_DB, color="k", ls="--", lw=0.9, label="−3.01 dB")
+    mag.set_ylabel("|δ/δ_cmd| first harmonic [dB]")
+    ph.set_ylabel("phase [deg]")
+    mag.legend(loc="lower left", ncols=2)
+    _log_axes([mag, ph], w)
+    fig.suptitle(f"{data.label}: sine-dwell of the nonlinear loop per amplitude (exact delays)")
+    return fig
+
+
+#: The figures of one variant: file stem -> (function, caption).
+VARIANT_FIGURES = {
+    "bode_loops": (bode_loops, "Bode of L_i and L_p with every crossover and the margins"),
+    "closed_loop": (closed_loop, "Closed loop T with the −3 dB line, ω_BW and the peak"),
+    "sensitivity": (sensitivity, "S and T together"),
+    "nichols": (nichols, "Nichols chart of L_p"),
+    "steps": (steps, "Step responses, linear vs nonlinear, limits shaded"),
+    "step_fit": (step_fit, "Second-order fit over the simulated step"),
+    "bandwidth_vs_amplitude": (bandwidth_vs_amplitude, "Bandwidth versus amplitude"),
+    "sinedwell": (sinedwell, "Sine-dwell response per amplitude"),
+}
+
+
+# ---- overlays for compare -------------------------------------------------------------------
+
+def _colors(datas):
+    return [f"C{k % 10}" for k in range(len(datas))]
+
+
+def bode_overlay(datas, labels):
+    """|L_p|, ∠L_p and |T| of several variants overlaid."""
+    fig, axes = _figure(3, 1, (8, 8), sharex=True)
+    mag, ph, cl = axes[:, 0]
+    for data, label, color in zip(datas, labels, _colors(datas), strict=True):
+        c = data.curves
+        w = c.omega_rad_s
+        mag.plot(w, _db(c.position_loop), color=color, label=label)
+        ph.plot(w, _phase_deg(c.position_loop, w), color=color)
+        cl.plot(w, _db(c.closed_loop), color=color)
+        bw = data.analysis.closed_loop.bandwidth_rad_s if data.analysis.closed_loop else None
+        if _in_range(w, bw):
+            cl.plot([bw], [HALF_POWER_DB], "o", color=color)
+    mag.axhline(0.0, color="k", lw=0.8)
+    ph.axhline(-180.0, color="k", lw=0.8)
+    cl.axhline(HALF_POWER_DB, color="k", ls="--", lw=0.9, label="−3.01 dB")
+    mag.set_ylim(max(mag.get_ylim()[0], -80.0), mag.get_ylim()[1])
+    cl.set_ylim(max(cl.get_ylim()[0], -60.0), cl.get_ylim()[1])
+    ph.yaxis.set_major_locator(MultipleLocator(180))
+    mag.set_ylabel("|L_p| [dB]")
+    ph.set_ylabel("∠L_p [deg]")
+    cl.set_ylabel("|T| [dB] (● ω_BW)")
+    mag.legend(loc="upper right")
+    cl.legend(loc="lower left")
+    _log_axes([mag, ph, cl], datas[0].curves.omega_rad_s)
+    fig.suptitle(f"L_p and T of {len(datas)} variants ({EXACT})")
+    return fig
+
+
+def step_overlay(datas, labels):
+    """Smallest and largest nonlinear steps of several variants, normalised by the amplitude."""
+    fig, axes = _figure(1, 2, (10, 4.5))
+    for col, which in enumerate(("small_index", "large_index")):
+        ax = axes[0, col]
+        amplitudes, window = [], 0.0
+        for data, label, color in zip(datas, labels, _colors(datas), strict=True):
+            k = getattr(data, which)
+            run = data.dwell.steps[k]
+            a = run.step.amplitude_deg
+            amplitudes.append(a)
+            keep = _thin(run.result.t, max(_step_window_s(d.dwell.steps[getattr(d, which)])
+                                           for d in datas))
+            t_ms = 1e3 * np.asarray(run.result.t)[keep]
+            ax.plot(t_ms, np.degrees(run.result.delta[keep]) / a, color=color,
+                    label=f"{label}: {a:g}°, {_limit_words(run.step)}")
+            ax.plot(t_ms, np.degrees(data.linear_steps[k][keep]) / a, color=color, ls=":", lw=1)
+            window = max(window, 1e3 * _step_window_s(run))
+        ax.plot([], [], "k:", lw=1, label=f"linear T (Padé {datas[0].pade_order})")
+        ax.set_xlim(0.0, window)
+        ax.set_xlabel("time [ms]")
+        ax.set_ylabel("δ / step size [-]")
+        size = "/".join(sorted({f"{a:g}°" for a in amplitudes}))
+        ax.set_title(f"{'smallest' if col == 0 else 'largest'} step ({size})")
+        ax.legend(loc="lower right", fontsize=7)
+    fig.suptitle("nonlinear fin steps (limits, exact delays) vs linear (dotted)")
+    return fig
+
+
+def bandwidth_overlay(datas, labels):
+    """Bandwidth versus amplitude of several variants."""
+    fig, axes = _figure(1, 1, (11, 5))
+    ax = axes[0, 0]
+    for data, label, color in zip(datas, labels, _colors(datas), strict=True):
+        _bandwidth_series(ax, data, color, prefix=f"{label}: ")
+    _bench_point(ax)
+    _amplitude_axis(ax, datas)
+    ax.set_ylabel("bandwidth ω_BW [rad/s]")
+    ax.set_ylim(0.0, ax.get_ylim()[1] * 1.05)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=7)
+    fig.suptitle("bandwidth vs amplitude (sine-dwell of the nonlinear loop; linear T dashed)")
+    return fig
+
+
+#: The overlay figures of a comparison: file stem -> (function, caption).
+COMPARE_FIGURES = {
+    "bode_overlay": (bode_overlay, "L_p and T overlaid"),
+    "step_overlay": (step_overlay, "Steps overlaid"),
+    "bandwidth_overlay": (bandwidth_overlay, "Bandwidth versus amplitude overlaid"),
+}

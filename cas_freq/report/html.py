@@ -1,0 +1,92 @@
+"""Render report blocks (:mod:`cas_freq.report.document`) as one self-contained HTML page.
+
+The figures are inlined as SVG (their XML prolog and DOCTYPE removed), the style sheet is inline,
+and nothing refers to the network, so the page reads the same in any browser, offline.
+"""
+
+import html
+import re
+
+from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
+
+_STYLE = """
+body { font-family: system-ui, -apple-system, "Segoe UI", Helvetica, Arial, sans-serif;
+       margin: 2em auto; max-width: 1100px; padding: 0 1em; color: #222; line-height: 1.4; }
+h1 { border-bottom: 2px solid #444; padding-bottom: .2em; }
+h2 { border-bottom: 1px solid #aaa; margin-top: 2em; }
+table { border-collapse: collapse; margin: .5em 0 1.5em 0; font-size: 90%; }
+caption { text-align: left; font-style: italic; padding: .3em 0; }
+th, td { border: 1px solid #bbb; padding: .25em .6em; text-align: left; vertical-align: top; }
+th { background: #eee; }
+td:first-child { white-space: nowrap; }
+tr:nth-child(even) td { background: #f8f8f8; }
+td.PASS, td.ADVISORY-PASS { background: #d9f2d9 !important; }
+td.FAIL { background: #f6d0d0 !important; font-weight: bold; }
+td.ADVISORY, td.ADVISORY-FAIL { background: #fbe8c8 !important; }
+figure { margin: 1em 0 2em 0; }
+figure svg { max-width: 100%; height: auto; }
+figcaption { font-style: italic; font-size: 90%; }
+nav ul { columns: 2; }
+"""
+
+_PROLOG = re.compile(r"^\s*(<\?xml[^>]*\?>\s*)?(<!DOCTYPE[^>]*>\s*)?", re.DOTALL)
+_METADATA = re.compile(r"\s*<metadata>.*?</metadata>", re.DOTALL)
+_STATUSES = ("PASS", "FAIL", "ADVISORY", "ADVISORY-PASS", "ADVISORY-FAIL")
+
+
+def inline_svg(svg):
+    """SVG text fit to sit inside HTML: no XML prolog, no DOCTYPE, no RDF metadata block."""
+    return _METADATA.sub("", _PROLOG.sub("", svg, count=1), count=1).strip()
+
+
+def _table(block):
+    out = ["<table>"]
+    if block.caption:
+        out.append(f"<caption>{html.escape(block.caption)}</caption>")
+    out.append("<thead><tr>" + "".join(f"<th>{html.escape(str(c))}</th>" for c in block.header)
+               + "</tr></thead>")
+    out.append("<tbody>")
+    for row in block.rows:
+        cells = []
+        for cell in row:
+            text = str(cell)
+            first = text.split(" ", 1)[0]
+            css = f' class="{first}"' if first in _STATUSES else ""
+            cells.append(f"<td{css}>{html.escape(text)}</td>")
+        out.append("<tr>" + "".join(cells) + "</tr>")
+    out.append("</tbody></table>")
+    return "\n".join(out)
+
+
+def render(blocks, title):
+    """One HTML page of a list of blocks; sections of level 2 are listed in a contents box."""
+    body = []
+    contents = [b for b in blocks if isinstance(b, Heading) and b.level == 2]
+    for block in blocks:
+        if isinstance(block, Heading):
+            level = min(max(block.level, 1), 6)
+            body.append(f'<h{level} id="{block.anchor}">{html.escape(block.text)}</h{level}>')
+            if block.level == 1 and contents:
+                links = "".join(f'<li><a href="#{h.anchor}">{html.escape(h.text)}</a></li>'
+                                for h in contents)
+                body.append(f"<nav><ul>{links}</ul></nav>")
+        elif isinstance(block, Paragraph):
+            body.append(f"<p>{html.escape(block.text)}</p>")
+        elif isinstance(block, Bullets):
+            body.append("<ul>" + "".join(f"<li>{html.escape(i)}</li>" for i in block.items)
+                        + "</ul>")
+        elif isinstance(block, Table):
+            body.append(_table(block))
+        elif isinstance(block, Figure):
+            body.append(f'<figure id="fig-{html.escape(block.path)}">\n{inline_svg(block.svg)}\n'
+                        f"<figcaption>{html.escape(block.caption)} "
+                        f'(<a href="{html.escape(block.path)}">{html.escape(block.path)}</a>)'
+                        "</figcaption></figure>")
+        else:
+            raise TypeError(f"html: unknown block {type(block).__name__}")
+    return (
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
+        "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
+        f"<title>{html.escape(title)}</title>\n<style>{_STYLE}</style>\n</head>\n<body>\n"
+        + "\n".join(body) + "\n</body>\n</html>\n"
+    )

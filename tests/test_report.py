@@ -1,0 +1,257 @@
+"""``cas-freq report``'s library: data gathering, figures (structure, not pixels), the
+document, byte-identical and atomic output.
+
+Every run here uses a fast setting (two amplitudes, two sine-dwell frequencies, Padé order 6)
+so that the module takes seconds; the figures and tables are the same code as the default run.
+Reference values come from the other commands' own functions (analyze, the simulator), so the
+test checks that the report shows them unchanged, not new numbers.
+"""
+
+import json
+import math
+import re
+
+import numpy as np
+import pytest
+
+from cas_freq.analysis import analyze, to_dict
+from cas_freq.config import load_variant
+from cas_freq.exceptions import CasFreqError
+from cas_freq.formulas import REPORT_BENCH
+from cas_freq.report import figures as plots
+from cas_freq.report import html
+from cas_freq.report.build import build_report, report_files
+from cas_freq.report.data import ReportSettings, gather_variant, variant_results
+from cas_freq.report.outdir import write_directory_atomic
+
+FAST = ReportSettings(
+    amplitudes_rad=(math.radians(0.5), math.radians(10.0)),
+    frequencies_rad_s=(600.0, 1200.0),
+    pade_order=6,
+)
+
+#: Verdicts as ``cas-freq verify --json`` gives them (constructed here, not measured).
+VERDICTS = [
+    {"id": "BW-1", "variant": "base", "metric": "closed_loop.bandwidth_rad_s", "value": 1385.0,
+     "unit": "rad/s", "min": 300.0, "max": None, "margin": 1085.0, "status": "PASS",
+     "severity": "required", "source": "ARL-TR-9136", "message": "meets >= 300 rad/s"},
+    {"id": "PM-P", "variant": "base", "metric": "position_loop.phase_margin_deg", "value": 34.7,
+     "unit": "deg", "min": 45.0, "max": None, "margin": -10.3, "status": "ADVISORY",
+     "severity": "advisory", "source": "practice", "message": "violates >= 45 deg"},
+    {"id": "BW-1", "variant": "fitted", "metric": "closed_loop.bandwidth_rad_s",
+     "value": 843.5, "unit": "rad/s", "min": 300.0, "max": None, "margin": 543.5,
+     "status": "PASS", "severity": "required", "source": "", "message": ""},
+]
+
+
+@pytest.fixture(scope="module")
+def base():
+    return load_variant(None, "base")
+
+
+@pytest.fixture(scope="module")
+def data(base):
+    return gather_variant(base, FAST, verdicts=VERDICTS)
+
+
+def _files(root):
+    return {p.relative_to(root).as_posix(): p.read_bytes() for p in root.rglob("*") if p.is_file()}
+
+
+# ---- data ------------------------------------------------------------------------------------
+
+def test_gathered_data_matches_the_commands(data, base):
+    results = variant_results(data)
+    expected = to_dict(analyze(base, pade_orders=FAST.pade_order))
+    expected["config_path"] = results["analyze"]["config_path"]
+    assert results["analyze"] == expected  # the same figures as `analyze --json`
+    assert [run["step"]["amplitude_deg"] for run in results["simulate"]] == pytest.approx(
+        [0.5, 10.0])
+    assert results["sinedwell"]["frequencies_rad_s"] == [600.0, 1200.0]
+    assert [v["id"] for v in results["verify"]] == ["BW-1", "PM-P"]  # only this variant's
+    # results.json never carries this machine's absolute path of the shipped config
+    assert not results["analyze"]["config_path"].startswith("/")
+
+
+def test_small_step_is_small_signal_and_linear_agrees(data):
+    small = data.dwell.steps[data.small_index]
+    assert not small.step.current_limited and not small.step.voltage_limited
+    # no limit acts at 0.5 deg: the nonlinear step is the linear one up to the Padé-6 delays
+    # and the 5 us simulation step (1 % of the step size is far above both)
+    linear = data.linear_steps[data.small_index]
+    assert np.max(np.abs(linear - small.result.delta)) < 0.01 * math.radians(0.5)
+    large = data.dwell.steps[data.large_index]
+    assert large.step.current_limited  # MODEL.md: a 10 deg step asks ~22 A of 20 A
+
+
+def test_bench_rows_show_the_report_numbers(data):
+    results = variant_results(data)
+    bench = {row["figure"]: row["bench"] for row in results["bench_comparison"]}
+    assert bench["rise time 10-90 %"] == pytest.approx(1e3 * REPORT_BENCH["rise_time_s"])
+    assert bench["overshoot"] == REPORT_BENCH["overshoot_pct"]
+    assert bench["ω_BW of the fit (closed form)"] == REPORT_BENCH["bandwidth_rad_s"]
+
+
+def test_settings_reject_bad_grids():
+    with pytest.raises(CasFreqError, match="amplitude"):
+        ReportSettings(amplitudes_rad=())
+    with pytest.raises(CasFreqError, match="frequencies"):
+        ReportSettings(frequencies_rad_s=(100.0,))
+
+
+# ---- figures ---------------------------------------------------------------------------------
+
+def _labels(fig):
+    return [(ax.get_xlabel(), ax.get_ylabel()) for ax in fig.axes]
+
+
+@pytest.mark.parametrize("stem", list(plots.VARIANT_FIGURES))
+def test_variant_figure_structure(data, stem):
+    draw, _ = plots.VARIANT_FIGURES[stem]
+    fig = draw(data)
+    title = fig.get_suptitle()
+    assert "qt_cas / base" in title
+    assert "exact delays" in title or "Padé" in title  # says which delay model
+    for ax in fig.axes:
+        assert ax.lines, f"{stem}: an axes without lines"
+        assert re.search(r"\[.+\]", ax.get_ylabel()), f"{stem}: y label without unit"
+    assert any(re.search(r"\[(rad/s|ms|deg)\]", x) for x, _ in _labels(fig))
+
+
+def test_bode_marks_every_crossover_in_range(data):
+    fig = plots.bode_loops(data)
+    magnitude = fig.axes[0]
+    w = data.curves.omega_rad_s
+    crossings = [c for loop in (data.analysis.current_loop, data.analysis.position_loop)
+                 for c in (*loop.gain_crossovers, *loop.phase_crossovers)
+                 if w[0] <= c.frequency_rad_s <= w[-1]]
+    markers = [line for line in magnitude.lines if line.get_marker() in ("o", "s")
+               and len(line.get_xdata()) == 1]
+    assert len(markers) == len(crossings)
+    texts = " ".join(t.get_text() for ax in fig.axes for t in ax.texts)
+    assert f"PM {data.analysis.position_loop.phase_margin_deg:.1f}°" in texts
+    assert f"GM {data.analysis.position_loop.gain_margin_db:+.1f} dB" in texts
+
+
+def test_closed_loop_figure_shows_bandwidth_and_peak(data):
+    fig = plots.closed_loop(data)
+    labels = [line.get_label() for line in fig.axes[0].lines]
+    bw = data.analysis.closed_loop.bandwidth_rad_s
+    assert f"ω_BW = {bw:.4g} rad/s" in labels
+    assert "−3.01 dB" in labels
+    assert any(label.startswith("peak ") for label in labels)
+
+
+def test_steps_figure_shades_the_limits(data):
+    fig = plots.steps(data)
+    assert len(fig.axes) == 6  # (δ, i, V) x (smallest, largest)
+    small_top, large_top = fig.axes[0], fig.axes[1]
+    assert "no limit hit" in small_top.get_title()
+    assert "current limit hit" in large_top.get_title()
+    assert not [p for p in small_top.patches]  # nothing shaded at 0.5 deg
+    assert large_top.patches  # the current-limit interval(s) at 10 deg
+    legend = [t.get_text() for t in small_top.get_legend().get_texts()]
+    assert "linear T (Padé 6)" in legend
+
+
+def test_svg_is_reproducible_and_inlines(data):
+    first = plots.svg_text(plots.nichols(data))
+    second = plots.svg_text(plots.nichols(data))
+    assert first == second
+    assert "<dc:date>" not in first
+    inline = html.inline_svg(first)
+    assert inline.startswith("<svg") and "<?xml" not in inline and "DOCTYPE" not in inline
+
+
+@pytest.mark.parametrize("stem", list(plots.COMPARE_FIGURES))
+def test_overlay_figures(data, stem):
+    draw, _ = plots.COMPARE_FIGURES[stem]
+    fig = draw([data, data], ["one", "two"])
+    texts = [t.get_text() for ax in fig.axes if ax.get_legend()
+             for t in ax.get_legend().get_texts()]
+    assert any(t.startswith("one") for t in texts) and any(t.startswith("two") for t in texts)
+    for ax in fig.axes:
+        assert re.search(r"\[.+\]", ax.get_ylabel())
+
+
+# ---- the document and the folder ---------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def folder(data, tmp_path_factory):
+    target = tmp_path_factory.mktemp("report") / "qt_cas"
+    write_directory_atomic(target, report_files([data], FAST, command="cas-freq report"))
+    return target
+
+
+def test_folder_content(folder):
+    names = sorted(_files(folder))
+    assert {"index.html", "report.md", "results.json"} <= set(names)
+    svgs = [n for n in names if n.endswith(".svg")]
+    assert sorted(svgs) == sorted(f"figures/base/{stem}.svg" for stem in plots.VARIANT_FIGURES)
+    results = json.loads((folder / "results.json").read_text())
+    assert results["config"] == "qt_cas"
+    assert [v["variant"] for v in results["variants"]] == ["base"]
+
+
+def test_html_is_self_contained(folder):
+    page = (folder / "index.html").read_text()
+    assert page.count("<svg") == len(plots.VARIANT_FIGURES)
+    assert "<?xml" not in page
+    # the only URLs are XML namespace names inside the SVG, which browsers never fetch
+    urls = set(re.findall(r"https?://[^\s\"'<>)]+", page))
+    assert urls <= {"http://www.w3.org/2000/svg", "http://www.w3.org/1999/xlink"}
+    assert not re.search(r"<(script|link|img)\b", page)
+
+
+def test_markdown_lists_tables_and_figures(folder):
+    text = (folder / "report.md").read_text()
+    for heading in ("## Summary", "## Report bench vs model", "## Requirement verdicts",
+                    "## Variant base", "### Padé vs exact delays (base)"):
+        assert heading in text
+    for stem in plots.VARIANT_FIGURES:
+        assert f"(figures/base/{stem}.svg)" in text
+    assert "| BW-1 | base | closed_loop.bandwidth_rad_s |" in text
+    assert "| PM-P | base |" in text and "ADVISORY" in text
+    assert "no limit is hit" in text  # the 0.5 deg step, said plainly
+    assert "linear (Padé 6)" in text
+
+
+def test_verdict_section_without_requirements(base, data, tmp_path):
+    params = base.params.model_copy(update={"requirements": ()})
+    loaded = type(base)(base.source, base.variant, params)
+    bare = type(data)(**{**data.__dict__, "loaded": loaded, "verdicts": ()})
+    target = tmp_path / "r"
+    write_directory_atomic(target, report_files([bare], FAST))
+    assert "has no requirements" in (target / "report.md").read_text()
+
+
+def test_verdicts_not_evaluated_are_said_so(data, tmp_path):
+    unevaluated = type(data)(**{**data.__dict__, "verdicts": None})
+    target = tmp_path / "r"
+    write_directory_atomic(target, report_files([unevaluated], FAST))
+    assert "were not evaluated for variant(s) base" in (target / "report.md").read_text()
+
+
+def test_same_input_gives_byte_identical_files(base, tmp_path):
+    one = build_report([base], tmp_path / "one", settings=FAST, verdicts=VERDICTS)
+    two = build_report([base], tmp_path / "two", settings=FAST, verdicts=VERDICTS)
+    assert _files(one) == _files(two)
+
+
+def test_failed_build_leaves_the_previous_report(folder, data, monkeypatch):
+    before = _files(folder)
+
+    def broken(_):
+        raise RuntimeError("drawing failed")
+
+    monkeypatch.setitem(plots.VARIANT_FIGURES, "nichols", (broken, "Nichols"))
+    with pytest.raises(RuntimeError, match="drawing failed"):
+        write_directory_atomic(folder, report_files([data], FAST))
+    assert _files(folder) == before
+    assert sorted(p.name for p in folder.parent.iterdir()) == [folder.name]
+
+
+def test_report_rejects_mixed_configs(base):
+    other = type(base)(base.source, "base", base.params.model_copy(update={"name": "other"}))
+    with pytest.raises(CasFreqError, match="compare"):
+        build_report([base, other], settings=FAST)
