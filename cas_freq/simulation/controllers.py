@@ -43,6 +43,10 @@ def integrate_with_anti_windup(
     one increment, first order in the step. Without ``locate`` (sampled controllers) the rule is
     applied at the update instant only.
 
+    :meth:`Controller.update` calls this only when some run's output is beyond its limit
+    somewhere in the update; elsewhere the result is the plain trapezoidal step, which this
+    function returns too.
+
     Parameters
     ----------
     integral : numpy.ndarray
@@ -69,16 +73,18 @@ def integrate_with_anti_windup(
     trial = integral + increment
     u_trial = rest_end + ki * trial
     if locate:
-        held_start = rest_start + ki * integral
-        held_end = rest_end + ki * integral
+        held = ki * integral
+        held_start = rest_start + held
+        held_end = rest_end + held
         near = (np.abs(u_trial) > limit) | (np.abs(held_start) > limit)
-        if not np.any(near | (np.abs(held_end) > limit)):
+        near |= np.abs(held_end) > limit
+        if not np.count_nonzero(near):
             return trial
         side = np.sign(e_start + e_end)  # the direction the integral moves the output
         u_start, u_end = side * held_start, side * held_end
         over_start, over_end = u_start > limit, u_end > limit
         with np.errstate(divide="ignore", invalid="ignore"):
-            cross = np.clip((limit - u_start) / (u_end - u_start), 0.0, 1.0)
+            cross = _unit_interval((limit - u_start) / (u_end - u_start))
         steady = e_start * e_end >= 0  # else: the error changes sign; decide at the end only
         s0 = np.where(steady & over_start & ~over_end, cross, 0.0)
         s1 = np.where(steady & over_end, np.where(over_start, 0.0, cross), 1.0)
@@ -88,14 +94,20 @@ def integrate_with_anti_windup(
         trial = integral + increment
         u_trial = rest_end + ki * trial
     outward = (np.abs(u_trial) > limit) & (increment * u_trial > 0)
-    if not np.any(outward):
+    if not np.count_nonzero(outward):
         return trial
     # Fraction of the increment that brings the output to the limit (0 if already beyond).
     edge = np.sign(u_trial) * limit
+    step = ki * increment
     with np.errstate(divide="ignore", invalid="ignore"):
-        fraction = np.clip((edge - rest_end - ki * integral) / (ki * increment), 0.0, 1.0)
-    fraction = np.where(ki * increment != 0, fraction, 0.0)
+        fraction = _unit_interval((edge - rest_end - ki * integral) / step)
+    fraction = np.where(step != 0, fraction, 0.0)
     return np.where(outward, integral + fraction * increment, trial)
+
+
+def _unit_interval(x):
+    """``x`` clipped to [0, 1] (NaN stays NaN), cheaper than np.clip on small arrays."""
+    return np.minimum(np.maximum(x, 0.0), 1.0)
 
 
 class Controller:
@@ -103,7 +115,9 @@ class Controller:
 
     Inputs may jump at an update instant (a step command): each update takes the inputs' left
     limits (the end of the interval just integrated) and right limits (the values from now on),
-    and returns the output's left and right limits.
+    and returns the output's left and right limits. Where the right limits are the left ones
+    (the same array objects: the usual case, away from a jump of the command) each output is
+    computed once and returned as the same array for both limits.
 
     Parameters
     ----------
@@ -133,13 +147,20 @@ class Controller:
                 self._c = 1.0 - safe_tf * (1.0 - a) / period
             self._a = a
             self._b = 1.0 - a
+        self._half_period = 0.5 * period
+        self._lower = -limit
+        self._unlimited = np.zeros(n, dtype=bool)
+        self._unlimited.setflags(write=False)
+        #: Whether some run's last right-limit output was clamped.
+        self.clamped = False
         self.integral = np.zeros(n)
+        self._ki_integral = ki * self.integral  # kept with the integral: ki * integral
         self._filter = np.zeros(n)
         self._e = np.zeros(n)
         self._y = np.zeros(n)
         self._rest = np.zeros(n)
 
-    def start(self, e_left, e_right, y_left=None, y_right=None, ff_left=0.0, ff_right=0.0):
+    def start(self, e_left, e_right, y_left=None, y_right=None, ff_left=None, ff_right=None):
         """First outputs, at t = 0, from rest.
 
         A continuous controller starts with integral and filter state 0 (they are continuous
@@ -151,42 +172,81 @@ class Controller:
         tuple of numpy.ndarray
             Clamped output's left and right limits, and where the right limit was clamped.
         """
-        return self._outputs(
-            e_left, e_right, y_left, y_right, ff_left, ff_right, advance=self.sampled
-        )
+        return self.update(e_left, e_right, y_left, y_right, ff_left, ff_right, self.sampled)
 
-    def update(self, e_left, e_right, y_left=None, y_right=None, ff_left=0.0, ff_right=0.0):
+    def update(
+        self, e_left, e_right, y_left=None, y_right=None, ff_left=None, ff_right=None,
+        advance=True,
+    ):
         """Advance one period, to error ``e`` and derivative input ``y`` (default ``e``).
+
+        ``ff`` is the feed-forward term added to the output (None: none). With ``advance``
+        False the states stay (the first outputs of a continuous controller, :meth:`start`).
 
         Returns
         -------
         tuple of numpy.ndarray
             Clamped output's left and right limits, and where the right limit was clamped.
         """
-        return self._outputs(e_left, e_right, y_left, y_right, ff_left, ff_right, advance=True)
-
-    def _outputs(self, e_left, e_right, y_left, y_right, ff_left, ff_right, advance):
-        y_left = e_left if y_left is None else y_left
-        y_right = e_right if y_right is None else y_right
-        d_left = d_right = 0.0
+        jump = e_right is not e_left or y_right is not y_left or ff_right is not ff_left
+        kp, ki = self.kp, self.ki
+        rest_left = kp * e_left
+        rest_right = kp * e_right if jump else None
         if self.has_derivative:
+            y_left = e_left if y_left is None else y_left
+            y_right = e_right if y_right is None else y_right
+            state, y_before = self._filter, self._y
             if advance:
-                self._filter = (
-                    self._a * self._filter + self._b * self._y + self._c * (y_left - self._y)
-                )
-            d_left = self._gain_d * (y_left - self._filter)
-            d_right = self._gain_d * (y_right - self._filter)
+                state = self._a * state + self._b * y_before + self._c * (y_left - y_before)
+                self._filter = state
+            gain_d = self._gain_d
+            rest_left = rest_left + gain_d * (y_left - state)
+            if jump:
+                rest_right = rest_right + gain_d * (y_right - state)
             self._y = y_right
-        rest_left = self.kp * e_left + d_left + ff_left
+        if ff_left is not None:
+            rest_left = rest_left + ff_left
+        if not jump:
+            rest_right = rest_left
+        elif ff_right is not None:
+            rest_right = rest_right + ff_right
+        within = False
         if advance:
-            self.integral = integrate_with_anti_windup(
-                self.integral, self._e, e_left, self._rest, rest_left, self.ki, self.limit,
-                self.period, locate=not self.sampled,
-            )
+            integral, e_before = self.integral, self._e
+            trial = integral + self._half_period * (e_before + e_left)
+            ki_trial = ki * trial
+            u_trial = rest_left + ki_trial
+            # Where no run's output reaches its limit during the update,
+            # integrate_with_anti_windup returns the trapezoidal step ``trial``: its tests are
+            # |u_trial| > limit and, when locating clamp instants, the same for the output held
+            # at the start (the previous right-limit output: ``clamped``) and at the end.
+            if self.sampled:
+                within = not np.count_nonzero(np.abs(u_trial) > self.limit)
+            elif not self.clamped:
+                held_end = rest_left + self._ki_integral
+                largest = np.maximum(np.abs(u_trial), np.abs(held_end))
+                within = not np.count_nonzero(largest > self.limit)
+            if within:  # skip integrate_with_anti_windup's work
+                self.integral, self._ki_integral = trial, ki_trial
+            else:
+                self.integral = integrate_with_anti_windup(
+                    integral, e_before, e_left, self._rest, rest_left, ki, self.limit,
+                    self.period, locate=not self.sampled,
+                )
+                self._ki_integral = ki * self.integral
         self._e = e_right
-        rest_right = self.kp * e_right + d_right + ff_right
         self._rest = rest_right
-        u_left = np.clip(rest_left + self.ki * self.integral, -self.limit, self.limit)
-        u_right = rest_right + self.ki * self.integral
+        if within and not jump:  # the output is u_trial on both sides, inside the limits
+            self.clamped = False
+            return u_trial, u_trial, self._unlimited
+        ki_integral = self._ki_integral
+        u_left = u_trial if within else self._clamp(rest_left + ki_integral)
+        u_right = rest_right + ki_integral
         limited = np.abs(u_right) > self.limit
-        return u_left, np.clip(u_right, -self.limit, self.limit), limited
+        self.clamped = bool(np.count_nonzero(limited))
+        if self.clamped:
+            u_right = self._clamp(u_right)
+        return u_left, u_right, limited
+
+    def _clamp(self, u):
+        return np.minimum(np.maximum(u, self._lower), self.limit)

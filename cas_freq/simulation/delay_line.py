@@ -47,10 +47,20 @@ class DelayLine:
         self._size = int(self._m.max()) + 3
         n = steps.shape[0]
         self._cols = np.arange(n)
+        self._zeros = np.zeros(n)
         self._right = np.zeros((self._size, n))
         self._left = self._right if hold else np.zeros((self._size, n))
+        # Per slot: the sample was pushed without a jump (left limit = right limit).
+        self._smooth = [True] * self._size
         self._latest = -1
         self._uniform = bool(np.all(self._m == self._m[0]) and not frac.any())
+        self._m0 = int(self._m[0])
+        #: True when reading t_k never uses sample k (every delay is at least one step).
+        self.reads_past = bool(self._m.min() >= 1)
+        # General path (per-run delays): which runs read the left buffer for each ``left``.
+        self._whole = frac == 0
+        self._hold_shift = (np.where(frac > 0, 1, 0), np.ones_like(self._m))
+        self._near = 1.0 - frac
 
     @property
     def whole_steps(self):
@@ -58,17 +68,17 @@ class DelayLine:
         return not self._f.any()
 
     def push(self, k, right, left=None):
-        """Store sample ``k``: the output's right limit at t_k (and its left limit)."""
+        """Store sample ``k``: the output's right limit at t_k (and its left limit).
+
+        ``left`` None or the same array as ``right`` marks a sample without a jump.
+        """
         slot = k % self._size
         self._right[slot] = right
         if not self.hold:
-            self._left[slot] = right if left is None else left
+            smooth = left is None or left is right
+            self._left[slot] = right if smooth else left
+            self._smooth[slot] = smooth
         self._latest = k
-
-    def _row(self, buffer, j):
-        if np.ndim(j) == 0:
-            return buffer[j % self._size] if j >= 0 else np.zeros(self._cols.shape[0])
-        return np.where(j >= 0, buffer[j % self._size, self._cols], 0.0)
 
     def read(self, k, left=False):
         """The delayed signal at t_k for every run: its right limit, or left limit if asked.
@@ -79,24 +89,59 @@ class DelayLine:
             Step index of the time read.
         left : bool
             Left limit (the value just before t_k) instead of the right limit.
+
+        Returns
+        -------
+        numpy.ndarray
+            A new array, shape (n_runs,).
         """
-        latest = self._latest
-        if self._uniform:
-            j = k - int(self._m[0])
-            if self.hold:
-                return self._row(self._right, min(j - 1 if left else j, latest)).copy()
-            if j > latest:
-                return self._row(self._right, latest).copy()
-            return self._row(self._left if left else self._right, j).copy()
-        j0 = k - self._m
+        if not self._uniform:
+            return self._read_per_run(k, left)
+        j = k - self._m0
         if self.hold:
-            shift = np.where(self._f > 0, 1, 1 if left else 0)
-            return self._row(self._right, np.minimum(j0 - shift, latest))
+            return self._sample(self._right, min(j - 1 if left else j, self._latest))
+        if j > self._latest:
+            return self._sample(self._right, self._latest)
+        return self._sample(self._left if left else self._right, j)
+
+    def read_limits(self, k):
+        """Right and left limits of the delayed signal at t_k: the same array where no run jumps.
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            (right limit, left limit), as :meth:`read` gives them.
+        """
+        if not self._uniform or self.hold:
+            return self.read(k), self.read(k, left=True)
+        j = min(k - self._m0, self._latest)  # a read ahead of the newest sample holds it
+        if j < 0:
+            zeros = self._zeros.copy()
+            return zeros, zeros
+        slot = j % self._size
+        right = self._right[slot].copy()
+        if j < k - self._m0 or self._smooth[slot]:
+            return right, right
+        return right, self._left[slot].copy()
+
+    def _sample(self, buffer, j):
+        """Sample ``j`` of every run (0 before t = 0)."""
+        return buffer[j % self._size].copy() if j >= 0 else self._zeros.copy()
+
+    def _samples(self, buffer, j):
+        """Sample ``j[r]`` of each run r (0 before t = 0)."""
+        return np.where(j >= 0, buffer[j % self._size, self._cols], 0.0)
+
+    def _read_per_run(self, k, left):
+        j0 = k - self._m
+        latest = self._latest
+        if self.hold:
+            return self._samples(self._right, np.minimum(j0 - self._hold_shift[left], latest))
         ahead = j0 > latest
         j0 = np.minimum(j0, latest)
-        whole = self._f == 0
-        near = self._row(self._left if left else self._right, j0)
-        near = np.where(whole | ahead, near, self._row(self._left, j0))
-        near = np.where(ahead, self._row(self._right, j0), near)
-        far = self._row(self._right, j0 - 1)
-        return np.where(ahead, near, (1.0 - self._f) * near + self._f * far)
+        # The sample at j0: right limit where the read is ahead of the newest sample or (for
+        # the right limit) the delay is whole; left limit elsewhere (interpolating from it).
+        use_left = ~ahead if left else ~ahead & ~self._whole
+        near = np.where(use_left, self._samples(self._left, j0), self._samples(self._right, j0))
+        far = self._samples(self._right, j0 - 1)
+        return np.where(ahead, near, self._near * near + self._f * far)

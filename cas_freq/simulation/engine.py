@@ -97,6 +97,12 @@ class CommandSet:
 class Engine:
     """State of a batch of runs, advanced step by step.
 
+    Per step the work is a few numpy operations on arrays of shape (n_runs,), so for small
+    batches their fixed cost dominates: the engine takes the commands' rows a chunk of steps at
+    a time, computes the feed-forward for the chunk at once, and tells the controllers where the
+    command does not jump (they then compute each output once, see
+    :class:`~cas_freq.simulation.controllers.Controller`).
+
     Parameters
     ----------
     params : LoopParameters
@@ -111,9 +117,14 @@ class Engine:
 
     def __init__(self, params, commands, dt, current_every=None, position_every=None):
         p = params
+        n = p.n_runs
         self.dt = dt
         self.commands = commands
         self.phi, self.g_a, self.g_b = plant_step_matrices(p, dt)
+        self.x = np.zeros((n, 3))  # (i, omega, theta) per run
+        self._next = np.empty((n, 3))
+        self._inputs = np.empty((n, 3))
+        self._volts = np.empty((n, 3))
         self.current_every, self.position_every = current_every, position_every
         self.current = Controller(
             p.ci_Kp, p.ci_Ki, np.zeros_like(p.ci_Kp), p.Tf, p.v_max, dt * (current_every or 1),
@@ -125,53 +136,84 @@ class Engine:
         )
         self.cp_Ki, self.ff_v, self.ff_a = p.cp_Ki, p.ff_v, p.ff_a
         self.on_measurement = p.derivative_on_measurement
+        # Derivative input: the error everywhere (None), -theta everywhere (True), or mixed.
+        on = self.on_measurement
+        self._derivative_on = None if not on.any() else (True if on.all() else on)
         self.voltage_line = DelayLine(p.tau_c, dt, hold=current_every is not None)
         self.current_line = DelayLine(p.tau_p, dt, hold=position_every is not None)
-        self.x = np.zeros((p.n_runs, 3))
         self.k = 0
 
-    def _errors(self, cmd):
-        theta_cmd, rate, accel = cmd
+    def _errors(self, theta_cmd):
+        """Position error and the derivative's input (the error, or -theta)."""
         theta = self.x[:, 2]
         e = theta_cmd - theta
-        y = np.where(self.on_measurement, -theta, e) if self.on_measurement.any() else e
-        return e, y, self.ff_v * rate + self.ff_a * accel
+        on = self._derivative_on
+        if on is None:
+            return e, e
+        if on is True:
+            return e, -theta
+        return e, np.where(on, -theta, e)
+
+    def _command_rows(self, times):
+        """The commands at ``times``: right and left limits, and where they differ.
+
+        Returns
+        -------
+        tuple
+            Per limit (right, left): motor angle [rad] (len(times), n_runs) and feed-forward
+            current [A] (same shape, or None where it is 0 throughout); and per time, whether
+            the limits differ (a list of bool).
+        """
+        limits = []
+        for left in (False, True):
+            angle, rate, accel = self.commands.motor(times, left=left)
+            limits.append((angle, self.ff_v * rate + self.ff_a * accel))
+        (angle, ff), (angle_left, ff_left) = limits
+        if self.position_every is not None:  # a sampler sees the values from now on
+            angle_left, ff_left = angle, ff
+        jumps = np.any(angle != angle_left, axis=1) | np.any(ff != ff_left, axis=1)
+        if not (np.count_nonzero(ff) or np.count_nonzero(ff_left)):
+            ff = ff_left = None
+        return (angle, ff), (angle_left, ff_left), jumps.tolist()
 
     def _position_update(self, left, right, start=False):
         step = self.position.start if start else self.position.update
-        if self.position_every is not None:  # a sampler sees the values from now on
-            left = right
-        (e_l, y_l, ff_l), (e_r, y_r, ff_r) = self._errors(left), self._errors(right)
-        self.u_left, self.u_p, self.current_limited = step(e_l, e_r, y_l, y_r, ff_l, ff_r)
-        if self.position_every is not None:
-            self.u_left = self.u_p
+        e_r, y_r = self._errors(right[0])
+        e_l, y_l = (e_r, y_r) if left is right else self._errors(left[0])
+        self.u_left, self.u_p, self.current_limited = step(e_l, e_r, y_l, y_r, left[1], right[1])
 
     def _current_update(self, start=False):
         step = self.current.start if start else self.current.update
-        self.i_cmd = self.current_line.read(self.k)
         i = self.x[:, 0]
         if self.current_every is None:
-            i_left = self.current_line.read(self.k, left=True)
-            self.v_left, self.v_c, self.voltage_limited = step(i_left - i, self.i_cmd - i)
+            self.i_cmd, i_left = self.current_line.read_limits(self.k)
+            e_r = self.i_cmd - i
+            e_l = e_r if i_left is self.i_cmd else i_left - i
+            self.v_left, self.v_c, self.voltage_limited = step(e_l, e_r)
         else:
-            _, self.v_c, self.voltage_limited = step(self.i_cmd - i, self.i_cmd - i)
+            self.i_cmd = self.current_line.read(self.k)
+            e = self.i_cmd - i
+            _, self.v_c, self.voltage_limited = step(e, e)
             self.v_left = self.v_c
 
     def start(self):
         """Controller outputs at t = 0 (plant at rest, nothing before), then the sample at 0."""
-        t0 = np.zeros(1)
-        right = [part[0] for part in self.commands.motor(t0)]
-        left = [part[0] for part in self.commands.motor(t0, left=True)]
+        (angle, ff), (angle_left, ff_left), _ = self._command_rows(np.zeros(1))
+        right = (angle[0], None if ff is None else ff[0])
+        left = (angle_left[0], None if ff_left is None else ff_left[0])
         self.theta_cmd = right[0]
         self._position_update(left, right, start=True)
         self.current_line.push(0, self.u_p, self.u_left)
         self._current_update(start=True)
         self.voltage_line.push(0, self.v_c, self.v_left)
         self.v = self.voltage_line.read(0)
-        return self.sample()
+        return tuple(np.array(value) for value in self.sample())
 
     def sample(self):
-        """The recorded signals at the present step, in the order of :data:`SIGNALS`."""
+        """The recorded signals at the present step, in the order of :data:`SIGNALS`.
+
+        Some are views of the engine's state, valid until the next step.
+        """
         return (
             self.x[:, 2], self.x[:, 1], self.x[:, 0], self.v, self.theta_cmd, self.i_cmd,
             self.cp_Ki * self.position.integral, self.current_limited, self.voltage_limited,
@@ -190,32 +232,65 @@ class Engine:
         steps = np.arange(first, first + n_steps)
         kept = steps[steps % record_every == 0]
         n = self.x.shape[0]
-        out = {name: np.empty((kept.size, n), dtype=bool if "limited" in name else float)
-               for name in SIGNALS}
+        states = np.empty((kept.size, n, 3))
+        volts, theta_cmd, i_cmd, integral = (np.empty((kept.size, n)) for _ in range(4))
+        limited = np.zeros((2, kept.size, n), dtype=bool)
+        position, current = self.position, self.current
         row = 0
         for chunk in range(first, first + n_steps, _CHUNK):
-            times = np.arange(chunk, min(chunk + _CHUNK, first + n_steps)) * self.dt
-            right = self.commands.motor(times)
-            left = self.commands.motor(times, left=True)
-            for j in range(times.size):
-                self._step([part[j] for part in left], [part[j] for part in right])
-                if self.k % record_every == 0:
-                    for name, value in zip(SIGNALS, self.sample(), strict=True):
-                        out[name][row] = value
+            stop = min(chunk + _CHUNK, first + n_steps)
+            (angle, ff), (angle_left, ff_left), jumps = self._command_rows(
+                np.arange(chunk, stop) * self.dt
+            )
+            recorded = np.arange(chunk, stop) % record_every == 0
+            theta_cmd[row : row + np.count_nonzero(recorded)] = angle[recorded]
+            for j, (jump, record) in enumerate(zip(jumps, recorded.tolist(), strict=True)):
+                right = (angle[j], None if ff is None else ff[j])
+                left = (angle_left[j], None if ff_left is None else ff_left[j]) if jump else right
+                self._step(left, right)
+                if record:
+                    states[row] = self.x
+                    volts[row] = self.v
+                    i_cmd[row] = self.i_cmd
+                    integral[row] = position.integral
+                    if position.clamped:  # else current_limited is False throughout
+                        limited[0, row] = self.current_limited
+                    if current.clamped:
+                        limited[1, row] = self.voltage_limited
                     row += 1
-        return kept * self.dt, out
+        out = dict(
+            theta=states[:, :, 2], omega=states[:, :, 1], i=states[:, :, 0], V=volts,
+            theta_cmd=theta_cmd, current_command=i_cmd, position_integral=self.cp_Ki * integral,
+            current_limited=limited[0], voltage_limited=limited[1],
+        )
+        return kept * self.dt, {name: out[name] for name in SIGNALS}
 
     def _step(self, left, right):
+        """One step: the plant over [t_k, t_k+1], then the controllers at t_k+1.
+
+        ``left`` and ``right`` are the command's (motor angle, feed-forward) at t_k+1; the same
+        tuple where it does not jump there.
+        """
         k = self.k
         line = self.voltage_line
-        v_a = line.read(k)
-        v_b = v_a if line.hold else line.read(k + 1, left=True)
-        self.x = (
-            np.einsum("rij,rj->ri", self.phi, self.x)
-            + self.g_a * v_a[:, None] + self.g_b * v_b[:, None]
-        )
+        v_a = self.v if line.reads_past else line.read(k)  # self.v: line.read(k) at step k-1
+        if line.hold:
+            v_next, v_b = line.read(k + 1), v_a
+        else:
+            v_next, v_b = line.read_limits(k + 1)
+        # x <- Phi x + G_a V_a + G_b V_b, in place and in this order (the rounding of the
+        # clamp flags where an output rests exactly at its limit depends on it). Each voltage
+        # is first copied into every column: a product without broadcasting is cheaper.
+        x, inputs, volts = self._next, self._inputs, self._volts
+        np.einsum("rij,rj->ri", self.phi, self.x, out=x)
+        volts[...] = v_a[:, None]
+        x += np.multiply(self.g_a, volts, out=inputs)
+        if v_b is not v_a:
+            volts[...] = v_b[:, None]
+        x += np.multiply(self.g_b, volts, out=inputs)
+        self._next, self.x = self.x, x
         self.k = k = k + 1
-        self.v = line.read(k)
+        self.v = v_next
         self.theta_cmd = right[0]
         if self.position_every is None or k % self.position_every == 0:
             self._position_update(left, right)
