@@ -17,7 +17,8 @@ from cas_freq.exceptions import CasFreqError
 __all__ = ["EXIT_BAD_INPUT", "EXIT_FAILED", "EXIT_OK", "build_parser", "main"]
 
 #: Command modules of ``cas_freq.cli``, in the order ``--help`` lists them.
-COMMANDS = ("analyze", "simulate", "sinedwell", "fit", "verify", "report", "compare")
+COMMANDS = ("analyze", "simulate", "sinedwell", "fit", "verify", "report", "compare", "sweep",
+            "montecarlo")
 
 
 def build_parser():

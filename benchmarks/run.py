@@ -1,0 +1,284 @@
+"""cas_freq against python-control, measured in one run on one machine (``python
+benchmarks/run.py``; not part of the test suite).
+
+1. margins + bandwidth of 10,000 variants (a 100 x 100 grid of Kp and Kd; and random
+   gains and motor values, ±10 % around the shipped config): cas_freq's batch (exact delays,
+   Padé-6 stability) vs a python-control loop (Padé-6 delays in transfer functions,
+   ``stability_margins`` of both loops, ``bandwidth`` of T) timed on a sample of 100 and
+   extrapolated;
+2. a 10 deg nonlinear step of 60 ms: cas_freq's simulator in batch mode (per run) vs
+   python-control ``input_output_response`` of an ``nlsys`` of the same loop (Padé-8 delays,
+   LSODA rtol 1e-9, the cross-check of tests/test_simulation_nlsys.py), with the RMS difference
+   of the two fin angles;
+3. a sine-dwell map of 8 amplitudes x 30 frequencies (cas_freq);
+4. ``cas-freq verify`` of the shipped config as a whole process;
+5. peak memory (tracemalloc) of the frequency-domain batch for 100,000 variants.
+
+Options: ``--quick`` (fewer variants, for a smoke run), ``--skip-memory``.
+"""
+
+import argparse
+import math
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import time
+import tracemalloc
+
+import numpy as np
+
+from cas_freq.batch.analyze import DEFAULT_CHUNK, batch_analyze
+from cas_freq.batch.parameters import variant_parameters
+from cas_freq.config import load_variant
+
+SEED = 20261122
+KEYS = ("position_loop.Kp", "position_loop.Ki", "position_loop.Kd", "current_loop.Kp",
+        "motor.Km", "motor.J")
+
+
+def machine():
+    """One line naming the machine."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as stream:
+            for line in stream:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return (f"{cpu}, {os.cpu_count()} CPUs, {platform.system()} {platform.release()}, "
+            f"Python {platform.python_version()}, numpy {np.__version__}")
+
+
+def variants(params, n, rng):
+    """Random variants: each key uniform within ±10 % of the config's value."""
+    from cas_freq.batch.parameters import base_values
+
+    base = base_values(params)
+    return {key: base[key] * rng.uniform(0.9, 1.1, n) for key in KEYS}
+
+
+def control_figures(params, changes, index, order=6):
+    """Margins of both loops and the bandwidth of T by python-control (one variant)."""
+    import control
+
+    def value(key, default):
+        return float(changes[key][index]) if key in changes else default
+
+    motor, cur, pos = params.motor, params.current_loop, params.position_loop
+    km, j = value("motor.Km", motor.Km), value("motor.J", motor.J)
+    mu = motor.viscous_friction * km / motor.Km if motor.mu_v is None else motor.mu_v
+    kp_i, ki_i = value("current_loop.Kp", cur.Kp), cur.Ki
+    kp, ki, kd = (value("position_loop.Kp", pos.Kp), value("position_loop.Ki", pos.Ki),
+                  value("position_loop.Kd", pos.Kd))
+    tf = pos.Tf if pos.Tf is not None else kd / (10 * kp)
+    s = control.tf("s")
+    ci = kp_i + ki_i / s
+    y = (j * s + mu) / ((motor.L * s + motor.R) * (j * s + mu) + motor.Ke * km)
+    dc = control.tf(*control.pade(cur.delay, order))
+    dp = control.tf(*control.pade(pos.delay, order))
+    li = ci * dc * y
+    ti = control.feedback(li, 1)
+    m = km / (s * (j * s + mu))
+    cp = kp + ki / s + kd * s / (tf * s + 1)
+    lp = cp * dp * ti * m
+    t = control.feedback(lp, 1)
+    gm_i, pm_i, _, _, wc_i, _ = control.stability_margins(li)
+    gm_p, pm_p, _, _, wc_p, _ = control.stability_margins(lp)
+    return {"current_loop.phase_margin_deg": pm_i, "position_loop.phase_margin_deg": pm_p,
+            "position_loop.crossover_rad_s": wc_p, "closed_loop.bandwidth_rad_s":
+            control.bandwidth(t)}
+
+
+def gain_grid(params, n):
+    """A Kp x Kd grid of about n points (x0.5..x1.5 of the config's gains)."""
+    side = int(round(math.sqrt(n)))
+    kp, kd = np.meshgrid(params.position_loop.Kp * np.linspace(0.5, 1.5, side),
+                         params.position_loop.Kd * np.linspace(0.5, 1.5, side), indexing="ij")
+    return {"position_loop.Kp": kp.ravel(), "position_loop.Kd": kd.ravel()}
+
+
+def bench_margins(params, changes, label, sample, rows):
+    n = len(next(iter(changes.values())))
+    loop = variant_parameters(params, changes)
+    batch_analyze(variant_parameters(params, {k: v[:64] for k, v in changes.items()}))  # warm
+    start = time.perf_counter()
+    result = batch_analyze(loop)
+    ours = time.perf_counter() - start
+    picks = np.linspace(0, n - 1, sample).astype(int)
+    control_figures(params, changes, 0)  # warm-up (imports)
+    start = time.perf_counter()
+    theirs = [control_figures(params, changes, int(i)) for i in picks]
+    per_variant = (time.perf_counter() - start) / sample
+    extrapolated = per_variant * n
+    # agreement: python-control's Padé-6 figures vs cas_freq's exact-delay ones
+    differences = {
+        name: max(abs(theirs[k][name] - result.figures[name][i]) / abs(result.figures[name][i])
+                  for k, i in enumerate(picks))
+        for name in theirs[0]
+    }
+    rows.append((f"margins + bandwidth, {n:,} variants ({label})", f"{ours:.2f} s",
+                 f"{extrapolated:.0f} s ({per_variant * 1e3:.1f} ms x {n:,})",
+                 extrapolated / ours))
+    return differences
+
+
+def bench_step(params, runs, rows):
+    from cas_freq.simulation import LoopParameters, Step, simulate_batch
+
+    amplitude = math.radians(10.0)
+    batch = LoopParameters.from_configs([params] * runs)
+    simulate_batch(LoopParameters.from_config(params), Step(amplitude), t_end=0.002,
+                   extend=False)  # warm-up
+    start = time.perf_counter()
+    result = simulate_batch(batch, Step(amplitude), t_end=0.06, extend=False)
+    ours = (time.perf_counter() - start) / runs
+    start = time.perf_counter()
+    single = simulate_batch(LoopParameters.from_config(params), Step(amplitude), t_end=0.06,
+                            extend=False)
+    ours_single = time.perf_counter() - start
+
+    import control
+
+    system = actuator_nlsys(params, 8)
+    t = result.t
+    theta_cmd = np.full(t.size, params.gear.ratio * amplitude)
+    start = time.perf_counter()
+    response = control.input_output_response(
+        system, t, theta_cmd, np.zeros(system.nstates), t_eval=t,
+        solve_ivp_method="LSODA", solve_ivp_kwargs={"rtol": 1e-9, "atol": 1e-10},
+    )
+    theirs = time.perf_counter() - start
+    delta = response.states[2] / params.gear.ratio
+    rms = float(np.sqrt(np.mean((delta - single.delta[0]) ** 2)) / amplitude)
+    rows.append((f"10 deg step, 60 ms (batch of {runs}, per run)", f"{ours * 1e3:.1f} ms",
+                 f"{theirs:.2f} s", theirs / ours))
+    rows.append(("10 deg step, 60 ms (one run alone)", f"{ours_single * 1e3:.0f} ms",
+                 f"{theirs:.2f} s", theirs / ours_single))
+    return rms
+
+
+def bench_sinedwell(params, rows):
+    from cas_freq.simulation import LoopParameters
+    from cas_freq.simulation.sinedwell import sine_dwell
+
+    amplitudes = np.radians([0.25, 0.5, 1, 2, 4, 6, 8, 10])
+    frequencies = np.geomspace(100.0, 5000.0, 30)
+    start = time.perf_counter()
+    sine_dwell(LoopParameters.from_config(params), amplitudes, frequencies)
+    ours = time.perf_counter() - start
+    rows.append(("sine-dwell map 8 x 30", f"{ours:.2f} s", "-", None))
+
+
+def bench_verify(rows):
+    executable = shutil.which("cas-freq")
+    command = [executable] if executable else [sys.executable, "-m", "cas_freq"]
+    probe = subprocess.run([*command, "verify", "--help"], capture_output=True, text=True,
+                           check=False)
+    if probe.returncode != 0:
+        rows.append(("cas-freq verify (whole process)", "not available", "-", None))
+        return
+    times = []
+    for _ in range(3):
+        start = time.perf_counter()
+        subprocess.run([*command, "verify"], capture_output=True, text=True, check=False)
+        times.append(time.perf_counter() - start)
+    rows.append(("cas-freq verify (whole process, best of 3)", f"{min(times):.2f} s", "-",
+                 None))
+
+
+def bench_memory(params, n):
+    rng = np.random.default_rng(SEED)
+    loop = variant_parameters(params, variants(params, n, rng))
+    tracemalloc.start()
+    start = time.perf_counter()
+    batch_analyze(loop)
+    elapsed = time.perf_counter() - start
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    return peak, elapsed
+
+
+def actuator_nlsys(config, pade_order):
+    """The loop of MODEL.md as a python-control ``nlsys`` with Padé delays (a copy of the
+    construction in tests/test_simulation_nlsys.py, derivative on the error)."""
+    import control
+
+    motor, cur, pos = config.motor, config.current_loop, config.position_loop
+    r, ind, km, ke, j, mu = (motor.R, motor.L, motor.Km, motor.Ke, motor.J,
+                             motor.viscous_friction)
+    tf = pos.Tf if pos.Tf is not None else pos.Kd / (10.0 * pos.Kp)
+
+    def pade_ss(tau):
+        num, den = control.pade(1.0, pade_order)
+        unit = control.tf2ss(num, den)
+        return (np.asarray(unit.A) / tau, np.asarray(unit.B).ravel() / tau,
+                np.asarray(unit.C).ravel(), float(np.asarray(unit.D).item()))
+
+    delays = [pade_ss(pos.delay), pade_ss(cur.delay)]
+    split = 6 + pade_order
+
+    def through(delay, z, u):
+        a, b, c, d = delay
+        return c @ z + d * u, a @ z + b * u
+
+    def update(t, x, u, params):
+        i, omega, theta, int_i, int_p, x_f = x[:6]
+        e = u[0] - theta
+        u_p = pos.Kp * e + pos.Ki * int_p + pos.Kd * (e - x_f) / tf
+        d_int_p = 0.0 if (abs(u_p) > pos.i_max and e * u_p > 0) else e
+        i_cmd, dz_p = through(delays[0], x[6:split], np.clip(u_p, -pos.i_max, pos.i_max))
+        e_i = i_cmd - i
+        u_c = cur.Kp * e_i + cur.Ki * int_i
+        d_int_i = 0.0 if (abs(u_c) > cur.v_max and e_i * u_c > 0) else e_i
+        volts, dz_c = through(delays[1], x[split:], np.clip(u_c, -cur.v_max, cur.v_max))
+        di = (volts - r * i - ke * omega) / ind
+        domega = (km * i - mu * omega) / j
+        return np.concatenate(
+            [[di, domega, omega, d_int_i, d_int_p, (e - x_f) / tf], dz_p, dz_c])
+
+    n = 6 + 2 * pade_order
+    return control.nlsys(update, None, inputs=1, outputs=n, states=n, name="actuator")
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="smaller sizes (smoke run)")
+    parser.add_argument("--skip-memory", action="store_true")
+    args = parser.parse_args(argv)
+    params = load_variant().params
+    n = 1000 if args.quick else 10_000
+    rows = []
+    sample = 20 if args.quick else 100
+    differences = bench_margins(params, gain_grid(params, n), "Kp x Kd grid", sample, rows)
+    tolerance = variants(params, n, np.random.default_rng(SEED))
+    bench_margins(params, tolerance, "6 keys ±10 %", sample, rows)
+    rms = bench_step(params, 16 if args.quick else 256, rows)
+    bench_sinedwell(params, rows)
+    bench_verify(rows)
+    print(f"machine: {machine()}")
+    print()
+    print(f"| {'case':56s} | {'cas_freq':>14s} | {'python-control':>28s} | {'ratio':>7s} |")
+    print(f"|{'-' * 58}|{'-' * 16}|{'-' * 30}|{'-' * 9}|")
+    for case, ours, theirs, ratio in rows:
+        shown = f"{ratio:.0f}x" if ratio else "-"
+        print(f"| {case:56s} | {ours:>14s} | {theirs:>28s} | {shown:>7s} |")
+    print()
+    print("agreement, python-control (Padé-6) vs cas_freq (exact delays), largest relative "
+          "difference over the sample:")
+    for name, value in differences.items():
+        print(f"  {name}: {value:.1e}")
+    print(f"10 deg step: RMS difference of the fin angle, python-control nlsys (Padé-8, LSODA "
+          f"rtol 1e-9) vs cas_freq: {rms:.1e} of the step")
+    if not args.skip_memory:
+        count = 10_000 if args.quick else 100_000
+        peak, elapsed = bench_memory(params, count)
+        print(f"frequency-domain batch of {count:,} variants (chunk {DEFAULT_CHUNK}): "
+              f"{elapsed:.1f} s under tracemalloc, peak traced memory {peak / 2**20:.0f} MiB")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,286 @@
+"""The ``montecarlo`` command's data: figures of randomly toleranced variants.
+
+Each ``--tolerance KEY=TOL`` draws KEY independently around its base value: TOL is relative
+(``10%``) or absolute (a number in the key's SI unit, or with a unit: ``0.02 ms``).
+
+- ``uniform``: uniform on [base - TOL, base + TOL];
+- ``normal``: normal with standard deviation TOL / 3 (TOL is the 3-sigma band: 99.7 % of the
+  samples fall within ±TOL), not truncated.
+
+A sample outside what the config accepts (e.g. a negative gain) is an error naming the key,
+value and sample, never silently clipped. Draws use ``numpy.random.default_rng(seed)``, one
+key after the other in the order given, so a seed reproduces every sample.
+
+Yield: the fraction of samples that pass each requirement of the config whose figure the batch
+computes (analyze figures always; step and fit figures when a step is simulated, at the
+requirement's own step size); other requirements are listed as not evaluated.
+"""
+
+import dataclasses
+import math
+import re
+
+import numpy as np
+
+from cas_freq.batch.parameters import base_values, check_key, parse_value, unit_of
+from cas_freq.batch.sweep import evaluate_figures, figure_names
+from cas_freq.exceptions import ConfigError
+from cas_freq.fileio import json_ready
+
+DISTRIBUTIONS = ("normal", "uniform")
+#: Percentiles reported for each figure.
+PERCENTILES = (1, 5, 25, 50, 75, 95, 99)
+#: Worst samples listed per requirement.
+WORST_COUNT = 5
+
+
+@dataclasses.dataclass(frozen=True)
+class Tolerance:
+    """One toleranced key: ``relative`` (fraction) or ``absolute`` [SI]."""
+
+    key: str
+    relative: float | None
+    absolute: float | None
+
+    def half_width(self, base):
+        """Half-width of the band around ``base`` [SI]."""
+        return abs(base) * self.relative if self.relative is not None else self.absolute
+
+
+def parse_tolerance(text):
+    """``KEY=10%`` or ``KEY=0.02 ms`` (or a plain number in SI) → :class:`Tolerance`."""
+    key, sep, value = str(text).partition("=")
+    key, value = key.strip(), value.strip()
+    accepted = (f"--tolerance {text!r}: expected KEY=PERCENT% or KEY=ABSOLUTE (a number in the "
+                f"key's SI unit or with a unit), e.g. motor.Km=10% or current_loop.delay=0.02ms")
+    if not sep or not key or not value:
+        raise ConfigError(accepted)
+    check_key(key)
+    match = re.fullmatch(r"([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?)\s*%", value)
+    if match:
+        relative = float(match.group(1)) / 100.0
+        if not (math.isfinite(relative) and relative >= 0):
+            raise ConfigError(accepted)
+        return Tolerance(key, relative, None)
+    absolute = parse_value(key, value)
+    if not (math.isfinite(absolute) and absolute >= 0):
+        raise ConfigError(f"--tolerance {key}: must be >= 0 {unit_of(key)}, got {value!r}")
+    return Tolerance(key, None, absolute)
+
+
+def draw(params, tolerances, samples, distribution="normal", seed=None):
+    """Sampled values of each toleranced key.
+
+    Returns
+    -------
+    (dict of str to numpy.ndarray, int)
+        Key -> (samples,) values [SI], and the seed used (drawn from fresh entropy if None).
+    """
+    if distribution not in DISTRIBUTIONS:
+        raise ConfigError(f"--distribution: must be one of {DISTRIBUTIONS}, got {distribution!r}")
+    if not (isinstance(samples, int) and samples >= 1):
+        raise ConfigError(f"--samples: must be an integer >= 1, got {samples!r}")
+    if seed is None:
+        seed = int(np.random.SeedSequence().entropy % (2**32))
+    rng = np.random.default_rng(seed)
+    base = base_values(params)
+    values = {}
+    for tolerance in tolerances:
+        nominal = base[tolerance.key]
+        if nominal is None:
+            if tolerance.key == "motor.mu_v":
+                raise ConfigError("motor.mu_v: the config derives it from motor.no_load; put the "
+                                  "tolerance on motor.no_load.current or motor.no_load.speed")
+            raise ConfigError(f"{tolerance.key}: not set in the config (derived), cannot be "
+                              "toleranced")
+        if tolerance.key in values:
+            raise ConfigError(f"--tolerance {tolerance.key}: given twice")
+        width = tolerance.half_width(nominal)
+        if distribution == "uniform":
+            values[tolerance.key] = rng.uniform(nominal - width, nominal + width, samples)
+        else:
+            values[tolerance.key] = rng.normal(nominal, width / 3.0, samples)
+    return values, seed
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class MonteCarlo:
+    """Figures of the sampled variants and their statistics (see :func:`montecarlo_dict`)."""
+
+    config: str
+    config_path: str
+    variant: str
+    overrides: tuple
+    tolerances: tuple
+    distribution: str
+    seed: int
+    samples: dict
+    figures: dict
+    stability: np.ndarray
+    step_deg: float | None
+    requirements: tuple
+
+
+def requirement_step(requirement):
+    """Step [rad] a requirement's figure is measured on (None for analyze figures)."""
+    for name in ("step_rad", "step"):
+        value = getattr(requirement, name, None)
+        if isinstance(value, (int, float)):
+            return float(value)
+    return None
+
+
+def _kind(metric):
+    head = metric.split(".", 1)[0]
+    if head in ("step", "fit"):
+        return "step"
+    if head == "sinedwell":
+        return "sinedwell"
+    return "analyze"
+
+
+def run_montecarlo(loaded, tolerances, samples, *, distribution="normal", seed=None,
+                   step_rad=None, simulate=True, progress=None):
+    """Draw the samples, compute their figures; returns :class:`MonteCarlo`.
+
+    A step is simulated when ``step_rad`` is given (with the second-order fit) or a
+    requirement needs step/fit figures (at the first such requirement's step, with the fit
+    only if a fit requirement needs it; requirements at another step than the simulated one
+    are not evaluated), unless ``simulate`` is False.
+    """
+    if not tolerances:
+        raise ConfigError("--tolerance: give at least one, e.g. --tolerance motor.Km=10%")
+    requirements = tuple(getattr(loaded.params, "requirements", ()) or ())
+    fit_needed = step_rad is not None
+    if step_rad is None and simulate:
+        stepped = [r for r in requirements if _kind(r.metric) == "step"
+                   and requirement_step(r) is not None]
+        if stepped:
+            step_rad = requirement_step(stepped[0])
+            fit_needed = any(r.metric.startswith("fit.") and
+                             math.isclose(requirement_step(r), step_rad) for r in stepped)
+    values, seed = draw(loaded.params, tolerances, samples, distribution, seed)
+    figures, stability = evaluate_figures(loaded.params, values, step_rad=step_rad,
+                                          fit=fit_needed, progress=progress)
+    return MonteCarlo(
+        config=loaded.params.name, config_path=loaded.source, variant=loaded.variant,
+        overrides=tuple(f"{k}={v}" for k, v in loaded.overrides), tolerances=tuple(tolerances),
+        distribution=distribution, seed=seed, samples=values, figures=figures,
+        stability=stability, step_deg=None if step_rad is None else math.degrees(step_rad),
+        requirements=requirements,
+    )
+
+
+def requirement_results(mc):
+    """Per requirement: evaluated or not (and why), yield, and the worst samples."""
+    out = []
+    for requirement in mc.requirements:
+        entry = {"id": requirement.id, "metric": requirement.metric,
+                 "min": requirement.min, "max": requirement.max,
+                 "severity": requirement.severity}
+        kind = _kind(requirement.metric)
+        step = requirement_step(requirement)
+        values = mc.figures.get(requirement.metric)
+        reason = None
+        if kind == "sinedwell":
+            reason = "sine-dwell figures are not computed in montecarlo"
+        elif values is None and requirement.metric.startswith("fit.") and mc.step_deg:
+            reason = "the second-order fit was not run"
+        elif values is None:
+            reason = "figure not computed by the batch"
+        elif kind == "step" and (mc.step_deg is None or step is None or
+                                 not math.isclose(math.degrees(step), mc.step_deg)):
+            reason = (f"needs a {math.degrees(step):g} deg step, simulated "
+                      f"{'none' if mc.step_deg is None else f'{mc.step_deg:g} deg'}")
+        if reason:
+            entry.update(evaluated=False, reason=f"not evaluated in montecarlo: {reason}")
+            out.append(entry)
+            continue
+        passed = np.array([requirement.passes(None if math.isnan(v) else float(v))
+                           for v in values])
+        order = _worst_order(values, requirement)
+        entry.update(
+            evaluated=True, passed=int(passed.sum()), failed=int((~passed).sum()),
+            yield_pct=100.0 * float(passed.mean()),
+            worst=[_sample_record(mc, int(i), requirement.metric)
+                   for i in order[:WORST_COUNT]],
+        )
+        out.append(entry)
+    return out
+
+
+def _worst_order(values, requirement):
+    """Sample indices from worst to best for a requirement (missing figures first)."""
+    low, high = requirement.min, requirement.max
+    if low is not None and high is not None:
+        score = np.maximum(low - values, values - high)
+    elif low is not None:
+        score = -values
+    elif high is not None:
+        score = values
+    else:
+        score = np.zeros(values.size)
+    score = np.where(np.isnan(values), np.inf, score)
+    return np.argsort(-score, kind="stable")
+
+
+def _sample_record(mc, index, metric):
+    record = {"sample": index, metric: float(mc.figures[metric][index]),
+              "stability": str(mc.stability[index])}
+    record.update({key: float(values[index]) for key, values in mc.samples.items()})
+    return record
+
+
+def statistics(values):
+    """Count, mean, std, min, max and percentiles of the finite values (None if none)."""
+    finite = values[np.isfinite(values)]
+    stats = {"count": int(finite.size), "missing": int(values.size - finite.size)}
+    if finite.size == 0:
+        return stats
+    stats.update(mean=float(finite.mean()), std=float(finite.std()), min=float(finite.min()),
+                 max=float(finite.max()))
+    for q, v in zip(PERCENTILES, np.percentile(finite, PERCENTILES), strict=True):
+        stats[f"p{q}"] = float(v)
+    return stats
+
+
+def montecarlo_dict(mc):
+    """JSON-ready dict: inputs, seed, per-figure statistics, requirement yields."""
+    names = figure_names(mc.figures)
+    verdicts, counts = np.unique(mc.stability.astype(str), return_counts=True)
+    return json_ready({
+        "config": mc.config,
+        "config_path": mc.config_path,
+        "variant": mc.variant,
+        "overrides": list(mc.overrides),
+        "samples": int(len(mc.stability)),
+        "distribution": mc.distribution,
+        "distribution_note": ("normal: sigma = tolerance / 3" if mc.distribution == "normal"
+                              else "uniform on nominal ± tolerance"),
+        "seed": mc.seed,
+        "tolerances": [{"key": t.key, "unit": unit_of(t.key), "relative": t.relative,
+                        "absolute": t.absolute} for t in mc.tolerances],
+        "step_deg": mc.step_deg,
+        "stability": dict(zip(verdicts.tolist(), counts.tolist(), strict=True)),
+        "figures": {name: statistics(mc.figures[name]) for name in names},
+        "requirements": requirement_results(mc),
+    })
+
+
+def montecarlo_samples_csv(mc):
+    """CSV text of every sample: drawn values, stability, every figure."""
+    import io
+
+    names = figure_names(mc.figures)
+    keys = list(mc.samples)
+    out = io.StringIO()
+    out.write(",".join(["sample", *(f"{k} [{unit_of(k)}]" for k in keys), "stability",
+                        *names]) + "\n")
+    for index in range(len(mc.stability)):
+        cells = [str(index), *(f"{mc.samples[k][index]:.10g}" for k in keys),
+                 str(mc.stability[index])]
+        for name in names:
+            value = mc.figures[name][index]
+            cells.append(f"{value:.10g}" if math.isfinite(value) else "")
+        out.write(",".join(cells) + "\n")
+    return out.getvalue()

@@ -1,0 +1,206 @@
+"""The ``sweep`` command's data: every figure of ``analyze`` (and of ``simulate``) over a grid.
+
+A grid is the Cartesian product of one or more dotted keys, each given as ``start:stop:count``
+(``count`` values evenly spaced from start to stop, both included) or as a list ``a,b,c``;
+values are numbers in the key's SI unit or strings with a unit (``0.05ms:0.2ms:4``).
+"""
+
+import dataclasses
+import io
+import math
+
+import numpy as np
+
+from cas_freq.batch.analyze import FIGURES, batch_analyze
+from cas_freq.batch.parameters import check_key, parse_value, unit_of, variant_parameters
+from cas_freq.exceptions import ConfigError
+from cas_freq.fileio import json_ready
+
+#: Largest grid accepted (points).
+MAX_POINTS = 1_000_000
+
+
+def parse_grid_values(key, spec):
+    """Values [SI] of one grid axis: ``start:stop:count`` or ``a,b,c``.
+
+    Raises
+    ------
+    ConfigError
+        For a key that cannot be varied or a spec that does not parse, naming what is accepted.
+    """
+    check_key(key)
+    accepted = (f"--set {key}={spec}: expected START:STOP:COUNT (COUNT >= 1 evenly spaced "
+                f"values) or a list A,B,C, numbers in {unit_of(key)} or with units")
+    text = str(spec).strip()
+    if ":" in text:
+        parts = text.split(":")
+        if len(parts) != 3:
+            raise ConfigError(accepted)
+        start, stop = (parse_value(key, part.strip()) for part in parts[:2])
+        try:
+            count = int(parts[2])
+        except ValueError:
+            raise ConfigError(accepted) from None
+        if count < 1 or not (math.isfinite(start) and math.isfinite(stop)):
+            raise ConfigError(accepted)
+        return np.linspace(start, stop, count)
+    parts = [part.strip() for part in text.split(",")]
+    if not parts or any(not part for part in parts):
+        raise ConfigError(accepted)
+    return np.array([parse_value(key, part) for part in parts])
+
+
+def is_grid_spec(value):
+    """True for a ``--set`` value that is a grid (contains ``:`` or ``,``)."""
+    return isinstance(value, str) and (":" in value or "," in value)
+
+
+def grid(axes):
+    """Cartesian product of axes: dict key -> values → dict key -> flat arrays (first key
+    slowest)."""
+    keys = list(axes)
+    total = math.prod(len(axes[k]) for k in keys)
+    if total > MAX_POINTS:
+        raise ConfigError(f"sweep: {total} grid points, more than the {MAX_POINTS} accepted")
+    mesh = np.meshgrid(*(axes[k] for k in keys), indexing="ij")
+    return {key: values.ravel() for key, values in zip(keys, mesh, strict=True)}
+
+
+def evaluate_figures(params, changes, *, step_rad=None, fit=True, progress=None):
+    """Every figure of each sample: the batch analysis, and the step's if ``step_rad``.
+
+    Parameters
+    ----------
+    params : cas_freq.config.ActuatorConfig
+        Base config.
+    changes : dict of str to numpy.ndarray
+        Dotted key -> values [SI] per sample.
+    step_rad : float, optional
+        Fin step [rad] to simulate for each sample.
+    fit : bool
+        Fit the second-order model to each step.
+    progress : callable, optional
+        ``progress(done, total)``.
+
+    Returns
+    -------
+    (dict of str to numpy.ndarray, numpy.ndarray of str)
+        Figures (:data:`cas_freq.batch.analyze.FIGURES`, then ``step.*``/``fit.*``) and the
+        stability verdict per sample.
+    """
+    loop = variant_parameters(params, changes)
+    n = loop.n_runs
+    steps_share = 0.9 if step_rad is not None else 0.0
+
+    def analysis_progress(done, total):
+        if progress:
+            progress(done / total * (1 - steps_share) * n, n)
+
+    analysis = batch_analyze(loop, progress=analysis_progress)
+    figures = dict(analysis.figures)
+    if step_rad is not None:
+        from cas_freq.batch.steps import batch_steps
+
+        def step_progress(done, total):
+            if progress:
+                progress(((1 - steps_share) + steps_share * done / total) * n, n)
+
+        figures.update(batch_steps(loop, step_rad, fit=fit, rates_hz=params.simulation.rates_hz,
+                                   progress=step_progress))
+    return figures, analysis.stability
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Sweep:
+    """Figures over a grid.
+
+    Attributes
+    ----------
+    config, config_path, variant : str
+        Which config.
+    overrides : tuple of str
+        Fixed ``--set`` overrides applied to the base.
+    axes : dict of str to numpy.ndarray
+        Swept key -> its values [SI].
+    points : dict of str to numpy.ndarray
+        Swept key -> value at each grid point (flattened, first key slowest).
+    figures : dict of str to numpy.ndarray
+        Figure -> value at each grid point (NaN where it does not exist).
+    stability : numpy.ndarray of str
+        Verdict per point.
+    step_deg : float or None
+        Simulated fin step [deg].
+    """
+
+    config: str
+    config_path: str
+    variant: str
+    overrides: tuple
+    axes: dict
+    points: dict
+    figures: dict
+    stability: np.ndarray
+    step_deg: float | None
+
+
+def run_sweep(loaded, axes, *, step_rad=None, fit=True, progress=None):
+    """Sweep a loaded variant over ``axes`` (dict key -> values [SI]); returns :class:`Sweep`."""
+    points = grid(axes)
+    figures, stability = evaluate_figures(loaded.params, points, step_rad=step_rad, fit=fit,
+                                          progress=progress)
+    return Sweep(
+        config=loaded.params.name, config_path=loaded.source, variant=loaded.variant,
+        overrides=tuple(f"{k}={v}" for k, v in loaded.overrides), axes=dict(axes),
+        points=points, figures=figures, stability=stability,
+        step_deg=None if step_rad is None else math.degrees(step_rad),
+    )
+
+
+def figure_names(figures):
+    """Figure names in output order."""
+    return [name for name in FIGURES if name in figures] + [
+        name for name in figures if name not in FIGURES
+    ]
+
+
+def sweep_dict(sweep):
+    """JSON-ready dict: one record per grid point (swept keys, stability, every figure)."""
+    names = figure_names(sweep.figures)
+    records = []
+    for index in range(len(sweep.stability)):
+        record = {key: float(values[index]) for key, values in sweep.points.items()}
+        record["stability"] = str(sweep.stability[index])
+        for name in names:
+            value = float(sweep.figures[name][index])
+            record[name] = bool(value) if name in _FLAGS and math.isfinite(value) else value
+        records.append(record)
+    return json_ready({
+        "config": sweep.config,
+        "config_path": sweep.config_path,
+        "variant": sweep.variant,
+        "overrides": list(sweep.overrides),
+        "swept": {key: {"unit": unit_of(key), "values": values.tolist()}
+                  for key, values in sweep.axes.items()},
+        "step_deg": sweep.step_deg,
+        "count": len(records),
+        "points": records,
+    })
+
+
+_FLAGS = {"stable", "step.current_limited", "step.voltage_limited"}
+
+
+def sweep_csv(sweep):
+    """CSV text: swept keys, stability, then every figure (empty where it does not exist)."""
+    names = figure_names(sweep.figures)
+    keys = list(sweep.points)
+    out = io.StringIO()
+    out.write(",".join([*(f"{k} [{unit_of(k)}]" for k in keys), "stability", *names]) + "\n")
+    for index in range(len(sweep.stability)):
+        cells = [f"{sweep.points[k][index]:.10g}" for k in keys]
+        cells.append(str(sweep.stability[index]))
+        for name in names:
+            value = sweep.figures[name][index]
+            cells.append(f"{value:.10g}" if math.isfinite(value) else "")
+        out.write(",".join(cells) + "\n")
+    return out.getvalue()

@@ -1,0 +1,117 @@
+"""``cas-freq montecarlo``: distributions and yields of toleranced variants."""
+
+from cas_freq.cli.common import EXIT_OK, add_config_arguments, angle, print_json
+
+#: Figures summarised in the text output (besides those of the requirements).
+SUMMARY_FIGURES = (
+    "position_loop.phase_margin_deg", "position_loop.gain_margin_db",
+    "current_loop.phase_margin_deg", "closed_loop.bandwidth_rad_s", "closed_loop.peak_db",
+    "step.overshoot_pct", "fit.bandwidth_closed_form_rad_s",
+)
+
+
+def register(commands):
+    """Add the ``montecarlo`` sub-parser."""
+    parser = commands.add_parser(
+        "montecarlo", help="figure distributions and requirement yields under tolerances",
+        description="Draw N variants with the given tolerances, compute every figure, and "
+        "report percentiles, the yield against each requirement and the worst samples. "
+        "Tolerances: KEY=10%% (relative) or KEY=0.02ms (absolute); normal draws use "
+        "sigma = tolerance/3, uniform draws nominal ± tolerance.",
+    )
+    add_config_arguments(parser, all_variants=False)
+    parser.add_argument("--samples", type=int, default=1000, metavar="N",
+                        help="number of samples (default 1000)")
+    parser.add_argument("--tolerance", action="append", default=[], metavar="KEY=TOL",
+                        help="tolerance of a key, e.g. motor.Km=10%% (repeatable)")
+    parser.add_argument("--distribution", choices=("normal", "uniform"), default="normal")
+    parser.add_argument("--seed", type=int, default=None,
+                        help="random seed (default: fresh, printed for reproduction)")
+    parser.add_argument("--step", metavar="ANGLE",
+                        help="simulate a fin step per sample (default: only when a requirement "
+                        "needs step or fit figures)")
+    parser.add_argument("--no-step", action="store_true",
+                        help="simulate no step (step and fit requirements are then listed as "
+                        "not evaluated)")
+    parser.add_argument("--json", action="store_true", help="print JSON instead of text")
+    parser.add_argument("-o", "--output", metavar="DIR",
+                        help="report directory: montecarlo.json, samples.csv, histograms.svg")
+    parser.set_defaults(handler=run)
+
+
+def summary(data):
+    """Text summary of :func:`cas_freq.batch.montecarlo.montecarlo_dict` data."""
+    lines = [
+        f"{data['config']} ({data['variant']}): {data['samples']} samples, "
+        f"{data['distribution']} ({data['distribution_note']}), seed {data['seed']}",
+        "tolerances: " + ", ".join(
+            f"{t['key']} ±{100 * t['relative']:g}%" if t["relative"] is not None
+            else f"{t['key']} ±{t['absolute']:g} {t['unit']}" for t in data["tolerances"]),
+        "stability: " + ", ".join(f"{k} {v}" for k, v in data["stability"].items()),
+        "",
+        f"{'figure':40s} {'p1':>10s} {'p5':>10s} {'p50':>10s} {'p95':>10s} {'p99':>10s}",
+    ]
+    names = list(SUMMARY_FIGURES) + [r["metric"] for r in data["requirements"]]
+    for name in dict.fromkeys(names):
+        stats = data["figures"].get(name)
+        if not stats or not stats["count"]:
+            continue
+        lines.append(f"{name:40s} " + " ".join(f"{stats[p]:10.4g}"
+                                               for p in ("p1", "p5", "p50", "p95", "p99")))
+    lines += ["", "requirements:"]
+    for r in data["requirements"]:
+        if not r["evaluated"]:
+            lines.append(f"  {r['id']:8s} {r['metric']:36s} {r['reason']}")
+            continue
+        worst = r["worst"][0] if r["worst"] else None
+        worst_text = (f"; worst sample {worst['sample']}: {worst[r['metric']]:.4g}"
+                      if worst and worst[r["metric"]] is not None else "")
+        lines.append(f"  {r['id']:8s} {r['metric']:36s} yield {r['yield_pct']:6.2f} % "
+                     f"({r['failed']} fail, {r['severity']}){worst_text}")
+    return "\n".join(lines)
+
+
+def run(args):
+    """Run the Monte Carlo; print text or JSON, write the report."""
+    from cas_freq.batch.montecarlo import (
+        montecarlo_dict,
+        montecarlo_samples_csv,
+        parse_tolerance,
+        run_montecarlo,
+    )
+    from cas_freq.batch.report import json_text, write_report
+    from cas_freq.cli.common import load_variants, terminal_progress
+    from cas_freq.exceptions import CasFreqError
+
+    if args.no_step and args.step:
+        raise CasFreqError("--no-step and --step exclude each other")
+    tolerances = [parse_tolerance(text) for text in args.tolerance]
+    step = angle(args.step, "--step") if args.step else None
+    (loaded,) = load_variants(args)
+    progress = terminal_progress("montecarlo")
+    result = run_montecarlo(loaded, tolerances, args.samples, distribution=args.distribution,
+                            seed=args.seed, step_rad=step, simulate=not args.no_step,
+                            progress=progress)
+    if progress:
+        progress.done()
+    data = montecarlo_dict(result)
+    if args.output:
+        from cas_freq.batch.plots import histogram_figure, svg_text
+
+        names = list(dict.fromkeys(
+            [n for n in SUMMARY_FIGURES if n in result.figures]
+            + [r["metric"] for r in data["requirements"] if r["evaluated"]]))
+        limits = {}
+        for r in data["requirements"]:
+            for bound in ("min", "max"):
+                if r["evaluated"] and r[bound] is not None:
+                    limits.setdefault(r["metric"], []).append((r[bound], f"{r['id']} {bound}"))
+        svg = svg_text(histogram_figure(result.figures, names, limits))
+        write_report(args.output, {"montecarlo.json": json_text(data),
+                                   "samples.csv": montecarlo_samples_csv(result),
+                                   "histograms.svg": svg})
+    if args.json:
+        print_json(data)
+    else:
+        print(summary(data))
+    return EXIT_OK

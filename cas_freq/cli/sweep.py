@@ -1,0 +1,106 @@
+"""``cas-freq sweep``: every figure of analyze (and of a step) over a grid of config keys."""
+
+from cas_freq.cli.common import EXIT_OK, add_config_arguments, angle, print_json
+from cas_freq.exceptions import CasFreqError
+
+#: Figures shown in the text table (all of them go to JSON and CSV).
+TABLE_FIGURES = (
+    ("position_loop.phase_margin_deg", "PM_p [deg]"),
+    ("position_loop.gain_margin_db", "GM_p [dB]"),
+    ("current_loop.phase_margin_deg", "PM_i [deg]"),
+    ("closed_loop.bandwidth_rad_s", "BW [rad/s]"),
+    ("closed_loop.peak_db", "peak [dB]"),
+    ("step.overshoot_pct", "OS [%]"),
+    ("fit.bandwidth_closed_form_rad_s", "BW fit [rad/s]"),
+)
+
+
+def register(commands):
+    """Add the ``sweep`` sub-parser."""
+    parser = commands.add_parser(
+        "sweep", help="every figure over a grid of config keys (batch, vectorised)",
+        description="Evaluate every figure of analyze (and, with --step, of simulate) at each "
+        "point of a grid: --set KEY=START:STOP:COUNT or KEY=A,B,C (several --set make a "
+        "Cartesian product); --set KEY=VALUE fixes a key.",
+    )
+    add_config_arguments(parser, all_variants=False)
+    parser.add_argument("--step", metavar="ANGLE", help="also simulate a fin step, e.g. 10deg")
+    parser.add_argument("--no-fit", action="store_true",
+                        help="with --step: skip the second-order fit (about 0.15 s per point)")
+    output = parser.add_mutually_exclusive_group()
+    output.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    output.add_argument("--csv", metavar="FILE", help="write one CSV row per grid point")
+    parser.add_argument("-o", "--output", metavar="DIR",
+                        help="report directory: sweep.json, sweep.csv and sweep.svg")
+    parser.set_defaults(handler=run)
+
+
+def split_settings(settings):
+    """(fixed overrides as (key, value), grid axes as key -> values [SI]) from ``--set``."""
+    from cas_freq.batch.sweep import is_grid_spec, parse_grid_values
+    from cas_freq.config import parse_set_option
+
+    fixed, axes = [], {}
+    for text in settings:
+        key, sep, value = text.partition("=")
+        key = key.strip()
+        if sep and is_grid_spec(value):
+            if key in axes:
+                raise CasFreqError(f"--set {key}: swept twice")
+            axes[key] = parse_grid_values(key, value)
+        else:
+            fixed.append(parse_set_option(text))
+    return fixed, axes
+
+
+def table(sweep):
+    """Text table: swept keys, stability and the headline figures per grid point."""
+    keys = list(sweep.points)
+    shown = [(name, label) for name, label in TABLE_FIGURES if name in sweep.figures]
+    header = [*keys, "stability", *(label for _, label in shown)]
+    rows = []
+    for index in range(len(sweep.stability)):
+        row = [f"{sweep.points[k][index]:.6g}" for k in keys]
+        row.append(str(sweep.stability[index]))
+        for name, _ in shown:
+            value = sweep.figures[name][index]
+            row.append(f"{value:.4g}" if value == value else "-")
+        rows.append(row)
+    widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(header)]
+    lines = ["  ".join(h.rjust(w) for h, w in zip(header, widths, strict=True))]
+    lines += ["  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
+    title = f"{sweep.config} ({sweep.variant}): sweep of {len(rows)} points"
+    return "\n".join([title, *lines])
+
+
+def run(args):
+    """Run the sweep; print a table or JSON, write CSV and the report."""
+    from cas_freq.batch.report import json_text, write_report
+    from cas_freq.batch.sweep import run_sweep, sweep_csv, sweep_dict
+    from cas_freq.cli.common import terminal_progress
+    from cas_freq.config import load_variant
+    from cas_freq.fileio import write_text_atomic
+
+    fixed, axes = split_settings(args.overrides)
+    if not axes:
+        raise CasFreqError("sweep: give at least one grid, e.g. --set position_loop.Kp=2:12:200")
+    step = angle(args.step, "--step") if args.step else None
+    loaded = load_variant(args.config, args.variant, fixed)
+    progress = terminal_progress("sweep")
+    result = run_sweep(loaded, axes, step_rad=step, fit=not args.no_fit, progress=progress)
+    if progress:
+        progress.done()
+    data = sweep_dict(result)
+    if args.csv:
+        write_text_atomic(args.csv, sweep_csv(result))
+    if args.output:
+        from cas_freq.batch.plots import svg_text, sweep_figure
+
+        svg = svg_text(sweep_figure(result.points, result.figures, list(result.points)))
+        write_report(args.output, {"sweep.json": json_text(data), "sweep.csv": sweep_csv(result),
+                                   "sweep.svg": svg})
+    if args.json:
+        print_json(data)
+    else:
+        print(table(result))
+    return EXIT_OK

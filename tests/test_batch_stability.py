@@ -1,0 +1,80 @@
+"""Batched Padé stability against the single path's poles, and the root refiners.
+
+Reference: :func:`cas_freq.analysis.stability.closed_loop_stability` (poles of the Padé-6
+model) for the same variant; the verdicts must agree exactly.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from cas_freq.analysis.stability import closed_loop_stability
+from cas_freq.batch.parameters import variant_parameters
+from cas_freq.batch.roots import refine_maxima, refine_roots
+from cas_freq.batch.stability import batch_stability, characteristic_polynomials
+from cas_freq.config import load_variant
+
+
+def test_verdicts_match_single_path_across_stable_and_unstable():
+    loaded = load_variant()
+    # Kp from 2 to 200 A/rad crosses the position loop's stability limit (between 60 and 100
+    # by the single path); current-loop Kp up to 3 V/A crosses the current loop's (GM ~9.7 dB
+    # at 0.62 V/A, i.e. x3.05).
+    kp = np.array([2.0, 6.3435, 15.0, 60.0, 100.0, 200.0, 6.3435, 6.3435])
+    ci = np.array([0.6163, 0.6163, 0.6163, 0.6163, 0.6163, 0.6163, 1.5, 3.0])
+    changes = {"position_loop.Kp": kp, "current_loop.Kp": ci}
+    verdict, current = batch_stability(variant_parameters(loaded.params, changes))
+    for i in range(kp.size):
+        single = closed_loop_stability(
+            load_variant(None, "base", [("position_loop.Kp", float(kp[i])),
+                                        ("current_loop.Kp", float(ci[i]))]).params, 6)
+        assert verdict[i] == single.verdict, i
+        assert current[i] == single.current_loop_verdict, i
+    assert "unstable" in set(verdict) and "stable" in set(verdict)
+
+
+@pytest.mark.parametrize("overrides", [
+    [("current_loop.Ki", 0.0)],       # C_i = Kp: no integrator
+    [("position_loop.Ki", 0.0)],      # C_p without integrator
+    [("position_loop.Kd", 0.0), ("position_loop.Tf", 0.001)],  # Kd = 0 drops the filter
+    [("motor.mu_v", 0.0)],            # pole of C_i cancels the zero of Y at 0 (current loop)
+    [("position_loop.derivative_on", "measurement")],
+])
+def test_exact_cancellations_agree_with_single_path(overrides):
+    loaded = load_variant(None, "base", overrides)
+    verdict, current = batch_stability(variant_parameters(loaded.params, {}))
+    single = closed_loop_stability(loaded.params, 6)
+    assert (verdict[0], current[0]) == (single.verdict, single.current_loop_verdict)
+
+
+def test_characteristic_polynomial_roots_are_the_padé_model_poles():
+    loaded = load_variant()
+    _, q = characteristic_polynomials(variant_parameters(loaded.params, {}), 6)
+    roots = np.sort_complex(np.roots(q[0]))
+    single = closed_loop_stability(loaded.params, 6)
+    poles = np.sort_complex(np.array([complex(*p) for p in single.poles]))
+    assert roots.size == poles.size
+    # np.roots of a degree-18 polynomial spanning 1..1e5 rad/s: 1e-6 relative is what its
+    # conditioning allows.
+    np.testing.assert_allclose(roots, poles, rtol=1e-6)
+
+
+def test_vectorised_refiners_on_known_functions():
+    # roots of sin(x) in brackets around pi and 2 pi; maximum of -(x - 1)^2 at 1
+    lo, hi = np.array([3.0, 6.0]), np.array([3.3, 6.5])
+    roots = refine_roots(lambda x, j: np.sin(x), lo, hi)
+    np.testing.assert_allclose(np.log(roots), [math.pi, 2 * math.pi], rtol=1e-12)
+    where, value = refine_maxima(lambda x, j: -(x - 1.0) ** 2, np.array([0.5]), np.array([1.7]))
+    assert np.log(where[0]) == pytest.approx(1.0, abs=1e-8)
+    assert value[0] == pytest.approx(0.0, abs=1e-15)
+
+
+def test_phase_jumps_are_where_numpy_unwrap_adds_turns():
+    # random walks around the origin, with steps large enough to jump often
+    from cas_freq.batch.margins import phase_jumps
+
+    rng = np.random.default_rng(11)
+    u = np.cumsum(rng.normal(size=(50, 400)) + 1j * rng.normal(size=(50, 400)), axis=1)
+    expected = np.abs(np.diff(np.angle(u), axis=1)) > math.pi
+    np.testing.assert_array_equal(phase_jumps(u), expected)

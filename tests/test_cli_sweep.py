@@ -1,0 +1,106 @@
+"""``cas-freq sweep``: grid parsing, JSON/CSV/report outputs, exit codes.
+
+The figures themselves are checked against the single path in test_batch_analyze.py; here the
+command's contract, and that a grid point's figures equal ``analyze --json`` of that variant
+(rel 1e-6, as there).
+"""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from cas_freq.batch.sweep import grid, parse_grid_values
+from cas_freq.cli import main
+from cas_freq.exceptions import ConfigError
+
+
+def _strict(text):
+    def reject(name):
+        raise ValueError(f"non-strict JSON constant {name}")
+
+    return json.loads(text, parse_constant=reject)
+
+
+def test_grid_specs():
+    np.testing.assert_allclose(parse_grid_values("position_loop.Kp", "2:12:6"),
+                               [2, 4, 6, 8, 10, 12])
+    np.testing.assert_allclose(parse_grid_values("current_loop.delay", "0.05ms, 0.1 ms"),
+                               [5e-5, 1e-4], rtol=1e-12)
+    np.testing.assert_allclose(parse_grid_values("position_loop.Kp", "5"), [5])
+    points = grid({"a": np.array([1.0, 2.0]), "b": np.array([10.0, 20.0, 30.0])})
+    assert points["a"].tolist() == [1, 1, 1, 2, 2, 2]
+    assert points["b"].tolist() == [10, 20, 30, 10, 20, 30]
+
+
+@pytest.mark.parametrize("key, spec, message", [
+    ("position_loop.Kp", "2:12", "START:STOP:COUNT"),
+    ("position_loop.Kp", "2:12:x", "START:STOP:COUNT"),
+    ("position_loop.Kp", "2:12:0", "START:STOP:COUNT"),
+    ("position_loop.Kp", "1,,2", "START:STOP:COUNT"),
+    ("current_loop.delay", "1 V:2 V:3", "cannot read"),
+    ("position_loop.derivative_on", "1:2:3", "cannot be varied"),
+])
+def test_bad_grid_specs(key, spec, message):
+    with pytest.raises(ConfigError, match=message):
+        parse_grid_values(key, spec)
+
+
+@pytest.mark.parametrize("argv", [
+    ["sweep", "--set", "position_loop.Kp=2:12"],
+    ["sweep", "--set", "motor.nothing=1:2:3"],
+    ["sweep", "--set", "position_loop.Kp=-1:2:3"],
+    ["sweep"],
+])
+def test_bad_sweeps_exit_2_with_one_line(capsys, argv):
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "error" in err[0]
+
+
+def test_sweep_json_matches_analyze(capsys):
+    assert main(["sweep", "--set", "position_loop.Kp=4,8", "--set", "motor.J=6e-7",
+                 "--json"]) == 0
+    data = _strict(capsys.readouterr().out)
+    assert data["count"] == 2 and list(data["swept"]) == ["position_loop.Kp"]
+    assert data["overrides"] == ["motor.J=6e-7"]  # YAML reads 6e-7 as text
+    point = data["points"][1]
+    assert point["position_loop.Kp"] == 8.0 and point["stability"] == "stable"
+    assert main(["analyze", "--set", "position_loop.Kp=8", "--set", "motor.J=6e-7",
+                 "--json"]) == 0
+    single = _strict(capsys.readouterr().out)
+    for name in ("position_loop.phase_margin_deg", "closed_loop.bandwidth_rad_s",
+                 "current_loop.gain_margin_db"):
+        group, figure = name.split(".")
+        assert point[name] == pytest.approx(single[group][figure], rel=1e-6)
+
+
+def test_csv_and_report(tmp_path, capsys):
+    out_csv = tmp_path / "sweep.csv"
+    report = tmp_path / "report"
+    assert main(["sweep", "--set", "position_loop.Kp=3:9:3", "--set", "position_loop.Kd=0.03,0.04",
+                 "--csv", str(out_csv), "-o", str(report)]) == 0
+    table = capsys.readouterr().out
+    assert "sweep of 6 points" in table
+    rows = list(csv.DictReader(out_csv.open()))
+    assert len(rows) == 6
+    assert "position_loop.Kp [A/rad]" in rows[0] and "closed_loop.bandwidth_rad_s" in rows[0]
+    assert sorted(p.name for p in report.iterdir()) == ["sweep.csv", "sweep.json", "sweep.svg"]
+    svg = (report / "sweep.svg").read_text()
+    assert svg.startswith("<?xml") and "position_loop.Kp" in svg
+
+
+def test_sweep_figure_structure():
+    from cas_freq.batch.plots import sweep_figure
+
+    points = {"position_loop.Kp": np.array([1.0, 1.0, 2.0, 2.0]),
+              "position_loop.Kd": np.array([0.1, 0.2, 0.1, 0.2])}
+    figures = {"closed_loop.bandwidth_rad_s": np.array([1.0, 2.0, 3.0, 4.0]),
+               "position_loop.phase_margin_deg": np.array([30.0, 31.0, np.nan, 33.0])}
+    figure = sweep_figure(points, figures, list(points))
+    axes = [axis for axis in figure.axes if axis.get_visible()]
+    assert [axis.get_ylabel() for axis in axes] == ["position_loop.phase_margin_deg",
+                                                    "closed_loop.bandwidth_rad_s"]
+    assert all(len(axis.lines) == 2 for axis in axes)  # one line per Kd value
+    assert axes[0].get_xlabel() == "position_loop.Kp"
