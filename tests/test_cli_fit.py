@@ -6,23 +6,16 @@ step of seeded white noise added, they must come back within a few percent and i
 reported confidence intervals.
 """
 
-import contextlib
-import io
 import json
 import math
 
 import numpy as np
 import pytest
+from clirun import run_cli
 
-from cas_freq.cli import main
 from cas_freq.simulation.second_order import second_order_step
 
-
-def _run(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(argv)
-    return code, out.getvalue(), err.getvalue()
+_run = run_cli
 
 
 def _write(path, noise=0.0, t_start=-0.005):

@@ -1,25 +1,19 @@
 """``cas-freq report`` and ``cas-freq compare`` on the command line: files, exit codes, bad input,
 and (when Chromium is installed) that the HTML renders its figures in a headless browser."""
 
-import contextlib
-import io
 import json
 import shutil
 import subprocess
 
 import pytest
+from clirun import run_cli
 
-from cas_freq.cli import main
 from cas_freq.report import figures as plots
 
 FAST = ["--amplitudes", "0.5deg,10deg", "--frequencies", "600,1200", "--pade-order", "6"]
 
 
-def _run(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(argv)
-    return code, out.getvalue(), err.getvalue()
+_run = run_cli
 
 
 @pytest.fixture(scope="module")

@@ -5,15 +5,14 @@ The sine-dwell's numerical agreement with the linear loop is tested in test_sine
 the runs use a short frequency list so the module takes a few seconds.
 """
 
-import contextlib
 import io
 import json
 import math
 
 import numpy as np
 import pytest
+from clirun import run_cli
 
-from cas_freq.cli import main
 from cas_freq.cli.common import terminal_progress
 from cas_freq.cli.sinedwell import parse_amplitudes, parse_frequencies
 from cas_freq.config import load_variant
@@ -21,12 +20,7 @@ from cas_freq.exceptions import CasFreqError
 from cas_freq.formulas import second_order_bandwidth
 from cas_freq.simulation.run import step_run, step_run_dict
 
-
-def _run(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(argv)
-    return code, out.getvalue(), err.getvalue()
+_run = run_cli
 
 
 @pytest.fixture(scope="module")

@@ -5,23 +5,15 @@ Configs with only frequency-domain requirements keep these tests fast; one modul
 the shipped config covers the step requirements.
 """
 
-import contextlib
-import io
 import json
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
 
 import pytest
+from clirun import run_cli
 
-from cas_freq.cli import main
-
-
-def _run(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(argv)
-    return code, out.getvalue(), err.getvalue()
+_run = run_cli
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,16 @@
+"""Run ``cas-freq`` in-process and capture what it prints (usable from module-scoped
+fixtures, where pytest's capsys is not available). Imported by the CLI tests as ``clirun``:
+pytest puts this folder on sys.path (the tests are not a package)."""
+
+import contextlib
+import io
+
+from cas_freq.cli import main
+
+
+def run_cli(argv):
+    """(exit status, stdout, stderr) of ``cas-freq argv``."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(argv)
+    return code, out.getvalue(), err.getvalue()
