@@ -7,12 +7,14 @@ import pytest
 
 from cas_freq.fileio import json_ready, write_text_atomic
 
+
 def test_writes_and_replaces(tmp_path):
     path = tmp_path / "sub" / "out.txt"
     write_text_atomic(path, "one")
     write_text_atomic(path, "two")
     assert path.read_text() == "two"
     assert [p.name for p in path.parent.iterdir()] == ["out.txt"]  # no temporary left
+
 
 def test_permissions_follow_the_umask(tmp_path):
     """As a plain open() would: 0o666 less the umask (mkstemp alone gives 0o600)."""
@@ -23,6 +25,7 @@ def test_permissions_follow_the_umask(tmp_path):
         os.umask(old)
     assert stat.S_IMODE(path.stat().st_mode) == 0o644
 
+
 def test_failure_keeps_the_previous_file(tmp_path):
     path = write_text_atomic(tmp_path / "f.txt", "old")
 
@@ -30,6 +33,7 @@ def test_failure_keeps_the_previous_file(tmp_path):
         write_text_atomic(path, 42)  # not text: fails while writing
     assert path.read_text() == "old"
     assert [p.name for p in tmp_path.iterdir()] == ["f.txt"]
+
 
 def test_json_ready():
     import numpy as np
