@@ -119,9 +119,14 @@ def test_chunks_do_not_change_the_figures():
     changes = {"position_loop.Kp": np.linspace(3.0, 9.0, 7)}
     params = variant_parameters(loaded.params, changes)
     whole = batch_analyze(params, chunk_size=100)
-    pieces = batch_analyze(params, chunk_size=3)
+    pieces = batch_analyze(params, chunk_size=3, workers=1)
+    threaded = batch_analyze(params, chunk_size=2, workers=3)
     for name in FIGURES:
         np.testing.assert_array_equal(whole.figures[name], pieces.figures[name])
+        np.testing.assert_array_equal(whole.figures[name], threaded.figures[name])
+    np.testing.assert_array_equal(whole.stability, threaded.stability)
+    with pytest.raises(ValueError, match="workers"):
+        batch_analyze(params, workers=0)
 
 
 def test_tf_follows_kp_and_kd_unless_set():
