@@ -13,7 +13,8 @@ key after the other in the order given, so a seed reproduces every sample.
 
 Yield: the fraction of samples that pass each requirement of the config whose figure the batch
 computes (analyze figures always; step and fit figures when a step is simulated, at the
-requirement's own step size); other requirements are listed as not evaluated.
+requirement's own step size), sine-dwell requirements at the first one's amplitude and grid;
+other requirements are listed as not evaluated.
 """
 
 import dataclasses
@@ -119,24 +120,7 @@ class MonteCarlo:
     stability: np.ndarray
     step_deg: float | None
     requirements: tuple
-
-
-def requirement_step(requirement):
-    """Step [rad] a requirement's figure is measured on (None for analyze figures)."""
-    for name in ("step_rad", "step"):
-        value = getattr(requirement, name, None)
-        if isinstance(value, (int, float)):
-            return float(value)
-    return None
-
-
-def _kind(metric):
-    head = metric.split(".", 1)[0]
-    if head in ("step", "fit"):
-        return "step"
-    if head == "sinedwell":
-        return "sinedwell"
-    return "analyze"
+    sinedwell: tuple | None = None
 
 
 def run_montecarlo(loaded, tolerances, samples, *, distribution="normal", seed=None,
@@ -150,25 +134,38 @@ def run_montecarlo(loaded, tolerances, samples, *, distribution="normal", seed=N
     """
     if not tolerances:
         raise ConfigError("--tolerance: give at least one, e.g. --tolerance motor.Km=10%")
-    requirements = tuple(getattr(loaded.params, "requirements", ()) or ())
+    requirements = loaded.params.requirements
     fit_needed = step_rad is not None
-    if step_rad is None and simulate:
-        stepped = [r for r in requirements if _kind(r.metric) == "step"
-                   and requirement_step(r) is not None]
-        if stepped:
-            step_rad = requirement_step(stepped[0])
-            fit_needed = any(r.metric.startswith("fit.") and
-                             math.isclose(requirement_step(r), step_rad) for r in stepped)
+    sinedwell = None
+    if simulate:
+        stepped = [r for r in requirements if r.kind == "step"]
+        if step_rad is None and stepped:
+            step_rad = stepped[0].step
+        fit_needed = fit_needed or any(
+            r.metric.startswith("fit.") and math.isclose(r.step, step_rad) for r in stepped
+        )
+        dwelt = [r for r in requirements if r.kind == "sinedwell"]
+        if dwelt:
+            sinedwell = _dwell_condition(dwelt[0])
     values, seed = draw(loaded.params, tolerances, samples, distribution, seed)
     figures, stability = evaluate_figures(loaded.params, values, step_rad=step_rad,
-                                          fit=fit_needed, progress=progress)
+                                          fit=fit_needed, sinedwell=sinedwell,
+                                          progress=progress)
     return MonteCarlo(
         config=loaded.params.name, config_path=loaded.source, variant=loaded.variant,
         overrides=tuple(f"{k}={v}" for k, v in loaded.overrides), tolerances=tuple(tolerances),
         distribution=distribution, seed=seed, samples=values, figures=figures,
         stability=stability, step_deg=None if step_rad is None else math.degrees(step_rad),
-        requirements=requirements,
+        requirements=requirements, sinedwell=sinedwell,
     )
+
+
+def _dwell_condition(requirement):
+    """(amplitude [rad], frequencies [rad/s]) a sine-dwell requirement is measured at."""
+    from cas_freq.simulation.run import DEFAULT_SINEDWELL_FREQUENCIES_RAD_S
+
+    return (requirement.amplitude,
+            tuple(requirement.frequencies or DEFAULT_SINEDWELL_FREQUENCIES_RAD_S))
 
 
 def requirement_results(mc):
@@ -178,12 +175,13 @@ def requirement_results(mc):
         entry = {"id": requirement.id, "metric": requirement.metric,
                  "min": requirement.min, "max": requirement.max,
                  "severity": requirement.severity}
-        kind = _kind(requirement.metric)
-        step = requirement_step(requirement)
+        kind = requirement.kind
+        step = requirement.step
         values = mc.figures.get(requirement.metric)
         reason = None
-        if kind == "sinedwell":
-            reason = "sine-dwell figures are not computed in montecarlo"
+        if kind == "sinedwell" and mc.sinedwell != _dwell_condition(requirement):
+            reason = ("sine-dwell not simulated" if mc.sinedwell is None else
+                      "only the first sine-dwell condition of the requirements is simulated")
         elif values is None and requirement.metric.startswith("fit.") and mc.step_deg:
             reason = "the second-order fit was not run"
         elif values is None:
@@ -261,6 +259,7 @@ def montecarlo_dict(mc):
         "tolerances": [{"key": t.key, "unit": unit_of(t.key), "relative": t.relative,
                         "absolute": t.absolute} for t in mc.tolerances],
         "step_deg": mc.step_deg,
+        "sinedwell_deg": None if mc.sinedwell is None else math.degrees(mc.sinedwell[0]),
         "stability": dict(zip(verdicts.tolist(), counts.tolist(), strict=True)),
         "figures": {name: statistics(mc.figures[name]) for name in names},
         "requirements": requirement_results(mc),

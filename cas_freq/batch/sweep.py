@@ -66,8 +66,10 @@ def grid(axes):
     return {key: values.ravel() for key, values in zip(keys, mesh, strict=True)}
 
 
-def evaluate_figures(params, changes, *, step_rad=None, fit=True, progress=None):
-    """Every figure of each sample: the batch analysis, and the step's if ``step_rad``.
+def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None,
+                     progress=None):
+    """Every figure of each sample: the batch analysis, the step's if ``step_rad``, and the
+    sine-dwell bandwidth if ``sinedwell``.
 
     Parameters
     ----------
@@ -79,34 +81,53 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, progress=None)
         Fin step [rad] to simulate for each sample.
     fit : bool
         Fit the second-order model to each step.
+    sinedwell : (float, sequence of float), optional
+        (amplitude [rad], frequencies [rad/s]) of a sine-dwell of each sample, as
+        ``cas-freq sinedwell`` runs it (feed-forward off): adds ``sinedwell.bandwidth_rad_s``
+        (NaN without a crossing in the grid).
     progress : callable, optional
         ``progress(done, total)``.
 
     Returns
     -------
     (dict of str to numpy.ndarray, numpy.ndarray of str)
-        Figures (:data:`cas_freq.batch.analyze.FIGURES`, then ``step.*``/``fit.*``) and the
-        stability verdict per sample.
+        Figures (:data:`cas_freq.batch.analyze.FIGURES`, then ``step.*``/``fit.*``,
+        ``sinedwell.*``) and the stability verdict per sample.
     """
     loop = variant_parameters(params, changes)
     n = loop.n_runs
-    steps_share = 0.9 if step_rad is not None else 0.0
+    # share of the progress bar per stage, by their rough cost
+    stages = [("analysis", 0.1), ("step", 1.0 if step_rad is not None else 0.0),
+              ("sinedwell", 2.0 if sinedwell is not None else 0.0)]
+    total = sum(weight for _, weight in stages)
+    offsets = dict(zip([name for name, _ in stages],
+                       np.cumsum([0.0] + [w for _, w in stages[:-1]]) / total, strict=True))
+    weights = {name: weight / total for name, weight in stages}
 
-    def analysis_progress(done, total):
-        if progress:
-            progress(done / total * (1 - steps_share) * n, n)
+    def stage_progress(stage):
+        def report(done, planned):
+            if progress:
+                progress((offsets[stage] + weights[stage] * done / planned) * n, n)
+        return report
 
-    analysis = batch_analyze(loop, progress=analysis_progress)
+    analysis = batch_analyze(loop, progress=stage_progress("analysis"))
     figures = dict(analysis.figures)
     if step_rad is not None:
         from cas_freq.batch.steps import batch_steps
 
-        def step_progress(done, total):
-            if progress:
-                progress(((1 - steps_share) + steps_share * done / total) * n, n)
-
         figures.update(batch_steps(loop, step_rad, fit=fit, rates_hz=params.simulation.rates_hz,
-                                   progress=step_progress))
+                                   progress=stage_progress("step")))
+    if sinedwell is not None:
+        from cas_freq.simulation.sinedwell import sine_dwell_bandwidths
+
+        amplitude, frequencies = sinedwell
+        current_rate_hz, position_rate_hz = params.simulation.rates_hz
+        bandwidth, _, _ = sine_dwell_bandwidths(
+            loop.replace(ff_v=np.zeros(n), ff_a=np.zeros(n)), amplitude, frequencies,
+            current_rate_hz=current_rate_hz, position_rate_hz=position_rate_hz,
+            progress=stage_progress("sinedwell"),
+        )
+        figures["sinedwell.bandwidth_rad_s"] = bandwidth
     return figures, analysis.stability
 
 
@@ -130,6 +151,8 @@ class Sweep:
         Verdict per point.
     step_deg : float or None
         Simulated fin step [deg].
+    sinedwell_deg : float or None
+        Sine-dwell amplitude [deg].
     """
 
     config: str
@@ -141,18 +164,23 @@ class Sweep:
     figures: dict
     stability: np.ndarray
     step_deg: float | None
+    sinedwell_deg: float | None = None
 
 
-def run_sweep(loaded, axes, *, step_rad=None, fit=True, progress=None):
-    """Sweep a loaded variant over ``axes`` (dict key -> values [SI]); returns :class:`Sweep`."""
+def run_sweep(loaded, axes, *, step_rad=None, fit=True, sinedwell=None, progress=None):
+    """Sweep a loaded variant over ``axes`` (dict key -> values [SI]); returns :class:`Sweep`.
+
+    ``sinedwell``: (amplitude [rad], frequencies [rad/s]) as for :func:`evaluate_figures`.
+    """
     points = grid(axes)
     figures, stability = evaluate_figures(loaded.params, points, step_rad=step_rad, fit=fit,
-                                          progress=progress)
+                                          sinedwell=sinedwell, progress=progress)
     return Sweep(
         config=loaded.params.name, config_path=loaded.source, variant=loaded.variant,
         overrides=tuple(f"{k}={v}" for k, v in loaded.overrides), axes=dict(axes),
         points=points, figures=figures, stability=stability,
         step_deg=None if step_rad is None else math.degrees(step_rad),
+        sinedwell_deg=None if sinedwell is None else math.degrees(sinedwell[0]),
     )
 
 
@@ -182,6 +210,7 @@ def sweep_dict(sweep):
         "swept": {key: {"unit": unit_of(key), "values": values.tolist()}
                   for key, values in sweep.axes.items()},
         "step_deg": sweep.step_deg,
+        "sinedwell_deg": sweep.sinedwell_deg,
         "count": len(records),
         "points": records,
     })

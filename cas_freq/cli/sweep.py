@@ -12,6 +12,7 @@ TABLE_FIGURES = (
     ("closed_loop.peak_db", "peak [dB]"),
     ("step.overshoot_pct", "OS [%]"),
     ("fit.bandwidth_closed_form_rad_s", "BW fit [rad/s]"),
+    ("sinedwell.bandwidth_rad_s", "BW dwell [rad/s]"),
 )
 
 
@@ -26,7 +27,12 @@ def register(commands):
     add_config_arguments(parser, all_variants=False)
     parser.add_argument("--step", metavar="ANGLE", help="also simulate a fin step, e.g. 10deg")
     parser.add_argument("--no-fit", action="store_true",
-                        help="with --step: skip the second-order fit (about 0.15 s per point)")
+                        help="with --step: skip the second-order fit")
+    parser.add_argument("--sinedwell", metavar="ANGLE",
+                        help="also the sine-dwell bandwidth at this fin amplitude, e.g. 10deg "
+                        "(feed-forward off, as cas-freq sinedwell)")
+    parser.add_argument("--frequencies", metavar="MIN:MAX:N|F1,F2,...",
+                        help="with --sinedwell: frequencies in rad/s (default: 100:5000:30)")
     output = parser.add_mutually_exclusive_group()
     output.add_argument("--json", action="store_true", help="print JSON instead of a table")
     output.add_argument("--csv", metavar="FILE", help="write one CSV row per grid point")
@@ -85,9 +91,20 @@ def run(args):
     if not axes:
         raise CasFreqError("sweep: give at least one grid, e.g. --set position_loop.Kp=2:12:200")
     step = angle(args.step, "--step") if args.step else None
+    sinedwell = None
+    if args.sinedwell:
+        from cas_freq.cli.sinedwell import parse_frequencies
+        from cas_freq.simulation.run import DEFAULT_SINEDWELL_FREQUENCIES_RAD_S
+
+        frequencies = (DEFAULT_SINEDWELL_FREQUENCIES_RAD_S if args.frequencies is None
+                       else parse_frequencies(args.frequencies))
+        sinedwell = (abs(angle(args.sinedwell, "--sinedwell")), frequencies)
+    elif args.frequencies:
+        raise CasFreqError("--frequencies: only with --sinedwell")
     loaded = load_variant(args.config, args.variant, fixed)
     progress = terminal_progress("sweep")
-    result = run_sweep(loaded, axes, step_rad=step, fit=not args.no_fit, progress=progress)
+    result = run_sweep(loaded, axes, step_rad=step, fit=not args.no_fit, sinedwell=sinedwell,
+                       progress=progress)
     if progress:
         progress.done()
     data = sweep_dict(result)

@@ -230,6 +230,54 @@ def sine_dwell(
     p = _single(params)
     amplitudes = _positive_1d(amplitudes_rad, "amplitudes_rad")
     frequencies = np.sort(_positive_1d(frequencies_rad_s, "frequencies_rad_s"))
+    n_a, n_f = amplitudes.size, frequencies.size
+    amplitude_grid, frequency_index = np.meshgrid(amplitudes, np.arange(n_f), indexing="ij")
+    dwell = _dwell(
+        _repeat(p, n_a * n_f), amplitude_grid.ravel(), frequency_index.ravel(), frequencies,
+        periods_settle=periods_settle, periods_measure=periods_measure,
+        min_settle_s=min_settle_s, samples_per_period=samples_per_period, dt=dt,
+        current_rate_hz=current_rate_hz, position_rate_hz=position_rate_hz, progress=progress,
+    )
+    response = dwell.response.reshape(n_a, n_f)
+    magnitude = 20.0 * np.log10(np.abs(response))
+    phase = np.unwrap(np.angle(response), axis=1)
+    phase -= 2.0 * np.pi * np.round(phase[:, :1] / (2.0 * np.pi) - 1e-12)
+    bandwidth = tuple(crossing_bandwidth(frequencies, row) for row in magnitude)
+    current_limited = dwell.current_limited.reshape(n_a, n_f)
+    voltage_limited = dwell.voltage_limited.reshape(n_a, n_f)
+    limit_hit = current_limited | voltage_limited
+    for array in (magnitude, phase, current_limited, voltage_limited, limit_hit):
+        array.setflags(write=False)
+    return SineDwellResult(
+        amplitudes_rad=amplitudes, frequencies_rad_s=frequencies, magnitude_db=magnitude,
+        phase_deg=np.degrees(phase), current_limited=current_limited,
+        voltage_limited=voltage_limited, limit_hit=limit_hit, bandwidth_rad_s=bandwidth,
+        settle_s=dwell.settle_s, periods_measured=dwell.periods_measured, dt_s=dwell.dt_s,
+        t_end_s=dwell.t_end_s, record_every=dwell.record_every,
+    )
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Dwell:
+    """First harmonics of a batch of sine runs (see :func:`_dwell`)."""
+
+    response: np.ndarray
+    current_limited: np.ndarray
+    voltage_limited: np.ndarray
+    settle_s: np.ndarray
+    periods_measured: np.ndarray
+    dt_s: float
+    t_end_s: float
+    record_every: int
+
+
+def _dwell(runs, amplitudes, frequency_index, frequencies, *, periods_settle, periods_measure,
+           min_settle_s, samples_per_period, dt, current_rate_hz, position_rate_hz, progress):
+    """Simulate sine runs in one batch and take each one's first harmonic.
+
+    Run r is ``amplitudes[r] * sin(frequencies[frequency_index[r]] * t)`` on actuator
+    ``runs.run(r)``; every run shares the horizon of the lowest frequency (module notes).
+    """
     if not (isinstance(periods_measure, (int, np.integer)) and periods_measure >= 1):
         raise ConfigError(f"sine_dwell: periods_measure: need an integer >= 1, got "
                           f"{periods_measure!r}")
@@ -237,61 +285,104 @@ def sine_dwell(
         raise ConfigError("sine_dwell: periods_settle and min_settle_s must be >= 0")
     if not (isinstance(samples_per_period, (int, np.integer)) and samples_per_period >= 4):
         raise ConfigError("sine_dwell: samples_per_period: need an integer >= 4")
-    n_a, n_f = amplitudes.size, frequencies.size
     periods = 2.0 * math.pi / frequencies
     settle = np.maximum(periods_settle * periods, min_settle_s)
     t_end = float(np.max(settle + periods_measure * periods))
-
-    amplitude_grid, frequency_grid = np.meshgrid(amplitudes, frequencies, indexing="ij")
-    runs = _repeat(p, n_a * n_f)
     if dt is None:
         periods_c = [1.0 / rate for rate in (current_rate_hz, position_rate_hz) if rate]
-        dt = default_time_step([*p.tau_c, *p.tau_p], periods_c, step_bound(p))  # as simulate
+        dt = default_time_step([*runs.tau_c, *runs.tau_p], periods_c, step_bound(runs))
     record_every = max(1, int(periods.min() / (samples_per_period * dt)))
     batch = simulate_batch(
-        runs, Sine(amplitude_grid.ravel(), frequency_grid.ravel()), t_end=t_end, dt=dt,
+        runs, Sine(amplitudes, frequencies[frequency_index]), t_end=t_end, dt=dt,
         record_every=record_every, current_rate_hz=current_rate_hz,
         position_rate_hz=position_rate_hz, progress=progress,
     )
     t = batch.t
-    shape = (n_a, n_f, t.size)
-    delta = batch.delta.reshape(shape)
-    command = batch.command.reshape(shape)
-    current = batch.current_limited.reshape(shape)
-    voltage = batch.voltage_limited.reshape(shape)
-
-    response = np.empty((n_a, n_f), dtype=complex)
-    current_limited = np.empty((n_a, n_f), dtype=bool)
-    voltage_limited = np.empty((n_a, n_f), dtype=bool)
-    measured = np.empty(n_f, dtype=int)
-    half_sample = 0.5 * record_every * dt
+    response = np.empty(runs.n_runs, dtype=complex)
+    current_limited = np.empty(runs.n_runs, dtype=bool)
+    voltage_limited = np.empty(runs.n_runs, dtype=bool)
+    measured = np.empty(frequencies.size, dtype=int)
+    half_sample = 0.5 * record_every * batch.dt_s
     for j, (w, period) in enumerate(zip(frequencies, periods, strict=True)):
         count = max(periods_measure, int(math.floor((batch.t_end_s - settle[j]) / period + 1e-9)))
         measured[j] = count
         window = (t >= batch.t_end_s - count * period - half_sample) & (
             t < batch.t_end_s - half_sample
         )
-        response[:, j] = first_harmonic(t[window], delta[:, j, window], w) / first_harmonic(
-            t[window], command[:, j, window], w
+        rows = frequency_index == j
+        response[rows] = first_harmonic(t[window], batch.delta[rows][:, window], w) / (
+            first_harmonic(t[window], batch.command[rows][:, window], w)
         )
-        current_limited[:, j] = current[:, j, window].any(axis=-1)
-        voltage_limited[:, j] = voltage[:, j, window].any(axis=-1)
+        current_limited[rows] = batch.current_limited[rows][:, window].any(axis=-1)
+        voltage_limited[rows] = batch.voltage_limited[rows][:, window].any(axis=-1)
+    settle.setflags(write=False)
+    measured.setflags(write=False)
+    return _Dwell(response, current_limited, voltage_limited, settle, measured,
+                  float(batch.dt_s), float(batch.t_end_s), record_every)
 
-    magnitude = 20.0 * np.log10(np.abs(response))
-    phase = np.unwrap(np.angle(response), axis=1)
-    phase -= 2.0 * np.pi * np.round(phase[:, :1] / (2.0 * np.pi) - 1e-12)
-    bandwidth = tuple(crossing_bandwidth(frequencies, row) for row in magnitude)
-    for array in (magnitude, phase, current_limited, voltage_limited, settle, measured):
-        array.setflags(write=False)
-    limit_hit = current_limited | voltage_limited
-    limit_hit.setflags(write=False)
-    return SineDwellResult(
-        amplitudes_rad=amplitudes, frequencies_rad_s=frequencies, magnitude_db=magnitude,
-        phase_deg=np.degrees(phase), current_limited=current_limited,
-        voltage_limited=voltage_limited, limit_hit=limit_hit, bandwidth_rad_s=bandwidth,
-        settle_s=settle, periods_measured=measured, dt_s=float(batch.dt_s),
-        t_end_s=float(batch.t_end_s), record_every=record_every,
-    )
+
+def sine_dwell_bandwidths(params, amplitude_rad, frequencies_rad_s, *, chunk_size=64,
+                          current_rate_hz=None, position_rate_hz=None, progress=None,
+                          **options):
+    """Sine-dwell bandwidth of many actuators at one amplitude (for sweeps and Monte Carlo).
+
+    Each actuator is dwelt at every frequency as :func:`sine_dwell` does for one (same settling,
+    windows and fit), in batches of ``chunk_size`` actuators (``chunk_size * n_f`` runs at a
+    time). The default step of a batch is the finest any of its actuators needs; for actuators
+    with the same current loop and delays (the usual sweep of position gains or motor
+    constants) it is :func:`sine_dwell`'s, and the results are the same.
+
+    Parameters
+    ----------
+    params : LoopParameters
+        The actuators (n_runs of them).
+    amplitude_rad : float
+        Command amplitude at the fin [rad], > 0.
+    frequencies_rad_s : array_like
+        Frequencies [rad/s].
+    chunk_size : int
+        Actuators simulated together.
+    current_rate_hz, position_rate_hz : float, optional
+        Sampled-controller rates [Hz].
+    progress : callable, optional
+        ``progress(actuators_done, n_runs)`` after each chunk.
+    **options
+        ``periods_settle``, ``periods_measure``, ``min_settle_s``, ``samples_per_period``,
+        ``dt`` as for :func:`sine_dwell`.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray, numpy.ndarray)
+        Bandwidth [rad/s] per actuator (NaN without a crossing in the grid), magnitude [dB]
+        (n_runs, n_f), and whether a limit acted (n_runs, n_f).
+    """
+    amplitude = float(_positive_1d(amplitude_rad, "amplitude_rad")[0])
+    frequencies = np.sort(_positive_1d(frequencies_rad_s, "frequencies_rad_s"))
+    settings = {"periods_settle": DEFAULT_PERIODS_SETTLE, "periods_measure":
+                DEFAULT_PERIODS_MEASURE, "min_settle_s": DEFAULT_MIN_SETTLE_S,
+                "samples_per_period": DEFAULT_SAMPLES_PER_PERIOD, "dt": None, **options}
+    n, n_f = params.n_runs, frequencies.size
+    bandwidth = np.full(n, np.nan)
+    magnitude = np.empty((n, n_f))
+    limited = np.empty((n, n_f), dtype=bool)
+    for start in range(0, n, chunk_size):
+        stop = min(start + chunk_size, n)
+        chunk = params.replace(**{f.name: getattr(params, f.name)[start:stop]
+                                  for f in dataclasses.fields(params)})
+        dwell = _dwell(
+            _repeat(chunk, n_f), np.full((stop - start) * n_f, amplitude),
+            np.tile(np.arange(n_f), stop - start), frequencies, current_rate_hz=current_rate_hz,
+            position_rate_hz=position_rate_hz, progress=None, **settings,
+        )
+        block = 20.0 * np.log10(np.abs(dwell.response.reshape(stop - start, n_f)))
+        magnitude[start:stop] = block
+        limited[start:stop] = (dwell.current_limited | dwell.voltage_limited).reshape(-1, n_f)
+        for row, values in enumerate(block):
+            value = crossing_bandwidth(frequencies, values)
+            bandwidth[start + row] = np.nan if value is None else value
+        if progress:
+            progress(stop, n)
+    return bandwidth, magnitude, limited
 
 
 def limit_onset_amplitude(result):
