@@ -5,6 +5,7 @@ import csv
 import json
 import math
 
+import numpy as np
 import pytest
 
 from cas_freq.cli import main
@@ -68,3 +69,19 @@ def test_bad_step_exits_2(capsys, step):
 def test_bad_config_exits_2(capsys):
     assert main(["simulate", "--step", "1deg", "--set", "motor.J=-1"]) == 2
     assert "motor.J" in capsys.readouterr().err
+
+
+def test_limit_activity_times(simulated):
+    """The 10 deg step drives the current command into its clamp right after the step (the
+    filtered derivative's kick, Kd/Tf = 63 A/rad on 3.49 rad) for a few ms; the voltage stays
+    inside 30 V. limit_activity itself: worked example on a hand-made flag series."""
+    from cas_freq.simulation.run import limit_activity
+
+    _, data, _ = simulated
+    current, voltage = data["limits"]["current"], data["limits"]["voltage"]
+    assert current["first_s"] == 0.0 and 0.0 < current["active_s"] < 0.01
+    assert 0.0 < current["last_s"] < 0.01
+    assert voltage == {"active_s": 0.0, "first_s": None, "last_s": None}
+    t = np.arange(10) * 0.5
+    flags = np.array([0, 0, 1, 1, 0, 1, 0, 0, 0, 0], dtype=bool)
+    assert limit_activity(t, flags) == {"active_s": 1.5, "first_s": 1.0, "last_s": 2.5}

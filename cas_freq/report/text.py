@@ -79,6 +79,16 @@ def analysis_table(analysis):
     return "\n".join(lines)
 
 
+def _limit_text(t, active):
+    from cas_freq.simulation.run import limit_activity
+
+    activity = limit_activity(t, active)
+    if activity["first_s"] is None:
+        return "within limit"
+    return (f"limit active {activity['active_s'] * 1e3:.3g} ms between "
+            f"{activity['first_s'] * 1e3:.3g} and {activity['last_s'] * 1e3:.3g} ms")
+
+
 def step_table(run):
     """Multi-line summary of a :class:`cas_freq.simulation.run.StepRun`."""
     step, fit, result = run.step, run.fit, run.result
@@ -97,9 +107,9 @@ def step_table(run):
         f"{_fmt(_ms(step.settling_time_5pct_s), 'ms')}",
         f"    peak time           {_fmt(_ms(step.peak_time_s), 'ms')}",
         f"    largest current     {_fmt(step.max_current_a, 'A')} "
-        f"({'limit hit' if step.current_limited else 'within limit'})",
+        f"({_limit_text(result.t, result.current_limited)})",
         f"    largest voltage     {_fmt(step.max_voltage_v, 'V')} "
-        f"({'limit hit' if step.voltage_limited else 'within limit'})",
+        f"({_limit_text(result.t, result.voltage_limited)})",
         "  second-order fit (report §7)",
         f"    wn {_fmt(fit.wn_rad_s, 'rad/s')}, zeta {_fmt(fit.zeta)}, "
         f"td {_fmt(_ms(fit.td_s), 'ms')}"

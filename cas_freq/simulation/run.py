@@ -92,6 +92,30 @@ def step_batch(items):
     return runs
 
 
+def limit_activity(t, active):
+    """When a limit acted: total time, first and last time [s] (None without activity).
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Sample times [s], evenly spaced.
+    active : numpy.ndarray of bool
+        The limit's flag at each sample.
+
+    Returns
+    -------
+    dict
+        ``active_s`` (samples flagged x sample spacing), ``first_s``, ``last_s``.
+    """
+    active = np.asarray(active, dtype=bool)
+    if not active.any():
+        return {"active_s": 0.0, "first_s": None, "last_s": None}
+    spacing = float(t[1] - t[0]) if t.size > 1 else 0.0
+    flagged = t[active]
+    return {"active_s": float(active.sum() * spacing), "first_s": float(flagged[0]),
+            "last_s": float(flagged[-1])}
+
+
 def step_run_dict(run):
     """JSON-ready dict of a :class:`StepRun` (non-finite numbers become None)."""
     result = run.result
@@ -102,6 +126,10 @@ def step_run_dict(run):
         "overrides": list(run.overrides),
         "step": dataclasses.asdict(run.step),
         "fit": dataclasses.asdict(run.fit),
+        "limits": {
+            "current": limit_activity(result.t, result.current_limited),
+            "voltage": limit_activity(result.t, result.voltage_limited),
+        },
         "simulation": {
             "controllers": _controllers(result),
             "dt_s": result.dt_s,
