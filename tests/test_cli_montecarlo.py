@@ -70,7 +70,7 @@ def test_text_and_report(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "seed 7" in text and "BW-1" in text and "not evaluated in montecarlo" in text
     names = sorted(p.name for p in report.iterdir())
-    assert names == ["histograms.svg", "montecarlo.json", "samples.csv"]
+    assert names == [".cas-freq-output", "histograms.svg", "montecarlo.json", "samples.csv"]
     assert len((report / "samples.csv").read_text().splitlines()) == 41
 
 

@@ -86,7 +86,8 @@ def test_csv_and_report(tmp_path, capsys):
     rows = list(csv.DictReader(out_csv.open()))
     assert len(rows) == 6
     assert "position_loop.Kp [A/rad]" in rows[0] and "closed_loop.bandwidth_rad_s" in rows[0]
-    assert sorted(p.name for p in report.iterdir()) == ["sweep.csv", "sweep.json", "sweep.svg"]
+    names = sorted(p.name for p in report.iterdir())
+    assert names == [".cas-freq-output", "sweep.csv", "sweep.json", "sweep.svg"]
     svg = (report / "sweep.svg").read_text()
     assert svg.startswith("<?xml") and "position_loop.Kp" in svg
 

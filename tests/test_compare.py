@@ -88,8 +88,9 @@ def test_folder(pair, tmp_path):
     labels = ["qt_cas/base", "qt_cas/relaxed"]
     write_directory_atomic(target, compare_files(datas, labels, FAST))
     names = sorted(p.relative_to(target).as_posix() for p in target.rglob("*") if p.is_file())
-    assert names == ["figures/bandwidth_overlay.svg", "figures/bode_overlay.svg",
-                     "figures/step_overlay.svg", "index.html", "report.md", "results.json"]
+    assert names == [".cas-freq-output", "figures/bandwidth_overlay.svg",
+                     "figures/bode_overlay.svg", "figures/step_overlay.svg", "index.html",
+                     "report.md", "results.json"]
     results = json.loads((target / "results.json").read_text())
     assert results["baseline"] == "qt_cas/base"
     assert [e["label"] for e in results["entries"]] == labels

@@ -3,7 +3,15 @@
 import pytest
 
 from cas_freq.exceptions import CasFreqError
-from cas_freq.report.outdir import MAX_NAME_LENGTH, sanitise_name, write_directory_atomic
+from cas_freq.report.outdir import (
+    MARKER,
+    MARKER_TEXT,
+    MAX_NAME_LENGTH,
+    sanitise_name,
+    write_directory_atomic,
+)
+
+MARKED = {MARKER: MARKER_TEXT.encode()}
 
 
 @pytest.mark.parametrize(
@@ -35,7 +43,7 @@ def _files(root):
 def test_writes_a_new_folder(tmp_path):
     target = tmp_path / "reports" / "r"
     write_directory_atomic(target, [("a.txt", "A\n"), ("sub/b.bin", b"\x00\x01")])
-    assert _files(target) == {"a.txt": b"A\n", "sub/b.bin": b"\x00\x01"}
+    assert _files(target) == {**MARKED, "a.txt": b"A\n", "sub/b.bin": b"\x00\x01"}
     assert sorted(p.name for p in target.parent.iterdir()) == ["r"]  # no staging left
 
 
@@ -43,7 +51,7 @@ def test_replaces_the_whole_folder(tmp_path):
     target = tmp_path / "r"
     write_directory_atomic(target, [("old.txt", "old"), ("keep/x.txt", "x")])
     write_directory_atomic(target, [("new.txt", "new")])
-    assert _files(target) == {"new.txt": b"new"}
+    assert _files(target) == {**MARKED, "new.txt": b"new"}
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r"]
 
 
@@ -76,3 +84,18 @@ def test_rejects_a_file_as_target(tmp_path):
     with pytest.raises(CasFreqError, match="not a folder"):
         write_directory_atomic(target, [("a", "b")])
     assert target.read_text() == "not a folder"
+
+
+def test_never_replaces_a_folder_it_did_not_write(tmp_path):
+    """A non-empty folder without the marker (a home folder, the project, ``-o .``) is refused,
+    and left as it was; an empty folder is fine."""
+    precious = tmp_path / "victim"
+    (precious / "sub").mkdir(parents=True)
+    (precious / "precious.txt").write_text("keep me")
+    with pytest.raises(CasFreqError, match=r"was not written by cas-freq"):
+        write_directory_atomic(precious, [("index.html", "x")])
+    assert (precious / "precious.txt").read_text() == "keep me" and (precious / "sub").is_dir()
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    write_directory_atomic(empty, [("index.html", "x")])
+    assert (empty / "index.html").read_text() == "x"

@@ -4,6 +4,9 @@
 and only then swaps it in (old folder renamed away, new one renamed in, old one removed). A run
 that fails midway removes its temporary folder and leaves the previous report as it was, never
 half of a new one.
+
+Only a folder cas-freq wrote (it holds the :data:`MARKER` file) or an empty one is ever
+replaced: ``-o ~`` or ``-o .`` is refused instead of wiping what is there.
 """
 
 import os
@@ -16,6 +19,11 @@ from cas_freq.exceptions import CasFreqError
 
 #: Longest folder name made from a config name.
 MAX_NAME_LENGTH = 100
+
+#: File in every folder cas-freq writes; a folder without it is never replaced.
+MARKER = ".cas-freq-output"
+MARKER_TEXT = ("Written by cas-freq. The next run that writes here replaces this folder as a "
+               "whole.\n")
 
 
 def sanitise_name(name, fallback="report"):
@@ -57,6 +65,11 @@ def write_directory_atomic(target, files):
     target = Path(target)
     if target.exists() and not target.is_dir():
         raise CasFreqError(f"-o {target}: exists and is not a folder")
+    if target.is_dir() and any(target.iterdir()) and not (target / MARKER).is_file():
+        raise CasFreqError(
+            f"-o {target}: the folder exists and was not written by cas-freq (no {MARKER} "
+            "file); give a new or empty folder, it would be replaced as a whole"
+        )
     parent = target.parent
     try:
         parent.mkdir(parents=True, exist_ok=True)
@@ -64,6 +77,7 @@ def write_directory_atomic(target, files):
         raise CasFreqError(f"-o {target}: cannot create the parent folder ({exc})") from None
     staging = Path(tempfile.mkdtemp(dir=parent, prefix=f".{target.name}.", suffix=".new"))
     try:
+        (staging / MARKER).write_text(MARKER_TEXT, encoding="utf-8")
         for relative, content in files:
             path = staging.joinpath(*_relative(relative).parts)
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -74,6 +88,9 @@ def write_directory_atomic(target, files):
                     stream.write(content)
         os.chmod(staging, 0o755)
         _swap_in(staging, target)
+    except OSError as exc:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise CasFreqError(f"-o {target}: cannot write the folder ({exc})") from None
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise
