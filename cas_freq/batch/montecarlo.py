@@ -83,6 +83,8 @@ def draw(params, tolerances, samples, distribution="normal", seed=None):
         raise ConfigError(f"--samples: must be an integer >= 1, got {samples!r}")
     if seed is None:
         seed = int(np.random.SeedSequence().entropy % (2**32))
+    elif isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ConfigError(f"--seed: must be an integer >= 0, got {seed!r}")
     rng = np.random.default_rng(seed)
     base = base_values(params)
     values = {}
@@ -194,8 +196,10 @@ def requirement_results(mc):
             entry.update(evaluated=False, reason=f"not evaluated in montecarlo: {reason}")
             out.append(entry)
             continue
-        passed = np.array([requirement.passes(None if math.isnan(v) else float(v))
-                           for v in values])
+        # as verify: no figure of an unstable (or marginal) sample is trusted, so it fails
+        stable = mc.stability.astype(str) == "stable"
+        passed = np.array([bool(ok) and requirement.passes(None if math.isnan(v) else float(v))
+                           for v, ok in zip(values, stable, strict=True)])
         order = _worst_order(values, requirement)
         entry.update(
             evaluated=True, passed=int(passed.sum()), failed=int((~passed).sum()),

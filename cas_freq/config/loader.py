@@ -182,6 +182,8 @@ def _message(error):
         text = f"must be one of {error['ctx']['expected']}, got {value!r}"
     elif kind in ("dict_type", "model_type", "model_attributes_type"):
         text = f"must be a mapping, got {value!r}"
+    elif kind in ("tuple_type", "list_type"):
+        text = f"must be a list (of mappings, one per entry), got {value!r}"
     elif kind in ("string_type",):
         text = f"must be a string, got {value!r}"
     else:

@@ -202,11 +202,11 @@ class Requirement(BaseModel):
             raise PydanticCustomError("cas_value", f"{text} ({exc})") from None
         if unitless:
             raise PydanticCustomError("cas_value", text)
-        if not 0 < abs(number) <= math.pi / 2:
+        if not 0 < number <= math.pi / 2:
             raise PydanticCustomError(
-                "cas_value", f"must be non-zero and within 90 deg at the fin, got {value!r}"
+                "cas_value", f"must be > 0 and at most 90 deg at the fin, got {value!r}"
             )
-        return abs(number)
+        return number
 
     @field_validator("frequencies", mode="before")
     @classmethod

@@ -4,7 +4,7 @@ import math
 
 
 def _fmt(value, unit="", digits=4):
-    if value is None:
+    if value is None or not math.isfinite(value):
         return "—"
     return f"{value:.{digits}g}{(' ' + unit) if unit else ''}"
 
@@ -96,9 +96,14 @@ def step_table(run):
     if run.overrides:
         head += " with " + ", ".join(run.overrides)
     settled = "settled" if result.settled else "NOT settled"
+    warning = []
+    if run.linear_stability != "stable":
+        warning = [f"  WARNING: the linear closed loop is {run.linear_stability.upper()} (Padé "
+                   "poles); these figures describe a loop only the limits keep bounded"]
     extended = ", horizon extended" if result.extended else ""
     return "\n".join([
         head,
+        *warning,
         f"  nonlinear step of {step.amplitude_deg:g} deg at the fin; dt {result.dt_s * 1e6:g} us, "
         f"{result.t_end_s * 1e3:g} ms ({settled}{extended})",
         f"    rise time 10-90 %   {_fmt(_ms(step.rise_time_s), 'ms')}",
@@ -126,12 +131,18 @@ def sinedwell_table(data):
         head += " with " + ", ".join(data["overrides"])
     sim = data["simulation"]
     amplitudes = data["amplitudes"]
+    warning = []
+    if data.get("linear_closed_loop", "stable") != "stable":
+        warning = [f"  WARNING: the linear closed loop is {data['linear_closed_loop'].upper()} "
+                   "(Padé poles): no linear response or bandwidth exists, and the nonlinear "
+                   "figures describe a loop only the limits keep bounded"]
     lines = [
         head,
+        *warning,
         f"  nonlinear sine-dwell, feed-forward {'on' if data['feedforward'] else 'off'}, "
         f"{sim['controllers']} controllers, dt {sim['dt_s'] * 1e6:g} us; "
         "first harmonic of delta / command",
-        "  " + f"{'[rad/s]':>9}" + "".join(
+        "  " + f"{'[rad/s]':>10}" + "".join(
             f"{_fmt(a['amplitude_deg'], 'deg'):>18}" for a in amplitudes
         ) + f"{'linear':>18}",
     ]
@@ -142,7 +153,7 @@ def sinedwell_table(data):
             cells.append(f"{a['magnitude_db'][j]:7.2f} dB{a['phase_deg'][j]:6.0f}°{mark}")
         linear = data["linear"]
         cells.append(f"{linear['magnitude_db'][j]:7.2f} dB{linear['phase_deg'][j]:6.0f}° ")
-        lines.append("  " + f"{omega:9.1f}" + "".join(cells))
+        lines.append("  " + f"{omega:10.1f}" + "".join(cells))
     lines.append("  (* a current or voltage limit acts during the measured periods)")
     onset = data["limit_onset_amplitude_deg"]
     lines.append(

@@ -21,7 +21,12 @@ CSV_COLUMNS = (
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class StepRun:
-    """A simulated fin step of one variant, with its figures and second-order fit."""
+    """A simulated fin step of one variant, with its figures and second-order fit.
+
+    ``linear_stability`` is the verdict of the linear closed loop (Padé-model poles, as
+    ``analyze`` gives it): when it is not ``"stable"`` the step's figures describe a loop that
+    only the limits keep bounded, if anything.
+    """
 
     config: str
     config_path: str
@@ -30,6 +35,15 @@ class StepRun:
     result: object
     step: object
     fit: object
+    linear_stability: str = "stable"
+
+
+def linear_verdict(params):
+    """Stability verdict of the linear closed loop, as ``analyze`` reports it."""
+    from cas_freq.analysis.stability import closed_loop_stability
+    from cas_freq.model import DEFAULT_PADE_ORDER
+
+    return closed_loop_stability(params, DEFAULT_PADE_ORDER).verdict
 
 
 def step_run(loaded, amplitude_rad):
@@ -88,6 +102,7 @@ def step_batch(items):
                 result=result,
                 step=simulation_step_figures(result, amplitude_rad),
                 fit=fit_second_order(result.t, result.delta, amplitude_rad),
+                linear_stability=linear_verdict(loaded.params),
             )
     return runs
 
@@ -126,6 +141,7 @@ def step_run_dict(run):
         "overrides": list(run.overrides),
         "step": dataclasses.asdict(run.step),
         "fit": dataclasses.asdict(run.fit),
+        "linear_closed_loop": run.linear_stability,
         "limits": {
             "current": limit_activity(result.t, result.current_limited),
             "voltage": limit_activity(result.t, result.voltage_limited),
@@ -269,8 +285,10 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
     loops = ActuatorLoops(params)
     omega = np.asarray(result.frequencies_rad_s)
     linear = loops.closed_loop(1j * omega, feedforward=feedforward)
-    grid = frequency_grid(*DEFAULT_RANGE_RAD_S, total_delay=loops.total_delay)
-    linear_bandwidth = closed_loop_figures(loops.closed_loop, grid).bandwidth_rad_s
+    linear_bandwidth = None  # an unstable loop has no frequency response to measure
+    if linear_verdict(params) == "stable":
+        grid = frequency_grid(*DEFAULT_RANGE_RAD_S, total_delay=loops.total_delay)
+        linear_bandwidth = closed_loop_figures(loops.closed_loop, grid).bandwidth_rad_s
 
     amplitudes = np.asarray(result.amplitudes_rad)
     steps = step_batch([(loaded, float(amplitude)) for amplitude in amplitudes])
@@ -334,6 +352,7 @@ def sinedwell_run_dict(run):
         "variant": run.variant,
         "overrides": list(run.overrides),
         "feedforward": run.feedforward,
+        "linear_closed_loop": run.steps[0].linear_stability,
         "frequencies_rad_s": np.asarray(r.frequencies_rad_s).tolist(),
         "linear": {
             "bandwidth_rad_s": run.linear_bandwidth_rad_s,

@@ -57,6 +57,10 @@ from cas_freq.simulation.simulator import default_time_step, simulate_batch, ste
 
 #: Half-power level [dB]: 20 log10(1/sqrt(2)) = -3.0103 dB.
 HALF_POWER_DB = 20.0 * math.log10(HALF_POWER)
+#: Fewest simulation steps per period of a dwell frequency: faster sines are refused (the
+#: command and the response would be sampled too coarsely to trust their first harmonic).
+MIN_STEPS_PER_PERIOD = 20
+
 #: Default settling periods and the shortest settling time [s].
 DEFAULT_PERIODS_SETTLE = 3
 DEFAULT_MIN_SETTLE_S = 0.03
@@ -291,6 +295,13 @@ def _dwell(runs, amplitudes, frequency_index, frequencies, *, periods_settle, pe
     if dt is None:
         periods_c = [1.0 / rate for rate in (current_rate_hz, position_rate_hz) if rate]
         dt = default_time_step([*runs.tau_c, *runs.tau_p], periods_c, step_bound(runs))
+    fastest = 2.0 * math.pi / (MIN_STEPS_PER_PERIOD * dt)
+    if frequencies.max() > fastest:
+        raise ConfigError(
+            f"frequencies: {frequencies.max():g} rad/s is too fast for the simulation step "
+            f"{dt * 1e6:g} us; at most {fastest:.5g} rad/s ({MIN_STEPS_PER_PERIOD} steps per "
+            "period)"
+        )
     record_every = max(1, int(periods.min() / (samples_per_period * dt)))
     batch = simulate_batch(
         runs, Sine(amplitudes, frequencies[frequency_index]), t_end=t_end, dt=dt,

@@ -51,7 +51,8 @@ def measure(variants, requirements):
             key = requirement.id
             if index not in stable:
                 values[key] = None
-                context[key] = f"closed loop {analyses[index]['stability']}: no figure exists"
+                context[key] = (f"not assessed: the closed loop is "
+                                f"{analyses[index]['stability']}")
             elif requirement.kind == "analyze":
                 values[key] = _lookup(analyses[index], requirement.metric)
                 context[key] = "linear, exact delays"

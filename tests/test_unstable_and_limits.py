@@ -1,0 +1,90 @@
+"""An unstable linear loop is a result everywhere, never a silent pass; inputs the simulation
+cannot honour are refused with a clear error.
+
+The unstable case is the base variant with position_loop.Kd = 0.5 A*s/rad (13x the tuned
+0.0381): ``analyze`` reports it unstable (its Padé-6 closed loop has poles in the right half
+plane), so no requirement may pass on it.
+"""
+
+import json
+import math
+
+import numpy as np
+import pytest
+from clirun import run_cli
+
+from cas_freq.batch.montecarlo import draw, parse_tolerance, requirement_results, run_montecarlo
+from cas_freq.config import load_variant
+from cas_freq.exceptions import ConfigError
+from cas_freq.simulation.run import sinedwell_run, step_run
+
+UNSTABLE = [("position_loop.Kd", "0.5 A*s/rad")]
+
+
+def test_the_case_is_unstable():
+    code, out, _ = run_cli(["analyze", "--set", "position_loop.Kd=0.5", "--json"])
+    assert code == 0 and json.loads(out)["stability"] == "unstable"
+
+
+def test_step_and_sinedwell_say_the_linear_loop_is_unstable():
+    loaded = load_variant(None, "base", UNSTABLE)
+    run = step_run(loaded, math.radians(1))
+    assert run.linear_stability == "unstable"
+    dwell = sinedwell_run(loaded, [math.radians(1)], [300.0, 600.0])
+    assert dwell.linear_bandwidth_rad_s is None  # no frequency response to measure
+    code, out, _ = run_cli(["simulate", "--step", "1deg", "--set", "position_loop.Kd=0.5"])
+    assert code == 0 and "WARNING: the linear closed loop is UNSTABLE" in out
+    assert "nan" not in out
+
+
+def test_montecarlo_yield_counts_unstable_samples_as_failures():
+    """All samples unstable (a 0.001 % tolerance around the unstable case): every evaluated
+    requirement has 0 % yield, as verify fails every requirement of an unstable variant."""
+    loaded = load_variant(None, "base", UNSTABLE)
+    mc = run_montecarlo(loaded, [parse_tolerance("motor.R=0.001%")], 3, seed=1, simulate=False)
+    assert set(mc.stability.astype(str)) == {"unstable"}
+    evaluated = [r for r in requirement_results(mc) if r["evaluated"]]
+    assert evaluated and all(r["yield_pct"] == 0.0 for r in evaluated)
+
+
+def test_montecarlo_yield_is_the_count_of_passing_samples():
+    """GM-P (position-loop gain margin >= 6 dB) over Kd samples from x0.05 to x1.95: the yield
+    is the share of stable samples whose gain margin, from the same run's figures, is >= 6."""
+    loaded = load_variant()
+    mc = run_montecarlo(loaded, [parse_tolerance("position_loop.Kd=95%")], 30, seed=3,
+                        distribution="uniform", simulate=False)
+    margin = mc.figures["position_loop.gain_margin_db"]
+    stable = mc.stability.astype(str) == "stable"
+    expected = 100.0 * np.mean(stable & (margin >= 6.0))
+    by_id = {r["id"]: r for r in requirement_results(mc)}
+    assert by_id["GM-P"]["yield_pct"] == pytest.approx(expected, abs=1e-12)
+    assert 0.0 < expected < 100.0  # the draw spans the requirement, so the check is not vacuous
+
+
+def test_negative_seed_is_refused():
+    params = load_variant().params
+    with pytest.raises(ConfigError, match="--seed: must be an integer >= 0"):
+        draw(params, [parse_tolerance("motor.Km=1%")], 3, seed=-1)
+    code, _, err = run_cli(["montecarlo", "--samples", "3", "--seed", "-1",
+                            "--tolerance", "motor.Km=1%"])
+    assert code == 2 and "--seed" in err
+
+
+def test_sine_faster_than_the_step_allows_is_refused():
+    """At dt = 5 us a sine needs 20 steps per period: at most 2 pi / (20 * 5 us) = 62,832 rad/s;
+    faster ones would be aliased, not measured."""
+    code, out, err = run_cli(["sinedwell", "--amplitudes", "1deg", "--frequencies", "1e6"])
+    assert code == 2 and out == ""
+    assert "1e+06 rad/s is too fast" in err and "62832 rad/s" in err
+
+
+def test_requirements_must_be_a_list():
+    code, _, err = run_cli(["verify", "--set", "requirements=3"])
+    assert code == 2 and "requirements: must be a list" in err
+
+
+def test_negative_requirement_step_is_refused(shipped_raw, write_config):
+    shipped_raw["requirements"] = [{"id": "OS", "metric": "step.overshoot_pct", "max": 15,
+                                    "step": "-10 deg"}]
+    code, _, err = run_cli(["verify", str(write_config(shipped_raw))])
+    assert code == 2 and "requirements.0.step: must be > 0" in err
