@@ -67,27 +67,31 @@ def angle(text, option):
 
 
 class _Progress:
-    """A one-line percentage on stderr, redrawn in place."""
+    """A tqdm bar driven by ``(done, planned)`` calls (the plan may grow)."""
 
-    def __init__(self, label, stream):
-        self.label, self.stream, self.shown = label, stream, -1
+    def __init__(self, label, stream, unit):
+        from tqdm import tqdm
+
+        self.bar = tqdm(total=1, desc=label, file=stream, unit=unit, unit_scale=True,
+                        leave=True, dynamic_ncols=True)
 
     def __call__(self, done, planned):
-        percent = int(100 * done / planned) if planned else 100
-        if percent != self.shown:
-            self.shown = percent
-            self.stream.write(f"\r{self.label}: {percent:3d} %")
-            self.stream.flush()
+        if planned != self.bar.total:
+            self.bar.total = planned
+        self.bar.update(done - self.bar.n)
 
     def done(self):
-        """End the line."""
-        self.stream.write("\n")
-        self.stream.flush()
+        """Close the bar (ends its line)."""
+        self.bar.close()
 
 
-def terminal_progress(label, stream=None):
-    """A progress callable ``(done, planned)`` when ``stream`` (stderr) is a terminal, else None."""
+def terminal_progress(label, stream=None, unit="step"):
+    """A progress callable ``(done, planned)`` when ``stream`` (stderr) is a terminal, else None.
+
+    The bar is tqdm's, on ``stream``; nothing is printed when the output is not a terminal
+    (a CI log or a pipe).
+    """
     import sys
 
     stream = sys.stderr if stream is None else stream
-    return _Progress(label, stream) if stream.isatty() else None
+    return _Progress(label, stream, unit) if stream.isatty() else None

@@ -88,7 +88,7 @@ def run(args):
     tolerances = [parse_tolerance(text) for text in args.tolerance]
     step = angle(args.step, "--step") if args.step else None
     (loaded,) = load_variants(args)
-    progress = terminal_progress("montecarlo")
+    progress = terminal_progress("montecarlo", unit="sample")
     result = run_montecarlo(loaded, tolerances, args.samples, distribution=args.distribution,
                             seed=args.seed, step_rad=step, simulate=not args.no_step,
                             progress=progress)

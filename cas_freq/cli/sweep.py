@@ -102,7 +102,7 @@ def run(args):
     elif args.frequencies:
         raise CasFreqError("--frequencies: only with --sinedwell")
     loaded = load_variant(args.config, args.variant, fixed)
-    progress = terminal_progress("sweep")
+    progress = terminal_progress("sweep", unit="point")
     result = run_sweep(loaded, axes, step_rad=step, fit=not args.no_fit, sinedwell=sinedwell,
                        progress=progress)
     if progress:
