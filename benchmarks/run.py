@@ -26,6 +26,7 @@ import subprocess
 import sys
 import time
 import tracemalloc
+from pathlib import Path
 
 import numpy as np
 
@@ -206,45 +207,12 @@ def bench_memory(params, n):
 
 
 def actuator_nlsys(config, pade_order):
-    """The loop of MODEL.md as a python-control ``nlsys`` with Padé delays (a copy of the
-    construction in tests/test_simulation_nlsys.py, derivative on the error)."""
-    import control
+    """The loop of MODEL.md as a python-control ``nlsys`` with Padé delays: the reference
+    implementation the tests check the simulator against (tests/nlsys_reference.py)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from nlsys_reference import actuator_nlsys as reference
 
-    motor, cur, pos = config.motor, config.current_loop, config.position_loop
-    r, ind, km, ke, j, mu = (motor.R, motor.L, motor.Km, motor.Ke, motor.J,
-                             motor.viscous_friction)
-    tf = pos.Tf if pos.Tf is not None else pos.Kd / (10.0 * pos.Kp)
-
-    def pade_ss(tau):
-        num, den = control.pade(1.0, pade_order)
-        unit = control.tf2ss(num, den)
-        return (np.asarray(unit.A) / tau, np.asarray(unit.B).ravel() / tau,
-                np.asarray(unit.C).ravel(), float(np.asarray(unit.D).item()))
-
-    delays = [pade_ss(pos.delay), pade_ss(cur.delay)]
-    split = 6 + pade_order
-
-    def through(delay, z, u):
-        a, b, c, d = delay
-        return c @ z + d * u, a @ z + b * u
-
-    def update(t, x, u, params):
-        i, omega, theta, int_i, int_p, x_f = x[:6]
-        e = u[0] - theta
-        u_p = pos.Kp * e + pos.Ki * int_p + pos.Kd * (e - x_f) / tf
-        d_int_p = 0.0 if (abs(u_p) > pos.i_max and e * u_p > 0) else e
-        i_cmd, dz_p = through(delays[0], x[6:split], np.clip(u_p, -pos.i_max, pos.i_max))
-        e_i = i_cmd - i
-        u_c = cur.Kp * e_i + cur.Ki * int_i
-        d_int_i = 0.0 if (abs(u_c) > cur.v_max and e_i * u_c > 0) else e_i
-        volts, dz_c = through(delays[1], x[split:], np.clip(u_c, -cur.v_max, cur.v_max))
-        di = (volts - r * i - ke * omega) / ind
-        domega = (km * i - mu * omega) / j
-        return np.concatenate(
-            [[di, domega, omega, d_int_i, d_int_p, (e - x_f) / tf], dz_p, dz_c])
-
-    n = 6 + 2 * pade_order
-    return control.nlsys(update, None, inputs=1, outputs=n, states=n, name="actuator")
+    return reference(config, pade_order)
 
 
 def main(argv=None):
