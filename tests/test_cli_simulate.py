@@ -85,3 +85,42 @@ def test_limit_activity_times(simulated):
     t = np.arange(10) * 0.5
     flags = np.array([0, 0, 1, 1, 0, 1, 0, 0, 0, 0], dtype=bool)
     assert limit_activity(t, flags) == {"active_s": 1.5, "first_s": 1.0, "last_s": 2.5}
+
+
+def test_command_table_is_the_ramp_it_draws(tmp_path):
+    """A table rising 1 deg in 10 ms and holding is the library's Ramp(100 deg/s, stop 10 ms):
+    same angle, rate (feed-forward) and corners, so the fin follows the same trajectory on the
+    common times, to rounding."""
+    from clirun import run_cli
+
+    from cas_freq.config import load_variant
+    from cas_freq.simulation import simulate
+    from cas_freq.simulation.commands import Ramp
+
+    table = tmp_path / "cmd.csv"
+    table.write_text("t [s],delta [deg]\n0,0\n0.01,1\n0.05,1\n")
+    out_csv = tmp_path / "run.csv"
+    code, out, err = run_cli(["simulate", "--command", str(table), "--csv", str(out_csv),
+                              "--json"])
+    assert code == 0, err
+    followed = np.loadtxt(out_csv, delimiter=",", skiprows=1)
+    ramp = simulate(load_variant().params, Ramp(np.radians(100.0), 0.0, 0.01), t_end=0.1)
+    n = min(len(followed), ramp.t.size)
+    np.testing.assert_allclose(followed[:n, 0], ramp.t[:n], rtol=0, atol=1e-12)
+    # the CSV keeps 9 significant digits: 1e-8 deg on angles of about 1 deg
+    np.testing.assert_allclose(followed[:n, 2], np.degrees(ramp.delta[:n]), rtol=0, atol=2e-8)
+    data = json.loads(out)
+    assert 0.0 < data["tracking"]["max_abs_error_deg"] < 1.0
+    assert abs(data["tracking"]["final_error_deg"]) < 0.02  # settled within 2 % of 1 deg
+
+
+def test_command_errors_exit_2(tmp_path):
+    from clirun import run_cli
+
+    bad = tmp_path / "bad.csv"
+    bad.write_text("0,1\n0.01,x\n")
+    code, _, err = run_cli(["simulate", "--command", str(bad)])
+    assert code == 2 and "row 2" in err
+    with pytest.raises(SystemExit) as usage:  # argparse: both is a usage error
+        run_cli(["simulate", "--command", str(bad), "--step", "1deg"])
+    assert usage.value.code == 2

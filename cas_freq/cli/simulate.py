@@ -1,4 +1,5 @@
-"""``cas-freq simulate``: the nonlinear step, its figures and the second-order fit."""
+"""``cas-freq simulate``: the nonlinear step, its figures and the second-order fit; or any
+command from a CSV table."""
 
 from cas_freq.cli.common import EXIT_OK, add_config_arguments, angle, load_variants, print_json
 
@@ -6,13 +7,19 @@ from cas_freq.cli.common import EXIT_OK, add_config_arguments, angle, load_varia
 def register(commands):
     """Add the ``simulate`` sub-parser."""
     parser = commands.add_parser(
-        "simulate", help="nonlinear step response, its figures and second-order fit",
-        description="Nonlinear time-domain step of the fin (limits, anti-windup, exact delays).",
+        "simulate", help="nonlinear step response (figures, second-order fit) or a CSV command",
+        description="Nonlinear time-domain simulation of the fin (limits, anti-windup, exact "
+        "delays): a step with its figures and second-order fit, or a command table.",
     )
     add_config_arguments(parser)
-    parser.add_argument(
-        "--step", required=True, metavar="ANGLE",
-        help="fin step with a unit, e.g. 10deg or 0.1rad",
+    what = parser.add_mutually_exclusive_group(required=True)
+    what.add_argument(
+        "--step", metavar="ANGLE", help="fin step with a unit, e.g. 10deg or 0.1rad",
+    )
+    what.add_argument(
+        "--command", metavar="FILE",
+        help="fin command from a CSV of time [s], angle [deg] (optional header; held after "
+        "its last point)",
     )
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.add_argument("--csv", metavar="FILE", help="write the time series to FILE")
@@ -20,19 +27,34 @@ def register(commands):
 
 
 def run(args):
-    """Simulate the step for the selected variants; print a table or JSON, write CSV."""
+    """Simulate for the selected variants; print a table or JSON, write CSV."""
     from cas_freq.fileio import write_text_atomic
-    from cas_freq.report.text import step_table
-    from cas_freq.simulation.run import step_csv_name, step_run, step_run_csv, step_run_dict
+    from cas_freq.report.text import command_table, step_table
+    from cas_freq.simulation.run import (
+        command_run,
+        command_run_dict,
+        step_csv_name,
+        step_run_csv,
+        step_run_dict,
+        step_runs,
+    )
 
-    amplitude = angle(args.step, "--step")
-    runs = [step_run(loaded, amplitude) for loaded in load_variants(args)]
+    variants = load_variants(args)
+    if args.command:
+        from cas_freq.simulation.commands import read_command_csv
+
+        command = read_command_csv(args.command)
+        runs = [command_run(loaded, command) for loaded in variants]
+        to_dict, to_table = command_run_dict, command_table
+    else:
+        runs = step_runs(variants, angle(args.step, "--step"))
+        to_dict, to_table = step_run_dict, step_table
     if args.csv:
         for result in runs:
             write_text_atomic(step_csv_name(args.csv, result, len(runs)), step_run_csv(result))
     if args.json:
-        data = [step_run_dict(result) for result in runs]
+        data = [to_dict(result) for result in runs]
         print_json(data if args.all_variants else data[0])
     else:
-        print("\n\n".join(step_table(result) for result in runs))
+        print("\n\n".join(to_table(result) for result in runs))
     return EXIT_OK

@@ -188,3 +188,31 @@ def sinedwell_table(data):
         f"(wn {bench['wn_rad_s']:g} rad/s, zeta {bench['zeta']:g})"
     )
     return "\n".join(lines)
+
+
+def command_table(run):
+    """Multi-line summary of a :class:`cas_freq.simulation.run.CommandRun`."""
+    from cas_freq.simulation.run import command_run_dict
+
+    data = command_run_dict(run)
+    head = f"{run.config} / {run.variant}"
+    if run.overrides:
+        head += " with " + ", ".join(run.overrides)
+    r, tracking = run.result, data["tracking"]
+    lines = [head]
+    if run.linear_stability != "stable":
+        lines.append(f"  WARNING: the linear closed loop is {run.linear_stability.upper()} "
+                     "(Padé poles)")
+    settled = "settled" if r.settled else "NOT settled"
+    lines += [
+        f"  nonlinear run of the command {run.source}; dt {r.dt_s * 1e6:g} us, "
+        f"{r.t_end_s * 1e3:g} ms ({settled}{', horizon extended' if r.extended else ''})",
+        f"    tracking error      max {_fmt(tracking['max_abs_error_deg'], 'deg')}, "
+        f"RMS {_fmt(tracking['rms_error_deg'], 'deg')}, "
+        f"final {_fmt(tracking['final_error_deg'], 'deg')}",
+        f"    largest current     {_fmt(data['max_current_a'], 'A')} "
+        f"({_limit_text(r.t, r.current_limited)})",
+        f"    largest voltage     {_fmt(data['max_voltage_v'], 'V')} "
+        f"({_limit_text(r.t, r.voltage_limited)})",
+    ]
+    return "\n".join(lines)

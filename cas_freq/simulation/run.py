@@ -184,6 +184,64 @@ def step_run_csv(run):
     return out.getvalue()
 
 
+@dataclasses.dataclass(frozen=True, eq=False)
+class CommandRun:
+    """A simulated user command (a CSV table) of one variant: how well the fin followed it."""
+
+    config: str
+    config_path: str
+    variant: str
+    overrides: tuple
+    source: str
+    result: object
+    linear_stability: str
+
+
+def command_run(loaded, command):
+    """Simulate a :class:`~cas_freq.simulation.commands.Table` command on one variant.
+
+    The horizon is the table's last time plus the simulator's default settling time, extended
+    (as for a step) until the fin has settled on the table's last value.
+    """
+    current_rate_hz, position_rate_hz = loaded.params.simulation.rates_hz
+    result = simulate_batch(
+        [loaded.params], command, current_rate_hz=current_rate_hz,
+        position_rate_hz=position_rate_hz,
+    ).run(0)
+    return CommandRun(
+        config=loaded.params.name, config_path=loaded.source, variant=loaded.variant,
+        overrides=tuple(f"{key}={value}" for key, value in loaded.overrides),
+        source=command.source, result=result, linear_stability=linear_verdict(loaded.params),
+    )
+
+
+def command_run_dict(run):
+    """JSON-ready dict of a :class:`CommandRun`: tracking error, peaks, limit activity."""
+    r = run.result
+    error = np.degrees(r.delta - r.command)
+    return json_ready({
+        "config": run.config,
+        "config_path": run.config_path,
+        "variant": run.variant,
+        "overrides": list(run.overrides),
+        "command": {"source": run.source, "end_s": r.t_end_s},
+        "linear_closed_loop": run.linear_stability,
+        "tracking": {
+            "max_abs_error_deg": float(np.max(np.abs(error))),
+            "rms_error_deg": float(np.sqrt(np.mean(error**2))),
+            "final_error_deg": float(error[-1]),
+        },
+        "max_current_a": float(np.max(np.abs(r.i))),
+        "max_voltage_v": float(np.max(np.abs(r.V))),
+        "limits": {
+            "current": limit_activity(r.t, r.current_limited),
+            "voltage": limit_activity(r.t, r.voltage_limited),
+        },
+        "simulation": {"controllers": _controllers(r), "dt_s": r.dt_s, "t_end_s": r.t_end_s,
+                       "extended": r.extended, "settled": r.settled},
+    })
+
+
 #: Default sine-dwell frequencies [rad/s]: 30 log-spaced points over 100..5000 rad/s, around the
 #: closed-loop bandwidths of the shipped variants (about 300 to 1400 rad/s).
 DEFAULT_SINEDWELL_FREQUENCIES_RAD_S = tuple(np.geomspace(100.0, 5000.0, 30))
