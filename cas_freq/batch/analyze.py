@@ -174,17 +174,11 @@ def _chunk_figures(p, frequency_range, points_per_decade, pade_order):
     need = _needs_full_grid(figures, tops, verdict == "stable")
     if need.any():
         rows = np.flatnonzero(need)
-        again, _ = _figures_on(_take(p, rows), full, verdict[rows], current_verdict[rows])
+        again, _ = _figures_on(p.take(rows), full, verdict[rows], current_verdict[rows])
         for name, value in again.items():
             figures[name] = np.array(figures[name], copy=True)
             figures[name][rows] = value
     return figures, verdict, current_verdict
-
-
-def _take(params, rows):
-    """Runs ``rows`` of ``params`` (a LoopParameters)."""
-    names = [field.name for field in dataclasses.fields(params)]
-    return dataclasses.replace(params, **{k: getattr(params, k)[rows] for k in names})
 
 
 def batch_analyze(
@@ -227,7 +221,7 @@ def batch_analyze(
     starts = range(0, n, chunk_size)
 
     def work(start):
-        chunk = _subset(params, start, min(start + chunk_size, n))
+        chunk = params.take(slice(start, min(start + chunk_size, n)))
         return _chunk_figures(chunk, frequency_range, points_per_decade, pade_order)
 
     # numpy releases the GIL inside its array loops, so chunks overlap on several cores
@@ -247,12 +241,6 @@ def _workers(requested, chunks):
     if not (isinstance(count, int) and count >= 1):
         raise ValueError(f"workers: need an integer >= 1, got {requested!r}")
     return max(1, min(count, chunks))
-
-
-def _subset(params, start, stop):
-    """Runs start..stop-1 of ``params`` (a LoopParameters)."""
-    names = [field.name for field in dataclasses.fields(params)]
-    return dataclasses.replace(params, **{k: getattr(params, k)[start:stop] for k in names})
 
 
 def analysis_figures(analysis_dict):

@@ -132,12 +132,14 @@ class LoopParameters:
             raise ConfigError(f"simulation parameters: unknown names {sorted(unknown)}")
         return dataclasses.replace(self, **changes)
 
+    def take(self, rows):
+        """The runs ``rows`` (a slice, or an array of run indices, repeats allowed)."""
+        names = [f.name for f in dataclasses.fields(self)]
+        return dataclasses.replace(self, **{name: getattr(self, name)[rows] for name in names})
+
     def run(self, index):
         """The parameters of run ``index`` alone (n_runs = 1)."""
-        names = [f.name for f in dataclasses.fields(self)]
-        return dataclasses.replace(
-            self, **{name: getattr(self, name)[index : index + 1] for name in names}
-        )
+        return self.take(slice(index, index + 1))
 
 
 def _row(config):

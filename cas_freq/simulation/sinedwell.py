@@ -132,8 +132,8 @@ def _single(params):
 
 
 def _repeat(params, n):
-    names = [f.name for f in dataclasses.fields(params)]
-    return params.replace(**{name: np.repeat(getattr(params, name), n) for name in names})
+    """Each run of ``params`` ``n`` times in a row."""
+    return params.take(np.repeat(np.arange(params.n_runs), n))
 
 
 def _positive_1d(values, name):
@@ -378,8 +378,7 @@ def sine_dwell_bandwidths(params, amplitude_rad, frequencies_rad_s, *, chunk_siz
     limited = np.empty((n, n_f), dtype=bool)
     for start in range(0, n, chunk_size):
         stop = min(start + chunk_size, n)
-        chunk = params.replace(**{f.name: getattr(params, f.name)[start:stop]
-                                  for f in dataclasses.fields(params)})
+        chunk = params.take(slice(start, stop))
         dwell = _dwell(
             _repeat(chunk, n_f), np.full((stop - start) * n_f, amplitude),
             np.tile(np.arange(n_f), stop - start), frequencies, current_rate_hz=current_rate_hz,
