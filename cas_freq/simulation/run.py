@@ -46,6 +46,16 @@ def linear_verdict(params):
     return closed_loop_stability(params, DEFAULT_PADE_ORDER).verdict
 
 
+def _identity(loaded):
+    """config, config_path, variant and overrides of a loaded variant, as every run holds them."""
+    return {
+        "config": loaded.params.name,
+        "config_path": loaded.source,
+        "variant": loaded.variant,
+        "overrides": tuple(f"{key}={value}" for key, value in loaded.overrides),
+    }
+
+
 def step_run(loaded, amplitude_rad):
     """Simulate a fin step of ``amplitude_rad`` [rad] on one loaded variant and analyse it."""
     return step_runs([loaded], amplitude_rad)[0]
@@ -82,9 +92,11 @@ def step_batch(items):
     list of StepRun
         In the order of ``items``.
     """
-    groups = {}
+    groups, verdicts = {}, {}
     for index, (loaded, _) in enumerate(items):
         groups.setdefault(_batch_key(loaded.params), []).append(index)
+        if id(loaded) not in verdicts:  # once per variant, however many step sizes
+            verdicts[id(loaded)] = linear_verdict(loaded.params)
     runs = [None] * len(items)
     for ((current_rate_hz, position_rate_hz), dt), members in groups.items():
         batch = simulate_batch(
@@ -95,14 +107,11 @@ def step_batch(items):
         for position, index in enumerate(members):
             (loaded, amplitude_rad), result = items[index], batch.run(position)
             runs[index] = StepRun(
-                config=loaded.params.name,
-                config_path=loaded.source,
-                variant=loaded.variant,
-                overrides=tuple(f"{key}={value}" for key, value in loaded.overrides),
+                **_identity(loaded),
                 result=result,
                 step=simulation_step_figures(result, amplitude_rad),
                 fit=fit_second_order(result.t, result.delta, amplitude_rad),
-                linear_stability=linear_verdict(loaded.params),
+                linear_stability=verdicts[id(loaded)],
             )
     return runs
 
@@ -209,9 +218,8 @@ def command_run(loaded, command):
         position_rate_hz=position_rate_hz,
     ).run(0)
     return CommandRun(
-        config=loaded.params.name, config_path=loaded.source, variant=loaded.variant,
-        overrides=tuple(f"{key}={value}" for key, value in loaded.overrides),
-        source=command.source, result=result, linear_stability=linear_verdict(loaded.params),
+        **_identity(loaded), source=command.source, result=result,
+        linear_stability=linear_verdict(loaded.params),
     )
 
 
@@ -340,20 +348,17 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
         dwell_parameters(params, feedforward), amplitudes_rad, frequencies_rad_s,
         progress=progress, **rates,
     )
+    amplitudes = np.asarray(result.amplitudes_rad)
+    steps = step_batch([(loaded, float(amplitude)) for amplitude in amplitudes])
     loops = ActuatorLoops(params)
     omega = np.asarray(result.frequencies_rad_s)
     linear = loops.closed_loop(1j * omega, feedforward=feedforward)
     linear_bandwidth = None  # an unstable loop has no frequency response to measure
-    if linear_verdict(params) == "stable":
+    if steps[0].linear_stability == "stable":
         grid = frequency_grid(*DEFAULT_RANGE_RAD_S, total_delay=loops.total_delay)
         linear_bandwidth = closed_loop_figures(loops.closed_loop, grid).bandwidth_rad_s
-
-    amplitudes = np.asarray(result.amplitudes_rad)
-    steps = step_batch([(loaded, float(amplitude)) for amplitude in amplitudes])
     return SineDwellRun(
-        config=params.name, config_path=loaded.source, variant=loaded.variant,
-        overrides=tuple(f"{key}={value}" for key, value in loaded.overrides),
-        feedforward=feedforward,
+        **_identity(loaded), feedforward=feedforward,
         controllers=_controllers(steps[0].result),
         result=result, linear_response=linear, linear_bandwidth_rad_s=linear_bandwidth,
         steps=tuple(steps), limit_onset_rad=limit_onset_amplitude(result),

@@ -50,7 +50,30 @@ SETTLE_BAND = 0.02
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class SimulationResult:
+class _Signals:
+    """The fields a run and a batch share (see :class:`SimulationResult`)."""
+
+    t: np.ndarray
+    delta: np.ndarray
+    theta: np.ndarray
+    omega: np.ndarray
+    i: np.ndarray
+    V: np.ndarray
+    command: np.ndarray
+    current_command: np.ndarray
+    position_integral: np.ndarray
+    current_limited: np.ndarray
+    voltage_limited: np.ndarray
+    dt_s: float
+    t_end_s: float
+    extended: bool
+    settled: object
+    current_rate_hz: float | None
+    position_rate_hz: float | None
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class SimulationResult(_Signals):
     """One run: every signal sampled at ``t``.
 
     Attributes
@@ -83,56 +106,22 @@ class SimulationResult:
         Rates of sampled controllers; None for continuous ones.
     """
 
-    t: np.ndarray
-    delta: np.ndarray
-    theta: np.ndarray
-    omega: np.ndarray
-    i: np.ndarray
-    V: np.ndarray
-    command: np.ndarray
-    current_command: np.ndarray
-    position_integral: np.ndarray
-    current_limited: np.ndarray
-    voltage_limited: np.ndarray
-    dt_s: float
-    t_end_s: float
-    extended: bool
-    settled: bool | None
-    current_rate_hz: float | None
-    position_rate_hz: float | None
 
-
-_ARRAYS = tuple(f.name for f in dataclasses.fields(SimulationResult))[1:11]
+_ARRAYS = tuple(f.name for f in dataclasses.fields(_Signals))[1:11]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class BatchResult:
-    """Every run of a batch: each signal of :class:`SimulationResult` as (n_runs, n_samples).
+class BatchResult(_Signals):
+    """Every run of a batch: the fields of :class:`SimulationResult`, each signal of shape
+    (n_runs, n_samples) and ``settled`` a bool array (n_runs,) or None; :meth:`run` gives one
+    run.
 
-    ``settled`` is a bool array (n_runs,) or None; :meth:`run` gives one run.
     ``t_end_runs`` (n_runs,) [s], for settling commands, is the horizon each run would have had
     alone: the first horizon of the doubling sequence at which it had settled (or the last).
     :meth:`run` cuts the run there, so a run's figures do not depend on the other runs of the
-    batch.
+    batch. ``first_t_end_s`` is the first horizon of that sequence [s].
     """
 
-    t: np.ndarray
-    delta: np.ndarray
-    theta: np.ndarray
-    omega: np.ndarray
-    i: np.ndarray
-    V: np.ndarray
-    command: np.ndarray
-    current_command: np.ndarray
-    position_integral: np.ndarray
-    current_limited: np.ndarray
-    voltage_limited: np.ndarray
-    dt_s: float
-    t_end_s: float
-    extended: bool
-    settled: np.ndarray | None
-    current_rate_hz: float | None
-    position_rate_hz: float | None
     t_end_runs: np.ndarray | None = None
     first_t_end_s: float | None = None
 
