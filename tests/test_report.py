@@ -255,3 +255,21 @@ def test_report_rejects_mixed_configs(base):
     other = type(base)(base.source, "base", base.params.model_copy(update={"name": "other"}))
     with pytest.raises(CasFreqError, match="compare"):
         build_report([base, other], settings=FAST)
+
+
+def test_report_verdicts_reuse_its_runs_and_equal_verify(monkeypatch):
+    """The report's 10 deg step is the step OS-1 and BW-2 need: verify reuses it (and the
+    report's analysis) instead of simulating again, and gives the verdicts ``cas-freq verify``
+    gives on its own."""
+    import cas_freq.simulation.run as run_module
+    from cas_freq.verify import verdict_dict, verify_variant
+
+    loaded = load_variant()
+    expected = [verdict_dict(v) for v in verify_variant(loaded)]
+
+    def no_new_steps(*args, **kwargs):
+        raise AssertionError("verify simulated a step the report already had")
+
+    monkeypatch.setattr(run_module, "step_runs", no_new_steps)
+    data = gather_variant(loaded, FAST)
+    assert [dict(v) for v in data.verdicts] == expected

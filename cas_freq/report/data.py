@@ -207,17 +207,15 @@ def requirement_verdicts(loaded, results):
 
     The one seam between the report and :mod:`cas_freq.verify`: the verdict dicts have the keys
     ``id, variant, metric, value, unit, min, max, margin, status, severity, source, message``
-    (and more). ``results`` is the variant's entry of ``results.json`` (``analyze``,
-    ``simulate``, ``sinedwell``); it is not used yet: ``verify`` measures its own figures under
-    each requirement's own test condition (step size, amplitude, grid), which may differ from
-    the report's.
+    (and more). ``results`` holds what the report already computed with the same code: its
+    ``analyze`` JSON and the ``simulate`` JSON of every step it ran; verify reuses them and only
+    runs what a requirement needs beyond them (another step size, a sine-dwell).
     """
-    del results
-    if not getattr(loaded.params, "requirements", ()):
+    if not loaded.params.requirements:
         return []
     from cas_freq.verify import verdict_dict, verify_variant
 
-    return [verdict_dict(verdict) for verdict in verify_variant(loaded)]
+    return [verdict_dict(verdict) for verdict in verify_variant(loaded, known=results)]
 
 
 def select_verdicts(verdicts, loaded):
@@ -270,7 +268,12 @@ def gather_variant(loaded, settings=ReportSettings(), verdicts=None, progress=No
         pade_order=settings.pade_order, verdicts=None,
     )
     if verdicts is None:
-        found = requirement_verdicts(loaded, variant_results(data))
+        from cas_freq.analysis import to_dict
+        from cas_freq.simulation.run import step_run_dict
+
+        computed = {"analyze": to_dict(analysis),
+                    "steps": [step_run_dict(run) for run in dwell.steps]}
+        found = requirement_verdicts(loaded, computed)
         chosen = None if found is None else tuple(dict(v) for v in found)
     else:
         chosen = select_verdicts(verdicts, loaded)

@@ -83,7 +83,7 @@ def _verdict(requirement, variant, value, condition):
     )
 
 
-def verify_variants(variants, requirements=None):
+def verify_variants(variants, requirements=None, known=None):
     """Check every requirement (default: the config's own) on each variant.
 
     Parameters
@@ -92,6 +92,9 @@ def verify_variants(variants, requirements=None):
         The variants.
     requirements : sequence of Requirement, optional
         Default: each variant's ``params.requirements``; all variants of one config share them.
+    known : sequence of dict, optional
+        Results already computed per variant, not computed again (see
+        :func:`cas_freq.verify.measure.measure`).
 
     Returns
     -------
@@ -101,7 +104,7 @@ def verify_variants(variants, requirements=None):
     requirements = variants[0].params.requirements if requirements is None else requirements
     if not requirements:
         return {loaded.variant: [] for loaded in variants}
-    measured = measure(variants, requirements)
+    measured = measure(variants, requirements, known)
     return {
         loaded.variant: [
             _verdict(requirement, loaded.variant, values[requirement.id],
@@ -112,9 +115,11 @@ def verify_variants(variants, requirements=None):
     }
 
 
-def verify_variant(loaded, requirements=None):
-    """:func:`verify_variants` of one variant: its list of verdicts."""
-    return verify_variants([loaded], requirements)[loaded.variant]
+def verify_variant(loaded, requirements=None, known=None):
+    """:func:`verify_variants` of one variant (``known``: its one dict): its verdicts."""
+    return verify_variants([loaded], requirements, None if known is None else [known])[
+        loaded.variant
+    ]
 
 
 def failed_required(verdicts):

@@ -17,7 +17,7 @@ def _lookup(data, dotted):
     return value
 
 
-def measure(variants, requirements):
+def measure(variants, requirements, known=None):
     """Figures of every variant for each requirement.
 
     Parameters
@@ -26,6 +26,10 @@ def measure(variants, requirements):
         The variants (their steps of one size run in one batch).
     requirements : sequence of cas_freq.config.requirement.Requirement
         What to measure.
+    known : sequence of dict, optional
+        Per variant, results already computed by the same code (so not computed again):
+        ``"analyze"``, the ``analyze`` JSON, and ``"steps"``, a list of ``simulate`` JSONs of
+        steps; a step of the right size (to 1e-9) is used instead of a new run.
 
     Returns
     -------
@@ -37,12 +41,16 @@ def measure(variants, requirements):
     from cas_freq.analysis import analyze, to_dict
     from cas_freq.simulation.run import step_run_dict, step_runs
 
-    analyses = [to_dict(analyze(loaded)) for loaded in variants]
+    known = known or [{} for _ in variants]
+    analyses = [item.get("analyze") or to_dict(analyze(loaded))
+                for loaded, item in zip(variants, known, strict=True)]
     stable = [index for index, data in enumerate(analyses) if data["stable"]]
     steps = {}
     for size in sorted({r.step for r in requirements if r.kind == "step"}):
-        runs = step_runs([variants[index] for index in stable], size)
-        steps[size] = dict(zip(stable, (step_run_dict(run) for run in runs), strict=True))
+        steps[size] = {index: _known_step(known[index], size) for index in stable}
+        missing = [index for index, data in steps[size].items() if data is None]
+        runs = step_runs([variants[index] for index in missing], size) if missing else []
+        steps[size].update(zip(missing, (step_run_dict(run) for run in runs), strict=True))
     out = []
     for index, loaded in enumerate(variants):
         values, context = {}, {}
@@ -68,6 +76,16 @@ def measure(variants, requirements):
                 context[key] = _dwell_text(*condition)
         out.append((json_ready(values), context))
     return out
+
+
+def _known_step(item, size):
+    """The ``simulate`` JSON of a step of ``size`` [rad] among ``item["steps"]``, or None."""
+    import math
+
+    for data in item.get("steps", ()):
+        if math.isclose(math.radians(data["step"]["amplitude_deg"]), size, rel_tol=1e-9):
+            return data
+    return None
 
 
 def _sinedwell_bandwidth(loaded, amplitude, frequencies):
