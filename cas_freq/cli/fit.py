@@ -27,13 +27,12 @@ def run(args):
     import numpy as np
 
     from cas_freq.fileio import json_ready
-    from cas_freq.simulation.commands import read_command_csv
+    from cas_freq.simulation.commands import read_angle_series_csv
     from cas_freq.simulation.second_order import fit_second_order
     from cas_freq.simulation.step_figures import step_figures
 
     step = angle(args.step, "--step")
-    table = read_command_csv(args.csv, negative_times=True)
-    t, delta = table.time_s, table.angle_rad
+    t, delta = read_angle_series_csv(args.csv, negative_times=True)
     if t[0] > 0 or t[-1] <= 0:
         raise CasFreqError(f"{args.csv}: the times must span the step at t = 0 s, got "
                            f"{t[0]:g}..{t[-1]:g} s")

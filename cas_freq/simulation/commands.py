@@ -207,16 +207,13 @@ class Table:
         return np.asarray(self.angle_rad[-1])
 
 
-def read_command_csv(path, negative_times=False):
-    """Read a user command: two columns, time [s] and fin angle [deg]; an optional header row.
+def read_command_csv(path):
+    """Read a user command: two columns, time [s] >= 0 and fin angle [deg]; an optional header.
 
     Parameters
     ----------
     path : str or Path
         CSV file (comma-separated; lines starting with ``#`` are skipped).
-    negative_times : bool
-        Accept times before 0 (a measured response with pre-trigger samples); a command starts
-        at 0, so the default is False.
 
     Returns
     -------
@@ -228,11 +225,35 @@ def read_command_csv(path, negative_times=False):
     ConfigError
         (a ValueError) naming the file and row of the first bad value.
     """
+    time_s, angle_rad = read_angle_series_csv(path)
+    return Table(time_s, angle_rad, source=str(path))
+
+
+def read_angle_series_csv(path, negative_times=False):
+    """Read a fin-angle time series: time [s] and angle [deg] columns, an optional header.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV file (comma-separated; lines starting with ``#`` are skipped).
+    negative_times : bool
+        Accept times before 0 (a measured response with pre-trigger samples).
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        Times [s], strictly increasing, and angles [rad].
+
+    Raises
+    ------
+    ConfigError
+        (a ValueError) naming the file and row of the first bad value.
+    """
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: cannot read command file ({exc})") from None
+        raise ConfigError(f"{path}: cannot read the file ({exc})") from None
     times, angles = [], []
     for row_number, row in enumerate(csv.reader(text.splitlines()), start=1):
         if not row or not "".join(row).strip() or row[0].lstrip().startswith("#"):
@@ -258,7 +279,7 @@ def read_command_csv(path, negative_times=False):
         angles.append(angle)
     if len(times) < 2:
         raise ConfigError(f"{path}: need at least 2 rows of (time [s], angle [deg])")
-    return Table(np.array(times), np.radians(angles), source=str(path))
+    return np.array(times), np.radians(angles)
 
 
 def motor_command(command, ratio, t, left=False):
