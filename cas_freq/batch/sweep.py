@@ -123,7 +123,7 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None
         amplitude, frequencies = sinedwell
         current_rate_hz, position_rate_hz = params.simulation.rates_hz
         bandwidth, _, _ = sine_dwell_bandwidths(
-            loop.replace(ff_v=np.zeros(n), ff_a=np.zeros(n)), amplitude, frequencies,
+            loop.without_feedforward(), amplitude, frequencies,
             current_rate_hz=current_rate_hz, position_rate_hz=position_rate_hz,
             progress=stage_progress("sinedwell"),
         )

@@ -132,6 +132,11 @@ class LoopParameters:
             raise ConfigError(f"simulation parameters: unknown names {sorted(unknown)}")
         return dataclasses.replace(self, **changes)
 
+    def without_feedforward(self):
+        """A copy with ff_v = ff_a = 0: the loop of MODEL.md's T, whose bandwidth is ω_BW."""
+        zero = np.zeros(self.n_runs)
+        return self.replace(ff_v=zero, ff_a=zero)
+
     def take(self, rows):
         """The runs ``rows`` (a slice, or an array of run indices, repeats allowed)."""
         names = [f.name for f in dataclasses.fields(self)]

@@ -307,9 +307,7 @@ def bandwidth_requirement(params):
 def dwell_parameters(params, feedforward):
     """Simulator parameters of one variant, without the feed-forward unless ``feedforward``."""
     loop = LoopParameters.from_config(params)
-    if feedforward:
-        return loop
-    return loop.replace(ff_v=np.zeros(1), ff_a=np.zeros(1))
+    return loop if feedforward else loop.without_feedforward()
 
 
 def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward=False,
