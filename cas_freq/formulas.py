@@ -1,11 +1,14 @@
 """Closed-form relations quoted by ARL-TR-9136, as plain functions of SI values.
 
 This module sits at the bottom of the package: it imports nothing from cas_freq, so both the
-config layer (which derives the viscous friction) and the analysis layer (which reports the
-second-order bandwidth) can use it.
+parameter table (:mod:`cas_freq.parameters`, which derives the viscous friction for a config and
+for a batch of samples alike) and the analysis layer (which reports the second-order bandwidth)
+can use it.
 """
 
 import math
+
+import numpy as np
 
 #: |T| at the bandwidth relative to |T(0)| (MODEL.md: 3.01 dB below): 1/sqrt(2) = -3.0103 dB.
 HALF_POWER = 1.0 / math.sqrt(2.0)
@@ -23,19 +26,20 @@ def viscous_friction_from_no_load(torque_constant, no_load_speed, no_load_curren
 
     Parameters
     ----------
-    torque_constant : float
+    torque_constant : float or numpy.ndarray
         Motor torque constant :math:`K_m` [N*m/A].
-    no_load_speed : float
-        No-load speed :math:`\omega_0` [rad/s] (already converted from rpm).
-    no_load_current : float
+    no_load_speed : float or numpy.ndarray
+        No-load speed :math:`\omega_0` [rad/s] (already converted from rpm), > 0.
+    no_load_current : float or numpy.ndarray
         No-load current :math:`I_0` [A].
 
     Returns
     -------
-    float
-        Viscous friction :math:`\mu_v` [N*m*s/rad].
+    float or numpy.ndarray
+        Viscous friction :math:`\mu_v` [N*m*s/rad]: a float for floats, else an array of the
+        arguments' broadcast shape.
     """
-    if not no_load_speed > 0:
+    if not np.all(np.greater(no_load_speed, 0)):
         raise ValueError(f"no_load_speed: must be > 0 rad/s, got {no_load_speed!r}")
     return torque_constant * no_load_current / no_load_speed
 

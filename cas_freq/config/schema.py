@@ -1,61 +1,47 @@
 """The validated actuator configuration, as frozen pydantic models.
 
-Every numeric field is stored in SI. Each field's unit and accepted range are declared once,
-with :func:`si`; the loader turns pydantic's errors into one message per problem that names the
-dotted key, the value and what is accepted (see :mod:`cas_freq.config.loader`).
+Every numeric field is stored in SI. Its unit, accepted range and meaning are declared once, in
+the parameter table :data:`cas_freq.parameters.PARAMETERS`; a field here names its dotted key
+with :func:`param`, and is converted by :func:`cas_freq.parameters.parse_value`'s own path. The
+loader turns pydantic's errors into one message per problem that names the dotted key, the
+value and what is accepted (see :mod:`cas_freq.config.loader`).
 
 Keys follow MODEL.md and the report's symbols (``Kp``, ``Ki``, ``Kd``, ``Tf``, ``mu_v``, ...).
 """
 
-import math
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
 from pydantic_core import PydanticCustomError
 
 from cas_freq.config.requirement import Requirement
-from cas_freq.config.units import to_si
-from cas_freq.formulas import viscous_friction_from_no_load
+from cas_freq.parameters import PARAMETERS, filter_time_constant, viscous_friction
 
 BASE_VARIANT = "base"
 
 
-def _bounds_text(gt, ge):
-    if gt is not None:
-        return f"> {gt:g}"
-    if ge is not None:
-        return f">= {ge:g}"
-    return "finite"
+def param(key):
+    """Type of the float field of dotted config ``key``, as :data:`PARAMETERS` declares it.
 
-
-def si(unit, *, gt=None, ge=None):
-    """Type of a float field given in ``unit`` (SI), with an optional lower bound.
-
-    Parameters
-    ----------
-    unit : str
-        SI unit the value is stored in, as pint spells it.
-    gt, ge : float, optional
-        Strict or non-strict lower bound, in ``unit``.
+    The value is a number in the key's SI unit or a string with a unit; it is converted and
+    checked against the key's bound by :meth:`cas_freq.parameters.Parameter.convert`, the
+    conversion :func:`cas_freq.parameters.parse_value` uses.
     """
+    parameter = PARAMETERS[key]
 
     def convert(value):
         try:
-            number = to_si(value, unit)
+            return parameter.convert(value)
         except TypeError as exc:
             raise PydanticCustomError("cas_type", str(exc)) from None
         except ValueError as exc:
             raise PydanticCustomError("cas_value", str(exc)) from None
-        shown = f"{value} {unit}" if not isinstance(value, str) else repr(value)
-        if not math.isfinite(number):
-            raise PydanticCustomError("cas_value", f"must be finite, got {shown}")
-        if (gt is not None and not number > gt) or (ge is not None and not number >= ge):
-            raise PydanticCustomError(
-                "cas_value", f"must be {_bounds_text(gt, ge)} {unit}, got {shown}"
-            )
-        return number
 
-    return Annotated[float, BeforeValidator(convert), Field(description=unit)]
+    return Annotated[
+        float, BeforeValidator(convert),
+        Field(description=parameter.meaning, json_schema_extra={"key": key,
+                                                                "unit": parameter.unit}),
+    ]
 
 
 class _Section(BaseModel):
@@ -65,19 +51,19 @@ class _Section(BaseModel):
 class NoLoad(_Section):
     """Motor no-load point, from which the viscous friction is derived (report §6)."""
 
-    speed: si("rad/s", gt=0)
-    current: si("A", ge=0)
+    speed: param("motor.no_load.speed")
+    current: param("motor.no_load.current")
 
 
 class Motor(_Section):
     """Motor constants (report Table 3), and either ``mu_v`` or ``no_load``."""
 
-    R: si("ohm", gt=0)
-    L: si("H", gt=0)
-    Km: si("N*m/A", gt=0)
-    Ke: si("V*s/rad", gt=0)
-    J: si("kg*m^2", gt=0)
-    mu_v: si("N*m*s/rad", ge=0) | None = None
+    R: param("motor.R")
+    L: param("motor.L")
+    Km: param("motor.Km")
+    Ke: param("motor.Ke")
+    J: param("motor.J")
+    mu_v: param("motor.mu_v") | None = None
     no_load: NoLoad | None = None
 
     @model_validator(mode="after")
@@ -95,22 +81,22 @@ class Motor(_Section):
         """Viscous friction [N*m*s/rad]: ``mu_v``, or derived from the no-load point."""
         if self.mu_v is not None:
             return self.mu_v
-        return viscous_friction_from_no_load(self.Km, self.no_load.speed, self.no_load.current)
+        return viscous_friction(self.Km, self.no_load.speed, self.no_load.current)
 
 
 class Gear(_Section):
     """Gear between motor and fin: fin angle = motor angle / ratio."""
 
-    ratio: si("dimensionless", gt=0)
+    ratio: param("gear.ratio")
 
 
 class CurrentLoop(_Section):
     """PI current controller (report Table 1) and its transport delay."""
 
-    Kp: si("V/A", ge=0)
-    Ki: si("V/(A*s)", ge=0)
-    v_max: si("V", gt=0)
-    delay: si("s", ge=0)
+    Kp: param("current_loop.Kp")
+    Ki: param("current_loop.Ki")
+    v_max: param("current_loop.v_max")
+    delay: param("current_loop.delay")
 
     @model_validator(mode="after")
     def _some_gain(self):
@@ -122,14 +108,14 @@ class CurrentLoop(_Section):
 class PositionLoop(_Section):
     """PID position controller with filtered derivative (report Table 2) and its delay."""
 
-    Kp: si("A/rad", ge=0)
-    Ki: si("A/(rad*s)", ge=0)
-    Kd: si("A*s/rad", ge=0)
-    Tf: si("s", gt=0) | None = None
-    ff_v: si("A*s/rad") = 0.0
-    ff_a: si("A*s^2/rad") = 0.0
-    i_max: si("A", gt=0)
-    delay: si("s", ge=0)
+    Kp: param("position_loop.Kp")
+    Ki: param("position_loop.Ki")
+    Kd: param("position_loop.Kd")
+    Tf: param("position_loop.Tf") | None = None
+    ff_v: param("position_loop.ff_v") = 0.0
+    ff_a: param("position_loop.ff_a") = 0.0
+    i_max: param("position_loop.i_max")
+    delay: param("position_loop.delay")
     derivative_on: Literal["error", "measurement"] = "error"
 
     @model_validator(mode="after")
@@ -146,11 +132,7 @@ class PositionLoop(_Section):
     @property
     def filter_time_constant(self):
         """Derivative filter time constant [s]: ``Tf``, or Kd/(10*Kp) (0 when Kd = 0)."""
-        if self.Tf is not None:
-            return self.Tf
-        if self.Kd == 0:
-            return 0.0
-        return self.Kd / (10.0 * self.Kp)
+        return filter_time_constant(self.Kp, self.Kd, self.Tf)
 
 
 class Simulation(_Section):
@@ -163,8 +145,8 @@ class Simulation(_Section):
     """
 
     controllers: Literal["continuous", "sampled"] = "continuous"
-    current_loop_rate: si("Hz", gt=0) = 25e3
-    position_loop_rate: si("Hz", gt=0) = 2.5e3
+    current_loop_rate: param("simulation.current_loop_rate") = 25e3
+    position_loop_rate: param("simulation.position_loop_rate") = 2.5e3
 
     @property
     def rates_hz(self):

@@ -1,0 +1,500 @@
+"""The actuator's numeric parameters, declared once, and the loop parameters of a batch of runs.
+
+:data:`PARAMETERS` is the one table of every numeric config key: its dotted key in the YAML
+(``position_loop.Kp``), the :class:`LoopParameters` field that carries it into the model and the
+simulator (``cp_Kp``), the SI unit it is stored in (as pint spells it), its lower bound and a
+one-line meaning. Everything else reads the table:
+
+- the config schema (:mod:`cas_freq.config.schema`) declares each field with
+  ``param("position_loop.Kp")``, so its unit and bound exist only here;
+- :func:`parse_value` is the one conversion of a config value (a number in SI or a string with
+  a unit) to a float in SI with the bound checked, shared by the schema, ``sweep --set`` and
+  ``montecarlo --tolerance``; every refusal reads ``position_loop.Kd: must be >= 0 A*s/rad,
+  got -0.1 A*s/rad``;
+- :class:`LoopParameters` checks its arrays against the same bounds;
+- :func:`variant_parameters` builds the parameters of n samples of a config with some keys
+  changed per sample (a sweep, a Monte Carlo run), checking every sample against the same
+  bounds.
+
+The two derived parameters have one rule each, used by the schema's properties and by
+:func:`variant_parameters` alike, on scalars and arrays:
+
+- :func:`filter_time_constant`: the derivative filter ``Tf = Kd / (10 Kp)`` unless ``Tf`` is
+  set (0 where ``Kd`` = 0);
+- :func:`viscous_friction`: ``mu_v = Km I0 / w0`` from the motor's no-load point
+  (:func:`cas_freq.formulas.viscous_friction_from_no_load`, report §6).
+
+In a batch, derived quantities follow the changed ones as they would if each sample were a
+config file: ``Tf`` is derived per sample unless the base config sets ``position_loop.Tf`` or
+``position_loop.Tf`` is itself varied; ``mu_v`` is derived per sample from the sample's ``Km``,
+``no_load.speed`` and ``no_load.current`` when the base config gives the no-load point (a
+tolerance on Km moves mu_v with it, as the report's formula does), and stays fixed when the
+base config gives ``motor.mu_v`` (e.g. the fitted variant) unless ``motor.mu_v`` is varied.
+
+This module sits at the bottom of the package: it imports only :mod:`cas_freq.exceptions`,
+:mod:`cas_freq.units` and :mod:`cas_freq.formulas`, which import nothing from cas_freq.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from cas_freq.exceptions import ConfigError, ConfigTypeError
+from cas_freq.formulas import viscous_friction_from_no_load as viscous_friction
+from cas_freq.units import to_si
+
+__all__ = [
+    "PARAMETERS",
+    "VARIABLE_KEYS",
+    "LoopParameters",
+    "Parameter",
+    "base_values",
+    "check_key",
+    "filter_time_constant",
+    "parse_value",
+    "unit_of",
+    "variant_parameters",
+    "viscous_friction",
+]
+
+
+def _shown(value, unit):
+    """A config value as an error message quotes it: strings quoted, numbers with the unit."""
+    if isinstance(value, str):
+        return repr(value)
+    if isinstance(value, np.generic):
+        value = value.item()
+    return f"{value!r} {unit}"
+
+
+@dataclasses.dataclass(frozen=True)
+class Parameter:
+    """One numeric parameter of the actuator config.
+
+    Attributes
+    ----------
+    key : str
+        Dotted config key (``"position_loop.Kp"``).
+    field : str or None
+        Field of :class:`LoopParameters` that carries it (``"cp_Kp"``), None for a key the
+        loop parameters do not hold (the no-load point, which only derives ``mu_v``; the
+        simulation's sample rates).
+    unit : str
+        SI unit the value is stored in, as pint spells it.
+    lower : float or None
+        Lower bound in ``unit`` (None: any finite value).
+    strict : bool
+        True for ``> lower``, False for ``>= lower``.
+    meaning : str
+        One line saying what it is, ending with the unit in brackets.
+    """
+
+    key: str
+    field: str | None
+    unit: str
+    lower: float | None
+    strict: bool
+    meaning: str
+
+    @property
+    def rule(self):
+        """The accepted range as error messages state it: ``"> 0 ohm"``, ``"finite"``."""
+        if self.lower is None:
+            return "finite"
+        return f"{'>' if self.strict else '>='} {self.lower:g} {self.unit}"
+
+    def accepts(self, values):
+        """Bool (array): finite and within the bound."""
+        values = np.asarray(values, dtype=float)
+        good = np.isfinite(values)
+        if self.lower is not None:
+            good &= values > self.lower if self.strict else values >= self.lower
+        return good
+
+    def problem(self, value, given=None):
+        """What is wrong with one SI ``value`` (``given``: as written), or None if accepted."""
+        if self.accepts(value):
+            return None
+        shown = _shown(value if given is None else given, self.unit)
+        rule = "finite" if not math.isfinite(value) else self.rule
+        return f"must be {rule}, got {shown}"
+
+    def convert(self, value):
+        """One config value (a number in SI, or a string with a unit) as a float in SI.
+
+        Raises
+        ------
+        TypeError
+            For a value that is neither a number nor a string.
+        ValueError
+            For a string that does not read as a quantity of this unit's dimension, or a value
+            outside the accepted range. The messages do not name the key (see
+            :func:`parse_value`).
+        """
+        try:
+            number = to_si(value, self.unit)
+        except (OverflowError, ValueError) as exc:
+            if not isinstance(value, str):
+                raise ValueError(f"must be finite, got {_shown(value, self.unit)}") from None
+            raise ValueError(
+                f"cannot read {value!r} as a value in {self.unit} ({exc})"
+            ) from None
+        problem = self.problem(number, value)
+        if problem:
+            raise ValueError(problem)
+        return number
+
+    def check(self, values, label=None, where="samples"):
+        """Raise ConfigError unless every value of the array ``values`` is accepted.
+
+        The message names ``label`` (default the key), the range, the first bad value and the
+        indices of up to 10 bad ``where`` (samples, runs).
+        """
+        values = np.asarray(values, dtype=float)
+        bad = ~self.accepts(values)
+        if bad.any():
+            first = float(values[bad][0])
+            raise ConfigError(
+                f"{label or self.key}: {self.problem(first)} ({where} {_indices(bad)})"
+            )
+
+
+def _table(*rows):
+    return {row[0]: Parameter(*row) for row in rows}
+
+
+#: Every numeric parameter of the config, by dotted key, in the config's order.
+PARAMETERS = _table(
+    ("motor.R", "R", "ohm", 0.0, True, "motor terminal resistance R [ohm]"),
+    ("motor.L", "L", "H", 0.0, True, "motor terminal inductance L [H]"),
+    ("motor.Km", "Km", "N*m/A", 0.0, True, "motor torque constant Km [N*m/A]"),
+    ("motor.Ke", "Ke", "V*s/rad", 0.0, True, "motor back-EMF constant Ke [V*s/rad]"),
+    ("motor.J", "J", "kg*m^2", 0.0, True, "rotor inertia J [kg*m^2]"),
+    ("motor.mu_v", "mu_v", "N*m*s/rad", 0.0, False,
+     "viscous friction mu_v, else derived from motor.no_load as Km*I0/w0 [N*m*s/rad]"),
+    ("motor.no_load.speed", None, "rad/s", 0.0, True,
+     "motor no-load speed w0, from which mu_v is derived [rad/s]"),
+    ("motor.no_load.current", None, "A", 0.0, False,
+     "motor no-load current I0, from which mu_v is derived [A]"),
+    ("gear.ratio", "ratio", "dimensionless", 0.0, True,
+     "gear ratio N: motor angle = N * fin angle [dimensionless]"),
+    ("current_loop.Kp", "ci_Kp", "V/A", 0.0, False, "current-loop proportional gain [V/A]"),
+    ("current_loop.Ki", "ci_Ki", "V/(A*s)", 0.0, False, "current-loop integral gain [V/(A*s)]"),
+    ("current_loop.v_max", "v_max", "V", 0.0, True, "current-loop voltage limit +/-v_max [V]"),
+    ("current_loop.delay", "tau_c", "s", 0.0, False, "current-loop transport delay tau_c [s]"),
+    ("position_loop.Kp", "cp_Kp", "A/rad", 0.0, False,
+     "position-loop proportional gain [A/rad]"),
+    ("position_loop.Ki", "cp_Ki", "A/(rad*s)", 0.0, False,
+     "position-loop integral gain [A/(rad*s)]"),
+    ("position_loop.Kd", "cp_Kd", "A*s/rad", 0.0, False,
+     "position-loop derivative gain (numerator Kd*s) [A*s/rad]"),
+    ("position_loop.Tf", "Tf", "s", 0.0, True,
+     "derivative filter time constant Tf, default Kd/(10*Kp) [s]"),
+    ("position_loop.ff_v", "ff_v", "A*s/rad", None, False,
+     "feed-forward of the motor-angle command rate [A*s/rad]"),
+    ("position_loop.ff_a", "ff_a", "A*s^2/rad", None, False,
+     "feed-forward of the motor-angle command acceleration [A*s^2/rad]"),
+    ("position_loop.i_max", "i_max", "A", 0.0, True, "current-command limit +/-i_max [A]"),
+    ("position_loop.delay", "tau_p", "s", 0.0, False, "position-loop transport delay tau_p [s]"),
+    ("simulation.current_loop_rate", None, "Hz", 0.0, True,
+     "current-controller sample rate with controllers: sampled [Hz]"),
+    ("simulation.position_loop_rate", None, "Hz", 0.0, True,
+     "position-controller sample rate with controllers: sampled [Hz]"),
+)
+
+#: Keys a sweep or a Monte Carlo run can change per sample: every key that reaches the loop
+#: parameters (the simulation's sample rates are settings of a whole run, not of a sample).
+VARIABLE_KEYS = tuple(key for key in PARAMETERS if not key.startswith("simulation."))
+
+
+def _indices(mask):
+    return np.flatnonzero(mask)[:10].tolist()
+
+
+def check_key(key):
+    """Raise ConfigError unless ``key`` is a numeric dotted key that can be varied."""
+    if key not in VARIABLE_KEYS:
+        raise ConfigError(
+            f"{key}: cannot be varied (not a numeric loop parameter); accepted keys: "
+            f"{', '.join(VARIABLE_KEYS)}"
+        )
+
+
+def unit_of(key):
+    """SI unit [str] in which values of ``key`` are stored."""
+    if key not in PARAMETERS:
+        raise ConfigError(f"{key}: not a numeric parameter; known keys: {', '.join(PARAMETERS)}")
+    return PARAMETERS[key].unit
+
+
+def parse_value(key, value):
+    """One value of ``key`` (a number in SI, or a string with a unit) as a float in SI.
+
+    The one string-to-SI path of the package: the config schema converts every numeric field
+    with it too, so the unit, the bound and the message are the same everywhere.
+
+    Raises
+    ------
+    ConfigTypeError
+        For a value that is neither a number nor a string.
+    ConfigError
+        For an unknown key, an unreadable value or one outside the accepted range, e.g.
+        ``position_loop.Kd: must be >= 0 A*s/rad, got -0.1 A*s/rad``.
+    """
+    unit_of(key)
+    try:
+        return PARAMETERS[key].convert(value)
+    except TypeError as exc:
+        raise ConfigTypeError(f"{key}: {exc}") from None
+    except ValueError as exc:
+        raise ConfigError(f"{key}: {exc}") from None
+
+
+def filter_time_constant(kp, kd, tf=None):
+    """The derivative filter time constant [s]: ``tf`` if given, else Kd/(10*Kp), 0 where Kd = 0.
+
+    Parameters
+    ----------
+    kp, kd : float or array_like
+        Position-loop proportional [A/rad] and derivative [A*s/rad] gains.
+    tf : float or array_like, optional
+        The set time constant [s]; returned unchanged.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        A float for scalar gains, else an array of their broadcast shape.
+
+    Raises
+    ------
+    ValueError
+        Where Kd > 0 and Kp = 0 (the default is undefined there: set Tf).
+    """
+    if tf is not None:
+        return tf
+    kp, kd = np.asarray(kp, dtype=float), np.asarray(kd, dtype=float)
+    if np.any((kd > 0) & ~(kp > 0)):
+        raise ValueError("Tf defaults to Kd/(10*Kp), which is undefined with Kp = 0 and Kd > 0: "
+                         "set Tf")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        result = np.where(kd > 0, kd / (10.0 * np.where(kp > 0, kp, 1.0)), 0.0)
+    return float(result) if result.ndim == 0 else result
+
+
+def _value_at(config, key):
+    """The value of dotted ``key`` in a validated config (None where a section is absent)."""
+    node = config
+    for part in key.split("."):
+        node = getattr(node, part, None) if node is not None else None
+    return node
+
+
+def base_values(params):
+    """Every variable key of a validated config, in SI (``Tf``/``mu_v`` None when derived)."""
+    return {key: _value_at(params, key) for key in VARIABLE_KEYS}
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class LoopParameters:
+    """Parameters of ``n_runs`` actuators, in SI, motor-shaft coordinates (MODEL.md).
+
+    Every attribute is a read-only float array of shape (n_runs,), except
+    ``derivative_on_measurement`` (bool array). Each float field carries one key of
+    :data:`PARAMETERS` and is checked against its bound (``Tf`` may be 0 where ``cp_Kd`` is 0).
+
+    Attributes
+    ----------
+    R, L, Km, Ke, J, mu_v : numpy.ndarray
+        Motor: resistance [ohm], inductance [H], torque constant [N*m/A], back-EMF constant
+        [V*s/rad], inertia [kg*m^2], viscous friction [N*m*s/rad].
+    ratio : numpy.ndarray
+        Gear ratio N [-]: motor angle = N * fin angle.
+    ci_Kp, ci_Ki, v_max, tau_c : numpy.ndarray
+        Current loop: PI gains [V/A], [V/(A*s)], output limit [V], transport delay [s].
+    cp_Kp, cp_Ki, cp_Kd, Tf : numpy.ndarray
+        Position loop: PID gains [A/rad], [A/(rad*s)], [A*s/rad] and derivative filter time
+        constant [s] (0 only where ``cp_Kd`` is 0).
+    ff_v, ff_a : numpy.ndarray
+        Feed-forward of the motor-angle command rate [A*s/rad] and acceleration [A*s^2/rad].
+    i_max, tau_p : numpy.ndarray
+        Current-command limit [A] and position-loop transport delay [s].
+    derivative_on_measurement : numpy.ndarray of bool
+        True where the derivative acts on -theta instead of on the error.
+    """
+
+    R: np.ndarray
+    L: np.ndarray
+    Km: np.ndarray
+    Ke: np.ndarray
+    J: np.ndarray
+    mu_v: np.ndarray
+    ratio: np.ndarray
+    ci_Kp: np.ndarray
+    ci_Ki: np.ndarray
+    v_max: np.ndarray
+    tau_c: np.ndarray
+    cp_Kp: np.ndarray
+    cp_Ki: np.ndarray
+    cp_Kd: np.ndarray
+    Tf: np.ndarray
+    ff_v: np.ndarray
+    ff_a: np.ndarray
+    i_max: np.ndarray
+    tau_p: np.ndarray
+    derivative_on_measurement: np.ndarray
+
+    def __post_init__(self):
+        names = [f.name for f in dataclasses.fields(self)]
+        try:
+            arrays = np.broadcast_arrays(*(np.atleast_1d(getattr(self, n)) for n in names))
+        except ValueError:
+            shapes = {n: np.shape(getattr(self, n)) for n in names}
+            raise ConfigError(f"simulation parameters: shapes do not broadcast: {shapes}") from None
+        for name, array in zip(names, arrays, strict=True):
+            if array.ndim != 1:
+                raise ConfigError(f"simulation parameters: {name}: must be 1-D, got {array.shape}")
+            dtype = bool if name == "derivative_on_measurement" else float
+            array = np.array(array, dtype=dtype)
+            array.setflags(write=False)
+            object.__setattr__(self, name, array)
+        for parameter in _FIELD_PARAMETERS.values():
+            if parameter.field == "Tf":
+                # 0 (no filter) is allowed where there is no derivative term
+                parameter = dataclasses.replace(parameter, strict=False)
+            label = f"simulation parameters: {parameter.field} ({parameter.key})"
+            parameter.check(getattr(self, parameter.field), label, where="runs")
+        bad = (self.cp_Kd > 0) & ~(self.Tf > 0)
+        if bad.any():
+            raise ConfigError(
+                f"simulation parameters: Tf: must be > 0 s where cp_Kd > 0 (runs {_indices(bad)})"
+            )
+
+    @property
+    def n_runs(self):
+        """Number of runs."""
+        return self.R.shape[0]
+
+    @classmethod
+    def from_configs(cls, configs):
+        """One run per validated :class:`cas_freq.config.ActuatorConfig`."""
+        configs = list(configs)
+        if not configs:
+            raise ConfigError("simulation parameters: need at least one config")
+        rows = [_row(config) for config in configs]
+        return cls(**{key: np.array([row[key] for row in rows]) for key in rows[0]})
+
+    @classmethod
+    def from_config(cls, config):
+        """A single run from one validated :class:`cas_freq.config.ActuatorConfig`."""
+        return cls.from_configs([config])
+
+    def replace(self, **changes):
+        """A copy with some parameters changed; every array is broadcast to a common length."""
+        unknown = set(changes) - {f.name for f in dataclasses.fields(self)}
+        if unknown:
+            raise ConfigError(f"simulation parameters: unknown names {sorted(unknown)}")
+        return dataclasses.replace(self, **changes)
+
+    def without_feedforward(self):
+        """A copy with ff_v = ff_a = 0: the loop of MODEL.md's T, whose bandwidth is ω_BW."""
+        zero = np.zeros(self.n_runs)
+        return self.replace(ff_v=zero, ff_a=zero)
+
+    def take(self, rows):
+        """The runs ``rows`` (a slice, or an array of run indices, repeats allowed)."""
+        names = [f.name for f in dataclasses.fields(self)]
+        return dataclasses.replace(self, **{name: getattr(self, name)[rows] for name in names})
+
+    def run(self, index):
+        """The parameters of run ``index`` alone (n_runs = 1)."""
+        return self.take(slice(index, index + 1))
+
+
+#: LoopParameters field -> its parameter.
+_FIELD_PARAMETERS = {p.field: p for p in PARAMETERS.values() if p.field is not None}
+
+
+def _row(config):
+    """One run's fields from a validated config (derived ``mu_v`` and ``Tf`` resolved)."""
+    row = {field: _value_at(config, p.key) for field, p in _FIELD_PARAMETERS.items()}
+    row["mu_v"] = config.motor.viscous_friction
+    row["Tf"] = config.position_loop.filter_time_constant
+    row["derivative_on_measurement"] = config.position_loop.derivative_on == "measurement"
+    return row
+
+
+def variant_parameters(params, changes, n=None):
+    """Loop parameters of n samples: the base config with some keys changed per sample.
+
+    Parameters
+    ----------
+    params : cas_freq.config.ActuatorConfig
+        The validated base config.
+    changes : dict of str to array_like
+        Dotted key -> values in SI (scalar or shape (n,)).
+    n : int, optional
+        Number of samples; default the common length of the changed arrays (1 if none).
+
+    Returns
+    -------
+    LoopParameters
+
+    Raises
+    ------
+    ConfigError
+        Naming the key, the first bad value and the samples, for a value outside the range
+        the config schema accepts, or a combination it rejects.
+    """
+    arrays = {}
+    for key, values in changes.items():
+        check_key(key)
+        arrays[key] = np.atleast_1d(np.asarray(values, dtype=float))
+    lengths = {a.shape[0] for a in arrays.values() if a.shape[0] != 1}
+    if n is None:
+        n = lengths.pop() if len(lengths) == 1 else (1 if not lengths else None)
+        if n is None:
+            shapes = {key: value.shape for key, value in arrays.items()}
+            raise ConfigError(f"changed keys have different lengths: {shapes}")
+    base = base_values(params)
+    if base["motor.mu_v"] is not None and any(k.startswith("motor.no_load.") for k in arrays):
+        raise ConfigError("motor.no_load: the config gives motor.mu_v directly; vary motor.mu_v")
+    full = {}
+    for key, value in base.items():
+        if key in arrays:
+            array = np.broadcast_to(arrays[key], (n,)).astype(float)
+            PARAMETERS[key].check(array)
+            full[key] = array
+        elif value is not None:
+            full[key] = np.full(n, float(value))
+        else:
+            full[key] = None
+    if full["motor.mu_v"] is None:
+        # the no-load speed was checked > 0 above or comes from the validated config
+        full["motor.mu_v"] = viscous_friction(
+            full["motor.Km"], full["motor.no_load.speed"], full["motor.no_load.current"]
+        )
+    kp, ki, kd = full["position_loop.Kp"], full["position_loop.Ki"], full["position_loop.Kd"]
+    if full["position_loop.Tf"] is None:
+        undefined = (kd > 0) & (kp == 0)
+        if undefined.any():
+            raise ConfigError(
+                "position_loop.Tf: defaults to Kd/(10*Kp), which is undefined with "
+                f"position_loop.Kp = 0 and Kd > 0 (samples {_indices(undefined)}): set Tf"
+            )
+        full["position_loop.Tf"] = filter_time_constant(kp, kd)
+    none = (kp == 0) & (ki == 0) & (kd == 0)
+    if none.any():
+        raise ConfigError(
+            f"position_loop: Kp, Ki and Kd are all 0: no position loop (samples {_indices(none)})"
+        )
+    none = (full["current_loop.Kp"] == 0) & (full["current_loop.Ki"] == 0)
+    if none.any():
+        raise ConfigError(
+            f"current_loop: Kp and Ki are both 0: no current loop (samples {_indices(none)})"
+        )
+    fields = {p.field: full[key] for key, p in PARAMETERS.items() if key in full and p.field}
+    return LoopParameters(
+        **fields,
+        derivative_on_measurement=np.full(n, params.position_loop.derivative_on == "measurement"),
+    )

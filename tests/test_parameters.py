@@ -1,0 +1,242 @@
+"""The parameter table (cas_freq.parameters): one declaration of every numeric parameter.
+
+The table must cover every numeric field of the config schema and of LoopParameters; every
+bound must be enforced identically by the schema, by :func:`parse_value` (sweep, Monte Carlo)
+and by :func:`variant_parameters`; and the derived rules (Tf, mu_v) must give the same numbers
+through the schema's properties and through :func:`variant_parameters`.
+"""
+
+import dataclasses
+import math
+import types
+import typing
+
+import numpy as np
+import pytest
+from pydantic import BaseModel
+from pydantic.fields import FieldInfo
+
+from cas_freq.config import ActuatorConfig, load_variant
+from cas_freq.config.loader import validate
+from cas_freq.exceptions import ConfigError, ConfigTypeError
+from cas_freq.parameters import (
+    PARAMETERS,
+    VARIABLE_KEYS,
+    LoopParameters,
+    base_values,
+    check_key,
+    filter_time_constant,
+    parse_value,
+    unit_of,
+    variant_parameters,
+    viscous_friction,
+)
+
+
+def _numeric_schema_fields(model, prefix=""):
+    """Dotted key -> FieldInfo declaring each float field of ``model``, recursively.
+
+    An optional field (``param(key) | None``) keeps its declaration inside the union's
+    ``Annotated`` member; a required one has it merged into the field itself.
+    """
+    found = {}
+    for name, info in model.model_fields.items():
+        members = typing.get_args(info.annotation) if typing.get_origin(info.annotation) in (
+            typing.Union, types.UnionType) else (info.annotation,)
+        sub = next((m for m in members if isinstance(m, type) and issubclass(m, BaseModel)),
+                   None)
+        if sub is not None:
+            found.update(_numeric_schema_fields(sub, f"{prefix}{name}."))
+            continue
+        for member in members:
+            if member is float:
+                found[f"{prefix}{name}"] = info
+            elif (typing.get_origin(member) is typing.Annotated
+                  and typing.get_args(member)[0] is float):
+                declared = [m for m in member.__metadata__ if isinstance(m, FieldInfo)]
+                found[f"{prefix}{name}"] = declared[0] if declared else info
+    return found
+
+
+def _set(data, dotted, value):
+    *sections, leaf = dotted.split(".")
+    for section in sections:
+        data = data.setdefault(section, {})
+    data[leaf] = value
+
+
+def _outside(parameter):
+    """A value just outside the parameter's accepted range."""
+    if parameter.lower is None:
+        return math.nan
+    if parameter.strict:
+        return float(parameter.lower)
+    return float(np.nextafter(parameter.lower, -np.inf))
+
+
+def _inside(parameter, base):
+    return base if base is not None else 1.0
+
+
+# --- the table covers both the schema and LoopParameters -----------------------------------------
+
+
+def test_table_covers_every_numeric_schema_field():
+    fields = _numeric_schema_fields(ActuatorConfig)
+    assert set(fields) == set(PARAMETERS)
+    for key, info in fields.items():
+        # each field is declared from its own row (param(key)), not from a neighbour's
+        assert info.json_schema_extra == {"key": key, "unit": PARAMETERS[key].unit}, key
+        assert info.description == PARAMETERS[key].meaning, key
+
+
+def test_table_covers_every_float_field_of_loop_parameters():
+    floats = {f.name for f in dataclasses.fields(LoopParameters)} - {"derivative_on_measurement"}
+    mapped = [p.field for p in PARAMETERS.values() if p.field is not None]
+    assert sorted(mapped) == sorted(floats)
+    # in the dataclass's order, so the table reads like the dataclass
+    order = [f.name for f in dataclasses.fields(LoopParameters) if f.name in floats]
+    assert mapped == order
+
+
+def test_every_row_is_well_formed():
+    for key, parameter in PARAMETERS.items():
+        assert parameter.key == key
+        assert parameter.meaning.endswith(f"[{parameter.unit}]"), key
+        assert unit_of(key) == parameter.unit
+    # the loop-parameter keys can be varied, the simulation's sample rates cannot
+    assert set(VARIABLE_KEYS) == {k for k in PARAMETERS if not k.startswith("simulation.")}
+    with pytest.raises(ConfigError, match="simulation.current_loop_rate: cannot be varied"):
+        check_key("simulation.current_loop_rate")
+
+
+def test_base_values_reads_every_variable_key():
+    params = load_variant().params
+    values = base_values(params)
+    assert list(values) == list(VARIABLE_KEYS)
+    assert values["position_loop.Kp"] == params.position_loop.Kp
+    assert values["motor.no_load.speed"] == params.motor.no_load.speed
+    assert values["motor.mu_v"] is None and values["position_loop.Tf"] is None  # derived
+    fitted = base_values(load_variant(None, "fitted").params)
+    assert fitted["motor.mu_v"] == 1.2e-6 and fitted["motor.no_load.speed"] is None
+
+
+# --- one bound, enforced identically everywhere ---------------------------------------------------
+
+
+@pytest.mark.parametrize("key", list(PARAMETERS))
+def test_bound_enforced_identically_by_schema_parse_value_and_variants(key, shipped_raw):
+    parameter = PARAMETERS[key]
+    bad = _outside(parameter)
+    rule = "finite" if parameter.lower is None else parameter.rule
+    expected = f"{key}: must be {rule}, got {bad!r} {parameter.unit}"
+
+    # parse_value (sweep --set, montecarlo --tolerance)
+    with pytest.raises(ConfigError) as info:
+        parse_value(key, bad)
+    assert str(info.value) == expected
+
+    # the config schema
+    if key == "motor.mu_v":
+        del shipped_raw["motor"]["no_load"]
+    _set(shipped_raw, key, bad)
+    with pytest.raises(ConfigError) as info:
+        validate(shipped_raw, "test")
+    assert f"test: {expected}" in str(info.value)
+
+    # variant_parameters: same message, with the offending sample
+    if key in VARIABLE_KEYS:
+        params = load_variant().params
+        good = _inside(parameter, base_values(params)[key])
+        with pytest.raises(ConfigError) as info:
+            variant_parameters(params, {key: [good, bad]})
+        assert str(info.value) == f"{expected} (samples [1])"
+
+
+@pytest.mark.parametrize("key", list(PARAMETERS))
+def test_values_on_the_bound_or_inside_are_accepted(key):
+    parameter = PARAMETERS[key]
+    if parameter.lower is not None and not parameter.strict:
+        assert parse_value(key, parameter.lower) == parameter.lower
+    inside = 1.0 if parameter.lower is None else parameter.lower + 1.0
+    assert parse_value(key, inside) == inside
+
+
+def test_parse_value_converts_units_and_names_the_key():
+    assert parse_value("position_loop.delay", "0.4 ms") == pytest.approx(4e-4, rel=1e-12)
+    assert parse_value("simulation.current_loop_rate", "25 kHz") == pytest.approx(25e3)
+    with pytest.raises(ConfigError, match=r"^position_loop\.Kd: must be >= 0 A\*s/rad, got '-1'"):
+        parse_value("position_loop.Kd", "-1")
+    with pytest.raises(ConfigError, match=r"^current_loop\.delay: cannot read '1 V' as a value"):
+        parse_value("current_loop.delay", "1 V")
+    with pytest.raises(ConfigError, match=r"^motor\.R: must be finite, got 'nan ohm'|not finite"):
+        parse_value("motor.R", "nan ohm")
+    with pytest.raises(ConfigTypeError, match=r"^motor\.R: expected a number in ohm"):
+        parse_value("motor.R", [1.0])
+    with pytest.raises(ConfigError, match="not a numeric parameter"):
+        parse_value("position_loop.derivative_on", 1.0)
+
+
+def test_loop_parameters_check_the_table_bounds():
+    base = LoopParameters.from_config(load_variant().params)
+    with pytest.raises(ConfigError, match=r"cp_Kp \(position_loop\.Kp\): must be >= 0 A/rad.*"
+                                          r"\(runs \[0\]\)"):
+        base.replace(cp_Kp=-1.0)
+    with pytest.raises(ConfigError, match=r"R \(motor\.R\): must be > 0 ohm"):
+        base.replace(R=0.0)
+    with pytest.raises(ConfigError, match=r"ff_v \(position_loop\.ff_v\): must be finite"):
+        base.replace(ff_v=np.inf)
+    # Tf may be 0 where there is no derivative term, not where there is one
+    assert base.replace(cp_Kd=0.0, Tf=0.0).Tf[0] == 0.0
+    with pytest.raises(ConfigError, match="Tf: must be > 0 s where cp_Kd > 0"):
+        base.replace(Tf=0.0)
+
+
+# --- the derived rules agree ----------------------------------------------------------------------
+
+
+def test_derived_rules_agree_between_schema_and_variants(shipped_raw):
+    rng = np.random.default_rng(10)
+    n = 25
+    samples = {
+        "motor.Km": rng.uniform(0.005, 0.02, n),
+        "motor.no_load.speed": rng.uniform(500.0, 3000.0, n),
+        "motor.no_load.current": rng.uniform(0.0, 0.5, n),
+        "position_loop.Kp": rng.uniform(0.5, 10.0, n),
+        "position_loop.Kd": np.r_[0.0, rng.uniform(0.0, 0.1, n - 1)],  # Kd = 0: Tf = 0
+    }
+    base = load_variant().params
+    batch = variant_parameters(base, samples)
+    for i in range(n):
+        for key, values in samples.items():
+            _set(shipped_raw, key, float(values[i]))
+        params = validate(shipped_raw, "sample")
+        # one function behind both: equal to the last bit
+        assert batch.mu_v[i] == params.motor.viscous_friction
+        assert batch.Tf[i] == params.position_loop.filter_time_constant
+        assert LoopParameters.from_config(params).Tf[0] == batch.Tf[i]
+    assert batch.Tf[0] == 0.0
+
+
+def test_derived_rules_on_scalars_and_arrays():
+    assert filter_time_constant(6.0, 0.06) == pytest.approx(1e-3, rel=1e-15)
+    assert filter_time_constant(6.0, 0.06, 2e-4) == 2e-4  # a set Tf wins
+    assert filter_time_constant(0.0, 0.0) == 0.0  # no derivative: no filter
+    np.testing.assert_array_equal(filter_time_constant([6.0, 3.0], [0.06, 0.0]), [0.06 / 60, 0])
+    with pytest.raises(ValueError, match="Kp = 0 and Kd > 0"):
+        filter_time_constant(0.0, 0.01)
+    km, speed, current = np.array([0.01, 0.02]), np.array([1000.0, 2000.0]), np.array([0.2, 0.2])
+    np.testing.assert_array_equal(viscous_friction(km, speed, current), km * current / speed)
+    with pytest.raises(ValueError, match="no_load_speed: must be > 0"):
+        viscous_friction(km, np.array([1000.0, 0.0]), current)
+
+
+def test_shipped_mu_v_is_the_same_number_through_every_path():
+    # The value itself (report Table 3: 1.341e-6 N*m*s/rad from Km = 0.0105 N*m/A, I0 = 0.218 A,
+    # n0 = 16300 rpm) is checked in test_formulas.py and test_config.py; here every path that
+    # derives it gives that same float.
+    params = load_variant().params
+    mu_v = params.motor.viscous_friction
+    assert LoopParameters.from_config(params).mu_v[0] == mu_v
+    assert variant_parameters(params, {}).mu_v[0] == mu_v
+    assert variant_parameters(params, {"motor.Km": [params.motor.Km]}).mu_v[0] == mu_v
