@@ -31,8 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from cas_freq.batch.analyze import DEFAULT_CHUNK, batch_analyze
-from cas_freq.batch.parameters import variant_parameters
 from cas_freq.config import load_variant
+from cas_freq.parameters import variant_parameters
 
 SEED = 20261122
 KEYS = ("position_loop.Kp", "position_loop.Ki", "position_loop.Kd", "current_loop.Kp",
@@ -56,7 +56,7 @@ def machine():
 
 def variants(params, n, rng):
     """Random variants: each key uniform within ±10 % of the config's value."""
-    from cas_freq.batch.parameters import base_values
+    from cas_freq.parameters import base_values
 
     base = base_values(params)
     return {key: base[key] * rng.uniform(0.9, 1.1, n) for key in KEYS}
@@ -131,7 +131,8 @@ def bench_margins(params, changes, label, sample, rows):
 
 
 def bench_step(params, runs, rows):
-    from cas_freq.simulation import LoopParameters, Step, simulate_batch
+    from cas_freq.parameters import LoopParameters
+    from cas_freq.simulation import Step, simulate_batch
 
     amplitude = math.radians(10.0)
     batch = LoopParameters.from_configs([params] * runs)
@@ -166,7 +167,7 @@ def bench_step(params, runs, rows):
 
 
 def bench_sinedwell(params, rows):
-    from cas_freq.simulation import LoopParameters
+    from cas_freq.parameters import LoopParameters
     from cas_freq.simulation.sinedwell import sine_dwell
 
     amplitudes = np.radians([0.25, 0.5, 1, 2, 4, 6, 8, 10])

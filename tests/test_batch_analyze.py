@@ -14,9 +14,9 @@ import pytest
 
 from cas_freq.analysis import analyze, to_dict
 from cas_freq.batch.analyze import FIGURES, analysis_figures, batch_analyze
-from cas_freq.batch.parameters import variant_parameters
 from cas_freq.config import load_variant
 from cas_freq.exceptions import ConfigError
+from cas_freq.parameters import variant_parameters
 
 RTOL = 1e-6
 ATOL_DB = 1e-9

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from cas_freq.analysis.stability import closed_loop_stability
-from cas_freq.batch.parameters import variant_parameters
 from cas_freq.batch.roots import refine_maxima, refine_roots
 from cas_freq.batch.stability import batch_stability, characteristic_polynomials
 from cas_freq.config import load_variant
+from cas_freq.parameters import variant_parameters
 
 
 def test_verdicts_match_single_path_across_stable_and_unstable():

@@ -31,7 +31,7 @@ from cas_freq.analysis.closed_loop import closed_loop_figures
 from cas_freq.config import load_variant
 from cas_freq.exceptions import ConfigError
 from cas_freq.model import ActuatorLoops
-from cas_freq.simulation import LoopParameters
+from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.sinedwell import (
     HALF_POWER_DB,
     SineDwellResult,

@@ -1,7 +1,7 @@
 """Batch analysis of many actuator variants at once: sweeps and tolerance Monte Carlo.
 
-- :mod:`~cas_freq.batch.parameters`: arrays of loop parameters from a base config and changed
-  dotted keys;
+- :func:`cas_freq.parameters.variant_parameters`: arrays of loop parameters from a base config
+  and changed dotted keys;
 - :mod:`~cas_freq.batch.responses`: exact-delay responses of many variants;
 - :mod:`~cas_freq.batch.roots`: vectorised root and maximum refinement;
 - :mod:`~cas_freq.batch.margins`: margins and closed-loop figures of a batch;

@@ -12,9 +12,9 @@ import math
 import numpy as np
 
 from cas_freq.batch.analyze import FIGURES, batch_analyze
-from cas_freq.batch.parameters import check_key, parse_value, unit_of, variant_parameters
 from cas_freq.exceptions import ConfigError
 from cas_freq.fileio import json_ready
+from cas_freq.parameters import check_key, parse_value, unit_of, variant_parameters
 
 #: Largest grid accepted (points).
 MAX_POINTS = 1_000_000

@@ -1,7 +1,8 @@
 """Nonlinear time-domain simulation of the actuator loop (numpy and scipy only).
 
 - :mod:`~cas_freq.simulation.commands`: fin-angle commands (step, ramp, sine, chirp, CSV table);
-- :mod:`~cas_freq.simulation.parameters`: loop parameters of a batch of runs;
+- :class:`LoopParameters` (of :mod:`cas_freq.parameters`, re-exported): loop parameters of a
+  batch of runs;
 - :mod:`~cas_freq.simulation.simulator`: :func:`simulate` and :func:`simulate_batch`;
 - :mod:`~cas_freq.simulation.step_figures`: rise, overshoot, settling, peak, limits;
 - :mod:`~cas_freq.simulation.second_order`: the report's §7 second-order-plus-delay fit.
@@ -9,6 +10,7 @@
 Nothing here imports python-control or matplotlib.
 """
 
+from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.commands import (
     Chirp,
     Ramp,
@@ -18,7 +20,6 @@ from cas_freq.simulation.commands import (
     motor_command,
     read_command_csv,
 )
-from cas_freq.simulation.parameters import LoopParameters
 from cas_freq.simulation.second_order import SecondOrderFit, fit_second_order, second_order_step
 from cas_freq.simulation.simulator import (
     BatchResult,

@@ -6,8 +6,8 @@ import io
 import numpy as np
 
 from cas_freq.fileio import json_ready
+from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.commands import Step
-from cas_freq.simulation.parameters import LoopParameters
 from cas_freq.simulation.second_order import fit_second_order
 from cas_freq.simulation.simulator import default_time_step, simulate_batch, step_bound
 from cas_freq.simulation.step_figures import simulation_step_figures

@@ -36,8 +36,8 @@ import math
 import numpy as np
 
 from cas_freq.exceptions import ConfigError, ModelError
+from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.engine import SIGNALS, CommandSet, Engine
-from cas_freq.simulation.parameters import LoopParameters
 
 #: Largest default step [s].
 MAX_DEFAULT_STEP_S = 20e-6

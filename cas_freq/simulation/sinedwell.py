@@ -51,8 +51,8 @@ import numpy as np
 
 from cas_freq.exceptions import ConfigError
 from cas_freq.formulas import HALF_POWER
+from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.commands import Sine
-from cas_freq.simulation.parameters import LoopParameters
 from cas_freq.simulation.simulator import default_time_step, simulate_batch, step_bound
 
 #: Half-power level [dB]: 20 log10(1/sqrt(2)) = -3.0103 dB.
