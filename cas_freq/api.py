@@ -1,0 +1,329 @@
+"""The Python API: one actuator variant, or many, in a notebook.
+
+>>> import cas_freq as cf
+>>> act = cf.load("configs/qt_cas.yaml", variant="fitted", set={"position_loop.Kp": "5 A/rad"})
+>>> act.analyze().closed_loop.bandwidth_rad_s        # every figure of ``analyze --json``
+>>> act.frequency_response(omega).plot()             # Bode of L_i, L_p and T
+>>> act.simulate(step="10 deg").plot()               # nonlinear step: fin angle and current
+>>> act.vary({"position_loop.Kp": np.linspace(2, 12, 200)}).analyze().closed_loop.bandwidth_rad_s
+
+Nothing is computed here: each method calls the engine the CLI uses (:mod:`cas_freq.config`,
+:mod:`cas_freq.analysis`, :mod:`cas_freq.simulation`, :mod:`cas_freq.model`), so every figure
+is the one the matching command prints. The figures are defined in docs/model.md. matplotlib
+and python-control are imported only by :meth:`FrequencyResponse.plot`,
+:meth:`StepResponse.plot` and :meth:`Actuator.to_control`.
+"""
+
+import dataclasses
+import types
+
+import numpy as np
+
+from cas_freq.analysis.frequency import DEFAULT_RANGE_RAD_S
+from cas_freq.config.loader import load_variant, read_config_file, variant_names
+from cas_freq.model import DelayModel
+
+
+def _delay(delay):
+    """A :class:`DelayModel` from ``"exact"``/``"pade:N"`` (as ``--delay``) or a DelayModel."""
+    return delay if isinstance(delay, DelayModel) else DelayModel.parse(delay)
+
+
+def load(path=None, variant="base", set=None):  # ``set=`` mirrors ``--set``
+    """Load one variant of a config file, as ``cas-freq ... --variant NAME --set K=V`` does.
+
+    Parameters
+    ----------
+    path : str or Path, optional
+        The YAML config; default the shipped QT-CAS config
+        (:func:`cas_freq.config.loader.default_config_path`).
+    variant : str
+        ``"base"`` or one of the file's ``variants`` (see :attr:`Actuator.variants`).
+    set : dict of str to object, optional
+        Dotted key -> value applied after the variant, numbers in SI or strings with units
+        (``{"position_loop.Kp": "5 A/rad", "current_loop.delay": "0.1 ms"}``).
+
+    Returns
+    -------
+    Actuator
+
+    Raises
+    ------
+    cas_freq.exceptions.ConfigError
+        Naming the key and the value, for an unknown variant or key or a bad value.
+    """
+    return Actuator(load_variant(path, variant, tuple((set or {}).items())))
+
+
+@dataclasses.dataclass(frozen=True)
+class Actuator:
+    """One validated actuator variant.
+
+    Attributes
+    ----------
+    loaded : cas_freq.config.LoadedVariant
+        Config path (``loaded.source``), variant name, ``set=`` overrides and parameters.
+    """
+
+    loaded: object
+
+    @property
+    def params(self):
+        """The validated parameters (:class:`cas_freq.config.ActuatorConfig`, SI)."""
+        return self.loaded.params
+
+    @property
+    def variant(self):
+        """Name of this variant."""
+        return self.loaded.variant
+
+    @property
+    def variants(self):
+        """Names of the config file's variants, ``"base"`` first (list of str)."""
+        return variant_names(read_config_file(self.loaded.source))
+
+    def analyze(self, delay="exact", frequency_range=None):
+        """Every frequency-domain figure: margins of both loops, closed loop, stability.
+
+        Parameters
+        ----------
+        delay : str or DelayModel
+            ``"exact"`` or ``"pade:N"`` delays in every frequency response.
+        frequency_range : (float, float), optional
+            Analysed range [rad/s]; default 0.01..1e6.
+
+        Returns
+        -------
+        cas_freq.analysis.Analysis
+            Attributes ``current_loop``, ``position_loop`` (margins), ``closed_loop``
+            (bandwidth, peak; None when the loop is not stable), ``stable``, ``stability``;
+            a figure that does not exist is None. ``to_dict()`` is ``analyze --json``.
+        """
+        from cas_freq.analysis import analyze
+
+        return analyze(self.loaded, _delay(delay), frequency_range or DEFAULT_RANGE_RAD_S)
+
+    def frequency_response(self, omega, delay="exact"):
+        """The loops' complex frequency responses.
+
+        Parameters
+        ----------
+        omega : array_like
+            Frequencies [rad/s].
+        delay : str or DelayModel
+            ``"exact"`` or ``"pade:N"``.
+
+        Returns
+        -------
+        FrequencyResponse
+        """
+        from cas_freq.model import ActuatorLoops
+
+        omega = np.asarray(omega, dtype=float)
+        loops = ActuatorLoops(self.params, _delay(delay))
+        s = 1j * omega
+        return FrequencyResponse(omega, loops.delay.label,
+                                 **{name: getattr(loops, name)(s) for name in _LOOPS})
+
+    def simulate(self, step="10 deg"):
+        """Nonlinear step of the fin, as ``cas-freq simulate --step``.
+
+        Parameters
+        ----------
+        step : str
+            Step at the fin with a unit (``"10 deg"``, ``"0.1 rad"``), non-zero, within ±90°.
+
+        Returns
+        -------
+        StepResponse
+        """
+        from cas_freq.cli.common import angle
+        from cas_freq.simulation.run import step_run
+
+        return StepResponse.of(step_run(self.loaded, angle(str(step), "step")))
+
+    def vary(self, changes):
+        """Many variants at once: this one with some keys changed per sample.
+
+        Parameters
+        ----------
+        changes : dict of str to array_like
+            Dotted key -> values in SI [the key's unit, see the README's config table],
+            scalars or arrays of one common length n.
+
+        Returns
+        -------
+        ActuatorSet
+        """
+        from cas_freq.parameters import variant_parameters
+
+        changes = {key: np.asarray(values, dtype=float) for key, values in changes.items()}
+        return ActuatorSet(self, changes, variant_parameters(self.params, changes))
+
+    def to_control(self, pade=6):
+        """The loops as python-control state-space systems, both delays Padé of order ``pade``.
+
+        Returns
+        -------
+        cas_freq.model.systems.LinearModel
+            ``current_loop`` (L_i), ``current_closed_loop`` (T_i), ``position_loop`` (L_p),
+            ``sensitivity`` (S), ``closed_loop`` (T), ``plant``, as :class:`control.StateSpace`.
+        """
+        from cas_freq.model.systems import linear_model
+
+        return linear_model(self.params, pade)
+
+
+#: The loops a :class:`FrequencyResponse` holds (``ActuatorLoops`` method names).
+_LOOPS = ("current_loop", "current_closed_loop", "position_loop", "sensitivity", "closed_loop")
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class FrequencyResponse:
+    """Complex frequency responses of one variant (each an array like ``omega_rad_s``).
+
+    Attributes
+    ----------
+    omega_rad_s : numpy.ndarray
+        Frequencies [rad/s].
+    delay_model : str
+        ``"exact"`` or ``"pade:N"``.
+    current_loop, current_closed_loop : numpy.ndarray of complex
+        L_i (broken at the voltage) and T_i = i/i_cmd [-].
+    position_loop, sensitivity, closed_loop : numpy.ndarray of complex
+        L_p (broken at the current command), S = 1/(1 + L_p) and T = delta/delta_cmd [-].
+    """
+
+    omega_rad_s: np.ndarray
+    delay_model: str
+    current_loop: np.ndarray
+    current_closed_loop: np.ndarray
+    position_loop: np.ndarray
+    sensitivity: np.ndarray
+    closed_loop: np.ndarray
+
+    def plot(self):
+        """Bode plot of L_i, L_p and T (magnitude [dB] and phase [deg] axes).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from cas_freq.plots.api import bode_figure
+
+        return bode_figure(self)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class StepResponse:
+    """A simulated nonlinear fin step.
+
+    Attributes
+    ----------
+    time_s : numpy.ndarray
+        Sample times [s].
+    fin_angle_deg, command_deg : numpy.ndarray
+        Fin angle and fin command [deg].
+    current_a, voltage_v : numpy.ndarray
+        Motor current [A] and terminal voltage [V].
+    step : cas_freq.simulation.step_figures.StepFigures
+        Rise time, overshoot, settling times, peak, largest current and voltage.
+    fit : cas_freq.simulation.second_order.SecondOrderFit
+        The report's second-order fit (wn, zeta, td with 95 % intervals, bandwidth).
+    run : cas_freq.simulation.run.StepRun
+        Everything ``cas-freq simulate`` has (limit flags, simulation settings, ...).
+    """
+
+    time_s: np.ndarray
+    fin_angle_deg: np.ndarray
+    command_deg: np.ndarray
+    current_a: np.ndarray
+    voltage_v: np.ndarray
+    step: object
+    fit: object
+    run: object
+
+    @classmethod
+    def of(cls, run):
+        """The view of a :class:`cas_freq.simulation.run.StepRun`."""
+        r = run.result
+        return cls(r.t, np.degrees(r.delta), np.degrees(r.command), r.i, r.V, run.step, run.fit,
+                   run)
+
+    def to_dict(self):
+        """JSON-ready dict: the JSON of ``cas-freq simulate --step ... --json``."""
+        from cas_freq.simulation.run import step_run_dict
+
+        return step_run_dict(self.run)
+
+    def plot(self):
+        """Fin angle with its command [deg], and motor current [A], against time [ms].
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from cas_freq.plots.api import step_figure
+
+        return step_figure(self)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class ActuatorSet:
+    """Many variants of one actuator (from :meth:`Actuator.vary`).
+
+    Attributes
+    ----------
+    base : Actuator
+        The variant the changes apply to.
+    changes : dict of str to numpy.ndarray
+        The changed keys and their values [SI].
+    loop_parameters : cas_freq.parameters.LoopParameters
+        Parameters of every sample (n runs).
+    """
+
+    base: Actuator
+    changes: dict
+    loop_parameters: object
+
+    def __len__(self):
+        return self.loop_parameters.n_runs
+
+    def analyze(self, delay="exact", frequency_range=None):
+        """The figures of :meth:`Actuator.analyze` for every sample, as numpy arrays.
+
+        Parameters
+        ----------
+        delay : str or DelayModel
+            ``"exact"`` or ``"pade:N"``.
+        frequency_range : (float, float), optional
+            Analysed range [rad/s]; default 0.01..1e6.
+
+        Returns
+        -------
+        types.SimpleNamespace
+            ``current_loop``, ``position_loop``, ``closed_loop`` namespaces of float arrays (n,)
+            named as the single analysis' figures (plus ``gain_crossover_count``), NaN where a
+            figure does not exist or the loop is not stable; ``stable`` (bool array);
+            ``stability.verdict`` and ``stability.current_loop_verdict`` (str arrays),
+            ``stability.pade_order``; ``figures``, the same arrays keyed as
+            ``"closed_loop.bandwidth_rad_s"`` (the column names of ``cas-freq sweep``).
+        """
+        from cas_freq.analysis import batch_analyze
+
+        delay = _delay(delay)
+        batch = batch_analyze(self.loop_parameters, frequency_range or DEFAULT_RANGE_RAD_S,
+                              delay=delay, **({"pade_order": delay.order} if delay.order else {}))
+        groups = {}
+        for name, values in batch.figures.items():
+            group, _, figure = name.rpartition(".")
+            if group:
+                groups.setdefault(group, {})[figure] = values
+        return types.SimpleNamespace(
+            **{group: types.SimpleNamespace(**values) for group, values in groups.items()},
+            stable=batch.figures["stable"] == 1.0,
+            stability=types.SimpleNamespace(
+                verdict=batch.stability, current_loop_verdict=batch.current_loop_stability,
+                pade_order=batch.pade_order),
+            figures=batch.figures,
+        )

@@ -1,0 +1,77 @@
+"""Figures of the Python API's ``plot()`` methods (:mod:`cas_freq.api`).
+
+Each function returns a new :class:`matplotlib.figure.Figure` built with the object-oriented
+API: no pyplot state, no backend switch, no change to the global rcParams. In a notebook the
+returned figure displays itself; elsewhere call ``fig.savefig(...)``.
+"""
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from cas_freq.analysis.frequency import continuous_phase
+
+#: The loops of the Bode figure: (attribute of FrequencyResponse, legend label).
+BODE_LOOPS = (
+    ("current_loop", "L_i (current loop, broken at V)"),
+    ("position_loop", "L_p (position loop, broken at i_cmd)"),
+    ("closed_loop", "T = δ/δ_cmd (closed loop)"),
+)
+
+
+def bode_figure(response):
+    """Bode plot of L_i, L_p and T.
+
+    Parameters
+    ----------
+    response : cas_freq.api.FrequencyResponse
+        The responses and their grid [rad/s].
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two axes sharing the frequency axis: magnitude [dB] and phase [deg], one line per loop.
+    """
+    w = response.omega_rad_s
+    fig = Figure(figsize=(8, 6), layout="constrained")
+    magnitude, phase = fig.subplots(2, 1, sharex=True)
+    for name, label in BODE_LOOPS:
+        values = getattr(response, name)
+        magnitude.semilogx(w, 20.0 * np.log10(np.abs(values)), label=label)
+        phase.semilogx(w, np.degrees(continuous_phase(values, w)), label=label)
+    magnitude.set_ylabel("magnitude [dB]")
+    magnitude.set_title(f"Bode ({response.delay_model} delays)")
+    magnitude.legend()
+    phase.set_ylabel("phase [deg]")
+    phase.set_xlabel("frequency ω [rad/s]")
+    for ax in (magnitude, phase):
+        ax.grid(True, which="both", alpha=0.35)
+    return fig
+
+
+def step_figure(response):
+    """Fin angle with its command, and motor current, against time.
+
+    Parameters
+    ----------
+    response : cas_freq.api.StepResponse
+        The simulated step.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two axes sharing the time axis [ms]: fin angle and command [deg]; current [A].
+    """
+    t_ms = 1e3 * response.time_s
+    fig = Figure(figsize=(8, 6), layout="constrained")
+    angle, current = fig.subplots(2, 1, sharex=True)
+    angle.plot(t_ms, response.command_deg, color="k", ls=":", lw=0.9, label="command δ_cmd")
+    angle.plot(t_ms, response.fin_angle_deg, label="fin angle δ")
+    angle.set_ylabel("fin angle [deg]")
+    angle.set_title(f"{response.step.amplitude_deg:g}° step (nonlinear, limits and delays)")
+    angle.legend()
+    current.plot(t_ms, response.current_a, label="motor current i")
+    current.set_ylabel("current [A]")
+    current.set_xlabel("time [ms]")
+    for ax in (angle, current):
+        ax.grid(True, alpha=0.35)
+    return fig
