@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cas_freq.batch.analyze import DEFAULT_CHUNK, batch_analyze
+from cas_freq.analysis.analyze import DEFAULT_CHUNK, batch_analyze
 from cas_freq.config import load_variant
 from cas_freq.parameters import variant_parameters
 

@@ -1,9 +1,11 @@
-r"""Closed-loop figures of T(s) = delta/delta_cmd (MODEL.md, "Definitions of the figures").
+r"""Closed-loop figures of T(s) = delta/delta_cmd, for many loops at once (docs/model.md).
 
 - bandwidth :math:`\omega_{BW}`: the lowest frequency where :math:`|T(j\omega)|` falls
   :math:`20 \log_{10} \sqrt 2 = 3.0103` dB below :math:`|T(0)|`;
 - resonance peak: :math:`\max_\omega |T(j\omega)| / |T(0)|` [dB] and where it occurs;
 - the lowest frequency where the (continuous) phase of T reaches -90°.
+
+Crossings are bracketed on the grid and refined together (:mod:`cas_freq.analysis.roots`).
 """
 
 import dataclasses
@@ -11,8 +13,12 @@ import math
 
 import numpy as np
 
-from cas_freq.analysis.frequency import refine_maximum, refine_roots
+from cas_freq.analysis.margins import _first_true, _maxima, phase_jumps
+from cas_freq.analysis.roots import refine_roots
 from cas_freq.formulas import HALF_POWER
+
+#: Closed-loop figures, as in the JSON of ``analyze``.
+CLOSED_LOOP_FIGURES = ("dc_gain_db", "bandwidth_rad_s", "peak_db", "peak_rad_s", "phase_90_rad_s")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -40,12 +46,119 @@ class ClosedLoopFigures:
     phase_90_rad_s: float | None
 
 
-def _first(roots):
-    return float(roots[0]) if len(roots) else None
+def closed_loop_figures(evaluate, omega, response, valid):
+    """Closed-loop figures of a batch (module notes), NaN where not
+    ``valid`` (closed loop not stable).
+
+    Parameters
+    ----------
+    evaluate : callable
+        ``evaluate(runs, omega) -> complex`` T of runs ``runs`` at ``omega`` [rad/s].
+    omega : numpy.ndarray
+        Grid [rad/s], shape (m,).
+    response : numpy.ndarray
+        T on the grid, shape (n, m).
+    valid : numpy.ndarray of bool
+        Runs whose closed loop is stable.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        :data:`CLOSED_LOOP_FIGURES`, each shape (n,).
+    """
+    n = response.shape[0]
+    out = {name: np.full(n, np.nan) for name in CLOSED_LOOP_FIGURES}
+    runs = np.flatnonzero(valid)
+    if runs.size == 0:
+        out["_peak"] = np.full(n, np.nan)
+        out["_maximum_at_top"] = np.zeros(n, dtype=bool)
+        return out
+    response = response[runs]
+    log_w = np.log(omega)
+    dc = np.abs(evaluate(runs, np.full(runs.size, omega[0] * 1e-3)))
+    magnitude = np.abs(response) / dc[:, None]
+    out["dc_gain_db"][runs] = 20.0 * np.log10(dc)
+
+    below = magnitude < HALF_POWER
+    k = np.argmax(below, axis=1)
+    has = below[np.arange(runs.size), k] & (k > 0)
+    idx = np.flatnonzero(has)
+    r, kk, d = runs[idx], k[idx], dc[idx]
+    bandwidth = refine_roots(
+        lambda x, j: np.abs(evaluate(r[j], np.exp(x))) / d[j] - HALF_POWER,
+        log_w[kk - 1], log_w[kk],
+        magnitude[idx, kk - 1] - HALF_POWER, magnitude[idx, kk] - HALF_POWER,
+    )
+    out["bandwidth_rad_s"][r] = bandwidth
+
+    ((peak_w, peak, interior),) = _maxima(
+        evaluate, omega, [(runs, magnitude, lambda v, i: np.abs(v) / dc[i], response)]
+    )
+    out["peak_db"][runs] = 20.0 * np.log10(peak)
+    out["_peak"] = np.full(n, np.nan)
+    out["_peak"][runs] = peak
+    out["_maximum_at_top"] = np.zeros(n, dtype=bool)
+    out["_maximum_at_top"][runs] = peak_w == omega[-1]
+    out["peak_rad_s"][runs] = np.where(interior, peak_w, np.nan)
+
+    idx, kk, anchor, shifted_lo, shifted_hi = _first_phase_90(response)
+    r = runs[idx]
+
+    def phase_error(x, j):
+        value = evaluate(r[j], np.exp(x))
+        return anchor[j] + np.angle(value * np.exp(-1j * anchor[j])) + math.pi / 2
+
+    out["phase_90_rad_s"][r] = refine_roots(
+        phase_error, log_w[kk], log_w[kk + 1], shifted_lo, shifted_hi
+    )
+    return out
 
 
-def closed_loop_figures(closed_loop, omega):
-    """Figures of a closed-loop frequency response.
+def _first_phase_90(response):
+    """Rows with a first downward crossing of -90 deg by the grid phase (unwrapped from the
+    lowest frequency, from the lowest frequency), its grid index k, the
+    phase at k, and phase + 90 deg at k and k + 1.
+
+    Until the wrapped angle first jumps (:func:`phase_jumps`) it is the unwrapped phase, and
+    it is above -90 deg exactly where ``Re T > 0`` or ``Im T >= 0``: no angle is computed
+    except at the crossing. Rows with a jump before their crossing are unwrapped in full.
+    """
+    n, m = response.shape
+    above = (response.real > 0) | (response.imag >= 0)
+    crossing = _first_true(above[:, :-1] & ~above[:, 1:])
+    jump = _first_true(phase_jumps(response))
+    simple = (crossing < m - 1) & (jump > crossing)
+    hard = np.flatnonzero(jump <= crossing)
+    rows = np.flatnonzero(simple)
+    k = crossing[rows]
+    phase_k = np.angle(response[rows, k])
+    phase_next = np.angle(response[rows, k + 1])
+    found = [(rows, k, phase_k, phase_k + math.pi / 2, phase_next + math.pi / 2)]
+    if hard.size:
+        phase = np.unwrap(np.angle(response[hard]), axis=1)
+        shifted = phase + math.pi / 2
+        cross = (shifted[:, :-1] > 0) & (shifted[:, 1:] <= 0)
+        first = np.argmax(cross, axis=1)
+        hit = np.flatnonzero(cross[np.arange(hard.size), first])
+        kk = first[hit]
+        found.append((hard[hit], kk, phase[hit, kk], shifted[hit, kk], shifted[hit, kk + 1]))
+    parts = [np.concatenate([f[i] for f in found]) for i in range(5)]
+    order = np.argsort(parts[0], kind="stable")
+    return tuple(part[order] for part in parts)
+
+
+def figures_of_run(figures, run=0):
+    """The :class:`ClosedLoopFigures` of one run of :func:`closed_loop_figures` (None if the
+    run's closed loop is not stable)."""
+    if not np.isfinite(figures["dc_gain_db"][run]):
+        return None
+    values = {name: figures[name][run] for name in CLOSED_LOOP_FIGURES}
+    return ClosedLoopFigures(**{name: (None if not np.isfinite(v) else float(v))
+                                for name, v in values.items()})
+
+
+def closed_loop_summary(closed_loop, omega):
+    """Figures of one closed loop given as a function of s.
 
     Parameters
     ----------
@@ -58,46 +171,7 @@ def closed_loop_figures(closed_loop, omega):
     -------
     ClosedLoopFigures
     """
-    dc = abs(complex(closed_loop(1j * omega[0] * 1e-3)))
-    response = closed_loop(1j * omega)
-    magnitude = np.abs(response) / dc
-
-    # Bandwidth: first downward crossing of the half-power line.
-    below = np.nonzero(magnitude < HALF_POWER)[0]
-    bandwidth = None
-    if len(below) and below[0] > 0:
-        k = below[0]
-        bandwidth = _first(
-            refine_roots(
-                lambda w: abs(closed_loop(1j * w)) / dc - HALF_POWER,
-                omega[k - 1 : k + 1],
-                magnitude[k - 1 : k + 1] - HALF_POWER,
-            )
-        )
-
-    peak_w, peak, interior = refine_maximum(
-        lambda w: abs(closed_loop(1j * w)) / dc, omega, magnitude
-    )
-
-    # Phase: unwrap along the grid from its value near DC, then refine the first -90° crossing.
-    phase = np.unwrap(np.angle(response))
-    shifted = phase + math.pi / 2
-    crossing = np.nonzero((shifted[:-1] > 0) & (shifted[1:] <= 0))[0]
-    phase_90 = None
-    if len(crossing):
-        k = crossing[0]
-        anchor = phase[k]
-
-        def phase_error(w):
-            value = closed_loop(1j * w)
-            return anchor + np.angle(value * np.exp(-1j * anchor)) + math.pi / 2
-
-        phase_90 = _first(refine_roots(phase_error, omega[k : k + 2], shifted[k : k + 2]))
-
-    return ClosedLoopFigures(
-        dc_gain_db=20.0 * math.log10(dc),
-        bandwidth_rad_s=bandwidth,
-        peak_db=20.0 * math.log10(peak),
-        peak_rad_s=peak_w if interior else None,
-        phase_90_rad_s=phase_90,
-    )
+    response = np.asarray(closed_loop(1j * omega), dtype=complex)[None, :]
+    figures = closed_loop_figures(lambda runs, w: closed_loop(1j * w), omega, response,
+                                  np.array([True]))
+    return figures_of_run(figures)

@@ -1,6 +1,6 @@
-r"""Stability margins of a loop from its frequency response (exact delays allowed).
+r"""Stability margins of loops from their frequency responses, for many loops at once.
 
-Definitions (MODEL.md):
+Definitions (docs/model.md):
 
 - gain crossover: :math:`|L(j\omega_c)| = 1`; phase margin
   :math:`PM = 180° + \angle L(j\omega_c)` with the *continuous* phase (unwrapped from the
@@ -15,6 +15,23 @@ Definitions (MODEL.md):
 - symmetric (skew 0) disk margin :math:`\alpha = 1 / \max_\omega |S - 1/2|`, with gain margin
   :math:`(2+\alpha)/(2-\alpha)` and phase margin :math:`2 \arctan(\alpha/2)` (Seiler, Packard
   and Gahinet, "An introduction to disk margins", IEEE Control Systems 40(5), 2020).
+
+Method. Every loop of the batch is sampled on one common grid; crossings are bracketed by sign
+changes between samples and all refined together (:mod:`cas_freq.analysis.roots`). A crossing
+pair cannot hide between two samples: *probes* are added where the response may have a
+feature narrower than the grid, and the brackets are split at them:
+
+- every local maximum of |L| on the grid between -20 and 0 dB and every local minimum between
+  0 and +20 dB is refined to the true extremum, which becomes a probe (a narrow peak that pokes
+  above 0 dB, or a notch that dips below, between two samples);
+- the caller may add probes of its own, e.g. where the inner loop L_i passes close to -1, so
+  that T_i and hence L_p have a resonance narrower than the grid
+  (:func:`near_minus_one_probes`).
+
+Between consecutive samples the magnitude and phase of a resonance are monotone, so every
+crossing is bracketed. Phase crossovers: with exact delays a loop has dozens in range. Unless
+all are asked for, only those whose interpolated gain margin is within :data:`CANDIDATE_DB` of
+the best one of their kind are refined (the headline figures are the same).
 """
 
 import dataclasses
@@ -22,7 +39,24 @@ import math
 
 import numpy as np
 
-from cas_freq.analysis.frequency import continuous_phase, refine_maximum, refine_roots
+from cas_freq.analysis.roots import refine_maxima, refine_roots
+
+#: Phase crossings refined: those within this of the best grid estimate of their kind [dB].
+CANDIDATE_DB = 1.0
+
+#: Local extrema of |L| refined as probes: within this of 0 dB [dB].
+EXTREMUM_WINDOW_DB = 20.0
+
+#: Figures of one loop, in the order and with the names of the JSON of ``analyze``.
+LOOP_FIGURES = (
+    "crossover_rad_s", "phase_margin_deg", "delay_margin_s", "gain_margin_db",
+    "phase_crossover_rad_s", "gain_margin_low_db", "phase_crossover_low_rad_s",
+    "sensitivity_peak_db", "sensitivity_peak_rad_s", "disk_margin_alpha",
+    "disk_margin_gain_db", "disk_margin_phase_deg", "gain_crossover_count",
+)
+
+#: Raw values :func:`loop_figures` adds for the grid split of the analysis (not figures).
+EXTRA = ("_sensitivity_max", "_disk_distance_max", "_maximum_at_top")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -68,63 +102,495 @@ class LoopMargins:
     phase_crossovers: tuple[PhaseCrossover, ...]
 
 
-def _gain_crossovers(loop, omega, response):
-    def magnitude_minus_one(w):
-        return abs(loop(1j * w)) - 1.0
+@dataclasses.dataclass(frozen=True, eq=False)
+class Probes:
+    """Extra sample frequencies per run: ``runs`` (int) and ``log_w`` [log(rad/s)], same shape."""
 
-    phase = continuous_phase(response, omega)
-    found = []
-    for w in refine_roots(magnitude_minus_one, omega, np.abs(response) - 1.0):
-        k = min(int(np.searchsorted(omega, w)), len(omega) - 1)  # nearest grid point above
-        value = loop(1j * w)
-        # continuous phase at w: the grid's phase plus the small step from the grid point
-        angle = phase[k] + np.angle(value / response[k])
-        pm = math.degrees(math.pi + angle)
-        found.append(GainCrossover(float(w), pm, math.radians(pm) / w))
-    return tuple(found)
+    runs: np.ndarray
+    log_w: np.ndarray
 
+    @classmethod
+    def none(cls):
+        return cls(np.zeros(0, dtype=int), np.zeros(0))
 
-def _phase_crossovers(loop, omega, response):
-    def sine_of_phase(w):  # sin(angle L); 0 where L = 0 (no phase there, and not negative)
-        value = loop(1j * w)
-        return value.imag / abs(value) if value != 0 else 0.0
-
-    found = []
-    magnitude = np.abs(response)
-    sines = np.divide(response.imag, magnitude, out=np.zeros(len(magnitude)), where=magnitude > 0)
-    for w in refine_roots(sine_of_phase, omega, sines):
-        value = loop(1j * w)
-        if value.real < 0:
-            found.append(PhaseCrossover(float(w), -20.0 * math.log10(abs(value))))
-    return tuple(found)
+    def __add__(self, other):
+        return Probes(np.concatenate([self.runs, other.runs]),
+                      np.concatenate([self.log_w, other.log_w]))
 
 
-def _disk_margin(alpha):
-    """(gain margin [dB] or None when unbounded, phase margin [deg]) of a skew-0 disk."""
-    phase = math.degrees(2.0 * math.atan(alpha / 2.0))
-    if alpha >= 2.0:
-        return None, phase
-    return 20.0 * math.log10((2.0 + alpha) / (2.0 - alpha)), phase
+def _group_min(n, runs, keys, payload):
+    """Per run, the payload of the entry with the smallest key (NaN where a run has none)."""
+    out_key = np.full(n, np.nan)
+    out_payload = np.full(n, np.nan)
+    if runs.size == 0:
+        return out_key, out_payload
+    order = np.lexsort((keys, runs))
+    runs_sorted = runs[order]
+    first = np.ones(runs_sorted.size, dtype=bool)
+    first[1:] = runs_sorted[1:] != runs_sorted[:-1]
+    chosen = order[first]
+    out_key[runs[chosen]] = keys[chosen]
+    out_payload[runs[chosen]] = payload[chosen]
+    return out_key, out_payload
 
 
-def without_closed_loop_figures(margins):
-    """The same margins with the sensitivity peak and disk margin removed (set to None).
+def phase_jumps(u):
+    """Where ``numpy.unwrap`` of ``angle(u)`` along each row would add a turn: between grid
+    points k and k + 1 when the wrapped angles differ by more than pi.
 
-    Both describe robustness of a stable nominal closed loop; for an unstable one they are
-    numbers without meaning.
+    Found without computing angles: the wrapped angle jumps by more than pi exactly when the
+    point moves between the upper and lower half-planes the long way round, i.e. when the
+    sign of ``Im(conj(u_k) u_(k+1))`` is that of the move (positive from upper to lower).
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        Shape (n, m - 1).
     """
-    return dataclasses.replace(
-        margins,
-        sensitivity_peak_db=None,
-        sensitivity_peak_rad_s=None,
-        disk_margin_alpha=None,
-        disk_margin_gain_db=None,
-        disk_margin_phase_deg=None,
+    re, im = u.real, u.imag
+    upper = im >= 0
+    cross = re[:, :-1] * im[:, 1:] - im[:, :-1] * re[:, 1:]
+    down = upper[:, :-1] & ~upper[:, 1:]
+    up = ~upper[:, :-1] & upper[:, 1:]
+    return (down & (cross > 0)) | (up & (cross < 0))
+
+
+def _first_true(mask):
+    """(index of the first True per row, or the row length if none)."""
+    has = mask.any(axis=1)
+    return np.where(has, np.argmax(mask, axis=1), mask.shape[1])
+
+
+def continuous_phase_at(response, omega, rows, columns):
+    """Continuous phase [rad] of ``response[rows, columns]``, unwrapped from the first grid
+    point on the branch set by the low-frequency asymptote (-90° per integrator).
+
+    Rows whose turned response (``response * exp(-1j target)``) does not jump before the
+    column need one angle; the others are unwrapped like ``numpy.unwrap``.
+    """
+    slope = np.log(np.abs(response[:, 1]) / np.abs(response[:, 0])) / math.log(omega[1] / omega[0])
+    target = -np.round(-slope) * math.pi / 2
+    out = np.empty(rows.size)
+    if rows.size == 0:
+        return out
+    width = int(columns.max()) + 1
+    needed = np.unique(rows)
+    turned = response[needed, :width] * np.exp(-1j * target[needed])[:, None]
+    first_jump = np.full(response.shape[0], width)
+    first_jump[needed] = _first_true(phase_jumps(turned)) if width > 1 else width
+    simple = columns <= first_jump[rows]
+    value = response[rows, columns] * np.exp(-1j * target[rows])
+    out[simple] = np.angle(value[simple]) + target[rows[simple]]
+    for row in np.unique(rows[~simple]):
+        unwrapped = np.unwrap(np.angle(response[row, :width] * np.exp(-1j * target[row])))
+        mine = (rows == row) & ~simple
+        out[mine] = unwrapped[columns[mine]] + target[row]
+    return out
+
+
+def _sine(value):
+    size = np.abs(value)
+    return np.divide(value.imag, size, out=np.zeros(size.shape), where=size > 0)
+
+
+def _gain_sign(value):
+    return np.abs(value) > 1.0
+
+
+def _phase_sign(value):
+    return value.imag > 0
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Samples:
+    """The grid response plus the probes of each run, evaluated."""
+
+    log_w: np.ndarray           # grid [log(rad/s)], (m,)
+    response: np.ndarray        # (n, m)
+    probes: Probes
+    values: np.ndarray          # L at the probes
+    interval: np.ndarray        # grid interval k of each probe (log_w[k] < x < log_w[k + 1])
+
+
+def _samples(evaluate, log_w, response, probes):
+    inside = (probes.log_w > log_w[0]) & (probes.log_w < log_w[-1])
+    probes = Probes(probes.runs[inside], probes.log_w[inside])
+    values = evaluate(probes.runs, np.exp(probes.log_w)) if probes.runs.size else \
+        np.zeros(0, dtype=complex)
+    interval = np.searchsorted(log_w, probes.log_w, side="right") - 1
+    return _Samples(log_w, response, probes, values, interval)
+
+
+def _brackets(samples, sign):
+    """Every sign change of ``sign(L)`` between consecutive samples of a run.
+
+    Returns
+    -------
+    tuple
+        (runs, grid interval k, x_lo, x_hi, L at x_lo, L at x_hi, whether the bracket lies in
+        an interval split by probes).
+    """
+    response, log_w = samples.response, samples.log_w
+    positive = sign(response)
+    runs, k = np.nonzero(positive[:, :-1] != positive[:, 1:])
+    probes = samples.probes
+    if probes.runs.size == 0:
+        return (runs, k, log_w[k], log_w[k + 1], response[runs, k], response[runs, k + 1],
+                np.zeros(runs.size, dtype=bool))
+    m = log_w.size
+    split = np.unique(probes.runs * m + samples.interval)
+    kept = ~np.isin(runs * m + k, split)
+    runs, k = runs[kept], k[kept]
+    # the split intervals: their two grid ends and the probes inside, sorted by frequency
+    s_runs, s_k = split // m, split % m
+    seq_runs = np.concatenate([s_runs, s_runs, probes.runs])
+    seq_k = np.concatenate([s_k, s_k, samples.interval])
+    seq_x = np.concatenate([log_w[s_k], log_w[s_k + 1], probes.log_w])
+    seq_v = np.concatenate([response[s_runs, s_k], response[s_runs, s_k + 1], samples.values])
+    order = np.lexsort((seq_x, seq_k, seq_runs))
+    seq_runs, seq_k, seq_x, seq_v = seq_runs[order], seq_k[order], seq_x[order], seq_v[order]
+    same = (seq_runs[1:] == seq_runs[:-1]) & (seq_k[1:] == seq_k[:-1])
+    positive = sign(seq_v)
+    change = np.flatnonzero(same & (positive[1:] != positive[:-1]) & (seq_x[1:] > seq_x[:-1]))
+    return (
+        np.concatenate([runs, seq_runs[change]]),
+        np.concatenate([k, seq_k[change]]),
+        np.concatenate([log_w[k], seq_x[change]]),
+        np.concatenate([log_w[k + 1], seq_x[change + 1]]),
+        np.concatenate([response[runs, k], seq_v[change]]),
+        np.concatenate([response[runs, k + 1], seq_v[change + 1]]),
+        np.concatenate([np.zeros(runs.size, dtype=bool), np.ones(change.size, dtype=bool)]),
     )
 
 
-def loop_margins(loop, omega):
-    """All margins of a loop transfer function.
+def extremum_probes(evaluate, omega, response):
+    """Probes at the refined local extrema of |L| near 0 dB (see the module notes).
+
+    Parameters
+    ----------
+    evaluate : callable
+        ``evaluate(runs, omega) -> complex`` loop response.
+    omega : numpy.ndarray
+        Grid [rad/s], shape (m,).
+    response : numpy.ndarray
+        Loop response on the grid, shape (n, m).
+
+    Returns
+    -------
+    Probes
+    """
+    if omega.size < 3:
+        return Probes.none()
+    squared = response.real ** 2 + response.imag ** 2
+    low, high = 10.0 ** (-EXTREMUM_WINDOW_DB / 10.0), 10.0 ** (EXTREMUM_WINDOW_DB / 10.0)
+    middle, left, right = squared[:, 1:-1], squared[:, :-2], squared[:, 2:]
+    peak = (middle >= left) & (middle >= right) & (middle < 1.0) & (middle > low)
+    notch = (middle <= left) & (middle <= right) & (middle > 1.0) & (middle < high)
+    log_w = np.log(omega)
+    found = []
+    for mask, sign in ((peak, 1.0), (notch, -1.0)):
+        runs, k = np.nonzero(mask)
+        if runs.size == 0:
+            continue
+        k = k + 1
+        x, _ = _refine_log_maxima(
+            lambda x, j, runs=runs, sign=sign: sign * np.abs(evaluate(runs[j], np.exp(x))),
+            log_w[k - 1], log_w[k + 1], log_w[k],
+            sign * np.sqrt(squared[runs, k - 1]), sign * np.sqrt(squared[runs, k]),
+            sign * np.sqrt(squared[runs, k + 1]),
+        )
+        found.append(Probes(runs, x))
+    total = Probes.none()
+    for probes in found:
+        total = total + probes
+    return total
+
+
+def near_minus_one_probes(omega, inner, runs=None):
+    """Probes where an inner loop L_i passes close to -1 between two grid samples.
+
+    There |1 + L_i| has a sharp minimum, so T_i = L_i/(1 + L_i) and every loop containing it
+    have a resonance that the grid may step over. Over one grid interval L_i is nearly a
+    straight segment (its own poles and the delay turn it slowly); the point of the segment
+    closest to -1 at distance d, with L_i moving at speed v per unit log frequency, gives a
+    resonance centred there with half-width about d / v. Probes are placed at the centre and
+    at 0.5, 1, 2 and 4 half-widths on each side.
+
+    Parameters
+    ----------
+    omega : numpy.ndarray
+        Grid [rad/s], shape (m,).
+    inner : numpy.ndarray
+        L_i on the grid, shape (n, m) (or (1, m) shared by every run).
+    runs : numpy.ndarray, optional
+        Run numbers of the rows of ``inner`` (default 0..n-1).
+
+    Returns
+    -------
+    Probes
+    """
+    log_w = np.log(omega)
+    a, b = inner[:, :-1], inner[:, 1:]
+    chord = b - a
+    length2 = chord.real ** 2 + chord.imag ** 2
+    to_point = -1.0 - a
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (chord.real * to_point.real + chord.imag * to_point.imag) / length2
+    inside = (t > 0.0) & (t < 1.0) & (length2 > 0)
+    distance = np.abs(a + np.where(inside, t, 0.0) * chord + 1.0)
+    ends = np.minimum(np.abs(1.0 + a), np.abs(1.0 + b))
+    sharp = inside & (distance < 0.5 * ends)
+    rows, k = np.nonzero(sharp)
+    if rows.size == 0:
+        return Probes.none()
+    step = log_w[k + 1] - log_w[k]
+    centre = log_w[k] + t[rows, k] * step
+    width = distance[rows, k] * step / np.sqrt(length2[rows, k])
+    offsets = np.array([-4.0, -2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0, 4.0])
+    x = centre[:, None] + offsets[None, :] * width[:, None]
+    x = np.clip(x, log_w[k][:, None], log_w[k + 1][:, None])
+    owner = rows if runs is None else np.asarray(runs)[rows]
+    return Probes(np.repeat(owner, offsets.size), x.ravel())
+
+
+def _refine_log_maxima(func, lo, hi, mid, f_lo, f_mid, f_hi):
+    """:func:`refine_maxima` returning log frequencies."""
+    w, value = refine_maxima(func, lo, hi, f_lo, f_mid, f_hi, mid)
+    return np.log(w), value
+
+
+def _phase_candidates(n, brackets):
+    """Which phase brackets are worth refining (see :data:`CANDIDATE_DB`)."""
+    runs, _, _, _, v_lo, v_hi, _ = brackets
+    keep = (v_lo.real < 0) | (v_hi.real < 0)
+    im_lo, im_hi = v_lo.imag, v_hi.imag
+    with np.errstate(divide="ignore", invalid="ignore"):
+        share = im_lo / (im_lo - im_hi)
+    low, high = np.abs(v_lo), np.abs(v_hi)
+    with np.errstate(divide="ignore"):
+        estimate = -20.0 * np.log10(low + share * (high - low))
+    upper = keep & (estimate >= -CANDIDATE_DB)
+    lower = keep & (estimate < CANDIDATE_DB)
+    best_upper, _ = _group_min(n, runs[upper], estimate[upper], estimate[upper])
+    best_lower, _ = _group_min(n, runs[lower], -estimate[lower], estimate[lower])
+    return (upper & (estimate <= np.maximum(best_upper[runs], 0.0) + CANDIDATE_DB)) | (
+        lower & (estimate >= np.minimum(-best_lower[runs], 0.0) - CANDIDATE_DB)
+    )
+
+
+def _phase_through(evaluate, run, x_start, x_end, phase_start, value_start, probe_x):
+    """Continuous phase at ``x_end`` by unwrapping along a path from a grid sample of known
+    continuous phase through the probes in between (used inside split intervals only)."""
+    inner = probe_x[(probe_x > x_start) & (probe_x < x_end)]
+    path = np.union1d(np.linspace(x_start, x_end, 17), inner)
+    values = evaluate(np.full(path.size, run), np.exp(path))
+    values[0] = value_start
+    steps = np.angle(values[1:] / values[:-1])
+    return phase_start + float(np.sum(steps)), values[-1]
+
+
+def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=False):
+    """Margins of a batch of loops.
+
+    Parameters
+    ----------
+    evaluate : callable
+        ``evaluate(runs, omega) -> complex`` loop response of runs ``runs`` (int array) at
+        frequencies ``omega`` [rad/s] (same shape).
+    omega : numpy.ndarray
+        Grid [rad/s], shape (m,).
+    response : numpy.ndarray
+        Loop response on the grid, shape (n, m).
+    ms_valid : numpy.ndarray of bool
+        Where the sensitivity peak and disk margin are meaningful (stable closed loop);
+        NaN elsewhere.
+    probes : Probes, optional
+        Extra samples (e.g. :func:`near_minus_one_probes`), besides the extremum probes that
+        are always added.
+    crossings : bool
+        Also return every gain crossover and every phase crossover (all refined).
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        :data:`LOOP_FIGURES` (and :data:`EXTRA`), each shape (n,); with ``crossings`` also
+        ``"_gain_crossings"`` (runs, frequency, PM [deg], delay margin [s]) and
+        ``"_phase_crossings"`` (runs, frequency, GM [dB]), sorted by run and frequency.
+    """
+    n = response.shape[0]
+    log_w = np.log(omega)
+    re, im = response.real, response.imag
+    out = {}
+    probes = extremum_probes(evaluate, omega, response) + (probes or Probes.none())
+    samples = _samples(evaluate, log_w, response, probes)
+
+    # Gain crossovers (|L| = 1, all) and phase crossovers (Im L = 0 with Re L < 0), refined
+    # together.
+    gain_b = _brackets(samples, _gain_sign)
+    phase_b = _brackets(samples, _phase_sign)
+    if not crossings:
+        chosen = _phase_candidates(n, phase_b)
+        phase_b = tuple(part[chosen] for part in phase_b)
+    else:
+        keep = (phase_b[4].real < 0) | (phase_b[5].real < 0)
+        phase_b = tuple(part[keep] for part in phase_b)
+    size_g = gain_b[0].size
+    runs, k, x_lo, x_hi, v_lo, v_hi, split = (
+        np.concatenate([g, p]) for g, p in zip(gain_b, phase_b, strict=True))
+    gain = np.arange(runs.size) < size_g
+    f_lo = np.where(gain, np.abs(v_lo) - 1.0, _sine(v_lo))
+    f_hi = np.where(gain, np.abs(v_hi) - 1.0, _sine(v_hi))
+
+    def crossing(x, j):
+        value = evaluate(runs[j], np.exp(x))
+        return np.where(gain[j], np.abs(value) - 1.0, _sine(value))
+
+    w_all = refine_roots(crossing, x_lo, x_hi, f_lo, f_hi)
+    value_all = evaluate(runs, w_all)
+
+    w, value, g, gk, gsplit = w_all[gain], value_all[gain], runs[gain], k[gain], split[gain]
+    above = np.minimum(np.searchsorted(omega, w), omega.size - 1)
+    anchor = continuous_phase_at(response, omega, g, above)
+    angle = anchor + np.angle(value / response[g, above])
+    if gsplit.any():
+        below = continuous_phase_at(response, omega, g[gsplit], gk[gsplit])
+        for i, j in enumerate(np.flatnonzero(gsplit)):
+            probe_x = samples.probes.log_w[samples.probes.runs == g[j]]
+            angle[j], _ = _phase_through(evaluate, g[j], log_w[gk[j]], math.log(w[j]),
+                                         below[i], response[g[j], gk[j]], probe_x)
+    pm = np.degrees(math.pi + angle)
+    dm = np.radians(pm) / w
+    out["phase_margin_deg"], out["crossover_rad_s"] = _group_min(n, g, pm, w)
+    out["delay_margin_s"], _ = _group_min(n, g, dm, dm)
+    out["gain_crossover_count"] = np.bincount(g, minlength=n).astype(float)
+    if crossings:
+        order = np.lexsort((w, g))
+        out["_gain_crossings"] = (g[order], w[order], pm[order], dm[order])
+
+    w, value, r = w_all[~gain], value_all[~gain], runs[~gain]
+    negative = value.real < 0
+    r, w, value = r[negative], w[negative], value[negative]
+    gm = -20.0 * np.log10(np.abs(value))
+    up = gm >= 0
+    out["gain_margin_db"], out["phase_crossover_rad_s"] = _group_min(n, r[up], gm[up], w[up])
+    low_key, out["phase_crossover_low_rad_s"] = _group_min(n, r[~up], -gm[~up], w[~up])
+    out["gain_margin_low_db"] = -low_key
+    if crossings:
+        order = np.lexsort((w, r))
+        out["_phase_crossings"] = (r[order], w[order], gm[order])
+
+    # Sensitivity peak and disk margin, refined together.
+    every = np.arange(n)
+    plus = (re + 1.0) ** 2 + im * im  # |1 + L|^2
+    (s_w, s_value, _), (d_w, distance, _) = _maxima(
+        evaluate, omega,
+        [(every, -plus, lambda v, i: 1.0 / np.abs(1.0 + v), response),
+         (every, ((re - 1.0) ** 2 + im * im) / plus, lambda v, i: _disk_distance(v),
+          response)],
+    )
+    # for the grid split of the analysis: the raw maxima and whether they are at the top end
+    out["_sensitivity_max"], out["_disk_distance_max"] = s_value, distance
+    out["_maximum_at_top"] = (s_w == omega[-1]) | (d_w == omega[-1])
+    alpha = 1.0 / distance
+    with np.errstate(divide="ignore", invalid="ignore"):
+        disk_gain = np.where(alpha < 2.0, 20.0 * np.log10((2.0 + alpha) / (2.0 - alpha)), np.nan)
+    nan = np.where(ms_valid, 1.0, np.nan)
+    out["sensitivity_peak_db"] = 20.0 * np.log10(s_value) * nan
+    out["sensitivity_peak_rad_s"] = s_w * nan
+    out["disk_margin_alpha"] = alpha * nan
+    out["disk_margin_gain_db"] = disk_gain * nan
+    out["disk_margin_phase_deg"] = np.degrees(2.0 * np.arctan(alpha / 2.0)) * nan
+    names = (*LOOP_FIGURES, *EXTRA)
+    if crossings:
+        names = (*names, "_gain_crossings", "_phase_crossings")
+    return {name: out[name] for name in names}
+
+
+def _disk_distance(value):
+    return np.abs(1.0 - value) / (2.0 * np.abs(1.0 + value))
+
+
+def _maxima(evaluate, omega, tasks):
+    """Largest value of each task's function on the grid, refined to a local maximum, all
+    tasks together.
+
+    Parameters
+    ----------
+    evaluate : callable
+        ``evaluate(runs, omega) -> complex`` response.
+    omega : numpy.ndarray
+        Grid [rad/s].
+    tasks : list of (runs, key, transform, grid)
+        ``runs`` (int array); ``key`` (len(runs), m), increasing with the function on the
+        grid (its argmax is the function's); ``transform(response, i) -> float`` the function
+        of the response at rows ``i`` of the task; ``grid`` the response on the grid, rows as
+        ``runs``.
+
+    Returns
+    -------
+    list of (frequency [rad/s], value, interior)
+        Per task; a maximum on an end of the grid stays there (interior False).
+    """
+    log_w = np.log(omega)
+    results, pieces = [], []
+    for number, (runs, key, transform, grid) in enumerate(tasks):
+        rows = np.arange(runs.size)
+        k = np.argmax(key, axis=1)
+        best = transform(grid[rows, k], rows)
+        interior = (k > 0) & (k < omega.size - 1)
+        results.append([omega[k].astype(float), best.astype(float), interior])
+        inner = np.flatnonzero(interior)
+        kk = k[inner]
+        triple = [transform(grid[inner, kk + shift], inner) for shift in (-1, 0, 1)]
+        pieces.append((np.full(inner.size, number), inner, runs[inner], kk, triple))
+    task = np.concatenate([piece[0] for piece in pieces])
+    row = np.concatenate([piece[1] for piece in pieces])
+    run = np.concatenate([piece[2] for piece in pieces])
+    k = np.concatenate([piece[3] for piece in pieces])
+    f = [np.concatenate([piece[4][i] for piece in pieces]) for i in range(3)]
+
+    def func(x, j):
+        value = evaluate(run[j], np.exp(x))
+        out = np.empty(j.size)
+        for number, (_, _, transform, _) in enumerate(tasks):
+            mine = task[j] == number
+            out[mine] = transform(value[mine], row[j][mine])
+        return out
+
+    # the grid point k is the middle of the starting triple (the grid is not uniform in log
+    # where it is densified, so the triple's middle is not the interval's centre)
+    w, v = refine_maxima(func, log_w[k - 1], log_w[k + 1], f[0], f[1], f[2], log_w[k])
+    for number, result in enumerate(results):
+        mine = task == number
+        rows = row[mine]
+        better = v[mine] >= result[1][rows]
+        result[0][rows] = np.where(better, w[mine], result[0][rows])
+        result[1][rows] = np.where(better, v[mine], result[1][rows])
+    return [tuple(result) for result in results]
+
+
+def _none(value):
+    return None if not np.isfinite(value) else float(value)
+
+
+def margins_of_run(figures, run=0):
+    """The :class:`LoopMargins` of one run from :func:`loop_figures` (with ``crossings``)."""
+    g_runs, g_w, g_pm, g_dm = figures["_gain_crossings"]
+    p_runs, p_w, p_gm = figures["_phase_crossings"]
+    mine, theirs = g_runs == run, p_runs == run
+    values = {name: _none(figures[name][run]) for name in LOOP_FIGURES
+              if name != "gain_crossover_count"}
+    return LoopMargins(
+        **values,
+        gain_crossovers=tuple(GainCrossover(float(w), float(pm), float(dm)) for w, pm, dm in
+                              zip(g_w[mine], g_pm[mine], g_dm[mine], strict=True)),
+        phase_crossovers=tuple(PhaseCrossover(float(w), float(gm)) for w, gm in
+                               zip(p_w[theirs], p_gm[theirs], strict=True)),
+    )
+
+
+def loop_margins(loop, omega, stable=True):
+    """All margins of one loop given as a function of s.
 
     Parameters
     ----------
@@ -134,47 +600,14 @@ def loop_margins(loop, omega):
     omega : numpy.ndarray
         Analysis grid [rad/s] (see :func:`~cas_freq.analysis.frequency.frequency_grid`). Only
         crossings inside it are found.
+    stable : bool
+        Whether the closed loop is stable (otherwise Ms and the disk margin are None).
 
     Returns
     -------
     LoopMargins
     """
-    response = loop(1j * omega)
-    gains = _gain_crossovers(loop, omega, response)
-    phases = _phase_crossovers(loop, omega, response)
-
-    worst_pm = min(gains, key=lambda c: c.phase_margin_deg, default=None)
-    upper = [c for c in phases if c.gain_margin_db >= 0]
-    lower = [c for c in phases if c.gain_margin_db < 0]
-    gm = min(upper, key=lambda c: c.gain_margin_db, default=None)
-    gm_low = max(lower, key=lambda c: c.gain_margin_db, default=None)
-
-    def sensitivity(w):
-        return 1.0 / abs(1.0 + loop(1j * w))
-
-    def disk_distance(w):  # |S - 1/2| = |1 - L| / (2 |1 + L|)
-        value = loop(1j * w)
-        return abs(1.0 - value) / (2.0 * abs(1.0 + value))
-
-    ms_w, ms, _ = refine_maximum(sensitivity, omega, 1.0 / np.abs(1.0 + response))
-    _, dd, _ = refine_maximum(
-        disk_distance, omega, np.abs(1.0 - response) / (2.0 * np.abs(1.0 + response))
-    )
-    alpha = 1.0 / dd
-    disk_gain, disk_phase = _disk_margin(alpha)
-    return LoopMargins(
-        crossover_rad_s=worst_pm.frequency_rad_s if worst_pm else None,
-        phase_margin_deg=worst_pm.phase_margin_deg if worst_pm else None,
-        delay_margin_s=min((c.delay_margin_s for c in gains), default=None),
-        gain_margin_db=gm.gain_margin_db if gm else None,
-        phase_crossover_rad_s=gm.frequency_rad_s if gm else None,
-        gain_margin_low_db=gm_low.gain_margin_db if gm_low else None,
-        phase_crossover_low_rad_s=gm_low.frequency_rad_s if gm_low else None,
-        sensitivity_peak_db=20.0 * math.log10(ms),
-        sensitivity_peak_rad_s=ms_w,
-        disk_margin_alpha=alpha,
-        disk_margin_gain_db=disk_gain,
-        disk_margin_phase_deg=disk_phase,
-        gain_crossovers=gains,
-        phase_crossovers=phases,
-    )
+    response = np.asarray(loop(1j * omega), dtype=complex)[None, :]
+    figures = loop_figures(lambda runs, w: loop(1j * w), omega, response,
+                           np.array([stable]), crossings=True)
+    return margins_of_run(figures)

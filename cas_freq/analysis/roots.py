@@ -8,9 +8,8 @@ refined together, every iteration evaluating the function once at one point per 
 - maxima: successive parabolic interpolation (golden-section fallback) on
   ``[w_(k-1), w_(k+1)]`` around the largest grid value.
 
-The single-variant path (:mod:`cas_freq.analysis.frequency`) refines to 1e-12 with Brent's
-method; roots agree to ~1e-11, maxima to ~1e-8 in frequency (a maximum's frequency is only
-defined to about the square root of machine epsilon) and ~1e-15 in value.
+Roots are located to 1e-12 relative in frequency; maxima to ~1e-9 in frequency (a maximum's
+frequency is only defined to about the square root of machine epsilon) and ~1e-15 in value.
 """
 
 import math

@@ -1,52 +1,244 @@
-r"""Closed-loop stability from the poles of the Padé model (MODEL.md, "Stability"), numpy only.
+r"""Closed-loop stability of one or many variants, from the Padé model (numpy only).
 
 The position closed loop contains the current closed loop, so its poles decide both. A pole
 whose real part is within a relative 1e-9 of zero is called marginal: the loop neither grows nor
 decays there, and no frequency-domain figure of it is trustworthy.
 
-Method
-------
-The poles are the eigenvalues of the closed-loop state matrix, assembled here in numpy from the
-same blocks as :func:`cas_freq.model.systems.linear_model` (which needs python-control, and
-``import control`` loads matplotlib): the plant states (i, omega, theta), the PI integrator of
-C_i, the two Padé cascades of :func:`cas_freq.model.delay.pade_realization` and the two states
-of C_p (integrator and derivative filter). With n the Padé order there are 2n + 6 states, the
-degree of the characteristic polynomial
+Verdicts (all variants at once). The poles of the Padé model of order n are the roots of
 
 .. math::
-    P_i = d_{ci} d_c D + n_{ci} n_c (Js + \mu_v), \qquad
-    P = d_{cp} d_p \, s \, P_i + n_{cp} n_p n_{ci} n_c K_m
+    Q_c(s) = s\,D(s\tau_c)\,(Z_e P_m + K_e K_m) + n_{ci}(s)\,D(-s\tau_c)\,P_m
 
-(Y = (Js + \mu_v)/D, C_i = n_{ci}/d_{ci}, C_p = n_{cp}/d_{cp}, Padé delays n_c/d_c and
-n_p/d_p; the factor Js + \mu_v cancels exactly in T_i M).
+    Q(s) = s (T_f s + 1)\,D(s\tau_p)\,s\,Q_c(s)
+           + K_m\,n_{cp}(s)\,D(-s\tau_p)\,n_{ci}(s)\,D(-s\tau_c)
 
-Eigenvalues of the block matrix are preferred to the roots of P: P mixes poles from ~10 rad/s
-(position integrator) to ~1e5 rad/s (Padé poles of the 0.06 ms delay), so its coefficients span
-tens of decades even in a scaled variable, and polynomial roots are sensitive to relative
-coefficient errors that grow with that spread and with the degree (2n + 6 = 66 at n = 30).
-The block matrix has entries that are the physical coefficients themselves (no products), each
-Padé section is a balanced 1x1 or 2x2 block, and LAPACK's ``geev`` balances the whole matrix
-before the QR iteration, so each eigenvalue is accurate to about machine precision times the
-balanced matrix norm divided by its condition; the same as python-control's model, which
-realises the same blocks.
+with the parts of :mod:`cas_freq.model.parts` and the Padé approximant
+:math:`e^{-x} \approx D(-x)/D(x)`. :math:`Q_c` decides the current loop alone, :math:`Q` the
+whole actuator (either derivative placement: the feedback path is :math:`C_p` in both). The
+verdict is read from the Routh array of the scaled polynomial (no root finding). Where the
+array is ambiguous (a first-column entry within :data:`ROUTH_TOLERANCE` of zero, or a root near
+s = 0) the poles are computed and judged by :func:`pole_verdict`.
 
-Exact common factors are cancelled before realising, so no spurious pole appears:
-``Ki = 0`` in either controller drops its integrator, ``Kd = 0`` drops the derivative filter
-(even with ``Tf`` set), and with ``mu_v = 0`` the current loop's integrator pole cancels the zero
-of Y at s = 0 (the frictionless shaft drifts at constant speed with i = 0, a mode unobservable
-from i): the current-loop verdict then uses ``C_i Y = J (K_p s + K_i) / D``. The whole loop
-observes that mode through theta and keeps all 2n + 6 states. The derivative placement (error or
-measurement) changes only the reference path, not the poles.
+Poles (:func:`closed_loop_poles`, :func:`current_loop_poles`): the eigenvalues of the
+closed-loop state matrix, assembled from the same blocks as python-control's model
+(:func:`cas_freq.model.systems.linear_model`): the plant states (i, omega, theta) of
+:func:`cas_freq.model.parts.plant_matrices`, the PI integrator of C_i, the two Padé cascades of
+:func:`cas_freq.model.delay.pade_realization` and the two states of C_p (integrator and
+derivative filter). Eigenvalues of the block matrix are preferred to polynomial roots: the
+polynomial mixes poles from ~10 rad/s to ~1e5 rad/s, so its coefficients span tens of decades,
+while the block matrix holds the physical coefficients themselves and LAPACK balances it.
+
+Exact common factors are cancelled before realising, so no spurious pole appears: ``Ki = 0``
+in either controller drops its integrator, ``Kd = 0`` drops the derivative filter (even with
+``Tf`` set), and with ``mu_v = 0`` the current loop's integrator pole cancels the zero of Y at
+s = 0 (the frictionless shaft drifts at constant speed with i = 0, a mode unobservable from i):
+the current-loop verdict then uses ``C_i Y = J (K_p s + K_i) / D``. The whole loop observes
+that mode through theta and keeps every state.
 """
 
 import dataclasses
 
 import numpy as np
 
-from cas_freq.model.delay import pade_realization
+from cas_freq.model import parts
+from cas_freq.model.delay import DEFAULT_PADE_ORDER, pade_denominator, pade_realization
 
 #: |Re p| <= MARGINAL_TOLERANCE * max(1, |p|) counts as on the imaginary axis.
 MARGINAL_TOLERANCE = 1e-9
+
+
+#: A Routh first-column entry below this (relative to its row) counts as ambiguous.
+ROUTH_TOLERANCE = 1e-8
+#: A root |s| below this [rad/s] (estimated -a_N/a_(N-1)) sends the run to the eigenvalues.
+NEAR_ZERO_RAD_S = 1e-4
+
+
+def polymul(a, b):
+    """Product of stacks of polynomials (rows, highest power first)."""
+    out = np.zeros((a.shape[0], a.shape[1] + b.shape[1] - 1))
+    for j in range(b.shape[1]):
+        out[:, j : j + a.shape[1]] += a * b[:, j : j + 1]
+    return out
+
+
+def polyadd(a, b):
+    """Sum of stacks of polynomials of possibly different degrees."""
+    width = max(a.shape[1], b.shape[1])
+    out = np.zeros((a.shape[0], width))
+    out[:, width - a.shape[1] :] += a
+    out[:, width - b.shape[1] :] += b
+    return out
+
+
+def _stack(*columns):
+    return np.column_stack([np.broadcast_to(np.asarray(c, float), np.shape(columns[0]))
+                            for c in columns])
+
+
+def pade_polynomials(tau, order):
+    """(D(s tau), D(-s tau)) as stacks of polynomials in s, for delays ``tau`` [s] (n,)."""
+    d = pade_denominator(order)
+    powers = np.arange(order, -1, -1)
+    scale = tau[:, None] ** powers
+    return d * scale, d * scale * (-1.0) ** powers
+
+
+def characteristic_polynomials(p, order=DEFAULT_PADE_ORDER):
+    """(Q_c, Q): current-loop and whole-loop characteristic polynomials of each run.
+
+    Parameters
+    ----------
+    p : cas_freq.parameters.LoopParameters
+        The runs.
+    order : int
+        Padé order of both delays.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        Stacks of coefficients (highest power first); leading zeros where a delay or Tf is 0.
+    """
+    n = p.n_runs
+    jm = parts.stacked(parts.mechanical(p), n)
+    plant = polyadd(polymul(parts.stacked(parts.electrical(p), n), jm),
+                    parts.back_emf_coupling(p)[:, None])
+    dc, nc = pade_polynomials(p.tau_c, order)
+    dp, np_ = pade_polynomials(p.tau_p, order)
+    zero = np.zeros(p.n_runs)
+    one = np.ones(p.n_runs)
+    s = _stack(one, zero)
+    # C_i = n_ci / d_ci; Ki = 0 drops the integrator (exact cancellation)
+    integral = p.ci_Ki > 0
+    n_ci = np.where(integral[:, None], _stack(p.ci_Kp, p.ci_Ki), _stack(zero, p.ci_Kp))
+    d_ci = np.where(integral[:, None], s, _stack(zero, one))
+    qc = polyadd(polymul(polymul(d_ci, dc), plant), polymul(polymul(n_ci, nc), jm))
+    # C_p = n_cp / d_cp, without the integrator where Ki = 0 and the filter where Kd = 0
+    kp, ki, kd, tf = p.cp_Kp, p.cp_Ki, p.cp_Kd, p.Tf
+    has_i, has_d = (ki > 0)[:, None], (kd > 0)[:, None]
+    n_cp = np.where(has_i, np.where(has_d, _stack(kp * tf + kd, kp + ki * tf, ki),
+                                    _stack(zero, kp, ki)),
+                    np.where(has_d, _stack(zero, kp * tf + kd, kp), _stack(zero, zero, kp)))
+    d_cp = np.where(has_i, np.where(has_d, _stack(tf, one, zero), _stack(zero, one, zero)),
+                    np.where(has_d, _stack(zero, tf, one), _stack(zero, zero, one)))
+    q = polyadd(
+        polymul(polymul(polymul(d_cp, dp), s), qc),
+        polymul(polymul(polymul(n_cp, np_), n_ci), nc) * p.Km[:, None],
+    )
+    # the current loop alone: with mu_v = 0 (and an integrator) the pole at 0 of C_i cancels
+    # the zero of Y at 0, C_i Y = J (Kp s + Ki) / P
+    cancel = ((p.mu_v == 0) & integral)[:, None]
+    reduced = polyadd(polymul(dc, plant), polymul(polymul(n_ci, nc), _stack(p.J)))
+    qc = np.where(cancel, polyadd(np.zeros((p.n_runs, qc.shape[1])), reduced), qc)
+    return qc, q
+
+
+def _routh_unstable_count(a):
+    """(number of sign changes of the Routh first column, ambiguous flag) per row of ``a``.
+
+    ``a``: stack of polynomials of one degree, leading coefficients nonzero, scaled.
+    """
+    n_rows, width = a.shape
+    degree = width - 1
+    cols = degree // 2 + 1
+    previous = np.zeros((n_rows, cols))
+    current = np.zeros((n_rows, cols))
+    even = a[:, 0::2]
+    odd = a[:, 1::2]
+    previous[:, : even.shape[1]] = even
+    current[:, : odd.shape[1]] = odd
+    first = [previous[:, 0], current[:, 0]]
+    ambiguous = np.zeros(n_rows, dtype=bool)
+    for _ in range(degree - 1):
+        scale = np.max(np.abs(current), axis=1)
+        scale = np.where(scale > 0, scale, 1.0)
+        ambiguous |= np.abs(current[:, 0]) <= ROUTH_TOLERANCE * scale
+        pivot = np.where(current[:, 0] != 0, current[:, 0], 1.0)
+        nxt = np.zeros_like(current)
+        nxt[:, :-1] = (
+            current[:, :1] * previous[:, 1:] - previous[:, :1] * current[:, 1:]
+        ) / pivot[:, None]
+        norm = np.max(np.abs(nxt), axis=1)
+        norm = np.where(norm > 0, norm, 1.0)
+        previous, current = current / scale[:, None], nxt / norm[:, None]
+        first.append(current[:, 0])
+    column = np.column_stack(first)
+    ambiguous |= np.any(column == 0, axis=1)
+    signs = np.sign(column)
+    return np.sum(signs[:, 1:] != signs[:, :-1], axis=1), ambiguous
+
+
+def _scaled(a):
+    """Coefficients of a(w0 x) / max, with w0 balancing the constant and leading terms."""
+    degree = a.shape[1] - 1
+    lead, const = np.abs(a[:, 0]), np.abs(a[:, -1])
+    w0 = np.where(const > 0, (const / lead) ** (1.0 / max(degree, 1)), 1.0)
+    powers = np.arange(degree, -1, -1)
+    scaled = a * w0[:, None] ** powers
+    scaled /= np.max(np.abs(scaled), axis=1, keepdims=True)
+    return scaled, w0
+
+
+def verdicts(polynomials, fallback):
+    """``"stable"``, ``"marginal"`` or ``"unstable"`` for each polynomial (row).
+
+    Parameters
+    ----------
+    polynomials : numpy.ndarray
+        Stack of characteristic polynomials, highest power first (leading zeros allowed).
+    fallback : callable
+        ``fallback(rows) -> verdicts`` from the poles, for rows whose Routh array is ambiguous.
+
+    Returns
+    -------
+    numpy.ndarray of str (object)
+    """
+    n = polynomials.shape[0]
+    out = np.empty(n, dtype=object)
+    nonzero = polynomials != 0
+    leading = np.argmax(nonzero, axis=1)
+    for lead in np.unique(leading):
+        rows = np.flatnonzero(leading == lead)
+        a = polynomials[rows, lead:]
+        if a.shape[1] == 1:
+            out[rows] = "stable"
+            continue
+        with np.errstate(divide="ignore", invalid="ignore"):
+            near_zero = np.abs(a[:, -1]) <= NEAR_ZERO_RAD_S * np.abs(a[:, -2])
+        scaled, _ = _scaled(a)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            changes, ambiguous = _routh_unstable_count(scaled)
+        ambiguous |= near_zero | ~np.all(np.isfinite(scaled), axis=1)
+        out[rows] = np.where(changes > 0, "unstable", "stable")
+        hard = np.flatnonzero(ambiguous)
+        if hard.size:
+            out[rows[hard]] = fallback(rows[hard])
+    return out
+
+
+def stability_verdicts(p, order=DEFAULT_PADE_ORDER):
+    """(whole-loop verdicts, current-loop verdicts) of every run of ``p`` (Padé order n).
+
+    Parameters
+    ----------
+    p : cas_freq.parameters.LoopParameters
+        The runs.
+    order : int
+        Padé order of both delays.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        ``"stable"``, ``"marginal"`` or ``"unstable"`` per run (object arrays).
+    """
+    qc, q = characteristic_polynomials(p, order)
+
+    def whole(rows):
+        return [pole_verdict(closed_loop_poles(p.run(r), order)) for r in rows]
+
+    def current(rows):
+        return [pole_verdict(current_loop_poles(p.run(r), order)) for r in rows]
+
+    return verdicts(q, whole), verdicts(qc, current)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -89,13 +281,16 @@ def pole_verdict(poles):
     return "stable"
 
 
-def closed_loop_stability(params, pade_order):
-    """Stability of the current loop and of the whole actuator, from Padé-model poles.
+def closed_loop_stability(params, pade_order=DEFAULT_PADE_ORDER):
+    """Stability of the current loop and of the whole actuator of one variant.
+
+    The verdicts are those of :func:`stability_verdicts` (the same for every variant of a
+    batch); the poles are listed too.
 
     Parameters
     ----------
-    params : cas_freq.config.ActuatorConfig
-        Validated parameters.
+    params : cas_freq.parameters.LoopParameters or cas_freq.config.ActuatorConfig
+        One variant.
     pade_order : int
         Padé order of the delays.
 
@@ -103,13 +298,32 @@ def closed_loop_stability(params, pade_order):
     -------
     Stability
     """
+    params = _one_run(params)
+    verdict, current = stability_verdicts(params, pade_order)
     poles = closed_loop_poles(params, pade_order)
     return Stability(
-        verdict=pole_verdict(poles),
+        verdict=str(verdict[0]),
         pade_order=pade_order,
-        current_loop_verdict=pole_verdict(current_loop_poles(params, pade_order)),
+        current_loop_verdict=str(current[0]),
         poles=tuple((float(p.real), float(p.imag)) for p in poles),
     )
+
+
+def _one_run(params):
+    from cas_freq.parameters import LoopParameters
+
+    if not isinstance(params, LoopParameters):
+        params = LoopParameters.from_config(params)
+    if params.n_runs != 1:
+        raise ValueError(f"one variant expected, got {params.n_runs}")
+    return params
+
+
+def _scalars(p):
+    """The one run of ``p`` with every parameter a Python float."""
+    return {name: getattr(p, name)[0].item() for name in (
+        "R", "L", "Km", "Ke", "J", "mu_v", "ci_Kp", "ci_Ki", "tau_c", "cp_Kp", "cp_Ki",
+        "cp_Kd", "Tf", "tau_p")}
 
 
 def closed_loop_poles(params, pade_order):
@@ -117,8 +331,8 @@ def closed_loop_poles(params, pade_order):
 
     Parameters
     ----------
-    params : cas_freq.config.ActuatorConfig
-        Validated parameters.
+    params : cas_freq.parameters.LoopParameters or cas_freq.config.ActuatorConfig
+        One variant.
     pade_order : int
         Padé order n >= 1 of both delays.
 
@@ -127,19 +341,18 @@ def closed_loop_poles(params, pade_order):
     numpy.ndarray
         Complex poles [rad/s]; 2n + 6 of them unless a controller term is zero.
     """
-    motor = params.motor
+    params = _one_run(params)
+    v = _scalars(params)
     # i_cmd -> (i, theta): PI, current delay, plant (states i, omega, theta)
-    plant = _plant(motor, np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]))
+    plant = _plant(params, np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]))
     forward = _series(
-        _series(_current_controller(params.current_loop),
-                pade_realization(params.current_loop.delay, pade_order)),
+        _series(_current_controller(v), pade_realization(v["tau_c"], pade_order)),
         plant,
     )
     inner = _close_loop(forward, feedback_row=0, output_row=1)
     # position controller -> position delay -> inner loop, closed on theta
     loop = _series(
-        _series(_position_controller(params.position_loop),
-                pade_realization(params.position_loop.delay, pade_order)),
+        _series(_position_controller(v), pade_realization(v["tau_p"], pade_order)),
         inner,
     )
     return _sorted(np.linalg.eigvals(_close_loop(loop, 0, 0)[0]))
@@ -150,8 +363,8 @@ def current_loop_poles(params, pade_order):
 
     Parameters
     ----------
-    params : cas_freq.config.ActuatorConfig
-        Validated parameters.
+    params : cas_freq.parameters.LoopParameters or cas_freq.config.ActuatorConfig
+        One variant.
     pade_order : int
         Padé order n >= 1 of the current-loop delay.
 
@@ -160,17 +373,18 @@ def current_loop_poles(params, pade_order):
     numpy.ndarray
         Complex poles [rad/s], sorted by real part, largest first.
     """
-    motor, loop = params.motor, params.current_loop
-    delay = pade_realization(loop.delay, pade_order)
-    if motor.viscous_friction == 0 and loop.Ki > 0:
+    params = _one_run(params)
+    v = _scalars(params)
+    delay = pade_realization(v["tau_c"], pade_order)
+    if v["mu_v"] == 0 and v["ci_Ki"] > 0:
         # C_i Y = (Kp s + Ki) J / D: with mu_v = 0, J omega' = Km i, so i = (J/Km) s omega and
         # the plant (i, omega) read out as Kp i + (J Ki/Km) omega has exactly this transfer.
-        output = np.array([[loop.Kp, motor.J * loop.Ki / motor.Km]])
-        forward = _series(delay, _plant(motor, output, states=2))
+        output = np.array([[v["ci_Kp"], v["J"] * v["ci_Ki"] / v["Km"]]])
+        forward = _series(delay, _plant(params, output, states=2))
     else:
         forward = _series(
-            _series(_current_controller(loop), delay),
-            _plant(motor, np.array([[1.0, 0.0]]), states=2),
+            _series(_current_controller(v), delay),
+            _plant(params, np.array([[1.0, 0.0]]), states=2),
         )
     return _sorted(np.linalg.eigvals(_close_loop(forward, 0, 0)[0]))
 
@@ -179,42 +393,39 @@ def _sorted(poles):
     return poles[np.argsort(-poles.real, kind="stable")]
 
 
-def _plant(motor, output, states=3):
-    """Motor (report Fig. 5), input V [V], states (i, omega[, theta]), outputs ``output @ x``."""
-    mu = motor.viscous_friction
-    a = np.array([
-        [-motor.R / motor.L, -motor.Ke / motor.L, 0.0],
-        [motor.Km / motor.J, -mu / motor.J, 0.0],
-        [0.0, 1.0, 0.0],
-    ])[:states, :states]
-    b = np.array([[1.0 / motor.L], [0.0], [0.0]])[:states]
-    return a, b, np.asarray(output, dtype=float), np.zeros((output.shape[0], 1))
+def _plant(params, output, states=3):
+    """The plant of :func:`cas_freq.model.parts.plant_matrices`, input V [V], states
+    (i, omega[, theta]), outputs ``output @ x``."""
+    a, b = parts.plant_matrices(params)
+    return (a[0, :states, :states], b[0, :states], np.asarray(output, dtype=float),
+            np.zeros((output.shape[0], 1)))
 
 
-def _current_controller(loop):
+def _current_controller(v):
     """C_i = Kp + Ki/s [V/A]; no state when Ki = 0."""
-    if loop.Ki == 0:
-        return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[loop.Kp]])
-    return np.zeros((1, 1)), np.ones((1, 1)), np.array([[loop.Ki]]), np.array([[loop.Kp]])
+    kp, ki = v["ci_Kp"], v["ci_Ki"]
+    if ki == 0:
+        return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[kp]])
+    return np.zeros((1, 1)), np.ones((1, 1)), np.array([[ki]]), np.array([[kp]])
 
 
-def _position_controller(loop):
+def _position_controller(v):
     """C_p = Kp + Ki/s + Kd s/(Tf s + 1) [A/rad]: integrator (if Ki > 0), filter (if Kd > 0).
 
     The derivative term is (Kd/Tf) (1 - 1/(Tf s + 1)): a filter state x' = (e - x)/Tf.
     """
     diagonal, b, c = [], [], []
-    d = loop.Kp
-    if loop.Ki > 0:
+    d = v["cp_Kp"]
+    if v["cp_Ki"] > 0:
         diagonal.append(0.0)
         b.append(1.0)
-        c.append(loop.Ki)
-    if loop.Kd > 0:
-        tf = loop.filter_time_constant
+        c.append(v["cp_Ki"])
+    if v["cp_Kd"] > 0:
+        tf = v["Tf"]
         diagonal.append(-1.0 / tf)
         b.append(1.0 / tf)
-        c.append(-loop.Kd / tf)
-        d += loop.Kd / tf
+        c.append(-v["cp_Kd"] / tf)
+        d += v["cp_Kd"] / tf
     m = len(diagonal)
     return (np.diag(np.asarray(diagonal, dtype=float)).reshape(m, m),
             np.asarray(b, dtype=float).reshape(m, 1), np.asarray(c, dtype=float).reshape(1, m),

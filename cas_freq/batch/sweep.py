@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from cas_freq.batch.analyze import FIGURES, batch_analyze
+from cas_freq.analysis import FIGURES, batch_analyze
 from cas_freq.exceptions import ConfigError
 from cas_freq.fileio import json_ready
 from cas_freq.parameters import check_key, parse_value, unit_of, variant_parameters
@@ -91,7 +91,7 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None
     Returns
     -------
     (dict of str to numpy.ndarray, numpy.ndarray of str)
-        Figures (:data:`cas_freq.batch.analyze.FIGURES`, then ``step.*``/``fit.*``,
+        Figures (:data:`cas_freq.analysis.FIGURES`, then ``step.*``/``fit.*``,
         ``sinedwell.*``) and the stability verdict per sample.
     """
     loop = variant_parameters(params, changes)

@@ -169,7 +169,7 @@ class ActuatorLoops:
     """
 
     def __init__(self, params, delay=EXACT):
-        from cas_freq.simulation.parameters import LoopParameters
+        from cas_freq.parameters import LoopParameters
 
         if not isinstance(params, LoopParameters):
             params = LoopParameters.from_config(params)

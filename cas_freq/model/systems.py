@@ -1,8 +1,9 @@
 """The actuator as python-control systems: Padé delays, composed in state space.
 
 Use these where a rational model is needed (poles, state space, linear time responses);
-frequency-domain figures come from :class:`cas_freq.model.transfer.ActuatorLoops`, which this
-module also wraps as :class:`control.FrequencyResponseData` for exact delays.
+frequency-domain figures come from :mod:`cas_freq.model.loops`, which this module also wraps as
+:class:`control.FrequencyResponseData` for exact delays. The plant and the controllers are those
+of :mod:`cas_freq.model.parts`.
 
 The Padé delays are cascades of low-order sections (:func:`cas_freq.model.delay.pade_system`)
 and every composition is done on state-space objects, so orders 8 and 10 of sub-millisecond
@@ -14,37 +15,39 @@ import dataclasses
 import control
 import numpy as np
 
+from cas_freq.model import parts
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, pade_system
-from cas_freq.model.transfer import (
-    current_controller,
-    position_controller,
-    position_reference_path,
-)
 
 
-def plant_system(motor):
-    """Motor and drivetrain (report Fig. 5) in state space.
+def _one(params):
+    """One variant as LoopParameters (from a config, or a LoopParameters of one run)."""
+    from cas_freq.parameters import LoopParameters
+
+    if not isinstance(params, LoopParameters):
+        params = LoopParameters.from_config(params)
+    if params.n_runs != 1:
+        raise ValueError(f"one variant expected, got {params.n_runs}")
+    return params
+
+
+def plant_system(params):
+    """The plant of :func:`cas_freq.model.parts.plant_matrices` as a python-control system.
 
     States ``i`` [A], ``omega`` [rad/s], ``theta`` [rad] (motor shaft); input ``V`` [V];
     outputs the three states.
     """
-    mu = motor.viscous_friction
-    a = [
-        [-motor.R / motor.L, -motor.Ke / motor.L, 0.0],
-        [motor.Km / motor.J, -mu / motor.J, 0.0],
-        [0.0, 1.0, 0.0],
-    ]
-    b = [[1.0 / motor.L], [0.0], [0.0]]
+    a, b = parts.plant_matrices(_one(params))
     return control.ss(
-        a, b, np.eye(3), np.zeros((3, 1)),
+        a[0], b[0], np.eye(3), np.zeros((3, 1)),
         inputs="V", outputs=["i", "omega", "theta"], states=["i", "omega", "theta"],
         name="plant",
     )
 
 
-def _ss(rational):
-    num, den = rational.trimmed()
-    return control.ss(control.tf(num, den))
+def _ss(numerator, denominator):
+    num = np.trim_zeros(np.asarray([float(np.squeeze(c)) for c in numerator]), "f")
+    den = np.trim_zeros(np.asarray([float(np.squeeze(c)) for c in denominator]), "f")
+    return control.ss(control.tf(num if num.size else [0.0], den))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -77,8 +80,8 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
 
     Parameters
     ----------
-    params : cas_freq.config.ActuatorConfig
-        Validated parameters (SI).
+    params : cas_freq.config.ActuatorConfig or cas_freq.parameters.LoopParameters
+        One variant (SI).
     pade_order : int
         Padé order n >= 1 of both delays.
 
@@ -86,12 +89,14 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
     -------
     LinearModel
     """
-    motor = params.motor
-    plant = plant_system(motor)
-    delay_c = pade_system(params.current_loop.delay, pade_order)
-    delay_p = pade_system(params.position_loop.delay, pade_order)
-    c_i = _ss(current_controller(params.current_loop))
-    c_p = _ss(position_controller(params.position_loop))
+    p = _one(params)
+    plant = plant_system(p)
+    delay_c = pade_system(float(p.tau_c[0]), pade_order)
+    delay_p = pade_system(float(p.tau_p[0]), pade_order)
+    c_i = _ss(parts.current_controller(p), (1.0, 0.0))
+    filter_ = parts.position_filter(p)
+    c_p = _ss(parts.position_controller(p),
+              (float(np.squeeze(filter_[0])), float(filter_[1]), 0.0))
 
     # Current loop, broken at the voltage: the electrical and mechanical states only (theta
     # is not observable from i and would add a spurious pole at 0).
@@ -110,19 +115,20 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
     seen = control.series(delay_p, control.ss(to_theta.A, to_theta.B, to_theta.C, to_theta.D))
     l_p = control.series(c_p, seen)
     sensitivity = control.feedback(control.ss([], [], [], [[1.0]]), l_p)
-    closed = _position_closed_loop(params.position_loop, seen, l_p)
+    closed = _position_closed_loop(p, seen, l_p)
     return LinearModel(pade_order, plant, l_i, t_i, l_p, sensitivity, closed)
 
 
-def _position_closed_loop(loop, seen, l_p):
+def _position_closed_loop(p, seen, l_p):
     """T = theta/theta_cmd, as a minimal realisation for either derivative placement."""
-    if loop.derivative_on == "error":
+    if not p.derivative_on_measurement[0]:
         return control.feedback(l_p, 1)
     # u = (Kp + Ki/s)(r - theta) - Kd s/(Tf s + 1) theta: one PI state, one filter state.
-    pi = control.ss(_ss(position_reference_path(loop)), inputs="e", outputs="u_pi", name="pi")
-    tf = loop.filter_time_constant
+    pi = control.ss(_ss(parts.reference_path(p), (1.0, 0.0)), inputs="e", outputs="u_pi",
+                    name="pi")
+    tf, kd = float(p.Tf[0]), float(p.cp_Kd[0])
     derivative = control.ss(
-        control.tf([loop.Kd, 0.0], [tf, 1.0]) if loop.Kd > 0 else control.tf([0.0], [1.0]),
+        control.tf([kd, 0.0], [tf, 1.0]) if kd > 0 else control.tf([0.0], [1.0]),
         inputs="theta", outputs="u_d", name="derivative",
     )
     plant = control.ss(seen, inputs="u", outputs="theta", name="seen")
@@ -144,7 +150,7 @@ def exact_frequency_responses(loops, omega):
 
     Parameters
     ----------
-    loops : cas_freq.model.transfer.ActuatorLoops
+    loops : cas_freq.model.loops.ActuatorLoops
         Loops to evaluate (their delay model is used as it is).
     omega : array_like
         Frequencies [rad/s].

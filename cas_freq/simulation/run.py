@@ -332,7 +332,7 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
     -------
     SineDwellRun
     """
-    from cas_freq.analysis.closed_loop import closed_loop_figures
+    from cas_freq.analysis.closed_loop import closed_loop_summary
     from cas_freq.analysis.frequency import DEFAULT_RANGE_RAD_S, frequency_grid
     from cas_freq.model import ActuatorLoops
     from cas_freq.simulation.sinedwell import limit_onset_amplitude, sine_dwell
@@ -354,7 +354,7 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
     linear_bandwidth = None  # an unstable loop has no frequency response to measure
     if steps[0].linear_stability == "stable":
         grid = frequency_grid(*DEFAULT_RANGE_RAD_S, total_delay=loops.total_delay)
-        linear_bandwidth = closed_loop_figures(loops.closed_loop, grid).bandwidth_rad_s
+        linear_bandwidth = closed_loop_summary(loops.closed_loop, grid).bandwidth_rad_s
     return SineDwellRun(
         **_identity(loaded), feedforward=feedforward,
         controllers=_controllers(steps[0].result),
