@@ -18,6 +18,7 @@ from cas_freq.report.compare import (
     verdict_matrix,
 )
 from cas_freq.report.data import ReportSettings, gather_variant, variant_results
+from cas_freq.report.numbers import round_significant
 from cas_freq.report.outdir import write_directory_atomic
 
 FAST = ReportSettings(
@@ -65,9 +66,11 @@ def test_every_figure_with_difference_to_baseline(pair):
     assert table["analyze.current_loop.phase_margin_deg"][2] == "0"
     # ... and the bandwidth falls (analyze's own numbers, difference = value - baseline)
     key = "analyze.closed_loop.bandwidth_rad_s"
-    delta = flats[1][key] - flats[0][key]
+    shown = [round_significant(flat[key], 5) for flat in flats]  # the table's 5 digits
+    assert table[key][0] == f"{shown[0]:.5g}" and table[key][1] == f"{shown[1]:.5g}"
+    delta = shown[1] - shown[0]  # the difference of the figures as the table shows them
     assert delta < 0
-    assert table[key][2].startswith(f"{delta:+.4g}")
+    assert table[key][2].startswith(f"{round_significant(delta, 4):+.4g} (")
     assert "step 10°.overshoot_pct" in keys and "fit 10°.zeta" in keys
     assert "sinedwell.bandwidth_rad_s 0.5°" in keys
     assert all(not isinstance(v, (list, dict)) for v in flat_figures(results[0]).values())
@@ -97,6 +100,13 @@ def test_folder(pair, tmp_path):
     row = next(r for r in results["figures_table"]
                if r["figure"] == "analyze.closed_loop.bandwidth_rad_s")
     assert row["differences"][0] == 0.0 and row["differences"][1] < 0
+    # the differences are those of the figures as written (6 significant digits)
+    assert row["differences"][1] == round_significant(row["values"][1] - row["values"][0])
+    # scaling every position-loop gain leaves the phase, so the phase crossovers are the same
+    # up to the root finder's tolerance: as written they are equal and differ by exactly 0
+    row = next(r for r in results["figures_table"]
+               if r["figure"] == "analyze.position_loop.phase_crossover_rad_s")
+    assert row["values"][0] == row["values"][1] and row["differences"] == [0.0, 0.0]
     text = (target / "report.md").read_text()
     assert "| BW-1 | closed_loop.bandwidth_rad_s | PASS (1385 rad/s) |" in text
     page = (target / "index.html").read_text()

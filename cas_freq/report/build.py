@@ -4,14 +4,14 @@
 figures (:mod:`cas_freq.report.figures`), lays out the content once as blocks
 (:mod:`cas_freq.report.document`) and renders them as Markdown and self-contained HTML; the
 folder is written atomically (:mod:`cas_freq.report.outdir`). The same input gives the same
-bytes in every file.
+bytes in every file on one machine; every number is written at a stated precision
+(:mod:`cas_freq.report.numbers`), so other machines differ at most in a last rounded digit.
 """
 
 import json
 import math
 from pathlib import Path
 
-from cas_freq.fileio import json_ready
 from cas_freq.formulas import REPORT_BENCH
 from cas_freq.report.data import (
     ReportSettings,
@@ -20,7 +20,8 @@ from cas_freq.report.data import (
     gather_variant,
     variant_results,
 )
-from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table, number
+from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
+from cas_freq.report.numbers import JSON_DIGITS, number, rounded_json
 from cas_freq.report.outdir import sanitise_name, write_directory_atomic
 
 #: Folder that holds the reports by default (relative to the working directory).
@@ -36,8 +37,11 @@ def default_report_dir(config_name):
 
 
 def results_json(value):
-    """Strict JSON text (no NaN), indented, ending with a newline."""
-    return json.dumps(json_ready(value), indent=2, allow_nan=False, ensure_ascii=False) + "\n"
+    """Strict JSON text (no NaN), indented, ending with a newline; every float rounded to
+    :data:`~cas_freq.report.numbers.JSON_DIGITS` significant digits, 0 when numerically zero
+    (:func:`cas_freq.report.numbers.rounded_json`)."""
+    return json.dumps(rounded_json(value, JSON_DIGITS), indent=2, allow_nan=False,
+                      ensure_ascii=False) + "\n"
 
 
 def _ms(seconds):
@@ -187,7 +191,7 @@ def closed_loop_table(analysis):
     if cl is None:
         return Paragraph("The closed loop is not stable: no closed-loop figures.")
     rows = (
-        ("|T(0)|", "dB", number(round(cl.dc_gain_db, 9) + 0.0)),
+        ("|T(0)|", "dB", number(cl.dc_gain_db)),
         ("bandwidth ω_BW (−3.01 dB)", "rad/s", number(cl.bandwidth_rad_s)),
         ("resonance peak", "dB", number(cl.peak_db)),
         ("  at", "rad/s", number(cl.peak_rad_s)),

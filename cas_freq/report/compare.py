@@ -3,6 +3,10 @@
 Overlaid Bode, step and bandwidth-versus-amplitude figures, a table of every numeric figure per
 variant with its difference to the first (the baseline), and the requirement verdict matrix;
 written as index.html, report.md and results.json (atomically, like ``report``).
+
+A difference is that of the two figures as written (rounded, :mod:`cas_freq.report.numbers`):
+5 significant digits in the table, 6 in results.json; figures that are written the same differ
+by 0, never by the noise of their last bits.
 """
 
 import math
@@ -12,20 +16,17 @@ from cas_freq.exceptions import CasFreqError
 from cas_freq.formulas import REPORT_BENCH
 from cas_freq.report.build import REPORTS_DIR, results_json
 from cas_freq.report.data import ReportSettings, display_path, gather_variant, variant_results
-from cas_freq.report.document import (
-    Bullets,
-    Figure,
-    Heading,
-    Paragraph,
-    Table,
-    difference,
-    number,
-)
+from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
+from cas_freq.report.numbers import JSON_DIGITS, difference, difference_value, number
 from cas_freq.report.outdir import MAX_NAME_LENGTH, sanitise_name, write_directory_atomic
 
 #: Keys of the analyze JSON that are identity or bookkeeping, not figures.
 _NOT_FIGURES = {"config", "config_path", "variant", "overrides", "delay_model", "notes",
                 "frequency_range_rad_s", "stability_pade_order"}
+
+#: Significant digits of the figures in the every-figure table (the differences are those of
+#: the figures as shown, written with 4).
+TABLE_DIGITS = 5
 
 
 def entry_labels(variants):
@@ -90,18 +91,19 @@ def difference_rows(all_results):
     rows = []
     for key in keys:
         base = flats[0].get(key)
-        cells = [number(base, 5)]
+        cells = [number(base, TABLE_DIGITS)]
         for flat in flats[1:]:
             value = flat.get(key)
-            cells += [number(value, 5), _difference(value, base)]
+            cells += [number(value, TABLE_DIGITS), _difference(value, base)]
         rows.append((key, *cells))
     return rows, flats, keys
 
 
 def _difference(value, base):
+    """The difference of the two figures as the table shows them (so equal cells give 0)."""
     if isinstance(value, str) or isinstance(base, str):
         return "same" if value == base else "differs"
-    return difference(value, base, 4)
+    return difference(value, base, 4, shown_digits=TABLE_DIGITS)
 
 
 def verdict_matrix(datas, labels):
@@ -161,7 +163,7 @@ def compare_blocks(datas, labels, figure_blocks, settings, command=None):
         header += [label, f"Δ {label}"]
     blocks.append(Table(tuple(header), tuple(table_rows),
                         "units from each key's suffix (_rad_s rad/s, _deg deg, _db dB, _pct %, "
-                        "_s s, _a A, _v V); Δ = value − baseline (relative change)"))
+                        "_s s, _a A, _v V); Δ = value − baseline as shown (relative change)"))
     bench = ", ".join(f"{k} {v:g}" for k, v in REPORT_BENCH.items())
     blocks.append(Paragraph(f"Report bench figures (ARL-TR-9136, 10° step): {bench}."))
     return blocks
@@ -195,8 +197,8 @@ def compare_files(datas, labels, settings, *, png=False, command=None):
                     for label, d, result in zip(labels, datas, all_results, strict=True)],
         "figures_table": [
             {"figure": key, "values": [flat.get(key) for flat in flats],
-             "differences": [None if _numeric(flat.get(key), flats[0].get(key)) is None else
-                             flat[key] - flats[0][key] for flat in flats]}
+             "differences": [difference_value(flat.get(key), flats[0].get(key), JSON_DIGITS)
+                             for flat in flats]}
             for key in keys
         ],
         "verdict_matrix": {"header": list(header), "rows": [list(r) for r in matrix]},
@@ -204,11 +206,6 @@ def compare_files(datas, labels, settings, *, png=False, command=None):
     })
     yield "report.md", markdown.render(blocks)
     yield "index.html", html.render(blocks, "cas_freq compare: " + ", ".join(labels))
-
-
-def _numeric(value, base):
-    ok = all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in (value, base))
-    return True if ok else None
 
 
 def build_compare(variants, out_dir=None, *, settings=None, verdicts=None, png=False,

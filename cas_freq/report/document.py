@@ -3,12 +3,15 @@
 The content of a report is built once (:mod:`cas_freq.report.build`,
 :mod:`cas_freq.report.compare`) as :class:`Heading`, :class:`Paragraph`, :class:`Bullets`,
 :class:`Table` and :class:`Figure` blocks; :mod:`cas_freq.report.markdown` and
-:mod:`cas_freq.report.html` only render them, so both files always say the same.
+:mod:`cas_freq.report.html` only render them, so both files always say the same. Figures are
+formatted with :func:`cas_freq.report.numbers.number` (a stated precision, 0 for numerically
+zero, "—" for absent).
 """
 
 import dataclasses
-import math
 import re
+
+from cas_freq.report.numbers import difference, number  # noqa: F401  (re-exported)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,30 +57,3 @@ class Figure:
     path: str
     caption: str
     svg: str
-
-
-def number(value, digits=4, unit=""):
-    """A figure as text: ``digits`` significant digits, "—" for a missing one."""
-    if value is None or (isinstance(value, float) and not math.isfinite(value)):
-        return "—"
-    if isinstance(value, bool):
-        return "yes" if value else "no"
-    if isinstance(value, str):
-        return value
-    text = f"{value:.{digits}g}"
-    return f"{text} {unit}" if unit else text
-
-
-def difference(value, baseline, digits=4):
-    """``value - baseline`` as signed text with the relative change; "" for the baseline."""
-    if value is None or baseline is None:
-        return "—"
-    if isinstance(value, bool) or isinstance(baseline, bool):
-        return "same" if value == baseline else "differs"
-    delta = value - baseline
-    if delta == 0:
-        return "0"
-    text = f"{delta:+.{digits}g}"
-    if baseline != 0 and math.isfinite(baseline):
-        text += f" ({100.0 * delta / abs(baseline):+.3g} %)"
-    return text

@@ -5,11 +5,18 @@ returns a :class:`matplotlib.figure.Figure`; nothing here computes a figure of m
 are built without pyplot (no global figure registry to leak), on the Agg backend, and
 :func:`svg_text` writes them reproducibly: fixed hash salt, no date, text kept as text.
 
+The SVG files must not depend on the last bits of floating point (which differ between CPUs),
+so the plotted data are rounded to 6 significant digits (:func:`_r`, i.e.
+:func:`cas_freq.report.numbers.round_array`) before they are drawn, and :func:`svg_text` rounds
+every coordinate in the SVG to 0.01 pt and renames matplotlib's content-hash ids (see there).
+
 Titles name the variant and the delay model; every axis label carries its unit.
 """
 
+import hashlib
 import io
 import math
+import re
 
 import matplotlib
 
@@ -22,6 +29,7 @@ from matplotlib.ticker import MultipleLocator  # noqa: E402
 
 from cas_freq.analysis.frequency import continuous_phase  # noqa: E402
 from cas_freq.formulas import REPORT_BENCH  # noqa: E402
+from cas_freq.report.numbers import round_array  # noqa: E402
 from cas_freq.simulation.second_order import second_order_step  # noqa: E402
 
 #: Style of every figure (and of the SVG writer): fixed, so output does not depend on a user's
@@ -53,12 +61,58 @@ def _figure(rows, cols, size, sharex=False, **kwargs):
     return fig, axes
 
 
+#: Decimals of the coordinates in the SVG files [pt] (0.01 pt is far below what shows).
+SVG_DECIMALS = 2
+
+# A comment (kept as it is: matplotlib writes each text's content there) or a tag.
+_SVG_PART = re.compile(r"(<!--.*?-->)|(<[^>]*>)", re.DOTALL)
+# A decimal number with more than SVG_DECIMALS decimals ("1.0" and "1.1" of the XML prolog and
+# DOCTYPE have fewer and are never touched; ids and colours have no decimal point).
+_LONG_DECIMAL = re.compile(rf"-?\d+\.\d{{{SVG_DECIMALS + 1},}}")
+# Ids matplotlib makes from a hash of the content ("p" clip paths, "m" markers, "h" hatches,
+# "C<n>_<n>_" collection paths): the hash covers unrounded floats.
+_HASHED_ID = re.compile(r'\bid="((?:C[0-9a-f]+_[0-9a-f]+_|[a-z]?))([0-9a-f]{10})"')
+
+
+def _round_decimal(match):
+    text = f"{float(match.group(0)):.{SVG_DECIMALS}f}".rstrip("0").rstrip(".")
+    return "0" if text == "-0" else text
+
+
+def tidy_svg(svg):
+    """SVG text made independent of the last bits of the floats it was drawn from.
+
+    * Every number with more than :data:`SVG_DECIMALS` decimals inside a tag (path data,
+      ``x``/``y``, transforms, clip rectangles, styles) is rounded to that many decimals of a
+      point (0.01 pt). Text content and comments are left as they are.
+    * matplotlib names clip paths, markers and hatches by a hash of their unrounded content;
+      each such id is renamed, in order of appearance, to its prefix, a digest of the rounded
+      SVG and a counter (``p<digest>_0``, ``m<digest>_1``, ...), and every reference to it
+      (``url(#...)``, ``xlink:href="#..."``) follows. The digest keeps ids of different figures
+      apart when several are inlined in one HTML page.
+    """
+    svg = _SVG_PART.sub(lambda m: m.group(1) or _LONG_DECIMAL.sub(_round_decimal, m.group(2)),
+                        svg)
+    names = {}
+    for match in _HASHED_ID.finditer(svg):
+        names.setdefault(match.group(1) + match.group(2), match.group(1))
+    if not names:
+        return svg
+    alternatives = "|".join(map(re.escape, names))
+    pattern = re.compile(rf'(?<=id=")({alternatives})(?=")|(?<=#)({alternatives})(?=["\)])')
+    order = {old: k for k, old in enumerate(names)}
+    numbered = pattern.sub(lambda m: f"{names[m[1] or m[2]]}_{order[m[1] or m[2]]}", svg)
+    digest = hashlib.sha256(numbered.encode("utf-8")).hexdigest()[:8]
+    return pattern.sub(lambda m: f"{names[m[1] or m[2]]}{digest}_{order[m[1] or m[2]]}", svg)
+
+
 def svg_text(fig):
-    """The figure as SVG text, byte-identical for the same figure (no date, fixed ids)."""
+    """The figure as SVG text, byte-identical for the same figure (no date, fixed ids), with
+    coordinates rounded to 0.01 pt and content-hash ids renamed (:func:`tidy_svg`)."""
     out = io.StringIO()
     with rc_context(STYLE):
         fig.savefig(out, format="svg", metadata={"Date": None, "Creator": "cas_freq"})
-    return out.getvalue()
+    return tidy_svg(out.getvalue())
 
 
 def png_bytes(fig):
@@ -69,12 +123,17 @@ def png_bytes(fig):
     return out.getvalue()
 
 
+def _r(values):
+    """Plotted data rounded to 6 significant digits (no last-bit noise reaches the figure)."""
+    return round_array(values, 6)
+
+
 def _db(values):
-    return 20.0 * np.log10(np.abs(values))
+    return _r(20.0 * np.log10(np.abs(values)))
 
 
 def _phase_deg(response, omega):
-    return np.degrees(continuous_phase(response, omega))
+    return _r(np.degrees(continuous_phase(response, omega)))
 
 
 def _at(omega, values, w):
@@ -97,14 +156,14 @@ def bode_loops(data):
     """Bode of L_i and L_p, every gain and phase crossover in range marked, the headline margins
     annotated."""
     c = data.curves
-    w = c.omega_rad_s
+    w = _r(c.omega_rad_s)
     fig, axes = _figure(2, 1, (8, 6.4), sharex=True)
     mag, ph = axes[:, 0]
     loops = (("L_i (current loop, broken at V)", c.current_loop, data.analysis.current_loop, "C0"),
              ("L_p (position loop, broken at i_cmd)", c.position_loop,
               data.analysis.position_loop, "C1"))
     for name, response, margins, color in loops:
-        m, p = _db(response), _phase_deg(response, w)
+        m, p = _db(response), _phase_deg(response, c.omega_rad_s)
         mag.plot(w, m, color=color, label=name)
         ph.plot(w, p, color=color, label=name)
         for cross in margins.gain_crossovers:
@@ -148,11 +207,11 @@ def bode_loops(data):
 def closed_loop(data):
     """|T| with the -3 dB line, the bandwidth and the resonance peak; phase of T with -90°."""
     c = data.curves
-    w = c.omega_rad_s
+    w = _r(c.omega_rad_s)
     figures = data.analysis.closed_loop
     fig, axes = _figure(2, 1, (8, 6), sharex=True)
     mag, ph = axes[:, 0]
-    m, p = _db(c.closed_loop), _phase_deg(c.closed_loop, w)
+    m, p = _db(c.closed_loop), _phase_deg(c.closed_loop, c.omega_rad_s)
     mag.plot(w, m, color="C2", label="|T| = |δ/δ_cmd|")
     ph.plot(w, p, color="C2", label="∠T")
     dc = figures.dc_gain_db if figures is not None else 0.0
@@ -187,7 +246,7 @@ def closed_loop(data):
 def sensitivity(data):
     """|S| and |T| of the position loop together, with the sensitivity peak."""
     c = data.curves
-    w = c.omega_rad_s
+    w = _r(c.omega_rad_s)
     fig, axes = _figure(1, 1, (8, 4.2))
     ax = axes[0, 0]
     ax.plot(w, _db(c.sensitivity), color="C0", label="|S| = |1/(1+L_p)|")
@@ -209,8 +268,8 @@ def sensitivity(data):
 def nichols(data, magnitude_range_db=(-40.0, 60.0)):
     """Nichols chart of L_p (the part within ``magnitude_range_db``), critical points marked."""
     c = data.curves
-    w = c.omega_rad_s
-    m, p = _db(c.position_loop), _phase_deg(c.position_loop, w)
+    w = _r(c.omega_rad_s)
+    m, p = _db(c.position_loop), _phase_deg(c.position_loop, c.omega_rad_s)
     shown = (m >= magnitude_range_db[0]) & (m <= magnitude_range_db[1])
     fig, axes = _figure(1, 1, (7, 5.5))
     ax = axes[0, 0]
@@ -297,26 +356,26 @@ def steps(data):
         r = run.result
         window_s = _step_window_s(run)
         keep = _thin(r.t, window_s)
-        t_ms = 1e3 * np.asarray(r.t)[keep]
+        t_ms = _r(1e3 * np.asarray(r.t)[keep])
         a_deg = run.step.amplitude_deg
         top, mid, bottom = axes[:, col]
         for ax in (top, mid, bottom):
             _shade_limits(ax, 1e3 * np.asarray(r.t), r)
             ax.set_xlim(0.0, 1e3 * window_s)
-        top.plot(t_ms, np.degrees(r.command[keep]), color="k", lw=0.8, ls=":",
+        top.plot(t_ms, _r(np.degrees(r.command[keep])), color="k", lw=0.8, ls=":",
                  label="command δ_cmd")
-        top.plot(t_ms, np.degrees(r.delta[keep]), color="C0",
+        top.plot(t_ms, _r(np.degrees(r.delta[keep])), color="C0",
                  label="nonlinear (limits, exact delays)")
-        top.plot(t_ms, np.degrees(data.linear_steps[k][keep]), color="C1", ls="--",
+        top.plot(t_ms, _r(np.degrees(data.linear_steps[k][keep])), color="C1", ls="--",
                  label=f"linear T (Padé {data.pade_order})")
         top.set_ylabel("fin angle δ [deg]")
         top.set_title(f"{a_deg:g}° step: {_limit_words(run.step)}")
-        mid.plot(t_ms, r.i[keep], color="C0", label="motor current i")
+        mid.plot(t_ms, _r(r.i[keep]), color="C0", label="motor current i")
         for sign in (1, -1):
             mid.axhline(sign * params.position_loop.i_max, color="C3", ls="--", lw=0.9)
             bottom.axhline(sign * params.current_loop.v_max, color="C1", ls="--", lw=0.9)
         mid.set_ylabel("current i [A]")
-        bottom.plot(t_ms, r.V[keep], color="C0", label="motor voltage V")
+        bottom.plot(t_ms, _r(r.V[keep]), color="C0", label="motor voltage V")
         bottom.set_ylabel("voltage V [V]")
         bottom.set_xlabel("time [ms]")
         if col == 0:
@@ -343,14 +402,16 @@ def step_fit(data):
     fig, axes = _figure(1, 1, (8, 4.5))
     ax = axes[0, 0]
     window = 1e3 * window_s
-    ax.plot(1e3 * t, np.degrees(r.delta[keep]), color="C0", lw=2.2, alpha=0.7,
+    t_ms = _r(1e3 * t)
+    ax.plot(t_ms, _r(np.degrees(r.delta[keep])), color="C0", lw=2.2, alpha=0.7,
             label="nonlinear simulation (data)")
     if fit.success:
-        ax.plot(1e3 * t, second_order_step(t, fit.wn_rad_s, fit.zeta, fit.td_s, a_deg),
+        ax.plot(t_ms, _r(second_order_step(t, fit.wn_rad_s, fit.zeta, fit.td_s, a_deg)),
                 color="C3", ls="--", label=f"fit: ωn {fit.wn_rad_s:.4g} rad/s, ζ {fit.zeta:.3g}, "
                 f"td {1e3 * fit.td_s:.3g} ms")
     bench = REPORT_BENCH
-    ax.plot(1e3 * t, second_order_step(t, bench["wn_rad_s"], bench["zeta"], bench["td_s"], a_deg),
+    ax.plot(t_ms, _r(second_order_step(t, bench["wn_rad_s"], bench["zeta"], bench["td_s"],
+                                       a_deg)),
             color="k", ls=":", label=f"report's bench fit: ωn {bench['wn_rad_s']:g} rad/s, "
             f"ζ {bench['zeta']:g}, td {1e3 * bench['td_s']:g} ms")
     ax.set_xlim(0.0, window)
@@ -376,9 +437,9 @@ def _requirement_lines(ax, verdicts):
 def _bandwidth_series(ax, data, color, prefix=""):
     dwell = data.dwell
     amplitudes = np.degrees(np.asarray(dwell.result.amplitudes_rad))
-    sine = np.array([np.nan if b is None else b for b in dwell.result.bandwidth_rad_s], float)
-    fits = np.array([s.fit.bandwidth_closed_form_rad_s if s.fit.success else np.nan
-                     for s in dwell.steps], float)
+    sine = _r([np.nan if b is None else b for b in dwell.result.bandwidth_rad_s])
+    fits = _r([s.fit.bandwidth_closed_form_rad_s if s.fit.success else np.nan
+               for s in dwell.steps])
     ax.plot(amplitudes, sine, "o-", color=color, label=f"{prefix}sine-dwell −3 dB")
     ax.plot(amplitudes, fits, "s:", color=color, mfc="none",
             label=f"{prefix}second-order fit to the step")
@@ -423,19 +484,20 @@ def bandwidth_vs_amplitude(data):
 def sinedwell(data):
     """Sine-dwell magnitude and phase per amplitude over the linear T; limited points hollow."""
     r = data.dwell.result
-    w = np.asarray(r.frequencies_rad_s)
+    w = _r(r.frequencies_rad_s)
     fig, axes = _figure(2, 1, (8, 6), sharex=True)
     mag, ph = axes[:, 0]
     lin = np.asarray(data.dwell.linear_response)
     mag.plot(w, _db(lin), color="k", lw=1, label="linear T (exact delays)")
-    ph.plot(w, np.degrees(np.unwrap(np.angle(lin))), color="k", lw=1, label="linear T")
+    ph.plot(w, _r(np.degrees(np.unwrap(np.angle(lin)))), color="k", lw=1, label="linear T")
     for k, amplitude in enumerate(np.degrees(np.asarray(r.amplitudes_rad))):
         color = f"C{k % 10}"
         hit = np.asarray(r.limit_hit[k], bool)
-        mag.plot(w, r.magnitude_db[k], "-", color=color, lw=1, label=f"{amplitude:g}°")
-        mag.plot(w[hit], r.magnitude_db[k][hit], "o", color=color, mfc="none", ms=5)
-        mag.plot(w[~hit], r.magnitude_db[k][~hit], "o", color=color, ms=4)
-        ph.plot(w, r.phase_deg[k], "o-", color=color, lw=1, ms=3)
+        magnitude, phase = _r(r.magnitude_db[k]), _r(r.phase_deg[k])
+        mag.plot(w, magnitude, "-", color=color, lw=1, label=f"{amplitude:g}°")
+        mag.plot(w[hit], magnitude[hit], "o", color=color, mfc="none", ms=5)
+        mag.plot(w[~hit], magnitude[~hit], "o", color=color, ms=4)
+        ph.plot(w, phase, "o-", color=color, lw=1, ms=3)
     mag.plot([], [], "ko", mfc="none", label="a limit acts")
     mag.axhline(HALF_POWER_DB, color="k", ls="--", lw=0.9, label="−3.01 dB")
     mag.set_ylabel("|δ/δ_cmd| first harmonic [dB]")
@@ -471,9 +533,9 @@ def bode_overlay(datas, labels):
     mag, ph, cl = axes[:, 0]
     for data, label, color in zip(datas, labels, _colors(datas), strict=True):
         c = data.curves
-        w = c.omega_rad_s
+        w = _r(c.omega_rad_s)
         mag.plot(w, _db(c.position_loop), color=color, label=label)
-        ph.plot(w, _phase_deg(c.position_loop, w), color=color)
+        ph.plot(w, _phase_deg(c.position_loop, c.omega_rad_s), color=color)
         cl.plot(w, _db(c.closed_loop), color=color)
         bw = data.analysis.closed_loop.bandwidth_rad_s if data.analysis.closed_loop else None
         if _in_range(w, bw):
@@ -507,10 +569,11 @@ def step_overlay(datas, labels):
             amplitudes.append(a)
             keep = _thin(run.result.t, max(_step_window_s(d.dwell.steps[getattr(d, which)])
                                            for d in datas))
-            t_ms = 1e3 * np.asarray(run.result.t)[keep]
-            ax.plot(t_ms, np.degrees(run.result.delta[keep]) / a, color=color,
+            t_ms = _r(1e3 * np.asarray(run.result.t)[keep])
+            ax.plot(t_ms, _r(np.degrees(run.result.delta[keep]) / a), color=color,
                     label=f"{label}: {a:g}°, {_limit_words(run.step)}")
-            ax.plot(t_ms, np.degrees(data.linear_steps[k][keep]) / a, color=color, ls=":", lw=1)
+            ax.plot(t_ms, _r(np.degrees(data.linear_steps[k][keep]) / a), color=color, ls=":",
+                    lw=1)
             window = max(window, 1e3 * _step_window_s(run))
         ax.plot([], [], "k:", lw=1, label=f"linear T (Padé {datas[0].pade_order})")
         ax.set_xlim(0.0, window)

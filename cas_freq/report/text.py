@@ -1,12 +1,16 @@
-"""Readable plain-text tables of analysis results (no matplotlib)."""
+"""Readable plain-text tables of analysis results (no matplotlib).
+
+Figures are written with :func:`cas_freq.report.numbers.number`: 4 significant digits, 0 when
+numerically zero (a fitted delay of 3e-48 ms is 0 ms), "—" when absent.
+"""
 
 import math
 
+from cas_freq.report.numbers import number
+
 
 def _fmt(value, unit="", digits=4):
-    if value is None or not math.isfinite(value):
-        return "—"
-    return f"{value:.{digits}g}{(' ' + unit) if unit else ''}"
+    return number(value, digits, unit)
 
 
 def _ms(seconds):
