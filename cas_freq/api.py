@@ -67,6 +67,21 @@ class Actuator:
 
     loaded: object
 
+    def __repr__(self):
+        overrides = ", ".join(f"{key}={value}" for key, value in self.loaded.overrides)
+        return (f"Actuator({self.params.name} / {self.variant}"
+                + (f", set {overrides}" if overrides else "") + f"; {self.config_path})")
+
+    @property
+    def config_path(self):
+        """Path of the config file (str)."""
+        return self.loaded.source
+
+    @property
+    def overrides(self):
+        """The ``set=`` overrides, as (dotted key, value) pairs."""
+        return self.loaded.overrides
+
     @property
     def params(self):
         """The validated parameters (:class:`cas_freq.config.ActuatorConfig`, SI)."""

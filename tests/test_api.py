@@ -52,7 +52,8 @@ def test_to_dict_is_the_cli_json():
 def test_load_defaults_to_the_shipped_base_variant():
     act = cf.load()
     assert act.variant == "base"
-    assert act.loaded.source == str(default_config_path())
+    assert act.config_path == str(default_config_path())
+    assert act.overrides == ()
     assert act.params.name == "qt_cas"
     assert act.variants == ["base", "fitted", "relaxed"]
 
@@ -117,7 +118,7 @@ def test_plots_are_figures_with_the_expected_axes_and_lines(act):
     np.testing.assert_array_equal(current.lines[0].get_ydata(), st.current_a)
 
 
-def test_simulate_is_the_cli_step(act):
+def test_simulate_is_the_cli_step():
     st = cf.load(variant="fitted").simulate(step="10 deg")
     code, out, err = run_cli(["simulate", "--variant", "fitted", "--step", "10deg", "--json"])
     assert code == 0, err
