@@ -21,9 +21,10 @@ changes between samples and all refined together (:mod:`cas_freq.analysis.roots`
 pair cannot hide between two samples: *probes* are added where the response may have a
 feature narrower than the grid, and the brackets are split at them:
 
-- every local maximum of |L| on the grid between -20 and 0 dB and every local minimum between
-  0 and +20 dB is refined to the true extremum, which becomes a probe (a narrow peak that pokes
-  above 0 dB, or a notch that dips below, between two samples);
+- every local maximum of |L| on the grid below 0 dB and every local minimum above 0 dB is
+  refined to the true extremum, which becomes a probe (a narrow peak that pokes above 0 dB, or
+  a notch that dips below, between two samples; however low the samples beside it are, since a
+  peak 30 times narrower than the grid spacing shows only its far flanks);
 - the caller may add probes of its own, e.g. where the inner loop L_i passes close to -1, so
   that T_i and hence L_p have a resonance narrower than the grid
   (:func:`near_minus_one_probes`).
@@ -44,8 +45,10 @@ from cas_freq.analysis.roots import refine_maxima, refine_roots
 #: Phase crossings refined: those within this of the best grid estimate of their kind [dB].
 CANDIDATE_DB = 1.0
 
-#: Local extrema of |L| refined as probes: within this of 0 dB [dB].
-EXTREMUM_WINDOW_DB = 20.0
+#: A local extremum whose second difference of ln |L|^2 over three grid samples exceeds this is
+#: not resolved by the grid (a smooth function sampled 50 times per feature width stays far
+#: below; an unresolved resonance gives ln 9 or more) and is refined.
+SHARP = 0.05
 
 #: Figures of one loop, in the order and with the names of the JSON of ``analyze``.
 LOOP_FIGURES = (
@@ -264,7 +267,19 @@ def _brackets(samples, sign):
 
 
 def extremum_probes(evaluate, omega, response):
-    """Probes at the refined local extrema of |L| near 0 dB (see the module notes).
+    """Probes at the local extrema of |L| that may cross 0 dB between two samples.
+
+    A local maximum of |L| on the grid below 0 dB (or a minimum above it) is refined when it
+    may reach 0 dB between samples:
+
+    - when it is not resolved by the grid: a peak narrower than the spacing shows as a sharp
+      corner in log |L| (its two flank samples differ from the top one by a factor of about 3
+      or more), so a second difference of log |L|^2 above :data:`SHARP` marks it, whatever
+      the height of the samples;
+    - when it is resolved: the parabola through the three samples of log |L|^2 predicts the
+      extremum; one predicted within 6 dB of 0 dB is refined.
+
+    Smooth ripples (e.g. of a delay, sampled many times per period) are neither, and are left.
 
     Parameters
     ----------
@@ -282,28 +297,45 @@ def extremum_probes(evaluate, omega, response):
     if omega.size < 3:
         return Probes.none()
     squared = response.real ** 2 + response.imag ** 2
-    low, high = 10.0 ** (-EXTREMUM_WINDOW_DB / 10.0), 10.0 ** (EXTREMUM_WINDOW_DB / 10.0)
     middle, left, right = squared[:, 1:-1], squared[:, :-2], squared[:, 2:]
-    peak = (middle >= left) & (middle >= right) & (middle < 1.0) & (middle > low)
-    notch = (middle <= left) & (middle <= right) & (middle > 1.0) & (middle < high)
     log_w = np.log(omega)
-    found = []
-    for mask, sign in ((peak, 1.0), (notch, -1.0)):
-        runs, k = np.nonzero(mask)
+    found = Probes.none()
+    for sign in (1.0, -1.0):
+        if sign > 0:
+            runs, k = np.nonzero((middle >= left) & (middle >= right) & (middle < 1.0))
+        else:
+            runs, k = np.nonzero((middle <= left) & (middle <= right) & (middle > 1.0))
         if runs.size == 0:
             continue
         k = k + 1
+        with np.errstate(divide="ignore", invalid="ignore"):
+            y = np.log(np.stack([squared[runs, k - 1], squared[runs, k], squared[runs, k + 1]]))
+            x = np.stack([log_w[k - 1], log_w[k], log_w[k + 1]])
+            sharp = -sign * (y[0] - 2.0 * y[1] + y[2]) > SHARP
+            reach = sign * _parabola_vertex(x, y) > -math.log(4.0)
+        keep = (sharp | reach) & np.isfinite(y).all(axis=0)
+        runs, k = runs[keep], k[keep]
+        if runs.size == 0:
+            continue
         x, _ = _refine_log_maxima(
             lambda x, j, runs=runs, sign=sign: sign * np.abs(evaluate(runs[j], np.exp(x))),
             log_w[k - 1], log_w[k + 1], log_w[k],
             sign * np.sqrt(squared[runs, k - 1]), sign * np.sqrt(squared[runs, k]),
             sign * np.sqrt(squared[runs, k + 1]),
         )
-        found.append(Probes(runs, x))
-    total = Probes.none()
-    for probes in found:
-        total = total + probes
-    return total
+        found = found + Probes(runs, x)
+    return found
+
+
+def _parabola_vertex(x, y):
+    """Extreme value of the parabola through three points per column (x, y of shape (3, k));
+    the middle value where the points are collinear."""
+    x0, x2 = x[0] - x[1], x[2] - x[1]  # centred on the middle point: no cancellation
+    y0, y1, y2 = y
+    d01, d12 = (y1 - y0) / -x0, (y2 - y1) / x2
+    a = (d12 - d01) / (x2 - x0)
+    b = d01 - a * x0  # slope at the middle point
+    return np.where(a != 0, y1 - b * b / (4.0 * a), y1)
 
 
 def near_minus_one_probes(omega, inner, runs=None):
@@ -330,22 +362,29 @@ def near_minus_one_probes(omega, inner, runs=None):
     Probes
     """
     log_w = np.log(omega)
-    a, b = inner[:, :-1], inner[:, 1:]
-    chord = b - a
+    # A segment passing -1 at d < e/2 with both ends at >= e from it is longer than
+    # 2 sqrt(e^2 - d^2) > sqrt(3) e: only such intervals are examined.
+    plus = inner + 1.0
+    ends2 = plus.real ** 2 + plus.imag ** 2
+    chord = inner[:, 1:] - inner[:, :-1]
     length2 = chord.real ** 2 + chord.imag ** 2
+    rows, k = np.nonzero(length2 > 3.0 * np.minimum(ends2[:, :-1], ends2[:, 1:]))
+    if rows.size == 0:
+        return Probes.none()
+    a, chord, length2 = inner[rows, k], chord[rows, k], length2[rows, k]
     to_point = -1.0 - a
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = (chord.real * to_point.real + chord.imag * to_point.imag) / length2
-    inside = (t > 0.0) & (t < 1.0) & (length2 > 0)
+    t = (chord.real * to_point.real + chord.imag * to_point.imag) / length2
+    inside = (t > 0.0) & (t < 1.0)
     distance = np.abs(a + np.where(inside, t, 0.0) * chord + 1.0)
-    ends = np.minimum(np.abs(1.0 + a), np.abs(1.0 + b))
+    ends = np.sqrt(np.minimum(ends2[rows, k], ends2[rows, k + 1]))
     sharp = inside & (distance < 0.5 * ends)
-    rows, k = np.nonzero(sharp)
+    rows, k, t, distance, length2 = rows[sharp], k[sharp], t[sharp], distance[sharp], \
+        length2[sharp]
     if rows.size == 0:
         return Probes.none()
     step = log_w[k + 1] - log_w[k]
-    centre = log_w[k] + t[rows, k] * step
-    width = distance[rows, k] * step / np.sqrt(length2[rows, k])
+    centre = log_w[k] + t * step
+    width = distance * step / np.sqrt(length2)
     offsets = np.array([-4.0, -2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0, 4.0])
     x = centre[:, None] + offsets[None, :] * width[:, None]
     x = np.clip(x, log_w[k][:, None], log_w[k + 1][:, None])
