@@ -72,14 +72,18 @@ def test_number_text():
     assert number(np.float64(2.5)) == "2.5"
 
 
-def test_difference_is_that_of_the_figures_as_shown():
+def test_difference_is_zero_below_the_shown_precision():
     # equal up to a root finder's tolerance: the same as shown, so 0 (not +9.257e-07)
     assert difference(1466.5000009256743, 1466.5) == "0"
     assert difference(40.04 - 2.389e-05, 40.04) == "0"
+    # below half a unit of the 5th significant digit the figures are shown with: 0
+    assert difference(1466.53, 1466.51) == "0"
+    assert difference(1466.53, 1466.47) == "+0.06 (+0.00409 %)"
     # both numerically zero: 0, not -3e-51
     assert difference(7.142233997188651e-52, 3.0383034192225457e-51) == "0"
-    # 891.1 - 1385 as shown with 5 digits, written with 4, relative to the baseline
+    # written with 4 digits, relative to the baseline (from the 6-digit figures of results.json)
     assert difference(891.1, 1385.0) == "-493.9 (-35.7 %)"
+    assert difference(26481.4812345, 26487.0) == "-5.5 (-0.0208 %)"  # 26481.5 - 26487
     assert difference(0.00012855, 0.00012696) == "+1.59e-06 (+1.25 %)"
     assert difference(None, 1.0) == "—" and difference(1.0, None) == "—"
     assert difference(True, True) == "same" and difference(True, False) == "differs"

@@ -4,9 +4,9 @@ Overlaid Bode, step and bandwidth-versus-amplitude figures, a table of every num
 variant with its difference to the first (the baseline), and the requirement verdict matrix;
 written as index.html, report.md and results.json (atomically, like ``report``).
 
-A difference is that of the two figures as written (rounded, :mod:`cas_freq.report.numbers`):
-5 significant digits in the table, 6 in results.json; figures that are written the same differ
-by 0, never by the noise of their last bits.
+A difference is that of the two figures as results.json writes them (6 significant digits,
+:mod:`cas_freq.report.numbers`); in the table it is 0 when below the table's 5 significant
+digits of the figures, never the noise of their last bits.
 """
 
 import math
@@ -24,8 +24,8 @@ from cas_freq.report.outdir import MAX_NAME_LENGTH, sanitise_name, write_directo
 _NOT_FIGURES = {"config", "config_path", "variant", "overrides", "delay_model", "notes",
                 "frequency_range_rad_s", "stability_pade_order"}
 
-#: Significant digits of the figures in the every-figure table (the differences are those of
-#: the figures as shown, written with 4).
+#: Significant digits of the figures in the every-figure table (the differences are written
+#: with 4, and are 0 below this precision of the figures).
 TABLE_DIGITS = 5
 
 
@@ -100,7 +100,7 @@ def difference_rows(all_results):
 
 
 def _difference(value, base):
-    """The difference of the two figures as the table shows them (so equal cells give 0)."""
+    """The difference of the two figures, 0 below the precision the table shows them with."""
     if isinstance(value, str) or isinstance(base, str):
         return "same" if value == base else "differs"
     return difference(value, base, 4, shown_digits=TABLE_DIGITS)
@@ -163,7 +163,8 @@ def compare_blocks(datas, labels, figure_blocks, settings, command=None):
         header += [label, f"Δ {label}"]
     blocks.append(Table(tuple(header), tuple(table_rows),
                         "units from each key's suffix (_rad_s rad/s, _deg deg, _db dB, _pct %, "
-                        "_s s, _a A, _v V); Δ = value − baseline as shown (relative change)"))
+                        "_s s, _a A, _v V); Δ = value − baseline (relative change), 0 when below "
+                        "the 5 significant digits shown"))
     bench = ", ".join(f"{k} {v:g}" for k, v in REPORT_BENCH.items())
     blocks.append(Paragraph(f"Report bench figures (ARL-TR-9136, 10° step): {bench}."))
     return blocks

@@ -15,8 +15,9 @@ rounded at output, with the one rule set of this module:
 **Zero.** Every figure is written in a unit where :data:`ZERO` = 1e-9 is far below anything
 meaningful (s, ms, rad/s, deg, dB, %, A, V, or dimensionless), so a magnitude below it is
 written as 0: a fitted delay of 7e-52 s, |T(0)| of 2e-15 dB. A **difference** of two figures is
-computed from the two as written (rounded), so two figures that print the same differ by 0,
-and a difference below 1e-9 of the larger figure is 0.
+computed from the two as results.json writes them (6 significant digits), and is 0 below 1e-9
+of the larger figure; in a table it is 0 when below the precision the figures are shown with,
+so two figures that print the same never differ by the noise of their last bits.
 
 **Absent.** None, NaN and ±inf are "—" in text and null in JSON.
 
@@ -111,26 +112,36 @@ def difference_value(value, baseline, digits=JSON_DIGITS):
     return round_significant(delta, digits)
 
 
+def _last_unit(magnitude, digits):
+    """Value of one unit in the last of ``digits`` significant digits of ``magnitude``."""
+    if magnitude == 0:
+        return 0.0
+    exponent = int(format(magnitude, f".{digits - 1}e").split("e")[1])
+    return 10.0 ** (exponent - digits + 1)
+
+
 def difference(value, baseline, digits=TEXT_DIGITS, shown_digits=5):
     """``value - baseline`` as signed text with the relative change.
 
-    The difference is that of the two figures as they are shown (``shown_digits`` significant
-    digits), so two figures that print the same differ by "0"; it is written with ``digits``
-    significant digits. Booleans and strings give "same" / "differs"; "—" when one is absent.
+    Computed from both figures as results.json writes them (:data:`JSON_DIGITS` significant
+    digits, :func:`difference_value`), written with ``digits`` significant digits, and "0"
+    when smaller than half a unit in the last digit of the figures as the table shows them
+    (``shown_digits``): two figures that print the same never differ by the noise of their
+    last bits. Booleans and strings give "same" / "differs"; "—" when one is absent.
     """
     if value is None or baseline is None:
         return "—"
     if not (_is_real(value) and _is_real(baseline)):
         return "same" if value == baseline else "differs"
-    delta = difference_value(value, baseline, shown_digits)
+    delta = difference_value(value, baseline, JSON_DIGITS)
     if delta is None:
         return "—"
-    if delta == 0:
+    a, b = round_significant(value, JSON_DIGITS), round_significant(baseline, JSON_DIGITS)
+    if abs(delta) < 0.5 * _last_unit(max(abs(a), abs(b)), shown_digits) or delta == 0:
         return "0"
     text = f"{round_significant(delta, digits):+.{digits}g}"
-    base = round_significant(baseline, shown_digits)
-    if base:
-        text += f" ({round_significant(100.0 * delta / abs(base), 3):+.3g} %)"
+    if b:
+        text += f" ({round_significant(100.0 * delta / abs(b), 3):+.3g} %)"
     return text
 
 
