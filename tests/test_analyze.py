@@ -126,14 +126,17 @@ def test_pade_ten_is_finite_and_matches_exact(variant, exact):
 
 def test_unstable_loop_is_a_result():
     # Kp = 200 A/rad puts the position crossover where the delays have eaten the phase:
-    # the closed loop is unstable; the margins still exist and say so (negative PM or GM).
+    # the closed loop is unstable; the margins still exist and say so. The phase of L_p falls
+    # below -180° at ~77 rad/s and stays below up to the gain crossover (~1960 rad/s), so the
+    # phase margin is negative and the only phase crossover below it is a lower one.
     result = analyze(load_variant(overrides=[("position_loop.Kp", 200.0)]))
     assert not result.stable and result.stability.verdict == "unstable"
     assert result.closed_loop is None
     p = result.position_loop
-    assert (p.phase_margin_deg is not None and p.phase_margin_deg < 0) or (
-        p.gain_margin_db is None or p.gain_margin_db < 0
-    )
+    assert p.phase_margin_deg is not None and p.phase_margin_deg < 0
+    assert p.delay_margin_s < 0  # PM [rad] / crossover, negative with the PM
+    below = [c for c in p.phase_crossovers if c.frequency_rad_s < p.crossover_rad_s]
+    assert len(below) == 1 and below[0].gain_margin_db < 0
     assert p.disk_margin_alpha is None and p.sensitivity_peak_db is None
     data = to_dict(result)
     assert data["stable"] is False

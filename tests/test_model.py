@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from cas_freq.config import load_variant
-from cas_freq.model import ActuatorLoops, DelayModel
+from cas_freq.model import ActuatorLoops, DelayModel, parts
 from cas_freq.model.systems import exact_frequency_responses, linear_model, plant_system
-from cas_freq.model.transfer import current_plant, mechanics, position_controller
+from cas_freq.parameters import LoopParameters
 
 LOOPS = ("current_loop", "current_closed_loop", "position_loop", "sensitivity", "closed_loop")
 OMEGA = np.logspace(-1, 5.5, 60)  # [rad/s] covers every loop's crossover and beyond
@@ -21,13 +21,21 @@ def params(request):
 def test_plant_factors_follow_the_differential_equations(params):
     # Y = i/V and M = theta/i written out from MODEL.md's equations must equal the 3-state
     # plant's transfer functions (same equations in state space); rounding-level tolerance.
-    plant = plant_system(params.motor)
+    # Both come from cas_freq.model.parts: the polynomials Z_e = Ls + R, P_m = Js + mu_v and
+    # the state matrices, written separately there; they must describe the same plant.
+    p = LoopParameters.from_config(params)
+    plant = plant_system(params)
     s = 1j * OMEGA
     response = plant(s)  # (3 outputs, 1 input, n)
-    y = current_plant(params.motor)(s)
+    motor = params.motor
+    mu = motor.viscous_friction
+    y = (motor.J * s + mu) / ((motor.L * s + motor.R) * (motor.J * s + mu) + motor.Ke * motor.Km)
     np.testing.assert_allclose(response[0, 0], y, rtol=1e-10)
-    np.testing.assert_allclose(response[2, 0] / response[0, 0], mechanics(params.motor)(s),
-                               rtol=1e-10)
+    np.testing.assert_allclose(response[2, 0] / response[0, 0],
+                               motor.Km / (s * (motor.J * s + mu)), rtol=1e-10)
+    jm = parts.polyval(parts.mechanical(p), s)
+    y_parts = jm / (parts.polyval(parts.electrical(p), s) * jm + parts.back_emf_coupling(p))
+    np.testing.assert_allclose(y_parts, y, rtol=1e-12)
 
 
 def test_pid_factor_is_parallel_form(params):
@@ -35,7 +43,10 @@ def test_pid_factor_is_parallel_form(params):
     s = 1j * OMEGA
     tf = loop.Kd / (10 * loop.Kp)  # MODEL.md default filter constant
     expected = loop.Kp + loop.Ki / s + loop.Kd * s / (tf * s + 1)
-    np.testing.assert_allclose(position_controller(loop)(s), expected, rtol=1e-12)
+    p = LoopParameters.from_config(params)
+    numerator = parts.polyval(parts.position_controller(p), s)
+    actual = numerator / (s * parts.polyval(parts.position_filter(p), s))
+    np.testing.assert_allclose(actual, expected, rtol=1e-12)
 
 
 @pytest.mark.parametrize("order", [1, 8, 10])
@@ -116,8 +127,9 @@ def test_feedforward_closed_loop(derivative_on):
     s = 1j * OMEGA
     loop = params.position_loop
     feedforward = loop.ff_v * s + loop.ff_a * s**2
+    tf = loop.filter_time_constant
     reference = (loop.Kp + loop.Ki / s) if derivative_on == "measurement" else (
-        position_controller(loop)(s)
+        loop.Kp + loop.Ki / s + loop.Kd * s / (tf * s + 1)
     )
     np.testing.assert_allclose(
         loops.closed_loop(s, feedforward=True),
