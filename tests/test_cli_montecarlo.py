@@ -5,10 +5,10 @@ import json
 import numpy as np
 import pytest
 
-from cas_freq.batch.montecarlo import draw, parse_tolerance
 from cas_freq.cli import main
 from cas_freq.config import load_variant
 from cas_freq.exceptions import ConfigError
+from cas_freq.studies.montecarlo import draw, parse_tolerance
 
 ARGS = ["montecarlo", "--samples", "40", "--tolerance", "motor.Km=10%",
         "--tolerance", "current_loop.delay=0.01 ms", "--seed", "7", "--no-step"]

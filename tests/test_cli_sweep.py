@@ -11,9 +11,9 @@ import json
 import numpy as np
 import pytest
 
-from cas_freq.batch.sweep import grid, parse_grid_values
 from cas_freq.cli import main
 from cas_freq.exceptions import ConfigError
+from cas_freq.studies.sweep import grid, parse_grid_values
 
 
 def _strict(text):
@@ -93,7 +93,7 @@ def test_csv_and_report(tmp_path, capsys):
 
 
 def test_sweep_figure_structure():
-    from cas_freq.batch.plots import sweep_figure
+    from cas_freq.plots.studies import sweep_figure
 
     points = {"position_loop.Kp": np.array([1.0, 1.0, 2.0, 2.0]),
               "position_loop.Kd": np.array([0.1, 0.2, 0.1, 0.2])}

@@ -40,7 +40,7 @@ def register(commands):
 
 
 def summary(data):
-    """Text summary of :func:`cas_freq.batch.montecarlo.montecarlo_dict` data."""
+    """Text summary of :func:`cas_freq.studies.montecarlo.montecarlo_dict` data."""
     lines = [
         f"{data['config']} ({data['variant']}): {data['samples']} samples, "
         f"{data['distribution']} ({data['distribution_note']}), seed {data['seed']}",
@@ -73,15 +73,15 @@ def summary(data):
 
 def run(args):
     """Run the Monte Carlo; print text or JSON, write the report."""
-    from cas_freq.batch.montecarlo import (
+    from cas_freq.cli.common import load_variants, terminal_progress
+    from cas_freq.exceptions import CasFreqError
+    from cas_freq.report.studies import json_text, write_report
+    from cas_freq.studies.montecarlo import (
         montecarlo_dict,
         montecarlo_samples_csv,
         parse_tolerance,
         run_montecarlo,
     )
-    from cas_freq.batch.report import json_text, write_report
-    from cas_freq.cli.common import load_variants, terminal_progress
-    from cas_freq.exceptions import CasFreqError
 
     if args.no_step and args.step:
         raise CasFreqError("--no-step and --step exclude each other")
@@ -96,7 +96,7 @@ def run(args):
         progress.done()
     data = montecarlo_dict(result)
     if args.output:
-        from cas_freq.batch.plots import histogram_figure, svg_text
+        from cas_freq.plots.studies import histogram_figure, svg_text
 
         names = list(dict.fromkeys(
             [n for n in SUMMARY_FIGURES if n in result.figures]

@@ -43,8 +43,8 @@ def register(commands):
 
 def split_settings(settings):
     """(fixed overrides as (key, value), grid axes as key -> values [SI]) from ``--set``."""
-    from cas_freq.batch.sweep import is_grid_spec, parse_grid_values
     from cas_freq.config import parse_set_option
+    from cas_freq.studies.sweep import is_grid_spec, parse_grid_values
 
     fixed, axes = [], {}
     for text in settings:
@@ -81,11 +81,11 @@ def table(sweep):
 
 def run(args):
     """Run the sweep; print a table or JSON, write CSV and the report."""
-    from cas_freq.batch.report import json_text, write_report
-    from cas_freq.batch.sweep import run_sweep, sweep_csv, sweep_dict
     from cas_freq.cli.common import terminal_progress
     from cas_freq.config import load_variant
     from cas_freq.fileio import write_text_atomic
+    from cas_freq.report.studies import json_text, write_report
+    from cas_freq.studies.sweep import run_sweep, sweep_csv, sweep_dict
 
     fixed, axes = split_settings(args.overrides)
     if not axes:
@@ -111,7 +111,7 @@ def run(args):
     if args.csv:
         write_text_atomic(args.csv, sweep_csv(result))
     if args.output:
-        from cas_freq.batch.plots import svg_text, sweep_figure
+        from cas_freq.plots.studies import svg_text, sweep_figure
 
         svg = svg_text(sweep_figure(result.points, result.figures, list(result.points)))
         write_report(args.output, {"sweep.json": json_text(data), "sweep.csv": sweep_csv(result),

@@ -113,7 +113,7 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None
     analysis = batch_analyze(loop, progress=stage_progress("analysis"))
     figures = dict(analysis.figures)
     if step_rad is not None:
-        from cas_freq.batch.steps import batch_steps
+        from cas_freq.studies.steps import batch_steps
 
         figures.update(batch_steps(loop, step_rad, fit=fit, rates_hz=params.simulation.rates_hz,
                                    progress=stage_progress("step")))

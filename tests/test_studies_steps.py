@@ -10,10 +10,10 @@ import math
 
 import pytest
 
-from cas_freq.batch.steps import batch_steps
 from cas_freq.config import load_variant
 from cas_freq.parameters import variant_parameters
 from cas_freq.simulation.run import step_run, step_run_dict
+from cas_freq.studies.steps import batch_steps
 
 
 def test_batch_steps_match_simulate():

@@ -23,10 +23,10 @@ import re
 
 import numpy as np
 
-from cas_freq.batch.sweep import evaluate_figures, figure_names
 from cas_freq.exceptions import ConfigError
 from cas_freq.fileio import json_ready
 from cas_freq.parameters import base_values, check_key, parse_value, unit_of
+from cas_freq.studies.sweep import evaluate_figures, figure_names
 
 DISTRIBUTIONS = ("normal", "uniform")
 #: Percentiles reported for each figure.
