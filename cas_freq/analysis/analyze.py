@@ -33,9 +33,9 @@ from cas_freq.analysis.frequency import (
 from cas_freq.analysis.margins import (
     LOOP_FIGURES,
     LoopMargins,
+    Probes,
     loop_figures,
     margins_of_run,
-    near_minus_one_probes,
 )
 from cas_freq.analysis.stability import (
     Stability,
@@ -110,20 +110,20 @@ def _figures_on(p, omega, verdict, current_verdict, columns=None, delay=EXACT,
     current = grid.current_loop
     if current.ndim == 1:  # every run has the same current loop: its figures once
         values = loop_figures(evaluator("current_loop"), low, current[None, :m],
-                              current_stable[:1], crossings=crossings)
+                              current_stable[:1], crossings=crossings, inner=True)
+        probes = values.pop("_inner_probes")
+        if probes.runs.size:  # the same probes for every run
+            count = probes.runs.size
+            probes = Probes(np.repeat(np.arange(n), count), np.tile(probes.log_w, n))
         values = {key: value if key.startswith("_") and isinstance(value, tuple) else
                   np.broadcast_to(value, (n,)) for key, value in values.items()}
-        inner = current[None, :m]
     else:
         values = loop_figures(evaluator("current_loop"), low, current[:, :m], current_stable,
-                              crossings=crossings)
-        inner = current[:, :m]
+                              crossings=crossings, inner=True)
+        probes = values.pop("_inner_probes")
     figures.update({f"current_loop.{key}": value for key, value in values.items()})
-    # where L_i passes close to -1 between samples, T_i (in L_p) has a narrow resonance
-    probes = near_minus_one_probes(low, inner)
-    if current.ndim == 1 and probes.runs.size:
-        count = probes.runs.size
-        probes = type(probes)(np.repeat(np.arange(n), count), np.tile(probes.log_w, n))
+    # where L_i passes close to -1 between samples, T_i (in L_p) has a narrow resonance:
+    # the position loop is probed there
     position = np.broadcast_to(grid.position_loop, (n, omega.size))
     values = loop_figures(evaluator("position_loop"), low, position[:, :m], stable,
                           probes=probes, crossings=crossings)

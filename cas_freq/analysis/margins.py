@@ -224,7 +224,7 @@ def _samples(evaluate, log_w, response, probes):
     return _Samples(log_w, response, probes, values, interval)
 
 
-def _brackets(samples, sign):
+def _brackets(samples, sign, positive=None):
     """Every sign change of ``sign(L)`` between consecutive samples of a run.
 
     Returns
@@ -234,7 +234,8 @@ def _brackets(samples, sign):
         an interval split by probes).
     """
     response, log_w = samples.response, samples.log_w
-    positive = sign(response)
+    if positive is None:
+        positive = sign(response)
     runs, k = np.nonzero(positive[:, :-1] != positive[:, 1:])
     probes = samples.probes
     if probes.runs.size == 0:
@@ -266,7 +267,7 @@ def _brackets(samples, sign):
     )
 
 
-def extremum_probes(evaluate, omega, response):
+def extremum_probes(evaluate, omega, response, squared=None):
     """Probes at the local extrema of |L| that may cross 0 dB between two samples.
 
     A local maximum of |L| on the grid below 0 dB (or a minimum above it) is refined when it
@@ -289,6 +290,8 @@ def extremum_probes(evaluate, omega, response):
         Grid [rad/s], shape (m,).
     response : numpy.ndarray
         Loop response on the grid, shape (n, m).
+    squared : numpy.ndarray, optional
+        |response|^2, if already computed.
 
     Returns
     -------
@@ -296,7 +299,8 @@ def extremum_probes(evaluate, omega, response):
     """
     if omega.size < 3:
         return Probes.none()
-    squared = response.real ** 2 + response.imag ** 2
+    if squared is None:
+        squared = response.real ** 2 + response.imag ** 2
     middle, left, right = squared[:, 1:-1], squared[:, :-2], squared[:, 2:]
     log_w = np.log(omega)
     found = Probes.none()
@@ -338,7 +342,7 @@ def _parabola_vertex(x, y):
     return np.where(a != 0, y1 - b * b / (4.0 * a), y1)
 
 
-def near_minus_one_probes(omega, inner, runs=None):
+def near_minus_one_probes(omega, inner, runs=None, distance2=None):
     """Probes where an inner loop L_i passes close to -1 between two grid samples.
 
     There |1 + L_i| has a sharp minimum, so T_i = L_i/(1 + L_i) and every loop containing it
@@ -356,6 +360,8 @@ def near_minus_one_probes(omega, inner, runs=None):
         L_i on the grid, shape (n, m) (or (1, m) shared by every run).
     runs : numpy.ndarray, optional
         Run numbers of the rows of ``inner`` (default 0..n-1).
+    distance2 : numpy.ndarray, optional
+        |1 + L_i|^2 on the grid, if already computed.
 
     Returns
     -------
@@ -364,8 +370,10 @@ def near_minus_one_probes(omega, inner, runs=None):
     log_w = np.log(omega)
     # A segment passing -1 at d < e/2 with both ends at >= e from it is longer than
     # 2 sqrt(e^2 - d^2) > sqrt(3) e: only such intervals are examined.
-    plus = inner + 1.0
-    ends2 = plus.real ** 2 + plus.imag ** 2
+    if distance2 is None:
+        plus = inner + 1.0
+        distance2 = plus.real ** 2 + plus.imag ** 2
+    ends2 = distance2
     chord = inner[:, 1:] - inner[:, :-1]
     length2 = chord.real ** 2 + chord.imag ** 2
     rows, k = np.nonzero(length2 > 3.0 * np.minimum(ends2[:, :-1], ends2[:, 1:]))
@@ -428,7 +436,8 @@ def _phase_through(evaluate, run, x_start, x_end, phase_start, value_start, prob
     return phase_start + float(np.sum(steps)), values[-1]
 
 
-def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=False):
+def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=False,
+                 inner=False):
     """Margins of a batch of loops.
 
     Parameters
@@ -448,6 +457,9 @@ def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=Fal
         are always added.
     crossings : bool
         Also return every gain crossover and every phase crossover (all refined).
+    inner : bool
+        The loop is an inner loop: also return ``"_inner_probes"``, the
+        :func:`near_minus_one_probes` for the loops that contain it.
 
     Returns
     -------
@@ -460,13 +472,14 @@ def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=Fal
     log_w = np.log(omega)
     re, im = response.real, response.imag
     out = {}
-    probes = extremum_probes(evaluate, omega, response) + (probes or Probes.none())
+    squared = re * re + im * im
+    probes = extremum_probes(evaluate, omega, response, squared) + (probes or Probes.none())
     samples = _samples(evaluate, log_w, response, probes)
 
     # Gain crossovers (|L| = 1, all) and phase crossovers (Im L = 0 with Re L < 0), refined
     # together.
-    gain_b = _brackets(samples, _gain_sign)
-    phase_b = _brackets(samples, _phase_sign)
+    gain_b = _brackets(samples, _gain_sign, squared > 1.0)
+    phase_b = _brackets(samples, _phase_sign, im > 0)
     if not crossings:
         chosen = _phase_candidates(n, phase_b)
         phase_b = tuple(part[chosen] for part in phase_b)
@@ -521,6 +534,8 @@ def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=Fal
     # Sensitivity peak and disk margin, refined together.
     every = np.arange(n)
     plus = (re + 1.0) ** 2 + im * im  # |1 + L|^2
+    if inner:
+        out["_inner_probes"] = near_minus_one_probes(omega, response, distance2=plus)
     (s_w, s_value, _), (d_w, distance, _) = _maxima(
         evaluate, omega,
         [(every, -plus, lambda v, i: 1.0 / np.abs(1.0 + v), response),
@@ -542,6 +557,8 @@ def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=Fal
     names = (*LOOP_FIGURES, *EXTRA)
     if crossings:
         names = (*names, "_gain_crossings", "_phase_crossings")
+    if inner:
+        names = (*names, "_inner_probes")
     return {name: out[name] for name in names}
 
 

@@ -254,7 +254,7 @@ def gather_variant(loaded, settings=ReportSettings(), verdicts=None, progress=No
     params = loaded.params
     analysis = analyze(loaded, pade_orders=settings.pade_order)
     dwell = sinedwell_run(loaded, settings.amplitudes_rad, settings.frequencies_rad_s,
-                          progress=progress)
+                          progress=progress, analysis=analysis)
     linear, linear_figures = [], []
     for run in dwell.steps:
         amplitude = math.radians(run.step.amplitude_deg)

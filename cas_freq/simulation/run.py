@@ -84,15 +84,23 @@ def step_runs(variants, amplitude_rad):
     return step_batch([(loaded, amplitude_rad) for loaded in variants])
 
 
-def step_batch(items):
+def step_batch(items, verdicts=None):
     """Step runs of (variant, step size [rad]) pairs, batched as :func:`step_runs` does.
+
+    Parameters
+    ----------
+    items : sequence of (LoadedVariant, float)
+        Variants and step sizes at the fin [rad].
+    verdicts : dict, optional
+        ``id(loaded) -> linear stability verdict`` already known (e.g. from the variant's
+        :class:`~cas_freq.analysis.Analysis`); the others are computed once per variant.
 
     Returns
     -------
     list of StepRun
         In the order of ``items``.
     """
-    groups, verdicts = {}, {}
+    groups, verdicts = {}, dict(verdicts or {})
     for index, (loaded, _) in enumerate(items):
         groups.setdefault(_batch_key(loaded.params), []).append(index)
         if id(loaded) not in verdicts:  # once per variant, however many step sizes
@@ -311,7 +319,7 @@ def dwell_parameters(params, feedforward):
 
 
 def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward=False,
-                  progress=None):
+                  progress=None, analysis=None):
     """Sine-dwell the nonlinear loop of one variant, with the cross-checks beside it.
 
     Parameters
@@ -327,6 +335,9 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
         the requirement's, has no feed-forward).
     progress : callable, optional
         ``progress(steps_done, steps_planned)`` of the sine-dwell batch.
+    analysis : cas_freq.analysis.Analysis, optional
+        The variant's exact-delay analysis, if already computed: its stability verdict and
+        linear bandwidth are used instead of being computed again.
 
     Returns
     -------
@@ -347,12 +358,16 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
         progress=progress, **rates,
     )
     amplitudes = np.asarray(result.amplitudes_rad)
-    steps = step_batch([(loaded, float(amplitude)) for amplitude in amplitudes])
+    known = {} if analysis is None else {id(loaded): analysis.stability.verdict}
+    steps = step_batch([(loaded, float(amplitude)) for amplitude in amplitudes], known)
     loops = ActuatorLoops(params)
     omega = np.asarray(result.frequencies_rad_s)
     linear = loops.closed_loop(1j * omega, feedforward=feedforward)
     linear_bandwidth = None  # an unstable loop has no frequency response to measure
-    if steps[0].linear_stability == "stable":
+    if analysis is not None and analysis.delay_model == "exact":
+        if analysis.closed_loop is not None:
+            linear_bandwidth = analysis.closed_loop.bandwidth_rad_s
+    elif steps[0].linear_stability == "stable":
         grid = frequency_grid(*DEFAULT_RANGE_RAD_S, total_delay=loops.total_delay)
         linear_bandwidth = closed_loop_summary(loops.closed_loop, grid).bandwidth_rad_s
     return SineDwellRun(

@@ -25,8 +25,9 @@ import numpy as np
 
 from cas_freq.exceptions import ConfigError
 from cas_freq.fileio import json_ready
-from cas_freq.parameters import base_values, check_key, parse_value, unit_of
+from cas_freq.parameters import base_values, check_key, unit_of
 from cas_freq.studies.sweep import evaluate_figures, figure_names
+from cas_freq.units import to_si
 
 DISTRIBUTIONS = ("normal", "uniform")
 #: Percentiles reported for each figure.
@@ -63,9 +64,15 @@ def parse_tolerance(text):
         if not (math.isfinite(relative) and relative >= 0):
             raise ConfigError(accepted)
         return Tolerance(key, relative, None)
-    absolute = parse_value(key, value)
+    # a width, not a value of the key: in the key's unit, but its bound is >= 0, not the key's
+    unit = unit_of(key)
+    try:
+        absolute = to_si(value, unit)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ConfigError(f"--tolerance {key}: cannot read {value!r} as a width in {unit} "
+                          f"({exc})") from None
     if not (math.isfinite(absolute) and absolute >= 0):
-        raise ConfigError(f"--tolerance {key}: must be >= 0 {unit_of(key)}, got {value!r}")
+        raise ConfigError(f"--tolerance {key}: must be >= 0 {unit}, got {value!r}")
     return Tolerance(key, None, absolute)
 
 
