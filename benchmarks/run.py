@@ -208,7 +208,7 @@ def bench_memory(params, n):
 
 
 def actuator_nlsys(config, pade_order):
-    """The loop of MODEL.md as a python-control ``nlsys`` with Padé delays: the reference
+    """The loop of docs/model.md as a python-control ``nlsys`` with Padé delays: the reference
     implementation the tests check the simulator against (tests/nlsys_reference.py)."""
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
     from nlsys_reference import actuator_nlsys as reference

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-#: |T| at the bandwidth relative to |T(0)| (MODEL.md: 3.01 dB below): 1/sqrt(2) = -3.0103 dB.
+#: |T| at the bandwidth relative to |T(0)| (docs/model.md: 3.01 dB below): 1/sqrt(2) = -3.0103 dB.
 HALF_POWER = 1.0 / math.sqrt(2.0)
 
 
@@ -22,7 +22,7 @@ def viscous_friction_from_no_load(torque_constant, no_load_speed, no_load_curren
     .. math:: \mu_v = \frac{K_m I_0}{\omega_0}, \qquad \omega_0 = n_0 \frac{2\pi}{60}
 
     (ARL-TR-9136 §6; the report prints :math:`n_0` = 16,300 "rad/s" but the formula and its
-    result 1.341e-6 N·m·s/rad hold only for rpm, see MODEL.md.)
+    result 1.341e-6 N·m·s/rad hold only for rpm, see docs/model.md.)
 
     Parameters
     ----------
@@ -81,7 +81,7 @@ def second_order_bandwidth(natural_frequency, damping_ratio):
     return natural_frequency * math.sqrt((1 - 2 * z2) + math.sqrt(4 * z2**2 - 4 * z2 + 2))
 
 
-#: What ARL-TR-9136 measured on the bench (MODEL.md, "What the report measured"): a 10 deg fin
+#: What ARL-TR-9136 measured on the bench (docs/model.md, "What the report measured"): a 10 deg fin
 #: step, its figures and the report's second-order fit to it. For comparison only, never for
 #: tuning the model. ``bandwidth_rad_s`` is the report's rounded 566 rad/s;
 #: ``second_order_bandwidth(462, 0.54)`` gives 565.9 rad/s.

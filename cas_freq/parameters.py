@@ -297,7 +297,7 @@ def base_values(params):
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class LoopParameters:
-    """Parameters of ``n_runs`` actuators, in SI, motor-shaft coordinates (MODEL.md).
+    """Parameters of ``n_runs`` actuators, in SI, motor-shaft coordinates (docs/model.md).
 
     Every attribute is a read-only float array of shape (n_runs,), except
     ``derivative_on_measurement`` (bool array). Each float field carries one key of
@@ -397,7 +397,7 @@ class LoopParameters:
         return dataclasses.replace(self, **changes)
 
     def without_feedforward(self):
-        """A copy with ff_v = ff_a = 0: the loop of MODEL.md's T, whose bandwidth is ω_BW."""
+        """A copy with ff_v = ff_a = 0: the loop of docs/model.md's T, whose bandwidth is ω_BW."""
         zero = np.zeros(self.n_runs)
         return self.replace(ff_v=zero, ff_a=zero)
 

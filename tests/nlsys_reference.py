@@ -1,4 +1,4 @@
-"""The loop of MODEL.md written again as a python-control ``nlsys``: the independent second
+"""The loop of docs/model.md written again as a python-control ``nlsys``: the independent second
 implementation that tests/test_simulation_nlsys.py checks the simulator against, and that
 benchmarks/run.py times python-control with. Kept apart from the tests so the benchmark can
 import it without pytest (it puts this folder on sys.path).
@@ -7,7 +7,7 @@ States: the motor's i, omega, theta; the current PI's integral of e_i; the posit
 integral of e; the derivative filter state x_f (T_f x_f' = e - x_f, so the derivative term
 K_d (e - x_f) / T_f is K_d s / (T_f s + 1) e); then the states of Padé models of the position
 and current delays. Both outputs are clamped (±i_max, ±v_max), and each integrator holds while
-its output is clamped and its error would push it further out (MODEL.md).
+its output is clamped and its error would push it further out (docs/model.md).
 """
 
 import control
@@ -18,7 +18,7 @@ def _pade_state_space(tau, order):
     """(A, B, C, D) of the Padé approximant of exp(-s tau), realised for tau = 1 and rescaled.
 
     Realising the unit delay and scaling time (A/tau, B/tau) avoids the ill-conditioned
-    coefficients of a sub-millisecond delay's transfer function (MODEL.md, Delays).
+    coefficients of a sub-millisecond delay's transfer function (docs/model.md, Delays).
     """
     num, den = control.pade(1.0, order)
     unit = control.tf2ss(num, den)
@@ -29,7 +29,7 @@ def _pade_state_space(tau, order):
 
 
 def actuator_nlsys(config, pade_order=None):
-    """The loop of MODEL.md as a ``control.nlsys``; input theta_cmd [rad], output every state.
+    """The loop of docs/model.md as a ``control.nlsys``; input theta_cmd [rad], output every state.
 
     Parameters are read from the validated config (SI). Delays of 0 are left out; others need
     ``pade_order``.
@@ -37,7 +37,7 @@ def actuator_nlsys(config, pade_order=None):
     motor, cur, pos = config.motor, config.current_loop, config.position_loop
     assert pos.derivative_on == "error" and pos.Kd > 0
     R, L, Km, Ke, J, mu_v = motor.R, motor.L, motor.Km, motor.Ke, motor.J, motor.viscous_friction
-    tf = pos.Tf if pos.Tf is not None else pos.Kd / (10.0 * pos.Kp)  # MODEL.md default
+    tf = pos.Tf if pos.Tf is not None else pos.Kd / (10.0 * pos.Kp)  # docs/model.md default
     delays = []
     for tau in (pos.delay, cur.delay):  # position -> current, current -> motor terminals
         if tau == 0:

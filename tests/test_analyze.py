@@ -60,7 +60,7 @@ def test_python_control_margins_on_pade_model_agree(variant, exact):
 
 
 def test_position_loop_is_type_two_with_lower_gain_margin(exact):
-    # MODEL.md: two integrators, phase starting at -180°, so a lower (negative-dB) gain margin
+    # docs/model.md: two integrators, phase starting at -180°, so a lower (negative-dB) gain margin
     # at a phase crossover below the gain crossover, besides the upper one above it.
     p = exact.position_loop
     assert p.gain_margin_low_db < 0 < p.gain_margin_db
@@ -112,7 +112,7 @@ def test_pade_study_converges_to_exact(exact):
 
 
 def test_pade_ten_is_finite_and_matches_exact(variant, exact):
-    # MODEL.md: orders 8 and more must work. At the crossovers omega*tau <= 0.6, where Padé 10
+    # docs/model.md: orders 8 and more must work. At the crossovers omega*tau <= 0.6, where Padé 10
     # is exact to rounding, so every figure agrees with exact to 1e-9 relative.
     high = analyze(variant, DelayModel(10))
     assert high.stable and high.stability.pade_order == 10

@@ -134,7 +134,7 @@ def test_analyze_json_figures_are_numbers(base_json):
 @pytest.mark.parametrize("loop", ["current_loop", "position_loop"])
 def test_analyze_json_margins_are_consistent(base_json, loop):
     margins = base_json[loop]
-    # MODEL.md: delay margin = PM [rad] / crossover; the JSON rounds nothing, so rel 1e-12.
+    # docs/model.md: delay margin = PM [rad] / crossover; the JSON rounds nothing, so rel 1e-12.
     assert margins["delay_margin_s"] == pytest.approx(
         math.radians(margins["phase_margin_deg"]) / margins["crossover_rad_s"], rel=1e-12
     )
@@ -150,7 +150,7 @@ def test_analyze_json_margins_are_consistent(base_json, loop):
 
 
 def test_analyze_json_position_loop_has_lower_gain_margin(base_json):
-    # MODEL.md: the position loop is type 2, so its phase starts at -180 deg and there is a
+    # docs/model.md: the position loop is type 2, so its phase starts at -180 deg and there is a
     # lower gain margin (negative dB) at a phase crossover below the gain crossover.
     position = base_json["position_loop"]
     assert position["gain_margin_low_db"] < 0

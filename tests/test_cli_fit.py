@@ -1,7 +1,7 @@
 """``cas-freq fit``: the report's §7 fit applied to a step response read from a CSV.
 
 The reference data is the second-order-plus-delay model itself with the report's parameters
-(wn 462 rad/s, zeta 0.54, td 2 ms: MODEL.md), so the fit must give them back; with 0.5 % of the
+(wn 462 rad/s, zeta 0.54, td 2 ms: docs/model.md), so the fit must give them back; with 0.5 % of the
 step of seeded white noise added, they must come back within a few percent and inside the
 reported confidence intervals.
 """
@@ -35,7 +35,7 @@ def test_recovers_the_report_fit_from_clean_data(tmp_path):
     assert fit["wn_rad_s"] == pytest.approx(462.0, rel=1e-6)
     assert fit["zeta"] == pytest.approx(0.54, rel=1e-6)
     assert fit["td_s"] == pytest.approx(2e-3, rel=1e-6)
-    # MODEL.md: wn 462, zeta 0.54 give 566 rad/s in closed form (565.9 unrounded)
+    # docs/model.md: wn 462, zeta 0.54 give 566 rad/s in closed form (565.9 unrounded)
     assert fit["bandwidth_closed_form_rad_s"] == pytest.approx(566.0, abs=0.5)
     # the samples before t = 0 are dropped, the step figures are of the model: 13.3 % overshoot
     assert data["samples"] == 600

@@ -40,7 +40,7 @@ def test_json_has_step_and_fit(simulated):
     assert code == 0
     assert STEP_KEYS <= set(data["step"]) and FIT_KEYS <= set(data["fit"])
     assert data["step"]["amplitude_deg"] == pytest.approx(10.0)
-    # MODEL.md: a 10° step asks Kp * 3.49 rad ~ 22 A of a 20 A limit
+    # docs/model.md: a 10° step asks Kp * 3.49 rad ~ 22 A of a 20 A limit
     assert data["step"]["current_limited"] is True
     # the closed form of the fitted (wn, zeta), recomputed here from the report's formula
     wn, zeta = data["fit"]["wn_rad_s"], data["fit"]["zeta"]

@@ -61,7 +61,7 @@ def test_small_amplitude_matches_linear_and_large_one_is_limited(dwell):
 def test_three_bandwidths_side_by_side(dwell):
     """Each row carries the linear -3 dB (the analyze figure), the sine-dwell bandwidth of that
     amplitude and the closed form of its step's second-order fit (recomputed here from the
-    fitted wn and zeta with MODEL.md's formula)."""
+    fitted wn and zeta with docs/model.md's formula)."""
     rows = dwell["bandwidth_three_ways"]
     assert len(rows) == 2
     code, out, _ = _run(["analyze", "--json"])

@@ -17,11 +17,11 @@ from cas_freq.exceptions import CasFreqError, ConfigError, ConfigTypeError
 # conversion of the file's unit strings, e.g. 0.071 mH, adds rounding of a few ulps).
 RTOL = 1e-12
 
-# Report Table 3, catalog motor (MODEL.md: J in kg*m^2, n0 in rpm).
+# Report Table 3, catalog motor (docs/model.md: J in kg*m^2, n0 in rpm).
 CATALOG_MOTOR = {"R": 0.361, "L": 7.1e-5, "Km": 0.0105, "Ke": 0.0105, "J": 5.54e-7}
 NO_LOAD_SPEED = 16300 * 2 * math.pi / 60  # n0 = 16,300 rpm [rad/s]
 NO_LOAD_CURRENT = 0.218  # I0 [A]
-# Report Table 4, fitted motor; the rest of the motor stays at Table 3 (MODEL.md "Plant").
+# Report Table 4, fitted motor; the rest of the motor stays at Table 3 (docs/model.md "Plant").
 FITTED_MOTOR = {"Km": 0.0075, "J": 7.19e-7, "mu_v": 1.2e-6}
 # Report Table 1 (gains, V_max) and §4 (delay 0.06 ms).
 CURRENT_LOOP = {"Kp": 0.6163, "Ki": 2835.3, "v_max": 30.0, "delay": 6e-5}
@@ -61,7 +61,7 @@ def test_shipped_common_values_in_si(shipped_variants, variant):
     for key, value in POSITION_LOOP.items():
         assert getattr(params.position_loop, key) == pytest.approx(value, rel=RTOL), key
     assert params.position_loop.derivative_on == "error"  # as report Fig. 7 draws it
-    # Tf is not set in the file: the default Kd/(10 Kp) of MODEL.md = 0.0381/63.435 s.
+    # Tf is not set in the file: the default Kd/(10 Kp) of docs/model.md = 0.0381/63.435 s.
     assert params.position_loop.Tf is None
     assert params.position_loop.filter_time_constant == pytest.approx(
         POSITION_LOOP["Kd"] / (10 * POSITION_LOOP["Kp"]), rel=RTOL

@@ -96,7 +96,7 @@ def test_state_space_pade_matches_rational_response(order):
 def test_transfer_function_arithmetic_is_what_fails_at_high_order():
     # Why the cascade exists: python-control's own tf route loses the model at n = 10 for a
     # 0.4 ms delay (products of coefficients ~1e-34 and ~1e+40 overflow in polynomial
-    # arithmetic), while the cascade stays exact. This documents the MODEL.md remark.
+    # arithmetic), while the cascade stays exact. This documents the docs/model.md remark.
     num, den = control.pade(TAU, 10)
     cascade = pade_system(TAU, 10)
     loop = control.tf(num, den) * control.tf(num, den) * control.tf([1.0], [1e-3, 1.0])

@@ -6,7 +6,7 @@ import pytest
 
 from cas_freq.formulas import second_order_bandwidth, viscous_friction_from_no_load
 
-# Report Table 3 (catalog motor): Km = 0.0105 N*m/A, n0 = 16,300 rpm (MODEL.md erratum: the
+# Report Table 3 (catalog motor): Km = 0.0105 N*m/A, n0 = 16,300 rpm (docs/model.md erratum: the
 # table says rad/s), I0 = 0.218 A.
 KM = 0.0105
 N0_RAD_S = 16300 * 2 * math.pi / 60

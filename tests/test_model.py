@@ -19,7 +19,7 @@ def params(request):
 
 
 def test_plant_factors_follow_the_differential_equations(params):
-    # Y = i/V and M = theta/i written out from MODEL.md's equations must equal the 3-state
+    # Y = i/V and M = theta/i written out from docs/model.md's equations must equal the 3-state
     # plant's transfer functions (same equations in state space); rounding-level tolerance.
     # Both come from cas_freq.model.parts: the polynomials Z_e = Ls + R, P_m = Js + mu_v and
     # the state matrices, written separately there; they must describe the same plant.
@@ -41,7 +41,7 @@ def test_plant_factors_follow_the_differential_equations(params):
 def test_pid_factor_is_parallel_form(params):
     loop = params.position_loop
     s = 1j * OMEGA
-    tf = loop.Kd / (10 * loop.Kp)  # MODEL.md default filter constant
+    tf = loop.Kd / (10 * loop.Kp)  # docs/model.md default filter constant
     expected = loop.Kp + loop.Ki / s + loop.Kd * s / (tf * s + 1)
     p = LoopParameters.from_config(params)
     numerator = parts.polyval(parts.position_controller(p), s)
@@ -79,7 +79,7 @@ def test_state_space_models_are_minimal_and_stable():
 
 
 def test_closed_loop_dc_gain_is_one():
-    # MODEL.md: T(0) = 1 (the plant integrates, so the loop has zero steady-state error).
+    # docs/model.md: T(0) = 1 (the plant integrates, so the loop has zero steady-state error).
     for derivative_on in ("error", "measurement"):
         params = load_variant(overrides=[("position_loop.derivative_on", derivative_on)]).params
         model = linear_model(params, 4)
@@ -119,7 +119,7 @@ def test_tf_option_is_used():
 
 @pytest.mark.parametrize("derivative_on", ["error", "measurement"])
 def test_feedforward_closed_loop(derivative_on):
-    # With i_ff = F theta_cmd added to the controller output (MODEL.md), theta = P((C_r + F)
+    # With i_ff = F theta_cmd added to the controller output (docs/model.md), theta = P((C_r + F)
     # theta_cmd - C_p theta) with P = e^(-s tau_p) T_i M, so theta/theta_cmd = T (1 + F/C_r)
     # where T is the closed loop without feed-forward. Same algebra: rounding tolerance.
     params = load_variant(overrides=[("position_loop.derivative_on", derivative_on)]).params

@@ -81,7 +81,7 @@ def test_small_step_is_small_signal_and_linear_agrees(data):
     linear = data.linear_steps[data.small_index]
     assert np.max(np.abs(linear - small.result.delta)) < 0.01 * math.radians(0.5)
     large = data.dwell.steps[data.large_index]
-    assert large.step.current_limited  # MODEL.md: a 10 deg step asks ~22 A of 20 A
+    assert large.step.current_limited  # docs/model.md: a 10 deg step asks ~22 A of 20 A
 
 
 def test_bench_rows_show_the_report_numbers(data):

@@ -1,6 +1,6 @@
 """Nonlinear time-domain simulator: linear cross-check, limits, anti-windup, batch, dt, sampling.
 
-References: the linear Padé model of :mod:`cas_freq.model.systems` (python-control), MODEL.md's
+References: the linear Padé model of :mod:`cas_freq.model.systems` (python-control), docs/model.md's
 numbers (20 A / 30 V limits, Kp * 3.49 rad = 22 A) and sample-exact discrete loops built here.
 The 10 deg runs of both shipped variants are simulated once per module, as one batch at the
 default step and one at half of it (a batch costs about what one run costs).
@@ -33,7 +33,7 @@ from cas_freq.simulation import (
 
 VARIANTS = ("base", "fitted")
 SMALL = math.radians(0.05)  # small enough for no limit: ~1 A and ~0.9 V at most (checked below)
-LARGE = math.radians(10.0)  # MODEL.md's 10 deg step at the fin
+LARGE = math.radians(10.0)  # docs/model.md's 10 deg step at the fin
 
 
 def params(variant="base", overrides=()):
@@ -62,7 +62,7 @@ def large_steps():
 @pytest.mark.parametrize("variant", VARIANTS)
 @pytest.mark.parametrize("derivative_on", ["error", "measurement"])
 def test_small_step_matches_linear_pade_model(variant, derivative_on):
-    # MODEL.md / issue: with no limit active the loop is linear, so the simulation must equal
+    # docs/model.md / issue: with no limit active the loop is linear, so the simulation must equal
     # the linear Padé-8 closed loop. Requirement 0.5 % of the step (RMS); found ~1e-5 at the
     # default dt (second order in dt; Padé-8 vs exact delay is below that), so the test also
     # asserts 1e-4 to catch a regression to a first-order scheme (which gave ~1e-3).
@@ -91,13 +91,13 @@ def test_delays_off_the_grid_and_zero():
 
 @pytest.mark.parametrize("index", [0, 1])
 def test_large_step_hits_current_limit_only(large_steps, index):
-    # MODEL.md: a 10 deg step asks Kp * 3.49 rad ~ 22 A of the 20 A limit (and the derivative
+    # docs/model.md: a 10 deg step asks Kp * 3.49 rad ~ 22 A of the 20 A limit (and the derivative
     # kick Kd/Tf * 3.49 rad ~ 220 A at t = 0), so the current command is clamped; the voltage
     # stays well inside 30 V. The commanded current never exceeds 20 A (clamp, exact) and the
     # terminal voltage never 30 V. The motor current itself may overshoot the command by the
     # current loop's own overshoot: allow 2 % (found 19.98 A base, 20.16 A fitted).
     run = large_steps[0].run(index)
-    assert abs(22.1 - 6.3435 * LARGE * 20) < 0.1  # MODEL.md's 22 A
+    assert abs(22.1 - 6.3435 * LARGE * 20) < 0.1  # docs/model.md's 22 A
     assert run.current_limited.any() and not run.voltage_limited.any()
     assert np.max(np.abs(run.current_command)) <= 20.0
     assert np.max(np.abs(run.V)) <= 30.0
@@ -124,7 +124,7 @@ def naive_integration(integral, e_start, e_end, rest_start, rest_end, ki, limit,
 
 
 def test_second_order_fit_of_large_and_small_steps(large_steps):
-    # MODEL.md: the bandwidth inferred from a 10 deg step (limits active) differs from the
+    # docs/model.md: the bandwidth inferred from a 10 deg step (limits active) differs from the
     # small-signal one. The report's §7 fit applied to both: the 10 deg step fits with a much
     # lower closed-form bandwidth (found 270 rad/s base, 299 fitted) than the 0.05 deg step
     # (1196 and 713 rad/s). The model fits the 10 deg step to ~2 % of the step (RMS; found

@@ -22,7 +22,7 @@ A = math.radians(2.0)
 
 
 def test_step_has_no_derivatives_and_jumps_at_start():
-    # MODEL.md: a step has no usable derivative, so the feed-forward gets 0.
+    # docs/model.md: a step has no usable derivative, so the feed-forward gets 0.
     step = Step(A, start_s=0.01)
     angle, rate, accel = step.fin(np.array([0.0, 0.01, 0.02]))
     assert np.array_equal(angle, [0.0, A, A])
@@ -92,7 +92,7 @@ def test_chirp_rejects_bad_values():
 
 
 def test_motor_command_scales_by_gear_ratio():
-    # MODEL.md: theta_cmd = N delta_cmd; a 10 deg fin step is 3.4907 rad at the motor.
+    # docs/model.md: theta_cmd = N delta_cmd; a 10 deg fin step is 3.4907 rad at the motor.
     angle, rate, accel = motor_command(Sine(math.radians(10.0), 50.0), 20.0, np.array([0.01]))
     fin = Sine(math.radians(10.0), 50.0).fin(np.array([0.01]))
     assert np.allclose([angle, rate, accel], 20.0 * np.array(fin))

@@ -1,6 +1,6 @@
 """Cross-check of the nonlinear simulator against a second, independent implementation.
 
-The loop of MODEL.md is written again here as a python-control ``nlsys`` (continuous time,
+The loop of docs/model.md is written again here as a python-control ``nlsys`` (continuous time,
 integrated by an adaptive solver) straight from the validated config, without any of
 ``cas_freq.simulation``'s code, and its 20 ms response to a fin step is compared with
 :func:`cas_freq.simulation.simulate` on the simulator's own time grid.
@@ -10,7 +10,7 @@ position PID's integral of e; the derivative filter state x_f (T_f x_f' = e - x_
 derivative term K_d (e - x_f) / T_f is K_d s / (T_f s + 1) e); and, optionally, the states of
 Padé models of the two transport delays. Both outputs are clamped (±i_max, ±v_max), and each
 integrator holds while its output is clamped and its error would push it further out
-(conditional integration, MODEL.md).
+(conditional integration, docs/model.md).
 
 ``nlsys`` cannot represent a transport delay exactly, hence two kinds of checks:
 

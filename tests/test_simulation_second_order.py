@@ -8,7 +8,7 @@ from scipy.integrate import solve_ivp
 
 from cas_freq.simulation import fit_second_order, second_order_step
 
-WN, ZETA, TD = 462.0, 0.54, 2e-3  # the report's fit to the bench step (§7, MODEL.md)
+WN, ZETA, TD = 462.0, 0.54, 2e-3  # the report's fit to the bench step (§7, docs/model.md)
 
 
 @pytest.mark.parametrize("zeta", [0.0, 0.3, 0.999, 1.0, 1.001, 2.0, 5.0])

@@ -17,7 +17,7 @@ References and tolerances
   sine-dwell bandwidth must therefore match the same interpolation of the linear T on the same
   grid to 0.5 % (observed 0.01 %; the fit error is ~1e-3 dB, which moves a crossing by far
   less than 0.5 % at the local slope), and the exact bandwidth to 3 %.
-- 10 deg: the current command saturates (MODEL.md: a 10 deg step already asks 22 A of 20 A), so
+- 10 deg: the current command saturates (docs/model.md: a 10 deg step already asks 22 A of 20 A), so
   the limit is hit and the large-signal bandwidth is lower.
 """
 

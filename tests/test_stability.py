@@ -154,7 +154,7 @@ def test_unstable_variants_are_reported_unstable(overrides):
 
 
 def test_derivative_on_measurement_keeps_the_poles():
-    # Only the reference path changes (MODEL.md); python-control builds that model by a
+    # Only the reference path changes (docs/model.md); python-control builds that model by a
     # separate interconnect, so this also checks its realisation.
     error = load_variant(None, "fitted").params
     measurement = load_variant(None, "fitted", [("position_loop.derivative_on",

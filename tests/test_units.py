@@ -28,7 +28,7 @@ def test_numbers_pass_through_as_si(value, unit):
     [
         # Report Table 3: L = 7.1e-5 H, written as 0.071 mH in configs/qt_cas.yaml.
         ("0.071 mH", "H", 7.1e-5),
-        # Report Table 3 n0 = 16,300 read as rpm (MODEL.md erratum): 1 rpm = 2*pi/60 rad/s.
+        # Report Table 3 n0 = 16,300 read as rpm (docs/model.md erratum): 1 rpm = 2*pi/60 rad/s.
         ("16300 rpm", "rad/s", 16300 * 2 * math.pi / 60),
         # Catalog inertia 5.54 g*cm^2 = 5.54 * 1e-3 kg * 1e-4 m^2 = 5.54e-7 kg*m^2 (Table 3).
         ("5.54 g*cm^2", "kg*m^2", 5.54e-7),

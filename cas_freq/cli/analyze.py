@@ -1,4 +1,4 @@
-"""``cas-freq analyze``: every frequency-domain figure of MODEL.md."""
+"""``cas-freq analyze``: every frequency-domain figure of docs/model.md."""
 
 import argparse
 
@@ -23,7 +23,7 @@ def register(commands):
     """Add the ``analyze`` sub-parser."""
     parser = commands.add_parser(
         "analyze", help="margins, bandwidth and stability of each loop",
-        description="Every frequency-domain figure of MODEL.md for one or all variants.",
+        description="Every frequency-domain figure of docs/model.md for one or all variants.",
     )
     add_config_arguments(parser)
     parser.add_argument(

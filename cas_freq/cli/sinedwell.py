@@ -34,7 +34,7 @@ def register(commands):
     parser.add_argument(
         "--feedforward", action="store_true",
         help="let the velocity/acceleration feed-forward act on the sines (default: off, as in "
-        "MODEL.md's T)",
+        "docs/model.md's T)",
     )
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.set_defaults(handler=run)

@@ -6,7 +6,7 @@ with :func:`param`, and is converted by :func:`cas_freq.parameters.parse_value`'
 loader turns pydantic's errors into one message per problem that names the dotted key, the
 value and what is accepted (see :mod:`cas_freq.config.loader`).
 
-Keys follow MODEL.md and the report's symbols (``Kp``, ``Ki``, ``Kd``, ``Tf``, ``mu_v``, ...).
+Keys follow docs/model.md and the report's symbols (``Kp``, ``Ki``, ``Kd``, ``Tf``, ``mu_v``, ...).
 """
 
 from typing import Annotated, Any, Literal

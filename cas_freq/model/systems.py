@@ -76,7 +76,7 @@ class LinearModel:
 
 
 def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
-    """Build every loop of MODEL.md as a python-control system with Padé delays.
+    """Build every loop of docs/model.md as a python-control system with Padé delays.
 
     Parameters
     ----------

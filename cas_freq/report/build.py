@@ -81,7 +81,7 @@ def bench_table(datas):
     large = {f"{d.dwell.steps[d.large_index].step.amplitude_deg:g}°" for d in datas}
     return Table(("figure", "unit", "report bench (10° step)", *names), tuple(rows),
                  f"model steps of {'/'.join(sorted(large))}; the bench figures are ARL-TR-9136's "
-                 "measurements (MODEL.md), for comparison only")
+                 "measurements (docs/model.md), for comparison only")
 
 
 def summary_rows(data):
@@ -350,8 +350,8 @@ def report_blocks(datas, figure_blocks, settings, command=None):
         "±v_max clamps with anti-windup",
         f"sine-dwell and step amplitudes at the fin: {amplitudes}; sine-dwell frequencies: "
         f"{len(w)} points over {w[0]:g}..{w[-1]:g} rad/s (one batch per variant, "
-        "feed-forward off as in MODEL.md's T)",
-        "figure definitions: MODEL.md (motor-shaft loops, fin angle δ = θ / gear ratio)",
+        "feed-forward off as in docs/model.md's T)",
+        "figure definitions: docs/model.md (motor-shaft loops, fin angle δ = θ / gear ratio)",
     ]
     if command:
         facts.append(f"regenerate with: {command}")

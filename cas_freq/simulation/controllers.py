@@ -5,7 +5,7 @@ r"""The loops' controllers, vectorised over runs: PI(D), output clamp, anti-wind
     T_f \dot x_f = y - x_f, \qquad u_{out} = \mathrm{clip}(u, -u_{max}, u_{max})
 
 so the derivative term :math:`K_d (y - x_f)/T_f` is :math:`K_d s/(T_f s + 1)` applied to
-:math:`y` (the error, or :math:`-\theta` for derivative on measurement; MODEL.md). Each update
+:math:`y` (the error, or :math:`-\theta` for derivative on measurement; docs/model.md). Each update
 over a period T, from the inputs' right limits :math:`(e^-, y^-)` at the previous update to their
 left limits :math:`(e^+, y^+)` now (they differ where a step passes through):
 
@@ -20,7 +20,7 @@ left limits :math:`(e^+, y^+)` now (they differ where a step passes through):
   choice: Åström & Wittenmark, *Computer-Controlled Systems*, 3rd ed., ch. 8). At 2.5 kHz,
   :math:`T` = 0.4 ms is close to :math:`T_f` = 0.6 ms, so the choice matters: the exact filter
   held for a period gives a 37 % larger kick;
-- anti-windup by conditional integration (MODEL.md): the integrator holds while the output would
+- anti-windup by conditional integration (docs/model.md): the integrator holds while the output would
   be clamped and the integration step pushes it further out; an update in which the output
   reaches the limit integrates up to it (:func:`integrate_with_anti_windup`).
 """
@@ -33,7 +33,7 @@ def integrate_with_anti_windup(
 ):
     """Advance the integral over one update unless that drives the output beyond its limit.
 
-    Conditional integration (MODEL.md): the integral holds while the output is clamped and the
+    Conditional integration (docs/model.md): the integral holds while the output is clamped and the
     error pushes it further out. With ``locate`` (continuous controllers) the instants within
     the update where the clamp starts or ends are located by linear interpolation of the output
     with the integral held, and only the part of the interval outside the clamp is integrated

@@ -1,6 +1,6 @@
 r"""The fixed-step core: every run of a batch advanced at once with numpy.
 
-Plant (MODEL.md, report Fig. 5), states :math:`x = (i, \omega, \theta)`:
+Plant (docs/model.md, report Fig. 5), states :math:`x = (i, \omega, \theta)`:
 
 .. math::
     L \dot i = V - R i - K_e \omega, \qquad J \dot\omega = K_m i - \mu_v \omega, \qquad

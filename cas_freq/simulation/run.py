@@ -281,7 +281,7 @@ class SineDwellRun:
         Exact-delay linear delta/delta_cmd at the same frequencies (with the same feed-forward
         setting), complex, shape (n_f,).
     linear_bandwidth_rad_s : float or None
-        MODEL.md's closed-loop bandwidth of T (no feed-forward), from ``analyze``.
+        docs/model.md's closed-loop bandwidth of T (no feed-forward), from ``analyze``.
     steps : tuple of StepRun
         A nonlinear fin step of each amplitude, with its figures and second-order fit.
     limit_onset_rad : float or None
@@ -331,7 +331,7 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
     frequencies_rad_s : sequence of float, optional
         Dwell frequencies [rad/s]; default :data:`DEFAULT_SINEDWELL_FREQUENCIES_RAD_S`.
     feedforward : bool
-        Let the feed-forward act on the sines (default False: MODEL.md's T, whose bandwidth is
+        Let the feed-forward act on the sines (default False: docs/model.md's T, whose bandwidth is
         the requirement's, has no feed-forward).
     progress : callable, optional
         ``progress(steps_done, steps_planned)`` of the sine-dwell batch.

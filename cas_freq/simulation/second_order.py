@@ -1,4 +1,4 @@
-r"""Second-order-plus-delay model of a step response (ARL-TR-9136 §7, MODEL.md).
+r"""Second-order-plus-delay model of a step response (ARL-TR-9136 §7, docs/model.md).
 
 .. math::
     \ddot x = -\omega_n^2 x - 2\zeta\omega_n \dot x + \omega_n^2 u(t - t_d)

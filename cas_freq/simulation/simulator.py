@@ -1,4 +1,4 @@
-"""Nonlinear time-domain simulation of the full actuator loop of MODEL.md.
+"""Nonlinear time-domain simulation of the full actuator loop of docs/model.md.
 
 The loop: PID position controller (derivative on error or on measurement, feed-forward, clamp to
 ±i_max with anti-windup) -> delay tau_p -> PI current controller (clamp to ±v_max with

@@ -1,4 +1,4 @@
-"""Step figures of a sampled step response (MODEL.md, "Definitions of the figures").
+"""Step figures of a sampled step response (docs/model.md, "Definitions of the figures").
 
 Of the fin angle delta in response to a step of delta_cmd:
 
@@ -11,7 +11,7 @@ Of the fin angle delta in response to a step of delta_cmd:
 - the largest |current| and |voltage|, and whether either limit was hit.
 
 The final value is the step size by default: with integral action the loop settles on the
-command exactly (MODEL.md's T(0) = 1).
+command exactly (docs/model.md's T(0) = 1).
 """
 
 import dataclasses
