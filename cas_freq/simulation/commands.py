@@ -5,8 +5,9 @@ the loops are closed on the motor shaft, so the simulator uses
 :math:`\theta_{cmd} = N \delta_{cmd}` (:func:`motor_command`, docs/model.md). Amplitudes and
 frequencies may be arrays of shape (n_runs,): ``Step(np.radians([1, 5, 10]))`` is three runs.
 
-A step has no usable derivative (docs/model.md): its rate and acceleration are 0, so the feed-forward
-does nothing. Corners (start of a ramp, ends of table segments) likewise contribute no impulse.
+A step has no usable derivative (docs/model.md): its rate and acceleration are 0, so the
+feed-forward does nothing. Corners (start of a ramp, ends of table segments) likewise
+contribute no impulse.
 """
 
 import csv

@@ -20,8 +20,8 @@ left limits :math:`(e^+, y^+)` now (they differ where a step passes through):
   choice: Åström & Wittenmark, *Computer-Controlled Systems*, 3rd ed., ch. 8). At 2.5 kHz,
   :math:`T` = 0.4 ms is close to :math:`T_f` = 0.6 ms, so the choice matters: the exact filter
   held for a period gives a 37 % larger kick;
-- anti-windup by conditional integration (docs/model.md): the integrator holds while the output would
-  be clamped and the integration step pushes it further out; an update in which the output
+- anti-windup by conditional integration (docs/model.md): the integrator holds while the output
+  would be clamped and the integration step pushes it further out; an update in which the output
   reaches the limit integrates up to it (:func:`integrate_with_anti_windup`).
 """
 

@@ -9,11 +9,12 @@ simulator applies, see below); once the current or voltage clamp is reached it f
 
 Feed-forward
 ------------
-The simulator adds ``ff_v * theta_cmd' + ff_a * theta_cmd''`` to the current command (docs/model.md);
-for a sine these are not zero. :meth:`cas_freq.model.ActuatorLoops.closed_loop` has no
-feed-forward, so it is the small-amplitude reference only when ``ff_v = ff_a = 0``; with
-feed-forward the linear reference is ``T_ff = T * (1 + F/C_r)`` with ``F(s) = ff_v s + ff_a s^2``
-and ``C_r`` the controller acting on the command (:func:`linear_reference` computes both).
+The simulator adds ``ff_v * theta_cmd' + ff_a * theta_cmd''`` to the current command
+(docs/model.md); for a sine these are not zero. :meth:`cas_freq.model.ActuatorLoops.closed_loop`
+has no feed-forward by default, so it is the small-amplitude reference only when
+``ff_v = ff_a = 0``; with feed-forward the linear reference is ``T_ff = T * (1 + F/C_r)``
+with ``F(s) = ff_v s + ff_a s^2`` and ``C_r`` the controller acting on the command
+(:func:`linear_reference` computes both).
 
 Settling and the fit
 --------------------
