@@ -23,11 +23,35 @@ import numpy as np
 
 
 def polyval(coefficients, s):
-    """Value of a polynomial (tuple of broadcastable coefficients) at ``s`` (Horner)."""
+    """Value of a polynomial (tuple of broadcastable coefficients) at ``s``.
+
+    Horner's rule in complex arithmetic; on the imaginary axis (``s = j omega``, every
+    frequency response) the real and imaginary parts are summed in real arithmetic instead,
+    about twice as fast for the same value.
+    """
+    s = np.asarray(s)
+    if np.iscomplexobj(s) and s.ndim and not s.real.any():
+        return _polyval_imaginary(coefficients, s.imag)
     value = coefficients[0]
     for coefficient in coefficients[1:]:
         value = value * s + coefficient
     return value
+
+
+def _polyval_imaginary(coefficients, w):
+    """sum c_k (j w)^k: even powers give the real part (signs + - + ...), odd the imaginary."""
+    parts = [0.0, 0.0]  # real, imaginary
+    power = None
+    for k, coefficient in enumerate(reversed(coefficients)):
+        term = coefficient if power is None else coefficient * power
+        sign = 1.0 if k % 4 < 2 else -1.0
+        parts[k % 2] = parts[k % 2] + (term if sign > 0 else -term)
+        power = w if power is None else power * w
+    real, imaginary = parts
+    out = np.empty(np.broadcast_shapes(np.shape(real), np.shape(imaginary)), dtype=complex)
+    out.real = real
+    out.imag = imaginary
+    return out
 
 
 def stacked(coefficients, n):
