@@ -301,17 +301,18 @@ def extremum_probes(evaluate, omega, response, squared=None):
         return Probes.none()
     if squared is None:
         squared = response.real ** 2 + response.imag ** 2
-    middle, left, right = squared[:, 1:-1], squared[:, :-2], squared[:, 2:]
+    rising = squared[:, 1:] > squared[:, :-1]
+    all_runs, all_k = np.nonzero(rising[:, :-1] != rising[:, 1:])  # every local extremum
+    all_k = all_k + 1
+    top = rising[all_runs, all_k - 1]  # rising before: a maximum
+    level = squared[all_runs, all_k]
     log_w = np.log(omega)
     found = Probes.none()
     for sign in (1.0, -1.0):
-        if sign > 0:
-            runs, k = np.nonzero((middle >= left) & (middle >= right) & (middle < 1.0))
-        else:
-            runs, k = np.nonzero((middle <= left) & (middle <= right) & (middle > 1.0))
+        chosen = (top & (level < 1.0)) if sign > 0 else (~top & (level > 1.0))
+        runs, k = all_runs[chosen], all_k[chosen]
         if runs.size == 0:
             continue
-        k = k + 1
         with np.errstate(divide="ignore", invalid="ignore"):
             y = np.log(np.stack([squared[runs, k - 1], squared[runs, k], squared[runs, k + 1]]))
             x = np.stack([log_w[k - 1], log_w[k], log_w[k + 1]])
