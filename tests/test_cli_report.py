@@ -8,7 +8,7 @@ import subprocess
 import pytest
 from clirun import run_cli
 
-from cas_freq.report import figures as plots
+from cas_freq.plots import report as plots
 
 FAST = ["--amplitudes", "0.5deg,10deg", "--frequencies", "600,1200", "--pade-order", "6"]
 

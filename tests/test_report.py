@@ -18,7 +18,7 @@ from cas_freq.analysis import analyze, to_dict
 from cas_freq.config import load_variant
 from cas_freq.exceptions import CasFreqError
 from cas_freq.formulas import REPORT_BENCH
-from cas_freq.report import figures as plots
+from cas_freq.plots import report as plots
 from cas_freq.report import html
 from cas_freq.report.build import build_report, report_files
 from cas_freq.report.data import ReportSettings, gather_variant, variant_results

@@ -1,5 +1,5 @@
 """Reports written at a stated precision: the rounding rules of :mod:`cas_freq.report.numbers`
-on analytic examples, the SVG clean-up of :func:`cas_freq.report.figures.tidy_svg`, the
+on analytic examples, the SVG clean-up of :func:`cas_freq.plots.report.tidy_svg`, the
 comparison of two results.json files within the written precision (what ``.ci/run`` checks
 against the committed examples), and a report built twice on this machine byte for byte."""
 
@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from cas_freq.config import load_variant
+from cas_freq.plots.report import tidy_svg
 from cas_freq.report.build import build_report
 from cas_freq.report.data import ReportSettings
-from cas_freq.report.figures import tidy_svg
 from cas_freq.report.numbers import (
     JSON_DIGITS,
     ZERO,

@@ -1,5 +1,12 @@
-"""Figures drawn with matplotlib for interactive use (each module imports matplotlib itself).
+"""Figures drawn with matplotlib: the only package of cas_freq that imports it.
 
-Importing this package imports nothing; :mod:`cas_freq.plots.api` draws the figures of the
-Python API's ``plot()`` methods.
+Each module imports matplotlib itself, so importing this package imports nothing:
+
+- :mod:`cas_freq.plots.api`: the figures of the Python API's ``plot()`` methods;
+- :mod:`cas_freq.plots.report`: the design-review report's figures and the deterministic SVG
+  writer;
+- :mod:`cas_freq.plots.studies`: the sweep and Monte Carlo figures.
+
+Plotting takes computed data and returns a :class:`matplotlib.figure.Figure`; it computes no
+figure of merit.
 """

@@ -30,14 +30,18 @@ def _pyplot():
 
 
 def svg_text(figure):
-    """The figure as deterministic SVG text (and the figure closed)."""
+    """The figure as deterministic SVG text (and the figure closed): no date, and the
+    coordinates and ids made independent of float noise as the report's
+    (:func:`cas_freq.plots.report.tidy_svg`)."""
     import io
+
+    from cas_freq.plots.report import tidy_svg
 
     plt = _pyplot()
     out = io.StringIO()
     figure.savefig(out, format="svg", metadata={"Date": None})
     plt.close(figure)
-    return out.getvalue()
+    return tidy_svg(out.getvalue())
 
 
 def _grid_of_axes(count):

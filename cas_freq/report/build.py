@@ -1,7 +1,7 @@
 """``cas-freq report``: one folder with index.html, report.md, results.json and the figures.
 
 :func:`build_report` gathers every variant's data (:mod:`cas_freq.report.data`), draws the
-figures (:mod:`cas_freq.report.figures`), lays out the content once as blocks
+figures (:mod:`cas_freq.plots.report`), lays out the content once as blocks
 (:mod:`cas_freq.report.document`) and renders them as Markdown and self-contained HTML; the
 folder is written atomically (:mod:`cas_freq.report.outdir`). The same input gives the same
 bytes in every file on one machine; every number is written at a stated precision
@@ -366,7 +366,7 @@ def report_blocks(datas, figure_blocks, settings, command=None):
 
 def _figure_files(data, png):
     """Yield (path, content) of a variant's figures; returns {stem: Figure block}."""
-    from cas_freq.report import figures as plots
+    from cas_freq.plots import report as plots
 
     slug = variant_slug(data)
     blocks = {}

@@ -172,7 +172,7 @@ def compare_blocks(datas, labels, figure_blocks, settings, command=None):
 
 def compare_files(datas, labels, settings, *, png=False, command=None):
     """Every file of the comparison folder as (relative path, content), figures first."""
-    from cas_freq.report import figures as plots
+    from cas_freq.plots import report as plots
     from cas_freq.report import html, markdown
 
     figure_blocks = {}

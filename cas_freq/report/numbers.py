@@ -10,7 +10,7 @@ rounded at output, with the one rule set of this module:
 * results.json: every float to :data:`JSON_DIGITS` (6) significant digits
   (:func:`rounded_json`);
 * figures: plotted data to 6 significant digits (:func:`round_array`), SVG coordinates to
-  0.01 pt (:func:`cas_freq.report.figures.svg_text`).
+  0.01 pt (:func:`cas_freq.plots.report.svg_text`).
 
 **Zero.** Every figure is written in a unit where :data:`ZERO` = 1e-9 is far below anything
 meaningful (s, ms, rad/s, deg, dB, %, A, V, or dimensionless), so a magnitude below it is

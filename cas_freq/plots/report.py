@@ -1,4 +1,4 @@
-"""The report's figures, drawn with matplotlib (the only module of cas_freq that imports it).
+"""The report's figures, drawn with matplotlib (only :mod:`cas_freq.plots` imports it).
 
 Each function takes :class:`cas_freq.report.data.VariantData` (one, or a list to overlay) and
 returns a :class:`matplotlib.figure.Figure`; nothing here computes a figure of merit. Figures
