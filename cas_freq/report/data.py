@@ -208,8 +208,9 @@ def requirement_verdicts(loaded, results):
     The one seam between the report and :mod:`cas_freq.verify`: the verdict dicts have the keys
     ``id, variant, metric, value, unit, min, max, margin, status, severity, source, message``
     (and more). ``results`` holds what the report already computed with the same code: its
-    ``analyze`` JSON and the ``simulate`` JSON of every step it ran; verify reuses them and only
-    runs what a requirement needs beyond them (another step size, a sine-dwell).
+    :class:`~cas_freq.analysis.Analysis` and the step runs; verify reuses them (typed, not
+    re-derived) and only runs what a requirement needs beyond them (another step size, a
+    sine-dwell).
     """
     if not loaded.params.requirements:
         return []
@@ -268,11 +269,7 @@ def gather_variant(loaded, settings=ReportSettings(), verdicts=None, progress=No
         pade_order=settings.pade_order, verdicts=None,
     )
     if verdicts is None:
-        from cas_freq.analysis import to_dict
-        from cas_freq.simulation.run import step_run_dict
-
-        computed = {"analyze": to_dict(analysis),
-                    "steps": [step_run_dict(run) for run in dwell.steps]}
+        computed = {"analyze": analysis, "steps": list(dwell.steps)}
         found = requirement_verdicts(loaded, computed)
         chosen = None if found is None else tuple(dict(v) for v in found)
     else:

@@ -7,14 +7,23 @@ reproduced by hand: ``analyze`` (exact delays, default range) for loop and close
 same amplitude and grid) are done once.
 """
 
+import math
+
 from cas_freq.fileio import json_ready
 
 
-def _lookup(data, dotted):
-    value = data
-    for part in dotted.split("."):
-        value = value[part]
-    return value
+def figure(result, metric):
+    """The figure named ``metric`` (its dotted key in the command's JSON, e.g.
+    ``closed_loop.bandwidth_rad_s``) of a typed result (:class:`~cas_freq.analysis.Analysis`,
+    :class:`~cas_freq.simulation.run.StepRun`): the same names, read as attributes. None where
+    the figure does not exist."""
+    value = result
+    for part in metric.split("."):
+        value = getattr(value, part, None)
+        if value is None:
+            return None
+    value = float(value)
+    return value if math.isfinite(value) else None
 
 
 def measure(variants, requirements, known=None):
@@ -28,8 +37,9 @@ def measure(variants, requirements, known=None):
         What to measure.
     known : sequence of dict, optional
         Per variant, results already computed by the same code (so not computed again):
-        ``"analyze"``, the ``analyze`` JSON, and ``"steps"``, a list of ``simulate`` JSONs of
-        steps; a step of the right size (to 1e-9) is used instead of a new run.
+        ``"analyze"``, the variant's :class:`~cas_freq.analysis.Analysis`, and ``"steps"``,
+        its :class:`~cas_freq.simulation.run.StepRun` steps; a step of the right size (to 1e-9)
+        is used instead of a new run.
 
     Returns
     -------
@@ -38,19 +48,21 @@ def measure(variants, requirements, known=None):
         exist, e.g. no crossover in range) and ``context``: requirement id -> a short text of
         what was run (for an unstable closed loop: that no figure can be trusted).
     """
-    from cas_freq.analysis import analyze, to_dict
-    from cas_freq.simulation.run import step_run_dict, step_runs
+    from cas_freq.analysis import analyze
+    from cas_freq.simulation.run import step_batch
 
     known = known or [{} for _ in variants]
-    analyses = [item.get("analyze") or to_dict(analyze(loaded))
+    analyses = [item.get("analyze") or analyze(loaded)
                 for loaded, item in zip(variants, known, strict=True)]
-    stable = [index for index, data in enumerate(analyses) if data["stable"]]
+    stable = [index for index, analysis in enumerate(analyses) if analysis.stable]
+    verdicts = {id(variants[index]): analyses[index].stability.verdict for index in stable}
     steps = {}
     for size in sorted({r.step for r in requirements if r.kind == "step"}):
         steps[size] = {index: _known_step(known[index], size) for index in stable}
-        missing = [index for index, data in steps[size].items() if data is None]
-        runs = step_runs([variants[index] for index in missing], size) if missing else []
-        steps[size].update(zip(missing, (step_run_dict(run) for run in runs), strict=True))
+        missing = [index for index, run in steps[size].items() if run is None]
+        runs = step_batch([(variants[index], size) for index in missing], verdicts) \
+            if missing else []
+        steps[size].update(zip(missing, runs, strict=True))
     out = []
     for index, loaded in enumerate(variants):
         values, context = {}, {}
@@ -60,14 +72,14 @@ def measure(variants, requirements, known=None):
             if index not in stable:
                 values[key] = None
                 context[key] = (f"not assessed: the closed loop is "
-                                f"{analyses[index]['stability']}")
+                                f"{analyses[index].stability.verdict}")
             elif requirement.kind == "analyze":
-                values[key] = _lookup(analyses[index], requirement.metric)
+                values[key] = figure(analyses[index], requirement.metric)
                 context[key] = "linear, exact delays"
             elif requirement.kind == "step":
-                data = steps[requirement.step][index]
-                values[key] = _lookup(data, requirement.metric)
-                context[key] = f"nonlinear step of {data['step']['amplitude_deg']:g} deg"
+                run = steps[requirement.step][index]
+                values[key] = figure(run, requirement.metric)
+                context[key] = f"nonlinear step of {run.step.amplitude_deg:g} deg"
             else:
                 condition = (requirement.amplitude, requirement.frequencies)
                 if condition not in dwells:
@@ -79,12 +91,10 @@ def measure(variants, requirements, known=None):
 
 
 def _known_step(item, size):
-    """The ``simulate`` JSON of a step of ``size`` [rad] among ``item["steps"]``, or None."""
-    import math
-
-    for data in item.get("steps", ()):
-        if math.isclose(math.radians(data["step"]["amplitude_deg"]), size, rel_tol=1e-9):
-            return data
+    """The :class:`StepRun` of a step of ``size`` [rad] among ``item["steps"]``, or None."""
+    for run in item.get("steps", ()):
+        if math.isclose(math.radians(run.step.amplitude_deg), size, rel_tol=1e-9):
+            return run
     return None
 
 
@@ -106,8 +116,6 @@ def _sinedwell_bandwidth(loaded, amplitude, frequencies):
 
 
 def _dwell_text(amplitude, frequencies):
-    import math
-
     grid = "default grid" if frequencies is None else (
         f"{len(frequencies)} frequencies {frequencies[0]:g}..{frequencies[-1]:g} rad/s"
     )
