@@ -94,7 +94,9 @@ def control_figures(params, changes, index, order=6):
         gm_p, pm_p, _, _, wc_p, _ = control.stability_margins(lp)
     return {"current_loop.phase_margin_deg": pm_i, "position_loop.phase_margin_deg": pm_p,
             "position_loop.crossover_rad_s": wc_p, "closed_loop.bandwidth_rad_s":
-            control.bandwidth(t)}
+            # cas_freq's -3.0103 dB (half power, docs/model.md), not python-control's -3.00 dB
+            # default, which alone makes the two bandwidths differ by ~9e-4
+            control.bandwidth(t, dbdrop=20 * math.log10(1 / math.sqrt(2)))}
 
 
 def gain_grid(params, n):
