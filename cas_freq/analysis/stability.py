@@ -298,7 +298,7 @@ def closed_loop_stability(params, pade_order=DEFAULT_PADE_ORDER):
     -------
     Stability
     """
-    params = _one_run(params)
+    params = parts.one_variant(params)
     verdict, current = stability_verdicts(params, pade_order)
     poles = closed_loop_poles(params, pade_order)
     return Stability(
@@ -307,16 +307,6 @@ def closed_loop_stability(params, pade_order=DEFAULT_PADE_ORDER):
         current_loop_verdict=str(current[0]),
         poles=tuple((float(p.real), float(p.imag)) for p in poles),
     )
-
-
-def _one_run(params):
-    from cas_freq.parameters import LoopParameters
-
-    if not isinstance(params, LoopParameters):
-        params = LoopParameters.from_config(params)
-    if params.n_runs != 1:
-        raise ValueError(f"one variant expected, got {params.n_runs}")
-    return params
 
 
 def _scalars(p):
@@ -341,7 +331,7 @@ def closed_loop_poles(params, pade_order):
     numpy.ndarray
         Complex poles [rad/s]; 2n + 6 of them unless a controller term is zero.
     """
-    params = _one_run(params)
+    params = parts.one_variant(params)
     v = _scalars(params)
     # i_cmd -> (i, theta): PI, current delay, plant (states i, omega, theta)
     plant = _plant(params, np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]))
@@ -373,7 +363,7 @@ def current_loop_poles(params, pade_order):
     numpy.ndarray
         Complex poles [rad/s], sorted by real part, largest first.
     """
-    params = _one_run(params)
+    params = parts.one_variant(params)
     v = _scalars(params)
     delay = pade_realization(v["tau_c"], pade_order)
     if v["mu_v"] == 0 and v["ci_Ki"] > 0:

@@ -169,12 +169,7 @@ class ActuatorLoops:
     """
 
     def __init__(self, params, delay=EXACT):
-        from cas_freq.parameters import LoopParameters
-
-        if not isinstance(params, LoopParameters):
-            params = LoopParameters.from_config(params)
-        if params.n_runs != 1:
-            raise ValueError(f"ActuatorLoops: one variant expected, got {params.n_runs}")
+        params = parts.one_variant(params)
         self.params = params
         self.delay = delay
         self._p = Selector(params)()  # one run: every parameter a scalar

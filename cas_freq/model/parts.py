@@ -25,6 +25,23 @@ import numpy as np
 _REAL_ARITHMETIC_FROM = 512
 
 
+def one_variant(params):
+    """One variant as :class:`~cas_freq.parameters.LoopParameters` of one run.
+
+    Parameters
+    ----------
+    params : cas_freq.config.ActuatorConfig or cas_freq.parameters.LoopParameters
+        A validated config, or loop parameters of exactly one run.
+    """
+    from cas_freq.parameters import LoopParameters
+
+    if not isinstance(params, LoopParameters):
+        params = LoopParameters.from_config(params)
+    if params.n_runs != 1:
+        raise ValueError(f"one variant expected, got {params.n_runs}")
+    return params
+
+
 def polyval(coefficients, s):
     """Value of a polynomial (tuple of broadcastable coefficients) at ``s``.
 

@@ -19,24 +19,13 @@ from cas_freq.model import parts
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, pade_system
 
 
-def _one(params):
-    """One variant as LoopParameters (from a config, or a LoopParameters of one run)."""
-    from cas_freq.parameters import LoopParameters
-
-    if not isinstance(params, LoopParameters):
-        params = LoopParameters.from_config(params)
-    if params.n_runs != 1:
-        raise ValueError(f"one variant expected, got {params.n_runs}")
-    return params
-
-
 def plant_system(params):
     """The plant of :func:`cas_freq.model.parts.plant_matrices` as a python-control system.
 
     States ``i`` [A], ``omega`` [rad/s], ``theta`` [rad] (motor shaft); input ``V`` [V];
     outputs the three states.
     """
-    a, b = parts.plant_matrices(_one(params))
+    a, b = parts.plant_matrices(parts.one_variant(params))
     return control.ss(
         a[0], b[0], np.eye(3), np.zeros((3, 1)),
         inputs="V", outputs=["i", "omega", "theta"], states=["i", "omega", "theta"],
@@ -89,7 +78,7 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
     -------
     LinearModel
     """
-    p = _one(params)
+    p = parts.one_variant(params)
     plant = plant_system(p)
     delay_c = pade_system(float(p.tau_c[0]), pade_order)
     delay_p = pade_system(float(p.tau_p[0]), pade_order)
