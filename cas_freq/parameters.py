@@ -51,6 +51,7 @@ __all__ = [
     "Parameter",
     "base_values",
     "check_key",
+    "derived_problem",
     "filter_time_constant",
     "parse_value",
     "unit_of",
@@ -62,7 +63,8 @@ __all__ = [
 def _shown(value, unit):
     """A config value as an error message quotes it: strings quoted, numbers with the unit."""
     if isinstance(value, str):
-        return repr(value)
+        shown = repr(value)
+        return shown if len(shown) <= 60 else shown[:56] + "...'"
     if isinstance(value, np.generic):
         value = value.item()
     return f"{value!r} {unit}"
@@ -95,21 +97,37 @@ class Parameter:
     unit: str
     lower: float | None
     strict: bool
+    upper: float | None
     meaning: str
+    smallest: float | None = None
 
     @property
     def rule(self):
-        """The accepted range as error messages state it: ``"> 0 ohm"``, ``"finite"``."""
-        if self.lower is None:
+        """The accepted range as error messages state it: ``">= 1e-06 and <= 1e+06 ohm"``,
+        ``"0 or 1e-09..1e+09 A/rad"``, ``"finite"``."""
+        if self.smallest is not None:
+            size = "|value| " if self.lower is not None and self.lower < 0 else ""
+            return f"0 or {size}within {self.smallest:g}..{self.upper:g} {self.unit}"
+        parts = []
+        if self.lower is not None:
+            parts.append(f"{'>' if self.strict else '>='} {self.lower:g}")
+        if self.upper is not None:
+            parts.append(f"<= {self.upper:g}")
+        if not parts:
             return "finite"
-        return f"{'>' if self.strict else '>='} {self.lower:g} {self.unit}"
+        return f"{' and '.join(parts)} {self.unit}"
 
     def accepts(self, values):
-        """Bool (array): finite and within the bound."""
+        """Bool (array): finite and within the bounds."""
         values = np.asarray(values, dtype=float)
         good = np.isfinite(values)
-        if self.lower is not None:
-            good &= values > self.lower if self.strict else values >= self.lower
+        with np.errstate(invalid="ignore"):
+            if self.lower is not None:
+                good &= values > self.lower if self.strict else values >= self.lower
+            if self.upper is not None:
+                good &= values <= self.upper
+            if self.smallest is not None:
+                good &= (values == 0) | (np.abs(values) >= self.smallest)
         return good
 
     def problem(self, value, given=None):
@@ -136,10 +154,8 @@ class Parameter:
             number = to_si(value, self.unit)
         except (OverflowError, ValueError) as exc:
             if not isinstance(value, str):
-                raise ValueError(f"must be finite, got {_shown(value, self.unit)}") from None
-            raise ValueError(
-                f"cannot read {value!r} as a value in {self.unit} ({exc})"
-            ) from None
+                raise ValueError(str(exc)) from None
+            raise ValueError(f"{exc} (accepted: {self.rule})") from None
         problem = self.problem(number, value)
         if problem:
             raise ValueError(problem)
@@ -160,47 +176,64 @@ class Parameter:
             )
 
 
+#: Longest accepted transport delay of either loop [s].
+MAX_DELAY_S = 0.1
+
+
 def _table(*rows):
     return {row[0]: Parameter(*row) for row in rows}
 
 
 #: Every numeric parameter of the config, by dotted key, in the config's order.
 PARAMETERS = _table(
-    ("motor.R", "R", "ohm", 0.0, True, "motor terminal resistance R [ohm]"),
-    ("motor.L", "L", "H", 0.0, True, "motor terminal inductance L [H]"),
-    ("motor.Km", "Km", "N*m/A", 0.0, True, "motor torque constant Km [N*m/A]"),
-    ("motor.Ke", "Ke", "V*s/rad", 0.0, True, "motor back-EMF constant Ke [V*s/rad]"),
-    ("motor.J", "J", "kg*m^2", 0.0, True, "rotor inertia J [kg*m^2]"),
-    ("motor.mu_v", "mu_v", "N*m*s/rad", 0.0, False,
-     "viscous friction mu_v, else derived from motor.no_load as Km*I0/w0 [N*m*s/rad]"),
-    ("motor.no_load.speed", None, "rad/s", 0.0, True,
-     "motor no-load speed w0, from which mu_v is derived [rad/s]"),
-    ("motor.no_load.current", None, "A", 0.0, False,
-     "motor no-load current I0, from which mu_v is derived [A]"),
-    ("gear.ratio", "ratio", "dimensionless", 0.0, True,
-     "gear ratio N: motor angle = N * fin angle [dimensionless]"),
-    ("current_loop.Kp", "ci_Kp", "V/A", 0.0, False, "current-loop proportional gain [V/A]"),
-    ("current_loop.Ki", "ci_Ki", "V/(A*s)", 0.0, False, "current-loop integral gain [V/(A*s)]"),
-    ("current_loop.v_max", "v_max", "V", 0.0, True, "current-loop voltage limit +/-v_max [V]"),
-    ("current_loop.delay", "tau_c", "s", 0.0, False, "current-loop transport delay tau_c [s]"),
-    ("position_loop.Kp", "cp_Kp", "A/rad", 0.0, False,
-     "position-loop proportional gain [A/rad]"),
-    ("position_loop.Ki", "cp_Ki", "A/(rad*s)", 0.0, False,
-     "position-loop integral gain [A/(rad*s)]"),
-    ("position_loop.Kd", "cp_Kd", "A*s/rad", 0.0, False,
-     "position-loop derivative gain (numerator Kd*s) [A*s/rad]"),
-    ("position_loop.Tf", "Tf", "s", 0.0, True,
-     "derivative filter time constant Tf, default Kd/(10*Kp) [s]"),
-    ("position_loop.ff_v", "ff_v", "A*s/rad", None, False,
-     "feed-forward of the motor-angle command rate [A*s/rad]"),
-    ("position_loop.ff_a", "ff_a", "A*s^2/rad", None, False,
-     "feed-forward of the motor-angle command acceleration [A*s^2/rad]"),
-    ("position_loop.i_max", "i_max", "A", 0.0, True, "current-command limit +/-i_max [A]"),
-    ("position_loop.delay", "tau_p", "s", 0.0, False, "position-loop transport delay tau_p [s]"),
-    ("simulation.current_loop_rate", None, "Hz", 0.0, True,
-     "current-controller sample rate with controllers: sampled [Hz]"),
-    ("simulation.position_loop_rate", None, "Hz", 0.0, True,
-     "position-controller sample rate with controllers: sampled [Hz]"),
+    # key, LoopParameters field, SI unit, lower bound, strict, upper bound, meaning[, smallest
+    # accepted non-zero magnitude]. The ranges are physical sanity limits, far outside any servo
+    # actuator, that keep the numerics finite; each meaning states its range.
+    ("motor.R", "R", "ohm", 1e-6, False, 1e6,
+     "motor terminal resistance R, 1e-6..1e6 [ohm]"),
+    ("motor.L", "L", "H", 1e-12, False, 1.0, "motor terminal inductance L, 1e-12..1 [H]"),
+    ("motor.Km", "Km", "N*m/A", 1e-9, False, 1e3, "motor torque constant Km, 1e-9..1e3 [N*m/A]"),
+    ("motor.Ke", "Ke", "V*s/rad", 1e-9, False, 1e3,
+     "motor back-EMF constant Ke, 1e-9..1e3 [V*s/rad]"),
+    ("motor.J", "J", "kg*m^2", 1e-15, False, 1e3, "rotor inertia J, 1e-15..1e3 [kg*m^2]"),
+    ("motor.mu_v", "mu_v", "N*m*s/rad", 0.0, False, 1e3,
+     "viscous friction mu_v, 0 or 1e-15..1e3, else derived from motor.no_load as Km*I0/w0 "
+     "[N*m*s/rad]", 1e-15),
+    ("motor.no_load.speed", None, "rad/s", 1e-3, False, 1e7,
+     "motor no-load speed w0, from which mu_v is derived, 1e-3..1e7 [rad/s]"),
+    ("motor.no_load.current", None, "A", 0.0, False, 1e6,
+     "motor no-load current I0, from which mu_v is derived, 0 or 1e-9..1e6 [A]", 1e-9),
+    ("gear.ratio", "ratio", "dimensionless", 1e-3, False, 1e6,
+     "gear ratio N: motor angle = N * fin angle, 1e-3..1e6 [dimensionless]"),
+    ("current_loop.Kp", "ci_Kp", "V/A", 0.0, False, 1e9,
+     "current-loop proportional gain, 0 or 1e-9..1e9 [V/A]", 1e-9),
+    ("current_loop.Ki", "ci_Ki", "V/(A*s)", 0.0, False, 1e9,
+     "current-loop integral gain, 0 or 1e-9..1e9 [V/(A*s)]", 1e-9),
+    ("current_loop.v_max", "v_max", "V", 1e-6, False, 1e6,
+     "current-loop voltage limit +/-v_max, 1e-6..1e6 [V]"),
+    ("current_loop.delay", "tau_c", "s", 0.0, False, MAX_DELAY_S,
+     f"current-loop transport delay tau_c, 0 or 1e-9..{MAX_DELAY_S:g} [s]", 1e-9),
+    ("position_loop.Kp", "cp_Kp", "A/rad", 0.0, False, 1e9,
+     "position-loop proportional gain, 0 or 1e-9..1e9 [A/rad]", 1e-9),
+    ("position_loop.Ki", "cp_Ki", "A/(rad*s)", 0.0, False, 1e9,
+     "position-loop integral gain, 0 or 1e-9..1e9 [A/(rad*s)]", 1e-9),
+    ("position_loop.Kd", "cp_Kd", "A*s/rad", 0.0, False, 1e9,
+     "position-loop derivative gain (numerator Kd*s), 0 or 1e-9..1e9 [A*s/rad]", 1e-9),
+    ("position_loop.Tf", "Tf", "s", 1e-9, False, 1.0,
+     "derivative filter time constant Tf, default Kd/(10*Kp), 1e-9..1 [s]"),
+    ("position_loop.ff_v", "ff_v", "A*s/rad", -1e9, False, 1e9,
+     "feed-forward of the motor-angle command rate, 0 or |ff_v| 1e-12..1e9 [A*s/rad]", 1e-12),
+    ("position_loop.ff_a", "ff_a", "A*s^2/rad", -1e9, False, 1e9,
+     "feed-forward of the motor-angle command acceleration, 0 or |ff_a| 1e-12..1e9 "
+     "[A*s^2/rad]", 1e-12),
+    ("position_loop.i_max", "i_max", "A", 1e-6, False, 1e6,
+     "current-command limit +/-i_max, 1e-6..1e6 [A]"),
+    ("position_loop.delay", "tau_p", "s", 0.0, False, MAX_DELAY_S,
+     f"position-loop transport delay tau_p, 0 or 1e-9..{MAX_DELAY_S:g} [s]", 1e-9),
+    ("simulation.current_loop_rate", None, "Hz", 1.0, False, 1e9,
+     "current-controller sample rate with controllers: sampled, 1..1e9 [Hz]"),
+    ("simulation.position_loop_rate", None, "Hz", 1.0, False, 1e9,
+     "position-controller sample rate with controllers: sampled, 1..1e9 [Hz]"),
 )
 
 #: Keys a sweep or a Monte Carlo run can change per sample: every key that reaches the loop
@@ -282,6 +315,22 @@ def filter_time_constant(kp, kd, tf=None):
     return float(result) if result.ndim == 0 else result
 
 
+def derived_problem(key, values):
+    """What is wrong with derived values of ``key`` (``position_loop.Tf`` from Kd/(10*Kp),
+    ``motor.mu_v`` from the no-load point), or None: they must lie in the key's own range."""
+    values = np.atleast_1d(np.asarray(values, dtype=float))
+    parameter = PARAMETERS[key]
+    if key == "position_loop.Tf":
+        # 0 (no filter) where there is no derivative term
+        parameter = dataclasses.replace(parameter, lower=0.0, smallest=parameter.lower)
+    bad = ~parameter.accepts(values)
+    if not bad.any():
+        return None
+    how = "Kd/(10*Kp)" if key == "position_loop.Tf" else "Km*I0/w0 (motor.no_load)"
+    return (f"{key}: derived as {how} = {float(values[bad][0]):g} {parameter.unit}, outside "
+            f"{parameter.rule}: set {key} or change the values it is derived from")
+
+
 def _value_at(config, key):
     """The value of dotted ``key`` in a validated config (None where a section is absent)."""
     node = config
@@ -361,7 +410,8 @@ class LoopParameters:
         for parameter in _FIELD_PARAMETERS.values():
             if parameter.field == "Tf":
                 # 0 (no filter) is allowed where there is no derivative term
-                parameter = dataclasses.replace(parameter, strict=False)
+                parameter = dataclasses.replace(parameter, lower=0.0, strict=False,
+                                                smallest=parameter.lower)
             label = f"simulation parameters: {parameter.field} ({parameter.key})"
             parameter.check(getattr(self, parameter.field), label, where="runs")
         bad = (self.cp_Kd > 0) & ~(self.Tf > 0)
@@ -474,6 +524,9 @@ def variant_parameters(params, changes, n=None):
         full["motor.mu_v"] = viscous_friction(
             full["motor.Km"], full["motor.no_load.speed"], full["motor.no_load.current"]
         )
+        problem = derived_problem("motor.mu_v", full["motor.mu_v"])
+        if problem:
+            raise ConfigError(problem)
     kp, ki, kd = full["position_loop.Kp"], full["position_loop.Ki"], full["position_loop.Kd"]
     if full["position_loop.Tf"] is None:
         undefined = (kd > 0) & (kp == 0)
@@ -483,6 +536,9 @@ def variant_parameters(params, changes, n=None):
                 f"position_loop.Kp = 0 and Kd > 0 (samples {_indices(undefined)}): set Tf"
             )
         full["position_loop.Tf"] = filter_time_constant(kp, kd)
+        problem = derived_problem("position_loop.Tf", full["position_loop.Tf"])
+        if problem:
+            raise ConfigError(problem)
     none = (kp == 0) & (ki == 0) & (kd == 0)
     if none.any():
         raise ConfigError(

@@ -5,22 +5,149 @@ parameter table (:mod:`cas_freq.parameters`), the config schema and the CLI shar
 conversion.
 
 A config value is either a plain number, taken as already in SI, or a string such as
-``"0.071 mH"``, ``"16300 rpm"``, ``"5.54 g*cm^2"`` or ``"0.4 ms"``, parsed by pint and
-converted to the SI unit the field expects. Radians are dimensionless in pint, so ``A/rad``
-and ``A`` are the same dimension, as they are physically.
+``"0.071 mH"``, ``"16300 rpm"``, ``"5.54 g*cm^2"`` or ``"0.4 ms"``, converted to the SI unit the
+field expects. Radians are dimensionless in pint, so ``A/rad`` and ``A`` are the same dimension,
+as they are physically.
+
+A value string is ONE number and ONE unit, nothing else, checked by a strict pattern before pint
+sees it (:func:`split_quantity`): the number is ``[+-]?(\\d+\\.?\\d*|\\.\\d+)([eE][+-]?\\d+)?``, the
+unit is made of unit names, ``*``, ``/``, ``·``, blanks, parentheses and at most one small
+integer exponent (``^2``, ``**-1``, |exponent| <= 4) per factor, and the whole string is at most
+64 characters. Only the unit part is given to pint, as a unit (never evaluated as an expression,
+so ``'9**9**9 ohm'`` is refused at once). Decimal commas (``"0,4 ms"``), several numbers
+(``"6 3435 A/rad"``), stray dots (``"0.071.5 mH"``) are refused saying what was read; a percent
+is accepted only where the quantity itself is a percentage (unit ``percent``). A bare number in
+a string (``"0.4"``) is already SI.
 """
 
 import functools
 import math
 import numbers
+import re
 
 import pint
+
+#: Longest accepted value string.
+MAX_TEXT = 64
+#: Largest accepted |exponent| of one unit factor.
+MAX_EXPONENT = 4
+#: Deepest accepted nesting of parentheses in a unit.
+MAX_DEPTH = 3
+
+_NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
+_QUANTITY = re.compile(rf"\s*({_NUMBER})\s*(.*?)\s*", re.DOTALL)
+_TOKEN = re.compile(
+    r"\s*(?:(?P<name>(?:[^\W\d_]|[°Ωµμ%])(?:[^\W\d]|[°Ωµμ])*)"
+    r"|(?P<exp>(?:\^|\*\*)\s*(?P<power>[+-]?\d+))|(?P<op>[*/·()]))"
+)
+_PERCENT = re.compile(r"%|percent|ppm|permille|‰", re.IGNORECASE)
+
+ACCEPTED = "expected one number and one unit, e.g. '0.4 ms' or '5.54 g*cm^2' (or a number in SI)"
 
 
 @functools.cache
 def registry():
     """The shared pint unit registry (built once, on first use: ~0.1 s)."""
     return pint.UnitRegistry()
+
+
+def _shown(text, limit=60):
+    """``repr`` of ``text`` cut to about ``limit`` characters (one line, whatever it holds)."""
+    shown = repr(text)
+    return shown if len(shown) <= limit else shown[: limit - 4] + "...'"
+
+
+def _refused(text, reason):
+    """The ValueError of an unreadable value string: what was read, why, what is accepted."""
+    return ValueError(f"cannot read {_shown(text)}: {reason}; {ACCEPTED}")
+
+
+def _check_unit(unit, text):
+    """Raise ValueError unless ``unit`` is names, operators, parentheses and small exponents."""
+    pos, depth, previous = 0, 0, None  # previous: "name", "exp", "(", ")", "op" or None
+    while pos < len(unit):
+        match = _TOKEN.match(unit, pos)
+        if match is None or match.end() == pos:
+            rest = unit[pos:].strip()
+            if rest[:1].isdigit() or rest[:1] in "+-.":
+                raise _refused(text, f"read a number, then {_shown(rest)} (several numbers or "
+                                     "a stray dot?)")
+            raise _refused(text, f"cannot read the unit at {_shown(rest)}")
+        pos = match.end()
+        if match.group("name"):
+            previous = "name"
+        elif match.group("exp"):
+            power = match.group("power")
+            if previous not in ("name", ")") or abs(int(power)) > MAX_EXPONENT:
+                raise _refused(text, "a unit exponent follows a unit name or ')' once, and is a "
+                                     f"whole number within ±{MAX_EXPONENT}")
+            previous = "exp"
+        else:
+            op = match.group("op")
+            if op == "(":
+                depth += 1
+                if depth > MAX_DEPTH:
+                    raise _refused(text, "parentheses nested too deep")
+            elif op == ")":
+                depth -= 1
+                if depth < 0:
+                    raise _refused(text, "unbalanced parentheses")
+            previous = op if op in "()" else "op"
+    if depth:
+        raise _refused(text, "unbalanced parentheses")
+
+
+def split_quantity(text):
+    """``(number, unit)`` of a value string, or ValueError saying what was read.
+
+    ``unit`` is the unit text as written (``""`` for a bare number), checked against the
+    pattern of the module docstring but not yet given to pint.
+    """
+    if not isinstance(text, str):
+        raise TypeError(f"expected a string, got {type(text).__name__}")
+    if len(text) > MAX_TEXT:
+        raise _refused(text, f"longer than {MAX_TEXT} characters")
+    comma = re.fullmatch(r"\s*([+-]?\d*),(\d+)\s*(.*?)\s*", text, re.DOTALL)
+    if comma and comma.group(1).lstrip("+-"):
+        fixed = f"{comma.group(1)}.{comma.group(2)}"
+        fixed += f" {comma.group(3)}" if comma.group(3) else ""
+        raise _refused(text, f"decimal comma? write {fixed!r}")
+    match = _QUANTITY.fullmatch(text)
+    if match is None or "," in match.group(2):
+        if "," in text:
+            raise _refused(text, "a comma is not part of a value (decimal comma? several "
+                                 "numbers?)")
+        raise _refused(text, "does not start with a number")
+    number, unit = match.group(1), match.group(2)
+    _check_unit(unit, text)
+    return number, unit
+
+
+def parse_unit(unit, text=None):
+    """The pint Unit of checked unit text (``""`` is dimensionless); ValueError if unknown."""
+    if not unit:
+        return registry().dimensionless
+    try:
+        return registry().parse_units(unit.replace("·", "*").replace("µ", "u").replace("μ", "u"))
+    except Exception as exc:  # noqa: BLE001 - pint raises many kinds (UndefinedUnitError, ...)
+        raise _refused(text if text is not None else unit,
+                       f"unknown unit {_shown(unit)} ({type(exc).__name__})") from None
+
+
+def has_unit(text):
+    """True if the value string ``text`` (checked as :func:`to_si` does) carries a unit."""
+    return bool(split_quantity(text)[1])
+
+
+def _number(value, unit):
+    try:
+        number = float(value)
+    except OverflowError:
+        digits = len(str(abs(int(value)))) if isinstance(value, int) else "too many"
+        raise ValueError(f"must be finite, got a {digits}-digit number, too large") from None
+    if not math.isfinite(number):
+        raise ValueError(f"must be finite, got {number!r} {unit}")
+    return number
 
 
 def to_si(value, unit):
@@ -36,36 +163,42 @@ def to_si(value, unit):
     Returns
     -------
     float
-        The magnitude in ``unit``.
+        The magnitude in ``unit``, finite.
 
     Raises
     ------
     TypeError
         If ``value`` is neither a number nor a string.
     ValueError
-        If the string does not parse, or its unit has another dimension than ``unit``.
+        If the string is not one number and one unit (module docstring), its unit has another
+        dimension than ``unit``, it is a percentage where ``unit`` is not ``percent``, or the
+        value is not finite.
     """
     if isinstance(value, bool) or not isinstance(value, (numbers.Real, str)):
         raise TypeError(
             f"expected a number in {unit} or a string with a unit, got {type(value).__name__}"
         )
     if isinstance(value, numbers.Real):
-        return float(value)
-    ureg = registry()
-    try:
-        quantity = ureg.Quantity(value.strip())
-    except Exception as exc:  # noqa: BLE001 - pint's parser raises many kinds (TokenError, ...)
-        raise ValueError(f"cannot read {value!r} as a quantity ({exc})") from None
-    if not isinstance(quantity, ureg.Quantity) or quantity.unitless:
+        return _number(value, unit)
+    number, unit_text = split_quantity(value)
+    magnitude = _number(number, unit)
+    if not unit_text:
         # a bare number inside a string ("0.4", or YAML's "1e-6"): already SI
-        return float(getattr(quantity, "magnitude", quantity))
-    target = ureg.Unit(unit)
-    if quantity.dimensionality != target.dimensionality:
+        return magnitude
+    if _PERCENT.search(unit_text) and unit != "percent":
+        raise ValueError(f"cannot read {_shown(value)}: a percentage is not a value in {unit}; "
+                         "write the value itself")
+    source = parse_unit(unit_text, value)
+    target = registry().Unit(unit)
+    if source.dimensionality != target.dimensionality:
         raise ValueError(
-            f"{value!r} has dimension {quantity.dimensionality}, expected that of {unit} "
-            f"({target.dimensionality})"
+            f"cannot read {_shown(value)} as a value in {unit}: it has dimension "
+            f"{source.dimensionality}, expected that of {unit} ({target.dimensionality})"
         )
-    magnitude = float(quantity.to(target).magnitude)
-    if not math.isfinite(magnitude):
-        raise ValueError(f"{value!r} is not finite")
-    return magnitude
+    try:
+        result = float(registry().Quantity(magnitude, source).to(target).magnitude)
+    except (OverflowError, ArithmeticError, pint.errors.PintError) as exc:
+        raise ValueError(f"cannot read {_shown(value)}: cannot convert to {unit} ({exc})") from None
+    if not math.isfinite(result):
+        raise ValueError(f"{_shown(value)} is not finite in {unit}")
+    return result

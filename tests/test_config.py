@@ -323,42 +323,42 @@ VALUE_ERRORS = [
     ("missing-no-load-current", lambda d: _delete(d, "motor.no_load.current"), ConfigError,
      ["motor.no_load.current: required key is missing"]),
     ("negative-R", lambda d: _set(d, "motor.R", -1), ConfigError,
-     ["motor.R: must be > 0 ohm, got -1 ohm"]),
+     ["motor.R: must be >= 1e-06 and <= 1e+06 ohm, got -1 ohm"]),
     ("negative-L-string", lambda d: _set(d, "motor.L", "-0.071 mH"), ConfigError,
-     ["motor.L: must be > 0 H", "'-0.071 mH'"]),
+     ["motor.L: must be >= 1e-12 and <= 1 H", "'-0.071 mH'"]),
     ("zero-L", lambda d: _set(d, "motor.L", 0), ConfigError,
-     ["motor.L: must be > 0 H, got 0 H"]),
+     ["motor.L: must be >= 1e-12 and <= 1 H, got 0 H"]),
     ("negative-J", lambda d: _set(d, "motor.J", -5.54e-7), ConfigError,
-     ["motor.J: must be > 0 kg*m^2, got -5.54e-07 kg*m^2"]),
+     ["motor.J: must be >= 1e-15 and <= 1000 kg*m^2, got -5.54e-07 kg*m^2"]),
     ("negative-Km", lambda d: _set(d, "motor.Km", -0.0105), ConfigError,
-     ["motor.Km: must be > 0", "-0.0105"]),
+     ["motor.Km: must be >= 1e-09 and <= 1000 N*m/A", "-0.0105"]),
     ("zero-gear-ratio", lambda d: _set(d, "gear.ratio", 0), ConfigError,
-     ["gear.ratio: must be > 0", "got 0"]),
+     ["gear.ratio: must be >= 0.001 and <= 1e+06 dimensionless", "got 0"]),
     ("negative-current-delay", lambda d: _set(d, "current_loop.delay", -6e-5), ConfigError,
-     ["current_loop.delay: must be >= 0 s, got -6e-05 s"]),
+     ["current_loop.delay: must be 0 or within 1e-09..0.1 s, got -6e-05 s"]),
     ("negative-position-delay", lambda d: _set(d, "position_loop.delay", "-0.4 ms"), ConfigError,
-     ["position_loop.delay: must be >= 0 s", "'-0.4 ms'"]),
+     ["position_loop.delay: must be 0 or within 1e-09..0.1 s", "'-0.4 ms'"]),
     ("negative-current-Kp", lambda d: _set(d, "current_loop.Kp", -0.6163), ConfigError,
-     ["current_loop.Kp: must be >= 0 V/A, got -0.6163 V/A"]),
+     ["current_loop.Kp: must be 0 or within 1e-09..1e+09 V/A, got -0.6163 V/A"]),
     ("negative-current-Ki", lambda d: _set(d, "current_loop.Ki", -1), ConfigError,
-     ["current_loop.Ki: must be >= 0", "got -1"]),
+     ["current_loop.Ki: must be 0 or within 1e-09..1e+09 V/(A*s)", "got -1"]),
     ("negative-position-Kp", lambda d: _set(d, "position_loop.Kp", -6.3435), ConfigError,
-     ["position_loop.Kp: must be >= 0 A/rad, got -6.3435 A/rad"]),
+     ["position_loop.Kp: must be 0 or within 1e-09..1e+09 A/rad, got -6.3435 A/rad"]),
     ("negative-position-Ki", lambda d: _set(d, "position_loop.Ki", -70), ConfigError,
-     ["position_loop.Ki: must be >= 0", "got -70"]),
+     ["position_loop.Ki: must be 0 or within 1e-09..1e+09 A/(rad*s)", "got -70"]),
     # The exact example message of STYLE.md "Errors".
     ("negative-Kd", lambda d: _set(d, "position_loop.Kd", -0.1), ConfigError,
-     ["position_loop.Kd: must be >= 0 A*s/rad, got -0.1 A*s/rad"]),
+     ["position_loop.Kd: must be 0 or within 1e-09..1e+09 A*s/rad, got -0.1 A*s/rad"]),
     ("zero-Tf", lambda d: _set(d, "position_loop.Tf", 0), ConfigError,
-     ["position_loop.Tf: must be > 0 s, got 0 s"]),
+     ["position_loop.Tf: must be >= 1e-09 and <= 1 s, got 0 s"]),
     ("zero-v-max", lambda d: _set(d, "current_loop.v_max", 0), ConfigError,
-     ["current_loop.v_max: must be > 0 V, got 0 V"]),
+     ["current_loop.v_max: must be >= 1e-06 and <= 1e+06 V, got 0 V"]),
     ("negative-i-max", lambda d: _set(d, "position_loop.i_max", "-20 A"), ConfigError,
-     ["position_loop.i_max: must be > 0 A", "'-20 A'"]),
+     ["position_loop.i_max: must be >= 1e-06 and <= 1e+06 A", "'-20 A'"]),
     ("zero-no-load-speed", lambda d: _set(d, "motor.no_load.speed", "0 rpm"), ConfigError,
-     ["motor.no_load.speed: must be > 0 rad/s", "'0 rpm'"]),
+     ["motor.no_load.speed: must be >= 0.001 and <= 1e+07 rad/s", "'0 rpm'"]),
     ("negative-no-load-current", lambda d: _set(d, "motor.no_load.current", -0.2), ConfigError,
-     ["motor.no_load.current: must be >= 0 A, got -0.2 A"]),
+     ["motor.no_load.current: must be 0 or within 1e-09..1e+06 A, got -0.2 A"]),
     ("wrong-dimension", lambda d: _set(d, "motor.R", "0.4 m"), ConfigError,
      ["motor.R:", "'0.4 m'", "[length]", "ohm"]),
     ("unparsable-unit", lambda d: _set(d, "position_loop.Kp", "6.3 blorps"), ConfigError,
@@ -374,7 +374,7 @@ VALUE_ERRORS = [
     ("neither-mu-v-nor-no-load", lambda d: _delete(d, "motor.no_load"), ConfigError,
      ["motor:", "exactly one of motor.mu_v or motor.no_load", "got neither"]),
     ("negative-mu-v", lambda d: (_delete(d, "motor.no_load"), _set(d, "motor.mu_v", -1e-6)),
-     ConfigError, ["motor.mu_v: must be >= 0", "got -1e-06"]),
+     ConfigError, ["motor.mu_v: must be 0 or within 1e-15..1000 N*m*s/rad", "got -1e-06"]),
     ("derivative-on", lambda d: _set(d, "position_loop.derivative_on", "output"), ConfigError,
      ["position_loop.derivative_on: must be one of 'error' or 'measurement', got 'output'"]),
     ("empty-name", lambda d: _set(d, "name", ""), ConfigError, ["name:", "''"]),
@@ -432,7 +432,7 @@ def test_unknown_key_message_lists_the_accepted_keys(shipped_raw, write_config):
         ("J: 5.54e-7 kg*m^2", "J: .inf", ["motor.J: must be finite, got inf kg*m^2"]),
         ("delay: 0.4 ms", "delay: -.inf", ["position_loop.delay: must be finite, got -inf s"]),
         ("Kp: 6.3435 A/rad", "Kp: .NaN", ["position_loop.Kp: must be finite, got nan A/rad"]),
-        ("R: 0.361 ohm", "R: nan ohm", ["motor.R:", "'nan ohm'", "not finite"]),
+        ("R: 0.361 ohm", "R: nan ohm", ["motor.R:", "'nan ohm'", "does not start with a number"]),
     ],
 )
 def test_non_finite_yaml_values(shipped_config_path, write_config, old, new, fragments):
@@ -453,7 +453,8 @@ def test_every_problem_is_listed(shipped_raw, write_config):
         load_variant(write_config(shipped_raw))
     assert not isinstance(info.value, TypeError)
     message = str(info.value)
-    for fragment in ("motor.R: must be > 0", "gear.ratio: required", "motor.L: expected a number"):
+    for fragment in ("motor.R: must be >= 1e-06 and <= 1e+06 ohm", "gear.ratio: required",
+                     "motor.L: expected a number"):
         assert fragment in message
 
 
@@ -462,7 +463,7 @@ def test_override_error_names_the_override(shipped_config_path):
         load_variant(shipped_config_path, "fitted", overrides=[("position_loop.Kd", -0.1)])
     message = str(info.value)
     assert "(variant 'fitted') with --set position_loop.Kd=-0.1" in message
-    assert "position_loop.Kd: must be >= 0 A*s/rad, got -0.1 A*s/rad" in message
+    assert "position_loop.Kd: must be 0 or within 1e-09..1e+09 A*s/rad, got -0.1 A*s/rad" in message
 
 
 def test_override_unknown_key(shipped_config_path):
@@ -489,7 +490,8 @@ def test_error_inside_a_variant_names_the_variant(shipped_raw, write_config):
     load_variant(path, "fitted")  # the other variants still load
     with pytest.raises(ConfigError) as info:
         load_variant(path, "broken")
-    assert f"{path} (variant 'broken'): motor.R: must be > 0 ohm, got -1 ohm" in str(info.value)
+    assert (f"{path} (variant 'broken'): motor.R: must be >= 1e-06 and <= 1e+06 ohm, got -1 ohm"
+            in str(info.value))
     with pytest.raises(ConfigError, match="variant 'broken'"):
         load_all_variants(path)
 

@@ -50,11 +50,11 @@ def print_json(data):
 
 def angle(text, option):
     """An angle with a unit ('10deg', '0.1 rad') in radians, non-zero and within ±90 deg."""
-    from cas_freq.config.units import registry, to_si
+    from cas_freq.config.units import has_unit, to_si
 
     try:
-        value = to_si(text, "rad")  # raises ValueError for text pint cannot read
-        if registry().Quantity(text).unitless:
+        value = to_si(text, "rad")  # raises ValueError for text that is not a number and a unit
+        if not has_unit(text):
             raise ValueError("it has no unit")
     except (ValueError, TypeError) as exc:
         raise CasFreqError(f"{option}: expected an angle with a unit such as 10deg, got "
@@ -85,13 +85,61 @@ class _Progress:
         self.bar.close()
 
 
-def terminal_progress(label, stream=None, unit="step"):
-    """A progress callable ``(done, planned)`` when ``stream`` (stderr) is a terminal, else None.
+class _PeriodicProgress:
+    """``(done, planned)`` calls reported as a line on ``stream`` every ``interval_s`` seconds
+    (for a CI log or a pipe, where a bar would not render)."""
 
-    The bar is tqdm's, on ``stream``; nothing is printed when the output is not a terminal
-    (a CI log or a pipe).
+    def __init__(self, label, stream, unit, interval_s):
+        import time
+
+        self.label, self.stream, self.unit, self.interval_s = label, stream, unit, interval_s
+        self.clock = time.monotonic
+        self.start = self.last = self.clock()
+        self.state = None
+
+    def __call__(self, done, planned):
+        self.state = (done, planned)
+        now = self.clock()
+        if now - self.last >= self.interval_s:
+            self.last = now
+            self._line(now)
+
+    def _line(self, now):
+        done, planned = self.state
+        share = f" ({100.0 * done / planned:.0f} %)" if planned else ""
+        print(f"{self.label}: {done:g} of {planned:g} {self.unit}s{share}, "
+              f"{now - self.start:.0f} s", file=self.stream, flush=True)
+
+    def done(self):
+        """A last line if any was printed before."""
+        if self.state is not None and self.last > self.start:
+            self._line(self.clock())
+
+
+#: Seconds between progress lines when stderr is not a terminal.
+PROGRESS_INTERVAL_S = 10.0
+
+_QUIET = False
+
+
+def set_quiet(quiet):
+    """Turn progress reports off (``--quiet``) or on."""
+    global _QUIET
+    _QUIET = bool(quiet)
+
+
+def terminal_progress(label, stream=None, unit="step"):
+    """A progress callable ``(done, planned)`` on ``stream`` (stderr); None with ``--quiet``.
+
+    On a terminal it is a tqdm bar; otherwise (a CI log, a pipe) a line every
+    :data:`PROGRESS_INTERVAL_S` seconds, so a long run never looks hung and a short one prints
+    nothing.
     """
     import sys
 
+    if _QUIET:
+        return None
     stream = sys.stderr if stream is None else stream
-    return _Progress(label, stream, unit) if stream.isatty() else None
+    if stream.isatty():
+        return _Progress(label, stream, unit)
+    return _PeriodicProgress(label, stream, unit, PROGRESS_INTERVAL_S)

@@ -17,7 +17,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
-from cas_freq.config.units import registry, to_si
+from cas_freq.config.units import has_unit, to_si
 
 _LOOP_FIGURES = (
     "crossover_rad_s", "phase_margin_deg", "delay_margin_s", "gain_margin_db",
@@ -197,7 +197,7 @@ class Requirement(BaseModel):
             raise PydanticCustomError("cas_value", text)
         try:
             number = to_si(value, "rad")
-            unitless = registry().Quantity(value).unitless
+            unitless = not has_unit(value)
         except (TypeError, ValueError) as exc:
             raise PydanticCustomError("cas_value", f"{text} ({exc})") from None
         if unitless:

@@ -15,7 +15,12 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_valida
 from pydantic_core import PydanticCustomError
 
 from cas_freq.config.requirement import Requirement
-from cas_freq.parameters import PARAMETERS, filter_time_constant, viscous_friction
+from cas_freq.parameters import (
+    PARAMETERS,
+    derived_problem,
+    filter_time_constant,
+    viscous_friction,
+)
 
 BASE_VARIANT = "base"
 
@@ -74,6 +79,9 @@ class Motor(_Section):
                 "cas_value",
                 f"give exactly one of motor.mu_v or motor.no_load.{{speed, current}}, got {given}",
             )
+        problem = derived_problem("motor.mu_v", self.viscous_friction)
+        if problem:
+            raise PydanticCustomError("cas_value", problem)
         return self
 
     @property
@@ -127,6 +135,9 @@ class PositionLoop(_Section):
             )
         if self.Kp == 0 and self.Ki == 0 and self.Kd == 0:
             raise PydanticCustomError("cas_value", "Kp, Ki and Kd are all 0: no position loop")
+        problem = derived_problem("position_loop.Tf", self.filter_time_constant)
+        if problem:
+            raise PydanticCustomError("cas_value", problem)
         return self
 
     @property

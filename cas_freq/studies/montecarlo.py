@@ -58,7 +58,7 @@ def parse_tolerance(text):
     if not sep or not key or not value:
         raise ConfigError(accepted)
     check_key(key)
-    match = re.fullmatch(r"([-+]?[0-9.]+(?:[eE][-+]?[0-9]+)?)\s*%", value)
+    match = re.fullmatch(r"([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*%", value)
     if match:
         relative = float(match.group(1)) / 100.0
         if not (math.isfinite(relative) and relative >= 0):
