@@ -4,17 +4,21 @@ Each command lives in its own module with ``register(commands)`` and a handler; 
 imports happen inside the handlers, so ``cas-freq verify`` never loads matplotlib.
 
 Exit status: 0 success, 1 a failed requirement, 2 bad input or config (one line on stderr, no
-traceback).
+traceback), 130 interrupted (Ctrl-C: one line on stderr; outputs are written atomically, so the
+previous file or report is left as it was and no temporary file remains).
 """
 
 import importlib
 import sys
 
 from cas_freq import __version__
-from cas_freq.cli.common import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, Parser
+from cas_freq.cli.common import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, Parser, set_quiet
 from cas_freq.exceptions import CasFreqError
 
-__all__ = ["EXIT_BAD_INPUT", "EXIT_FAILED", "EXIT_OK", "build_parser", "main"]
+__all__ = ["EXIT_BAD_INPUT", "EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_OK", "build_parser", "main"]
+
+#: Exit status after Ctrl-C (128 + SIGINT, as shells report it).
+EXIT_INTERRUPTED = 130
 
 #: Command modules of ``cas_freq.cli``, in the order ``--help`` lists them.
 COMMANDS = ("analyze", "simulate", "sinedwell", "fit", "verify", "report", "compare", "sweep",
@@ -28,17 +32,37 @@ def build_parser():
     commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     for name in COMMANDS:
         importlib.import_module(f"cas_freq.cli.{name}").register(commands)
+    for sub in commands.choices.values():
+        sub.add_argument("-q", "--quiet", action="store_true",
+                         help="no progress on stderr (by default long runs report progress: a "
+                         "bar on a terminal, else a line every 10 s)")
     return parser
 
 
 def main(argv=None):
     """Run ``cas-freq``; returns the exit status."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    command = "cas-freq"
     try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        # the handler's module names the command (simulate's --command shadows args.command)
+        command = f"cas-freq {args.handler.__module__.rsplit('.', 1)[-1]}"
+        set_quiet(getattr(args, "quiet", False))
         return args.handler(args)
     except CasFreqError as exc:
-        print(f"cas-freq {args.command}: error: {exc}", file=sys.stderr)
+        print(f"{command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except BrokenPipeError:
         return EXIT_OK
+    except KeyboardInterrupt:
+        _interrupted(command)
+        return EXIT_INTERRUPTED
+
+
+def _interrupted(command):
+    """One line on stderr after Ctrl-C."""
+    try:
+        print(f"\n{command}: interrupted" if sys.stderr.isatty() else f"{command}: interrupted",
+              file=sys.stderr, flush=True)
+    except (OSError, ValueError):
+        pass

@@ -64,6 +64,12 @@ def run(args):
     for config in args.configs:
         variants += selected_variants(config, names, args.overrides)
     settings = settings_from_args(args)
+    if len(variants) >= 2:
+        from cas_freq.fileio import check_output_dir
+        from cas_freq.report.compare import default_compare_dir
+
+        check_output_dir(args.output if args.output is not None
+                         else default_compare_dir(variants, names or None), "-o")
 
     def progress(label):
         if sys.stderr.isatty():

@@ -83,6 +83,10 @@ def run(args):
         run_montecarlo,
     )
 
+    from cas_freq.fileio import check_output_dir
+
+    if args.output:
+        check_output_dir(args.output, "-o")
     if args.no_step and args.step:
         raise CasFreqError("--no-step and --step exclude each other")
     tolerances = [parse_tolerance(text) for text in args.tolerance]

@@ -1,7 +1,14 @@
 """``cas-freq simulate``: the nonlinear step, its figures and the second-order fit; or any
 command from a CSV table."""
 
-from cas_freq.cli.common import EXIT_OK, add_config_arguments, angle, load_variants, print_json
+from cas_freq.cli.common import (
+    EXIT_OK,
+    add_config_arguments,
+    angle,
+    load_variants,
+    print_json,
+    terminal_progress,
+)
 
 
 def register(commands):
@@ -22,13 +29,15 @@ def register(commands):
         "its last point)",
     )
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    parser.add_argument("--csv", metavar="FILE", help="write the time series to FILE")
+    parser.add_argument("--csv", metavar="FILE", help="write the time series to FILE (with "
+                        "--all-variants: FILE's stem.<variant>.csv per variant, e.g. "
+                        "out.base.csv)")
     parser.set_defaults(handler=run)
 
 
 def run(args):
     """Simulate for the selected variants; print a table or JSON, write CSV."""
-    from cas_freq.fileio import write_text_atomic
+    from cas_freq.fileio import check_output_file, write_text_atomic
     from cas_freq.report.text import command_table, step_table
     from cas_freq.simulation.run import (
         command_run,
@@ -39,16 +48,24 @@ def run(args):
         step_runs,
     )
 
+    if args.csv:
+        check_output_file(args.csv, "--csv")
     variants = load_variants(args)
+    if args.csv and len(variants) > 1:
+        for loaded in variants:
+            check_output_file(step_csv_name(args.csv, loaded, len(variants)), "--csv")
+    progress = terminal_progress("simulate")
     if args.command:
         from cas_freq.simulation.commands import read_command_csv
 
         command = read_command_csv(args.command)
-        runs = [command_run(loaded, command) for loaded in variants]
+        runs = [command_run(loaded, command, progress=progress) for loaded in variants]
         to_dict, to_table = command_run_dict, command_table
     else:
-        runs = step_runs(variants, angle(args.step, "--step"))
+        runs = step_runs(variants, angle(args.step, "--step"), progress=progress)
         to_dict, to_table = step_run_dict, step_table
+    if progress:
+        progress.done()
     if args.csv:
         for result in runs:
             write_text_atomic(step_csv_name(args.csv, result, len(runs)), step_run_csv(result))

@@ -87,6 +87,12 @@ def run(args):
     from cas_freq.report.studies import json_text, write_report
     from cas_freq.studies.sweep import run_sweep, sweep_csv, sweep_dict
 
+    from cas_freq.fileio import check_output_dir, check_output_file
+
+    if args.csv:
+        check_output_file(args.csv, "--csv")
+    if args.output:
+        check_output_dir(args.output, "-o")
     fixed, axes = split_settings(args.overrides)
     if not axes:
         raise CasFreqError("sweep: give at least one grid, e.g. --set position_loop.Kp=2:12:200")

@@ -63,8 +63,11 @@ def verdict_table(config_name, verdicts):
 
 def run(args):
     """Verify the selected variants; print a table or JSON; write JUnit; exit 0/1."""
-    from cas_freq.fileio import write_text_atomic
+    from cas_freq.fileio import check_output_file, write_text_atomic
     from cas_freq.verify import failed_required, junit_xml, verdict_dict, verify_variants
+
+    if args.junit:
+        check_output_file(args.junit, "--junit")
 
     variants = load_variants(args)
     config_name = variants[0].params.name

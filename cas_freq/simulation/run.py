@@ -69,7 +69,7 @@ def _batch_key(params):
     return rates, default_time_step([*p.tau_c, *p.tau_p], periods, step_bound(p))
 
 
-def step_runs(variants, amplitude_rad):
+def step_runs(variants, amplitude_rad, progress=None):
     """:func:`step_run` of several variants, simulated in as few batches as possible.
 
     Variants with the same controller sampling and default time step run in one batch; each
@@ -81,10 +81,10 @@ def step_runs(variants, amplitude_rad):
     list of StepRun
         In the order of ``variants``.
     """
-    return step_batch([(loaded, amplitude_rad) for loaded in variants])
+    return step_batch([(loaded, amplitude_rad) for loaded in variants], progress=progress)
 
 
-def step_batch(items, verdicts=None):
+def step_batch(items, verdicts=None, progress=None):
     """Step runs of (variant, step size [rad]) pairs, batched as :func:`step_runs` does.
 
     Parameters
@@ -94,6 +94,8 @@ def step_batch(items, verdicts=None):
     verdicts : dict, optional
         ``id(loaded) -> linear stability verdict`` already known (e.g. from the variant's
         :class:`~cas_freq.analysis.Analysis`); the others are computed once per variant.
+    progress : callable, optional
+        ``progress(steps_done, steps_planned)`` of each batch (:func:`simulate_batch`).
 
     Returns
     -------
@@ -111,6 +113,7 @@ def step_batch(items, verdicts=None):
             [items[index][0].params for index in members],
             [Step(items[index][1]) for index in members], dt=dt,
             current_rate_hz=current_rate_hz, position_rate_hz=position_rate_hz,
+            progress=progress,
         )
         for position, index in enumerate(members):
             (loaded, amplitude_rad), result = items[index], batch.run(position)
@@ -214,7 +217,7 @@ class CommandRun:
     linear_stability: str
 
 
-def command_run(loaded, command):
+def command_run(loaded, command, progress=None):
     """Simulate a :class:`~cas_freq.simulation.commands.Table` command on one variant.
 
     The horizon is the table's last time plus the simulator's default settling time, extended
@@ -223,7 +226,7 @@ def command_run(loaded, command):
     current_rate_hz, position_rate_hz = loaded.params.simulation.rates_hz
     result = simulate_batch(
         [loaded.params], command, current_rate_hz=current_rate_hz,
-        position_rate_hz=position_rate_hz,
+        position_rate_hz=position_rate_hz, progress=progress,
     ).run(0)
     return CommandRun(
         **_identity(loaded), source=command.source, result=result,
