@@ -155,7 +155,10 @@ class Parameter:
         except (OverflowError, ValueError) as exc:
             if not isinstance(value, str):
                 raise ValueError(str(exc)) from None
-            raise ValueError(f"{exc} (accepted: {self.rule})") from None
+            text = str(exc)
+            if not text.startswith("cannot read"):
+                text = f"cannot read {_shown(value, self.unit)} as a value in {self.unit}: {text}"
+            raise ValueError(f"{text} (accepted: {self.rule})") from None
         problem = self.problem(number, value)
         if problem:
             raise ValueError(problem)

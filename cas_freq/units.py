@@ -192,8 +192,8 @@ def to_si(value, unit):
     target = registry().Unit(unit)
     if source.dimensionality != target.dimensionality:
         raise ValueError(
-            f"cannot read {_shown(value)} as a value in {unit}: it has dimension "
-            f"{source.dimensionality}, expected that of {unit} ({target.dimensionality})"
+            f"{_shown(value)} has dimension {source.dimensionality}, expected that of {unit} "
+            f"({target.dimensionality})"
         )
     try:
         result = float(registry().Quantity(magnitude, source).to(target).magnitude)

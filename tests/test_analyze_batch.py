@@ -205,7 +205,7 @@ def test_mu_v_follows_km_when_derived_from_no_load():
 
 def test_invalid_sample_names_key_value_and_sample():
     loaded = load_variant()
-    with pytest.raises(ConfigError, match=r"position_loop\.Kp: must be >= 0 .*-1\.0.*\[1\]"):
+    with pytest.raises(ConfigError, match=r"position_loop\.Kp: must be 0 or within .*-1\.0.*\[1\]"):
         variant_parameters(loaded.params, {"position_loop.Kp": [1.0, -1.0]})
     with pytest.raises(ConfigError, match="derivative_on: cannot be varied"):
         variant_parameters(loaded.params, {"position_loop.derivative_on": [1.0]})

@@ -487,7 +487,9 @@ def test_override_bad_dotted_key(shipped_config_path, key, fragment):
 def test_error_inside_a_variant_names_the_variant(shipped_raw, write_config):
     shipped_raw["variants"]["broken"] = {"motor.R": -1}
     path = write_config(shipped_raw)
-    load_variant(path, "fitted")  # the other variants still load
+    # issue 16: every variant is checked when the file is loaded, whichever one is used
+    with pytest.raises(ConfigError, match=r"\(variant 'broken'\): motor\.R: must be >= 1e-06"):
+        load_variant(path, "fitted")
     with pytest.raises(ConfigError) as info:
         load_variant(path, "broken")
     assert (f"{path} (variant 'broken'): motor.R: must be >= 1e-06 and <= 1e+06 ohm, got -1 ohm"

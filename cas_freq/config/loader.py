@@ -12,12 +12,109 @@ from pathlib import Path
 
 import yaml
 from pydantic import BaseModel, ValidationError
+from yaml.events import AliasEvent, CollectionEndEvent, CollectionStartEvent, ScalarEvent
 
 from cas_freq.config.schema import BASE_VARIANT, ActuatorConfig
 from cas_freq.exceptions import ConfigError, ConfigTypeError
 
 #: Keys that give the same quantity another way: setting the key removes its alternative.
 _ALTERNATIVES = {"motor.mu_v": "motor.no_load", "motor.no_load": "motor.mu_v"}
+
+
+#: Largest config file read [bytes] (the shipped one is 5 kB).
+MAX_FILE_BYTES = 1 << 20
+#: Deepest nesting of mappings and lists in a config file.
+MAX_DEPTH = 32
+#: Most nodes a config file may hold, aliases counted as often as they are expanded.
+MAX_NODES = 100_000
+#: Longest quote of a value in an error message [characters].
+QUOTE_CHARS = 60
+
+
+def shown(value, limit=QUOTE_CHARS):
+    """``repr`` of ``value`` on one line, cut to about ``limit`` characters."""
+    text = repr(value)
+    if len(text) > 20 * limit:  # a huge structure: do not even format the tail
+        text = text[: 20 * limit]
+    text = one_line(text)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def one_line(text):
+    """``text`` with every control character (newlines included) escaped: one line."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
+
+
+class _Loader(yaml.SafeLoader):
+    """yaml.SafeLoader that refuses duplicate keys, naming the key and both lines."""
+
+    def construct_mapping(self, node, deep=False):
+        if isinstance(node, yaml.MappingNode):
+            seen = {}
+            for key_node, _ in node.value:
+                if not isinstance(key_node, yaml.ScalarNode) or key_node.tag.endswith(":merge"):
+                    continue
+                key = self.construct_object(key_node, deep=True)
+                try:
+                    first = seen.setdefault(key, key_node.start_mark.line + 1)
+                except TypeError:
+                    continue
+                line = key_node.start_mark.line + 1
+                if first != line:
+                    raise ConfigError(f"duplicate key {shown(key)} at line {line} (first at line "
+                                      f"{first}); each key may appear once per mapping")
+        return super().construct_mapping(node, deep=deep)
+
+
+def _check_shape(text, path):
+    """Raise ConfigError if the YAML ``text`` nests deeper than MAX_DEPTH or holds more than
+    MAX_NODES nodes once its aliases are expanded (measured on the event stream and the node
+    graph, before anything is constructed)."""
+    depth = events = 0
+    for event in yaml.parse(text, Loader=_Loader):
+        events += 1
+        if isinstance(event, CollectionStartEvent):
+            depth += 1
+            if depth > MAX_DEPTH:
+                line = event.start_mark.line + 1
+                raise ConfigError(f"{path}: nested deeper than {MAX_DEPTH} levels at line {line}; "
+                                  "a config is a few levels of mappings")
+        elif isinstance(event, CollectionEndEvent):
+            depth -= 1
+        elif isinstance(event, (ScalarEvent, AliasEvent)) and events > MAX_NODES:
+            break
+    node = yaml.compose(text, Loader=_Loader)
+    if node is None:
+        return
+    # expanded size: each node counts once per path that reaches it (an alias bomb is refused
+    # after MAX_NODES visits, not after expanding it); iterative, so depth cannot recurse
+    count, stack = 0, [node]
+    while stack:
+        current = stack.pop()
+        count += 1
+        if count > MAX_NODES:
+            raise ConfigError(f"{path}: more than {MAX_NODES} values once its aliases are "
+                              "expanded; a config is a few hundred values")
+        if isinstance(current, yaml.SequenceNode):
+            stack.extend(current.value)
+        elif isinstance(current, yaml.MappingNode):
+            for key, value in current.value:
+                stack.extend((key, value))
+
+
+def _load_yaml(text, path):
+    """The data of YAML ``text``, bounded in depth and size, duplicate keys refused."""
+    _check_shape(text, path)
+    try:
+        return yaml.load(text, Loader=_Loader)  # noqa: S506 - a SafeLoader subclass
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from None
+    except (yaml.YAMLError, RecursionError):
+        raise
+    except Exception as exc:  # noqa: BLE001 - PyYAML's constructors raise many kinds
+        # a tag whose value does not convert: !!float abc, !!int 0.5, !!bool maybe
+        raise ConfigError(f"{path}: a tagged value does not convert ({type(exc).__name__}: "
+                          f"{shown(str(exc))}); remove the !!tag or fix the value") from None
 
 
 def default_config_path():
@@ -66,21 +163,32 @@ def read_config_file(path):
         If the file cannot be read, is not valid YAML, or is not a mapping.
     """
     path = Path(path)
+    shown_path = one_line(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        with open(path, "rb") as file:
+            raw = file.read(MAX_FILE_BYTES + 1)
+        if len(raw) > MAX_FILE_BYTES:
+            raise ConfigError(f"{shown_path}: larger than {MAX_FILE_BYTES} bytes; a config file "
+                              "is a few kB")
+        text = raw.decode("utf-8")
     except FileNotFoundError:
-        raise ConfigError(f"{path}: config file not found") from None
+        raise ConfigError(f"{shown_path}: config file not found") from None
     except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: cannot read config file ({exc})") from None
+        raise ConfigError(f"{shown_path}: cannot read config file "
+                          f"({one_line(exc)[:200]})") from None
     try:
-        data = yaml.safe_load(text)
+        data = _load_yaml(text, shown_path)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
         problem = getattr(exc, "problem", None) or str(exc)
-        raise ConfigError(f"{path}: not valid YAML{where}: {problem}") from None
+        raise ConfigError(f"{shown_path}: not valid YAML{where}: "
+                          f"{one_line(problem)[:200]}") from None
+    except RecursionError:
+        raise ConfigError(f"{shown_path}: nested too deep") from None
     if not isinstance(data, dict):
-        raise ConfigError(f"{path}: a config must be a YAML mapping, got {type(data).__name__}")
+        raise ConfigError(f"{shown_path}: a config must be a YAML mapping, "
+                          f"got {type(data).__name__}")
     return data
 
 
@@ -89,7 +197,7 @@ def variant_names(data):
     variants = data.get("variants") or {}
     if not isinstance(variants, dict):
         raise ConfigTypeError(
-            f"variants: must be a mapping of variant names to overrides, got {variants!r}"
+            f"variants: must be a mapping of variant names to overrides, got {shown(variants)}"
         )
     return [BASE_VARIANT, *variants]
 
@@ -106,8 +214,10 @@ def parse_set_option(text):
     key = key.strip()
     if not sep or not key:
         raise ConfigError(f"--set {text!r}: expected KEY=VALUE, e.g. position_loop.Kp=6.3")
+    if len(value) > 200:
+        raise ConfigError(f"--set {key}: value longer than 200 characters: {shown(value)}")
     try:
-        parsed = yaml.safe_load(value)
+        parsed = _load_yaml(value, f"--set {key}")
     except yaml.YAMLError:
         parsed = value
     return key, parsed
@@ -129,7 +239,7 @@ def _apply(data, dotted, value, origin):
     """Set ``data[a][b][c] = value`` for ``dotted = 'a.b.c'`` (in place)."""
     parts = dotted.split(".")
     if not all(parts):
-        raise ConfigError(f"{origin}: {dotted!r} is not a dotted key such as motor.Km")
+        raise ConfigError(f"{origin}: {shown(dotted)} is not a dotted key such as motor.Km")
     node = data
     for i, part in enumerate(parts[:-1]):
         child = node.get(part)
@@ -137,7 +247,8 @@ def _apply(data, dotted, value, origin):
             child = node[part] = {}
         elif not isinstance(child, dict):
             where = ".".join(parts[: i + 1])
-            raise ConfigError(f"{origin}: {dotted}: {where} is a value, not a section")
+            raise ConfigError(f"{origin}: {one_line(dotted)[:80]}: {one_line(where)[:80]} is a "
+                              "value, not a section")
         node = child
     for key, alternative in _ALTERNATIVES.items():
         if dotted == key or dotted.startswith(key + "."):
@@ -174,21 +285,21 @@ def _message(error):
         text = "required key is missing"
     elif kind == "extra_forbidden":
         accepted = _accepted_keys(error["loc"])
-        text = f"unknown key (value {value!r})"
+        text = f"unknown key (value {shown(value)})"
         if accepted:
             section = ".".join(str(part) for part in error["loc"][:-1]) or "the top level"
             text += f"; {section} accepts {accepted}"
     elif kind == "literal_error":
-        text = f"must be one of {error['ctx']['expected']}, got {value!r}"
+        text = f"must be one of {error['ctx']['expected']}, got {shown(value)}"
     elif kind in ("dict_type", "model_type", "model_attributes_type"):
-        text = f"must be a mapping, got {value!r}"
+        text = f"must be a mapping, got {shown(value)}"
     elif kind in ("tuple_type", "list_type"):
-        text = f"must be a list (of mappings, one per entry), got {value!r}"
+        text = f"must be a list (of mappings, one per entry), got {shown(value)}"
     elif kind in ("string_type",):
-        text = f"must be a string, got {value!r}"
+        text = f"must be a string, got {shown(value)}"
     else:
-        text = f"{error['msg']}, got {value!r}"
-    return f"{loc}: {text}" if loc else text
+        text = f"{error['msg']}, got {shown(value)}"
+    return one_line(f"{loc}: {text}" if loc else text)
 
 
 def _is_type_error(error):
@@ -233,23 +344,36 @@ def load_variant(path=None, variant=BASE_VARIANT, overrides=()):
     data = read_config_file(path)
     names = variant_names(data)
     if variant not in names:
-        raise ConfigError(f"{path}: unknown variant {variant!r}; the file has {names}")
+        raise ConfigError(f"{one_line(path)}: unknown variant {shown(variant)}; the file has "
+                          f"{shown(names, 200)}")
+    loaded = _load(data, path, variant, overrides)
+    # every variant of the file is checked, so a typo in one is reported whichever is used
+    for other in names:
+        if other != variant:
+            _load(data, path, other, overrides)
+    return loaded
+
+
+def _load(data, path, variant, overrides):
+    """One variant of the raw config ``data`` of ``path``, with ``overrides``, validated."""
     resolved = copy.deepcopy(data)
-    origin = f"{path}"
+    shown_path = one_line(path)
+    origin = shown_path
     if variant != BASE_VARIANT:
         changes = data["variants"][variant] or {}
+        name = one_line(variant)[:QUOTE_CHARS]
         if not isinstance(changes, dict):
             raise ConfigTypeError(
-                f"{path}: variants.{variant}: must be a mapping of dotted keys to values, "
-                f"got {changes!r}"
+                f"{shown_path}: variants.{name}: must be a mapping of dotted keys to values, "
+                f"got {shown(changes)}"
             )
         for key, value in _flatten(changes).items():
-            _apply(resolved, key, value, f"{path}: variants.{variant}")
-        origin = f"{path} (variant {variant!r})"
+            _apply(resolved, key, value, f"{shown_path}: variants.{name}")
+        origin = f"{shown_path} (variant {shown(variant)})"
     for key, value in overrides:
         _apply(resolved, key, value, "--set")
     if overrides:
-        origin += " with --set " + ", ".join(f"{k}={v}" for k, v in overrides)
+        origin += " with --set " + ", ".join(one_line(f"{k}={v}")[:80] for k, v in overrides)
     params = validate(resolved, origin)
     return LoadedVariant(str(path), variant, params, tuple(overrides))
 
@@ -257,5 +381,5 @@ def load_variant(path=None, variant=BASE_VARIANT, overrides=()):
 def load_all_variants(path=None, overrides=()):
     """Load the base and every variant of a config file, in file order."""
     path = Path(path) if path is not None else default_config_path()
-    names = variant_names(read_config_file(path))
-    return [load_variant(path, name, overrides) for name in names]
+    data = read_config_file(path)
+    return [_load(data, path, name, overrides) for name in variant_names(data)]
