@@ -67,7 +67,8 @@ def _shown(value, unit):
         return shown if len(shown) <= 60 else shown[:56] + "...'"
     if isinstance(value, np.generic):
         value = value.item()
-    return f"{value!r} {unit}"
+    shown = repr(value)
+    return f"{shown if len(shown) <= 40 else shown[:36] + '...'} {unit}"
 
 
 @dataclasses.dataclass(frozen=True)

@@ -5,6 +5,9 @@ import argparse
 from cas_freq.cli.common import EXIT_OK, add_config_arguments, load_variants, print_json
 from cas_freq.exceptions import CasFreqError
 
+#: Accepted --range: within MIN_RAD_S..MAX_RAD_S, spanning at most MAX_DECADES decades.
+MIN_RAD_S, MAX_RAD_S, MAX_DECADES = 1e-6, 1e9, 12
+
 
 def frequency_range(text):
     """argparse type for ``MIN:MAX`` in rad/s."""
@@ -16,6 +19,11 @@ def frequency_range(text):
         ) from None
     if not 0 < low < high < float("inf"):
         raise argparse.ArgumentTypeError(f"need 0 < MIN < MAX, got {text!r}")
+    if not (MIN_RAD_S <= low and high <= MAX_RAD_S and high / low <= 10.0**MAX_DECADES):
+        raise argparse.ArgumentTypeError(
+            f"need {MIN_RAD_S:g} <= MIN < MAX <= {MAX_RAD_S:g} rad/s and at most {MAX_DECADES} "
+            f"decades, got {text!r}"
+        )
     return low, high
 
 

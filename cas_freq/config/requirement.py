@@ -94,6 +94,11 @@ def convert_bound(value, metric):
     return number
 
 
+#: Accepted sine-dwell frequencies [rad/s]: below 1 rad/s a dwell of a few periods is millions
+#: of 5 µs steps per point; above 1e5 rad/s a period is a dozen steps.
+MIN_DWELL_RAD_S, MAX_DWELL_RAD_S = 1.0, 1e5
+
+
 def parse_frequency_spec(spec):
     """``"MIN:MAX:N"`` (N log-spaced) or a list/comma text of frequencies [rad/s] → sorted tuple.
 
@@ -102,23 +107,26 @@ def parse_frequency_spec(spec):
     ValueError
         Naming what is accepted.
     """
-    accepted = (f"expected MIN:MAX:N with 0 < MIN < MAX and 2 <= N <= 1000, or a list of "
-                f"positive numbers, in rad/s; got {spec!r}")
+    shown = repr(spec) if len(repr(spec)) <= 60 else repr(spec)[:56] + "...'"
+    accepted = (f"expected MIN:MAX:N with {MIN_DWELL_RAD_S:g} <= MIN < MAX <= "
+                f"{MAX_DWELL_RAD_S:g} and 2 <= N <= 1000, or a list of at most 1000 positive "
+                f"numbers within {MIN_DWELL_RAD_S:g}..{MAX_DWELL_RAD_S:g}, in rad/s; got {shown}")
     try:
         if isinstance(spec, str) and ":" in spec:
             low, high, count = spec.split(":")
             low, high, n = float(low), float(high), int(count)
-            if not (0 < low < high < math.inf and 2 <= n <= 1000):
+            if not (MIN_DWELL_RAD_S <= low < high <= MAX_DWELL_RAD_S and 2 <= n <= 1000):
                 raise ValueError
             values = np.geomspace(low, high, n)
         else:
             items = spec.split(",") if isinstance(spec, str) else list(spec)
-            if any(isinstance(item, bool) for item in items):
+            if len(items) > 1000 or any(isinstance(item, bool) for item in items):
                 raise ValueError
             values = np.array([float(item) for item in items])
-            if values.size == 0 or not np.all((values > 0) & np.isfinite(values)):
+            if values.size == 0 or not np.all((values >= MIN_DWELL_RAD_S)
+                                              & (values <= MAX_DWELL_RAD_S)):
                 raise ValueError
-    except (ValueError, TypeError):
+    except (ValueError, TypeError, OverflowError):
         raise ValueError(accepted) from None
     return tuple(sorted(set(values.tolist())))
 

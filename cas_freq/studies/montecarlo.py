@@ -49,6 +49,10 @@ class Tolerance:
         return abs(base) * self.relative if self.relative is not None else self.absolute
 
 
+#: Most samples of one Monte Carlo run (checked before anything is allocated).
+MAX_SAMPLES = 1_000_000
+
+
 def parse_tolerance(text):
     """``KEY=10%`` or ``KEY=0.02 ms`` (or a plain number in SI) → :class:`Tolerance`."""
     key, sep, value = str(text).partition("=")
@@ -86,12 +90,14 @@ def draw(params, tolerances, samples, distribution="normal", seed=None):
     """
     if distribution not in DISTRIBUTIONS:
         raise ConfigError(f"--distribution: must be one of {DISTRIBUTIONS}, got {distribution!r}")
-    if not (isinstance(samples, int) and samples >= 1):
-        raise ConfigError(f"--samples: must be an integer >= 1, got {samples!r}")
+    if isinstance(samples, bool) or not (isinstance(samples, int) and
+                                         1 <= samples <= MAX_SAMPLES):
+        raise ConfigError(f"--samples: must be an integer 1..{MAX_SAMPLES}, got {samples!r}")
     if seed is None:
         seed = int(np.random.SeedSequence().entropy % (2**32))
-    elif isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ConfigError(f"--seed: must be an integer >= 0, got {seed!r}")
+    elif (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
+          or not 0 <= seed < 2**128):
+        raise ConfigError(f"--seed: must be an integer 0..2**128-1, got {seed!r}")
     rng = np.random.default_rng(seed)
     base = base_values(params)
     values = {}

@@ -43,10 +43,16 @@ def parse_grid_values(key, spec):
             raise ConfigError(accepted) from None
         if count < 1 or not (math.isfinite(start) and math.isfinite(stop)):
             raise ConfigError(accepted)
+        if count > MAX_POINTS:
+            raise ConfigError(f"--set {key}: {count} values, more than the {MAX_POINTS} points a "
+                              "sweep accepts")
         return np.linspace(start, stop, count)
     parts = [part.strip() for part in text.split(",")]
     if not parts or any(not part for part in parts):
         raise ConfigError(accepted)
+    if len(parts) > MAX_POINTS:
+        raise ConfigError(f"--set {key}: {len(parts)} values, more than the {MAX_POINTS} points "
+                          "a sweep accepts")
     return np.array([parse_value(key, part) for part in parts])
 
 
