@@ -28,10 +28,21 @@ largest magnitude around the final command over the last half of the horizon (an
 command's last change). If some run has not, the horizon doubles, continuing from where it
 stopped, up to ``max_t_end`` (default 10 * t_end); the result says whether it was extended and
 which runs settled.
+
+Work budget
+-----------
+Before a batch starts, :func:`check_budget` estimates its work from the parameters (steps of
+the first horizon, steps x runs, memory of the recorded signals, the delay lines and the step
+indices) and refuses a batch beyond :data:`MAX_STEPS` steps, :data:`MAX_STEP_RUNS` steps x runs
+or :data:`MAX_MEMORY_BYTES`, with the numbers in the message (a time constant far below the
+step, a 1e-3 rad/s sine dwell, ...). The horizon's extension stops at the budget as it stops at
+its 10 x cap (the run is then reported as not settled). The environment variable
+``CAS_FREQ_BUDGET=N`` multiplies the three budgets by N.
 """
 
 import dataclasses
 import math
+import os
 
 import numpy as np
 
@@ -47,6 +58,24 @@ STEP_PER_CURRENT_LOOP = 0.05
 DEFAULT_HORIZON_S = 0.1
 #: Settling band used for the horizon, relative to the command's largest magnitude.
 SETTLE_BAND = 0.02
+
+#: Budget of one batch: steps of its horizon (10 s simulated at 5 us; about a minute for
+#: one run).
+MAX_STEPS = 2_000_000
+#: Budget of one batch: steps x runs (about two minutes at the engine's 1.5e6 to 2e6 step-runs
+#: per second on large batches).
+MAX_STEP_RUNS = 200_000_000
+#: Budget of one batch: estimated memory [bytes] (2 GiB).
+MAX_MEMORY_BYTES = 2 * 2**30
+#: Environment variable: a factor (> 0) on the three budgets.
+BUDGET_ENV = "CAS_FREQ_BUDGET"
+#: Estimated bytes per recorded sample and run (7 float and 2 bool signals, held up to about
+#: three times while a horizon is assembled and transposed).
+_BYTES_PER_SAMPLE = 200
+#: Bytes per step of the step indices of one advance (int64 index and bool mask).
+_BYTES_PER_STEP = 9
+#: Bytes per delay-line slot and run (two lines, left and right buffers of float64).
+_BYTES_PER_SLOT = 32
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -146,6 +175,71 @@ class BatchResult(_Signals):
         )
 
 
+def budget_factor():
+    """The factor on the work budget: ``$CAS_FREQ_BUDGET`` (default 1)."""
+    text = os.environ.get(BUDGET_ENV, "").strip()
+    if not text:
+        return 1.0
+    try:
+        factor = float(text)
+    except ValueError:
+        factor = math.nan
+    if not (math.isfinite(factor) and factor > 0):
+        raise ConfigError(f"{BUDGET_ENV}: expected a number > 0 (a factor on the simulation "
+                          f"budget), got {text!r}")
+    return factor
+
+
+def memory_estimate(n_runs, steps, record_every=1, max_delay_s=0.0, dt=1.0):
+    """Estimated peak memory [bytes] of a batch of ``n_runs`` over ``steps`` steps."""
+    samples = steps // record_every + 1
+    slots = int(max_delay_s / dt) + 3 if max_delay_s > 0 else 3
+    return (_BYTES_PER_SAMPLE * samples * n_runs + _BYTES_PER_STEP * steps
+            + _BYTES_PER_SLOT * slots * n_runs)
+
+
+def _gib(value):
+    return f"{value / 2**30:.3g} GiB"
+
+
+def check_budget(n_runs, steps, dt, record_every=1, max_delay_s=0.0):
+    """Refuse a batch whose estimated work exceeds the budget (module notes).
+
+    Raises
+    ------
+    ConfigError
+        Naming the steps, the step, the horizon, the runs, the memory estimate and the budget.
+    """
+    factor = budget_factor()
+    memory = memory_estimate(n_runs, steps, record_every, max_delay_s, dt)
+    if (steps <= MAX_STEPS * factor and steps * n_runs <= MAX_STEP_RUNS * factor
+            and memory <= MAX_MEMORY_BYTES * factor):
+        return
+    raise ConfigError(
+        f"simulation too large: {steps:.3g} steps of {dt:.3g} s (horizon {steps * dt:.3g} s) x "
+        f"{n_runs} run(s) = {steps * n_runs:.3g} step-runs, about {_gib(memory)}; the budget "
+        f"is {MAX_STEPS * factor:.3g} steps, {MAX_STEP_RUNS * factor:.3g} step-runs and "
+        f"{_gib(MAX_MEMORY_BYTES * factor)} (set {BUDGET_ENV}=N for N times more)"
+    )
+
+
+def budget_steps(n_runs, dt, record_every=1, max_delay_s=0.0):
+    """The most steps a batch may run within the budget (the cap of an extended horizon)."""
+    factor = budget_factor()
+    fixed = memory_estimate(n_runs, 0, 1, max_delay_s, dt) - _BYTES_PER_SAMPLE * n_runs
+    per_step = _BYTES_PER_SAMPLE * n_runs / record_every + _BYTES_PER_STEP
+    by_memory = (MAX_MEMORY_BYTES * factor - fixed) / per_step - 1
+    return int(max(0.0, min(MAX_STEPS * factor, MAX_STEP_RUNS * factor / n_runs, by_memory)))
+
+
+def budget_runs(steps, dt, record_every=1, max_delay_s=0.0):
+    """The most runs a batch of ``steps`` steps may hold within the budget (at least 0)."""
+    factor = budget_factor()
+    per_run = memory_estimate(1, steps, record_every, max_delay_s, dt) - _BYTES_PER_STEP * steps
+    by_memory = (MAX_MEMORY_BYTES * factor - _BYTES_PER_STEP * steps) / per_run
+    return int(max(0.0, min(MAX_STEP_RUNS * factor / max(steps, 1), by_memory)))
+
+
 def _whole(x, dt):
     return abs(x / dt - round(x / dt)) <= 1e-6
 
@@ -189,6 +283,9 @@ def default_time_step(delays_s, periods_s=(), max_step_s=5e-6):
     float
         The step [s]; ``s`` if no candidate fits (delays are then interpolated).
     """
+    if not (max_step_s > 0 and math.isfinite(max_step_s)):
+        raise ModelError(f"simulation: no usable time step (bound {max_step_s!r} s; the current "
+                         "loop is too fast for a numerical simulation)")
     top = _nice_floor(max_step_s)
     values = [float(v) for v in (*delays_s, *periods_s) if v > 0]
     for n in range(1, 11):
@@ -316,7 +413,12 @@ def simulate_batch(
             raise ConfigError("t_end: required for a command that does not end (sine, ramp)")
     if not t_end > 0:
         raise ConfigError(f"t_end: must be > 0 s, got {t_end!r}")
+    if not math.isfinite(t_end):
+        raise ConfigError(f"t_end: must be finite, got {t_end!r}")
     cap = 10.0 * t_end if max_t_end is None else max(max_t_end, t_end)
+    max_delay = float(max(np.max(p.tau_c), np.max(p.tau_p), 0.0))
+    check_budget(n, int(round(t_end / dt)), dt, record_every, max_delay)
+    cap = min(cap, max(t_end, budget_steps(n, dt, record_every, max_delay) * dt))
 
     command_set = CommandSet(commands, p.ratio)
     engine = Engine(p, command_set, dt, every_c, every_p)

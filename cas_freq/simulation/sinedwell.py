@@ -374,6 +374,8 @@ def sine_dwell_bandwidths(params, amplitude_rad, frequencies_rad_s, *, chunk_siz
                 DEFAULT_PERIODS_MEASURE, "min_settle_s": DEFAULT_MIN_SETTLE_S,
                 "samples_per_period": DEFAULT_SAMPLES_PER_PERIOD, "dt": None, **options}
     n, n_f = params.n_runs, frequencies.size
+    chunk_size = min(chunk_size, _chunk_within_budget(params, frequencies, settings, n_f,
+                                                      current_rate_hz, position_rate_hz))
     bandwidth = np.full(n, np.nan)
     magnitude = np.empty((n, n_f))
     limited = np.empty((n, n_f), dtype=bool)
@@ -394,6 +396,26 @@ def sine_dwell_bandwidths(params, amplitude_rad, frequencies_rad_s, *, chunk_siz
         if progress:
             progress(stop, n)
     return bandwidth, magnitude, limited
+
+
+def _chunk_within_budget(params, frequencies, settings, n_f, current_rate_hz,
+                         position_rate_hz):
+    """Actuators per batch that keep a batch of ``n_f`` runs each within the simulator's budget
+    (:func:`~cas_freq.simulation.simulator.check_budget`); at least 1 (a single actuator beyond
+    the budget is then refused by the batch itself)."""
+    from cas_freq.simulation.simulator import budget_runs
+
+    periods = 2.0 * math.pi / frequencies
+    settle = np.maximum(settings["periods_settle"] * periods, settings["min_settle_s"])
+    t_end = float(np.max(settle + settings["periods_measure"] * periods))
+    dt = settings["dt"]
+    if dt is None:
+        periods_c = [1.0 / rate for rate in (current_rate_hz, position_rate_hz) if rate]
+        dt = default_time_step([*params.tau_c, *params.tau_p], periods_c, step_bound(params))
+    record_every = max(1, int(periods.min() / (settings["samples_per_period"] * dt)))
+    max_delay = float(max(np.max(params.tau_c), np.max(params.tau_p), 0.0))
+    runs = budget_runs(int(round(t_end / dt)), dt, record_every, max_delay)
+    return max(1, runs // n_f)
 
 
 def limit_onset_amplitude(result):
