@@ -32,7 +32,8 @@ def build_parser():
     commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     for name in COMMANDS:
         importlib.import_module(f"cas_freq.cli.{name}").register(commands)
-    for sub in commands.choices.values():
+    for name, sub in commands.choices.items():
+        sub.set_defaults(command_name=name)  # simulate's --command shadows args.command
         sub.add_argument("-q", "--quiet", action="store_true",
                          help="no progress on stderr (by default long runs report progress: a "
                          "bar on a terminal, else a line every 10 s)")
@@ -45,8 +46,7 @@ def main(argv=None):
     try:
         parser = build_parser()
         args = parser.parse_args(argv)
-        # the handler's module names the command (simulate's --command shadows args.command)
-        command = f"cas-freq {args.handler.__module__.rsplit('.', 1)[-1]}"
+        command = f"cas-freq {args.command_name}"
         set_quiet(getattr(args, "quiet", False))
         return args.handler(args)
     except CasFreqError as exc:

@@ -105,12 +105,14 @@ def run(args):
 
     variants = selected_variants(args.config, args.variants, args.overrides)
     settings = settings_from_args(args)
-    if variants:
-        from cas_freq.fileio import check_output_dir
+    from cas_freq.fileio import check_output_dir
+
+    if args.output is not None:
+        check_output_dir(args.output, "-o")
+    elif variants:
         from cas_freq.report.build import default_report_dir
 
-        check_output_dir(args.output if args.output is not None
-                         else default_report_dir(variants[0].params.name), "-o")
+        check_output_dir(default_report_dir(variants[0].params.name), "-o")
 
     def progress(name):
         if sys.stderr.isatty():

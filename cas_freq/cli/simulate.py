@@ -38,6 +38,9 @@ def register(commands):
 def run(args):
     """Simulate for the selected variants; print a table or JSON, write CSV."""
     from cas_freq.fileio import check_output_file, write_text_atomic
+
+    if args.csv:
+        check_output_file(args.csv, "--csv")
     from cas_freq.report.text import command_table, step_table
     from cas_freq.simulation.run import (
         command_run,
@@ -48,8 +51,6 @@ def run(args):
         step_runs,
     )
 
-    if args.csv:
-        check_output_file(args.csv, "--csv")
     variants = load_variants(args)
     if args.csv and len(variants) > 1:
         for loaded in variants:
