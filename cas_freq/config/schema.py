@@ -17,6 +17,7 @@ from pydantic_core import PydanticCustomError
 from cas_freq.config.requirement import Requirement
 from cas_freq.parameters import (
     PARAMETERS,
+    Parameter,
     derived_problem,
     filter_time_constant,
     viscous_friction,
@@ -167,6 +168,85 @@ class Simulation(_Section):
         return self.current_loop_rate, self.position_loop_rate
 
 
+# ---- reference: measured or published results to compare against -------------------------------
+
+#: The numeric keys of the ``reference:`` section (comparison data, never model parameters), in
+#: the form of :data:`cas_freq.parameters.PARAMETERS` so that they are converted and bounded by
+#: the same :meth:`~cas_freq.parameters.Parameter.convert`.
+REFERENCE_PARAMETERS = {
+    p.key: p for p in (
+        Parameter("reference.step_amplitude", None, "rad", 0.0, True, 3.1416,
+                  "step size at the output of the reference step, (0, 180] [rad]"),
+        Parameter("reference.rise_time", None, "s", 0.0, False, 1e3,
+                  "reference step's 10-90 % rise time, 0..1e3 [s]"),
+        Parameter("reference.overshoot_pct", None, "percent", 0.0, False, 1e3,
+                  "reference step's overshoot, 0..1e3 [percent]"),
+        Parameter("reference.settling_time", None, "s", 0.0, False, 1e3,
+                  "reference step's 2 % settling time, 0..1e3 [s]"),
+        Parameter("reference.fit.wn", None, "rad/s", 0.0, True, 1e9,
+                  "natural frequency of the reference second-order fit, > 0 [rad/s]"),
+        Parameter("reference.fit.zeta", None, "dimensionless", 0.0, False, 1e3,
+                  "damping ratio of the reference second-order fit, >= 0 [dimensionless]"),
+        Parameter("reference.fit.td", None, "s", 0.0, False, 1e3,
+                  "delay of the reference second-order fit, 0..1e3 [s]"),
+        Parameter("reference.fit.bandwidth", None, "rad/s", 0.0, True, 1e9,
+                  "bandwidth the reference states for its fit (default: the closed form of "
+                  "wn and zeta) [rad/s]"),
+    )
+}
+
+
+def reference_param(key):
+    """Type of a float field of the ``reference:`` section (like :func:`param`)."""
+    parameter = REFERENCE_PARAMETERS[key]
+
+    def convert(value):
+        try:
+            return parameter.convert(value)
+        except TypeError as exc:
+            raise PydanticCustomError("cas_type", str(exc)) from None
+        except ValueError as exc:
+            raise PydanticCustomError("cas_value", str(exc)) from None
+
+    return Annotated[
+        float, BeforeValidator(convert),
+        Field(description=parameter.meaning, json_schema_extra={"key": key,
+                                                                "unit": parameter.unit}),
+    ]
+
+
+class ReferenceFit(_Section):
+    """A second-order-plus-delay fit of the reference step (ARL-TR-9136 §7 form)."""
+
+    wn: reference_param("reference.fit.wn") | None = None
+    zeta: reference_param("reference.fit.zeta") | None = None
+    td: reference_param("reference.fit.td") | None = None
+    bandwidth: reference_param("reference.fit.bandwidth") | None = None
+
+    @property
+    def bandwidth_rad_s(self):
+        """The stated bandwidth, else the closed form of (wn, zeta), else None [rad/s]."""
+        if self.bandwidth is not None:
+            return self.bandwidth
+        if self.wn is not None and self.zeta is not None:
+            from cas_freq.formulas import second_order_bandwidth
+
+            return second_order_bandwidth(self.wn, self.zeta)
+        return None
+
+
+class Reference(_Section):
+    """Measured or published results to compare the model with (shown by the report only when
+    declared; never used by the model). Every figure is optional."""
+
+    source: str = ""
+    step_amplitude: reference_param("reference.step_amplitude") | None = None
+    rise_time: reference_param("reference.rise_time") | None = None
+    overshoot_pct: reference_param("reference.overshoot_pct") | None = None
+    settling_time: reference_param("reference.settling_time") | None = None
+    fit: ReferenceFit | None = None
+
+
 class ActuatorConfig(_Section):
     """A whole actuator: motor, gear, both loops, and the named variants of the file."""
 
@@ -178,6 +258,7 @@ class ActuatorConfig(_Section):
     position_loop: PositionLoop
     simulation: Simulation = Simulation()
     requirements: tuple[Requirement, ...] = ()
+    reference: Reference | None = None
     variants: dict[str, dict[str, Any] | None] = {}
 
     @model_validator(mode="after")

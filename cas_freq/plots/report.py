@@ -28,7 +28,6 @@ from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.ticker import MultipleLocator  # noqa: E402
 
 from cas_freq.analysis.frequency import continuous_phase  # noqa: E402
-from cas_freq.formulas import REPORT_BENCH  # noqa: E402
 from cas_freq.report.numbers import round_array  # noqa: E402
 from cas_freq.simulation.second_order import second_order_step  # noqa: E402
 
@@ -346,7 +345,7 @@ def _step_window_s(run):
 
 
 def steps(data):
-    """Smallest and largest step: nonlinear vs linear fin angle, current and voltage, with the
+    """Smallest and largest step: nonlinear vs linear output angle, current and voltage, with the
     intervals where a limit acts shaded."""
     indices = sorted({data.small_index, data.large_index})
     fig, axes = _figure(3, len(indices), (5.2 * len(indices), 7.5))
@@ -368,7 +367,7 @@ def steps(data):
                  label="nonlinear (limits, exact delays)")
         top.plot(t_ms, _r(np.degrees(data.linear_steps[k][keep])), color="C1", ls="--",
                  label=f"linear T (Padé {data.pade_order})")
-        top.set_ylabel("fin angle δ [deg]")
+        top.set_ylabel("output angle δ [deg]")
         top.set_title(f"{a_deg:g}° step: {_limit_words(run.step)}")
         mid.plot(t_ms, _r(r.i[keep]), color="C0", label="motor current i")
         for sign in (1, -1):
@@ -386,13 +385,24 @@ def steps(data):
             bottom.legend(loc="upper right")
             mid.plot([], [], color="C3", ls="--", lw=0.9, label="±i_max")
             mid.legend(loc="upper right")
-    fig.suptitle(f"{data.label}: fin steps, nonlinear simulation vs linear model "
+    fig.suptitle(f"{data.label}: output steps, nonlinear simulation vs linear model "
                  f"(Padé {data.pade_order}); limit intervals shaded")
     return fig
 
 
+def _reference_fit(data):
+    """(reference, its fit) when the config declares a reference fit with ωn and ζ, else
+    None."""
+    reference = data.reference
+    fit = None if reference is None else reference.fit
+    if fit is None or fit.wn is None or fit.zeta is None:
+        return None
+    return reference, fit
+
+
 def step_fit(data):
-    """The largest step with its second-order fit and the report's bench fit."""
+    """The largest step with its second-order fit and, when the config declares one, the
+    reference's fit."""
     run = data.dwell.steps[data.large_index]
     r, fit = run.result, run.fit
     window_s = _step_window_s(run)
@@ -409,14 +419,17 @@ def step_fit(data):
         ax.plot(t_ms, _r(second_order_step(t, fit.wn_rad_s, fit.zeta, fit.td_s, a_deg)),
                 color="C3", ls="--", label=f"fit: ωn {fit.wn_rad_s:.4g} rad/s, ζ {fit.zeta:.3g}, "
                 f"td {1e3 * fit.td_s:.3g} ms")
-    bench = REPORT_BENCH
-    ax.plot(t_ms, _r(second_order_step(t, bench["wn_rad_s"], bench["zeta"], bench["td_s"],
-                                       a_deg)),
-            color="k", ls=":", label=f"report's bench fit: ωn {bench['wn_rad_s']:g} rad/s, "
-            f"ζ {bench['zeta']:g}, td {1e3 * bench['td_s']:g} ms")
+    ref = _reference_fit(data)
+    if ref is not None:
+        reference, fit_ref = ref
+        source = f" ({reference.source})" if reference.source else ""
+        ax.plot(t_ms, _r(second_order_step(t, fit_ref.wn, fit_ref.zeta, fit_ref.td or 0.0,
+                                           a_deg)),
+                color="k", ls=":", label=f"reference fit{source}: ωn {fit_ref.wn:g} rad/s, "
+                f"ζ {fit_ref.zeta:g}, td {1e3 * (fit_ref.td or 0.0):g} ms")
     ax.set_xlim(0.0, window)
     ax.set_xlabel("time [ms]")
-    ax.set_ylabel("fin angle δ [deg]")
+    ax.set_ylabel("output angle δ [deg]")
     ax.legend(loc="lower right")
     ax.set_title(f"{a_deg:g}° step: second-order-plus-delay fit (report §7)")
     fig.suptitle(f"{data.label}: second-order fit to the nonlinear step (exact delays)")
@@ -452,25 +465,45 @@ def _amplitude_axis(ax, datas):
     """Log amplitude axis with a tick at each amplitude, labelled in plain degrees."""
     amplitudes = sorted({round(float(a), 12) for d in datas
                          for a in np.degrees(np.asarray(d.dwell.result.amplitudes_rad))}
-                        | {REPORT_BENCH["step_deg"]})
+                        | {round(a, 12) for a, _, _ in _reference_points(datas)})
     ax.set_xscale("log")
     ax.set_xticks(amplitudes, [f"{a:g}" for a in amplitudes])
     ax.minorticks_off()
-    ax.set_xlabel("fin amplitude [deg]")
+    ax.set_xlabel("output amplitude [deg]")
 
 
-def _bench_point(ax):
-    ax.plot([REPORT_BENCH["step_deg"]], [REPORT_BENCH["bandwidth_rad_s"]], "*", color="k", ms=11,
-            label=f"report bench, {REPORT_BENCH['step_deg']:g}° step fit "
-            f"({REPORT_BENCH['bandwidth_rad_s']:g} rad/s)")
+def _reference_points(datas):
+    """(step amplitude [deg], bandwidth [rad/s], source) of each distinct reference fit the
+    configs of ``datas`` declare with a step amplitude and a bandwidth."""
+    points = []
+    for data in datas:
+        reference = data.reference
+        if reference is None or reference.fit is None or reference.step_amplitude is None:
+            continue
+        bandwidth = reference.fit.bandwidth_rad_s
+        if bandwidth is None:
+            continue
+        point = (math.degrees(reference.step_amplitude), bandwidth, reference.source)
+        if point not in points:
+            points.append(point)
+    return points
+
+
+def _reference_point(ax, datas):
+    markers = "*PXD"
+    for k, (amplitude, bandwidth, source) in enumerate(_reference_points(datas)):
+        name = f"reference ({source})" if source else "reference"
+        ax.plot([amplitude], [bandwidth], markers[k % len(markers)], color="k", ms=11,
+                label=f"{name}, {amplitude:g}° step fit ({bandwidth:.4g} rad/s)")
 
 
 def bandwidth_vs_amplitude(data):
-    """Bandwidth versus amplitude: sine-dwell, step fit, linear, the bench point."""
+    """Bandwidth versus amplitude: sine-dwell, step fit, linear, the reference point (if the
+    config declares one)."""
     fig, axes = _figure(1, 1, (10, 4.8))
     ax = axes[0, 0]
     _bandwidth_series(ax, data, "C0")
-    _bench_point(ax)
+    _reference_point(ax, [data])
     _requirement_lines(ax, data.verdicts)
     _amplitude_axis(ax, [data])
     ax.set_ylabel("bandwidth ω_BW [rad/s]")
@@ -582,7 +615,7 @@ def step_overlay(datas, labels):
         size = "/".join(sorted({f"{a:g}°" for a in amplitudes}))
         ax.set_title(f"{'smallest' if col == 0 else 'largest'} step ({size})")
         ax.legend(loc="lower right", fontsize=7)
-    fig.suptitle("nonlinear fin steps (limits, exact delays) vs linear (dotted)")
+    fig.suptitle("nonlinear output steps (limits, exact delays) vs linear (dotted)")
     return fig
 
 
@@ -592,7 +625,7 @@ def bandwidth_overlay(datas, labels):
     ax = axes[0, 0]
     for data, label, color in zip(datas, labels, _colors(datas), strict=True):
         _bandwidth_series(ax, data, color, prefix=f"{label}: ")
-    _bench_point(ax)
+    _reference_point(ax, datas)
     _amplitude_axis(ax, datas)
     ax.set_ylabel("bandwidth ω_BW [rad/s]")
     ax.set_ylim(0.0, ax.get_ylim()[1] * 1.05)

@@ -8,16 +8,19 @@ bytes in every file on one machine; every number is written at a stated precisio
 (:mod:`cas_freq.report.numbers`), so other machines differ at most in a last rounded digit.
 """
 
+import hashlib
 import json
 import math
+import os
+import time
 from pathlib import Path
 
-from cas_freq.formulas import REPORT_BENCH
 from cas_freq.report.data import (
     ReportSettings,
-    bench_rows,
     display_path,
     gather_variant,
+    reference_dict,
+    reference_rows,
     variant_results,
 )
 from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
@@ -70,18 +73,26 @@ def verdict_blocks(datas):
     return blocks
 
 
-def bench_table(datas):
-    """The report's bench figures (10° step on the bench) beside each variant's."""
+def reference_blocks(datas):
+    """The "reference vs model" section: the config's ``reference:`` figures (measured or
+    published) beside each variant's; no block when the config declares none."""
+    reference = datas[0].reference
+    if reference is None:
+        return []
     names = [d.loaded.variant for d in datas]
-    rows_by_variant = [bench_rows(d) for d in datas]
+    rows_by_variant = [reference_rows(d) for d in datas]
     rows = []
-    for k, (figure, unit, bench, _) in enumerate(rows_by_variant[0]):
-        rows.append((figure, unit, number(bench),
+    for k, (figure, unit, value, _) in enumerate(rows_by_variant[0]):
+        rows.append((figure, unit, number(value),
                      *(number(rows[k][3]) for rows in rows_by_variant)))
-    large = {f"{d.dwell.steps[d.large_index].step.amplitude_deg:g}°" for d in datas}
-    return Table(("figure", "unit", "report bench (10° step)", *names), tuple(rows),
-                 f"model steps of {'/'.join(sorted(large))}; the bench figures are ARL-TR-9136's "
-                 "measurements (docs/model.md), for comparison only")
+    steps = {f"{d.dwell.steps[d.reference_index].step.amplitude_deg:g}°" for d in datas}
+    size = ("" if reference.step_amplitude is None
+            else f" ({math.degrees(reference.step_amplitude):g}° step)")
+    source = f"{reference.source}: " if reference.source else ""
+    return [Heading(2, "Reference vs model"),
+            Table(("figure", "unit", f"reference{size}", *names), tuple(rows),
+                  f"{source}declared in the config's reference: section, for comparison only "
+                  f"(never used by the model); model steps of {'/'.join(sorted(steps))}")]
 
 
 def summary_rows(data):
@@ -242,20 +253,25 @@ def step_table(data):
 
 
 def fit_table(data):
-    """Second-order fits of every step beside the report's bench fit."""
+    """Second-order fits of every step, beside the reference's fit when the config declares
+    one."""
     rows = []
     for run in data.dwell.steps:
         fit = run.fit
         rows.append((f"{run.step.amplitude_deg:g}° step (model)", number(fit.wn_rad_s),
                      number(fit.zeta, 3), number(_ms(fit.td_s), 3),
-                     number(fit.bandwidth_closed_form_rad_s), number(fit.rms_residual, 3),
+                     number(fit.bandwidth_closed_form_rad_s),
+                     number(math.degrees(fit.rms_residual), 3),
                      "yes" if fit.success else "no"))
-    bench = REPORT_BENCH
-    rows.append((f"{bench['step_deg']:g}° step (report bench)", number(bench["wn_rad_s"]),
-                 number(bench["zeta"]), number(1e3 * bench["td_s"]),
-                 number(bench["bandwidth_rad_s"]), "—", "—"))
+    reference = data.reference
+    if reference is not None and reference.fit is not None:
+        fit = reference.fit
+        size = ("" if reference.step_amplitude is None
+                else f"{math.degrees(reference.step_amplitude):g}° ")
+        rows.append((f"{size}step (reference)", number(fit.wn), number(fit.zeta),
+                     number(_ms(fit.td)), number(fit.bandwidth_rad_s), "—", "—"))
     return Table(("step", "ωn [rad/s]", "ζ [-]", "td [ms]", "ω_BW closed form [rad/s]",
-                  "RMS residual [rad]", "converged"), tuple(rows),
+                  "RMS residual [deg]", "converged"), tuple(rows),
                  "second-order-plus-delay fits (report §7)")
 
 
@@ -323,8 +339,117 @@ def variant_blocks(data, figure_blocks, settings):
     return blocks
 
 
+def overall_verdict(datas):
+    """The report's first sentence: PASS / FAIL of the required requirements over every
+    variant, unstable variants named plainly, failed advisories counted."""
+    unstable = [d.loaded.variant for d in datas if not d.analysis.stable]
+    failed, advisory, unevaluated = [], [], []
+    for data in datas:
+        if data.requirements and data.verdicts is None:
+            unevaluated.append(data.loaded.variant)
+        for verdict in data.verdicts or ():
+            if verdict.get("status") == "FAIL":
+                failed.append(f"{verdict.get('id')} on {data.loaded.variant}")
+            elif verdict.get("status") == "ADVISORY":
+                advisory.append(f"{verdict.get('id')} on {data.loaded.variant}")
+    names = ", ".join(d.loaded.variant for d in datas)
+    has_requirements = any(d.requirements for d in datas)
+    if failed or unstable:
+        head = "Verdict: FAIL."
+    elif not has_requirements or unevaluated:
+        head = "Verdict: not judged."
+    else:
+        head = "Verdict: PASS."
+    parts = [head]
+    for name in unstable:
+        verdict = next(d.analysis.stability.verdict for d in datas if d.loaded.variant == name)
+        parts.append(f"Variant {name} is UNSTABLE in closed loop ({verdict}): its margins "
+                     "below are not a working design and it has no closed-loop figures.")
+    if not has_requirements:
+        parts.append("The config has no requirements, so nothing was checked.")
+    elif failed:
+        parts.append(f"Required requirements failed: {', '.join(failed)}.")
+    elif unevaluated:
+        parts.append(f"The requirements were not evaluated for {', '.join(unevaluated)}.")
+    else:
+        parts.append(f"Every required requirement passes on every variant ({names}).")
+    if advisory:
+        parts.append(f"Advisory requirements not met (reported, never failing): "
+                     f"{', '.join(advisory)}.")
+    return " ".join(parts)
+
+
+#: The parameter table's rows: (label, display unit, scale from SI, getter of a config).
+_PARAMETER_ROWS = (
+    ("motor R", "Ω", 1.0, lambda p: p.motor.R),
+    ("motor L", "mH", 1e3, lambda p: p.motor.L),
+    ("motor Km", "N·m/A", 1.0, lambda p: p.motor.Km),
+    ("motor Ke", "V·s/rad", 1.0, lambda p: p.motor.Ke),
+    ("motor J", "kg·m²", 1.0, lambda p: p.motor.J),
+    ("motor μv (viscous friction)", "N·m·s/rad", 1.0, lambda p: p.motor.viscous_friction),
+    ("gear ratio N", "-", 1.0, lambda p: p.gear.ratio),
+    ("current loop Kp", "V/A", 1.0, lambda p: p.current_loop.Kp),
+    ("current loop Ki", "V/(A·s)", 1.0, lambda p: p.current_loop.Ki),
+    ("current loop delay", "ms", 1e3, lambda p: p.current_loop.delay),
+    ("voltage limit ±v_max", "V", 1.0, lambda p: p.current_loop.v_max),
+    ("position loop Kp", "A/rad", 1.0, lambda p: p.position_loop.Kp),
+    ("position loop Ki", "A/(rad·s)", 1.0, lambda p: p.position_loop.Ki),
+    ("position loop Kd", "A·s/rad", 1.0, lambda p: p.position_loop.Kd),
+    ("derivative filter Tf", "ms", 1e3, lambda p: p.position_loop.filter_time_constant),
+    ("feed-forward ff_v", "A·s/rad", 1.0, lambda p: p.position_loop.ff_v),
+    ("feed-forward ff_a", "A·s²/rad", 1.0, lambda p: p.position_loop.ff_a),
+    ("position loop delay", "ms", 1e3, lambda p: p.position_loop.delay),
+    ("current limit ±i_max", "A", 1.0, lambda p: p.position_loop.i_max),
+    ("derivative on", "", None, lambda p: p.position_loop.derivative_on),
+    ("controllers (simulation)", "", None, lambda p: p.simulation.controllers),
+)
+
+
+def parameter_table(datas):
+    """The parameters of every variant (motor, gear, gains, delays, limits) with units; motor
+    angles, loops on the motor shaft (docs/model.md)."""
+    rows = []
+    for label, unit, scale, get in _PARAMETER_ROWS:
+        values = []
+        for data in datas:
+            value = get(data.loaded.params)
+            values.append(value if scale is None else number(value * scale))
+        rows.append((label, unit, *values))
+    return Table(("parameter", "unit", *(d.loaded.variant for d in datas)), tuple(rows),
+                 "parameters of each variant (gains on the motor angle; Tf derived as "
+                 "Kd/(10·Kp) unless set; μv derived from the no-load point unless set)")
+
+
+def config_hash(path):
+    """First 12 hex digits of the sha256 of the config file's bytes, or None if unreadable."""
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:12]
+    except (OSError, TypeError):
+        return None
+
+
+def _version():
+    from cas_freq import __version__
+
+    return __version__
+
+
+def footer_text(datas):
+    """Who made the report from what: tool version, config path and content hash; a date only
+    from SOURCE_DATE_EPOCH (so that the same input gives the same bytes)."""
+    source = datas[0].loaded.source
+    digest = config_hash(source)
+    text = (f"Generated by cas_freq {_version()} from config {display_path(source)} "
+            f"(sha256 {digest or 'unavailable'})")
+    epoch = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
+    if epoch.isdigit():
+        text += f" on {time.strftime('%Y-%m-%d', time.gmtime(int(epoch)))} (UTC)"
+    return text + "."
+
+
 def report_blocks(datas, figure_blocks, settings, command=None):
-    """Every block of the report, in order.
+    """Every block of the report, in order: the verdict, the parameters, the summary, the
+    requirement verdicts, the reference (if declared), one section per variant, the footer.
 
     Parameters
     ----------
@@ -338,7 +463,7 @@ def report_blocks(datas, figure_blocks, settings, command=None):
     params = datas[0].loaded.params
     amplitudes = ", ".join(f"{math.degrees(a):g}°" for a in settings.amplitudes_rad)
     w = settings.frequencies_rad_s
-    blocks = [Heading(1, f"cas_freq report: {params.name}")]
+    blocks = [Heading(1, f"cas_freq report: {params.name}"), Paragraph(overall_verdict(datas))]
     if params.description:
         blocks.append(Paragraph(params.description))
     facts = [
@@ -348,19 +473,21 @@ def report_blocks(datas, figure_blocks, settings, command=None):
         "of the Padé model; linear step responses: Padé order "
         f"{settings.pade_order}; nonlinear simulation: exact delays as delay lines, ±i_max and "
         "±v_max clamps with anti-windup",
-        f"sine-dwell and step amplitudes at the fin: {amplitudes}; sine-dwell frequencies: "
-        f"{len(w)} points over {w[0]:g}..{w[-1]:g} rad/s (one batch per variant, "
+        f"sine-dwell and step amplitudes at the output: {amplitudes}; sine-dwell frequencies: "
+        f"{len(w)} points over {w[0]:.4g}..{w[-1]:.4g} rad/s (one batch per variant, "
         "feed-forward off as in docs/model.md's T)",
-        "figure definitions: docs/model.md (motor-shaft loops, fin angle δ = θ / gear ratio)",
+        "figure definitions: docs/model.md (motor-shaft loops, output angle δ = θ / gear ratio)",
     ]
     if command:
         facts.append(f"regenerate with: {command}")
     blocks.append(Bullets(tuple(facts)))
-    blocks += [Heading(2, "Summary"), summary_table(datas),
-               Heading(2, "Report bench vs model"), bench_table(datas),
-               Heading(2, "Requirement verdicts"), *verdict_blocks(datas)]
+    blocks += [Heading(2, "Parameters"), parameter_table(datas),
+               Heading(2, "Summary"), summary_table(datas),
+               Heading(2, "Requirement verdicts"), *verdict_blocks(datas),
+               *reference_blocks(datas)]
     for data, figures in zip(datas, figure_blocks, strict=True):
         blocks += variant_blocks(data, figures, settings)
+    blocks.append(Paragraph(footer_text(datas)))
     return blocks
 
 
@@ -395,7 +522,9 @@ def report_files(datas, settings, *, png=False, command=None):
         "config_path": display_path(datas[0].loaded.source),
         "description": params.description,
         "settings": settings.to_dict(),
-        "report_bench": REPORT_BENCH,
+        "generated_by": {"tool": "cas_freq", "version": _version(),
+                         "config_sha256": config_hash(datas[0].loaded.source)},
+        "reference": reference_dict(params.reference),
         "variants": [variant_results(d) for d in datas],
         "figures": {d.loaded.variant: sorted(b.path for b in f.values())
                     for d, f in zip(datas, figure_blocks, strict=True)},

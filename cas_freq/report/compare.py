@@ -13,9 +13,14 @@ import math
 from pathlib import Path
 
 from cas_freq.exceptions import CasFreqError
-from cas_freq.formulas import REPORT_BENCH
 from cas_freq.report.build import REPORTS_DIR, results_json
-from cas_freq.report.data import ReportSettings, display_path, gather_variant, variant_results
+from cas_freq.report.data import (
+    ReportSettings,
+    display_path,
+    gather_variant,
+    reference_dict,
+    variant_results,
+)
 from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
 from cas_freq.report.numbers import JSON_DIGITS, difference, difference_value, number
 from cas_freq.report.outdir import MAX_NAME_LENGTH, sanitise_name, write_directory_atomic
@@ -140,7 +145,7 @@ def compare_blocks(datas, labels, figure_blocks, settings, command=None):
         f"baseline (the differences are to it): {labels[0]}",
         "frequency responses: exact delays; linear steps: Padé order "
         f"{settings.pade_order}; nonlinear steps and sine-dwell: limits and exact delays",
-        f"amplitudes at the fin: {amplitudes}; sine-dwell frequencies: {len(w)} points over "
+        f"amplitudes at the output: {amplitudes}; sine-dwell frequencies: {len(w)} points over "
         f"{w[0]:g}..{w[-1]:g} rad/s",
     ]
     if command:
@@ -165,9 +170,38 @@ def compare_blocks(datas, labels, figure_blocks, settings, command=None):
                         "units from each key's suffix (_rad_s rad/s, _deg deg, _db dB, _pct %, "
                         "_s s, _a A, _v V); Δ = value − baseline (relative change), 0 when below "
                         "the 5 significant digits shown"))
-    bench = ", ".join(f"{k} {v:g}" for k, v in REPORT_BENCH.items())
-    blocks.append(Paragraph(f"Report bench figures (ARL-TR-9136, 10° step): {bench}."))
+    for text in _reference_sentences(datas):
+        blocks.append(Paragraph(text))
     return blocks
+
+
+def _references(datas):
+    """(config name, reference) of each compared config that declares a ``reference:``."""
+    seen = {}
+    for data in datas:
+        name = data.loaded.params.name
+        if data.reference is not None and name not in seen:
+            seen[name] = data.reference
+    return list(seen.items())
+
+
+def _reference_sentences(datas):
+    """One sentence per declared reference: its source and figures in display units."""
+    sentences = []
+    for name, reference in _references(datas):
+        shown = reference_dict(reference)
+        figures = []
+        for key, value in shown.items():
+            if key in ("source", "fit") or value is None:
+                continue
+            figures.append(f"{key} {value:.4g}")
+        for key, value in (shown.get("fit") or {}).items():
+            if value is not None:
+                figures.append(f"fit {key} {value:.4g}")
+        source = f" ({reference.source})" if reference.source else ""
+        sentences.append(f"Reference of {name}{source}, for comparison only: "
+                         + ", ".join(figures) + ".")
+    return sentences
 
 
 def compare_files(datas, labels, settings, *, png=False, command=None):
@@ -192,7 +226,8 @@ def compare_files(datas, labels, settings, *, png=False, command=None):
         "baseline": labels[0],
         "labels": labels,
         "settings": settings.to_dict(),
-        "report_bench": REPORT_BENCH,
+        "references": {name: reference_dict(reference)
+                       for name, reference in _references(datas)},
         "entries": [{**result, "label": label, "config": d.loaded.params.name,
                      "config_path": display_path(d.loaded.source)}
                     for label, d, result in zip(labels, datas, all_results, strict=True)],

@@ -16,11 +16,10 @@ import numpy as np
 
 from cas_freq.exceptions import CasFreqError
 from cas_freq.fileio import json_ready
-from cas_freq.formulas import REPORT_BENCH
 
-#: Default sine-dwell amplitudes at the fin [deg]: small signal (no limit acts), two
-#: intermediate sizes, and the report's 10 deg step. The smallest and the largest are also the
-#: step responses the report shows.
+#: Default sine-dwell amplitudes at the output [deg]: small signal (no limit acts), two
+#: intermediate sizes, and a 10 deg step (ARL-TR-9136's bench step). The smallest and the
+#: largest are also the step responses the report shows.
 DEFAULT_AMPLITUDES_DEG = (0.5, 2.0, 5.0, 10.0)
 
 #: Default sine-dwell frequencies [rad/s]: 16 log-spaced points over 100..5000 rad/s, around
@@ -39,7 +38,7 @@ class ReportSettings:
     Attributes
     ----------
     amplitudes_rad : tuple of float
-        Sine-dwell and step amplitudes at the fin [rad], >= 1 value; the smallest and the
+        Sine-dwell and step amplitudes at the output [rad], >= 1 value; the smallest and the
         largest are the step responses shown.
     frequencies_rad_s : tuple of float
         Sine-dwell frequencies [rad/s].
@@ -112,7 +111,7 @@ class VariantData:
     dwell : cas_freq.simulation.run.SineDwellRun
         Sine-dwell per amplitude and the nonlinear step of each amplitude.
     linear_steps : tuple of numpy.ndarray
-        Linear (Padé) fin-angle step response [rad] on each step's time grid, same order as
+        Linear (Padé) output-angle step response [rad] on each step's time grid, same order as
         ``dwell.steps``.
     linear_step_figures : tuple of StepFigures
         Step figures of those linear responses.
@@ -141,6 +140,23 @@ class VariantData:
     def large_index(self):
         """Index of the largest amplitude in ``dwell.steps``."""
         return len(self.dwell.steps) - 1
+
+    @property
+    def reference(self):
+        """The config's ``reference:`` section (measured or published results), or None."""
+        return getattr(self.loaded.params, "reference", None)
+
+    @property
+    def reference_index(self):
+        """Index in ``dwell.steps`` of the step compared with the reference step: the amplitude
+        nearest (in ratio) the reference's ``step_amplitude``, else the largest."""
+        reference = self.reference
+        if reference is None or reference.step_amplitude is None:
+            return self.large_index
+        target = math.log(reference.step_amplitude)
+        distances = [abs(math.log(math.radians(run.step.amplitude_deg)) - target)
+                     for run in self.dwell.steps]
+        return distances.index(min(distances))
 
     @property
     def requirements(self):
@@ -182,7 +198,7 @@ def curves(params, frequency_range_rad_s, points_per_decade):
 
 
 def linear_step(params, t, amplitude_rad, pade_order):
-    """Fin-angle step response [rad] of the linear closed loop T with Padé delays.
+    """Output-angle step response [rad] of the linear closed loop T with Padé delays.
 
     Parameters
     ----------
@@ -190,7 +206,7 @@ def linear_step(params, t, amplitude_rad, pade_order):
     t : numpy.ndarray
         Times [s], uniformly spaced from 0.
     amplitude_rad : float
-        Step size at the fin [rad].
+        Step size at the output [rad].
     pade_order : int
         Padé order of both delays.
     """
@@ -298,36 +314,71 @@ def _with_paths(value, shown):
     return value
 
 
-def bench_rows(data):
-    """The report's bench figures beside the model's, for the largest (10 deg) step.
+def reference_rows(data):
+    """The config's reference figures beside the model's, for the step nearest the reference
+    step; [] when the config declares no ``reference:``.
 
     Returns
     -------
     list of (str, str, float or None, float or None)
-        (figure, unit, bench value, model value) in display units (ms, %, rad/s, -).
+        (figure, unit, reference value, model value) in display units (ms, %, rad/s, -); only
+        the figures the reference declares, then the model's bandwidths at that amplitude.
     """
-    large = data.dwell.steps[data.large_index]
-    step, fit = large.step, large.fit
+    reference = data.reference
+    if reference is None:
+        return []
+    k = data.reference_index
+    run = data.dwell.steps[k]
+    step, fit = run.step, run.fit
     closed = data.analysis.closed_loop
-    dwell_bw = data.dwell.result.bandwidth_rad_s[data.large_index]
+    dwell_bw = data.dwell.result.bandwidth_rad_s[k]
+    ref_fit = reference.fit
 
     def ms(value):
         return None if value is None or not math.isfinite(value) else 1e3 * value
 
-    return [
-        ("rise time 10-90 %", "ms", 1e3 * REPORT_BENCH["rise_time_s"], ms(step.rise_time_s)),
-        ("overshoot", "%", REPORT_BENCH["overshoot_pct"], step.overshoot_pct),
-        ("settling time (2 %)", "ms", 1e3 * REPORT_BENCH["settling_time_s"],
-         ms(step.settling_time_s)),
-        ("fit ωn", "rad/s", REPORT_BENCH["wn_rad_s"], fit.wn_rad_s),
-        ("fit ζ", "-", REPORT_BENCH["zeta"], fit.zeta),
-        ("fit td", "ms", 1e3 * REPORT_BENCH["td_s"], ms(fit.td_s)),
-        ("ω_BW of the fit (closed form)", "rad/s", REPORT_BENCH["bandwidth_rad_s"],
-         fit.bandwidth_closed_form_rad_s),
+    def of_fit(name):
+        return None if ref_fit is None else getattr(ref_fit, name)
+
+    rows = [
+        ("rise time 10-90 %", "ms", ms(reference.rise_time), ms(step.rise_time_s)),
+        ("overshoot", "%", reference.overshoot_pct, step.overshoot_pct),
+        ("settling time (2 %)", "ms", ms(reference.settling_time), ms(step.settling_time_s)),
+        ("fit ωn", "rad/s", of_fit("wn"), fit.wn_rad_s),
+        ("fit ζ", "-", of_fit("zeta"), fit.zeta),
+        ("fit td", "ms", ms(of_fit("td")), ms(fit.td_s)),
+        ("ω_BW of the fit (closed form)", "rad/s",
+         None if ref_fit is None else ref_fit.bandwidth_rad_s, fit.bandwidth_closed_form_rad_s),
+    ]
+    rows = [row for row in rows if row[2] is not None]
+    return rows + [
         ("ω_BW sine-dwell at the step's amplitude", "rad/s", None, dwell_bw),
         ("ω_BW linear (-3 dB of T)", "rad/s", None,
          None if closed is None else closed.bandwidth_rad_s),
     ]
+
+
+def reference_dict(reference):
+    """JSON of a config's ``reference:`` section in display units, or None."""
+    if reference is None:
+        return None
+    fit = reference.fit
+
+    def ms(value):
+        return None if value is None else 1e3 * value
+
+    return json_ready({
+        "source": reference.source,
+        "step_amplitude_deg": (None if reference.step_amplitude is None
+                               else math.degrees(reference.step_amplitude)),
+        "rise_time_ms": ms(reference.rise_time),
+        "overshoot_pct": reference.overshoot_pct,
+        "settling_time_ms": ms(reference.settling_time),
+        "fit": None if fit is None else {
+            "wn_rad_s": fit.wn, "zeta": fit.zeta, "td_ms": ms(fit.td),
+            "bandwidth_rad_s": fit.bandwidth_rad_s,
+        },
+    })
 
 
 def variant_results(data):
@@ -335,8 +386,8 @@ def variant_results(data):
 
     ``analyze``, ``simulate`` (smallest and largest step) and ``sinedwell`` are the JSON of
     those commands; ``linear_steps`` the step figures of the Padé model; ``verify`` the
-    requirement verdicts (None: not evaluated); ``bench_comparison`` the table beside the
-    report's bench figures.
+    requirement verdicts (None: not evaluated); ``reference_comparison`` the table beside the
+    config's ``reference:`` figures (only when it declares one).
     """
     import dataclasses as dc
 
@@ -357,9 +408,10 @@ def variant_results(data):
             for figures in data.linear_step_figures
         ],
         "verify": None if data.verdicts is None else [dict(v) for v in data.verdicts],
-        "bench_comparison": [
-            {"figure": name, "unit": unit, "bench": bench, "model": model}
-            for name, unit, bench, model in bench_rows(data)
-        ],
     }
+    if data.reference is not None:
+        result["reference_comparison"] = [
+            {"figure": name, "unit": unit, "reference": value, "model": model}
+            for name, unit, value, model in reference_rows(data)
+        ]
     return json_ready(_with_paths(result, shown))
