@@ -58,8 +58,13 @@ def run(args):
     from cas_freq.report.text import analysis_table
 
     delay = DelayModel.parse(args.delay)
-    if args.pade_study < 0:
-        raise CasFreqError(f"--pade-study: must be >= 0, got {args.pade_study}")
+    from cas_freq.model.delay import MAX_PADE_ORDER
+
+    if not 0 <= args.pade_study <= MAX_PADE_ORDER:
+        shown = str(args.pade_study) if abs(args.pade_study) < 10**12 else "a huge number"
+        raise CasFreqError(f"--pade-study: must be 0..{MAX_PADE_ORDER}, got {shown}"
+                           if args.pade_study > 0 else
+                           f"--pade-study: must be >= 0, got {shown}")
     frequency_range_rad_s = args.frequency_range or DEFAULT_RANGE_RAD_S
     results = [
         analyze(loaded, delay, frequency_range_rad_s, pade_orders=args.pade_study)
