@@ -75,6 +75,7 @@ def run(args):
     """Run the Monte Carlo; print text or JSON, write the report."""
     from cas_freq.cli.common import load_variants, terminal_progress
     from cas_freq.exceptions import CasFreqError
+    from cas_freq.fileio import check_output_dir
     from cas_freq.report.studies import json_text, write_report
     from cas_freq.studies.montecarlo import (
         montecarlo_dict,
@@ -82,8 +83,6 @@ def run(args):
         parse_tolerance,
         run_montecarlo,
     )
-
-    from cas_freq.fileio import check_output_dir
 
     if args.output:
         check_output_dir(args.output, "-o")

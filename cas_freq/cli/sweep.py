@@ -83,11 +83,9 @@ def run(args):
     """Run the sweep; print a table or JSON, write CSV and the report."""
     from cas_freq.cli.common import terminal_progress
     from cas_freq.config import load_variant
-    from cas_freq.fileio import write_text_atomic
+    from cas_freq.fileio import check_output_dir, check_output_file, write_text_atomic
     from cas_freq.report.studies import json_text, write_report
     from cas_freq.studies.sweep import run_sweep, sweep_csv, sweep_dict
-
-    from cas_freq.fileio import check_output_dir, check_output_file
 
     if args.csv:
         check_output_file(args.csv, "--csv")
