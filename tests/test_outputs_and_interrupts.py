@@ -216,7 +216,7 @@ def test_kill_between_the_two_renames_is_recovered_on_the_next_run(tmp_path, mon
 def test_leftover_staging_folder_is_removed_on_the_next_run(tmp_path):
     target = tmp_path / "report"
     write_directory_atomic(target, [("a.txt", "old")])
-    staging = tmp_path / ".report.k1ll3d.new"
+    staging = tmp_path / ".report.k1ll3d_x.new"
     (staging / "figures").mkdir(parents=True)
     (staging / MARKER).write_text("x")
     other = tmp_path / ".notes.new"  # not this report's: left alone

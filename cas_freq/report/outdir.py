@@ -58,11 +58,15 @@ def _relative(path):
 def _leftovers(target, suffix):
     """Leftover ``.NAME.*<suffix>`` folders of ``target`` written by cas-freq (or empty),
     newest first."""
+    target = Path(os.path.abspath(target))  # '.' and '..' have no name of their own
     parent = target.parent
     if not parent.is_dir():
         return []
     found = []
     for path in parent.glob(f".{glob.escape(target.name)}.*{suffix}"):
+        # tempfile.mkdtemp's names: the prefix, 8 random characters, the suffix
+        if not re.fullmatch(r"[a-z0-9_]{8}", path.name[len(target.name) + 2:-len(suffix)]):
+            continue
         if path.is_symlink() or not path.is_dir():
             continue
         if (path / MARKER).is_file() or not any(path.iterdir()):
