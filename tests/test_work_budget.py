@@ -151,3 +151,20 @@ def test_absurd_inertia_is_refused_without_a_warning():
         warnings.simplefilter("error")
         code, out, err = run_cli(["analyze", "--set", "motor.J=1e300", "--json"])
     assert code == 2 and err.count("\n") == 1 and "motor.J" in err
+
+
+def test_stage_progress_of_report_and_compare(monkeypatch):
+    stream = io.StringIO()
+    progress = common.label_progress("report", stream)
+    progress("base")  # off a terminal: nothing before 10 s have passed
+    assert stream.getvalue() == ""
+    monkeypatch.setattr(common, "PROGRESS_INTERVAL_S", 0.0)
+    progress = common.label_progress("report", stream)
+    progress("fitted")
+    assert stream.getvalue() == "report: fitted ...\n"
+    try:
+        common.set_quiet(True)
+        progress("relaxed")
+    finally:
+        common.set_quiet(False)
+    assert stream.getvalue() == "report: fitted ...\n"

@@ -128,6 +128,27 @@ def set_quiet(quiet):
     _QUIET = bool(quiet)
 
 
+def label_progress(command, stream=None):
+    """A callable ``progress(label)`` for work done in named stages (report, compare): on a
+    terminal a line per stage, otherwise a line when :data:`PROGRESS_INTERVAL_S` seconds have
+    passed since the last one; a no-op with ``--quiet``."""
+    import sys
+    import time
+
+    stream = sys.stderr if stream is None else stream
+    last = [time.monotonic()]
+    every = 0.0 if stream.isatty() else PROGRESS_INTERVAL_S
+
+    def progress(label):
+        now = time.monotonic()
+        if _QUIET or now - last[0] < every:
+            return
+        last[0] = now
+        print(f"{command}: {label} ...", file=stream, flush=True)
+
+    return progress
+
+
 def terminal_progress(label, stream=None, unit="step"):
     """A progress callable ``(done, planned)`` on ``stream`` (stderr); None with ``--quiet``.
 

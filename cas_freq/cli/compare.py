@@ -1,9 +1,8 @@
 """``cas-freq compare``: variants of one or more configs side by side (HTML, Markdown, JSON)."""
 
 import shlex
-import sys
 
-from cas_freq.cli.common import EXIT_OK
+from cas_freq.cli.common import EXIT_OK, label_progress
 from cas_freq.cli.report import DEFAULT_AMPLITUDES, DEFAULT_FREQUENCIES, settings_from_args
 
 
@@ -71,10 +70,7 @@ def run(args):
         check_output_dir(args.output if args.output is not None
                          else default_compare_dir(variants, names or None), "-o")
 
-    def progress(label):
-        if sys.stderr.isatty():
-            print(f"compare: {label} ...", file=sys.stderr, flush=True)
-
+    progress = label_progress("compare")
     tail = [*args.configs]
     if args.variants is not None:
         tail += ["--variants", ",".join(names)]

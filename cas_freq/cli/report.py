@@ -1,8 +1,6 @@
 """``cas-freq report``: index.html, report.md, results.json and the figures of a config."""
 
-import sys
-
-from cas_freq.cli.common import EXIT_OK
+from cas_freq.cli.common import EXIT_OK, label_progress
 
 #: Amplitudes when none are given: small signal, two intermediate sizes, the report's 10 deg.
 DEFAULT_AMPLITUDES = "0.5deg,2deg,5deg,10deg"
@@ -114,10 +112,7 @@ def run(args):
 
         check_output_dir(default_report_dir(variants[0].params.name), "-o")
 
-    def progress(name):
-        if sys.stderr.isatty():
-            print(f"report: {name} ...", file=sys.stderr, flush=True)
-
+    progress = label_progress("report")
     folder = build_report(variants, args.output, settings=settings, png=args.png,
                           command=command_text(_argv_tail(args)), progress=progress)
     print(folder / "index.html")
