@@ -57,6 +57,8 @@ def main(argv=None):
     except KeyboardInterrupt:
         _interrupted(command)
         return EXIT_INTERRUPTED
+    finally:
+        set_quiet(False)  # --quiet is per call (main may run more than once in a process)
 
 
 def _interrupted(command):
