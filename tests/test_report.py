@@ -129,9 +129,28 @@ def test_bode_marks_every_crossover_in_range(data):
     markers = [line for line in magnitude.lines if line.get_marker() in ("o", "s")
                and len(line.get_xdata()) == 1]
     assert len(markers) == len(crossings)
-    texts = " ".join(t.get_text() for ax in fig.axes for t in ax.texts)
-    assert f"PM {data.analysis.position_loop.phase_margin_deg:.1f}°" in texts
-    assert f"GM {data.analysis.position_loop.gain_margin_db:+.1f} dB" in texts
+    # the margins are in the legend, never text on the axes (no collisions)
+    assert not [t for ax in fig.axes for t in ax.texts]
+    legend = " ".join(t.get_text() for t in fig.legends[0].get_texts())
+    cp, ci = data.analysis.position_loop, data.analysis.current_loop
+    assert f"PM {cp.phase_margin_deg:.3g}°" in legend
+    assert f"GM {cp.gain_margin_db:+.3g} dB" in legend
+    # the current loop's gain margin (its phase crossover near 26,500 rad/s) is drawn too
+    assert f"GM {ci.gain_margin_db:+.3g} dB @ {ci.phase_crossover_rad_s:.4g} rad/s" in legend
+    assert w[0] <= ci.phase_crossover_rad_s <= w[-1]
+    bars = [c for c in magnitude.collections if len(c.get_segments()) == 1
+            and c.get_segments()[0][0][0] == pytest.approx(ci.phase_crossover_rad_s)]
+    assert bars
+
+
+def test_plot_range_holds_every_headline_frequency(data):
+    low, high = data.curve_range_rad_s
+    for loop in (data.analysis.current_loop, data.analysis.position_loop):
+        for w in (loop.crossover_rad_s, loop.phase_crossover_rad_s,
+                  loop.phase_crossover_low_rad_s, loop.sensitivity_peak_rad_s):
+            assert w is None or low <= w <= high
+    cl = data.analysis.closed_loop
+    assert low <= cl.bandwidth_rad_s <= high and low <= cl.peak_rad_s <= high
 
 
 def test_closed_loop_figure_shows_bandwidth_and_peak(data):

@@ -151,20 +151,35 @@ def _log_axes(axes, omega):
     axes[-1].set_xlabel("frequency ω [rad/s]")
 
 
+def _margin_words(margins):
+    """The loop's headline margins for its legend entry (no text on the axes: none collides)."""
+    words = []
+    if margins.phase_margin_deg is not None:
+        words.append(f"PM {margins.phase_margin_deg:.3g}° @ {margins.crossover_rad_s:.4g} rad/s")
+    if margins.gain_margin_db is not None:
+        words.append(f"GM {margins.gain_margin_db:+.3g} dB @ "
+                     f"{margins.phase_crossover_rad_s:.4g} rad/s")
+    if margins.gain_margin_low_db is not None:
+        words.append(f"lower GM {margins.gain_margin_low_db:+.3g} dB @ "
+                     f"{margins.phase_crossover_low_rad_s:.4g} rad/s")
+    return "; ".join(words) if words else "no crossover in range"
+
+
 def bode_loops(data):
-    """Bode of L_i and L_p, every gain and phase crossover in range marked, the headline margins
-    annotated."""
+    """Bode of L_i and L_p: every gain ● and phase □ crossover in range marked, the headline
+    margins drawn as bars and stated in the legend (never as text on the axes)."""
     c = data.curves
     w = _r(c.omega_rad_s)
-    fig, axes = _figure(2, 1, (8, 6.4), sharex=True)
+    fig, axes = _figure(2, 1, (9, 7.2), sharex=True)
     mag, ph = axes[:, 0]
     loops = (("L_i (current loop, broken at V)", c.current_loop, data.analysis.current_loop, "C0"),
              ("L_p (position loop, broken at i_cmd)", c.position_loop,
               data.analysis.position_loop, "C1"))
+    lowest_phase = 0.0
     for name, response, margins, color in loops:
         m, p = _db(response), _phase_deg(response, c.omega_rad_s)
-        mag.plot(w, m, color=color, label=name)
-        ph.plot(w, p, color=color, label=name)
+        mag.plot(w, m, color=color, label=f"{name}: {_margin_words(margins)}")
+        ph.plot(w, p, color=color)
         for cross in margins.gain_crossovers:
             if not _in_range(w, cross.frequency_rad_s):
                 continue
@@ -172,34 +187,37 @@ def bode_loops(data):
             mag.plot([x], [0.0], "o", color=color, ms=5)
             ph.plot([x], [-180.0 + cross.phase_margin_deg], "o", color=color, ms=5)
             ph.vlines(x, -180.0, -180.0 + cross.phase_margin_deg, color=color, lw=2)
-            right = x > w[-1] / 30.0
-            ph.annotate(f"PM {cross.phase_margin_deg:.1f}° @ {x:.4g} rad/s", (x, -180.0),
-                        xytext=(-4 if right else 4, -12), textcoords="offset points",
-                        ha="right" if right else "left", color=color, fontsize=8)
         headline = {margins.phase_crossover_rad_s, margins.phase_crossover_low_rad_s}
         for cross in margins.phase_crossovers:
             if not _in_range(w, cross.frequency_rad_s):
                 continue
             x = cross.frequency_rad_s
+            y = _at(w, p, x)
             mag.plot([x], [-cross.gain_margin_db], "s", color=color, ms=4, mfc="none")
-            ph.plot([x], [_at(w, p, x)], "s", color=color, ms=4, mfc="none")
+            ph.plot([x], [y], "s", color=color, ms=4, mfc="none")
             if x in headline:
                 mag.vlines(x, -cross.gain_margin_db, 0.0, color=color, lw=2)
-                mag.annotate(f"GM {cross.gain_margin_db:+.1f} dB @ {x:.4g} rad/s",
-                             (x, -cross.gain_margin_db), xytext=(4, -12 if
-                             cross.gain_margin_db > 0 else 6), textcoords="offset points",
-                             color=color, fontsize=8)
+                lowest_phase = min(lowest_phase, y)
+        for x in (margins.crossover_rad_s,):
+            if _in_range(w, x):
+                lowest_phase = min(lowest_phase, _at(w, p, x))
     mag.axhline(0.0, color="k", lw=0.8)
     ph.axhline(-180.0, color="k", lw=0.8)
     mag.set_ylabel("magnitude [dB]")
     ph.set_ylabel("phase [deg]")
-    ph.yaxis.set_major_locator(MultipleLocator(180))
+    # the delays turn the phase without bound: show down to one turn below the lowest
+    # headline crossing (every headline marker stays visible)
+    bottom = max(ph.get_ylim()[0], 180.0 * math.floor(lowest_phase / 180.0) - 360.0)
+    ph.set_ylim(bottom, max(ph.get_ylim()[1], 0.0))
+    ph.yaxis.set_major_locator(MultipleLocator(180 if ph.get_ylim()[1] - bottom <= 1440
+                                               else 360))
     mag.set_ylim(max(mag.get_ylim()[0], -80.0), mag.get_ylim()[1])
-    mag.legend(loc="upper right")
-    mag.plot([], [], "ko", ms=4, label="gain crossover (PM)")
+    mag.plot([], [], "ko", ms=4, label="gain crossover ● (bar: phase margin)")
+    mag.plot([], [], "ks", ms=4, mfc="none", label="phase crossover □ (bar: gain margin)")
+    handles, labels = mag.get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncols=1, fontsize=7.5)
     _log_axes([mag, ph], w)
-    mag.set_title("gain crossovers ●, phase crossovers □ (GM)")
-    fig.suptitle(f"{data.label}: open loops L_i and L_p ({EXACT})")
+    fig.suptitle(f"{data.label}: open loops L_i and L_p ({EXACT}); margins in the legend")
     return fig
 
 
@@ -584,7 +602,8 @@ def bode_overlay(datas, labels):
     cl.set_ylabel("|T| [dB] (● ω_BW)")
     mag.legend(loc="upper right")
     cl.legend(loc="lower left")
-    _log_axes([mag, ph, cl], datas[0].curves.omega_rad_s)
+    _log_axes([mag, ph, cl], [min(d.curves.omega_rad_s[0] for d in datas),
+                              max(d.curves.omega_rad_s[-1] for d in datas)])
     fig.suptitle(f"L_p and T of {len(datas)} variants ({EXACT})")
     return fig
 

@@ -21,6 +21,7 @@ from cas_freq.report.data import (
     gather_variant,
     reference_dict,
     reference_rows,
+    sinedwell_bandwidth,
     variant_results,
 )
 from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
@@ -119,7 +120,7 @@ def summary_rows(data):
     result = data.dwell.result
     for k, amplitude in enumerate(result.amplitudes_rad):
         rows.append((f"ω_BW sine-dwell at {math.degrees(amplitude):g}°", "rad/s",
-                     result.bandwidth_rad_s[k]))
+                     sinedwell_bandwidth(data, k)))
     for k in sorted({data.small_index, data.large_index}):
         step = data.dwell.steps[k]
         a_deg = step.step.amplitude_deg
@@ -282,7 +283,7 @@ def bandwidth_table(data):
     for k, amplitude in enumerate(result.amplitudes_rad):
         hit = bool(result.limit_hit[k].any())
         rows.append((f"{math.degrees(amplitude):g}", number(data.dwell.linear_bandwidth_rad_s),
-                     number(result.bandwidth_rad_s[k]),
+                     number(sinedwell_bandwidth(data, k)),
                      number(data.dwell.steps[k].fit.bandwidth_closed_form_rad_s),
                      "yes" if hit else "no"))
     onset = data.dwell.limit_onset_rad
@@ -327,7 +328,7 @@ def variant_blocks(data, figure_blocks, settings):
     if a.notes:
         blocks.append(Bullets(tuple(a.notes)))
     blocks += [Heading(3, f"Frequency response ({data.loaded.variant})"), margins_table(a),
-               crossings_table(a, settings.curve_range_rad_s), closed_loop_table(a)]
+               crossings_table(a, data.curve_range_rad_s), closed_loop_table(a)]
     blocks += [figure_blocks[n] for n in ("bode_loops", "closed_loop", "sensitivity", "nichols")]
     blocks += [Heading(3, f"Padé vs exact delays ({data.loaded.variant})"), pade_table(a)]
     blocks += [Heading(3, f"Step responses ({data.loaded.variant})"),

@@ -44,8 +44,10 @@ class ReportSettings:
         Sine-dwell frequencies [rad/s].
     pade_order : int
         Padé order of the linear step and the highest order of the Padé-vs-exact table.
-    curve_range_rad_s : (float, float)
-        Range of the Bode, Nichols and closed-loop plots [rad/s].
+    curve_range_rad_s : (float, float) or None
+        Range of the Bode, Nichols and closed-loop plots [rad/s]; None (default): from each
+        variant's loops (:func:`loop_frequency_range`), so that every crossover and peak the
+        tables report is drawn.
     curve_points_per_decade : int
         Density of the plotting grid [1/decade] (densified where the delays turn the phase).
     """
@@ -53,7 +55,7 @@ class ReportSettings:
     amplitudes_rad: tuple = tuple(math.radians(a) for a in DEFAULT_AMPLITUDES_DEG)
     frequencies_rad_s: tuple = DEFAULT_FREQUENCIES_RAD_S
     pade_order: int = DEFAULT_PADE_ORDER
-    curve_range_rad_s: tuple = (1.0, 2.0e4)
+    curve_range_rad_s: tuple | None = None
     curve_points_per_decade: int = 100
 
     def __post_init__(self):
@@ -78,7 +80,8 @@ class ReportSettings:
             "amplitudes_deg": [math.degrees(a) for a in self.amplitudes_rad],
             "sinedwell_frequencies_rad_s": list(self.frequencies_rad_s),
             "pade_order": self.pade_order,
-            "curve_range_rad_s": list(self.curve_range_rad_s),
+            "curve_range_rad_s": (None if self.curve_range_rad_s is None
+                                  else list(self.curve_range_rad_s)),
             "curve_points_per_decade": self.curve_points_per_decade,
             "delay_model": "exact delays for every frequency response; Padé order "
             f"{self.pade_order} for the linear step response",
@@ -115,6 +118,8 @@ class VariantData:
         ``dwell.steps``.
     linear_step_figures : tuple of StepFigures
         Step figures of those linear responses.
+    curve_range_rad_s : (float, float)
+        Range of the frequency-response figures [rad/s].
     pade_order : int
         Padé order of the linear step responses and of the Padé-vs-exact table.
     verdicts : tuple of dict or None
@@ -128,6 +133,7 @@ class VariantData:
     dwell: object
     linear_steps: tuple
     linear_step_figures: tuple
+    curve_range_rad_s: tuple
     pade_order: int
     verdicts: tuple | None
 
@@ -195,6 +201,34 @@ def curves(params, frequency_range_rad_s, points_per_decade):
     s = 1j * omega
     return Curves(omega, loops.current_loop(s), loops.position_loop(s), loops.sensitivity(s),
                   loops.closed_loop(s))
+
+
+#: Plot range when a loop has no figure to centre on [rad/s].
+FALLBACK_CURVE_RANGE_RAD_S = (1.0, 2.0e4)
+
+
+def loop_frequency_range(analysis, margin=3.0):
+    """Plot range [rad/s] that holds every headline frequency the report's tables give.
+
+    The gain crossovers of both loops, the headline phase crossovers (upper and lower gain
+    margins), the sensitivity peaks and the closed-loop bandwidth, peak and −90° point, widened
+    by ``margin`` on each side and rounded out to whole decades, within the analysed range.
+    """
+    frequencies = []
+    for loop in (analysis.current_loop, analysis.position_loop):
+        frequencies += [loop.crossover_rad_s, loop.phase_crossover_rad_s,
+                        loop.phase_crossover_low_rad_s, loop.sensitivity_peak_rad_s]
+        frequencies += [c.frequency_rad_s for c in loop.gain_crossovers]
+    cl = analysis.closed_loop
+    if cl is not None:
+        frequencies += [cl.bandwidth_rad_s, cl.peak_rad_s, cl.phase_90_rad_s]
+    frequencies = [w for w in frequencies if w is not None and math.isfinite(w) and w > 0]
+    if not frequencies:
+        return FALLBACK_CURVE_RANGE_RAD_S
+    low = 10.0 ** math.floor(math.log10(min(frequencies) / margin))
+    high = 10.0 ** math.ceil(math.log10(max(frequencies) * margin))
+    lowest, highest = analysis.frequency_range_rad_s
+    return (max(low, lowest), min(high, highest))
 
 
 def linear_step(params, t, amplitude_rad, pade_order):
@@ -278,11 +312,12 @@ def gather_variant(loaded, settings=ReportSettings(), verdicts=None, progress=No
         response = linear_step(params, run.result.t, amplitude, settings.pade_order)
         linear.append(response)
         linear_figures.append(step_figures(run.result.t, response, amplitude))
+    curve_range = settings.curve_range_rad_s or loop_frequency_range(analysis)
     data = VariantData(
         loaded=loaded, label=variant_label(loaded), analysis=analysis,
-        curves=curves(params, settings.curve_range_rad_s, settings.curve_points_per_decade),
+        curves=curves(params, curve_range, settings.curve_points_per_decade),
         dwell=dwell, linear_steps=tuple(linear), linear_step_figures=tuple(linear_figures),
-        pade_order=settings.pade_order, verdicts=None,
+        curve_range_rad_s=tuple(curve_range), pade_order=settings.pade_order, verdicts=None,
     )
     if verdicts is None:
         computed = {"analyze": analysis, "steps": list(dwell.steps)}
@@ -291,6 +326,23 @@ def gather_variant(loaded, settings=ReportSettings(), verdicts=None, progress=No
     else:
         chosen = select_verdicts(verdicts, loaded)
     return dataclasses.replace(data, verdicts=chosen)
+
+
+def sinedwell_bandwidth(data, k):
+    """Sine-dwell bandwidth [rad/s] of amplitude ``k``, or why there is none in the grid: "above
+    the grid's 5000 rad/s" (no point below −3.01 dB) or "below the grid's 100 rad/s" (the first
+    point already below)."""
+    from cas_freq.simulation.sinedwell import HALF_POWER_DB
+
+    result = data.dwell.result
+    value = result.bandwidth_rad_s[k]
+    if value is not None:
+        return value
+    magnitude = np.asarray(result.magnitude_db[k], dtype=float)
+    w = result.frequencies_rad_s
+    if not np.any(magnitude < HALF_POWER_DB):
+        return f"above the grid's {w[-1]:.4g} rad/s"
+    return f"below the grid's {w[0]:.4g} rad/s"
 
 
 def display_path(path):
@@ -400,6 +452,7 @@ def variant_results(data):
     result = {
         "variant": data.loaded.variant,
         "label": data.label,
+        "curve_range_rad_s": list(data.curve_range_rad_s),
         "analyze": to_dict(data.analysis),
         "simulate": [step_run_dict(steps[k]) for k in chosen],
         "sinedwell": sinedwell_run_dict(data.dwell),
