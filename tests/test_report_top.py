@@ -94,3 +94,33 @@ def test_sinedwell_bandwidth_outside_the_grid_says_why(data):
     # 0.5 deg: linear, ω_BW 1385 rad/s above the 600..1200 grid; 10 deg: 426 rad/s below it
     assert rows["0.5"] == "above the grid's 1200 rad/s"
     assert rows["10"] == "below the grid's 600 rad/s"
+
+
+def test_default_dwell_grid_follows_the_linear_bandwidth(data):
+    from cas_freq.report.data import DWELL_POINTS, dwell_frequencies
+
+    assert ReportSettings().frequencies_rad_s is None
+    assert "× each variant's linear ω_BW" in ReportSettings().frequencies_text
+    grid = dwell_frequencies(data.analysis)
+    bandwidth = data.analysis.closed_loop.bandwidth_rad_s
+    assert len(grid) == DWELL_POINTS
+    assert grid[0] == pytest.approx(0.1 * bandwidth, rel=1e-3)
+    assert grid[-1] == pytest.approx(5 * bandwidth, rel=1e-3)
+    # the caption of the table states the grid the variant was dwelled on
+    assert "sine-dwell grid 2 points over 600..1200 rad/s" in bandwidth_table(data).caption
+
+
+def test_maximum_at_the_edge_of_the_range_is_flagged():
+    from cas_freq.analysis import analyze
+
+    loaded = load_variant(None, "base")
+    narrow = analyze(loaded, frequency_range=(1.0, 1e4)).to_dict()
+    # |S_i| still rises at 1e4 rad/s (its peak is near 2e4): flagged, with a note
+    assert narrow["current_loop"]["sensitivity_peak_at_range_edge"] is True
+    assert any("not a peak" in note and "current-loop" in note for note in narrow["notes"])
+    default = analyze(loaded).to_dict()
+    for section, key in (("current_loop", "sensitivity_peak_at_range_edge"),
+                         ("position_loop", "sensitivity_peak_at_range_edge"),
+                         ("closed_loop", "peak_at_range_edge")):
+        assert default[section][key] is False
+    assert not any("not a peak" in note for note in default["notes"])

@@ -322,6 +322,10 @@ class Analysis:
     closed_loop: ClosedLoopFigures | None
     pade_vs_exact: tuple[PadeComparison, ...]
     notes: tuple[str, ...]
+    #: ((section, figure, at the edge), ...): whether a maximum (sensitivity peak, disk margin,
+    #: closed-loop peak) lies at an end of the analysed range, where it is not a peak;
+    #: written into the JSON as ``<section>.<figure>_at_range_edge``.
+    range_edges: tuple = ()
 
     def to_dict(self):
         """JSON-ready dict, the JSON of ``cas-freq analyze`` (non-finite numbers become None)."""
@@ -440,6 +444,11 @@ def analyze(
         notes.append("sensitivity peak and disk margin are not reported for a loop that is "
                      "not stable")
     rows = pade_study(params, pade_orders, omega) if pade_orders > 0 else ()
+    edges = _range_edges(figures, omega, stability.stable)
+    for section, figure, at_edge in edges:
+        if at_edge:
+            notes.append(f"{_EDGE_WORDS[(section, figure)]} at an end of the analysed range "
+                         f"({omega[0]:.4g}..{omega[-1]:.4g} rad/s): not a peak; widen --range")
     return Analysis(
         config=loaded.params.name,
         config_path=loaded.source,
@@ -454,12 +463,36 @@ def analyze(
         closed_loop=figures_of_run(_loop(figures, "closed_loop")),
         pade_vs_exact=rows,
         notes=tuple(notes),
+        range_edges=edges,
     )
+
+
+_EDGE_WORDS = {
+    ("current_loop", "sensitivity_peak"): "current-loop sensitivity peak / disk margin",
+    ("position_loop", "sensitivity_peak"): "position-loop sensitivity peak / disk margin",
+    ("closed_loop", "peak"): "closed-loop resonance peak",
+}
+
+
+def _range_edges(figures, omega, stable):
+    """(section, figure, bool) for each maximum the engine searched: True when it lies at the
+    top end of the grid (``_maximum_at_top``) or, for the sensitivity peak, at the bottom end;
+    None for a loop that is not stable (no peak is reported then)."""
+    edges = []
+    for loop in ("current_loop", "position_loop"):
+        at_top = bool(np.asarray(figures[f"{loop}._maximum_at_top"])[0])
+        peak_w = np.asarray(figures[f"{loop}.sensitivity_peak_rad_s"])[0]
+        at_bottom = bool(np.isfinite(peak_w) and peak_w == omega[0])
+        edges.append((loop, "sensitivity_peak", (at_top or at_bottom) if stable else None))
+    closed_top = bool(np.asarray(figures["closed_loop._maximum_at_top"])[0])
+    edges.append(("closed_loop", "peak", closed_top if stable else None))
+    return tuple(edges)
 
 
 def to_dict(analysis):
     """JSON-ready dict of an :class:`Analysis` (non-finite numbers become None)."""
     data = dataclasses.asdict(analysis)
+    edges = data.pop("range_edges")
     stability = data.pop("stability")
     data["stability"] = stability["verdict"]
     data["stability_pade_order"] = stability["pade_order"]
@@ -469,4 +502,6 @@ def to_dict(analysis):
         data["closed_loop"] = {
             field.name: None for field in dataclasses.fields(ClosedLoopFigures)
         }
+    for section, figure, at_edge in edges:
+        data[section][f"{figure}_at_range_edge"] = None if at_edge is None else bool(at_edge)
     return json_ready(data)

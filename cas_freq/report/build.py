@@ -290,6 +290,8 @@ def bandwidth_table(data):
     caption = ("bandwidth three ways; a limit first acts at "
                f"{math.degrees(onset):g}°" if onset is not None else
                "bandwidth three ways; no limit acts at any amplitude")
+    w = result.frequencies_rad_s
+    caption += f"; sine-dwell grid {len(w)} points over {w[0]:.4g}..{w[-1]:.4g} rad/s"
     return Table(("amplitude [deg]", "linear −3 dB of T [rad/s]", "sine-dwell −3 dB [rad/s]",
                   "step fit closed form [rad/s]", "limit acts in the dwell"), tuple(rows),
                  caption)
@@ -463,7 +465,6 @@ def report_blocks(datas, figure_blocks, settings, command=None):
     """
     params = datas[0].loaded.params
     amplitudes = ", ".join(f"{math.degrees(a):g}°" for a in settings.amplitudes_rad)
-    w = settings.frequencies_rad_s
     blocks = [Heading(1, f"cas_freq report: {params.name}"), Paragraph(overall_verdict(datas))]
     if params.description:
         blocks.append(Paragraph(params.description))
@@ -475,7 +476,7 @@ def report_blocks(datas, figure_blocks, settings, command=None):
         f"{settings.pade_order}; nonlinear simulation: exact delays as delay lines, ±i_max and "
         "±v_max clamps with anti-windup",
         f"sine-dwell and step amplitudes at the output: {amplitudes}; sine-dwell frequencies: "
-        f"{len(w)} points over {w[0]:.4g}..{w[-1]:.4g} rad/s (one batch per variant, "
+        f"{settings.frequencies_text} (one batch per variant, "
         "feed-forward off as in docs/model.md's T)",
         "figure definitions: docs/model.md (motor-shaft loops, output angle δ = θ / gear ratio)",
     ]

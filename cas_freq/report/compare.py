@@ -135,7 +135,6 @@ def verdict_matrix(datas, labels):
 def compare_blocks(datas, labels, figure_blocks, settings, command=None):
     """Every block of the comparison, in order."""
     amplitudes = ", ".join(f"{math.degrees(a):g}°" for a in settings.amplitudes_rad)
-    w = settings.frequencies_rad_s
     blocks = [Heading(1, "cas_freq compare: " + ", ".join(labels))]
     facts = [f"{label}: {display_path(d.loaded.source)}"
              + (" with " + ", ".join(f"{k}={v}" for k, v in d.loaded.overrides)
@@ -145,8 +144,8 @@ def compare_blocks(datas, labels, figure_blocks, settings, command=None):
         f"baseline (the differences are to it): {labels[0]}",
         "frequency responses: exact delays; linear steps: Padé order "
         f"{settings.pade_order}; nonlinear steps and sine-dwell: limits and exact delays",
-        f"amplitudes at the output: {amplitudes}; sine-dwell frequencies: {len(w)} points over "
-        f"{w[0]:g}..{w[-1]:g} rad/s",
+        f"amplitudes at the output: {amplitudes}; sine-dwell frequencies: "
+        f"{settings.frequencies_text}",
     ]
     if command:
         facts.append(f"regenerate with: {command}")

@@ -22,10 +22,15 @@ from cas_freq.fileio import json_ready
 #: largest are also the step responses the report shows.
 DEFAULT_AMPLITUDES_DEG = (0.5, 2.0, 5.0, 10.0)
 
-#: Default sine-dwell frequencies [rad/s]: 16 log-spaced points over 100..5000 rad/s, around
-#: every bandwidth of the shipped variants (about 300 to 1400 rad/s). The horizon of the batch
-#: is set by the lowest frequency (about 6 s per variant on 2 cores).
+#: Sine-dwell frequencies of the ``cas-freq report`` command line's default (``100:5000:16``)
+#: [rad/s]: 16 log-spaced points over 100..5000 rad/s, around every bandwidth of the shipped
+#: QT-CAS variants. The horizon of the batch is set by the lowest frequency.
 DEFAULT_FREQUENCIES_RAD_S = tuple(float(w) for w in np.geomspace(100.0, 5000.0, 16))
+
+#: The sine-dwell grid derived from a loop (``frequencies_rad_s=None``): this many log-spaced
+#: points over DWELL_SPAN × the linear bandwidth ω_BW of T.
+DWELL_POINTS = 16
+DWELL_SPAN = (0.1, 5.0)
 
 #: Padé order of the linear step response and of the Padé-vs-exact table.
 DEFAULT_PADE_ORDER = 10
@@ -40,8 +45,9 @@ class ReportSettings:
     amplitudes_rad : tuple of float
         Sine-dwell and step amplitudes at the output [rad], >= 1 value; the smallest and the
         largest are the step responses shown.
-    frequencies_rad_s : tuple of float
-        Sine-dwell frequencies [rad/s].
+    frequencies_rad_s : tuple of float or None
+        Sine-dwell frequencies [rad/s]; None (default): per variant from its loops
+        (:func:`dwell_frequencies`, 0.1..5 × the linear ω_BW).
     pade_order : int
         Padé order of the linear step and the highest order of the Padé-vs-exact table.
     curve_range_rad_s : (float, float) or None
@@ -53,7 +59,7 @@ class ReportSettings:
     """
 
     amplitudes_rad: tuple = tuple(math.radians(a) for a in DEFAULT_AMPLITUDES_DEG)
-    frequencies_rad_s: tuple = DEFAULT_FREQUENCIES_RAD_S
+    frequencies_rad_s: tuple | None = None
     pade_order: int = DEFAULT_PADE_ORDER
     curve_range_rad_s: tuple | None = None
     curve_points_per_decade: int = 100
@@ -65,20 +71,32 @@ class ReportSettings:
                 f"report amplitudes: need at least one amplitude in (0, 90] deg, got "
                 f"{[math.degrees(a) for a in self.amplitudes_rad]} deg"
             )
+        object.__setattr__(self, "amplitudes_rad", amplitudes)
+        if self.frequencies_rad_s is None:
+            return
         frequencies = tuple(sorted({float(w) for w in self.frequencies_rad_s}))
         if len(frequencies) < 2 or not all(0 < w < math.inf for w in frequencies):
             raise CasFreqError(
                 f"report frequencies: need at least two finite frequencies > 0 rad/s, got "
                 f"{list(self.frequencies_rad_s)}"
             )
-        object.__setattr__(self, "amplitudes_rad", amplitudes)
         object.__setattr__(self, "frequencies_rad_s", frequencies)
+
+    @property
+    def frequencies_text(self):
+        """The sine-dwell grid as the report states it."""
+        w = self.frequencies_rad_s
+        if w is None:
+            return (f"{DWELL_POINTS} log-spaced points over {DWELL_SPAN[0]:g}..{DWELL_SPAN[1]:g} "
+                    "× each variant's linear ω_BW")
+        return f"{len(w)} points over {w[0]:.4g}..{w[-1]:.4g} rad/s"
 
     def to_dict(self):
         """JSON-ready description (amplitudes in deg, as everywhere on output)."""
         return json_ready({
             "amplitudes_deg": [math.degrees(a) for a in self.amplitudes_rad],
-            "sinedwell_frequencies_rad_s": list(self.frequencies_rad_s),
+            "sinedwell_frequencies_rad_s": (None if self.frequencies_rad_s is None
+                                            else list(self.frequencies_rad_s)),
             "pade_order": self.pade_order,
             "curve_range_rad_s": (None if self.curve_range_rad_s is None
                                   else list(self.curve_range_rad_s)),
@@ -231,6 +249,20 @@ def loop_frequency_range(analysis, margin=3.0):
     return (max(low, lowest), min(high, highest))
 
 
+def dwell_frequencies(analysis):
+    """Sine-dwell grid of a variant [rad/s]: DWELL_POINTS log-spaced over DWELL_SPAN × the
+    linear bandwidth of T (4 significant digits); around the position loop's gain crossover when
+    the loop has no bandwidth (unstable); the fixed 100..5000 rad/s when it has neither."""
+    cl = analysis.closed_loop
+    centre = None if cl is None else cl.bandwidth_rad_s
+    if centre is None:
+        centre = analysis.position_loop.crossover_rad_s
+    if centre is None or not math.isfinite(centre) or centre <= 0:
+        return DEFAULT_FREQUENCIES_RAD_S
+    grid = np.geomspace(DWELL_SPAN[0] * centre, DWELL_SPAN[1] * centre, DWELL_POINTS)
+    return tuple(float(f"{w:.4g}") for w in grid)
+
+
 def linear_step(params, t, amplitude_rad, pade_order):
     """Output-angle step response [rad] of the linear closed loop T with Padé delays.
 
@@ -304,7 +336,8 @@ def gather_variant(loaded, settings=ReportSettings(), verdicts=None, progress=No
 
     params = loaded.params
     analysis = analyze(loaded, pade_orders=settings.pade_order)
-    dwell = sinedwell_run(loaded, settings.amplitudes_rad, settings.frequencies_rad_s,
+    frequencies = settings.frequencies_rad_s or dwell_frequencies(analysis)
+    dwell = sinedwell_run(loaded, settings.amplitudes_rad, frequencies,
                           progress=progress, analysis=analysis)
     linear, linear_figures = [], []
     for run in dwell.steps:
