@@ -63,7 +63,7 @@ def run(args):
     for config in args.configs:
         variants += selected_variants(config, names, args.overrides)
     settings = settings_from_args(args)
-    if len(variants) >= 2:
+    if args.output is not None or len(variants) >= 2:
         from cas_freq.fileio import check_output_dir
         from cas_freq.report.compare import default_compare_dir
 

@@ -84,7 +84,7 @@ def run(args):
         run_montecarlo,
     )
 
-    if args.output:
+    if args.output is not None:
         check_output_dir(args.output, "-o")
     if args.no_step and args.step:
         raise CasFreqError("--no-step and --step exclude each other")

@@ -39,7 +39,7 @@ def run(args):
     """Simulate for the selected variants; print a table or JSON, write CSV."""
     from cas_freq.fileio import check_output_file, write_text_atomic
 
-    if args.csv:
+    if args.csv is not None:
         check_output_file(args.csv, "--csv")
     from cas_freq.report.text import command_table, step_table
     from cas_freq.simulation.run import (

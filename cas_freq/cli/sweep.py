@@ -87,9 +87,9 @@ def run(args):
     from cas_freq.report.studies import json_text, write_report
     from cas_freq.studies.sweep import run_sweep, sweep_csv, sweep_dict
 
-    if args.csv:
+    if args.csv is not None:
         check_output_file(args.csv, "--csv")
-    if args.output:
+    if args.output is not None:
         check_output_dir(args.output, "-o")
     fixed, axes = split_settings(args.overrides)
     if not axes:

@@ -66,7 +66,7 @@ def run(args):
     from cas_freq.fileio import check_output_file, write_text_atomic
     from cas_freq.verify import failed_required, junit_xml, verdict_dict, verify_variants
 
-    if args.junit:
+    if args.junit is not None:
         check_output_file(args.junit, "--junit")
 
     variants = load_variants(args)
