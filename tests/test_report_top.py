@@ -59,7 +59,7 @@ def test_unstable_variant_is_named_and_fails(data):
         stability=dataclasses.replace(data.analysis.stability, verdict="unstable"))
     unstable = dataclasses.replace(data, analysis=analysis)
     text = overall_verdict([unstable])
-    assert text.startswith("Verdict: FAIL.") and "Variant base is UNSTABLE" in text
+    assert text.startswith("Verdict: FAIL.") and "Variant base is UNSTABLE in closed loop" in text
 
 
 def test_failed_required_requirement_fails(data):
@@ -124,3 +124,10 @@ def test_maximum_at_the_edge_of_the_range_is_flagged():
                          ("closed_loop", "peak_at_range_edge")):
         assert default[section][key] is False
     assert not any("not a peak" in note for note in default["notes"])
+
+
+def test_closed_loop_figure_draws_the_bandwidth_requirement(data):
+    from cas_freq.plots import report as plots
+
+    labels = [line.get_label() for line in plots.closed_loop(data).axes[0].lines]
+    assert "requirement ω_BW ≥ 300 rad/s" in labels

@@ -248,6 +248,10 @@ def closed_loop(data):
                     label=f"−90° @ {figures.phase_90_rad_s:.4g} rad/s")
     else:
         mag.set_title("closed loop not stable: no closed-loop figures")
+    for bound in _bandwidth_bounds(data.verdicts):
+        if _in_range(w, bound):
+            mag.axvline(bound, color="C3", ls="-.", lw=1,
+                        label=f"requirement ω_BW ≥ {bound:g} rad/s")
     mag.set_ylim(max(mag.get_ylim()[0], -60.0), mag.get_ylim()[1])
     ph.set_ylim(max(ph.get_ylim()[0], -720.0), 45.0)
     ph.yaxis.set_major_locator(MultipleLocator(90))
@@ -452,6 +456,17 @@ def step_fit(data):
     ax.set_title(f"{a_deg:g}° step: second-order-plus-delay fit (report §7)")
     fig.suptitle(f"{data.label}: second-order fit to the nonlinear step (exact delays)")
     return fig
+
+
+def _bandwidth_bounds(verdicts):
+    """The distinct lower bounds of the closed-loop bandwidth requirements [rad/s]."""
+    bounds = []
+    for verdict in verdicts or ():
+        bound = verdict.get("min")
+        if (str(verdict.get("metric", "")) == "closed_loop.bandwidth_rad_s"
+                and bound is not None and bound not in bounds):
+            bounds.append(bound)
+    return bounds
 
 
 def _requirement_lines(ax, verdicts):

@@ -366,8 +366,9 @@ def overall_verdict(datas):
     parts = [head]
     for name in unstable:
         verdict = next(d.analysis.stability.verdict for d in datas if d.loaded.variant == name)
-        parts.append(f"Variant {name} is UNSTABLE in closed loop ({verdict}): its margins "
-                     "below are not a working design and it has no closed-loop figures.")
+        state = "UNSTABLE" if verdict == "unstable" else f"NOT STABLE ({verdict})"
+        parts.append(f"Variant {name} is {state} in closed loop: its margins below are not a "
+                     "working design and it has no closed-loop figures.")
     if not has_requirements:
         parts.append("The config has no requirements, so nothing was checked.")
     elif failed:
