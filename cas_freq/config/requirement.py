@@ -95,8 +95,8 @@ def convert_bound(value, metric):
 
 
 #: Accepted sine-dwell frequencies [rad/s]: below 1 rad/s a dwell of a few periods is millions
-#: of 5 µs steps per point; above 1e5 rad/s a period is a dozen steps.
-MIN_DWELL_RAD_S, MAX_DWELL_RAD_S = 1.0, 1e5
+#: of 5 µs steps per point (the simulator also refuses a sine too fast for its step).
+MIN_DWELL_RAD_S, MAX_DWELL_RAD_S = 1.0, 1e7
 
 
 def parse_frequency_spec(spec):

@@ -97,7 +97,7 @@ def draw(params, tolerances, samples, distribution="normal", seed=None):
         seed = int(np.random.SeedSequence().entropy % (2**32))
     elif (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
           or not 0 <= seed < 2**128):
-        raise ConfigError(f"--seed: must be an integer 0..2**128-1, got {seed!r}")
+        raise ConfigError(f"--seed: must be an integer >= 0 (below 2**128), got {seed!r}")
     rng = np.random.default_rng(seed)
     base = base_values(params)
     values = {}
