@@ -213,7 +213,7 @@ def parse_set_option(text):
     key, sep, value = text.partition("=")
     key = key.strip()
     if not sep or not key:
-        raise ConfigError(f"--set {text!r}: expected KEY=VALUE, e.g. position_loop.Kp=6.3")
+        raise ConfigError(f"--set {shown(text)}: expected KEY=VALUE, e.g. position_loop.Kp=6.3")
     if len(value) > 200:
         raise ConfigError(f"--set {key}: value longer than 200 characters: {shown(value)}")
     try:
