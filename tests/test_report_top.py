@@ -131,3 +131,25 @@ def test_closed_loop_figure_draws_the_bandwidth_requirement(data):
 
     labels = [line.get_label() for line in plots.closed_loop(data).axes[0].lines]
     assert "requirement ω_BW ≥ 300 rad/s" in labels
+
+
+def test_sinedwell_figure_linear_on_top_and_limits_in_both_panels(data):
+    from cas_freq.plots import report as plots
+
+    fig = plots.sinedwell(data)
+    mag, ph = fig.axes[:2]
+    linear = [line for line in mag.lines if line.get_label() == "linear T (exact delays)"]
+    assert linear and linear[0].get_zorder() > max(
+        line.get_zorder() for line in mag.lines if line is not linear[0])
+    # the 10 deg dwell hits a limit: hollow markers in the magnitude AND the phase panel
+    for ax in (mag, ph):
+        assert any(line.get_marker() == "o" and line.get_markerfacecolor() == "none"
+                   and len(line.get_xdata()) for line in ax.lines)
+
+
+def test_margin_table_rows_need_no_indentation(data):
+    from cas_freq.report.build import closed_loop_table, margins_table
+
+    labels = [row[0] for row in margins_table(data.analysis).rows]
+    labels += [row[0] for row in closed_loop_table(data.analysis).rows]
+    assert not [label for label in labels if label.startswith(" ")]

@@ -554,18 +554,20 @@ def sinedwell(data):
     fig, axes = _figure(2, 1, (8, 6), sharex=True)
     mag, ph = axes[:, 0]
     lin = np.asarray(data.dwell.linear_response)
-    mag.plot(w, _db(lin), color="k", lw=1, label="linear T (exact delays)")
-    ph.plot(w, _r(np.degrees(np.unwrap(np.angle(lin)))), color="k", lw=1, label="linear T")
     for k, amplitude in enumerate(np.degrees(np.asarray(r.amplitudes_rad))):
         color = f"C{k % 10}"
         hit = np.asarray(r.limit_hit[k], bool)
         magnitude, phase = _r(r.magnitude_db[k]), _r(r.phase_deg[k])
-        mag.plot(w, magnitude, "-", color=color, lw=1, label=f"{amplitude:g}°")
-        mag.plot(w[hit], magnitude[hit], "o", color=color, mfc="none", ms=5)
-        mag.plot(w[~hit], magnitude[~hit], "o", color=color, ms=4)
-        ph.plot(w, phase, "o-", color=color, lw=1, ms=3)
-    mag.plot([], [], "ko", mfc="none", label="a limit acts")
-    mag.axhline(HALF_POWER_DB, color="k", ls="--", lw=0.9, label="−3.01 dB")
+        for ax, values in ((mag, magnitude), (ph, phase)):
+            ax.plot(w, values, "-", color=color, lw=1,
+                    label=f"{amplitude:g}°" if ax is mag else None)
+            ax.plot(w[hit], values[hit], "o", color=color, mfc="none", ms=5)
+            ax.plot(w[~hit], values[~hit], "o", color=color, ms=4)
+    # the linear T on top, dashed, so that the small-signal trace does not hide it
+    mag.plot(w, _db(lin), color="k", lw=1.2, ls="--", zorder=5, label="linear T (exact delays)")
+    ph.plot(w, _r(np.degrees(np.unwrap(np.angle(lin)))), color="k", lw=1.2, ls="--", zorder=5)
+    mag.plot([], [], "ko", mfc="none", label="a limit acts (hollow)")
+    mag.axhline(HALF_POWER_DB, color="C7", ls=":", lw=1, label="−3.01 dB")
     mag.set_ylabel("|δ/δ_cmd| first harmonic [dB]")
     ph.set_ylabel("phase [deg]")
     mag.legend(loc="lower left", ncols=2)
