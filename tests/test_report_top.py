@@ -153,3 +153,15 @@ def test_margin_table_rows_need_no_indentation(data):
     labels = [row[0] for row in margins_table(data.analysis).rows]
     labels += [row[0] for row in closed_loop_table(data.analysis).rows]
     assert not [label for label in labels if label.startswith(" ")]
+
+
+def test_nichols_has_m_contours_and_legend_outside(data):
+    from cas_freq.plots import report as plots
+
+    fig = plots.nichols(data)
+    ax = fig.axes[0]
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert any(label.startswith("M contours") for label in labels)
+    assert any(t.get_text().endswith(" dB") for t in ax.texts)  # contour labels
+    anchor = ax.get_legend().get_bbox_to_anchor().transformed(ax.transAxes.inverted())
+    assert anchor.x0 >= 1.0  # the legend sits beside the chart, not over the curve

@@ -286,13 +286,33 @@ def sensitivity(data):
     return fig
 
 
+#: Closed-loop magnitudes |T| = |L/(1+L)| drawn as M contours on the Nichols chart [dB].
+M_CONTOURS_DB = (-6.0, -3.0, 0.0, 1.0, 3.0, 6.0)
+
+
+def _m_contours(ax, phase_range_deg, magnitude_range_db):
+    """Constant-|T| (M) contours over the chart, labelled in dB, one legend entry."""
+    phase = np.linspace(*phase_range_deg, 361)
+    magnitude = np.linspace(*magnitude_range_db, 201)
+    p_grid, m_grid = np.meshgrid(np.radians(phase), magnitude)
+    loop = 10.0 ** (m_grid / 20.0) * np.exp(1j * p_grid)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        closed = _r(20.0 * np.log10(np.abs(loop / (1.0 + loop))))
+    closed = np.where(np.isfinite(closed), closed, 100.0)
+    contours = ax.contour(phase, magnitude, closed, levels=M_CONTOURS_DB, colors="C7",
+                          linewidths=0.6, linestyles=":")
+    ax.clabel(contours, fmt="%g dB", fontsize=7, inline=True)
+    ax.plot([], [], color="C7", lw=0.6, ls=":",
+            label="M contours: |T| = " + ", ".join(f"{m:g}" for m in M_CONTOURS_DB) + " dB")
+
+
 def nichols(data, magnitude_range_db=(-40.0, 60.0)):
     """Nichols chart of L_p (the part within ``magnitude_range_db``), critical points marked."""
     c = data.curves
     w = _r(c.omega_rad_s)
     m, p = _db(c.position_loop), _phase_deg(c.position_loop, c.omega_rad_s)
     shown = (m >= magnitude_range_db[0]) & (m <= magnitude_range_db[1])
-    fig, axes = _figure(1, 1, (7, 5.5))
+    fig, axes = _figure(1, 1, (9.5, 5.5))
     ax = axes[0, 0]
     ax.plot(np.where(shown, p, np.nan), np.where(shown, m, np.nan), color="C1", label="L_p")
     low, high = np.nanmin(p[shown]), np.nanmax(p[shown])
@@ -312,11 +332,12 @@ def nichols(data, magnitude_range_db=(-40.0, 60.0)):
     for cross in data.analysis.position_loop.gain_crossovers:
         if _in_range(w, cross.frequency_rad_s):
             ax.plot([-180.0 + cross.phase_margin_deg], [0.0], "o", color="C1", ms=5)
+    _m_contours(ax, (low - 30.0, high + 30.0), magnitude_range_db)
     ax.axhline(0.0, color="k", lw=0.8)
     ax.xaxis.set_major_locator(MultipleLocator(90))
     ax.set_xlabel("phase of L_p [deg]")
     ax.set_ylabel("magnitude of L_p [dB]")
-    ax.legend(loc="upper right")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0))
     fig.suptitle(f"{data.label}: Nichols chart of L_p ({EXACT})")
     return fig
 
