@@ -36,7 +36,8 @@ def register(commands):
                         help=f"fin amplitudes with units (default: {DEFAULT_AMPLITUDES})")
     parser.add_argument("--frequencies", default=DEFAULT_FREQUENCIES,
                         metavar="MIN:MAX:N|F1,F2,...",
-                        help=f"sine-dwell frequencies in rad/s (default: {DEFAULT_FREQUENCIES})")
+                        help="sine-dwell frequencies in rad/s (default: 16 log-spaced over "
+                        "0.1..5 x each variant's linear bandwidth)")
     parser.add_argument("--pade-order", type=int, default=10, metavar="N",
                         help="Padé order of the linear steps (default: 10)")
     parser.add_argument("--png", action="store_true", help="also write every figure as PNG")

@@ -4,8 +4,9 @@ from cas_freq.cli.common import EXIT_OK, label_progress
 
 #: Amplitudes when none are given: small signal, two intermediate sizes, the report's 10 deg.
 DEFAULT_AMPLITUDES = "0.5deg,2deg,5deg,10deg"
-#: Sine-dwell frequencies when none are given [rad/s]: 16 log-spaced over 100..5000.
-DEFAULT_FREQUENCIES = "100:5000:16"
+#: Sine-dwell frequencies when none are given: derived from each variant's loop (16
+#: log-spaced over 0.1..5 x its linear bandwidth, cas_freq.report.data.ReportSettings).
+DEFAULT_FREQUENCIES = None
 
 
 def register(commands):
@@ -38,7 +39,8 @@ def register(commands):
     )
     parser.add_argument(
         "--frequencies", default=DEFAULT_FREQUENCIES, metavar="MIN:MAX:N|F1,F2,...",
-        help=f"sine-dwell frequencies in rad/s (default: {DEFAULT_FREQUENCIES})",
+        help="sine-dwell frequencies in rad/s (default: 16 log-spaced over 0.1..5 x each "
+        "variant's linear bandwidth)",
     )
     parser.add_argument(
         "--pade-order", type=int, default=10, metavar="N",
@@ -85,7 +87,8 @@ def settings_from_args(args):
     DelayModel(args.pade_order)  # validates 1..MAX_PADE_ORDER with a clear message
     return ReportSettings(
         amplitudes_rad=tuple(parse_amplitudes(args.amplitudes)),
-        frequencies_rad_s=tuple(parse_frequencies(args.frequencies)),
+        frequencies_rad_s=(None if args.frequencies is None
+                           else tuple(parse_frequencies(args.frequencies))),
         pade_order=args.pade_order,
     )
 
