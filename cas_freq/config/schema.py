@@ -33,7 +33,11 @@ def param(key):
     checked against the key's bound by :meth:`cas_freq.parameters.Parameter.convert`, the
     conversion :func:`cas_freq.parameters.parse_value` uses.
     """
-    parameter = PARAMETERS[key]
+    return _field(PARAMETERS[key], key)
+
+
+def _field(parameter, key):
+    """Annotated float type converting and checking a value as ``parameter`` declares."""
 
     def convert(value):
         try:
@@ -198,21 +202,7 @@ REFERENCE_PARAMETERS = {
 
 def reference_param(key):
     """Type of a float field of the ``reference:`` section (like :func:`param`)."""
-    parameter = REFERENCE_PARAMETERS[key]
-
-    def convert(value):
-        try:
-            return parameter.convert(value)
-        except TypeError as exc:
-            raise PydanticCustomError("cas_type", str(exc)) from None
-        except ValueError as exc:
-            raise PydanticCustomError("cas_value", str(exc)) from None
-
-    return Annotated[
-        float, BeforeValidator(convert),
-        Field(description=parameter.meaning, json_schema_extra={"key": key,
-                                                                "unit": parameter.unit}),
-    ]
+    return _field(REFERENCE_PARAMETERS[key], key)
 
 
 class ReferenceFit(_Section):

@@ -71,9 +71,10 @@ class DelayModel:
         return "exact" if self.exact else f"pade:{self.order}"
 
     def response(self, s, tau):
-        """Frequency response of a delay of ``tau`` [s] at complex frequencies ``s`` [rad/s]."""
+        """Frequency response of delays ``tau`` [s] (a scalar or an array broadcasting
+        against ``s``) at complex frequencies ``s`` [rad/s]."""
         s = np.asarray(s, dtype=complex)
-        if tau == 0:
+        if np.ndim(tau) == 0 and tau == 0:
             return np.ones_like(s)
         if self.exact:
             return np.exp(-s * tau)

@@ -23,7 +23,7 @@ import types
 import numpy as np
 
 from cas_freq.model import parts
-from cas_freq.model.delay import EXACT, pade_denominator
+from cas_freq.model.delay import EXACT
 
 #: LoopParameters fields the frequency responses use.
 RESPONSE_FIELDS = (
@@ -59,21 +59,6 @@ class Selector:
             array = array if index is None else array[index]
             values[name] = array[:, None] if column else array
         return types.SimpleNamespace(**values)
-
-
-def delay_response(s, tau, delay=EXACT):
-    """e^(-s tau), exact or Padé, for delays ``tau`` [s] broadcasting against ``s`` [rad/s].
-
-    1 for a scalar delay of 0. The Padé approximant of order n is D(-s tau)/D(s tau)
-    (:func:`~cas_freq.model.delay.pade_denominator`), evaluated in x = s tau.
-    """
-    if np.ndim(tau) == 0 and tau == 0:
-        return 1.0
-    if delay.exact:
-        return np.exp(-s * tau)
-    den = tuple(pade_denominator(delay.order))
-    x = s * tau
-    return parts.polyval(den, -x) / parts.polyval(den, x)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -119,12 +104,12 @@ def responses(p, s, closed=True, delay=EXACT, feedforward=False):
     LoopResponses
     """
     jm = parts.polyval(parts.mechanical(p), s)
-    drive = parts.polyval(parts.current_controller(p), s) * delay_response(s, p.tau_c, delay)
+    drive = parts.polyval(parts.current_controller(p), s) * delay.response(s, p.tau_c)
     a = drive * jm
     b = (parts.polyval(parts.electrical(p), s) * jm + parts.back_emf_coupling(p)) * s
     li = a / b
     n_cp = parts.polyval(parts.position_controller(p), s)
-    forward = (p.Km * delay_response(s, p.tau_p, delay)) * drive
+    forward = (p.Km * delay.response(s, p.tau_p)) * drive
     numerator = n_cp * forward
     filter_ = parts.polyval(parts.position_filter(p), s)
     denominator = (filter_ * (s * s)) * (a + b)
@@ -147,7 +132,7 @@ def responses(p, s, closed=True, delay=EXACT, feedforward=False):
 def current_loop(p, s, delay=EXACT):
     """L_i(s) alone (cheaper than :func:`responses`)."""
     jm = parts.polyval(parts.mechanical(p), s)
-    return (parts.polyval(parts.current_controller(p), s) * delay_response(s, p.tau_c, delay)
+    return (parts.polyval(parts.current_controller(p), s) * delay.response(s, p.tau_c)
             * jm / ((parts.polyval(parts.electrical(p), s) * jm + parts.back_emf_coupling(p))
                     * s))
 
