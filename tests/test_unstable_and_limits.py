@@ -88,3 +88,26 @@ def test_negative_requirement_step_is_refused(shipped_raw, write_config):
                                     "step": "-10 deg"}]
     code, _, err = run_cli(["verify", str(write_config(shipped_raw))])
     assert code == 2 and "requirements.0.step: must be > 0" in err
+
+
+def test_verify_shows_the_margins_of_an_unstable_loop_and_never_passes_them():
+    """The open-loop margins of an unstable loop exist: verify shows them (the same numbers as
+    analyze) but none passes, even one inside its bounds (issue 11: verify printed "—" where
+    analyze gave a negative phase margin). Case: the DC servo with Kp = 500 A/rad, whose
+    closed loop is unstable while its current loop alone is stable."""
+    args = ["configs/dc_servo.yaml", "--set", "position_loop.Kp=500", "--json"]
+    code, out, _ = run_cli(["analyze", *args])
+    analysis = json.loads(out)
+    assert code == 0 and analysis["stability"] == "unstable"
+    code, out, _ = run_cli(["verify", *args])
+    verdicts = {v["id"]: v for v in json.loads(out)["verdicts"]}
+    assert code == 1
+    pm, gm, pm_i = verdicts["PM-P"], verdicts["GM-P"], verdicts["PM-I"]
+    assert pm["value"] == pytest.approx(analysis["position_loop"]["phase_margin_deg"], rel=1e-9)
+    assert pm["value"] < 0 and pm["status"] != "PASS"
+    # inside its bounds (>= 6 dB) but on an unstable loop: shown, not passed, no margin
+    assert gm["value"] >= gm["min"] and gm["status"] != "PASS" and gm["margin"] is None
+    assert "unstable" in gm["message"]
+    # no requirement passes on an unstable actuator, not even the current loop's (stable alone)
+    assert pm_i["status"] != "PASS" and "current loop alone: stable" in pm_i["condition"]
+    assert verdicts["BW-1"]["value"] is None and verdicts["BW-1"]["status"] == "FAIL"

@@ -4,7 +4,7 @@ import dataclasses
 import math
 
 from cas_freq.config.requirement import UNIT_LABELS
-from cas_freq.verify.measure import measure
+from cas_freq.verify.measure import UNSTABLE_MARK, measure
 
 PASS, FAIL, ADVISORY = "PASS", "FAIL", "ADVISORY"
 
@@ -64,7 +64,8 @@ def bound_text(minimum, maximum, unit):
 def _verdict(requirement, variant, value, condition):
     unit = UNIT_LABELS[requirement.unit]
     bounds = bound_text(requirement.min, requirement.max, unit)
-    passed = requirement.passes(value)
+    # A figure of an unstable loop is shown but never passes (measure.UNSTABLE_MARK).
+    passed = requirement.passes(value) and UNSTABLE_MARK not in condition
     if passed:
         status = PASS
     else:
@@ -73,11 +74,12 @@ def _verdict(requirement, variant, value, condition):
         message = f"{requirement.metric} has no value ({condition}); needs {bounds}"
     else:
         shown = f"{value:.4g}{(' ' + unit) if unit else ''}"
-        relation = "meets" if passed else "violates"
+        relation = ("meets" if passed else "violates" if not requirement.passes(value)
+                    else "is within but cannot pass")
         message = f"{requirement.metric} = {shown} {relation} {bounds} ({condition})"
     return Verdict(
         id=requirement.id, variant=variant, metric=requirement.metric, value=value, unit=unit,
-        min=requirement.min, max=requirement.max, margin=requirement.margin(value),
+        min=requirement.min, max=requirement.max, margin=requirement.margin(value) if UNSTABLE_MARK not in condition else None,
         status=status, severity=requirement.severity, source=requirement.source,
         description=requirement.description, condition=condition, message=message,
     )

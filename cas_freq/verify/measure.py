@@ -70,9 +70,7 @@ def measure(variants, requirements, known=None):
         for requirement in requirements:
             key = requirement.id
             if index not in stable:
-                values[key] = None
-                context[key] = (f"not assessed: the closed loop is "
-                                f"{analyses[index].stability.verdict}")
+                values[key], context[key] = _unstable_figure(analyses[index], requirement)
             elif requirement.kind == "analyze":
                 values[key] = figure(analyses[index], requirement.metric)
                 context[key] = "linear, exact delays"
@@ -88,6 +86,31 @@ def measure(variants, requirements, known=None):
                 context[key] = _dwell_text(*condition)
         out.append((json_ready(values), context))
     return out
+
+
+#: Prefixes of the figures of the loops' open-loop responses (margins and crossovers).
+_LOOP_PREFIXES = ("position_loop.", "current_loop.")
+
+#: Marks the condition of a figure measured on a loop that is not stable: such a figure is
+#: shown (a phase margin of -52 deg says how far the loop is from stability) but never passes.
+UNSTABLE_MARK = "is unstable"
+
+
+def _unstable_figure(analysis, requirement):
+    """(value, condition) of a requirement on a variant whose closed loop is not stable.
+
+    The open-loop margins of either loop exist whatever the closed loop does, so they are
+    measured and shown (a negative phase margin is the plainest statement of instability) but
+    marked :data:`UNSTABLE_MARK`: no requirement passes on an unstable actuator, not even one
+    of the current loop alone. Closed-loop, step and sine-dwell figures of an unstable loop do
+    not exist (None).
+    """
+    stability = analysis.stability
+    if requirement.kind == "analyze" and requirement.metric.startswith(_LOOP_PREFIXES):
+        return (figure(analysis, requirement.metric),
+                f"linear, exact delays; the closed loop {UNSTABLE_MARK} "
+                f"(current loop alone: {stability.current_loop_verdict})")
+    return None, f"not assessed: the closed loop is {stability.verdict}"
 
 
 def _known_step(item, size):
