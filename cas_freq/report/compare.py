@@ -1,8 +1,12 @@
 """``cas-freq compare``: several variants (of one or more configs) side by side.
 
-Overlaid Bode, step and bandwidth-versus-amplitude figures, a table of every numeric figure per
-variant with its difference to the first (the baseline), and the requirement verdict matrix;
-written as index.html, report.md and results.json (atomically, like ``report``).
+First the config parameters that differ between the variants (:func:`parameter_differences`,
+in the units the config writes them), then overlaid Bode, step and bandwidth-versus-amplitude
+figures, the requirement verdict matrix, and a table of every numeric figure per variant with
+its difference to the first (the baseline), each row a readable label in engineering units
+(:data:`FIGURE_LABELS`); written as index.html, report.md and results.json (atomically, like
+``report``). results.json keeps the machine-readable keys in SI (``analyze.current_loop.
+delay_margin_s``); only the human tables carry labels and display units.
 
 A difference is that of the two figures as results.json writes them (6 significant digits,
 :mod:`cas_freq.report.numbers`); in the table it is 0 when below the table's 5 significant
@@ -10,9 +14,12 @@ digits of the figures, never the noise of their last bits.
 """
 
 import math
+import re
 from pathlib import Path
 
+from cas_freq.config import read_config_file
 from cas_freq.exceptions import CasFreqError
+from cas_freq.parameters import PARAMETERS
 from cas_freq.report.build import REPORTS_DIR, results_json
 from cas_freq.report.data import (
     ReportSettings,
@@ -24,6 +31,7 @@ from cas_freq.report.data import (
 from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
 from cas_freq.report.numbers import JSON_DIGITS, difference, difference_value, number
 from cas_freq.report.outdir import MAX_NAME_LENGTH, sanitise_name, write_directory_atomic
+from cas_freq.units import parse_unit, registry, split_quantity
 
 #: Keys of the analyze JSON that are identity or bookkeeping, not figures.
 _NOT_FIGURES = {"config", "config_path", "variant", "overrides", "delay_model", "notes",
@@ -51,6 +59,312 @@ def default_compare_dir(variants, selected=None):
     if selected:
         text += "-" + "-".join(selected)
     return REPORTS_DIR / sanitise_name(text[:MAX_NAME_LENGTH], fallback="compare")
+
+
+# ---- the parameters that differ -----------------------------------------------------------------
+
+#: Config settings that are not numbers, compared beside :data:`PARAMETERS` (key: meaning).
+SETTINGS = {
+    "position_loop.derivative_on": "the derivative acts on the error or on the measurement",
+    "simulation.controllers": "controllers of the nonlinear simulation: continuous or sampled",
+}
+
+#: Parameters that are derived when the config does not set them (key: effective value of a
+#: validated config, in SI).
+_DERIVED = {
+    "motor.mu_v": lambda params: params.motor.viscous_friction,
+    "position_loop.Tf": lambda params: params.position_loop.filter_time_constant,
+}
+
+#: Display unit of a parameter that no compared config writes with a unit (SI unit: shown).
+_UNWRITTEN_UNITS = {"s": "ms", "dimensionless": ""}
+
+_RANGE = re.compile(r",\s*(?:0 or\s+)?(?:\|\w+\|\s+)?[-+]?[\d.]+(?:e[-+]?\d+)?"
+                    r"\.\.[\d.]+(?:e[-+]?\d+)?")
+
+
+def config_keys():
+    """Every compared config key: :data:`PARAMETERS` and :data:`SETTINGS`, grouped by section
+    in the config's order."""
+    keys = [*PARAMETERS, *SETTINGS]
+    sections = list(dict.fromkeys(key.split(".")[0] for key in keys))
+    return sorted(keys, key=lambda key: sections.index(key.split(".")[0]))
+
+
+def short_meaning(key):
+    """The meaning of a config key without its accepted range and unit (those of
+    :data:`PARAMETERS` end with "..., 1e-6..1e6 [ohm]")."""
+    if key in SETTINGS:
+        return SETTINGS[key]
+    text = re.sub(r"\s*\[[^\]]*\]\s*$", "", PARAMETERS[key].meaning)
+    return _RANGE.sub("", text)
+
+
+def effective_value(params, key):
+    """The value of dotted ``key`` in validated ``params`` and whether it is derived.
+
+    Parameters
+    ----------
+    params : cas_freq.config.ActuatorConfig
+    key : str
+        A key of :func:`config_keys`.
+
+    Returns
+    -------
+    tuple of (float or str or None, bool)
+        The value (numbers in the key's SI unit of :data:`PARAMETERS`; None when not set and
+        not derived) and True when it is derived (``mu_v`` from the no-load point, ``Tf`` =
+        Kd/(10·Kp)).
+    """
+    node = params
+    for part in key.split("."):
+        node = getattr(node, part, None) if node is not None else None
+    if node is None and key in _DERIVED:
+        return _DERIVED[key](params), True
+    return node, False
+
+
+def written_units(loaded):
+    """The unit each config key of a variant is written with, as written (``"ms"``, ``"rpm"``).
+
+    The base file's value, replaced by the variant's and then by the ``--set`` overrides, as the
+    loader applies them; ``""`` for a plain number (SI). Empty when the file cannot be read
+    again.
+
+    Parameters
+    ----------
+    loaded : cas_freq.config.LoadedVariant
+
+    Returns
+    -------
+    dict of str to str
+    """
+    try:
+        raw = read_config_file(loaded.source)
+    except CasFreqError:
+        return {}
+    written = {}
+    _flatten("", {k: v for k, v in raw.items() if k != "variants"}, written)
+    variants = raw.get("variants") or {}
+    if isinstance(variants.get(loaded.variant), dict):
+        _flatten("", variants[loaded.variant], written)
+    for key, value in loaded.overrides:
+        written[key] = value
+    return {key: _unit_text(value) for key, value in written.items()}
+
+
+def _unit_text(value):
+    """The unit of a config value as written, ``""`` for a number or an unreadable string."""
+    if not isinstance(value, str):
+        return ""
+    try:
+        return split_quantity(value)[1]
+    except ValueError:
+        return ""
+
+
+def display_unit(key, units):
+    """The unit a parameter row is shown in: the first unit the compared variants write it with
+    (``units``: one :func:`written_units` per variant, the baseline first), else its SI unit
+    (seconds as ms)."""
+    for written in units:
+        if written.get(key):
+            return written[key]
+    si = PARAMETERS[key].unit
+    return _UNWRITTEN_UNITS.get(si, si)
+
+
+def in_unit(value, key, unit):
+    """An SI ``value`` [the SI unit of ``key``] converted to ``unit`` (text as configs write
+    units)."""
+    quantity = registry().Quantity(value, PARAMETERS[key].unit)
+    return float(quantity.to(parse_unit(unit)).magnitude)
+
+
+def _same(values):
+    """True when every value equals the first (numbers within 1e-9 relative: a unit
+    conversion's last bits)."""
+    first = values[0]
+    for value in values[1:]:
+        if isinstance(first, float) and isinstance(value, float):
+            if not math.isclose(first, value, rel_tol=1e-9, abs_tol=0.0):
+                return False
+        elif first != value:
+            return False
+    return True
+
+
+def _parameter_cell(value, derived, key, unit):
+    """One variant's value of a parameter with its unit: ``"0.06 ms"``, ``"—"`` when not set."""
+    if value is None:
+        return "—"
+    if isinstance(value, str):
+        return value
+    text = number(in_unit(value, key, unit), JSON_DIGITS, unit)
+    return f"{text} (derived)" if derived else text
+
+
+def parameter_differences(variants):
+    """The config keys whose value differs between the variants, as table rows.
+
+    Parameters
+    ----------
+    variants : list of cas_freq.config.LoadedVariant
+        The compared variants, the baseline first.
+
+    Returns
+    -------
+    rows : list of tuple of str
+        Per differing key (in :func:`config_keys` order): the key, its meaning, then each
+        variant's value in the unit the config writes it (:func:`display_unit`), with the unit.
+    equal : int
+        How many of the :func:`config_keys` are equal in every variant.
+    """
+    units = [written_units(loaded) for loaded in variants]
+    rows, equal = [], 0
+    for key in config_keys():
+        values = [effective_value(loaded.params, key) for loaded in variants]
+        if _same([value for value, _ in values]):
+            equal += 1
+            continue
+        unit = "" if key in SETTINGS else display_unit(key, units)
+        rows.append((key, short_meaning(key),
+                     *(_parameter_cell(value, derived, key, unit) for value, derived in values)))
+    return rows, equal
+
+
+def parameter_blocks(variants, labels):
+    """The parameter-difference section: a heading, the table (when any differs) and how many
+    parameters are equal."""
+    rows, equal = parameter_differences(variants)
+    total = len(config_keys())
+    blocks = [Heading(2, "Parameters that differ")]
+    if not rows:
+        blocks.append(Paragraph(f"No config parameter differs: all {total} are equal in every "
+                                "variant."))
+        return blocks
+    header = ("parameter", "meaning", f"{labels[0]} (baseline)", *labels[1:])
+    blocks.append(Table(header, tuple(rows),
+                        "config keys whose value differs between the variants, in the unit the "
+                        "config writes them; (derived): not set, derived (μv from the no-load "
+                        "point, Tf = Kd/(10·Kp)); —: not set"))
+    blocks.append(Paragraph(f"{equal} of the {total} config parameters are equal in every "
+                            "variant and not listed."))
+    return blocks
+
+
+# ---- every figure ------------------------------------------------------------------------------
+
+#: The one table of the every-figure table's rows: per figure name (the last part of a
+#: :func:`flat_figures` key, as results.json writes it, in SI), its readable label, the unit it
+#: is shown in and the factor from its SI value to that unit. A figure missing here is shown by
+#: its name with the unit of its suffix (:data:`_SUFFIX_UNITS`).
+FIGURE_LABELS = {
+    # stability
+    "stable": ("stable", "", 1.0),
+    "stability": ("stability (Padé model)", "", 1.0),
+    # loop margins (analyze)
+    "crossover_rad_s": ("gain crossover", "rad/s", 1.0),
+    "phase_margin_deg": ("phase margin", "deg", 1.0),
+    "delay_margin_s": ("delay margin", "ms", 1e3),
+    "gain_margin_db": ("gain margin", "dB", 1.0),
+    "phase_crossover_rad_s": ("phase crossover", "rad/s", 1.0),
+    "gain_margin_low_db": ("lower gain margin", "dB", 1.0),
+    "phase_crossover_low_rad_s": ("lower phase crossover", "rad/s", 1.0),
+    "sensitivity_peak_db": ("sensitivity peak Ms", "dB", 1.0),
+    "sensitivity_peak_rad_s": ("frequency of the sensitivity peak", "rad/s", 1.0),
+    "sensitivity_peak_at_range_edge": ("sensitivity peak at the range edge", "", 1.0),
+    "disk_margin_alpha": ("disk margin α", "", 1.0),
+    "disk_margin_gain_db": ("disk gain margin ±", "dB", 1.0),
+    "disk_margin_phase_deg": ("disk phase margin ±", "deg", 1.0),
+    # closed loop (analyze)
+    "dc_gain_db": ("DC gain", "dB", 1.0),
+    "bandwidth_rad_s": ("bandwidth (−3 dB)", "rad/s", 1.0),
+    "peak_db": ("resonance peak", "dB", 1.0),
+    "peak_rad_s": ("frequency of the resonance peak", "rad/s", 1.0),
+    "phase_90_rad_s": ("frequency of −90° phase", "rad/s", 1.0),
+    "peak_at_range_edge": ("resonance peak at the range edge", "", 1.0),
+    # steps (nonlinear and linear)
+    "rise_time_s": ("rise time 10–90 %", "ms", 1e3),
+    "overshoot_pct": ("overshoot", "%", 1.0),
+    "settling_time_s": ("settling time ±2 %", "ms", 1e3),
+    "settling_time_5pct_s": ("settling time ±5 %", "ms", 1e3),
+    "peak_time_s": ("peak time", "ms", 1e3),
+    "max_current_a": ("largest current", "A", 1.0),
+    "max_voltage_v": ("largest voltage", "V", 1.0),
+    "current_limited": ("current limit reached", "", 1.0),
+    "voltage_limited": ("voltage limit reached", "", 1.0),
+    # second-order fit of a step (report §7)
+    "wn_rad_s": ("natural frequency ωn", "rad/s", 1.0),
+    "zeta": ("damping ratio ζ", "", 1.0),
+    "td_s": ("delay td", "ms", 1e3),
+    "rms_residual": ("RMS residual", "deg", math.degrees(1.0)),
+    "bandwidth_closed_form_rad_s": ("closed-form bandwidth", "rad/s", 1.0),
+    "success": ("fit converged", "", 1.0),
+    # sine-dwell
+    "limit_onset_amplitude_deg": ("smallest amplitude at which a limit acts", "deg", 1.0),
+}
+
+#: Unit and factor from SI of a figure missing from :data:`FIGURE_LABELS`, by its name's suffix.
+_SUFFIX_UNITS = (("_rad_s", "rad/s", 1.0), ("_deg", "deg", 1.0), ("_db", "dB", 1.0),
+                 ("_pct", "%", 1.0), ("_s", "ms", 1e3), ("_a", "A", 1.0), ("_v", "V", 1.0))
+
+#: Readable name of each group of figures (the key before the figure's name).
+_GROUP_LABELS = {
+    "analyze": "closed loop",
+    "analyze.current_loop": "current loop",
+    "analyze.position_loop": "position loop",
+    "analyze.closed_loop": "closed loop",
+    "sinedwell": "sine-dwell",
+}
+
+#: Groups named after a step amplitude (``step 10°``, ``fit 10°``, ``linear step 10°``).
+_STEP_GROUPS = (("linear step ", "linear step {}"), ("step ", "nonlinear step {}"),
+                ("fit ", "fit to the {} step"))
+
+_AMPLITUDE = re.compile(r"(?P<key>.*?) (?P<amplitude>[-+\d.e]+°)")
+
+
+def figure_display(key):
+    """The readable label, display unit and factor from SI of a :func:`flat_figures` key.
+
+    ``"analyze.current_loop.delay_margin_s"`` gives ``("current loop: delay margin [ms]",
+    "ms", 1000.0)``; ``"sinedwell.bandwidth_rad_s 10°"`` gives ``("sine-dwell: bandwidth
+    (−3 dB) at 10° [rad/s]", "rad/s", 1.0)``.
+
+    Returns
+    -------
+    tuple of (str, str, float)
+    """
+    amplitude = ""
+    match = _AMPLITUDE.fullmatch(key)
+    if match:
+        key, amplitude = match["key"], match["amplitude"]
+    group, _, name = key.rpartition(".")
+    label, unit, scale = FIGURE_LABELS.get(name) or _unlisted(name)
+    if amplitude:
+        label += f" at {amplitude}"
+    group_label = _GROUP_LABELS.get(group)
+    if group_label is None:
+        group_label = next((form.format(group[len(start):]) for start, form in _STEP_GROUPS
+                            if group.startswith(start)), group)
+    text = f"{group_label}: {label}" if group_label else label
+    return (f"{text} [{unit}]" if unit else text), unit, scale
+
+
+def _unlisted(name):
+    """(label, unit, factor from SI) of a figure name missing from :data:`FIGURE_LABELS`."""
+    for suffix, unit, scale in _SUFFIX_UNITS:
+        if name.endswith(suffix):
+            return name[: -len(suffix)].replace("_", " "), unit, scale
+    return name.replace("_", " "), "", 1.0
+
+
+def _scaled(value, scale):
+    """A number [SI] times ``scale``; anything else (bool, text, None) unchanged."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return value * scale
+    return value
 
 
 def _flatten(prefix, value, out):
@@ -89,18 +403,31 @@ def flat_figures(results):
 
 
 def difference_rows(all_results):
-    """Rows of the every-figure table: key, then per entry its value and (after the first) the
-    difference to the first. Keys missing from an entry show '—'."""
+    """Rows of the every-figure table, one per key of :func:`flat_figures`.
+
+    Each row is the figure's label with its display unit (:func:`figure_display`), then per
+    entry its value in that unit with :data:`TABLE_DIGITS` significant digits and (after the
+    first) the difference to the first in the same unit. Keys missing from an entry show '—'.
+
+    Returns
+    -------
+    rows : list of tuple of str
+        ``rows[i]`` is the row of ``keys[i]``.
+    flats : list of dict
+        :func:`flat_figures` of each entry (SI, as results.json writes them).
+    keys : list of str
+    """
     flats = [flat_figures(r) for r in all_results]
     keys = list(dict.fromkeys(k for flat in flats for k in flat))
     rows = []
     for key in keys:
-        base = flats[0].get(key)
+        label, _, scale = figure_display(key)
+        base = _scaled(flats[0].get(key), scale)
         cells = [number(base, TABLE_DIGITS)]
         for flat in flats[1:]:
-            value = flat.get(key)
+            value = _scaled(flat.get(key), scale)
             cells += [number(value, TABLE_DIGITS), _difference(value, base)]
-        rows.append((key, *cells))
+        rows.append((label, *cells))
     return rows, flats, keys
 
 
@@ -136,6 +463,7 @@ def compare_blocks(datas, labels, figure_blocks, settings, command=None):
     """Every block of the comparison, in order."""
     amplitudes = ", ".join(f"{math.degrees(a):g}°" for a in settings.amplitudes_rad)
     blocks = [Heading(1, "cas_freq compare: " + ", ".join(labels))]
+    blocks += parameter_blocks([d.loaded for d in datas], labels)
     facts = [f"{label}: {display_path(d.loaded.source)}"
              + (" with " + ", ".join(f"{k}={v}" for k, v in d.loaded.overrides)
                 if d.loaded.overrides else "")
@@ -149,6 +477,7 @@ def compare_blocks(datas, labels, figure_blocks, settings, command=None):
     ]
     if command:
         facts.append(f"regenerate with: {command}")
+    blocks.append(Heading(2, "What was compared"))
     blocks.append(Bullets(tuple(facts)))
     blocks.append(Heading(2, "Figures overlaid"))
     blocks += list(figure_blocks.values())
@@ -166,9 +495,9 @@ def compare_blocks(datas, labels, figure_blocks, settings, command=None):
     for label in labels[1:]:
         header += [label, f"Δ {label}"]
     blocks.append(Table(tuple(header), tuple(table_rows),
-                        "units from each key's suffix (_rad_s rad/s, _deg deg, _db dB, _pct %, "
-                        "_s s, _a A, _v V); Δ = value − baseline (relative change), 0 when below "
-                        "the 5 significant digits shown"))
+                        "each figure in the unit in brackets (results.json has them in SI "
+                        "under their keys); Δ = value − baseline in that unit (relative change), "
+                        "0 when below the 5 significant digits shown"))
     for text in _reference_sentences(datas):
         blocks.append(Paragraph(text))
     return blocks
