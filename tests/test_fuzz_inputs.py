@@ -316,3 +316,70 @@ def test_set_option_parses_or_raises_cas_freq_error(text):
 def test_variant_loading_is_unchanged_for_the_shipped_config():
     assert [v.variant for v in load_all_variants()] == ["base", "fitted", "relaxed"]
     assert load_variant(None, "fitted").params.motor.Km == 0.0075
+
+
+# --- CSV inputs (fit FILE, simulate --command FILE) -------------------------------------------
+
+csv_cells = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.integers(min_value=-(10**30), max_value=10**30).map(str),
+    st.sampled_from(["", " ", "t [s]", "delta [deg]", "time_s", "angle", "1,5", "0.1.2",
+                     "1e999", "-0", "nan", "\ufeff0", '"1"', "10 %", "x"]),
+    st.text(max_size=12),
+)
+csv_rows = st.lists(st.lists(csv_cells, min_size=0, max_size=4), min_size=0, max_size=30)
+separators = st.sampled_from([",", ";", "\t", ", "])
+
+
+def _csv_text(rows, separator, ordered):
+    lines = [separator.join(row) for row in rows]
+    if ordered:  # a plausible recording: a valid series with the fuzzed rows spliced in
+        valid = [f"{0.001 * k - 0.005:.4f},{10.0 * (1 - math.exp(-k / 8)):.4f}"
+                 for k in range(60)]
+        lines = valid[:30] + lines + valid[30:]
+    return "\n".join(lines) + "\n"
+
+
+@given(csv_rows, separators, st.booleans())
+def test_a_fuzzed_csv_is_read_or_refused_with_one_line(rows, separator, ordered):
+    """``cas-freq fit FILE --step 10deg`` on any CSV text: exit 0 with finite JSON, or exit 2
+    with one line naming the file; never a traceback, within the load budget."""
+    text = _csv_text(rows, separator, ordered)
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "recording.csv"
+        path.write_text(text, encoding="utf-8", errors="surrogateescape")
+        started = time.perf_counter()
+        code, out, err = run_cli(["fit", str(path), "--step", "10deg", "--json"])
+        assert time.perf_counter() - started < 5 * LOAD_BUDGET_S
+    if code == 0:
+        assert _finite(json.loads(out))
+    else:
+        _one_clean_line(code, err)
+        assert "recording.csv" in err
+
+
+@given(csv_rows, separators, st.booleans())
+def test_a_fuzzed_command_table_is_read_or_refused_with_a_cas_freq_error(rows, separator,
+                                                                         ordered):
+    """The reader of ``simulate --command FILE`` gives a finite, strictly increasing table or
+    raises the package's error naming the file (the simulation itself is not run here)."""
+    from cas_freq.simulation.commands import read_command_csv
+
+    text = _csv_text(rows, separator, ordered)
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "command.csv"
+        path.write_bytes(text.encode("utf-8", errors="surrogateescape"))
+        try:
+            table = read_command_csv(path)
+        except CasFreqError as exc:
+            assert "command.csv" in str(exc) and "\n" not in str(exc)
+        else:
+            assert all(math.isfinite(v) for v in [*table.time_s, *table.angle_rad])
+            assert all(b > a for a, b in zip(table.time_s, table.time_s[1:]))
+
+
+def test_undecodable_csv_bytes_are_refused_with_one_line(tmp_path):
+    path = tmp_path / "latin1.csv"
+    path.write_bytes(b"t [s],delta [\xb0]\n0,0\n0.01,1\n")
+    code, _, err = run_cli(["fit", str(path), "--step", "10deg"])
+    _one_clean_line(code, err)
