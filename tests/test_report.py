@@ -116,7 +116,8 @@ def test_variant_figure_structure(data, stem):
     for ax in fig.axes:
         assert ax.lines, f"{stem}: an axes without lines"
         assert re.search(r"\[.+\]", ax.get_ylabel()), f"{stem}: y label without unit"
-    assert any(re.search(r"\[(rad/s|ms|deg)\]", x) for x, _ in _labels(fig))
+    # a frequency, time or angle axis, or the dimensionless plane of a Nyquist plot
+    assert any(re.search(r"\[(rad/s|ms|deg|-)\]", x) for x, _ in _labels(fig))
 
 
 def test_bode_marks_every_crossover_in_range(data):

@@ -8,123 +8,33 @@ are built without pyplot (no global figure registry to leak), on the Agg backend
 The SVG files must not depend on the last bits of floating point (which differ between CPUs),
 so the plotted data are rounded to 6 significant digits (:func:`_r`, i.e.
 :func:`cas_freq.report.numbers.round_array`) before they are drawn, and :func:`svg_text` rounds
-every coordinate in the SVG to 0.01 pt and renames matplotlib's content-hash ids (see there).
+every coordinate in the SVG to 0.01 pt and renames matplotlib's content-hash ids (both in
+:mod:`cas_freq.plots.common`, re-exported here). The Nyquist and pole-zero figures are in
+:mod:`cas_freq.plots.loci`.
 
 Titles name the variant and the delay model; every axis label carries its unit.
 """
 
-import hashlib
-import io
 import math
-import re
 
-import matplotlib
+import numpy as np
+from matplotlib.ticker import MultipleLocator
 
-matplotlib.use("Agg")
+from cas_freq.analysis.frequency import continuous_phase
+from cas_freq.plots import loci
+from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_svg re-exported)
+    EXACT,
+    STYLE,
+    SVG_DECIMALS,
+    png_bytes,
+    svg_text,
+    tidy_svg,
+)
+from cas_freq.plots.common import figure as _figure
+from cas_freq.plots.common import rounded as _r
+from cas_freq.simulation.second_order import second_order_step
 
-import numpy as np  # noqa: E402
-from matplotlib import rc_context  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.ticker import MultipleLocator  # noqa: E402
-
-from cas_freq.analysis.frequency import continuous_phase  # noqa: E402
-from cas_freq.report.numbers import round_array  # noqa: E402
-from cas_freq.simulation.second_order import second_order_step  # noqa: E402
-
-#: Style of every figure (and of the SVG writer): fixed, so output does not depend on a user's
-#: matplotlibrc.
-STYLE = {
-    "svg.hashsalt": "cas_freq-report",
-    "svg.fonttype": "none",
-    "font.size": 9,
-    "axes.titlesize": 10,
-    "figure.titlesize": 11,
-    "axes.grid": True,
-    "grid.alpha": 0.35,
-    "grid.linewidth": 0.6,
-    "legend.fontsize": 8,
-    "legend.framealpha": 0.85,
-    "lines.linewidth": 1.4,
-    "savefig.dpi": 100,
-    "path.simplify": False,
-}
-
-EXACT = "exact delays"
 HALF_POWER_DB = 20.0 * math.log10(1.0 / math.sqrt(2.0))
-
-
-def _figure(rows, cols, size, sharex=False, **kwargs):
-    with rc_context(STYLE):
-        fig = Figure(figsize=size, layout="constrained")
-        axes = fig.subplots(rows, cols, sharex=sharex, squeeze=False, **kwargs)
-    return fig, axes
-
-
-#: Decimals of the coordinates in the SVG files [pt] (0.01 pt is far below what shows).
-SVG_DECIMALS = 2
-
-# A comment (kept as it is: matplotlib writes each text's content there) or a tag.
-_SVG_PART = re.compile(r"(<!--.*?-->)|(<[^>]*>)", re.DOTALL)
-# A decimal number with more than SVG_DECIMALS decimals ("1.0" and "1.1" of the XML prolog and
-# DOCTYPE have fewer and are never touched; ids and colours have no decimal point).
-_LONG_DECIMAL = re.compile(rf"-?\d+\.\d{{{SVG_DECIMALS + 1},}}")
-# Ids matplotlib makes from a hash of the content ("p" clip paths, "m" markers, "h" hatches,
-# "C<n>_<n>_" collection paths): the hash covers unrounded floats.
-_HASHED_ID = re.compile(r'\bid="((?:C[0-9a-f]+_[0-9a-f]+_|[a-z]?))([0-9a-f]{10})"')
-
-
-def _round_decimal(match):
-    text = f"{float(match.group(0)):.{SVG_DECIMALS}f}".rstrip("0").rstrip(".")
-    return "0" if text == "-0" else text
-
-
-def tidy_svg(svg):
-    """SVG text made independent of the last bits of the floats it was drawn from.
-
-    * Every number with more than :data:`SVG_DECIMALS` decimals inside a tag (path data,
-      ``x``/``y``, transforms, clip rectangles, styles) is rounded to that many decimals of a
-      point (0.01 pt). Text content and comments are left as they are.
-    * matplotlib names clip paths, markers and hatches by a hash of their unrounded content;
-      each such id is renamed, in order of appearance, to its prefix, a digest of the rounded
-      SVG and a counter (``p<digest>_0``, ``m<digest>_1``, ...), and every reference to it
-      (``url(#...)``, ``xlink:href="#..."``) follows. The digest keeps ids of different figures
-      apart when several are inlined in one HTML page.
-    """
-    svg = _SVG_PART.sub(lambda m: m.group(1) or _LONG_DECIMAL.sub(_round_decimal, m.group(2)),
-                        svg)
-    names = {}
-    for match in _HASHED_ID.finditer(svg):
-        names.setdefault(match.group(1) + match.group(2), match.group(1))
-    if not names:
-        return svg
-    alternatives = "|".join(map(re.escape, names))
-    pattern = re.compile(rf'(?<=id=")({alternatives})(?=")|(?<=#)({alternatives})(?=["\)])')
-    order = {old: k for k, old in enumerate(names)}
-    numbered = pattern.sub(lambda m: f"{names[m[1] or m[2]]}_{order[m[1] or m[2]]}", svg)
-    digest = hashlib.sha256(numbered.encode("utf-8")).hexdigest()[:8]
-    return pattern.sub(lambda m: f"{names[m[1] or m[2]]}{digest}_{order[m[1] or m[2]]}", svg)
-
-
-def svg_text(fig):
-    """The figure as SVG text, byte-identical for the same figure (no date, fixed ids), with
-    coordinates rounded to 0.01 pt and content-hash ids renamed (:func:`tidy_svg`)."""
-    out = io.StringIO()
-    with rc_context(STYLE):
-        fig.savefig(out, format="svg", metadata={"Date": None, "Creator": "cas_freq"})
-    return tidy_svg(out.getvalue())
-
-
-def png_bytes(fig):
-    """The figure as PNG bytes with fixed metadata."""
-    out = io.BytesIO()
-    with rc_context(STYLE):
-        fig.savefig(out, format="png", metadata={"Software": "cas_freq"})
-    return out.getvalue()
-
-
-def _r(values):
-    """Plotted data rounded to 6 significant digits (no last-bit noise reaches the figure)."""
-    return round_array(values, 6)
 
 
 def _db(values):
@@ -306,8 +216,63 @@ def _m_contours(ax, phase_range_deg, magnitude_range_db):
             label="M contours: |T| = " + ", ".join(f"{m:g}" for m in M_CONTOURS_DB) + " dB")
 
 
+#: Closed-loop phases ∠T = ∠(L/(1+L)) drawn as N contours on the Nichols chart [deg]; ∠T is
+#: taken in (−360°, 0°], so −330° is a lead of 30°.
+N_CONTOURS_DEG = (-30.0, -60.0, -90.0, -120.0, -150.0, -210.0, -240.0, -270.0, -300.0, -330.0)
+
+
+def n_contour(level_deg, points=400):
+    """One N contour ∠T = ``level_deg`` in Nichols coordinates: (phase of L [deg], |L| [dB]).
+
+    With T = r e^{jφ}, r over (0, ∞), L = T/(1 − T) runs along an arc from the origin (|L| → 0,
+    ∠L → φ) to −1; its phase is continued from φ at r → 0, so the curve lies on the branch
+    φ..−180° (shift by 360° for the other turns).
+    """
+    r = np.geomspace(1e-3, 1e3, points)
+    t = r * np.exp(1j * math.radians(level_deg))
+    loop = t / (1.0 - t)
+    phase = np.unwrap(np.angle(loop))
+    phase += 2.0 * math.pi * np.round((math.radians(level_deg) - phase[0]) / (2.0 * math.pi))
+    return np.degrees(phase), 20.0 * np.log10(np.abs(loop))
+
+
+def _n_label_row(magnitude_range_db):
+    """Magnitude [dB] of the row along which the N contours are labelled."""
+    return magnitude_range_db[0] + 3.0
+
+
+def _n_contours(ax, phase_range_deg, magnitude_range_db, taken=()):
+    """Constant-∠T (N) contours over the chart, every 360° turn of it; each turn of a level
+    labelled once along the bottom of the chart, where the contours are spread out (∠L ≈ ∠T
+    there), skipping a label closer than 1/16 of the chart to one already placed or inside
+    one of the ``taken`` phase intervals [deg] (the curve and its frequency labels)."""
+    low, high = phase_range_deg
+    bottom = _n_label_row(magnitude_range_db)
+    spacing = (high - low) / 16.0
+    placed = [(a - spacing / 2, b + spacing / 2) for a, b in taken]
+    for level in N_CONTOURS_DEG:
+        phase, magnitude = n_contour(level)
+        for k in range(math.floor((low - phase.max()) / 360.0),
+                       math.ceil((high - phase.min()) / 360.0) + 1):
+            x = phase + 360.0 * k
+            if x.max() < low or x.min() > high:
+                continue
+            ax.plot(_r(x), _r(magnitude), color="C4", lw=0.6, ls="-.", alpha=0.6)
+            at = float(np.interp(bottom, magnitude, x))
+            if low + spacing / 2 <= at <= high - spacing / 2 and not any(
+                    a - spacing / 2 < at < b + spacing / 2 for a, b in placed):
+                placed.append((at, at))
+                ax.text(at, bottom, f"{level:g}°", color="C4", fontsize=6.5, ha="center",
+                        va="center", bbox={"boxstyle": "square,pad=0.1", "fc": "white",
+                                           "ec": "none", "alpha": 0.8})
+    ax.plot([], [], color="C4", lw=0.6, ls="-.", alpha=0.6,
+            label=f"N contours: ∠T every {abs(N_CONTOURS_DEG[1] - N_CONTOURS_DEG[0]):g}°\n"
+            "(labels along the bottom)")
+
+
 def nichols(data, magnitude_range_db=(-40.0, 60.0)):
-    """Nichols chart of L_p (the part within ``magnitude_range_db``), critical points marked."""
+    """Nichols chart of L_p (the part within ``magnitude_range_db``), critical points marked,
+    with M (constant |T|) and N (constant ∠T) contours."""
     c = data.curves
     w = _r(c.omega_rad_s)
     m, p = _db(c.position_loop), _phase_deg(c.position_loop, c.omega_rad_s)
@@ -322,6 +287,9 @@ def nichols(data, magnitude_range_db=(-40.0, 60.0)):
         if low - 30 <= x <= high + 30:
             ax.plot([x], [0.0], "r+", ms=12, mew=2, label="critical point (−1)" if first else None)
             first = False
+    row = _n_label_row(magnitude_range_db)
+    near_row = shown & (np.abs(m - row) < 4.0)
+    taken = [(float(x), float(x)) for x in p[near_row]]
     for target in (10.0, 100.0, 1000.0, 10000.0):
         if w[0] <= target <= w[-1]:
             x, y = _at(w, p, target), _at(w, m, target)
@@ -329,10 +297,15 @@ def nichols(data, magnitude_range_db=(-40.0, 60.0)):
                 ax.plot([x], [y], ".", color="k")
                 ax.annotate(f"{target:g} rad/s", (x, y), xytext=(5, 3),
                             textcoords="offset points", fontsize=8)
+                if abs(y - row) < 6.0:  # its label reaches about 45° to the right
+                    taken.append((x, x + 45.0))
     for cross in data.analysis.position_loop.gain_crossovers:
         if _in_range(w, cross.frequency_rad_s):
             ax.plot([-180.0 + cross.phase_margin_deg], [0.0], "o", color="C1", ms=5)
     _m_contours(ax, (low - 30.0, high + 30.0), magnitude_range_db)
+    _n_contours(ax, (low - 30.0, high + 30.0), magnitude_range_db, taken)
+    ax.set_xlim(low - 30.0, high + 30.0)
+    ax.set_ylim(*magnitude_range_db)
     ax.axhline(0.0, color="k", lw=0.8)
     ax.xaxis.set_major_locator(MultipleLocator(90))
     ax.set_xlabel("phase of L_p [deg]")
@@ -597,12 +570,16 @@ def sinedwell(data):
     return fig
 
 
-#: The figures of one variant: file stem -> (function, caption).
+#: The figures of one variant: file stem -> (function, caption); a caption is a string or a
+#: function of the variant's data that returns one.
 VARIANT_FIGURES = {
     "bode_loops": (bode_loops, "Bode of L_i and L_p with every crossover and the margins"),
     "closed_loop": (closed_loop, "Closed loop T with the −3 dB line, ω_BW and the peak"),
     "sensitivity": (sensitivity, "S and T together"),
-    "nichols": (nichols, "Nichols chart of L_p"),
+    "nichols": (nichols, "Nichols chart of L_p with M contours (constant |T|, dB) and N contours "
+                "(constant ∠T, deg)"),
+    "nyquist": (loci.nyquist, loci.nyquist_caption),
+    "pole_zero": (loci.pole_zero, loci.pole_zero_caption),
     "steps": (steps, "Step responses, linear vs nonlinear, limits shaded"),
     "step_fit": (step_fit, "Second-order fit over the simulated step"),
     "bandwidth_vs_amplitude": (bandwidth_vs_amplitude, "Bandwidth versus amplitude"),

@@ -331,7 +331,8 @@ def variant_blocks(data, figure_blocks, settings):
         blocks.append(Bullets(tuple(a.notes)))
     blocks += [Heading(3, f"Frequency response ({data.loaded.variant})"), margins_table(a),
                crossings_table(a, data.curve_range_rad_s), closed_loop_table(a)]
-    blocks += [figure_blocks[n] for n in ("bode_loops", "closed_loop", "sensitivity", "nichols")]
+    blocks += [figure_blocks[n] for n in ("bode_loops", "closed_loop", "sensitivity", "nichols",
+                                          "nyquist", "pole_zero")]
     blocks += [Heading(3, f"Padé vs exact delays ({data.loaded.variant})"), pade_table(a)]
     blocks += [Heading(3, f"Step responses ({data.loaded.variant})"),
                Paragraph(small_signal_sentence(data)), step_table(data), figure_blocks["steps"],
@@ -507,7 +508,8 @@ def _figure_files(data, png):
         yield path, svg
         if png:
             yield f"figures/{slug}/{stem}.png", plots.png_bytes(fig)
-        blocks[stem] = Figure(path, f"{caption} — {data.label}", svg)
+        text = caption(data) if callable(caption) else caption
+        blocks[stem] = Figure(path, f"{text} — {data.label}", svg)
     return blocks
 
 
