@@ -105,6 +105,39 @@ def integrate_with_anti_windup(
     return np.where(outward, integral + fraction * increment, trial)
 
 
+def derivative_filter(kd, tf, period, sampled=False):
+    r"""Gain and update coefficients of the filtered derivative (module notes).
+
+    The term is :math:`K_d (y - x_f)/T_f` with :math:`x_f^+ = a x_f + b y^- + c (y^+ - y^-)`.
+
+    Parameters
+    ----------
+    kd : numpy.ndarray
+        Derivative gain [output unit * s / input unit], shape (n_runs,).
+    tf : numpy.ndarray
+        Filter time constant [s] (ignored where kd = 0).
+    period : float
+        Update period T [s].
+    sampled : bool
+        Backward difference (sampled controller) instead of the exact update for an input
+        linear between updates.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        :math:`K_d/T_f` (0 where kd = 0) [output unit / input unit], and a, b, c [-].
+    """
+    safe_tf = np.where(kd > 0, tf, 1.0)
+    gain_d = np.where(kd > 0, kd / safe_tf, 0.0)
+    if sampled:  # backward difference
+        a = safe_tf / (safe_tf + period)
+        c = 1.0 - a
+    else:  # exact for an input linear between updates
+        a = np.exp(-period / safe_tf)
+        c = 1.0 - safe_tf * (1.0 - a) / period
+    return gain_d, a, 1.0 - a, c
+
+
 def _unit_interval(x):
     """``x`` clipped to [0, 1] (NaN stays NaN), cheaper than np.clip on small arrays."""
     return np.minimum(np.maximum(x, 0.0), 1.0)
@@ -137,16 +170,7 @@ class Controller:
         self.has_derivative = bool(np.any(kd > 0))
         n = kp.shape[0]
         if self.has_derivative:
-            safe_tf = np.where(kd > 0, tf, 1.0)
-            self._gain_d = np.where(kd > 0, kd / safe_tf, 0.0)
-            if sampled:  # backward difference
-                a = safe_tf / (safe_tf + period)
-                self._c = 1.0 - a
-            else:  # exact for an input linear between updates
-                a = np.exp(-period / safe_tf)
-                self._c = 1.0 - safe_tf * (1.0 - a) / period
-            self._a = a
-            self._b = 1.0 - a
+            self._gain_d, self._a, self._b, self._c = derivative_filter(kd, tf, period, sampled)
         self._half_period = 0.5 * period
         self._lower = -limit
         self._unlimited = np.zeros(n, dtype=bool)

@@ -23,6 +23,33 @@ import numpy as np
 _WHOLE = 1e-9
 
 
+def delay_steps(delay_s, dt):
+    """A delay in steps: whole part m and fraction f, ``delay_s = (m + f) dt``.
+
+    Parameters
+    ----------
+    delay_s : numpy.ndarray
+        Delay of each run [s], shape (n_runs,), >= 0.
+    dt : float
+        Sample spacing [s].
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        m (int64) [steps] and f in [0, 1) [-] (0 within a relative 1e-9 of a whole step).
+    """
+    steps = np.asarray(delay_s, dtype=float) / dt
+    whole = np.floor(steps + _WHOLE)
+    frac = steps - whole
+    frac[frac < _WHOLE] = 0.0
+    return whole.astype(np.int64), frac
+
+
+def ring_size(m):
+    """Slots of a ring buffer for whole delays ``m`` [steps]: the longest plus 3."""
+    return int(np.max(m)) + 3
+
+
 class DelayLine:
     """Delay of ``delay_s`` [s] per run, for samples every ``dt`` [s].
 
@@ -37,15 +64,11 @@ class DelayLine:
     """
 
     def __init__(self, delay_s, dt, hold=False):
-        steps = np.asarray(delay_s, dtype=float) / dt
-        whole = np.floor(steps + _WHOLE)
-        frac = steps - whole
-        frac[frac < _WHOLE] = 0.0
+        self._m, frac = delay_steps(delay_s, dt)
         self.hold = hold
-        self._m = whole.astype(np.int64)
         self._f = frac
-        self._size = int(self._m.max()) + 3
-        n = steps.shape[0]
+        self._size = ring_size(self._m)
+        n = self._m.shape[0]
         self._cols = np.arange(n)
         self._zeros = np.zeros(n)
         self._right = np.zeros((self._size, n))

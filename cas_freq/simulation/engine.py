@@ -82,16 +82,31 @@ class CommandSet:
         self.commands = commands
         self.ratio = ratio
 
+    @property
+    def columns(self):
+        """Columns of :meth:`fin`: n_runs for one command per run, else at most that."""
+        return self.fin(np.zeros(1))[0].shape[1]
+
+    def fin(self, t, left=False):
+        """(angle [rad], rate [rad/s], acceleration [rad/s^2]) at the fin at times ``t`` [s].
+
+        Each of shape (len(t), 1) where every run has the same command, else (len(t), n_runs).
+        """
+        if isinstance(self.commands, (list, tuple)):
+            parts = [c.fin(t, left=left) for c in self.commands]
+            return tuple(np.stack([np.broadcast_to(p[j], t.shape) for p in parts], axis=1)
+                         for j in range(3))
+        out = self.commands.fin(t[:, None], left)
+        shape = np.broadcast_shapes(*(np.shape(a) for a in out))
+        if len(shape) < 2:
+            shape = (t.shape[0], 1)
+        return tuple(np.broadcast_to(a, shape) for a in out)
+
     def motor(self, t, left=False):
         """(angle [rad], rate [rad/s], acceleration [rad/s^2]) at the motor, each (len(t), n)."""
         n = self.ratio.shape[0]
-        if isinstance(self.commands, (list, tuple)):
-            parts = [c.fin(t, left=left) for c in self.commands]
-            out = [np.stack([np.broadcast_to(p[j], t.shape) for p in parts], axis=1)
-                   for j in range(3)]
-        else:
-            out = [np.broadcast_to(a, (t.shape[0], n)) for a in self.commands.fin(t[:, None], left)]
-        return tuple(self.ratio * part for part in out)
+        return tuple(self.ratio * np.broadcast_to(part, (t.shape[0], n))
+                     for part in self.fin(t, left))
 
 
 class Engine:

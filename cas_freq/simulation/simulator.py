@@ -6,6 +6,15 @@ anti-windup) -> delay tau_c -> motor (i, omega, theta) -> fin angle delta = thet
 numerics are in :mod:`~cas_freq.simulation.engine`: exact discretisation of the linear plant,
 trapezoidal controllers, delay lines. numpy and scipy only (no python-control, no matplotlib).
 
+Engines
+-------
+Two engines advance the same discrete loop: the compiled kernel
+(:mod:`~cas_freq.simulation.kernel`, numba, parallel over runs; the default) and the numpy
+reference (:class:`~cas_freq.simulation.engine.Engine`) it is tested against
+(``tests/test_simulation_kernel.py``: the same trajectories to 1e-9 of the command). Choose with
+``engine=`` or the environment variable ``CAS_FREQ_ENGINE=compiled|reference``; without numba
+the reference runs, with a warning.
+
 Time step
 ---------
 The default step is the largest "round" step (1, 2, 2.5, 4, 5 x 10^k s, or that over n = 1..10)
@@ -43,6 +52,7 @@ its 10 x cap (the run is then reported as not settled). The environment variable
 import dataclasses
 import math
 import os
+import warnings
 
 import numpy as np
 
@@ -69,6 +79,10 @@ MAX_STEP_RUNS = 200_000_000
 MAX_MEMORY_BYTES = 2 * 2**30
 #: Environment variable: a factor (> 0) on the three budgets.
 BUDGET_ENV = "CAS_FREQ_BUDGET"
+#: Environment variable choosing the engine: ``compiled`` (default) or ``reference``.
+ENGINE_ENV = "CAS_FREQ_ENGINE"
+#: Engines: the numba kernel and the numpy reference.
+ENGINES = ("compiled", "reference")
 #: Estimated bytes per recorded sample and run (7 float and 2 bool signals, held up to about
 #: three times while a horizon is assembled and transposed).
 _BYTES_PER_SAMPLE = 200
@@ -240,6 +254,51 @@ def budget_runs(steps, dt, record_every=1, max_delay_s=0.0):
     return int(max(0.0, min(MAX_STEP_RUNS * factor / max(steps, 1), by_memory)))
 
 
+def engine_name(requested=None):
+    """The engine a simulation uses: ``requested``, else ``$CAS_FREQ_ENGINE``, else compiled.
+
+    Parameters
+    ----------
+    requested : {"compiled", "reference"} or None
+        The caller's choice.
+
+    Returns
+    -------
+    str
+        ``"compiled"`` or ``"reference"``.
+
+    Raises
+    ------
+    ConfigError
+        For another name (naming where it came from).
+    """
+    source = "engine"
+    if requested is None:
+        requested = os.environ.get(ENGINE_ENV, "").strip().lower() or "compiled"
+        source = ENGINE_ENV
+    if requested not in ENGINES:
+        raise ConfigError(f"{source}: expected one of {', '.join(ENGINES)}, got {requested!r}")
+    return requested
+
+
+def engine_class(requested=None):
+    """The engine class for ``requested`` (:func:`engine_name`), with its fallback.
+
+    The compiled engine needs numba; where numba does not import, the reference engine runs
+    instead, with a warning saying so (the same trajectories, about 50 times slower).
+    """
+    if engine_name(requested) == "reference":
+        return Engine
+    try:
+        from cas_freq.simulation.kernel import CompiledEngine
+    except ImportError as exc:
+        warnings.warn(f"simulation: the compiled engine is unavailable ({exc}); running the "
+                      f"numpy reference engine instead (set {ENGINE_ENV}=reference to choose "
+                      "it)", stacklevel=3)
+        return Engine
+    return CompiledEngine
+
+
 def _whole(x, dt):
     return abs(x / dt - round(x / dt)) <= 1e-6
 
@@ -357,7 +416,7 @@ def _advance(engine, done, target, record_every, progress):
 
 def simulate_batch(
     params, commands, *, dt=None, t_end=None, max_t_end=None, extend=True,
-    current_rate_hz=None, position_rate_hz=None, record_every=1, progress=None,
+    current_rate_hz=None, position_rate_hz=None, record_every=1, progress=None, engine=None,
 ):
     """Simulate a batch of runs at once.
 
@@ -385,6 +444,11 @@ def simulate_batch(
     progress : callable, optional
         Called as ``progress(steps_done, steps_planned)`` about 50 times per horizon (the plan
         grows when the horizon is extended).
+    engine : {"compiled", "reference"}, optional
+        The compiled kernel (:mod:`~cas_freq.simulation.kernel`, numba) or the numpy reference
+        (:class:`~cas_freq.simulation.engine.Engine`); the same trajectories to 1e-9 of the
+        command. Default ``$CAS_FREQ_ENGINE``, else compiled when numba imports
+        (:func:`engine_class`).
 
     Returns
     -------
@@ -421,7 +485,7 @@ def simulate_batch(
     cap = min(cap, max(t_end, budget_steps(n, dt, record_every, max_delay) * dt))
 
     command_set = CommandSet(commands, p.ratio)
-    engine = Engine(p, command_set, dt, every_c, every_p)
+    engine = engine_class(engine)(p, command_set, dt, every_c, every_p)
     first = dict(zip(SIGNALS, engine.start(), strict=True))
     parts = [([0.0], {name: value[None] for name, value in first.items()})]
     steps_done, horizon = 0, t_end

@@ -1,0 +1,541 @@
+r"""The fixed-step loop compiled with numba: every run of a batch advanced in parallel.
+
+This is the same discrete loop as the reference :class:`~cas_freq.simulation.engine.Engine`
+(numpy, vectorised over runs), written per run as plain scalar code so that numba compiles it to
+one machine-code loop, ``prange`` over the runs. Per step :math:`t_k \to t_{k+1}` and run
+(docs/model.md §2-4 and §9 item 7):
+
+1. **Delay line τc** (:func:`_read`): the terminal voltage over the step, read back from the
+   current controller's past outputs (first-order hold; constant for a sampled controller).
+2. **Plant** (§2): :math:`x_{k+1} = \Phi x_k + G_a V_a + G_b V_b`, the exact step of the linear
+   motor for a voltage linear over the step (matrices from
+   :func:`~cas_freq.simulation.engine.plant_step_matrices`, computed in numpy and passed in).
+3. **Position controller** (§4): PID with filtered derivative, feed-forward, clamp to ±i_max,
+   anti-windup (:func:`_controller_update`, the scalar form of
+   :class:`~cas_freq.simulation.controllers.Controller`); its output enters the delay line τp.
+4. **Current controller** (§3): PI on the delayed current command, clamp to ±v_max,
+   anti-windup; its output enters the delay line τc.
+5. Every ``record_every`` steps the signals of :data:`~cas_freq.simulation.engine.SIGNALS`.
+
+Sampled controllers (§9 item 8) update every ``n`` steps and are held in between. Each
+operation is written in the order of the reference, so that a single run gives the same
+numbers to the last bit or nearly (the clamp flags where an output rests exactly at its limit
+depend on the last bit); in a batch the reference's shortcuts are taken for the whole batch at
+once and may round a run differently by an ulp.
+
+The state lives in numpy arrays between calls (:class:`CompiledEngine`), so the simulator can
+advance a batch by any number of steps, check settling, extend the horizon and report progress
+as with the reference engine. Functions are compiled with ``cache=True``: the first call in a
+fresh environment compiles them (tens of seconds), later processes load the machine code from
+numba's cache (next to this file, or in ``NUMBA_CACHE_DIR`` / the user cache if this directory
+is not writable; without any writable place they are compiled in each process).
+"""
+
+import numba
+import numpy as np
+from numba import njit, prange
+
+from cas_freq.simulation.controllers import derivative_filter
+from cas_freq.simulation.delay_line import delay_steps, ring_size
+from cas_freq.simulation.engine import SIGNALS, plant_step_matrices
+
+
+def _jit(**options):
+    """``numba.njit`` with ``cache=True``; without a cache if no cache directory is usable."""
+
+    def decorate(function):
+        try:
+            return njit(cache=True, error_model="numpy", **options)(function)
+        except RuntimeError:  # numba: "cannot cache function ...: no locator available"
+            return njit(cache=False, error_model="numpy", **options)(function)
+
+    return decorate
+
+
+# Columns of the parameter table ``p`` (n_runs, _NP), one row per run.
+_PHI = 0  # Phi, row-major, 9 columns
+_GA = 9  # G_a, 3 columns
+_GB = 12  # G_b, 3 columns
+_RATIO = 15  # gear ratio N [-]
+_FF_V = 16  # feed-forward of the command rate [A*s/rad]
+_FF_A = 17  # feed-forward of the command acceleration [A*s^2/rad]
+_CP_KP = 18  # position loop Kp [A/rad]
+_CP_KI = 19  # position loop Ki [A/(rad*s)]
+_CP_GD = 20  # derivative gain Kd/Tf [A/rad] (0 without derivative)
+_CP_A = 21  # derivative filter coefficients a, b, c (controllers.py)
+_CP_B = 22
+_CP_C = 23
+_I_MAX = 24  # current command limit [A]
+_CI_KP = 25  # current loop Kp [V/A]
+_CI_KI = 26  # current loop Ki [V/(A*s)]
+_V_MAX = 27  # voltage limit [V]
+_F_C = 28  # fractional part of tau_c / dt
+_F_P = 29  # fractional part of tau_p / dt
+_ON_MEASUREMENT = 30  # 1.0 where the derivative acts on -theta
+_NP = 31
+
+# Columns of the controller state ``s`` (n_runs, _NS).
+_P_INT = 0  # position controller: integral of the error [rad*s]
+_P_FILTER = 1  # derivative filter state x_f [rad]
+_P_E = 2  # error at the last update (right limit) [rad]
+_P_Y = 3  # derivative input at the last update (right limit) [rad]
+_P_REST = 4  # output without the integral term at the last update (right limit) [A]
+_P_U_LEFT = 5  # output (current command), left and right limits [A]
+_P_U = 6
+_P_LIMITED = 7  # 1.0 where the right-limit output was clamped
+_C_INT = 8  # current controller: integral of the error [A*s]
+_C_E = 9  # error at the last update [A]
+_C_REST = 10  # output without the integral term at the last update [V]
+_C_V_LEFT = 11  # output (voltage command), left and right limits [V]
+_C_V = 12
+_C_LIMITED = 13  # 1.0 where the right-limit output was clamped
+_I_CMD = 14  # current command read at the current controller [A]
+_V = 15  # voltage at the motor terminals at the present step (right limit) [V]
+_THETA_CMD = 16  # motor-angle command at the present step [rad]
+_NS = 17
+
+# Rows of the float recordings (the bool ones are current_limited, voltage_limited).
+_FLOAT_SIGNALS = SIGNALS[:7]
+
+
+# --- delay lines (delay_line.py) --------------------------------------------------------------
+
+@_jit()
+def _sample(buffer, r, j):
+    """Sample ``j`` of run ``r`` from a ring buffer (0 before t = 0)."""
+    if j < 0:
+        return 0.0
+    return buffer[r, j % buffer.shape[1]]
+
+
+@_jit()
+def _read(right, left, r, m, f, q, latest, want_left, hold):
+    """Delayed signal at t_q, delay (m + f) dt, newest sample ``latest`` (DelayLine.read).
+
+    Interpolating line: ``(1 - f) u^-[q - m] + f u^+[q - m - 1]`` (for f = 0 the right or left
+    limit of sample q - m); a read ahead of the newest sample holds it. Holding line:
+    ``u[q - m - 1]`` if f > 0 or for the left limit, else ``u[q - m]``.
+    """
+    if hold:
+        shift = 1 if (want_left or f > 0.0) else 0
+        return _sample(right, r, min(q - m - shift, latest))
+    j = q - m
+    if j > latest:  # ahead of the newest sample (a delay below one step): hold it
+        return _sample(right, r, latest)
+    if f == 0.0:
+        return _sample(left if want_left else right, r, j)
+    return (1.0 - f) * _sample(left, r, j) + f * _sample(right, r, j - 1)
+
+
+@_jit()
+def _push(right, left, r, k, u_right, u_left, hold):
+    """Store sample ``k`` of run ``r``: right and left limits (DelayLine.push)."""
+    slot = k % right.shape[1]
+    right[r, slot] = u_right
+    if not hold:
+        left[r, slot] = u_left
+
+
+# --- controllers (controllers.py) -------------------------------------------------------------
+
+@_jit()
+def _clip_unit(x):
+    """``x`` clipped to [0, 1]; NaN stays NaN (as np.minimum(np.maximum(x, 0), 1))."""
+    if x < 0.0:
+        return 0.0
+    if x > 1.0:
+        return 1.0
+    return x
+
+
+@_jit()
+def _sign(x):
+    if x > 0.0:
+        return 1.0
+    if x < 0.0:
+        return -1.0
+    return x  # 0 (or NaN)
+
+
+@_jit()
+def _clamp(u, limit):
+    return min(max(u, -limit), limit)
+
+
+@_jit()
+def _anti_windup(integral, e_start, e_end, rest_start, rest_end, ki, limit, period, locate):
+    """New integral, conditional integration (controllers.integrate_with_anti_windup).
+
+    With ``locate`` (continuous controllers) the instants where the clamp starts or ends inside
+    the update are located on the output held at the old integral, and only the unclamped part
+    is integrated; then an increment that would carry the output beyond the limit integrates
+    only up to it (docs/model.md §3, anti-windup).
+    """
+    increment = 0.5 * period * (e_start + e_end)
+    trial = integral + increment
+    u_trial = rest_end + ki * trial
+    if locate:
+        held = ki * integral
+        held_start = rest_start + held
+        held_end = rest_end + held
+        if abs(u_trial) > limit or abs(held_start) > limit or abs(held_end) > limit:
+            side = _sign(e_start + e_end)  # the direction the integral moves the output
+            u_start, u_end = side * held_start, side * held_end
+            over_start, over_end = u_start > limit, u_end > limit
+            cross = _clip_unit((limit - u_start) / (u_end - u_start))
+            steady = e_start * e_end >= 0  # else: the error changes sign; decide at the end
+            s0 = cross if (steady and over_start and not over_end) else 0.0
+            s1 = 1.0
+            if steady and over_end:
+                s1 = 0.0 if over_start else cross
+            s0 = min(s0, s1)
+            slope = e_end - e_start
+            increment = 0.5 * period * (s1 - s0) * (2 * e_start + slope * (s0 + s1))
+            trial = integral + increment
+            u_trial = rest_end + ki * trial
+    if abs(u_trial) > limit and increment * u_trial > 0:
+        # only the fraction of the increment that brings the output to the limit
+        step = ki * increment
+        if step == 0.0:
+            return integral
+        edge = _sign(u_trial) * limit
+        fraction = _clip_unit((edge - rest_end - ki * integral) / step)
+        return integral + fraction * increment
+    return trial
+
+
+@_jit()
+def _controller_update(
+    integral, state, e_before, y_before, rest_before, e_left, e_right, y_left, y_right,
+    ff_left, ff_right, advance, kp, ki, gain_d, a, b, c, has_derivative, limit, period, locate,
+):
+    r"""One update of a PI(D) controller with clamp and anti-windup (Controller.update).
+
+    :math:`u = K_p e + K_i \int e + (K_d/T_f)(y - x_f) + u_{ff}`, the filter state advanced by
+    :math:`x_f^+ = a x_f + b y^- + c (y^+ - y^-)`, the integral by the trapezoidal rule with
+    anti-windup; from the inputs' left limits (end of the interval) and right limits (from now
+    on). ``advance`` False: the first outputs of a continuous controller (states stay).
+
+    Returns
+    -------
+    tuple of float
+        integral, filter state, error, derivative input, rest (right limits, for the next
+        update), clamped output's left and right limits, and 1.0 if the right one was clamped.
+    """
+    rest_left = kp * e_left
+    rest_right = kp * e_right
+    if has_derivative:
+        if advance:
+            state = a * state + b * y_before + c * (y_left - y_before)
+        rest_left = rest_left + gain_d * (y_left - state)
+        rest_right = rest_right + gain_d * (y_right - state)
+        y_before = y_right
+    rest_left = rest_left + ff_left
+    rest_right = rest_right + ff_right
+    if advance:
+        integral = _anti_windup(
+            integral, e_before, e_left, rest_before, rest_left, ki, limit, period, locate
+        )
+    ki_integral = ki * integral
+    u_left = _clamp(rest_left + ki_integral, limit)
+    u_right = rest_right + ki_integral
+    limited = 0.0
+    if abs(u_right) > limit:
+        limited = 1.0
+        u_right = _clamp(u_right, limit)
+    return integral, state, e_right, y_before, rest_right, u_left, u_right, limited
+
+
+# --- one run: start and steps -----------------------------------------------------------------
+
+@_jit()
+def _position_update(p, s, r, theta, angle_left, angle_right, ff_left, ff_right, advance,
+                     has_derivative, period, locate):
+    """Position controller of run ``r`` on the motor angle ``theta`` (docs/model.md §4)."""
+    e_right = angle_right - theta
+    e_left = angle_left - theta
+    if p[r, _ON_MEASUREMENT] != 0.0:  # derivative on the measurement: acts on -theta
+        y_left = y_right = -theta
+    else:
+        y_left, y_right = e_left, e_right
+    out = _controller_update(
+        s[r, _P_INT], s[r, _P_FILTER], s[r, _P_E], s[r, _P_Y], s[r, _P_REST],
+        e_left, e_right, y_left, y_right, ff_left, ff_right, advance,
+        p[r, _CP_KP], p[r, _CP_KI], p[r, _CP_GD], p[r, _CP_A], p[r, _CP_B], p[r, _CP_C],
+        has_derivative, p[r, _I_MAX], period, locate,
+    )
+    (s[r, _P_INT], s[r, _P_FILTER], s[r, _P_E], s[r, _P_Y], s[r, _P_REST],
+     s[r, _P_U_LEFT], s[r, _P_U], s[r, _P_LIMITED]) = out
+
+
+@_jit()
+def _current_update(p, s, r, i, k, current_right, current_left, m_p, hold_p, sampled,
+                    advance, period):
+    """Current controller of run ``r`` on the command delayed by tau_p (docs/model.md §3)."""
+    f_p = p[r, _F_P]
+    i_cmd = _read(current_right, current_left, r, m_p, f_p, k, k, False, hold_p)
+    e_right = i_cmd - i
+    e_left = e_right
+    if not sampled:
+        e_left = _read(current_right, current_left, r, m_p, f_p, k, k, True, hold_p) - i
+    out = _controller_update(
+        s[r, _C_INT], 0.0, s[r, _C_E], 0.0, s[r, _C_REST], e_left, e_right, 0.0, 0.0, 0.0, 0.0,
+        advance, p[r, _CI_KP], p[r, _CI_KI], 0.0, 0.0, 0.0, 0.0, False, p[r, _V_MAX], period,
+        not sampled,
+    )
+    s[r, _C_INT], _, s[r, _C_E], _, s[r, _C_REST], v_left, v_right, limited = out
+    s[r, _C_V_LEFT] = v_right if sampled else v_left
+    s[r, _C_V], s[r, _C_LIMITED], s[r, _I_CMD] = v_right, limited, i_cmd
+
+
+@_jit()
+def _command(p, commands, r, row):
+    """Motor-angle command and feed-forward [rad], [A] of run ``r`` from a row of fin values.
+
+    ``commands[row]`` holds the fin angle, rate and acceleration (one column for every run, or
+    one per run) [rad], [rad/s], [rad/s^2]; feed-forward i_ff = FFv d(theta_cmd)/dt +
+    FFa d2(theta_cmd)/dt2 (docs/model.md §4).
+    """
+    col = 0
+    if commands.shape[2] > 1:
+        col = r
+    ratio = p[r, _RATIO]
+    angle = ratio * commands[row, 0, col]
+    ff = p[r, _FF_V] * (ratio * commands[row, 1, col]) + p[r, _FF_A] * (
+        ratio * commands[row, 2, col]
+    )
+    return angle, ff
+
+
+@_jit(parallel=True)
+def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
+                right, left, every_c, every_p, has_derivative, dt):
+    """Controller outputs at t = 0 (plant at rest, nothing before), as Engine.start.
+
+    Parameters
+    ----------
+    p : numpy.ndarray
+        Parameter table (n_runs, _NP).
+    m : numpy.ndarray
+        Whole steps of the delays (n_runs, 2): tau_c, tau_p.
+    x, s : numpy.ndarray
+        Plant states (n_runs, 3) [A, rad/s, rad] and controller states (n_runs, _NS), updated.
+    voltage_right, voltage_left, current_right, current_left : numpy.ndarray
+        Ring buffers of the delay lines (n_runs, slots) [V], [A], updated.
+    right, left : numpy.ndarray
+        Fin command at t = 0, right and left limits (1, 3, 1 or n_runs).
+    every_c, every_p : int
+        Update period of a sampled controller in steps, 0 for a continuous one.
+    has_derivative : bool
+        Some run has a derivative term (Kd > 0).
+    dt : float
+        Step [s].
+    """
+    for run in prange(x.shape[0]):
+        r = np.int64(run)  # the parallel loop's index may be unsigned
+        sampled_p, sampled_c = every_p > 0, every_c > 0
+        angle, ff = _command(p, right, r, 0)
+        angle_left, ff_left = angle, ff
+        if not sampled_p:  # a sampler sees the values from now on
+            angle_left, ff_left = _command(p, left, r, 0)
+        s[r, _THETA_CMD] = angle
+        # a sampled controller makes its first update from zero samples before t = 0
+        _position_update(p, s, r, x[r, 2], angle_left, angle, ff_left, ff, sampled_p,
+                         has_derivative, dt * max(every_p, 1), not sampled_p)
+        _push(current_right, current_left, r, 0, s[r, _P_U], s[r, _P_U_LEFT], sampled_p)
+        _current_update(p, s, r, x[r, 0], 0, current_right, current_left, m[r, 1], sampled_p,
+                        sampled_c, sampled_c, dt * max(every_c, 1))
+        _push(voltage_right, voltage_left, r, 0, s[r, _C_V], s[r, _C_V_LEFT], sampled_c)
+        s[r, _V] = _read(voltage_right, voltage_left, r, m[r, 0], p[r, _F_C], 0, 0, False,
+                         sampled_c)
+
+
+@_jit(parallel=True)
+def advance_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
+                  right, left, k0, record_every, record_base, floats, flags,
+                  every_c, every_p, has_derivative, dt):
+    """Advance every run from step ``k0`` by ``len(right)`` steps (Engine._step, per run).
+
+    Parameters
+    ----------
+    p, m, x, s, voltage_right, voltage_left, current_right, current_left
+        As for :func:`start_batch`; the states are updated in place.
+    right, left : numpy.ndarray
+        Fin command (angle [rad], rate [rad/s], acceleration [rad/s^2]) at steps k0 + 1, ...,
+        right and left limits, shape (n_steps, 3, 1 or n_runs).
+    k0 : int
+        Step index at the start.
+    record_every, record_base : int
+        Step k is recorded if ``k % record_every == 0``, in row
+        ``k // record_every - record_base``.
+    floats, flags : numpy.ndarray
+        Recordings (7, rows, n_runs) and (2, rows, n_runs) of bool, written.
+    every_c, every_p, has_derivative, dt
+        As for :func:`start_batch`.
+    """
+    n_steps = right.shape[0]
+    for run in prange(x.shape[0]):
+        r = np.int64(run)  # the parallel loop's index may be unsigned
+        sampled_p, sampled_c = every_p > 0, every_c > 0
+        period_p, period_c = dt * max(every_p, 1), dt * max(every_c, 1)
+        m_c, m_p, f_c = m[r, 0], m[r, 1], p[r, _F_C]
+        i, w, th = x[r, 0], x[r, 1], x[r, 2]
+        for row in range(n_steps):
+            k = k0 + row
+            # 1. voltage at the terminals over [t_k, t_k+1]: the current controller's output
+            #    delayed by tau_c, linear over the step (held for a sampled controller)
+            v_a = _read(voltage_right, voltage_left, r, m_c, f_c, k, k, False, sampled_c)
+            v_b = v_a
+            if not sampled_c:
+                v_b = _read(voltage_right, voltage_left, r, m_c, f_c, k + 1, k, True, False)
+            s[r, _V] = _read(voltage_right, voltage_left, r, m_c, f_c, k + 1, k, False,
+                             sampled_c)
+            # 2. plant (§2): x <- Phi x + G_a V_a + G_b V_b
+            x0 = p[r, _PHI] * i + p[r, _PHI + 1] * w + p[r, _PHI + 2] * th
+            x1 = p[r, _PHI + 3] * i + p[r, _PHI + 4] * w + p[r, _PHI + 5] * th
+            x2 = p[r, _PHI + 6] * i + p[r, _PHI + 7] * w + p[r, _PHI + 8] * th
+            x0 += p[r, _GA] * v_a
+            x1 += p[r, _GA + 1] * v_a
+            x2 += p[r, _GA + 2] * v_a
+            x0 += p[r, _GB] * v_b
+            x1 += p[r, _GB + 1] * v_b
+            x2 += p[r, _GB + 2] * v_b
+            i, w, th = x0, x1, x2
+            k += 1
+            # 3. position controller at t_k+1 (§4), its output into the delay line tau_p
+            angle, ff = _command(p, right, r, row)
+            s[r, _THETA_CMD] = angle
+            if not sampled_p or k % every_p == 0:
+                angle_left, ff_left = angle, ff
+                if not sampled_p:
+                    angle_left, ff_left = _command(p, left, r, row)
+                _position_update(p, s, r, th, angle_left, angle, ff_left, ff, True,
+                                 has_derivative, period_p, not sampled_p)
+            _push(current_right, current_left, r, k, s[r, _P_U], s[r, _P_U_LEFT], sampled_p)
+            # 4. current controller at t_k+1 (§3), its output into the delay line tau_c
+            if not sampled_c or k % every_c == 0:
+                _current_update(p, s, r, i, k, current_right, current_left, m_p, sampled_p,
+                                sampled_c, True, period_c)
+            _push(voltage_right, voltage_left, r, k, s[r, _C_V], s[r, _C_V_LEFT], sampled_c)
+            # 5. recording (SIGNALS)
+            if k % record_every == 0:
+                out = k // record_every - record_base
+                floats[0, out, r] = th
+                floats[1, out, r] = w
+                floats[2, out, r] = i
+                floats[3, out, r] = s[r, _V]
+                floats[4, out, r] = angle
+                floats[5, out, r] = s[r, _I_CMD]
+                floats[6, out, r] = p[r, _CP_KI] * s[r, _P_INT]
+                flags[0, out, r] = s[r, _P_LIMITED] != 0.0
+                flags[1, out, r] = s[r, _C_LIMITED] != 0.0
+        x[r, 0], x[r, 1], x[r, 2] = i, w, th
+
+
+# --- the engine -------------------------------------------------------------------------------
+
+#: Command values per kernel call, about (steps x columns) (memory of the command rows).
+_BLOCK_VALUES = 2**18
+
+
+class CompiledEngine:
+    """State of a batch of runs, advanced by the compiled kernel (the interface of Engine).
+
+    Parameters
+    ----------
+    params : LoopParameters
+        Batch parameters.
+    commands : CommandSet
+        Commands of every run.
+    dt : float
+        Step [s].
+    current_every, position_every : int or None
+        Update period of a sampled controller in steps; None for a continuous one.
+    """
+
+    def __init__(self, params, commands, dt, current_every=None, position_every=None):
+        pr = params
+        n = pr.n_runs
+        self.dt = dt
+        self.commands = commands
+        self.every_c, self.every_p = current_every or 0, position_every or 0
+        phi, g_a, g_b = plant_step_matrices(pr, dt)
+        p = np.zeros((n, _NP))
+        p[:, _PHI:_PHI + 9] = phi.reshape(n, 9)
+        p[:, _GA:_GA + 3] = g_a
+        p[:, _GB:_GB + 3] = g_b
+        p[:, _RATIO], p[:, _FF_V], p[:, _FF_A] = pr.ratio, pr.ff_v, pr.ff_a
+        p[:, _CP_KP], p[:, _CP_KI], p[:, _I_MAX] = pr.cp_Kp, pr.cp_Ki, pr.i_max
+        p[:, _CI_KP], p[:, _CI_KI], p[:, _V_MAX] = pr.ci_Kp, pr.ci_Ki, pr.v_max
+        p[:, _ON_MEASUREMENT] = pr.derivative_on_measurement
+        # the derivative filter's coefficients (controllers.py), as the reference computes them
+        self.has_derivative = bool(np.any(pr.cp_Kd > 0))
+        if self.has_derivative:
+            filter_ = derivative_filter(pr.cp_Kd, pr.Tf, dt * (position_every or 1),
+                                        sampled=position_every is not None)
+            p[:, _CP_GD], p[:, _CP_A], p[:, _CP_B], p[:, _CP_C] = filter_
+        (m_c, f_c), (m_p, f_p) = delay_steps(pr.tau_c, dt), delay_steps(pr.tau_p, dt)
+        self.m = np.stack([m_c, m_p], axis=1)
+        p[:, _F_C], p[:, _F_P] = f_c, f_p
+        self.p = p
+        self.x = np.zeros((n, 3))
+        self.s = np.zeros((n, _NS))
+        # ring buffers of the delay lines, right and left limits (delay_line.py)
+        self.voltage = (np.zeros((n, ring_size(m_c))), np.zeros((n, ring_size(m_c))))
+        self.current = (np.zeros((n, ring_size(m_p))), np.zeros((n, ring_size(m_p))))
+        self.k = 0
+
+    def _rows(self, times):
+        """Fin command rows at ``times``: right and left limits, each (len(t), 3, columns)."""
+        return tuple(np.ascontiguousarray(np.stack(self.commands.fin(times, left=left), axis=1))
+                     for left in (False, True))
+
+    def _args(self):
+        return (self.p, self.m, self.x, self.s, *self.voltage, *self.current)
+
+    def start(self):
+        """Controller outputs at t = 0, then the sample at 0 (as Engine.start)."""
+        right, left = self._rows(np.zeros(1))
+        start_batch(*self._args(), right, left, self.every_c, self.every_p,
+                    self.has_derivative, self.dt)
+        return tuple(np.array(value) for value in self.sample())
+
+    def sample(self):
+        """The recorded signals at the present step, in the order of :data:`SIGNALS`."""
+        x, s = self.x, self.s
+        return (
+            x[:, 2], x[:, 1], x[:, 0], s[:, _V], s[:, _THETA_CMD], s[:, _I_CMD],
+            self.p[:, _CP_KI] * s[:, _P_INT], s[:, _P_LIMITED] != 0, s[:, _C_LIMITED] != 0,
+        )
+
+    def advance(self, n_steps, record_every=1):
+        """Advance ``n_steps`` steps; record every ``record_every``-th sample (Engine.advance).
+
+        Returns
+        -------
+        tuple of (numpy.ndarray, dict of str to numpy.ndarray)
+            Times of the recorded samples [s] and each signal of :data:`SIGNALS`, shape
+            (n_samples, n_runs).
+        """
+        first = self.k + 1
+        base = -(-first // record_every)  # the first recorded step is base * record_every
+        rows = (first + n_steps - 1) // record_every - base + 1
+        n = self.x.shape[0]
+        floats = np.empty((len(_FLOAT_SIGNALS), rows, n))
+        flags = np.empty((2, rows, n), dtype=np.bool_)
+        block = max(64, _BLOCK_VALUES // (1 if n == 1 else self.commands.columns))
+        for start in range(first, first + n_steps, block):
+            stop = min(start + block, first + n_steps)
+            right, left = self._rows(np.arange(start, stop) * self.dt)
+            advance_batch(*self._args(), right, left, start - 1, record_every, base, floats,
+                          flags, self.every_c, self.every_p, self.has_derivative, self.dt)
+            self.k = stop - 1
+        kept = np.arange(base, base + rows) * record_every
+        out = dict(zip(_FLOAT_SIGNALS, floats, strict=True))
+        out["current_limited"], out["voltage_limited"] = flags
+        return kept * self.dt, {name: out[name] for name in SIGNALS}
+
+
+def threads():
+    """Threads the kernel runs on (numba's, ``NUMBA_NUM_THREADS``)."""
+    return numba.get_num_threads()
