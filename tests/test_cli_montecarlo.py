@@ -100,3 +100,46 @@ def test_step_requirements_are_evaluated_with_the_step(capsys):
     by_id = {r["id"]: r for r in data["requirements"]}
     assert by_id["OS-1"]["evaluated"] and by_id["BW-2"]["evaluated"]
     assert data["figures"]["step.overshoot_pct"]["count"] == 2
+
+
+# --- several variants (issue 11: one grammar) ---------------------------------------------
+
+
+def test_single_variant_output_unchanged_by_the_variant_options(capsys):
+    outputs = []
+    for extra in ([], ["--variant", "base"]):
+        assert main([*ARGS, *extra, "--json"]) == 0
+        outputs.append(capsys.readouterr().out)
+    assert outputs[0] == outputs[1] and isinstance(_strict(outputs[0]), dict)
+
+
+def test_several_variants_share_the_draws(tmp_path, capsys):
+    report = tmp_path / "mc"
+    argv = ["montecarlo", "--samples", "6", "--tolerance", "motor.Km=10%", "--no-step"]
+    assert main([*argv, "--all-variants", "--json", "-o", str(report)]) == 0
+    data = _strict(capsys.readouterr().out)
+    assert [item["variant"] for item in data] == ["base", "fitted", "relaxed"]
+    # no --seed: one fresh seed, used for every variant (and printed with each)
+    assert len({item["seed"] for item in data}) == 1
+    assert _strict((report / "montecarlo.json").read_text()) == data
+    assert sorted(p.name for p in report.iterdir()) == [
+        ".cas-freq-output", "histograms.base.svg", "histograms.fitted.svg",
+        "histograms.relaxed.svg", "montecarlo.json", "samples.csv"]
+    lines = (report / "samples.csv").read_text().splitlines()
+    assert lines[0].startswith("variant,sample,motor.Km [")
+    rows = [line.split(",") for line in lines[1:]]
+    assert [row[0] for row in rows] == ["base"] * 6 + ["fitted"] * 6 + ["relaxed"] * 6
+    # the same standard-normal numbers around each variant's own Km: the relative deviations
+    # of the samples agree, to the CSV's 10 significant digits (a sample's rounding, <= 5e-11
+    # of it, is below 1e-9 of the deviation's scale 1)
+    nominal = {item.variant: item.params.motor.Km for item in
+               [load_variant(None, name) for name in ("base", "fitted", "relaxed")]}
+    deviations = {}
+    for row in rows:
+        deviations.setdefault(row[0], []).append(float(row[2]) / nominal[row[0]] - 1.0)
+    np.testing.assert_allclose(deviations["fitted"], deviations["base"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(deviations["relaxed"], deviations["base"], rtol=0, atol=1e-9)
+
+    assert main([*argv, "--variant", "base", "--variant", "relaxed", "--seed", "4"]) == 0
+    text = capsys.readouterr().out
+    assert text.count("seed 4") == 2 and "qt_cas (relaxed)" in text

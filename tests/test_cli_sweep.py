@@ -105,3 +105,42 @@ def test_sweep_figure_structure():
                                                     "closed_loop.bandwidth_rad_s"]
     assert all(len(axis.lines) == 2 for axis in axes)  # one line per Kd value
     assert axes[0].get_xlabel() == "position_loop.Kp"
+
+
+# --- several variants (issue 11: one grammar) ---------------------------------------------
+
+GRID = ["sweep", "--set", "position_loop.Kp=4,8", "--set", "motor.J=6e-7"]
+
+
+def test_single_variant_output_unchanged_by_the_variant_options(capsys):
+    # the default, an explicit --variant base and the same name twice print the same bytes
+    outputs = []
+    for extra in ([], ["--variant", "base"], ["--variant", "base", "--variant", "base"]):
+        assert main([*GRID, *extra, "--json"]) == 0
+        outputs.append(capsys.readouterr().out)
+    assert outputs[0] == outputs[1] == outputs[2]
+    assert isinstance(_strict(outputs[0]), dict)
+
+
+def test_several_variants_json_text_csv_and_report(tmp_path, capsys):
+    assert main([*GRID, "--variant", "relaxed", "--variant", "base", "--json"]) == 0
+    data = _strict(capsys.readouterr().out)
+    assert [item["variant"] for item in data] == ["base", "relaxed"]  # the file's order
+    assert main([*GRID, "--variant", "base", "--json"]) == 0
+    assert data[0] == _strict(capsys.readouterr().out)  # each entry is that variant's sweep
+    # the same grid on each: the swept key overrides the variant's own value
+    assert [p["position_loop.Kp"] for p in data[1]["points"]] == [4.0, 8.0]
+
+    out_csv, report = tmp_path / "s.csv", tmp_path / "rep"
+    assert main([*GRID, "--all-variants", "--csv", str(out_csv), "-o", str(report)]) == 0
+    text = capsys.readouterr().out
+    assert text.count("sweep of 2 points") == 3 and "qt_cas (relaxed)" in text
+    rows = list(csv.DictReader(out_csv.open()))
+    assert [row["variant"] for row in rows] == ["base", "base", "fitted", "fitted",
+                                                "relaxed", "relaxed"]
+    assert list(rows[0])[:2] == ["variant", "position_loop.Kp [A/rad]"]
+    assert (report / "sweep.csv").read_text() == out_csv.read_text()
+    assert sorted(p.name for p in report.iterdir()) == [
+        ".cas-freq-output", "sweep.base.svg", "sweep.csv", "sweep.fitted.svg", "sweep.json",
+        "sweep.relaxed.svg"]
+    assert len(_strict((report / "sweep.json").read_text())) == 3

@@ -9,13 +9,17 @@ previous file or report is left as it was and no temporary file remains).
 """
 
 import importlib
+import re
 import sys
 
 from cas_freq import __version__
 from cas_freq.cli.common import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, Parser, set_quiet
 from cas_freq.exceptions import CasFreqError
 
-__all__ = ["EXIT_BAD_INPUT", "EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_OK", "build_parser", "main"]
+__all__ = [
+    "EXIT_BAD_INPUT", "EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_OK", "build_parser",
+    "join_negative_values", "main",
+]
 
 #: Exit status after Ctrl-C (128 + SIGINT, as shells report it).
 EXIT_INTERRUPTED = 130
@@ -45,7 +49,8 @@ def main(argv=None):
     command = "cas-freq"
     try:
         parser = build_parser()
-        args = parser.parse_args(argv)
+        args = parser.parse_args(join_negative_values(parser, sys.argv[1:] if argv is None
+                                                      else list(argv)))
         command = f"cas-freq {args.command_name}"
         set_quiet(getattr(args, "quiet", False))
         return args.handler(args)
@@ -59,6 +64,70 @@ def main(argv=None):
         return EXIT_INTERRUPTED
     finally:
         set_quiet(False)  # --quiet is per call (main may run more than once in a process)
+
+
+#: An option argument that starts like a negative number: ``-5deg``, ``-0.1rad``, ``-1:2:3``,
+#: ``-.5``. No option of cas-freq starts with a dash and a digit, so it is never an option.
+NEGATIVE_VALUE = re.compile(r"-\.?[0-9]")
+
+
+def join_negative_values(parser, argv):
+    """``OPT -5deg`` → ``OPT=-5deg`` wherever OPT takes one value, for every command.
+
+    argparse reads a token that starts with ``-`` as an option unless it is a plain negative
+    number (``-5``), so ``--step -5deg`` fails with "expected one argument"; the joined form is
+    what argparse accepts. Which options take a value is the parser's own knowledge (each
+    sub-parser's actions); an abbreviated long option (``--st``) is resolved as argparse
+    resolves it, and nothing after ``--`` is touched.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The ``cas-freq`` parser (:func:`build_parser`).
+    argv : list of str
+        The command line after the program name.
+
+    Returns
+    -------
+    list of str
+    """
+    commands = next((action.choices for action in parser._actions
+                     if isinstance(action.choices, dict)), {})
+    position = next((i for i, token in enumerate(argv) if token in commands), None)
+    if position is None:
+        return list(argv)
+    options = commands[argv[position]]._option_string_actions
+    out = argv[:position + 1]
+    rest = iter(argv[position + 1:])
+    for token in rest:
+        if token == "--":
+            out += [token, *rest]
+            break
+        action = _option_action(options, token)
+        if action is not None and action.nargs in (None, 1):
+            value = next(rest, None)
+            if value is not None and NEGATIVE_VALUE.match(value):
+                out.append(f"{token}={value}")
+                continue
+            out.append(token)
+            if value is not None:
+                out.append(value)
+            continue
+        out.append(token)
+    return out
+
+
+def _option_action(options, token):
+    """The action of option ``token`` (exact, or a unique prefix of a long option), or None."""
+    if not token.startswith("-") or "=" in token:
+        return None
+    if token in options:
+        return options[token]
+    if token.startswith("--"):
+        matches = {options[name] for name in options if name.startswith(token)}
+        if len(matches) == 1:
+            return matches.pop()
+    return None
 
 
 def _interrupted(command):

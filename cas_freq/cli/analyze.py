@@ -2,7 +2,13 @@
 
 import argparse
 
-from cas_freq.cli.common import EXIT_OK, add_config_arguments, load_variants, print_json
+from cas_freq.cli.common import (
+    EXIT_OK,
+    add_config_arguments,
+    load_variants,
+    print_json,
+    several_variants,
+)
 from cas_freq.exceptions import CasFreqError
 
 #: Accepted --range: within MIN_RAD_S..MAX_RAD_S, spanning at most MAX_DECADES decades.
@@ -72,7 +78,7 @@ def run(args):
     ]
     if args.json:
         data = [to_dict(result) for result in results]
-        print_json(data if args.all_variants else data[0])
+        print_json(data if several_variants(args) else data[0])
     else:
         print("\n\n".join(analysis_table(result) for result in results))
     return EXIT_OK

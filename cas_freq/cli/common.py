@@ -16,31 +16,144 @@ class Parser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
 
 
-def add_config_arguments(parser, all_variants=True):
-    """CONFIG, --variant/--all-variants and --set, as every command takes them."""
+def add_config_arguments(parser, all_by_default=False):
+    """CONFIG, ``--variant NAME`` (repeatable) / ``--all-variants`` and ``--set``, as every
+    command takes them.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The command's sub-parser.
+    all_by_default : bool
+        Without ``--variant``, select base and every variant (report, compare) instead of
+        ``base`` alone.
+
+    Returns
+    -------
+    argparse._MutuallyExclusiveGroup
+        The group of ``--variant`` and ``--all-variants`` (compare adds its ``--variants``).
+    """
     parser.add_argument(
         "config", nargs="?", default=None,
         help="config YAML (default: the shipped configs/qt_cas.yaml)",
     )
     which = parser.add_mutually_exclusive_group()
-    which.add_argument("--variant", default="base", help="variant to use (default: base)")
-    if all_variants:
-        which.add_argument("--all-variants", action="store_true", help="base and every variant")
+    default = "base and every variant" if all_by_default else "base"
+    which.add_argument("--variant", dest="variants", action="append", default=[],
+                       metavar="NAME",
+                       help=f"variant to use (repeatable; default: {default})")
+    which.add_argument("--all-variants", action="store_true",
+                       help="base and every variant" + (" (the default)" if all_by_default
+                                                        else ""))
     parser.add_argument(
         "--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
         help="override a dotted key after the variant, e.g. position_loop.Kp=5 or "
         "current_loop.delay='0.1 ms' (repeatable)",
     )
+    return which
 
 
-def load_variants(args):
-    """The variants the options select, as a list of ``LoadedVariant``."""
-    from cas_freq.config import load_all_variants, load_variant, parse_set_option
+def several_variants(args):
+    """Whether the options ask for more than one variant (``--all-variants`` or two different
+    ``--variant``): the JSON output is then an array, one object per variant."""
+    return bool(getattr(args, "all_variants", False)) or len(set(args.variants)) > 1
 
-    overrides = [parse_set_option(text) for text in args.overrides]
-    if getattr(args, "all_variants", False):
-        return load_all_variants(args.config, overrides)
-    return [load_variant(args.config, args.variant, overrides)]
+
+def selected_variants(config, names, overrides, all_by_default=False):
+    """The LoadedVariants of ``config`` named in ``names``, in the file's order.
+
+    Every variant of the file is loaded and validated (a typo in one is reported whichever is
+    selected), as :func:`cas_freq.config.load_variant` does.
+
+    Parameters
+    ----------
+    config : str or Path or None
+        Config file (None: the shipped one, :func:`cas_freq.config.default_config_path`).
+    names : sequence of str
+        Variant names; empty selects every variant if ``all_by_default``, else ``base``.
+    overrides : sequence of str
+        ``--set KEY=VALUE`` texts, applied after the variant.
+    all_by_default : bool
+        What an empty ``names`` selects.
+
+    Raises
+    ------
+    ConfigError
+        For an unknown name, listing the config's variants.
+    """
+    from cas_freq.config import BASE_VARIANT, load_all_variants, parse_set_option
+    from cas_freq.config.loader import one_line, shown
+    from cas_freq.exceptions import ConfigError
+
+    parsed = [parse_set_option(text) for text in overrides]
+    loaded = load_all_variants(config, parsed)
+    known = [item.variant for item in loaded]
+    unknown = [name for name in dict.fromkeys(names) if name not in known]
+    if unknown:
+        what = "variant" if len(unknown) == 1 else "variants"
+        raise ConfigError(f"{one_line(loaded[0].source)}: unknown {what} "
+                          f"{', '.join(shown(name) for name in unknown)}; the file has "
+                          f"{', '.join(shown(name) for name in known)}")
+    if names:
+        return [item for item in loaded if item.variant in names]
+    return loaded if all_by_default else [item for item in loaded
+                                          if item.variant == BASE_VARIANT]
+
+
+def load_variants(args, all_by_default=False, overrides=None):
+    """The variants the options select, as a list of ``LoadedVariant`` (file order).
+
+    ``overrides``: ``--set`` texts to apply instead of ``args.overrides`` (sweep passes only
+    its fixed ones).
+    """
+    names = [] if getattr(args, "all_variants", False) else args.variants
+    return selected_variants(args.config, names,
+                             args.overrides if overrides is None else overrides,
+                             all_by_default=all_by_default or bool(args.all_variants))
+
+
+def wrote(path):
+    """Say on stderr that a file with a name of cas-freq's making was written (not with
+    ``--quiet``)."""
+    import sys
+
+    if not _QUIET:
+        print(f"wrote {path}", file=sys.stderr, flush=True)
+
+
+def file_safe(name):
+    """``name`` for use in a file name: every character but letters, digits, ``.``, ``_``
+    and ``-`` replaced by ``_``."""
+    import re
+
+    return re.sub(r"[^A-Za-z0-9._-]", "_", name)
+
+
+def variant_csv(parts):
+    """One CSV text from several variants' CSV texts, with a first column ``variant``.
+
+    Parameters
+    ----------
+    parts : sequence of (str, str)
+        (variant name, CSV text with one header line); every header must be the same.
+
+    Returns
+    -------
+    str
+        The header ``variant,<header>``, then each part's rows prefixed by its name.
+    """
+    import csv
+    import io
+
+    headers = {text.split("\n", 1)[0] for _, text in parts}
+    if len(headers) != 1:
+        raise ValueError("variant_csv: the variants' CSV headers differ")
+    lines = ["variant," + headers.pop()]
+    for name, text in parts:
+        cell = io.StringIO()
+        csv.writer(cell, lineterminator="").writerow([name])  # quoted if CSV needs it
+        lines += [f"{cell.getvalue()},{row}" for row in text.splitlines()[1:]]
+    return "\n".join(lines) + "\n"
 
 
 def print_json(data):

@@ -14,11 +14,18 @@ def register(commands):
         "bandwidth-vs-amplitude figures, every figure with its difference to the first (the "
         "baseline), and the requirement verdict matrix; index.html, report.md, results.json.",
     )
-    parser.add_argument("configs", nargs="+", metavar="CONFIG", help="config YAML files")
+    parser.add_argument(
+        "configs", nargs="*", metavar="CONFIG",
+        help="config YAML files (default: the shipped configs/qt_cas.yaml)",
+    )
     which = parser.add_mutually_exclusive_group()
     which.add_argument(
-        "--variants", default=None, metavar="A,B,...",
-        help="variants to take from each config, by name (default: all of them)",
+        "--variant", dest="variants", action="append", default=[], metavar="NAME",
+        help="variant to take from each config (repeatable; default: base and every variant)",
+    )
+    which.add_argument(
+        "--variants", dest="variant_list", default=None, metavar="A,B,...",
+        help="the same as --variant A --variant B ... (comma-separated names)",
     )
     which.add_argument(
         "--all-variants", action="store_true",
@@ -54,15 +61,35 @@ def parse_variant_list(text):
     return list(dict.fromkeys(names))
 
 
+def command_text(args, names):
+    """``cas-freq compare ...`` as the comparison shows it: the options that shaped it, as
+    given (``--all-variants``, the default, and ``-o`` left out, so the same comparison always
+    shows the same line)."""
+    tail = [*args.configs]
+    if args.variant_list is not None:
+        tail += ["--variants", ",".join(names)]
+    for name in args.variants:
+        tail += ["--variant", name]
+    for text in args.overrides:
+        tail += ["--set", text]
+    for option, value, default in (("--amplitudes", args.amplitudes, DEFAULT_AMPLITUDES),
+                                   ("--frequencies", args.frequencies, DEFAULT_FREQUENCIES),
+                                   ("--pade-order", args.pade_order, 10)):
+        if value != default:
+            tail += [option, str(value)]
+    return " ".join(["cas-freq", "compare", *(shlex.quote(str(a)) for a in tail)])
+
+
 def run(args):
     """Build the comparison; print the path of its index.html."""
-    from cas_freq.cli.report import selected_variants
+    from cas_freq.cli.common import selected_variants
     from cas_freq.report.compare import build_compare
 
-    names = parse_variant_list(args.variants) if args.variants is not None else []
+    names = (parse_variant_list(args.variant_list) if args.variant_list is not None
+             else list(dict.fromkeys(args.variants)))
     variants = []
-    for config in args.configs:
-        variants += selected_variants(config, names, args.overrides)
+    for config in args.configs or [None]:
+        variants += selected_variants(config, names, args.overrides, all_by_default=True)
     settings = settings_from_args(args)
     if args.output is not None or len(variants) >= 2:
         from cas_freq.fileio import check_output_dir
@@ -72,18 +99,8 @@ def run(args):
                          else default_compare_dir(variants, names or None), "-o")
 
     progress = label_progress("compare")
-    tail = [*args.configs]
-    if args.variants is not None:
-        tail += ["--variants", ",".join(names)]
-    for text in args.overrides:
-        tail += ["--set", text]
-    for option, value, default in (("--amplitudes", args.amplitudes, DEFAULT_AMPLITUDES),
-                                   ("--frequencies", args.frequencies, DEFAULT_FREQUENCIES),
-                                   ("--pade-order", args.pade_order, 10)):
-        if value != default:
-            tail += [option, str(value)]
-    command = " ".join(["cas-freq", "compare", *(shlex.quote(str(a)) for a in tail)])
     folder = build_compare(variants, args.output, settings=settings, png=args.png,
-                           command=command, selected=names or None, progress=progress)
+                           command=command_text(args, names), selected=names or None,
+                           progress=progress)
     print(folder / "index.html")
     return EXIT_OK

@@ -11,10 +11,15 @@ def register(commands):
     """Add the ``fit`` sub-parser."""
     parser = commands.add_parser(
         "fit", help="second-order fit (report §7) to a measured step response CSV",
-        description="Step figures and the (wn, zeta, td) least-squares fit of a step response "
-        "given as a CSV of time [s] and fin angle [deg] (the step applied at t = 0).",
+        description="Step figures and the (wn, zeta, td) least-squares fit, with 95 % "
+        "confidence intervals, of a step response given as a CSV (the step applied at t = 0): "
+        "two columns, time [s] and fin angle [deg], with an optional header; or a header naming "
+        "a time column (t or time, in s or ms: 't [s]', 'time_s') and a fin angle column "
+        "(delta, fin_angle, fin or angle, in deg or rad: 'delta [deg]', 'fin_angle_deg'), "
+        "other columns ignored, as 'cas-freq simulate --csv' writes it.",
     )
-    parser.add_argument("csv", metavar="FILE", help="two columns: time [s], fin angle [deg]")
+    parser.add_argument("csv", metavar="FILE",
+                        help="CSV: time [s], fin angle [deg]; or named columns (see above)")
     parser.add_argument(
         "--step", required=True, metavar="ANGLE", help="the commanded step, e.g. 10deg",
     )
@@ -53,8 +58,11 @@ def run(args):
         return EXIT_OK
     s, f = data["step"], data["fit"]
 
-    def ms(value):
-        return "—" if value is None else f"{value * 1e3:.4g} ms"
+    def ms(value, unit=" ms"):
+        """A time [s] in ms; one below 1e-9 s is 0 (a delay fitted at its bound of 0 s)."""
+        if value is None:
+            return "—"
+        return f"{0.0 if abs(value) < 1e-9 else value * 1e3:.4g}{unit}"
 
     print("\n".join([
         f"{args.csv}: step of {math.degrees(step):g} deg, {data['samples']} samples from t = 0",
@@ -64,7 +72,7 @@ def run(args):
         "  second-order fit (report §7)",
         f"    wn {f['wn_rad_s']:.4g} rad/s [{f['wn_ci_rad_s'][0]:.4g}, {f['wn_ci_rad_s'][1]:.4g}]",
         f"    zeta {f['zeta']:.4g} [{f['zeta_ci'][0]:.4g}, {f['zeta_ci'][1]:.4g}]",
-        f"    td {ms(f['td_s'])}",
+        f"    td {ms(f['td_s'])} [{ms(f['td_ci_s'][0], '')}, {ms(f['td_ci_s'][1], '')}]",
         f"    rms residual {100 * f['rms_residual'] / abs(step):.3g} % of the step",
         f"    closed-form bandwidth {f['bandwidth_closed_form_rad_s']:.4g} rad/s",
     ]))

@@ -1,6 +1,14 @@
 """``cas-freq montecarlo``: distributions and yields of toleranced variants."""
 
-from cas_freq.cli.common import EXIT_OK, add_config_arguments, angle, print_json
+from cas_freq.cli.common import (
+    EXIT_OK,
+    add_config_arguments,
+    angle,
+    file_safe,
+    print_json,
+    several_variants,
+    variant_csv,
+)
 
 #: Figures summarised in the text output (besides those of the requirements).
 SUMMARY_FIGURES = (
@@ -16,10 +24,13 @@ def register(commands):
         "montecarlo", help="figure distributions and requirement yields under tolerances",
         description="Draw N variants with the given tolerances, compute every figure, and "
         "report percentiles, the yield against each requirement and the worst samples. "
-        "Tolerances: KEY=10%% (relative) or KEY=0.02ms (absolute); normal draws use "
-        "sigma = tolerance/3, uniform draws nominal ± tolerance.",
+        "Tolerances: KEY=10% (relative) or KEY=0.02ms (absolute); normal draws use "
+        "sigma = tolerance/3, uniform draws nominal ± tolerance. Several variants (--variant "
+        "repeated, --all-variants): the same draws (one seed) around each; a summary per "
+        "variant, a JSON array, samples.csv with a first column 'variant' and "
+        "histograms.<variant>.svg per variant with -o.",
     )
-    add_config_arguments(parser, all_variants=False)
+    add_config_arguments(parser)
     parser.add_argument("--samples", type=int, default=1000, metavar="N",
                         help="number of samples (default 1000)")
     parser.add_argument("--tolerance", action="append", default=[], metavar="KEY=TOL",
@@ -72,12 +83,13 @@ def summary(data):
 
 
 def run(args):
-    """Run the Monte Carlo; print text or JSON, write the report."""
+    """Run the Monte Carlo of each selected variant; print text or JSON, write the report."""
     from cas_freq.cli.common import load_variants, terminal_progress
     from cas_freq.exceptions import CasFreqError
     from cas_freq.fileio import check_output_dir
     from cas_freq.report.studies import json_text, write_report
     from cas_freq.studies.montecarlo import (
+        fresh_seed,
         montecarlo_dict,
         montecarlo_samples_csv,
         parse_tolerance,
@@ -90,31 +102,51 @@ def run(args):
         raise CasFreqError("--no-step and --step exclude each other")
     tolerances = [parse_tolerance(text) for text in args.tolerance]
     step = angle(args.step, "--step") if args.step else None
-    (loaded,) = load_variants(args)
-    progress = terminal_progress("montecarlo", unit="sample")
-    result = run_montecarlo(loaded, tolerances, args.samples, distribution=args.distribution,
-                            seed=args.seed, step_rad=step, simulate=not args.no_step,
-                            progress=progress)
-    if progress:
-        progress.done()
-    data = montecarlo_dict(result)
+    variants = load_variants(args)
+    # one seed for every variant: each is drawn around its own values with the same numbers
+    seed = args.seed if args.seed is not None or len(variants) == 1 else fresh_seed()
+    results = []
+    for loaded in variants:
+        label = "montecarlo" if len(variants) == 1 else f"montecarlo {loaded.variant}"
+        progress = terminal_progress(label, unit="sample")
+        results.append(run_montecarlo(loaded, tolerances, args.samples,
+                                      distribution=args.distribution, seed=seed,
+                                      step_rad=step, simulate=not args.no_step,
+                                      progress=progress))
+        if progress:
+            progress.done()
+    several = several_variants(args)
+    data = [montecarlo_dict(result) for result in results]
     if args.output:
-        from cas_freq.plots.studies import histogram_figure, svg_text
+        from cas_freq.plots.studies import svg_text
 
-        names = list(dict.fromkeys(
-            [n for n in SUMMARY_FIGURES if n in result.figures]
-            + [r["metric"] for r in data["requirements"] if r["evaluated"]]))
-        limits = {}
-        for r in data["requirements"]:
-            for bound in ("min", "max"):
-                if r["evaluated"] and r[bound] is not None:
-                    limits.setdefault(r["metric"], []).append((r[bound], f"{r['id']} {bound}"))
-        svg = svg_text(histogram_figure(result.figures, names, limits))
-        write_report(args.output, {"montecarlo.json": json_text(data),
-                                   "samples.csv": montecarlo_samples_csv(result),
-                                   "histograms.svg": svg})
+        samples = (variant_csv([(r.variant, montecarlo_samples_csv(r)) for r in results])
+                   if several else montecarlo_samples_csv(results[0]))
+        files = {"montecarlo.json": json_text(data if several else data[0]),
+                 "samples.csv": samples}
+        for result, item in zip(results, data, strict=True):
+            name = (f"histograms.{file_safe(result.variant)}.svg" if several
+                    else "histograms.svg")
+            files[name] = svg_text(histograms(result, item))
+        write_report(args.output, files)
     if args.json:
-        print_json(data)
+        print_json(data if several else data[0])
     else:
-        print(summary(data))
+        print("\n\n".join(summary(item) for item in data))
     return EXIT_OK
+
+
+def histograms(result, data):
+    """The histogram figure of a Monte Carlo run: the summary figures and every evaluated
+    requirement's figure, with the requirement bounds."""
+    from cas_freq.plots.studies import histogram_figure
+
+    names = list(dict.fromkeys(
+        [n for n in SUMMARY_FIGURES if n in result.figures]
+        + [r["metric"] for r in data["requirements"] if r["evaluated"]]))
+    limits = {}
+    for r in data["requirements"]:
+        for bound in ("min", "max"):
+            if r["evaluated"] and r[bound] is not None:
+                limits.setdefault(r["metric"], []).append((r[bound], f"{r['id']} {bound}"))
+    return histogram_figure(result.figures, names, limits)

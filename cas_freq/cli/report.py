@@ -1,6 +1,6 @@
 """``cas-freq report``: index.html, report.md, results.json and the figures of a config."""
 
-from cas_freq.cli.common import EXIT_OK, label_progress
+from cas_freq.cli.common import EXIT_OK, add_config_arguments, label_progress, load_variants
 
 #: Amplitudes when none are given: small signal, two intermediate sizes, the report's 10 deg.
 DEFAULT_AMPLITUDES = "0.5deg,2deg,5deg,10deg"
@@ -16,18 +16,7 @@ def register(commands):
         description="Write a folder with a self-contained index.html, report.md, results.json "
         "and the figures (SVG) of every variant of a config (default: all of them).",
     )
-    parser.add_argument(
-        "config", nargs="?", default=None,
-        help="config YAML (default: the shipped configs/qt_cas.yaml)",
-    )
-    parser.add_argument(
-        "--variant", dest="variants", action="append", default=[], metavar="NAME",
-        help="report only this variant (repeatable; default: base and every variant)",
-    )
-    parser.add_argument(
-        "--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-        help="override a dotted key after the variant (repeatable)",
-    )
+    add_config_arguments(parser, all_by_default=True)
     parser.add_argument(
         "-o", "--output", default=None, metavar="DIR",
         help="report folder (default: reports/<config name>/); replaced as a whole",
@@ -48,34 +37,6 @@ def register(commands):
     )
     parser.add_argument("--png", action="store_true", help="also write every figure as PNG")
     parser.set_defaults(handler=run)
-
-
-def selected_variants(config, names, overrides):
-    """The LoadedVariants of ``config`` named in ``names`` (all when empty), in file order.
-
-    Raises
-    ------
-    ConfigError
-        For an unknown name, listing the config's variants.
-    """
-    from cas_freq.config import (
-        default_config_path,
-        load_variant,
-        parse_set_option,
-        read_config_file,
-        variant_names,
-    )
-    from cas_freq.exceptions import ConfigError
-
-    path = config if config is not None else default_config_path()
-    known = variant_names(read_config_file(path))
-    unknown = [name for name in names if name not in known]
-    if unknown:
-        raise ConfigError(f"{path}: unknown variant(s) {', '.join(unknown)}; the file has "
-                          f"{', '.join(known)}")
-    chosen = [name for name in known if name in names] if names else known
-    parsed = [parse_set_option(text) for text in overrides]
-    return [load_variant(path, name, parsed) for name in chosen]
 
 
 def settings_from_args(args):
@@ -104,7 +65,7 @@ def run(args):
     """Build the report; print the folder it was written to."""
     from cas_freq.report.build import build_report
 
-    variants = selected_variants(args.config, args.variants, args.overrides)
+    variants = load_variants(args, all_by_default=True)
     settings = settings_from_args(args)
     from cas_freq.fileio import check_output_dir
 

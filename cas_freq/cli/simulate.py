@@ -7,7 +7,9 @@ from cas_freq.cli.common import (
     angle,
     load_variants,
     print_json,
+    several_variants,
     terminal_progress,
+    wrote,
 )
 
 
@@ -29,9 +31,9 @@ def register(commands):
         "its last point)",
     )
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    parser.add_argument("--csv", metavar="FILE", help="write the time series to FILE (with "
-                        "--all-variants: FILE's stem.<variant>.csv per variant, e.g. "
-                        "out.base.csv)")
+    parser.add_argument("--csv", metavar="FILE", help="write the time series to FILE (for several "
+                        "variants: FILE's stem.<variant>.csv per variant, e.g. out.base.csv, "
+                        "each path said on stderr)")
     parser.set_defaults(handler=run)
 
 
@@ -69,10 +71,13 @@ def run(args):
         progress.done()
     if args.csv:
         for result in runs:
-            write_text_atomic(step_csv_name(args.csv, result, len(runs)), step_run_csv(result))
+            path = step_csv_name(args.csv, result, len(runs))
+            write_text_atomic(path, step_run_csv(result))
+            if len(runs) > 1:  # a name of cas-freq's making: say it
+                wrote(path)
     if args.json:
         data = [to_dict(result) for result in runs]
-        print_json(data if args.all_variants else data[0])
+        print_json(data if several_variants(args) else data[0])
     else:
         print("\n\n".join(to_table(result) for result in runs))
     return EXIT_OK

@@ -6,6 +6,7 @@ from cas_freq.cli.common import (
     angle,
     load_variants,
     print_json,
+    several_variants,
     terminal_progress,
 )
 from cas_freq.exceptions import CasFreqError
@@ -75,7 +76,7 @@ def run(args):
             progress.done()
         data.append(sinedwell_run_dict(result))
     if args.json:
-        print_json(data if args.all_variants else data[0])
+        print_json(data if several_variants(args) else data[0])
     else:
         print("\n\n".join(sinedwell_table(item) for item in data))
     return EXIT_OK

@@ -1,6 +1,15 @@
 """``cas-freq sweep``: every figure of analyze (and of a step) over a grid of config keys."""
 
-from cas_freq.cli.common import EXIT_OK, add_config_arguments, angle, print_json
+from cas_freq.cli.common import (
+    EXIT_OK,
+    add_config_arguments,
+    angle,
+    file_safe,
+    load_variants,
+    print_json,
+    several_variants,
+    variant_csv,
+)
 from cas_freq.exceptions import CasFreqError
 
 #: Figures shown in the text table (all of them go to JSON and CSV).
@@ -22,9 +31,11 @@ def register(commands):
         "sweep", help="every figure over a grid of config keys (batch, vectorised)",
         description="Evaluate every figure of analyze (and, with --step, of simulate) at each "
         "point of a grid: --set KEY=START:STOP:COUNT or KEY=A,B,C (several --set make a "
-        "Cartesian product); --set KEY=VALUE fixes a key.",
+        "Cartesian product); --set KEY=VALUE fixes a key. Several variants (--variant repeated, "
+        "--all-variants): the same grid for each; a table per variant, a JSON array, and one CSV "
+        "with a first column 'variant' (sweep.<variant>.svg per variant with -o).",
     )
-    add_config_arguments(parser, all_variants=False)
+    add_config_arguments(parser)
     parser.add_argument("--step", metavar="ANGLE", help="also simulate a fin step, e.g. 10deg")
     parser.add_argument("--no-fit", action="store_true",
                         help="with --step: skip the second-order fit")
@@ -35,14 +46,16 @@ def register(commands):
                         help="with --sinedwell: frequencies in rad/s (default: 100:5000:30)")
     output = parser.add_mutually_exclusive_group()
     output.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    output.add_argument("--csv", metavar="FILE", help="write one CSV row per grid point")
+    output.add_argument("--csv", metavar="FILE", help="write one CSV row per grid point (and "
+                        "variant: a first column 'variant' when there are several)")
     parser.add_argument("-o", "--output", metavar="DIR",
                         help="report directory: sweep.json, sweep.csv and sweep.svg")
     parser.set_defaults(handler=run)
 
 
 def split_settings(settings):
-    """(fixed overrides as (key, value), grid axes as key -> values [SI]) from ``--set``."""
+    """(fixed overrides as ``KEY=VALUE`` texts, grid axes as key -> values [SI]) from
+    ``--set``."""
     from cas_freq.config import parse_set_option
     from cas_freq.studies.sweep import is_grid_spec, parse_grid_values
 
@@ -55,7 +68,8 @@ def split_settings(settings):
                 raise CasFreqError(f"--set {key}: swept twice")
             axes[key] = parse_grid_values(key, value)
         else:
-            fixed.append(parse_set_option(text))
+            parse_set_option(text)  # refuses a malformed one before any work
+            fixed.append(text)
     return fixed, axes
 
 
@@ -80,9 +94,8 @@ def table(sweep):
 
 
 def run(args):
-    """Run the sweep; print a table or JSON, write CSV and the report."""
+    """Run the sweep of each selected variant; print tables or JSON, write CSV and the report."""
     from cas_freq.cli.common import terminal_progress
-    from cas_freq.config import load_variant
     from cas_freq.fileio import check_output_dir, check_output_file, write_text_atomic
     from cas_freq.report.studies import json_text, write_report
     from cas_freq.studies.sweep import run_sweep, sweep_csv, sweep_dict
@@ -105,23 +118,33 @@ def run(args):
         sinedwell = (abs(angle(args.sinedwell, "--sinedwell")), frequencies)
     elif args.frequencies:
         raise CasFreqError("--frequencies: only with --sinedwell")
-    loaded = load_variant(args.config, args.variant, fixed)
-    progress = terminal_progress("sweep", unit="point")
-    result = run_sweep(loaded, axes, step_rad=step, fit=not args.no_fit, sinedwell=sinedwell,
-                       progress=progress)
-    if progress:
-        progress.done()
-    data = sweep_dict(result)
+    variants = load_variants(args, overrides=fixed)
+    results = []
+    for loaded in variants:
+        label = "sweep" if len(variants) == 1 else f"sweep {loaded.variant}"
+        progress = terminal_progress(label, unit="point")
+        results.append(run_sweep(loaded, axes, step_rad=step, fit=not args.no_fit,
+                                 sinedwell=sinedwell, progress=progress))
+        if progress:
+            progress.done()
+    several = several_variants(args)
+    data = [sweep_dict(result) for result in results]
+    data = data if several else data[0]
+    csv_text = (variant_csv([(r.variant, sweep_csv(r)) for r in results]) if several
+                else sweep_csv(results[0]))
     if args.csv:
-        write_text_atomic(args.csv, sweep_csv(result))
+        write_text_atomic(args.csv, csv_text)
     if args.output:
         from cas_freq.plots.studies import svg_text, sweep_figure
 
-        svg = svg_text(sweep_figure(result.points, result.figures, list(result.points)))
-        write_report(args.output, {"sweep.json": json_text(data), "sweep.csv": sweep_csv(result),
-                                   "sweep.svg": svg})
+        files = {"sweep.json": json_text(data), "sweep.csv": csv_text}
+        for result in results:
+            name = f"sweep.{file_safe(result.variant)}.svg" if several else "sweep.svg"
+            files[name] = svg_text(sweep_figure(result.points, result.figures,
+                                                list(result.points)))
+        write_report(args.output, files)
     if args.json:
         print_json(data)
     else:
-        print(table(result))
+        print("\n\n".join(table(result) for result in results))
     return EXIT_OK

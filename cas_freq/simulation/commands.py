@@ -13,6 +13,7 @@ contribute no impulse.
 import csv
 import dataclasses
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -209,7 +210,7 @@ class Table:
 
 
 def read_command_csv(path):
-    """Read a user command: two columns, time [s] >= 0 and fin angle [deg]; an optional header.
+    """Read a user command: time [s] >= 0 and fin angle [deg], as :func:`read_angle_series_csv`.
 
     Parameters
     ----------
@@ -230,8 +231,82 @@ def read_command_csv(path):
     return Table(time_s, angle_rad, source=str(path))
 
 
+#: Header names of the time column (any case), with their accepted units and scale to s. A
+#: cell names its unit in brackets (``t [s]``) or parentheses, or as a suffix (``time_s``);
+#: without one, s.
+TIME_COLUMN = (("t", "time"), {"s": 1.0, "ms": 1e-3})
+#: Header names of the fin-angle column, best first (``delta`` is what ``simulate --csv``
+#: writes beside ``command_fin``), and their units; without one, deg.
+ANGLE_COLUMN = (("delta", "fin_angle", "fin", "angle"), {"deg": math.pi / 180.0, "rad": 1.0})
+_TIME_ACCEPTED = "t or time, in s or ms (e.g. 't [s]', 'time_s')"
+_ANGLE_ACCEPTED = "delta, fin_angle, fin or angle, in deg or rad (e.g. 'delta [deg]', " \
+    "'fin_angle_deg')"
+
+
+def _header_cell(cell):
+    """(name, unit or None) of a header cell: ``'delta [deg]'`` → ('delta', 'deg'),
+    ``'time_s'`` → ('time', 's'), ``'t'`` → ('t', None); lower case."""
+    text = cell.strip().lower()
+    match = re.fullmatch(r"(.*?)\s*[\[(]\s*([^\])]*?)\s*[\])]", text)
+    if match:
+        return match.group(1), match.group(2)
+    name, _, suffix = text.rpartition("_")
+    if name and suffix in {*TIME_COLUMN[1], *ANGLE_COLUMN[1]}:
+        return name, suffix
+    return text, None
+
+
+def _find_column(path, row_number, cells, column, accepted):
+    """(index, scale) of the first header cell naming ``column`` (names best first), or None.
+
+    Raises ConfigError for a named column in a unit that is not accepted.
+    """
+    names, units = column
+    found = {}
+    for index, cell in enumerate(cells):
+        name, unit = _header_cell(cell)
+        if name in names and name not in found:
+            if unit is not None and unit not in units:
+                raise ConfigError(f"{path}: row {row_number}: column {cell.strip()!r}: unit "
+                                  f"{unit!r} not accepted; expected {accepted}")
+            found[name] = (index, units[unit if unit is not None else next(iter(units))])
+    return next((found[name] for name in names if name in found), None)
+
+
+def _header_columns(path, row_number, cells):
+    """Columns and scales ``((time index, to s), (angle index, to rad))`` of a header row.
+
+    A header naming both a time and a fin-angle column (:data:`TIME_COLUMN`,
+    :data:`ANGLE_COLUMN`) selects them, whatever else it holds. A two-column header is time
+    and angle whatever it names: a column it names is read in the unit it gives, the other is
+    the remaining column (time [s] first, angle [deg] second when it names neither).
+    """
+    time = _find_column(path, row_number, cells, TIME_COLUMN, _TIME_ACCEPTED)
+    angle = _find_column(path, row_number, cells, ANGLE_COLUMN, _ANGLE_ACCEPTED)
+    if len(cells) == 2 and (time is None or angle is None):
+        if time is None:
+            time = (0 if angle is None else 1 - angle[0], 1.0)
+        if angle is None:
+            angle = (1 - time[0], math.pi / 180.0)
+    if time is not None and angle is not None:
+        return time, angle
+    missing = [f"no {what} column ({accepted})"
+               for what, accepted, found in (("time", _TIME_ACCEPTED, time),
+                                             ("fin angle", _ANGLE_ACCEPTED, angle))
+               if found is None]
+    shown = ", ".join(repr(cell.strip()[:40]) for cell in cells[:12])
+    raise ConfigError(f"{path}: row {row_number}: the header names {' and '.join(missing)}; "
+                      f"got {shown}{', ...' if len(cells) > 12 else ''}")
+
+
 def read_angle_series_csv(path, negative_times=False):
-    """Read a fin-angle time series: time [s] and angle [deg] columns, an optional header.
+    """Read a fin-angle time series: a time column and a fin angle column.
+
+    Either two columns, time [s] and fin angle [deg], with an optional header; or a header
+    naming the columns (:data:`TIME_COLUMN`, :data:`ANGLE_COLUMN`: ``t [s]`` or ``time_s``,
+    ``delta [deg]`` or ``fin_angle_deg``, ...), which selects them and their units among any
+    number of columns: the CSV that ``cas-freq simulate --csv`` writes (``t [s]``,
+    ``command_fin [deg]``, ``delta [deg]``, ...) is read as time and ``delta``.
 
     Parameters
     ----------
@@ -248,7 +323,8 @@ def read_angle_series_csv(path, negative_times=False):
     Raises
     ------
     ConfigError
-        (a ValueError) naming the file and row of the first bad value.
+        (a ValueError) naming the file and row of the first bad value, or what a header
+        lacks.
     """
     path = Path(path)
     try:
@@ -256,16 +332,26 @@ def read_angle_series_csv(path, negative_times=False):
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{path}: cannot read the file ({exc})") from None
     times, angles = [], []
+    columns, width = ((0, 1.0), (1, math.pi / 180.0)), 2
+    first = True
     for row_number, row in enumerate(csv.reader(text.splitlines()), start=1):
         if not row or not "".join(row).strip() or row[0].lstrip().startswith("#"):
             continue
-        if len(row) != 2:
-            raise ConfigError(f"{path}: row {row_number}: expected 2 columns, got {len(row)}")
-        try:
-            time, angle = float(row[0]), float(row[1])
-        except ValueError:
-            if not times:  # a header row
+        if first:
+            first = False
+            try:
+                [float(cell) for cell in row]
+            except ValueError:  # a header row
+                columns, width = _header_columns(path, row_number, row), len(row)
                 continue
+        if len(row) != width:
+            raise ConfigError(f"{path}: row {row_number}: expected {width} columns, got "
+                              f"{len(row)}")
+        (time_index, time_scale), (angle_index, angle_scale) = columns
+        try:
+            time = float(row[time_index]) * time_scale
+            angle = float(row[angle_index]) * angle_scale
+        except ValueError:
             raise ConfigError(f"{path}: row {row_number}: not numbers: {row!r}") from None
         if not (math.isfinite(time) and math.isfinite(angle)):
             raise ConfigError(f"{path}: row {row_number}: values must be finite, got {row!r}")
@@ -280,7 +366,7 @@ def read_angle_series_csv(path, negative_times=False):
         angles.append(angle)
     if len(times) < 2:
         raise ConfigError(f"{path}: need at least 2 rows of (time [s], angle [deg])")
-    return np.array(times), np.radians(angles)
+    return np.array(times), np.array(angles)
 
 
 def motor_command(command, ratio, t, left=False):

@@ -80,6 +80,11 @@ def parse_tolerance(text):
     return Tolerance(key, None, absolute)
 
 
+def fresh_seed():
+    """A seed from fresh entropy, small enough to print and type (below 2**32)."""
+    return int(np.random.SeedSequence().entropy % (2**32))
+
+
 def draw(params, tolerances, samples, distribution="normal", seed=None):
     """Sampled values of each toleranced key.
 
@@ -94,7 +99,7 @@ def draw(params, tolerances, samples, distribution="normal", seed=None):
                                          1 <= samples <= MAX_SAMPLES):
         raise ConfigError(f"--samples: must be an integer 1..{MAX_SAMPLES}, got {samples!r}")
     if seed is None:
-        seed = int(np.random.SeedSequence().entropy % (2**32))
+        seed = fresh_seed()
     elif (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
           or not 0 <= seed < 2**128):
         raise ConfigError(f"--seed: must be an integer >= 0 (below 2**128), got {seed!r}")
