@@ -14,7 +14,8 @@ body { font-family: system-ui, -apple-system, "Segoe UI", Helvetica, Arial, sans
        margin: 2em auto; max-width: 1100px; padding: 0 1em; color: #222; line-height: 1.4; }
 h1 { border-bottom: 2px solid #444; padding-bottom: .2em; }
 h2 { border-bottom: 1px solid #aaa; margin-top: 2em; }
-table { border-collapse: collapse; margin: .5em 0 1.5em 0; font-size: 90%; }
+table { border-collapse: collapse; margin: .5em 0 1.5em 0; font-size: 90%;
+        display: block; max-width: 100%; overflow-x: auto; }
 caption { text-align: left; font-style: italic; padding: .3em 0; }
 th, td { border: 1px solid #bbb; padding: .25em .6em; text-align: left; vertical-align: top; }
 th { background: #eee; }
