@@ -1,0 +1,172 @@
+"""Running a study's chunks on a dask.distributed cluster (the optional ``distributed`` extra).
+
+A sweep or a Monte Carlo is a list of independent samples. Locally they are evaluated in one
+process; with ``--scheduler`` they are cut into chunks of :data:`CHUNK_SAMPLES` samples, each
+chunk is evaluated by :func:`cas_freq.studies.sweep.evaluate_figures` on a worker, and the
+chunks are put back in sample order. The cut does not depend on the number of workers, the
+samples are drawn before the cut (the seed is used once, here), and every figure of a sample
+is computed from that sample alone, so a run gives the same numbers with any number of
+workers as it does locally.
+
+Worker loss is dask's to handle: a chunk that was running on a lost worker is rescheduled on
+another (up to ``distributed.scheduler.allowed-failures`` times); a chunk that raised is
+retried :data:`RETRIES` times before the study fails with its error.
+
+``ADDRESS`` is a scheduler address (``tcp://host:8786``, ``host:8786``) or ``local:N`` for a
+local cluster of N single-threaded worker processes, started and stopped with the study.
+"""
+
+import contextlib
+import re
+
+import numpy as np
+
+from cas_freq.exceptions import CasFreqError
+
+#: Samples per chunk sent to a worker (a multiple of the step batch, so that a chunk's steps
+#: run in the same batches as locally).
+CHUNK_SAMPLES = 256
+
+#: Times a chunk that raised is submitted again.
+RETRIES = 2
+
+#: Seconds to wait for a scheduler address to answer.
+CONNECT_TIMEOUT_S = 20.0
+
+#: Most local workers ``local:N`` starts.
+MAX_LOCAL_WORKERS = 256
+
+_LOCAL = re.compile(r"local:(\d+)")
+_ADDRESS = re.compile(r"((tcp|tls|inproc|ucx|ws|wss)://)?[A-Za-z0-9_.\-\[\]:]+:\d+")
+
+
+def parse_scheduler(text):
+    """Check a ``--scheduler`` value: ``local:N`` or ``[protocol://]host:port``.
+
+    Returns
+    -------
+    (str, int or str)
+        ``("local", N)`` or ``("address", text)``.
+
+    Raises
+    ------
+    CasFreqError
+        For anything else, saying what is accepted.
+    """
+    text = str(text).strip()
+    local = _LOCAL.fullmatch(text)
+    if local:
+        workers = int(local.group(1))
+        if not 1 <= workers <= MAX_LOCAL_WORKERS:
+            raise CasFreqError(f"--scheduler: local:N needs 1 <= N <= {MAX_LOCAL_WORKERS} "
+                               f"workers, got {text!r}")
+        return "local", workers
+    if _ADDRESS.fullmatch(text):
+        return "address", text
+    raise CasFreqError(f"--scheduler: expected local:N (a local cluster of N workers) or a "
+                       f"scheduler address such as tcp://10.0.0.5:8786, got {text!r}")
+
+
+def _distributed():
+    """The ``distributed`` module, or a clear error naming the extra to install."""
+    try:
+        import distributed
+    except ImportError:
+        raise CasFreqError(
+            "--scheduler needs dask.distributed: pip install \"cas_freq[distributed]\""
+        ) from None
+    return distributed
+
+
+@contextlib.contextmanager
+def client_for(scheduler):
+    """A dask Client for a ``--scheduler`` value (a local cluster is closed on exit)."""
+    distributed = _distributed()
+    kind, value = parse_scheduler(scheduler)
+    if kind == "local":
+        with distributed.LocalCluster(n_workers=value, threads_per_worker=1, processes=True,
+                                      dashboard_address=None) as cluster, \
+                distributed.Client(cluster) as client:
+            yield client
+        return
+    try:
+        client = distributed.Client(value, timeout=f"{CONNECT_TIMEOUT_S}s")
+    except (OSError, TimeoutError) as exc:
+        raise CasFreqError(f"--scheduler: no dask scheduler answers at {value!r} "
+                           f"({type(exc).__name__}: {exc})") from None
+    with client:
+        yield client
+
+
+def chunk_slices(n_samples, size=CHUNK_SAMPLES):
+    """Slices of consecutive samples, ``size`` each (the last one shorter)."""
+    return [slice(start, min(start + size, n_samples)) for start in range(0, n_samples, size)]
+
+
+def _evaluate_chunk(params, changes, options):
+    """Figures and verdicts of one chunk (runs on a worker)."""
+    from cas_freq.studies.sweep import evaluate_figures
+
+    return evaluate_figures(params, changes, **options)
+
+
+def evaluate_figures_distributed(params, changes, scheduler, *, progress=None,
+                                 chunk_samples=CHUNK_SAMPLES, **options):
+    """:func:`cas_freq.studies.sweep.evaluate_figures` with its samples cut into chunks and
+    evaluated on a dask cluster.
+
+    Parameters
+    ----------
+    params : cas_freq.config.ActuatorConfig
+        Base config (sent to the cluster once).
+    changes : dict of str to numpy.ndarray
+        Dotted key -> values [SI] per sample.
+    scheduler : str
+        ``local:N`` or a scheduler address (:func:`parse_scheduler`).
+    progress : callable, optional
+        ``progress(done, total)`` in samples, as chunks complete.
+    chunk_samples : int
+        Samples per chunk: a multiple of the step batch
+        (:data:`cas_freq.studies.steps.DEFAULT_STEP_CHUNK`), so that results do not depend on it.
+    **options
+        ``step_rad``, ``fit``, ``sinedwell`` as for ``evaluate_figures``.
+
+    Returns
+    -------
+    (dict of str to numpy.ndarray, numpy.ndarray of str)
+        As ``evaluate_figures``, in sample order.
+    """
+    from cas_freq.studies.steps import DEFAULT_STEP_CHUNK
+
+    if chunk_samples <= 0 or chunk_samples % DEFAULT_STEP_CHUNK:
+        raise ValueError(f"chunk_samples must be a positive multiple of {DEFAULT_STEP_CHUNK}, "
+                         f"got {chunk_samples}")
+    distributed = _distributed()
+    n = len(next(iter(changes.values()))) if changes else 0
+    slices = chunk_slices(n, chunk_samples)
+    with client_for(scheduler) as client:
+        shared = client.scatter(params, broadcast=True)
+        futures = [
+            client.submit(_evaluate_chunk, shared, {k: v[part] for k, v in changes.items()},
+                          options, retries=RETRIES, pure=False)
+            for part in slices
+        ]
+        index = {future.key: position for position, future in enumerate(futures)}
+        results = [None] * len(futures)
+        done = 0
+        for future in distributed.as_completed(futures):
+            position = index[future.key]
+            results[position] = future.result()  # re-raises a chunk's error after its retries
+            done += slices[position].stop - slices[position].start
+            if progress:
+                progress(done, n)
+    return _joined(results)
+
+
+def _joined(results):
+    """One (figures, stability) from the chunks' results, in order."""
+    names = list(results[0][0])
+    figures = {name: np.concatenate([figures[name] for figures, _ in results])
+               for name in names}
+    stability = np.concatenate([stability for _, stability in results])
+    return figures, stability

@@ -1,0 +1,81 @@
+"""Studies on a dask.distributed cluster give the local numbers (issue 12).
+
+A local cluster of worker processes (``local:N``) evaluates a Monte Carlo draw cut into chunks;
+every figure and verdict must equal the local run's exactly (not to a tolerance): each sample's
+figures are computed from that sample alone, in step batches of the same composition, so the
+only way to differ would be a bug in the cutting or the joining. Skipped without the
+``distributed`` extra.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from cas_freq.config import load_variant
+from cas_freq.exceptions import CasFreqError
+from cas_freq.studies.distributed import chunk_slices, evaluate_figures_distributed, parse_scheduler
+from cas_freq.studies.montecarlo import draw, parse_tolerance
+from cas_freq.studies.sweep import evaluate_figures
+
+distributed = pytest.importorskip("distributed", reason="the 'distributed' extra is not installed")
+
+
+@pytest.fixture(scope="module")
+def draw_of_40():
+    loaded = load_variant(None, "base")
+    tolerances = [parse_tolerance(text) for text in
+                  ("motor.Km=10%", "motor.J=20%", "current_loop.delay=0.02ms")]
+    values, _ = draw(loaded.params, tolerances, 40, "normal", 7)
+    return loaded.params, values
+
+
+def _assert_same(local, remote):
+    figures, stability = local
+    assert list(remote[0]) == list(figures)
+    for name, values in figures.items():
+        np.testing.assert_array_equal(remote[0][name], values, err_msg=name)
+    np.testing.assert_array_equal(remote[1], stability)
+
+
+@pytest.mark.parametrize(("workers", "options"), [
+    (1, {}),  # frequency-domain figures only
+    (2, {"step_rad": math.radians(10), "fit": True}),  # and the nonlinear step with its fit
+])
+def test_a_local_cluster_gives_the_local_figures_exactly(draw_of_40, workers, options):
+    params, values = draw_of_40
+    local = evaluate_figures(params, values, **options)
+    seen = []
+    remote = evaluate_figures_distributed(params, values, f"local:{workers}", chunk_samples=32,
+                                          progress=lambda done, total: seen.append(done),
+                                          **options)
+    _assert_same(local, remote)
+    assert sorted(seen) == seen and seen[-1] == 40 and len(seen) == 2  # 32 + 8 samples
+
+
+def test_chunks_cover_every_sample_once():
+    parts = chunk_slices(70, 32)
+    assert [(p.start, p.stop) for p in parts] == [(0, 32), (32, 64), (64, 70)]
+    assert chunk_slices(0, 32) == []
+
+
+@pytest.mark.parametrize("text", ["local:0", "local:x", "tcp://", "somewhere", "local:100000",
+                                  "8786"])
+def test_a_bad_scheduler_is_refused_with_what_is_accepted(text):
+    with pytest.raises(CasFreqError, match="--scheduler"):
+        parse_scheduler(text)
+
+
+@pytest.mark.parametrize("text", ["local:4", "tcp://10.0.0.5:8786", "cluster.lab:8786"])
+def test_scheduler_forms(text):
+    kind, _ = parse_scheduler(text)
+    assert kind == ("local" if text.startswith("local") else "address")
+
+
+def test_a_scheduler_that_does_not_answer_is_a_clear_error(draw_of_40, monkeypatch):
+    import cas_freq.studies.distributed as module
+
+    monkeypatch.setattr(module, "CONNECT_TIMEOUT_S", 1.0)
+    params, values = draw_of_40
+    with pytest.raises(CasFreqError, match="no dask scheduler answers"):
+        evaluate_figures_distributed(params, values, "tcp://127.0.0.1:9")
