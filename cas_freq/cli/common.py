@@ -16,7 +16,7 @@ class Parser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
 
 
-def add_config_arguments(parser, all_by_default=False):
+def add_config_arguments(parser, all_by_default=False, several_configs=False):
     """CONFIG, ``--variant NAME`` (repeatable) / ``--all-variants`` and ``--set``, as every
     command takes them.
 
@@ -27,21 +27,25 @@ def add_config_arguments(parser, all_by_default=False):
     all_by_default : bool
         Without ``--variant``, select base and every variant (report, compare) instead of
         ``base`` alone.
+    several_configs : bool
+        CONFIG may be given any number of times (compare: ``args.configs``, a list) instead of
+        at most once (``args.config``).
 
     Returns
     -------
     argparse._MutuallyExclusiveGroup
-        The group of ``--variant`` and ``--all-variants`` (compare adds its ``--variants``).
+        The group of ``--variant`` and ``--all-variants`` (compare adds ``--variants`` to it).
     """
-    parser.add_argument(
-        "config", nargs="?", default=None,
-        help="config YAML (default: the shipped configs/qt_cas.yaml)",
-    )
+    if several_configs:
+        parser.add_argument("configs", nargs="*", metavar="CONFIG",
+                            help="config YAML files (default: the shipped configs/qt_cas.yaml)")
+    else:
+        parser.add_argument("config", nargs="?", default=None, metavar="CONFIG",
+                            help="config YAML (default: the shipped configs/qt_cas.yaml)")
     which = parser.add_mutually_exclusive_group()
     default = "base and every variant" if all_by_default else "base"
     which.add_argument("--variant", dest="variants", action="append", default=[],
-                       metavar="NAME",
-                       help=f"variant to use (repeatable; default: {default})")
+                       metavar="NAME", help=f"variant to use (repeatable; default: {default})")
     which.add_argument("--all-variants", action="store_true",
                        help="base and every variant" + (" (the default)" if all_by_default
                                                         else ""))
@@ -56,7 +60,7 @@ def add_config_arguments(parser, all_by_default=False):
 def several_variants(args):
     """Whether the options ask for more than one variant (``--all-variants`` or two different
     ``--variant``): the JSON output is then an array, one object per variant."""
-    return bool(getattr(args, "all_variants", False)) or len(set(args.variants)) > 1
+    return args.all_variants or len(set(args.variants)) > 1
 
 
 def selected_variants(config, names, overrides, all_by_default=False):
@@ -106,10 +110,9 @@ def load_variants(args, all_by_default=False, overrides=None):
     ``overrides``: ``--set`` texts to apply instead of ``args.overrides`` (sweep passes only
     its fixed ones).
     """
-    names = [] if getattr(args, "all_variants", False) else args.variants
-    return selected_variants(args.config, names,
+    return selected_variants(args.config, args.variants,
                              args.overrides if overrides is None else overrides,
-                             all_by_default=all_by_default or bool(args.all_variants))
+                             all_by_default=all_by_default or args.all_variants)
 
 
 def wrote(path):

@@ -2,7 +2,7 @@
 
 import shlex
 
-from cas_freq.cli.common import EXIT_OK, label_progress
+from cas_freq.cli.common import EXIT_OK, add_config_arguments, label_progress
 from cas_freq.cli.report import DEFAULT_AMPLITUDES, DEFAULT_FREQUENCIES, settings_from_args
 
 
@@ -14,26 +14,10 @@ def register(commands):
         "bandwidth-vs-amplitude figures, every figure with its difference to the first (the "
         "baseline), and the requirement verdict matrix; index.html, report.md, results.json.",
     )
-    parser.add_argument(
-        "configs", nargs="*", metavar="CONFIG",
-        help="config YAML files (default: the shipped configs/qt_cas.yaml)",
-    )
-    which = parser.add_mutually_exclusive_group()
-    which.add_argument(
-        "--variant", dest="variants", action="append", default=[], metavar="NAME",
-        help="variant to take from each config (repeatable; default: base and every variant)",
-    )
+    which = add_config_arguments(parser, all_by_default=True, several_configs=True)
     which.add_argument(
         "--variants", dest="variant_list", default=None, metavar="A,B,...",
         help="the same as --variant A --variant B ... (comma-separated names)",
-    )
-    which.add_argument(
-        "--all-variants", action="store_true",
-        help="take base and every variant of each config (the default)",
-    )
-    parser.add_argument(
-        "--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-        help="override a dotted key in every compared variant (repeatable)",
     )
     parser.add_argument(
         "-o", "--output", default=None, metavar="DIR",
