@@ -189,7 +189,7 @@ def nyquist(data):
                      f"rad/s; view ±{half:g} around −1")
         handles, labels = ax.get_legend_handles_labels()
         fig.legend(handles, labels, loc=f"outside lower {side}", fontsize=7)
-    fig.suptitle(f"{data.label}: Nyquist plots of L_p and L_i ({EXACT}); curves clipped to "
+    fig.suptitle(f"{data.label}: Nyquist plots of L_p and L_i ({EXACT})\ncurves clipped to "
                  "the view, arrows point to increasing ω")
     return fig
 
@@ -208,7 +208,7 @@ def nyquist_caption(data):  # noqa: ARG001  (the same for every variant)
 
 #: The pole-zero view spans this many times the loop's own frequency (ω_BW or the gain
 #: crossover, whichever is larger) to the left of the imaginary axis.
-VIEW_SPAN = 3.0
+VIEW_SPAN = 2.5
 
 
 def closed_loop_zeros(params, pade_order):
@@ -269,6 +269,15 @@ def _outside(values, view):
                                 | (values.imag > y1)))
 
 
+def _real_tolerance(p):
+    """|Im p| below which a computed root counts as real [rad/s]."""
+    return 1e-9 * max(1.0, abs(p))
+
+
+def _is_real(p):
+    return abs(p.imag) <= _real_tolerance(p)
+
+
 def _annotated(poles, view):
     """The poles to label with ωn and ζ: the upper member of each complex pair in view and every
     right-half-plane real pole in view."""
@@ -277,7 +286,7 @@ def _annotated(poles, view):
     for p in poles:
         if not (x0 <= p.real <= x1 and y0 <= p.imag <= y1):
             continue
-        if p.imag > 0 or (p.imag == 0 and p.real > 0):
+        if p.imag > _real_tolerance(p) or (_is_real(p) and p.real > 0):
             chosen.append(p)
     return chosen
 
@@ -286,6 +295,18 @@ def _pole_words(p):
     wn = abs(p)
     zeta = -p.real / wn
     return f"ωn {wn:.4g} rad/s\nζ {zeta:.2f}"
+
+
+def _real_roots_in_view(ax, poles, zeros, view):
+    """Legend lines with the values of the real poles and zeros in view [rad/s]: near the
+    origin they sit on top of each other (a PID zero next to the slow integral pole)."""
+    (x0, x1), _ = view
+    for name, roots in (("real poles", poles), ("real zeros", zeros)):
+        real = sorted((r.real for r in roots if _is_real(r) and x0 <= r.real <= x1),
+                      reverse=True)
+        if real:
+            ax.plot([], [], " ", label=f"{name} in view: "
+                    + ", ".join(f"{r:.4g}" for r in real) + " rad/s")
 
 
 def pole_zero(data):
@@ -317,6 +338,7 @@ def pole_zero(data):
                     ha="right", arrowprops={"arrowstyle": "-", "color": "0.4", "lw": 0.7},
                     bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "0.6",
                           "alpha": 0.9})
+    _real_roots_in_view(ax, poles, zeros, view)
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
     ax.set_aspect("equal", adjustable="box")

@@ -236,20 +236,42 @@ def n_contour(level_deg, points=400):
     return np.degrees(phase), 20.0 * np.log10(np.abs(loop))
 
 
-def _n_label_row(magnitude_range_db):
-    """Magnitude [dB] of the row along which the N contours are labelled."""
-    return magnitude_range_db[0] + 3.0
+#: Rows along which the N contours are labelled, above the bottom of the chart [dB]: the first
+#: where a label fits.
+N_LABEL_ROWS_DB = (3.0, 11.0)
+#: Width of a frequency label of the Nichols chart ("10000 rad/s") [fraction of the chart].
+FREQUENCY_LABEL_WIDTH = 0.13
 
 
-def _n_contours(ax, phase_range_deg, magnitude_range_db, taken=()):
-    """Constant-∠T (N) contours over the chart, every 360° turn of it; each turn of a level
-    labelled once along the bottom of the chart, where the contours are spread out (∠L ≈ ∠T
-    there), skipping a label closer than 1/16 of the chart to one already placed or inside
-    one of the ``taken`` phase intervals [deg] (the curve and its frequency labels)."""
-    low, high = phase_range_deg
-    bottom = _n_label_row(magnitude_range_db)
+def _n_label_spot(at_row, rows, placed, obstacles, low, high):
+    """(x, row) of the first label position that keeps clear of the placed labels and the
+    obstacles, or None. ``at_row(row)`` is the contour's phase on that row [deg]; ``placed``
+    holds (x, row) of the labels so far; ``obstacles`` (x, y, width) the curve's samples (width
+    0) and the frequency labels, which reach ``width`` [deg] to the right of x."""
     spacing = (high - low) / 16.0
-    placed = [(a - spacing / 2, b + spacing / 2) for a, b in taken]
+    for row in rows:
+        at = at_row(row)
+        if not low + spacing / 2 <= at <= high - spacing / 2:
+            continue
+        if any(r == row and abs(at - x) < spacing for x, r in placed):
+            continue
+        if any(abs(y - row) < 5.0 and x - spacing / 2 < at < x + width + spacing / 2
+               for x, y, width in obstacles):
+            continue
+        return at, row
+    return None
+
+
+def _n_contours(ax, phase_range_deg, magnitude_range_db, obstacles=()):
+    """Constant-∠T (N) contours over the chart, every 360° turn of it; each turn of a level
+    labelled once near the bottom of the chart, where the contours are spread out (∠L ≈ ∠T
+    there), on the first of N_LABEL_ROWS_DB where the label keeps 1/16 of the chart from the
+    other labels and from the ``obstacles`` (see :func:`_n_label_spot`); else not labelled."""
+    low, high = phase_range_deg
+    rows = [magnitude_range_db[0] + r for r in N_LABEL_ROWS_DB]
+    obstacles = [(x, y, FREQUENCY_LABEL_WIDTH * (high - low) if width is None else width)
+                 for x, y, width in obstacles]
+    placed = []
     for level in N_CONTOURS_DEG:
         phase, magnitude = n_contour(level)
         for k in range(math.floor((low - phase.max()) / 360.0),
@@ -258,16 +280,16 @@ def _n_contours(ax, phase_range_deg, magnitude_range_db, taken=()):
             if x.max() < low or x.min() > high:
                 continue
             ax.plot(_r(x), _r(magnitude), color="C4", lw=0.6, ls="-.", alpha=0.6)
-            at = float(np.interp(bottom, magnitude, x))
-            if low + spacing / 2 <= at <= high - spacing / 2 and not any(
-                    a - spacing / 2 < at < b + spacing / 2 for a, b in placed):
-                placed.append((at, at))
-                ax.text(at, bottom, f"{level:g}°", color="C4", fontsize=6.5, ha="center",
+            spot = _n_label_spot(lambda row, x=x, m=magnitude: float(np.interp(row, m, x)), rows,
+                                 placed, obstacles, low, high)
+            if spot is not None:
+                placed.append(spot)
+                ax.text(*spot, f"{level:g}°", color="C4", fontsize=6.5, ha="center",
                         va="center", bbox={"boxstyle": "square,pad=0.1", "fc": "white",
                                            "ec": "none", "alpha": 0.8})
     ax.plot([], [], color="C4", lw=0.6, ls="-.", alpha=0.6,
             label=f"N contours: ∠T every {abs(N_CONTOURS_DEG[1] - N_CONTOURS_DEG[0]):g}°\n"
-            "(labels along the bottom)")
+            "(labelled near the bottom)")
 
 
 def nichols(data, magnitude_range_db=(-40.0, 60.0)):
@@ -287,9 +309,8 @@ def nichols(data, magnitude_range_db=(-40.0, 60.0)):
         if low - 30 <= x <= high + 30:
             ax.plot([x], [0.0], "r+", ms=12, mew=2, label="critical point (−1)" if first else None)
             first = False
-    row = _n_label_row(magnitude_range_db)
-    near_row = shown & (np.abs(m - row) < 4.0)
-    taken = [(float(x), float(x)) for x in p[near_row]]
+    obstacles = [(float(x), float(y), 0.0) for x, y in zip(p[shown], m[shown], strict=True)
+                 if y < magnitude_range_db[0] + 20.0]
     for target in (10.0, 100.0, 1000.0, 10000.0):
         if w[0] <= target <= w[-1]:
             x, y = _at(w, p, target), _at(w, m, target)
@@ -297,13 +318,12 @@ def nichols(data, magnitude_range_db=(-40.0, 60.0)):
                 ax.plot([x], [y], ".", color="k")
                 ax.annotate(f"{target:g} rad/s", (x, y), xytext=(5, 3),
                             textcoords="offset points", fontsize=8)
-                if abs(y - row) < 6.0:  # its label reaches about 45° to the right
-                    taken.append((x, x + 45.0))
+                obstacles.append((x, y, None))  # the label reaches to the right
     for cross in data.analysis.position_loop.gain_crossovers:
         if _in_range(w, cross.frequency_rad_s):
             ax.plot([-180.0 + cross.phase_margin_deg], [0.0], "o", color="C1", ms=5)
     _m_contours(ax, (low - 30.0, high + 30.0), magnitude_range_db)
-    _n_contours(ax, (low - 30.0, high + 30.0), magnitude_range_db, taken)
+    _n_contours(ax, (low - 30.0, high + 30.0), magnitude_range_db, obstacles)
     ax.set_xlim(low - 30.0, high + 30.0)
     ax.set_ylim(*magnitude_range_db)
     ax.axhline(0.0, color="k", lw=0.8)
