@@ -6,10 +6,12 @@ benchmarks/run.py``; not part of the test suite).
    Padé-6 stability) vs a python-control loop (Padé-6 delays in transfer functions,
    ``stability_margins`` of both loops, ``bandwidth`` of T) timed on a sample of 100 and
    extrapolated;
-2. a 10 deg nonlinear step of 60 ms: cas_freq's simulator in batch mode (per run) vs
-   python-control ``input_output_response`` of an ``nlsys`` of the same loop (Padé-8 delays,
-   LSODA rtol 1e-9, the cross-check of tests/test_simulation_nlsys.py), with the RMS difference
-   of the two fin angles;
+2. a 10 deg nonlinear step of 60 ms: cas_freq's simulator (the compiled kernel, and the numpy
+   reference engine) in batch mode (per run) and alone vs python-control
+   ``input_output_response`` of an ``nlsys`` of the same loop (Padé-8 delays, LSODA rtol 1e-9,
+   the cross-check of tests/test_simulation_nlsys.py), with the RMS difference of the two fin
+   angles; the step at the default horizon, and ``cas-freq simulate --step 10deg`` as a whole
+   process with either engine (after a first run, so the kernel loads from numba's cache);
 3. a sine-dwell map of 8 amplitudes x 30 frequencies (cas_freq);
 4. ``cas-freq verify`` of the shipped config as a whole process;
 5. peak memory (tracemalloc) of the frequency-domain batch for 100,000 variants.
@@ -132,21 +134,39 @@ def bench_margins(params, changes, label, sample, rows):
     return differences
 
 
-def bench_step(params, runs, rows):
+def _best(function, repeats):
+    """Shortest wall time of ``repeats`` calls [s] and the last call's result."""
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        result = function()
+        times.append(time.perf_counter() - start)
+    return min(times), result
+
+
+def bench_step(params, runs, rows, notes):
+    """10 deg steps: the compiled kernel and the numpy reference engine vs python-control."""
     from cas_freq.parameters import LoopParameters
     from cas_freq.simulation import Step, simulate_batch
 
     amplitude = math.radians(10.0)
+    one = LoopParameters.from_config(params)
     batch = LoopParameters.from_configs([params] * runs)
-    simulate_batch(LoopParameters.from_config(params), Step(amplitude), t_end=0.002,
-                   extend=False)  # warm-up
-    start = time.perf_counter()
-    result = simulate_batch(batch, Step(amplitude), t_end=0.06, extend=False)
-    ours = (time.perf_counter() - start) / runs
-    start = time.perf_counter()
-    single = simulate_batch(LoopParameters.from_config(params), Step(amplitude), t_end=0.06,
-                            extend=False)
-    ours_single = time.perf_counter() - start
+
+    def step(loop, engine, **options):
+        options = {"t_end": 0.06, "extend": False, **options}
+        return simulate_batch(loop, Step(amplitude), engine=engine, **options)
+
+    step(one, "compiled", t_end=0.002)  # warm-up (loads the kernel from numba's cache)
+    step(batch, "compiled", t_end=0.002)
+    ours_batch, result = _best(lambda: step(batch, "compiled"), 3)
+    ours_batch /= runs
+    ours_single, single = _best(lambda: step(one, "compiled"), 5)
+    ref_single, reference = _best(lambda: step(one, "reference"), 2)
+    ref_batch = _best(lambda: step(batch, "reference"), 1)[0] / runs
+    # the default horizon with its extension, as cas-freq simulate runs it
+    ours_default = _best(lambda: step(one, "compiled", t_end=None, extend=True), 5)[0]
+    ref_default = _best(lambda: step(one, "reference", t_end=None, extend=True), 1)[0]
 
     import control
 
@@ -161,11 +181,54 @@ def bench_step(params, runs, rows):
     theirs = time.perf_counter() - start
     delta = response.states[2] / params.gear.ratio
     rms = float(np.sqrt(np.mean((delta - single.delta[0]) ** 2)) / amplitude)
-    rows.append((f"10 deg step, 60 ms (batch of {runs}, per run)", f"{ours * 1e3:.1f} ms",
-                 f"{theirs:.2f} s", theirs / ours))
-    rows.append(("10 deg step, 60 ms (one run alone)", f"{ours_single * 1e3:.0f} ms",
+    rows.append((f"10 deg step, 60 ms (batch of {runs}, per run)", f"{ours_batch * 1e3:.2f} ms",
+                 f"{theirs:.2f} s", theirs / ours_batch))
+    rows.append((f"  same, numpy reference engine (batch of {runs}, per run)",
+                 f"{ref_batch * 1e3:.1f} ms", f"{theirs:.2f} s", theirs / ref_batch))
+    rows.append(("10 deg step, 60 ms (one run alone)", f"{ours_single * 1e3:.1f} ms",
                  f"{theirs:.2f} s", theirs / ours_single))
+    rows.append(("  same, numpy reference engine", f"{ref_single * 1e3:.0f} ms",
+                 f"{theirs:.2f} s", theirs / ref_single))
+    rows.append(("10 deg step, default horizon (0.1 s + extension, one run)",
+                 f"{ours_default * 1e3:.1f} ms", "-", None))
+    rows.append(("  same, numpy reference engine", f"{ref_default * 1e3:.0f} ms", "-", None))
+    for engine in ("compiled", "reference"):
+        elapsed = bench_simulate_process(engine)
+        rows.append((f"cas-freq simulate --step 10deg (whole process, {engine})",
+                     elapsed, "-", None))
+    difference = float(np.max(np.abs(single.delta - reference.delta)) / amplitude)
+    notes.append(
+        f"10 deg step, compiled kernel vs numpy reference engine: {ref_single / ours_single:.0f}x "
+        f"(one run), {ref_batch / ours_batch:.0f}x (batch of {runs}, per run), "
+        f"{ref_default / ours_default:.0f}x (default horizon); largest difference of the fin "
+        f"angle {difference:.1e} of the step; numba threads {_numba_threads()}"
+    )
     return rms
+
+
+def _numba_threads():
+    try:
+        import numba
+    except ImportError:
+        return "- (numba not installed)"
+    return numba.get_num_threads()
+
+
+def bench_simulate_process(engine):
+    """Best of 3 of ``cas-freq simulate --step 10deg`` as a process (after one warm run)."""
+    executable = shutil.which("cas-freq")
+    command = [executable] if executable else [sys.executable, "-m", "cas_freq"]
+    env = {**os.environ, "CAS_FREQ_ENGINE": engine}
+    times = []
+    for attempt in range(4):  # the first run may compile the kernel into numba's cache
+        start = time.perf_counter()
+        done = subprocess.run([*command, "simulate", "--step", "10deg"], capture_output=True,
+                              text=True, check=False, env=env)
+        if done.returncode != 0:
+            return "failed"
+        if attempt:
+            times.append(time.perf_counter() - start)
+    return f"{min(times):.2f} s"
 
 
 def bench_sinedwell(params, rows):
@@ -230,7 +293,8 @@ def main(argv=None):
     differences = bench_margins(params, gain_grid(params, n), "Kp x Kd grid", sample, rows)
     tolerance = variants(params, n, np.random.default_rng(SEED))
     bench_margins(params, tolerance, "6 keys ±10 %", sample, rows)
-    rms = bench_step(params, 16 if args.quick else 256, rows)
+    notes = []
+    rms = bench_step(params, 16 if args.quick else 256, rows, notes)
     bench_sinedwell(params, rows)
     bench_verify(rows)
     print(f"machine: {machine()}")
@@ -247,6 +311,8 @@ def main(argv=None):
         print(f"  {name}: {value:.1e}")
     print(f"10 deg step: RMS difference of the fin angle, python-control nlsys (Padé-8, LSODA "
           f"rtol 1e-9) vs cas_freq: {rms:.1e} of the step")
+    for note in notes:
+        print(note)
     if not args.skip_memory:
         count = 10_000 if args.quick else 100_000
         peak, elapsed = bench_memory(params, count)

@@ -14,6 +14,8 @@ nothing (the reference costs ~50 us per step).
 """
 
 import math
+import os
+import subprocess
 import sys
 import warnings
 
@@ -215,3 +217,22 @@ def test_without_numba_the_reference_runs(monkeypatch):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert simulator_module.engine_class("reference") is Engine
+
+
+def test_without_a_writable_cache_the_kernel_compiles_in_process():
+    # numba caches next to the module, else in NUMBA_CACHE_DIR or the user's cache; where no
+    # place is writable, numba refuses cache=True: the kernel is then compiled without a
+    # cache (in a fresh process: the check needs the decorators to run again)
+    code = (
+        "import numba.core.caching as caching\n"
+        "def deny(self):\n"
+        "    raise OSError('read-only')\n"
+        "caching._CacheLocator.ensure_cache_path = deny\n"
+        "from numba.core.caching import NullCache\n"
+        "from cas_freq.simulation import kernel\n"
+        "assert isinstance(kernel.advance_serial._cache, NullCache)\n"
+        "assert isinstance(kernel.advance_parallel._cache, NullCache)\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr

@@ -102,10 +102,10 @@ _FLOAT_SIGNALS = SIGNALS[:7]
 
 @_jit()
 def _sample(buffer, r, j):
-    """Sample ``j`` of run ``r`` from a ring buffer (0 before t = 0)."""
+    """Sample ``j`` of run ``r`` from a ring buffer of 2**n slots (0 before t = 0)."""
     if j < 0:
         return 0.0
-    return buffer[r, j % buffer.shape[1]]
+    return buffer[r, j & (buffer.shape[1] - 1)]
 
 
 @_jit()
@@ -130,7 +130,7 @@ def _read(right, left, r, m, f, q, latest, want_left, hold):
 @_jit()
 def _push(right, left, r, k, u_right, u_left, hold):
     """Store sample ``k`` of run ``r``: right and left limits (DelayLine.push)."""
-    slot = k % right.shape[1]
+    slot = k & (right.shape[1] - 1)
     right[r, slot] = u_right
     if not hold:
         left[r, slot] = u_left
@@ -307,7 +307,7 @@ def _command(p, commands, r, row):
     return angle, ff
 
 
-@_jit(parallel=True)
+@_jit()
 def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                 right, left, every_c, every_p, has_derivative, dt):
     """Controller outputs at t = 0 (plant at rest, nothing before), as Engine.start.
@@ -331,8 +331,7 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
     dt : float
         Step [s].
     """
-    for run in prange(x.shape[0]):
-        r = np.int64(run)  # the parallel loop's index may be unsigned
+    for r in range(x.shape[0]):
         sampled_p, sampled_c = every_p > 0, every_c > 0
         angle, ff = _command(p, right, r, 0)
         angle_left, ff_left = angle, ff
@@ -351,9 +350,20 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
 
 
 @_jit(parallel=True)
-def advance_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
-                  right, left, k0, record_every, record_base, floats, flags,
-                  every_c, every_p, has_derivative, dt):
+def advance_parallel(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
+                     right, left, k0, record_every, record_base, floats, flags,
+                     every_c, every_p, has_derivative, dt):
+    """:func:`advance_serial` with the runs shared among numba's threads (NUMBA_NUM_THREADS)."""
+    for run in prange(x.shape[0]):
+        _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
+                     current_left, right, left, k0, record_every, record_base, floats, flags,
+                     every_c, every_p, has_derivative, dt)
+
+
+@_jit()
+def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
+                   right, left, k0, record_every, record_base, floats, flags,
+                   every_c, every_p, has_derivative, dt):
     """Advance every run from step ``k0`` by ``len(right)`` steps (Engine._step, per run).
 
     Parameters
@@ -369,67 +379,87 @@ def advance_batch(p, m, x, s, voltage_right, voltage_left, current_right, curren
         Step k is recorded if ``k % record_every == 0``, in row
         ``k // record_every - record_base``.
     floats, flags : numpy.ndarray
-        Recordings (7, rows, n_runs) and (2, rows, n_runs) of bool, written.
+        Recordings (7, n_runs, rows) and (2, n_runs, rows) of bool, written.
     every_c, every_p, has_derivative, dt
         As for :func:`start_batch`.
     """
+    for r in range(x.shape[0]):
+        _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
+                     current_left, right, left, k0, record_every, record_base, floats, flags,
+                     every_c, every_p, has_derivative, dt)
+
+
+@_jit()
+def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, current_left,
+                 right, left, k0, record_every, record_base, floats, flags,
+                 every_c, every_p, has_derivative, dt):
+    """Advance run ``r`` (arguments of :func:`advance_serial`)."""
     n_steps = right.shape[0]
-    for run in prange(x.shape[0]):
-        r = np.int64(run)  # the parallel loop's index may be unsigned
-        sampled_p, sampled_c = every_p > 0, every_c > 0
-        period_p, period_c = dt * max(every_p, 1), dt * max(every_c, 1)
-        m_c, m_p, f_c = m[r, 0], m[r, 1], p[r, _F_C]
-        i, w, th = x[r, 0], x[r, 1], x[r, 2]
-        for row in range(n_steps):
-            k = k0 + row
-            # 1. voltage at the terminals over [t_k, t_k+1]: the current controller's output
-            #    delayed by tau_c, linear over the step (held for a sampled controller)
-            v_a = _read(voltage_right, voltage_left, r, m_c, f_c, k, k, False, sampled_c)
-            v_b = v_a
-            if not sampled_c:
-                v_b = _read(voltage_right, voltage_left, r, m_c, f_c, k + 1, k, True, False)
-            s[r, _V] = _read(voltage_right, voltage_left, r, m_c, f_c, k + 1, k, False,
-                             sampled_c)
-            # 2. plant (§2): x <- Phi x + G_a V_a + G_b V_b
-            x0 = p[r, _PHI] * i + p[r, _PHI + 1] * w + p[r, _PHI + 2] * th
-            x1 = p[r, _PHI + 3] * i + p[r, _PHI + 4] * w + p[r, _PHI + 5] * th
-            x2 = p[r, _PHI + 6] * i + p[r, _PHI + 7] * w + p[r, _PHI + 8] * th
-            x0 += p[r, _GA] * v_a
-            x1 += p[r, _GA + 1] * v_a
-            x2 += p[r, _GA + 2] * v_a
-            x0 += p[r, _GB] * v_b
-            x1 += p[r, _GB + 1] * v_b
-            x2 += p[r, _GB + 2] * v_b
-            i, w, th = x0, x1, x2
-            k += 1
-            # 3. position controller at t_k+1 (§4), its output into the delay line tau_p
-            angle, ff = _command(p, right, r, row)
-            s[r, _THETA_CMD] = angle
-            if not sampled_p or k % every_p == 0:
-                angle_left, ff_left = angle, ff
-                if not sampled_p:
-                    angle_left, ff_left = _command(p, left, r, row)
-                _position_update(p, s, r, th, angle_left, angle, ff_left, ff, True,
-                                 has_derivative, period_p, not sampled_p)
-            _push(current_right, current_left, r, k, s[r, _P_U], s[r, _P_U_LEFT], sampled_p)
-            # 4. current controller at t_k+1 (§3), its output into the delay line tau_c
-            if not sampled_c or k % every_c == 0:
-                _current_update(p, s, r, i, k, current_right, current_left, m_p, sampled_p,
-                                sampled_c, True, period_c)
-            _push(voltage_right, voltage_left, r, k, s[r, _C_V], s[r, _C_V_LEFT], sampled_c)
-            # 5. recording (SIGNALS)
-            if k % record_every == 0:
-                out = k // record_every - record_base
-                floats[0, out, r] = th
-                floats[1, out, r] = w
-                floats[2, out, r] = i
-                floats[3, out, r] = s[r, _V]
-                floats[4, out, r] = angle
-                floats[5, out, r] = s[r, _I_CMD]
-                floats[6, out, r] = p[r, _CP_KI] * s[r, _P_INT]
-                flags[0, out, r] = s[r, _P_LIMITED] != 0.0
-                flags[1, out, r] = s[r, _C_LIMITED] != 0.0
-        x[r, 0], x[r, 1], x[r, 2] = i, w, th
+    sampled_p, sampled_c = every_p > 0, every_c > 0
+    period_p, period_c = dt * max(every_p, 1), dt * max(every_c, 1)
+    m_c, m_p, f_c = m[r, 0], m[r, 1], p[r, _F_C]
+    i, w, th = x[r, 0], x[r, 1], x[r, 2]
+    # the next steps at which to record and to update a sampled controller (counters, not
+    # a division per step)
+    next_record = (k0 // record_every + 1) * record_every
+    out = next_record // record_every - record_base
+    next_p = (k0 // every_p + 1) * every_p if sampled_p else 0
+    next_c = (k0 // every_c + 1) * every_c if sampled_c else 0
+    for row in range(n_steps):
+        k = k0 + row
+        # 1. voltage at the terminals over [t_k, t_k+1]: the current controller's output
+        #    delayed by tau_c, linear over the step (held for a sampled controller)
+        v_a = _read(voltage_right, voltage_left, r, m_c, f_c, k, k, False, sampled_c)
+        v_b = v_a
+        if not sampled_c:
+            v_b = _read(voltage_right, voltage_left, r, m_c, f_c, k + 1, k, True, False)
+        s[r, _V] = _read(voltage_right, voltage_left, r, m_c, f_c, k + 1, k, False,
+                         sampled_c)
+        # 2. plant (§2): x <- Phi x + G_a V_a + G_b V_b
+        x0 = p[r, _PHI] * i + p[r, _PHI + 1] * w + p[r, _PHI + 2] * th
+        x1 = p[r, _PHI + 3] * i + p[r, _PHI + 4] * w + p[r, _PHI + 5] * th
+        x2 = p[r, _PHI + 6] * i + p[r, _PHI + 7] * w + p[r, _PHI + 8] * th
+        x0 += p[r, _GA] * v_a
+        x1 += p[r, _GA + 1] * v_a
+        x2 += p[r, _GA + 2] * v_a
+        x0 += p[r, _GB] * v_b
+        x1 += p[r, _GB + 1] * v_b
+        x2 += p[r, _GB + 2] * v_b
+        i, w, th = x0, x1, x2
+        k += 1
+        # 3. position controller at t_k+1 (§4), its output into the delay line tau_p
+        angle, ff = _command(p, right, r, row)
+        s[r, _THETA_CMD] = angle
+        if not sampled_p or k == next_p:
+            angle_left, ff_left = angle, ff
+            if sampled_p:
+                next_p += every_p
+            else:
+                angle_left, ff_left = _command(p, left, r, row)
+            _position_update(p, s, r, th, angle_left, angle, ff_left, ff, True,
+                             has_derivative, period_p, not sampled_p)
+        _push(current_right, current_left, r, k, s[r, _P_U], s[r, _P_U_LEFT], sampled_p)
+        # 4. current controller at t_k+1 (§3), its output into the delay line tau_c
+        if not sampled_c or k == next_c:
+            if sampled_c:
+                next_c += every_c
+            _current_update(p, s, r, i, k, current_right, current_left, m_p, sampled_p,
+                            sampled_c, True, period_c)
+        _push(voltage_right, voltage_left, r, k, s[r, _C_V], s[r, _C_V_LEFT], sampled_c)
+        # 5. recording (SIGNALS)
+        if k == next_record:
+            floats[0, r, out] = th
+            floats[1, r, out] = w
+            floats[2, r, out] = i
+            floats[3, r, out] = s[r, _V]
+            floats[4, r, out] = angle
+            floats[5, r, out] = s[r, _I_CMD]
+            floats[6, r, out] = p[r, _CP_KI] * s[r, _P_INT]
+            flags[0, r, out] = s[r, _P_LIMITED] != 0.0
+            flags[1, r, out] = s[r, _C_LIMITED] != 0.0
+            next_record += record_every
+            out += 1
+    x[r, 0], x[r, 1], x[r, 2] = i, w, th
 
 
 # --- the engine -------------------------------------------------------------------------------
@@ -480,9 +510,11 @@ class CompiledEngine:
         self.p = p
         self.x = np.zeros((n, 3))
         self.s = np.zeros((n, _NS))
-        # ring buffers of the delay lines, right and left limits (delay_line.py)
-        self.voltage = (np.zeros((n, ring_size(m_c))), np.zeros((n, ring_size(m_c))))
-        self.current = (np.zeros((n, ring_size(m_p))), np.zeros((n, ring_size(m_p))))
+        # ring buffers of the delay lines, right and left limits (delay_line.py), of 2**n
+        # slots (a slot is then a bit mask, not a division)
+        slots_c, slots_p = (1 << (ring_size(m) - 1).bit_length() for m in (m_c, m_p))
+        self.voltage = (np.zeros((n, slots_c)), np.zeros((n, slots_c)))
+        self.current = (np.zeros((n, slots_p)), np.zeros((n, slots_p)))
         self.k = 0
 
     def _rows(self, times):
@@ -521,18 +553,21 @@ class CompiledEngine:
         base = -(-first // record_every)  # the first recorded step is base * record_every
         rows = (first + n_steps - 1) // record_every - base + 1
         n = self.x.shape[0]
-        floats = np.empty((len(_FLOAT_SIGNALS), rows, n))
-        flags = np.empty((2, rows, n), dtype=np.bool_)
+        # each run's samples contiguous (the kernel writes them run by run)
+        floats = np.empty((len(_FLOAT_SIGNALS), n, rows))
+        flags = np.empty((2, n, rows), dtype=np.bool_)
         block = max(64, _BLOCK_VALUES // (1 if n == 1 else self.commands.columns))
+        parallel = n > 1 and numba.get_num_threads() > 1
+        advance = advance_parallel if parallel else advance_serial
         for start in range(first, first + n_steps, block):
             stop = min(start + block, first + n_steps)
             right, left = self._rows(np.arange(start, stop) * self.dt)
-            advance_batch(*self._args(), right, left, start - 1, record_every, base, floats,
+            advance(*self._args(), right, left, start - 1, record_every, base, floats,
                           flags, self.every_c, self.every_p, self.has_derivative, self.dt)
             self.k = stop - 1
         kept = np.arange(base, base + rows) * record_every
-        out = dict(zip(_FLOAT_SIGNALS, floats, strict=True))
-        out["current_limited"], out["voltage_limited"] = flags
+        out = {name: signal.T for name, signal in zip(_FLOAT_SIGNALS, floats, strict=True)}
+        out["current_limited"], out["voltage_limited"] = flags[0].T, flags[1].T
         return kept * self.dt, {name: out[name] for name in SIGNALS}
 
 
