@@ -130,8 +130,10 @@ def run(args):
     several = several_variants(args)
     data = [sweep_dict(result) for result in results]
     data = data if several else data[0]
-    csv_text = (variant_csv([(r.variant, sweep_csv(r)) for r in results]) if several
-                else sweep_csv(results[0]))
+    csv_text = None
+    if args.csv or args.output:
+        csv_text = (variant_csv([(r.variant, sweep_csv(r)) for r in results]) if several
+                    else sweep_csv(results[0]))
     if args.csv:
         write_text_atomic(args.csv, csv_text)
     if args.output:
