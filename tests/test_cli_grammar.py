@@ -118,6 +118,28 @@ def test_variant_selection_is_the_same_everywhere(argv, variants):
     assert [item.variant for item in loaded] == variants  # file order, each once
 
 
+def test_json_is_an_array_when_the_options_ask_for_several():
+    code, out, err = run_cli(["analyze", "--variant", "relaxed", "--variant", "base", "--json"])
+    assert code == 0, err
+    pair = json.loads(out)
+    assert [item["variant"] for item in pair] == ["base", "relaxed"]
+    everything = json.loads(run_cli(["analyze", "--all-variants", "--json"])[1])
+    assert pair == [everything[0], everything[2]]
+    # one name (even twice) prints the object alone, as before
+    single = json.loads(run_cli(["analyze", "--variant", "relaxed", "--variant", "relaxed",
+                                 "--json"])[1])
+    assert single == everything[2]
+
+
+def test_report_command_line_leaves_out_the_default_all_variants():
+    from cas_freq.cli.report import _argv_tail, command_text
+
+    for argv, text in ((["report"], "cas-freq report"),
+                       (["report", "--all-variants"], "cas-freq report"),
+                       (["report", "--variant", "fitted"], "cas-freq report --variant fitted")):
+        assert command_text(_argv_tail(build_parser().parse_args(argv))) == text
+
+
 @pytest.mark.parametrize("command", [["analyze"], ["simulate", "--step", "1deg"],
                                      ["sinedwell"], ["verify"], ["report"], ["compare"],
                                      ["sweep"], ["montecarlo"]])
