@@ -100,7 +100,8 @@ def _direction_arrows(ax, omega, values, frequencies, color, half):
             continue
         k = int(np.searchsorted(omega, w))
         k = min(max(k, 1), len(omega) - 1)
-        start, end = values[k - 1], values[k]
+        (x0, x1), (y0, y1) = _r(values[k - 1:k + 1].real), _r(values[k - 1:k + 1].imag)
+        start, end = complex(x0, y0), complex(x1, y1)
         if not (abs(start.real + 1.0) < half and abs(start.imag) < half):
             continue
         ax.annotate("", xy=(float(end.real), float(end.imag)),
@@ -333,9 +334,12 @@ def pole_zero(data):
         ax.plot(_r(poles.real[unstable]), _r(poles.imag[unstable]), "x", ms=12, mew=2.6,
                 color="C3", label=f"right-half-plane poles × ({int(unstable.sum())}): UNSTABLE")
     for k, p in enumerate(_annotated(poles, view)):
+        # the label on the side with more room (left of the pole unless it is near the left)
+        left = p.real > x0 + 0.4 * (x1 - x0)
         ax.annotate(_pole_words(p), (float(_r(p.real)), float(_r(p.imag))),
-                    xytext=(-75, 12 + 26 * (k % 3)), textcoords="offset points", fontsize=8,
-                    ha="right", arrowprops={"arrowstyle": "-", "color": "0.4", "lw": 0.7},
+                    xytext=(-75 if left else 40, 12 + 26 * (k % 3)), textcoords="offset points",
+                    fontsize=8, ha="right" if left else "left",
+                    arrowprops={"arrowstyle": "-", "color": "0.4", "lw": 0.7},
                     bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "0.6",
                           "alpha": 0.9})
     _real_roots_in_view(ax, poles, zeros, view)
@@ -363,4 +367,5 @@ def pole_zero_caption(data):
             f"boundary, ωn and ζ beside each complex pair in view; view "
             f"{x0:.4g}..{x1:.4g} × {y0:.4g}..{y1:.4g} rad/s; outside it: "
             f"{_outside(poles, view)} of {len(poles)} poles and {_outside(zeros, view)} of "
-            f"{len(zeros)} zeros")
+            f"{len(zeros)} zeros (the delays' Padé poles and zeros and the faster inner-loop "
+            "dynamics)")
