@@ -273,6 +273,10 @@ def _results(delay_margin_s, rise_time_s, rms_residual_rad, bandwidth_rad_s):
     }
 
 
+#: The relative change keeps its "%" on the line of its number.
+NBSP = "\N{NO-BREAK SPACE}"
+
+
 def test_si_figures_are_shown_in_display_units_by_hand():
     base = _results(0.000126964, 0.0092446, 0.00344421, 426.094)
     other = _results(0.000128547, 0.00564711, 0.00274302, 423.183)
@@ -281,14 +285,16 @@ def test_si_figures_are_shown_in_display_units_by_hand():
     # 0.000126964 s = 0.126964 ms, shown with 5 significant digits; the difference
     # 0.128547 - 0.126964 = +0.001583 ms, and 0.001583 / 0.126964 = +1.25 %
     assert table["analyze.current_loop.delay_margin_s"] == (
-        "current loop: delay margin [ms]", "0.12696", "0.12855", "+0.001583 (+1.25 %)")
+        "current loop: delay margin [ms]", "0.12696", "0.12855", f"+0.001583 (+1.25{NBSP}%)")
     # 9.2446 ms and 5.64711 ms; 5.64711 - 9.2446 = -3.59749 ms (4 digits: -3.597), -38.9 %
     assert table["step 10°.rise_time_s"] == (
-        "nonlinear step 10°: rise time 10–90 % [ms]", "9.2446", "5.6471", "-3.597 (-38.9 %)")
+        "nonlinear step 10°: rise time 10–90 % [ms]", "9.2446", "5.6471",
+        f"-3.597 (-38.9{NBSP}%)")
     # 0.00344421 rad x 180/pi = 0.197339 deg; 0.00274302 rad = 0.157163 deg
     assert table["fit 10°.rms_residual"][:3] == (
         "fit to the 10° step: RMS residual [deg]", "0.19734", "0.15716")
-    # rad/s stay rad/s
+    # rad/s stay rad/s; 423.183 - 426.094 = -2.911, -0.683 %
     assert table["sinedwell.bandwidth_rad_s 10°"] == (
-        "sine-dwell: bandwidth (−3 dB) at 10° [rad/s]", "426.09", "423.18", "-2.911 (-0.683 %)")
+        "sine-dwell: bandwidth (−3 dB) at 10° [rad/s]", "426.09", "423.18",
+        f"-2.911 (-0.683{NBSP}%)")
     assert table["sinedwell.limit_onset_amplitude_deg"][1:] == ("2", "2", "0")

@@ -432,10 +432,13 @@ def difference_rows(all_results):
 
 
 def _difference(value, base):
-    """The difference of the two figures, 0 below the precision the table shows them with."""
+    """The difference of the two figures, 0 below the precision the table shows them with; the
+    relative change's "%" kept on the line of its number (a no-break space: a narrow column
+    wraps before "(-1.26 %)", not inside it)."""
     if isinstance(value, str) or isinstance(base, str):
         return "same" if value == base else "differs"
-    return difference(value, base, 4, shown_digits=TABLE_DIGITS)
+    text = difference(value, base, 4, shown_digits=TABLE_DIGITS)
+    return text.replace(" %)", "\N{NO-BREAK SPACE}%)")
 
 
 def verdict_matrix(datas, labels):
