@@ -100,7 +100,7 @@ _FLOAT_SIGNALS = SIGNALS[:7]
 
 # --- delay lines (delay_line.py) --------------------------------------------------------------
 
-@_jit()
+@_jit(inline="always")  # numba-level: array arguments cost a call
 def _sample(buffer, r, j):
     """Sample ``j`` of run ``r`` from a ring buffer of 2**n slots (0 before t = 0)."""
     if j < 0:
@@ -108,7 +108,7 @@ def _sample(buffer, r, j):
     return buffer[r, j & (buffer.shape[1] - 1)]
 
 
-@_jit()
+@_jit(inline="always")  # numba-level: array arguments cost a call
 def _read(right, left, r, m, f, q, latest, want_left, hold):
     """Delayed signal at t_q, delay (m + f) dt, newest sample ``latest`` (DelayLine.read).
 
@@ -127,7 +127,7 @@ def _read(right, left, r, m, f, q, latest, want_left, hold):
     return (1.0 - f) * _sample(left, r, j) + f * _sample(right, r, j - 1)
 
 
-@_jit()
+@_jit(inline="always")  # numba-level: array arguments cost a call
 def _push(right, left, r, k, u_right, u_left, hold):
     """Store sample ``k`` of run ``r``: right and left limits (DelayLine.push)."""
     slot = k & (right.shape[1] - 1)
@@ -162,7 +162,7 @@ def _clamp(u, limit):
     return min(max(u, -limit), limit)
 
 
-@_jit()
+@_jit(inline="always")
 def _anti_windup(integral, e_start, e_end, rest_start, rest_end, ki, limit, period, locate):
     """New integral, conditional integration (controllers.integrate_with_anti_windup).
 
@@ -204,7 +204,7 @@ def _anti_windup(integral, e_start, e_end, rest_start, rest_end, ki, limit, peri
     return trial
 
 
-@_jit()
+@_jit(inline="always")
 def _controller_update(
     integral, state, e_before, y_before, rest_before, e_left, e_right, y_left, y_right,
     ff_left, ff_right, advance, kp, ki, gain_d, a, b, c, has_derivative, limit, period, locate,
@@ -248,47 +248,55 @@ def _controller_update(
 
 # --- one run: start and steps -----------------------------------------------------------------
 
-@_jit()
-def _position_update(p, s, r, theta, angle_left, angle_right, ff_left, ff_right, advance,
-                     has_derivative, period, locate):
-    """Position controller of run ``r`` on the motor angle ``theta`` (docs/model.md §4)."""
+@_jit(inline="always")  # numba-level: array arguments cost a call
+def _position_update(p, r, theta, angle_left, angle_right, ff_left, ff_right, integral, state,
+                     e_before, y_before, rest_before, advance, has_derivative, period, locate):
+    """Position controller of run ``r`` on the motor angle ``theta`` (docs/model.md §4).
+
+    Returns the outputs of :func:`_controller_update` (the output is the current command [A]).
+    """
     e_right = angle_right - theta
     e_left = angle_left - theta
     if p[r, _ON_MEASUREMENT] != 0.0:  # derivative on the measurement: acts on -theta
         y_left = y_right = -theta
     else:
         y_left, y_right = e_left, e_right
-    out = _controller_update(
-        s[r, _P_INT], s[r, _P_FILTER], s[r, _P_E], s[r, _P_Y], s[r, _P_REST],
+    return _controller_update(
+        integral, state, e_before, y_before, rest_before,
         e_left, e_right, y_left, y_right, ff_left, ff_right, advance,
         p[r, _CP_KP], p[r, _CP_KI], p[r, _CP_GD], p[r, _CP_A], p[r, _CP_B], p[r, _CP_C],
         has_derivative, p[r, _I_MAX], period, locate,
     )
-    (s[r, _P_INT], s[r, _P_FILTER], s[r, _P_E], s[r, _P_Y], s[r, _P_REST],
-     s[r, _P_U_LEFT], s[r, _P_U], s[r, _P_LIMITED]) = out
 
 
-@_jit()
-def _current_update(p, s, r, i, k, current_right, current_left, m_p, hold_p, sampled,
-                    advance, period):
-    """Current controller of run ``r`` on the command delayed by tau_p (docs/model.md §3)."""
+@_jit(inline="always")  # numba-level: array arguments cost a call
+def _current_update(p, r, i, k, current_right, current_left, m_p, hold_p, sampled, integral,
+                    e_before, rest_before, advance, period):
+    """Current controller of run ``r`` on the command delayed by tau_p (docs/model.md §3).
+
+    Returns
+    -------
+    tuple of float
+        integral, error and rest (for the next update), the output's left and right limits
+        [V], 1.0 if clamped, and the current command read [A].
+    """
     f_p = p[r, _F_P]
     i_cmd = _read(current_right, current_left, r, m_p, f_p, k, k, False, hold_p)
     e_right = i_cmd - i
     e_left = e_right
     if not sampled:
         e_left = _read(current_right, current_left, r, m_p, f_p, k, k, True, hold_p) - i
-    out = _controller_update(
-        s[r, _C_INT], 0.0, s[r, _C_E], 0.0, s[r, _C_REST], e_left, e_right, 0.0, 0.0, 0.0, 0.0,
+    integral, _, e, _, rest, v_left, v_right, limited = _controller_update(
+        integral, 0.0, e_before, 0.0, rest_before, e_left, e_right, 0.0, 0.0, 0.0, 0.0,
         advance, p[r, _CI_KP], p[r, _CI_KI], 0.0, 0.0, 0.0, 0.0, False, p[r, _V_MAX], period,
         not sampled,
     )
-    s[r, _C_INT], _, s[r, _C_E], _, s[r, _C_REST], v_left, v_right, limited = out
-    s[r, _C_V_LEFT] = v_right if sampled else v_left
-    s[r, _C_V], s[r, _C_LIMITED], s[r, _I_CMD] = v_right, limited, i_cmd
+    if sampled:  # held: no jump within an update
+        v_left = v_right
+    return integral, e, rest, v_left, v_right, limited, i_cmd
 
 
-@_jit()
+@_jit(inline="always")  # numba-level: array arguments cost a call
 def _command(p, commands, r, row):
     """Motor-angle command and feed-forward [rad], [A] of run ``r`` from a row of fin values.
 
@@ -339,11 +347,17 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
             angle_left, ff_left = _command(p, left, r, 0)
         s[r, _THETA_CMD] = angle
         # a sampled controller makes its first update from zero samples before t = 0
-        _position_update(p, s, r, x[r, 2], angle_left, angle, ff_left, ff, sampled_p,
-                         has_derivative, dt * max(every_p, 1), not sampled_p)
+        (s[r, _P_INT], s[r, _P_FILTER], s[r, _P_E], s[r, _P_Y], s[r, _P_REST],
+         s[r, _P_U_LEFT], s[r, _P_U], s[r, _P_LIMITED]) = _position_update(
+            p, r, x[r, 2], angle_left, angle, ff_left, ff, 0.0, 0.0, 0.0, 0.0, 0.0, sampled_p,
+            has_derivative, dt * max(every_p, 1), not sampled_p,
+        )
         _push(current_right, current_left, r, 0, s[r, _P_U], s[r, _P_U_LEFT], sampled_p)
-        _current_update(p, s, r, x[r, 0], 0, current_right, current_left, m[r, 1], sampled_p,
-                        sampled_c, sampled_c, dt * max(every_c, 1))
+        (s[r, _C_INT], s[r, _C_E], s[r, _C_REST], s[r, _C_V_LEFT], s[r, _C_V],
+         s[r, _C_LIMITED], s[r, _I_CMD]) = _current_update(
+            p, r, x[r, 0], 0, current_right, current_left, m[r, 1], sampled_p, sampled_c,
+            0.0, 0.0, 0.0, sampled_c, dt * max(every_c, 1),
+        )
         _push(voltage_right, voltage_left, r, 0, s[r, _C_V], s[r, _C_V_LEFT], sampled_c)
         s[r, _V] = _read(voltage_right, voltage_left, r, m[r, 0], p[r, _F_C], 0, 0, False,
                          sampled_c)
@@ -393,12 +407,24 @@ def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, curre
 def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                  right, left, k0, record_every, record_base, floats, flags,
                  every_c, every_p, has_derivative, dt):
-    """Advance run ``r`` (arguments of :func:`advance_serial`)."""
+    """Advance run ``r`` (arguments of :func:`advance_serial`).
+
+    The run's states are held in local variables over the steps and written back at the end.
+    """
     n_steps = right.shape[0]
     sampled_p, sampled_c = every_p > 0, every_c > 0
     period_p, period_c = dt * max(every_p, 1), dt * max(every_c, 1)
     m_c, m_p, f_c = m[r, 0], m[r, 1], p[r, _F_C]
+    phi = p[r, _PHI:_PHI + 9].copy()
+    g_a, g_b = p[r, _GA:_GA + 3].copy(), p[r, _GB:_GB + 3].copy()
+    cp_ki = p[r, _CP_KI]
     i, w, th = x[r, 0], x[r, 1], x[r, 2]
+    p_int, p_filter, p_e, p_y, p_rest = (s[r, _P_INT], s[r, _P_FILTER], s[r, _P_E], s[r, _P_Y],
+                                         s[r, _P_REST])
+    u_left, u_p, p_limited = s[r, _P_U_LEFT], s[r, _P_U], s[r, _P_LIMITED]
+    c_int, c_e, c_rest = s[r, _C_INT], s[r, _C_E], s[r, _C_REST]
+    v_left, v_c, c_limited = s[r, _C_V_LEFT], s[r, _C_V], s[r, _C_LIMITED]
+    i_cmd, v, angle = s[r, _I_CMD], s[r, _V], s[r, _THETA_CMD]
     # the next steps at which to record and to update a sampled controller (counters, not
     # a division per step)
     next_record = (k0 // record_every + 1) * record_every
@@ -413,53 +439,61 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
         v_b = v_a
         if not sampled_c:
             v_b = _read(voltage_right, voltage_left, r, m_c, f_c, k + 1, k, True, False)
-        s[r, _V] = _read(voltage_right, voltage_left, r, m_c, f_c, k + 1, k, False,
-                         sampled_c)
+        v = _read(voltage_right, voltage_left, r, m_c, f_c, k + 1, k, False, sampled_c)
         # 2. plant (§2): x <- Phi x + G_a V_a + G_b V_b
-        x0 = p[r, _PHI] * i + p[r, _PHI + 1] * w + p[r, _PHI + 2] * th
-        x1 = p[r, _PHI + 3] * i + p[r, _PHI + 4] * w + p[r, _PHI + 5] * th
-        x2 = p[r, _PHI + 6] * i + p[r, _PHI + 7] * w + p[r, _PHI + 8] * th
-        x0 += p[r, _GA] * v_a
-        x1 += p[r, _GA + 1] * v_a
-        x2 += p[r, _GA + 2] * v_a
-        x0 += p[r, _GB] * v_b
-        x1 += p[r, _GB + 1] * v_b
-        x2 += p[r, _GB + 2] * v_b
+        x0 = phi[0] * i + phi[1] * w + phi[2] * th
+        x1 = phi[3] * i + phi[4] * w + phi[5] * th
+        x2 = phi[6] * i + phi[7] * w + phi[8] * th
+        x0 += g_a[0] * v_a
+        x1 += g_a[1] * v_a
+        x2 += g_a[2] * v_a
+        x0 += g_b[0] * v_b
+        x1 += g_b[1] * v_b
+        x2 += g_b[2] * v_b
         i, w, th = x0, x1, x2
         k += 1
         # 3. position controller at t_k+1 (§4), its output into the delay line tau_p
         angle, ff = _command(p, right, r, row)
-        s[r, _THETA_CMD] = angle
         if not sampled_p or k == next_p:
             angle_left, ff_left = angle, ff
             if sampled_p:
                 next_p += every_p
             else:
                 angle_left, ff_left = _command(p, left, r, row)
-            _position_update(p, s, r, th, angle_left, angle, ff_left, ff, True,
-                             has_derivative, period_p, not sampled_p)
-        _push(current_right, current_left, r, k, s[r, _P_U], s[r, _P_U_LEFT], sampled_p)
+            p_int, p_filter, p_e, p_y, p_rest, u_left, u_p, p_limited = _position_update(
+                p, r, th, angle_left, angle, ff_left, ff, p_int, p_filter, p_e, p_y, p_rest,
+                True, has_derivative, period_p, not sampled_p,
+            )
+        _push(current_right, current_left, r, k, u_p, u_left, sampled_p)
         # 4. current controller at t_k+1 (§3), its output into the delay line tau_c
         if not sampled_c or k == next_c:
             if sampled_c:
                 next_c += every_c
-            _current_update(p, s, r, i, k, current_right, current_left, m_p, sampled_p,
-                            sampled_c, True, period_c)
-        _push(voltage_right, voltage_left, r, k, s[r, _C_V], s[r, _C_V_LEFT], sampled_c)
+            c_int, c_e, c_rest, v_left, v_c, c_limited, i_cmd = _current_update(
+                p, r, i, k, current_right, current_left, m_p, sampled_p, sampled_c, c_int,
+                c_e, c_rest, True, period_c,
+            )
+        _push(voltage_right, voltage_left, r, k, v_c, v_left, sampled_c)
         # 5. recording (SIGNALS)
         if k == next_record:
             floats[0, r, out] = th
             floats[1, r, out] = w
             floats[2, r, out] = i
-            floats[3, r, out] = s[r, _V]
+            floats[3, r, out] = v
             floats[4, r, out] = angle
-            floats[5, r, out] = s[r, _I_CMD]
-            floats[6, r, out] = p[r, _CP_KI] * s[r, _P_INT]
-            flags[0, r, out] = s[r, _P_LIMITED] != 0.0
-            flags[1, r, out] = s[r, _C_LIMITED] != 0.0
+            floats[5, r, out] = i_cmd
+            floats[6, r, out] = cp_ki * p_int
+            flags[0, r, out] = p_limited != 0.0
+            flags[1, r, out] = c_limited != 0.0
             next_record += record_every
             out += 1
     x[r, 0], x[r, 1], x[r, 2] = i, w, th
+    s[r, _P_INT], s[r, _P_FILTER], s[r, _P_E], s[r, _P_Y], s[r, _P_REST] = (p_int, p_filter, p_e,
+                                                                           p_y, p_rest)
+    s[r, _P_U_LEFT], s[r, _P_U], s[r, _P_LIMITED] = u_left, u_p, p_limited
+    s[r, _C_INT], s[r, _C_E], s[r, _C_REST] = c_int, c_e, c_rest
+    s[r, _C_V_LEFT], s[r, _C_V], s[r, _C_LIMITED] = v_left, v_c, c_limited
+    s[r, _I_CMD], s[r, _V], s[r, _THETA_CMD] = i_cmd, v, angle
 
 
 # --- the engine -------------------------------------------------------------------------------
