@@ -22,6 +22,7 @@ whole loop is integrated to second order in dt. Sampled controllers are updated 
 import numpy as np
 from scipy.linalg import expm
 
+from cas_freq.simulation.commands import Step
 from cas_freq.simulation.controllers import Controller
 from cas_freq.simulation.delay_line import DelayLine
 
@@ -71,6 +72,22 @@ def plant_step_matrices(params, dt):
     return e[:, :3, :3], e[:, :3, 3] - e[:, :3, 4], e[:, :3, 4].copy()
 
 
+def _merged_steps(commands):
+    """One step per run (a batch of step sizes) as one Step of per-run amplitudes and starts.
+
+    The same values at every time, computed at once instead of one command at a time; other
+    commands are returned as given.
+    """
+    if not (isinstance(commands, (list, tuple)) and commands
+            and all(type(c) is Step for c in commands)):
+        return commands
+    amplitudes = [np.asarray(c.amplitude_rad, dtype=float) for c in commands]
+    starts = [np.asarray(c.start_s, dtype=float) for c in commands]
+    if any(a.ndim or s.ndim for a, s in zip(amplitudes, starts, strict=True)):
+        return commands
+    return Step(np.array(amplitudes), np.array(starts))
+
+
 class CommandSet:
     """Motor-angle commands of every run, evaluated for many times at once.
 
@@ -83,7 +100,7 @@ class CommandSet:
     """
 
     def __init__(self, commands, ratio):
-        self.commands = commands
+        self.commands = _merged_steps(commands)
         self.ratio = ratio
 
     @property
