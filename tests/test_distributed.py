@@ -79,3 +79,22 @@ def test_a_scheduler_that_does_not_answer_is_a_clear_error(draw_of_40, monkeypat
     params, values = draw_of_40
     with pytest.raises(CasFreqError, match="no dask scheduler answers"):
         evaluate_figures_distributed(params, values, "tcp://127.0.0.1:9")
+
+
+def test_cli_sweep_on_a_local_cluster_prints_what_a_local_run_prints():
+    from clirun import run_cli
+
+    argv = ["sweep", "--set", "position_loop.Kp=4:8:40", "--json", "-q"]
+    code, local, _ = run_cli(argv)
+    assert code == 0
+    code, remote, _ = run_cli([*argv, "--scheduler", "local:1"])
+    assert code == 0 and remote == local
+
+
+@pytest.mark.parametrize("command", [["sweep", "--set", "position_loop.Kp=4:8:3"],
+                                     ["montecarlo", "--tolerance", "motor.Km=5%", "--no-step"]])
+def test_cli_refuses_a_bad_scheduler_before_work(command):
+    from clirun import run_cli
+
+    code, _, err = run_cli([*command, "--scheduler", "local:zero"])
+    assert code == 2 and "--scheduler" in err and err.count("\n") == 1

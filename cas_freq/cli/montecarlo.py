@@ -45,6 +45,12 @@ def register(commands):
                         help="simulate no step (step and fit requirements are then listed as "
                         "not evaluated)")
     parser.add_argument("--json", action="store_true", help="print JSON instead of text")
+    parser.add_argument(
+        "--scheduler", metavar="ADDRESS",
+        help="evaluate the samples in chunks on a dask.distributed cluster: local:N (N local "
+        "worker processes) or a scheduler address such as tcp://10.0.0.5:8786 (needs "
+        "pip install \"cas_freq[distributed]\"; same numbers as a local run)",
+    )
     parser.add_argument("-o", "--output", metavar="DIR",
                         help="report directory: montecarlo.json, samples.csv, histograms.svg")
     parser.set_defaults(handler=run)
@@ -100,6 +106,10 @@ def run(args):
         check_output_dir(args.output, "-o")
     if args.no_step and args.step:
         raise CasFreqError("--no-step and --step exclude each other")
+    if args.scheduler is not None:
+        from cas_freq.studies.distributed import parse_scheduler
+
+        parse_scheduler(args.scheduler)
     tolerances = [parse_tolerance(text) for text in args.tolerance]
     step = angle(args.step, "--step") if args.step else None
     variants = load_variants(args)
@@ -112,7 +122,7 @@ def run(args):
         results.append(run_montecarlo(loaded, tolerances, args.samples,
                                       distribution=args.distribution, seed=seed,
                                       step_rad=step, simulate=not args.no_step,
-                                      progress=progress))
+                                      progress=progress, scheduler=args.scheduler))
         if progress:
             progress.done()
     several = several_variants(args)

@@ -48,6 +48,12 @@ def register(commands):
     output.add_argument("--json", action="store_true", help="print JSON instead of a table")
     output.add_argument("--csv", metavar="FILE", help="write one CSV row per grid point (and "
                         "variant: a first column 'variant' when there are several)")
+    parser.add_argument(
+        "--scheduler", metavar="ADDRESS",
+        help="evaluate the samples in chunks on a dask.distributed cluster: local:N (N local "
+        "worker processes) or a scheduler address such as tcp://10.0.0.5:8786 (needs "
+        "pip install \"cas_freq[distributed]\"; same numbers as a local run)",
+    )
     parser.add_argument("-o", "--output", metavar="DIR",
                         help="report directory: sweep.json, sweep.csv and sweep.svg")
     parser.set_defaults(handler=run)
@@ -104,6 +110,10 @@ def run(args):
         check_output_file(args.csv, "--csv")
     if args.output is not None:
         check_output_dir(args.output, "-o")
+    if args.scheduler is not None:
+        from cas_freq.studies.distributed import parse_scheduler
+
+        parse_scheduler(args.scheduler)
     fixed, axes = split_settings(args.overrides)
     if not axes:
         raise CasFreqError("sweep: give at least one grid, e.g. --set position_loop.Kp=2:12:200")
@@ -124,7 +134,8 @@ def run(args):
         label = "sweep" if len(variants) == 1 else f"sweep {loaded.variant}"
         progress = terminal_progress(label, unit="point")
         results.append(run_sweep(loaded, axes, step_rad=step, fit=not args.no_fit,
-                                 sinedwell=sinedwell, progress=progress))
+                                 sinedwell=sinedwell, progress=progress,
+                                 scheduler=args.scheduler))
         if progress:
             progress.done()
     several = several_variants(args)

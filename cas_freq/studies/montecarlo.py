@@ -144,7 +144,7 @@ class MonteCarlo:
 
 
 def run_montecarlo(loaded, tolerances, samples, *, distribution="normal", seed=None,
-                   step_rad=None, simulate=True, progress=None):
+                   step_rad=None, simulate=True, progress=None, scheduler=None):
     """Draw the samples, compute their figures; returns :class:`MonteCarlo`.
 
     A step is simulated when ``step_rad`` is given (with the second-order fit) or a
@@ -170,7 +170,7 @@ def run_montecarlo(loaded, tolerances, samples, *, distribution="normal", seed=N
     values, seed = draw(loaded.params, tolerances, samples, distribution, seed)
     figures, stability = evaluate_figures(loaded.params, values, step_rad=step_rad,
                                           fit=fit_needed, sinedwell=sinedwell,
-                                          progress=progress)
+                                          progress=progress, scheduler=scheduler)
     return MonteCarlo(
         config=loaded.params.name, config_path=loaded.source, variant=loaded.variant,
         overrides=tuple(f"{k}={v}" for k, v in loaded.overrides), tolerances=tuple(tolerances),

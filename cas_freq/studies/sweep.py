@@ -73,7 +73,7 @@ def grid(axes):
 
 
 def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None,
-                     progress=None):
+                     progress=None, scheduler=None):
     """Every figure of each sample: the batch analysis, the step's if ``step_rad``, and the
     sine-dwell bandwidth if ``sinedwell``.
 
@@ -93,6 +93,9 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None
         (NaN without a crossing in the grid).
     progress : callable, optional
         ``progress(done, total)``.
+    scheduler : str, optional
+        Evaluate the samples in chunks on a dask.distributed cluster: ``local:N`` or a
+        scheduler address (:mod:`cas_freq.studies.distributed`; the same numbers as locally).
 
     Returns
     -------
@@ -100,6 +103,11 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None
         Figures (:data:`cas_freq.analysis.FIGURES`, then ``step.*``/``fit.*``,
         ``sinedwell.*``) and the stability verdict per sample.
     """
+    if scheduler is not None:
+        from cas_freq.studies.distributed import evaluate_figures_distributed
+
+        return evaluate_figures_distributed(params, changes, scheduler, progress=progress,
+                                            step_rad=step_rad, fit=fit, sinedwell=sinedwell)
     loop = variant_parameters(params, changes)
     n = loop.n_runs
     # share of the progress bar per stage, by their rough cost
@@ -173,14 +181,17 @@ class Sweep:
     sinedwell_deg: float | None = None
 
 
-def run_sweep(loaded, axes, *, step_rad=None, fit=True, sinedwell=None, progress=None):
+def run_sweep(loaded, axes, *, step_rad=None, fit=True, sinedwell=None, progress=None,
+              scheduler=None):
     """Sweep a loaded variant over ``axes`` (dict key -> values [SI]); returns :class:`Sweep`.
 
-    ``sinedwell``: (amplitude [rad], frequencies [rad/s]) as for :func:`evaluate_figures`.
+    ``sinedwell``: (amplitude [rad], frequencies [rad/s]) and ``scheduler`` (a dask cluster)
+    as for :func:`evaluate_figures`.
     """
     points = grid(axes)
     figures, stability = evaluate_figures(loaded.params, points, step_rad=step_rad, fit=fit,
-                                          sinedwell=sinedwell, progress=progress)
+                                          sinedwell=sinedwell, progress=progress,
+                                          scheduler=scheduler)
     return Sweep(
         config=loaded.params.name, config_path=loaded.source, variant=loaded.variant,
         overrides=tuple(f"{k}={v}" for k, v in loaded.overrides), axes=dict(axes),
