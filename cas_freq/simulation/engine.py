@@ -262,7 +262,7 @@ class Engine:
         -------
         tuple of (numpy.ndarray, dict of str to numpy.ndarray)
             Times of the recorded samples [s] and each signal of :data:`SIGNALS`, shape
-            (n_samples, n_runs).
+            (n_runs, n_samples).
         """
         first = self.k + 1
         steps = np.arange(first, first + n_steps)
@@ -299,7 +299,7 @@ class Engine:
             theta_cmd=theta_cmd, current_command=i_cmd, position_integral=self.cp_Ki * integral,
             current_limited=limited[0], voltage_limited=limited[1],
         )
-        return kept * self.dt, {name: out[name] for name in SIGNALS}
+        return kept * self.dt, {name: out[name].T for name in SIGNALS}
 
     def _step(self, left, right):
         """One step: the plant over [t_k, t_k+1], then the controllers at t_k+1.

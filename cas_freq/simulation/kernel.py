@@ -581,7 +581,7 @@ class CompiledEngine:
         -------
         tuple of (numpy.ndarray, dict of str to numpy.ndarray)
             Times of the recorded samples [s] and each signal of :data:`SIGNALS`, shape
-            (n_samples, n_runs).
+            (n_runs, n_samples).
         """
         first = self.k + 1
         base = -(-first // record_every)  # the first recorded step is base * record_every
@@ -600,8 +600,8 @@ class CompiledEngine:
                           flags, self.every_c, self.every_p, self.has_derivative, self.dt)
             self.k = stop - 1
         kept = np.arange(base, base + rows) * record_every
-        out = {name: signal.T for name, signal in zip(_FLOAT_SIGNALS, floats, strict=True)}
-        out["current_limited"], out["voltage_limited"] = flags[0].T, flags[1].T
+        out = dict(zip(_FLOAT_SIGNALS, floats, strict=True))
+        out["current_limited"], out["voltage_limited"] = flags
         return kept * self.dt, {name: out[name] for name in SIGNALS}
 
 

@@ -393,12 +393,15 @@ def _settling_facts(commands, n_runs):
 
 
 def _settled(t, delta, command, final, t_from):
-    """Per run: delta within the band around ``final`` for every sample at t >= t_from."""
+    """Per run: delta within the band around ``final`` for every sample at t >= t_from.
+
+    ``delta`` and ``command`` are (n_runs, n_samples) [rad], ``final`` (n_runs,) [rad].
+    """
     window = t >= t_from
     if not window.any():
-        return np.zeros(delta.shape[1], dtype=bool)
-    band = SETTLE_BAND * np.max(np.abs(command), axis=0)
-    return np.all(np.abs(delta[window] - final) <= band, axis=0)
+        return np.zeros(delta.shape[0], dtype=bool)
+    band = SETTLE_BAND * np.max(np.abs(command), axis=1)
+    return np.all(np.abs(delta[:, window] - final[:, None]) <= band[:, None], axis=1)
 
 
 def _advance(engine, done, target, record_every, progress):
@@ -487,7 +490,8 @@ def simulate_batch(
     command_set = CommandSet(commands, p.ratio)
     engine = engine_class(engine)(p, command_set, dt, every_c, every_p)
     first = dict(zip(SIGNALS, engine.start(), strict=True))
-    parts = [([0.0], {name: value[None] for name, value in first.items()})]
+    # every signal (n_runs, n_samples): the engines record run by run
+    parts = [([0.0], {name: value[:, None] for name, value in first.items()})]
     steps_done, horizon = 0, t_end
     extended = False
     run_end = np.full(n, np.nan)
@@ -496,11 +500,14 @@ def simulate_batch(
         parts += _advance(engine, steps_done, target, record_every, progress)
         steps_done = target
         t = np.concatenate([np.asarray(part[0]) for part in parts])
-        signals = {name: np.concatenate([part[1][name] for part in parts]) for name in SIGNALS}
-        delta = signals["theta"] / p.ratio
+        signals = {name: np.concatenate([part[1][name] for part in parts], axis=1)
+                   for name in SIGNALS}
+        parts = [(t, signals)]  # an extended horizon continues from here
+        ratio = p.ratio[:, None]
+        delta = signals["theta"] / ratio
+        command = signals["theta_cmd"] / ratio
         settled = None
         if settles:
-            command = signals["theta_cmd"] / p.ratio
             settled = _settled(t, delta, command, final, max(0.5 * horizon, last_change))
             run_end[settled & np.isnan(run_end)] = steps_done * dt
         if not (extend and settles) or settled.all() or horizon >= cap * (1 - 1e-12):
@@ -508,13 +515,10 @@ def simulate_batch(
         horizon = min(2.0 * horizon, cap)
         extended = True
     return BatchResult(
-        t=t, delta=delta.T.copy(), theta=signals["theta"].T.copy(),
-        omega=signals["omega"].T.copy(), i=signals["i"].T.copy(), V=signals["V"].T.copy(),
-        command=(signals["theta_cmd"] / p.ratio).T.copy(),
-        current_command=signals["current_command"].T.copy(),
-        position_integral=signals["position_integral"].T.copy(),
-        current_limited=signals["current_limited"].T.copy(),
-        voltage_limited=signals["voltage_limited"].T.copy(),
+        t=t, delta=delta, theta=signals["theta"], omega=signals["omega"], i=signals["i"],
+        V=signals["V"], command=command, current_command=signals["current_command"],
+        position_integral=signals["position_integral"],
+        current_limited=signals["current_limited"], voltage_limited=signals["voltage_limited"],
         dt_s=float(dt), t_end_s=float(steps_done * dt), extended=extended, settled=settled,
         current_rate_hz=current_rate_hz, position_rate_hz=position_rate_hz,
         t_end_runs=np.where(np.isnan(run_end), steps_done * dt, run_end) if settles else None,
