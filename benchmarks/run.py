@@ -260,6 +260,31 @@ def bench_verify(rows):
                  None))
 
 
+def bench_report(rows):
+    """Best and median of 3 of ``cas-freq report`` (three variants of the shipped config) as a
+    whole process, after one warm-up run (the kernel loads from numba's cache)."""
+    import statistics
+    import tempfile
+
+    executable = shutil.which("cas-freq")
+    command = [executable] if executable else [sys.executable, "-m", "cas_freq"]
+    times = []
+    with tempfile.TemporaryDirectory() as folder:
+        for attempt in range(4):  # the first run may compile the kernel into numba's cache
+            start = time.perf_counter()
+            done = subprocess.run([*command, "report", "-o", str(Path(folder) / "report"), "-q"],
+                                  capture_output=True, text=True, check=False)
+            if done.returncode != 0:
+                rows.append(("cas-freq report (three variants), whole process", "failed", "-",
+                             None))
+                return
+            if attempt:
+                times.append(time.perf_counter() - start)
+    rows.append(("cas-freq report (three variants), whole process",
+                 f"{min(times):.2f}/{statistics.median(times):.2f} s", "best/median of 3",
+                 None))
+
+
 def bench_memory(params, n):
     rng = np.random.default_rng(SEED)
     loop = variant_parameters(params, variants(params, n, rng))
@@ -297,6 +322,7 @@ def main(argv=None):
     rms = bench_step(params, 16 if args.quick else 256, rows, notes)
     bench_sinedwell(params, rows)
     bench_verify(rows)
+    bench_report(rows)
     print(f"machine: {machine()}")
     print()
     print(f"| {'case':56s} | {'cas_freq':>14s} | {'python-control':>28s} | {'ratio':>7s} |")
