@@ -236,3 +236,43 @@ def test_without_a_writable_cache_the_kernel_compiles_in_process():
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
     done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
+
+
+def test_batches_from_several_threads():
+    # numba's workqueue layer refuses concurrent parallel launches (it aborts the process):
+    # batches simulated side by side from threads (a dask worker's) must still run and agree
+    from concurrent.futures import ThreadPoolExecutor
+
+    amplitude = math.radians(10.0)
+    params = parameters(variants=("base", "fitted", "relaxed"))
+
+    def batch(_):
+        return simulate_batch(params, Step(amplitude), t_end=0.005, extend=False)
+
+    with ThreadPoolExecutor(max_workers=3) as pool:
+        results = list(pool.map(batch, range(6)))
+    for result in results[1:]:
+        assert np.array_equal(result.delta, results[0].delta)
+
+
+def test_batches_in_forked_processes():
+    # a process forked after the parallel kernel ran (a multiprocessing pool) can simulate:
+    # numba's GNU OpenMP layer would terminate it, the workqueue layer the kernel picks does not
+    code = (
+        "import math, multiprocessing\n"
+        "from cas_freq.config.loader import load_variant\n"
+        "from cas_freq.parameters import LoopParameters\n"
+        "from cas_freq.simulation import Step, simulate_batch\n"
+        "params = LoopParameters.from_configs([load_variant().params] * 2)\n"
+        "def batch(_):\n"
+        "    return float(simulate_batch(params, Step(math.radians(10.0)), t_end=0.002,\n"
+        "                                extend=False).delta[0, -1])\n"
+        "if __name__ == '__main__':\n"
+        "    first = batch(0)\n"
+        "    with multiprocessing.get_context('fork').Pool(2) as pool:\n"
+        "        assert pool.map(batch, range(2)) == [first, first]\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_THREADING_LAYER"}
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                          timeout=240)
+    assert done.returncode == 0, done.stderr

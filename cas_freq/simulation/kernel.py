@@ -32,6 +32,9 @@ to this file, or in ``NUMBA_CACHE_DIR`` or the user's cache directory if this di
 writable; where no place is writable, the functions are compiled in each process.
 """
 
+import os
+import threading
+
 import numba
 import numpy as np
 from numba import njit, prange
@@ -39,6 +42,13 @@ from numba import njit, prange
 from cas_freq.simulation.controllers import derivative_filter
 from cas_freq.simulation.delay_line import delay_steps, ring_size
 from cas_freq.simulation.engine import SIGNALS, plant_step_matrices
+
+# numba's threading layer: workqueue unless NUMBA_THREADING_LAYER chooses. The default order
+# picks GNU OpenMP where present, and a process forked after a parallel kernel ran (a
+# multiprocessing pool) is then terminated when it launches one; workqueue is fork-safe, and
+# :data:`_PARALLEL` keeps two threads from launching at once, which workqueue does not allow.
+if "NUMBA_THREADING_LAYER" not in os.environ:
+    numba.config.THREADING_LAYER = "workqueue"
 
 
 def _jit(**options):
@@ -501,6 +511,10 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
 
 #: Command values per kernel call, about (steps x columns) (memory of the command rows).
 _BLOCK_VALUES = 2**18
+#: Held while a thread runs the parallel kernel: the workqueue threading layer aborts the
+#: process if two threads launch parallel kernels at once, so a batch that finds it held
+#: (another thread, e.g. a dask worker thread, is simulating) runs serially instead.
+_PARALLEL = threading.Lock()
 
 
 class CompiledEngine:
@@ -592,14 +606,18 @@ class CompiledEngine:
         floats = np.empty((len(_FLOAT_SIGNALS), n, rows))
         flags = np.empty((2, n, rows), dtype=np.bool_)
         block = max(64, _BLOCK_VALUES // (1 if n == 1 else self.commands.columns))
-        parallel = n > 1 and numba.get_num_threads() > 1
+        parallel = n > 1 and numba.get_num_threads() > 1 and _PARALLEL.acquire(blocking=False)
         advance = advance_parallel if parallel else advance_serial
-        for start in range(first, first + n_steps, block):
-            stop = min(start + block, first + n_steps)
-            right, left = self._rows(np.arange(start, stop) * self.dt)
-            advance(*self._args(), right, left, start - 1, record_every, base, floats, flags,
-                    self.every_c, self.every_p, self.has_derivative, self.dt)
-            self.k = stop - 1
+        try:
+            for start in range(first, first + n_steps, block):
+                stop = min(start + block, first + n_steps)
+                right, left = self._rows(np.arange(start, stop) * self.dt)
+                advance(*self._args(), right, left, start - 1, record_every, base, floats,
+                        flags, self.every_c, self.every_p, self.has_derivative, self.dt)
+                self.k = stop - 1
+        finally:
+            if parallel:
+                _PARALLEL.release()
         kept = np.arange(base, base + rows) * record_every
         out = dict(zip(_FLOAT_SIGNALS, floats, strict=True))
         out["current_limited"], out["voltage_limited"] = flags
