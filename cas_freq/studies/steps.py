@@ -12,7 +12,7 @@ import math
 import numpy as np
 
 from cas_freq.simulation.commands import Step
-from cas_freq.simulation.second_order import fit_second_order
+from cas_freq.simulation.second_order import fit_second_order_batch
 from cas_freq.simulation.simulator import simulate_batch
 from cas_freq.simulation.step_figures import simulation_step_figures
 
@@ -41,13 +41,16 @@ def batch_steps(params, amplitude_rad, *, fit=True, rates_hz=(None, None),
     amplitude_rad : float
         Fin step [rad].
     fit : bool
-        Also fit the second-order model to each response (about 0.15 s per run).
+        Also fit the second-order model to each response, all runs of a chunk at once
+        (:func:`~cas_freq.simulation.second_order.fit_second_order_batch`: the estimates of
+        ``simulate``'s :func:`~cas_freq.simulation.second_order.fit_second_order` to rounding,
+        about 2 ms per run).
     rates_hz : (float or None, float or None)
         Sampled-controller rates (current, position) [Hz], or None for continuous.
     chunk_size : int
         Runs simulated together.
     progress : callable, optional
-        ``progress(done, total)`` after each run's figures.
+        ``progress(done, total)`` for each run once its chunk's figures and fits are done.
 
     Returns
     -------
@@ -65,17 +68,20 @@ def batch_steps(params, amplitude_rad, *, fit=True, rates_hz=(None, None),
         chunk = params.take(slice(start, stop))
         result = simulate_batch(chunk, Step(amplitude_rad), current_rate_hz=current_rate,
                                 position_rate_hz=position_rate)
-        for index in range(stop - start):
-            run, alone = start + index, result.run(index)
+        runs = [result.run(index) for index in range(stop - start)]
+        for run, alone in enumerate(runs, start):
             figures = simulation_step_figures(alone, amplitude_rad)
             for key, value in dataclasses.asdict(figures).items():
                 name = f"step.{key}"
                 if name in out:
                     out[name][run] = math.nan if value is None else float(value)
-            if fit:
-                model = fit_second_order(alone.t, alone.delta, amplitude_rad)
+        if fit:
+            models = fit_second_order_batch([alone.t for alone in runs],
+                                            [alone.delta for alone in runs], amplitude_rad)
+            for run, model in enumerate(models, start):
                 for key in FIT_FIGURES:
                     out[key][run] = getattr(model, key.split(".", 1)[1])
+        for _ in runs:
             done += 1
             if progress:
                 progress(done, n)
