@@ -84,6 +84,28 @@ def test_small_step_is_small_signal_and_linear_agrees(data):
     assert large.step.current_limited  # docs/model.md: a 10 deg step asks ~22 A of 20 A
 
 
+def test_linear_step_equals_python_controls(base):
+    # the doubling recursion of unit_step_response against python-control's own step response
+    # of the same Padé-6 closed loop on the same uniform grid (python-control steps the same
+    # exact discretisation one sample at a time; the two differ only by round-off, ~1e-13)
+    import control
+
+    from cas_freq.model.systems import linear_model
+    from cas_freq.report.data import linear_steps, unit_step_response
+
+    closed = linear_model(base.params, 6).closed_loop
+    t = np.arange(3001) * 5e-6
+    expected = np.asarray(control.step_response(closed, t).outputs, dtype=float)
+    assert np.max(np.abs(unit_step_response(closed, t.size, 5e-6) - expected)) < 1e-10
+    # several steps share one response when their grids are prefixes of the longest
+    short, odd = t[:1001], np.arange(11) * 1e-5
+    responses = linear_steps(base.params, [short, t, odd], [0.5, 2.0, 1.0], 6)
+    assert np.max(np.abs(responses[0] - 0.5 * expected[:1001])) < 1e-10
+    assert np.max(np.abs(responses[1] - 2.0 * expected)) < 1e-10
+    other = np.asarray(control.step_response(closed, odd).outputs, dtype=float)
+    assert np.max(np.abs(responses[2] - other)) < 1e-10
+
+
 def test_reference_rows_show_the_configs_bench_numbers(data):
     # the shipped config declares ARL-TR-9136's bench as its reference: section
     results = variant_results(data)
