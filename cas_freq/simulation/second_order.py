@@ -225,7 +225,9 @@ def _start(t, unit, initial=None):
 # Levenberg-Marquardt iteration on every unconverged response together (_levenberg_marquardt),
 # then Newton steps on the gradient (_refine), then the intervals (_summaries), with the analytic
 # Jacobian below; the variables, bounds and starting guess are those least_squares gets in
-# fit_second_order(method="least_squares"). In dimensionless time s = wn (t - td) the unit step is g(s, zeta) = 1 - E (C + zeta S),
+# fit_second_order(method="least_squares").
+#
+# In dimensionless time s = wn (t - td) the unit step is g(s, zeta) = 1 - E (C + zeta S),
 # E = exp(-zeta s), C = cos(w s), S = sin(w s) / w, w = sqrt(1 - zeta^2) (cosh / sinh of
 # sqrt(zeta^2 - 1) s when overdamped), and
 #
@@ -255,9 +257,10 @@ _BATCH_BLOCK = 128
 _LOWER = np.array([1e-6, 0.0, 0.0])
 
 #: Levenberg-Marquardt stops a run when an accepted step lowers its sum of squares by less than
-#: this fraction: within ~1e-6 of the minimum, where _refine's Newton steps take over (stopping
-#: at 1e-15 instead costs about a quarter more iterations for the same result to 1e-13).
-_FTOL = 1e-12
+#: this fraction (least_squares in fit_second_order: 1e-14). Within ~1e-7 of the minimum then,
+#: where _refine's Newton steps take over; stopping at 1e-12 saves a fifth of the iterations
+#: but can leave a slowly zigzagging overdamped fit 1e-4 short.
+_FTOL = 1e-15
 
 #: Most relative move of the variables that _refine accepts (larger: the start was not near a
 #: minimum, and it is kept).
@@ -357,6 +360,13 @@ def _residuals_and_jacobian(t, unit, p, scale):
     return residuals, jacobian
 
 
+def _normal_equations(residuals, jacobian):
+    """Sum of squares (k,), J J^T (k, 3, 3) and J r (k, 3) of residuals (k, m), J (k, 3, m)."""
+    return (np.einsum("km,km->k", residuals, residuals),
+            np.einsum("kim,kjm->kij", jacobian, jacobian),
+            np.einsum("kim,km->ki", jacobian, residuals))
+
+
 def _levenberg_marquardt(t, unit, p, scale, upper, max_iterations):
     """Bounded Levenberg-Marquardt on k runs at once; each run stops when it has converged.
 
@@ -390,8 +400,8 @@ def _levenberg_marquardt(t, unit, p, scale, upper, max_iterations):
     """
     k = t.shape[0]
     p = np.clip(p, _LOWER, upper)
-    r, jac = _residuals_and_jacobian(t, unit, p, scale)
-    cost = np.einsum("km,km->k", r, r)
+    # Per run only what a step needs: the sum of squares, J J^T (3 x 3) and J r (3).
+    cost, normal, gradient = _normal_equations(*_residuals_and_jacobian(t, unit, p, scale))
     damping = np.full(k, 1e-3)
     growth = np.full(k, 2.0)
     converged = np.zeros(k, dtype=bool)
@@ -400,23 +410,20 @@ def _levenberg_marquardt(t, unit, p, scale, upper, max_iterations):
     for _ in range(max_iterations):
         if active.size == 0:
             break
-        J, res, x, hi = jac[active], r[active], p[active], upper[active]
-        normal = J @ J.transpose(0, 2, 1)
-        gradient = np.einsum("kim,km->ki", J, res)
-        held = ((x <= _LOWER) & (gradient > 0)) | ((x >= hi) & (gradient < 0))
-        diag = np.diagonal(normal, axis1=1, axis2=2)
-        diag = np.maximum(diag, 1e-30 * diag.max(axis=1, keepdims=True) + 1e-300)
-        system = normal + damping[active, None, None] * (diag[:, :, None] * eye)
+        A, g, x, hi = normal[active], gradient[active], p[active], upper[active]
+        held = ((x <= _LOWER) & (g > 0)) | ((x >= hi) & (g < 0))
         free = ~held
+        diag = np.diagonal(A, axis1=1, axis2=2)
+        diag = np.maximum(diag, 1e-30 * diag.max(axis=1, keepdims=True) + 1e-300)
+        system = A + damping[active, None, None] * (diag[:, :, None] * eye)
         system = system * (free[:, :, None] & free[:, None, :]) + held[:, :, None] * eye
-        rhs = np.where(held, 0.0, -gradient)
-        delta = np.linalg.solve(system, rhs[:, :, None])[:, :, 0]
+        delta = np.linalg.solve(system, np.where(held, 0.0, -g)[:, :, None])[:, :, 0]
         trial = np.clip(x + delta, _LOWER, hi)
         step = trial - x
-        r_new, jac_new = _residuals_and_jacobian(t[active], unit[active], trial, scale[active])
-        cost_new = np.einsum("km,km->k", r_new, r_new)
-        predicted = -(2.0 * np.einsum("ki,ki->k", gradient, step)
-                      + np.einsum("ki,kij,kj->k", step, normal, step))
+        cost_new, normal_new, gradient_new = _normal_equations(
+            *_residuals_and_jacobian(t[active], unit[active], trial, scale[active]))
+        predicted = -(2.0 * np.einsum("ki,ki->k", g, step)
+                      + np.einsum("ki,kij,kj->k", step, A, step))
         old = cost[active]
         accept = cost_new < old
         positive = predicted > 0
@@ -428,14 +435,13 @@ def _levenberg_marquardt(t, unit, p, scale, upper, max_iterations):
                        lam * growth[active])
         growth[active] = np.where(good, 2.0, growth[active] * 2.0)
         damping[active] = np.minimum(lam, 1e300)
-        size = np.linalg.norm(step, axis=1)
-        done = (size <= 1e-14 * (1e-14 + np.linalg.norm(x, axis=1)))
+        done = np.linalg.norm(step, axis=1) <= 1e-14 * (1e-14 + np.linalg.norm(x, axis=1))
         done |= accept & (old - cost_new <= _FTOL * old)
-        done |= ~np.any(free & (gradient != 0), axis=1)
-        done |= damping[active] >= 1e300
+        done |= ~np.any(free & (g != 0), axis=1)
+        done |= damping[active] >= 1e300  # no step lowers the sum of squares any more
         taken = active[accept]
-        p[taken], r[taken], jac[taken], cost[taken] = (
-            trial[accept], r_new[accept], jac_new[accept], cost_new[accept])
+        p[taken], cost[taken], normal[taken], gradient[taken] = (
+            trial[accept], cost_new[accept], normal_new[accept], gradient_new[accept])
         converged[active[done]] = True
         active = active[~done]
     return p, converged
@@ -602,10 +608,9 @@ def _summaries(t, unit, p, scale, upper, steps, success, sizes=None):
     p = _refine(t, unit, p, scale, upper)
     r, jac = _residuals_and_jacobian(t, unit, p, scale)
     values = p * scale
-    sum_squares = np.einsum("km,km->k", r, r)
+    # In the unscaled variables (wn [rad/s], zeta, td [s]).
+    sum_squares, normal, _ = _normal_equations(r, jac / scale[:, :, None])
     dof = np.maximum(sizes - 3, 1)
-    jac = jac / scale[:, :, None]
-    normal = jac @ jac.transpose(0, 2, 1)
     t_quantile = special.stdtrit(dof, 0.975)  # Student t, two-sided 95 %
     fits = []
     for i in range(t.shape[0]):
