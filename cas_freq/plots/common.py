@@ -9,6 +9,7 @@ every coordinate in the SVG to 0.01 pt and renames matplotlib's content-hash ids
 :func:`tidy_svg`).
 """
 
+import dataclasses
 import hashlib
 import io
 import re
@@ -44,12 +45,95 @@ STYLE = {
 EXACT = "exact delays"
 
 
-def figure(rows, cols, size, sharex=False, **kwargs):
-    """A constrained-layout figure in :data:`STYLE` with a (rows, cols) array of axes."""
+@dataclasses.dataclass(frozen=True)
+class Margins:
+    """A fixed layout: room around and between the axes of a figure [in].
+
+    The report's figures are laid out with these instead of matplotlib's constrained layout,
+    whose passes over every tick label's extent cost about as much as drawing the figure; the
+    room for tick labels and axis labels is a constant (their font is fixed, :data:`STYLE`), the
+    room for a legend beside or below the axes is measured (:func:`legend_room_right`,
+    :func:`legend_room_below`).
+
+    Attributes
+    ----------
+    left, right, bottom, top : float
+        Figure edge to the axes grid [in]: y tick and axis labels on the left, x tick and axis
+        labels below, the suptitle (and axes titles) above.
+    hgap, wgap : float
+        Between rows and between columns of axes [in].
+    """
+
+    left: float = 0.75
+    right: float = 0.2
+    bottom: float = 0.55
+    top: float = 0.4
+    hgap: float = 0.3
+    wgap: float = 0.8
+
+
+def figure(rows, cols, size, sharex=False, margins=None, **kwargs):
+    """A figure in :data:`STYLE` with a (rows, cols) array of axes: laid out with ``margins``
+    (:class:`Margins`, fixed) or, without, by matplotlib's constrained layout."""
     with rc_context(STYLE):
-        fig = Figure(figsize=size, layout="constrained")
+        fig = Figure(figsize=size, layout=None if margins is not None else "constrained")
         axes = fig.subplots(rows, cols, sharex=sharex, squeeze=False, **kwargs)
+    if margins is not None:
+        place(fig, margins)
     return fig, axes
+
+
+def place(fig, margins):
+    """Put the axes grid of ``fig`` at the fixed ``margins`` [in] (:class:`Margins`); returns
+    them."""
+    width, height = fig.get_size_inches()
+    grid = fig.axes[0].get_subplotspec().get_gridspec()
+    rows, cols = grid.get_geometry()
+    inner_w = width - margins.left - margins.right
+    inner_h = height - margins.bottom - margins.top
+    axes_w = (inner_w - (cols - 1) * margins.wgap) / cols
+    axes_h = (inner_h - (rows - 1) * margins.hgap) / rows
+    fig.subplots_adjust(left=margins.left / width, right=1.0 - margins.right / width,
+                        bottom=margins.bottom / height, top=1.0 - margins.top / height,
+                        wspace=margins.wgap / axes_w, hspace=margins.hgap / axes_h)
+    return margins
+
+
+def _extent_in(fig, artist):
+    """Width and height of ``artist`` as drawn [in], measured with a throw-away Agg renderer
+    (text only: no tick of any axes is laid out)."""
+    from matplotlib.backends.backend_agg import RendererAgg
+
+    width, height = fig.get_size_inches()
+    renderer = RendererAgg(width * fig.dpi, height * fig.dpi, fig.dpi)
+    with rc_context(STYLE):
+        box = artist.get_window_extent(renderer)
+    return box.width / fig.dpi, box.height / fig.dpi
+
+
+#: Room added to a measured legend [in] (text measured with Agg, drawn by the SVG viewer).
+LEGEND_PAD = 0.12
+
+
+def legend_room_right(fig, margins, legend, cols=1):
+    """Place ``fig`` at ``margins`` with the right one widened to hold ``legend``, drawn beside
+    the last column of axes (anchored at ``(1.02, 1.0)`` in axes coordinates, 2 % of the axes
+    width to its right); returns the margins used."""
+    legend_w, _ = _extent_in(fig, legend)
+    width = fig.get_size_inches()[0]
+    # the axes width depends on the right margin: solve right = 0.02 * axes_w + legend + pad
+    inner = width - margins.left - (cols - 1) * margins.wgap
+    room = legend_w + LEGEND_PAD
+    right = (0.02 * inner / cols + room) / (1.0 + 0.02 / cols)
+    return place(fig, dataclasses.replace(margins, right=max(margins.right, right)))
+
+
+def legend_room_below(fig, margins, legends, gap=0.5):
+    """Place ``fig`` at ``margins`` with the bottom one raised above the tallest of
+    ``legends`` (figure legends at its bottom edge), ``gap`` [in] kept for the x tick and axis
+    labels in between; returns the margins used."""
+    tallest = max(_extent_in(fig, legend)[1] for legend in legends)
+    return place(fig, dataclasses.replace(margins, bottom=tallest + LEGEND_PAD + gap))
 
 
 #: Decimals of the coordinates in the SVG files [pt] (0.01 pt is far below what shows).

@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from cas_freq.plots.common import EXACT
+from cas_freq.plots.common import EXACT, Margins, legend_room_below, legend_room_right
 from cas_freq.plots.common import figure as _figure
 from cas_freq.plots.common import rounded as _r
 
@@ -175,7 +175,9 @@ def nyquist(data):
 
     c = data.curves
     loops = ActuatorLoops(data.loaded.params)
-    fig, axes = _figure(1, 2, (11, 7.6))
+    layout = Margins(left=0.65, right=0.15, top=0.95, wgap=0.75)
+    fig, axes = _figure(1, 2, (11, 7.6), margins=layout)
+    legends = []
     panels = (("L_p", "position loop", c.position_loop, data.analysis.position_loop,
                loops.position_loop, "C1"),
               ("L_i", "current loop", c.current_loop, data.analysis.current_loop,
@@ -189,7 +191,8 @@ def nyquist(data):
         ax.set_title(f"{name} ({words}), ω {c.omega_rad_s[0]:.3g}..{c.omega_rad_s[-1]:.3g} "
                      f"rad/s; view ±{half:g} around −1")
         handles, labels = ax.get_legend_handles_labels()
-        fig.legend(handles, labels, loc=f"outside lower {side}", fontsize=7)
+        legends.append(fig.legend(handles, labels, loc=f"lower {side}", fontsize=7))
+    legend_room_below(fig, layout, legends)
     fig.suptitle(f"{data.label}: Nyquist plots of L_p and L_i ({EXACT})\ncurves clipped to "
                  "the view, arrows point to increasing ω")
     return fig
@@ -319,7 +322,8 @@ def pole_zero(data):
     zeros = closed_loop_zeros(data.loaded.params, order)
     view = pole_zero_view(a, poles)
     (x0, x1), (y0, y1) = view
-    fig, axes = _figure(1, 1, (9.5, 6.2))
+    layout = Margins(top=0.6)
+    fig, axes = _figure(1, 1, (9.5, 6.2), margins=layout)
     ax = axes[0, 0]
     ax.axvspan(0.0, x1, color="C3", alpha=0.08, lw=0, label="right half-plane (unstable)")
     ax.axvline(0.0, color="k", lw=1.4, label="stability boundary Re s = 0")
@@ -348,7 +352,8 @@ def pole_zero(data):
     ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("Re s [rad/s]")
     ax.set_ylabel("Im s [rad/s]")
-    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=7.5)
+    legend_room_right(fig, layout, ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0),
+                                              fontsize=7.5))
     ax.set_title(f"{a.stability.verdict}; the view holds the dominant dynamics, the Padé delay "
                  "poles and zeros lie further out", fontsize=8.5)
     fig.suptitle(f"{data.label}: closed-loop poles and zeros of T (Padé {order} delays)")

@@ -26,6 +26,9 @@ from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_sv
     EXACT,
     STYLE,
     SVG_DECIMALS,
+    Margins,
+    legend_room_below,
+    legend_room_right,
     png_bytes,
     svg_text,
     tidy_svg,
@@ -80,7 +83,8 @@ def bode_loops(data):
     margins drawn as bars and stated in the legend (never as text on the axes)."""
     c = data.curves
     w = _r(c.omega_rad_s)
-    fig, axes = _figure(2, 1, (9, 7.2), sharex=True)
+    layout = Margins(hgap=0.25)
+    fig, axes = _figure(2, 1, (9, 7.2), sharex=True, margins=layout)
     mag, ph = axes[:, 0]
     loops = (("L_i (current loop, broken at V)", c.current_loop, data.analysis.current_loop, "C0"),
              ("L_p (position loop, broken at i_cmd)", c.position_loop,
@@ -125,7 +129,8 @@ def bode_loops(data):
     mag.plot([], [], "ko", ms=4, label="gain crossover ● (bar: phase margin)")
     mag.plot([], [], "ks", ms=4, mfc="none", label="phase crossover □ (bar: gain margin)")
     handles, labels = mag.get_legend_handles_labels()
-    fig.legend(handles, labels, loc="outside lower center", ncols=1, fontsize=7.5)
+    legend = fig.legend(handles, labels, loc="lower center", ncols=1, fontsize=7.5)
+    legend_room_below(fig, layout, [legend])
     _log_axes([mag, ph], w)
     fig.suptitle(f"{data.label}: open loops L_i and L_p ({EXACT}); margins in the legend")
     return fig
@@ -136,7 +141,7 @@ def closed_loop(data):
     c = data.curves
     w = _r(c.omega_rad_s)
     figures = data.analysis.closed_loop
-    fig, axes = _figure(2, 1, (8, 6), sharex=True)
+    fig, axes = _figure(2, 1, (8, 6), sharex=True, margins=Margins())
     mag, ph = axes[:, 0]
     m, p = _db(c.closed_loop), _phase_deg(c.closed_loop, c.omega_rad_s)
     mag.plot(w, m, color="C2", label="|T| = |δ/δ_cmd|")
@@ -178,7 +183,7 @@ def sensitivity(data):
     """|S| and |T| of the position loop together, with the sensitivity peak."""
     c = data.curves
     w = _r(c.omega_rad_s)
-    fig, axes = _figure(1, 1, (8, 4.2))
+    fig, axes = _figure(1, 1, (8, 4.2), margins=Margins())
     ax = axes[0, 0]
     ax.plot(w, _db(c.sensitivity), color="C0", label="|S| = |1/(1+L_p)|")
     ax.plot(w, _db(c.closed_loop), color="C2", label="|T|")
@@ -299,7 +304,8 @@ def nichols(data, magnitude_range_db=(-40.0, 60.0)):
     w = _r(c.omega_rad_s)
     m, p = _db(c.position_loop), _phase_deg(c.position_loop, c.omega_rad_s)
     shown = (m >= magnitude_range_db[0]) & (m <= magnitude_range_db[1])
-    fig, axes = _figure(1, 1, (9.5, 5.5))
+    layout = Margins()
+    fig, axes = _figure(1, 1, (9.5, 5.5), margins=layout)
     ax = axes[0, 0]
     ax.plot(np.where(shown, p, np.nan), np.where(shown, m, np.nan), color="C1", label="L_p")
     low, high = np.nanmin(p[shown]), np.nanmax(p[shown])
@@ -330,7 +336,7 @@ def nichols(data, magnitude_range_db=(-40.0, 60.0)):
     ax.xaxis.set_major_locator(MultipleLocator(90))
     ax.set_xlabel("phase of L_p [deg]")
     ax.set_ylabel("magnitude of L_p [dB]")
-    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    legend_room_right(fig, layout, ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0)))
     fig.suptitle(f"{data.label}: Nichols chart of L_p ({EXACT})")
     return fig
 
@@ -384,7 +390,8 @@ def steps(data):
     """Smallest and largest step: nonlinear vs linear output angle, current and voltage, with the
     intervals where a limit acts shaded."""
     indices = sorted({data.small_index, data.large_index})
-    fig, axes = _figure(3, len(indices), (5.2 * len(indices), 7.5))
+    fig, axes = _figure(3, len(indices), (5.2 * len(indices), 7.5),
+                        margins=Margins(top=0.65, hgap=0.4))
     params = data.loaded.params
     for col, k in enumerate(indices):
         run = data.dwell.steps[k]
@@ -445,7 +452,7 @@ def step_fit(data):
     keep = _thin(r.t, window_s)
     t = np.asarray(r.t)[keep]
     a_deg = run.step.amplitude_deg
-    fig, axes = _figure(1, 1, (8, 4.5))
+    fig, axes = _figure(1, 1, (8, 4.5), margins=Margins(top=0.6))
     ax = axes[0, 0]
     window = 1e3 * window_s
     t_ms = _r(1e3 * t)
@@ -547,7 +554,8 @@ def _reference_point(ax, datas):
 def bandwidth_vs_amplitude(data):
     """Bandwidth versus amplitude: sine-dwell, step fit, linear, the reference point (if the
     config declares one)."""
-    fig, axes = _figure(1, 1, (10, 4.8))
+    layout = Margins()
+    fig, axes = _figure(1, 1, (10, 4.8), margins=layout)
     ax = axes[0, 0]
     _bandwidth_series(ax, data, "C0")
     _reference_point(ax, [data])
@@ -555,7 +563,7 @@ def bandwidth_vs_amplitude(data):
     _amplitude_axis(ax, [data])
     ax.set_ylabel("bandwidth ω_BW [rad/s]")
     ax.set_ylim(0.0, ax.get_ylim()[1] * 1.05)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    legend_room_right(fig, layout, ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0)))
     fig.suptitle(f"{data.label}: bandwidth vs amplitude (nonlinear loop and linear T, "
                  "exact delays)")
     return fig
@@ -565,7 +573,7 @@ def sinedwell(data):
     """Sine-dwell magnitude and phase per amplitude over the linear T; limited points hollow."""
     r = data.dwell.result
     w = _r(r.frequencies_rad_s)
-    fig, axes = _figure(2, 1, (8, 6), sharex=True)
+    fig, axes = _figure(2, 1, (8, 6), sharex=True, margins=Margins())
     mag, ph = axes[:, 0]
     lin = np.asarray(data.dwell.linear_response)
     for k, amplitude in enumerate(np.degrees(np.asarray(r.amplitudes_rad))):
