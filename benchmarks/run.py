@@ -3,9 +3,10 @@ benchmarks/run.py``; not part of the test suite).
 
 1. margins + bandwidth of 10,000 variants (a 100 x 100 grid of Kp and Kd; and random
    gains and motor values, ±10 % around the shipped config): cas_freq's batch (exact delays,
-   Padé-6 stability) vs a python-control loop (Padé-6 delays in transfer functions,
-   ``stability_margins`` of both loops, ``bandwidth`` of T) timed on a sample of 100 and
-   extrapolated;
+   Padé-6 stability) vs two python-control loops, both with Padé-6 delays: the naive one
+   (transfer-function arithmetic, ``stability_margins`` of both loops, ``bandwidth`` of T,
+   timed on a sample of 100 and extrapolated) and an improved one (benchmarks/baselines.py:
+   numpy polynomials, the current loop cached, a fixed-grid bandwidth; timed on 1,000);
 2. a 10 deg nonlinear step of 60 ms: cas_freq's simulator (the compiled kernel, and the numpy
    reference engine) in batch mode (per run) and alone vs python-control
    ``input_output_response`` of an ``nlsys`` of the same loop (Padé-8 delays, LSODA rtol 1e-9,
@@ -13,7 +14,8 @@ benchmarks/run.py``; not part of the test suite).
    angles; the step at the default horizon, and ``cas-freq simulate --step 10deg`` as a whole
    process with either engine (after a first run, so the kernel loads from numba's cache);
 3. a sine-dwell map of 8 amplitudes x 30 frequencies (cas_freq);
-4. ``cas-freq verify`` of the shipped config as a whole process;
+4. ``cas-freq verify`` of the shipped config as a whole process; ``cas-freq montecarlo`` of
+   10,000 samples with the shipped requirements (steps and fits) as a whole process;
 5. peak memory (tracemalloc) of the frequency-domain batch for 100,000 variants.
 
 Options: ``--quick`` (fewer variants, for a smoke run), ``--skip-memory``.
@@ -31,6 +33,7 @@ import tracemalloc
 from pathlib import Path
 
 import numpy as np
+from baselines import ImprovedBaseline
 
 from cas_freq.analysis.analyze import DEFAULT_CHUNK, batch_analyze
 from cas_freq.config import load_variant
@@ -131,6 +134,21 @@ def bench_margins(params, changes, label, sample, rows):
     rows.append((f"margins + bandwidth, {n:,} variants ({label})", f"{ours:.2f} s",
                  f"{extrapolated:.0f} s ({per_variant * 1e3:.1f} ms x {n:,})",
                  extrapolated / ours))
+    # the improved baseline (benchmarks/baselines.py): numpy polynomials, the current loop
+    # cached, a fixed-grid bandwidth; timed on 10x the sample (it is faster)
+    improved = ImprovedBaseline(params)
+    improved.figures(changes, 0)
+    picks = np.linspace(0, n - 1, min(n, 10 * sample)).astype(int)
+    start = time.perf_counter()
+    better = [improved.figures(changes, int(i)) for i in picks]
+    per_variant = (time.perf_counter() - start) / picks.size
+    for name in better[0]:
+        differences[f"{name} (improved)"] = max(
+            abs(better[k][name] - result.figures[name][i]) / abs(result.figures[name][i])
+            for k, i in enumerate(picks))
+    rows.append(("  same, against the improved python-control loop", f"{ours:.2f} s",
+                 f"{per_variant * n:.0f} s ({per_variant * 1e3:.2f} ms x {n:,})",
+                 per_variant * n / ours))
     return differences
 
 
@@ -260,6 +278,21 @@ def bench_verify(rows):
                  None))
 
 
+def bench_montecarlo(rows, samples):
+    """``cas-freq montecarlo`` with the shipped requirements (each sample: the analysis, the
+    nonlinear 10 deg step and its second-order fit), whole process, once."""
+    executable = shutil.which("cas-freq")
+    command = [executable] if executable else [sys.executable, "-m", "cas_freq"]
+    argv = [*command, "montecarlo", "--samples", str(samples), "--tolerance", "motor.Km=10%",
+            "--tolerance", "motor.J=10%", "--tolerance", "current_loop.delay=0.01ms",
+            "--seed", "1", "-q"]
+    start = time.perf_counter()
+    done = subprocess.run(argv, capture_output=True, text=True, check=False)
+    elapsed = time.perf_counter() - start
+    shown = f"{elapsed:.1f} s" if done.returncode == 0 else f"exit {done.returncode}"
+    rows.append((f"cas-freq montecarlo --samples {samples:,} (steps + fits)", shown, "-", None))
+
+
 def bench_report(rows):
     """Best and median of 3 of ``cas-freq report`` (three variants of the shipped config) as a
     whole process, after one warm-up run (the kernel loads from numba's cache)."""
@@ -322,6 +355,7 @@ def main(argv=None):
     rms = bench_step(params, 16 if args.quick else 256, rows, notes)
     bench_sinedwell(params, rows)
     bench_verify(rows)
+    bench_montecarlo(rows, 1000 if args.quick else 10_000)
     bench_report(rows)
     print(f"machine: {machine()}")
     print()
