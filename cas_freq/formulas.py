@@ -77,8 +77,12 @@ def second_order_bandwidth(natural_frequency, damping_ratio):
         raise ValueError(f"natural_frequency: must be > 0 rad/s, got {natural_frequency!r}")
     if not damping_ratio >= 0:
         raise ValueError(f"damping_ratio: must be >= 0, got {damping_ratio!r}")
-    z2 = damping_ratio**2
-    return natural_frequency * math.sqrt((1 - 2 * z2) + math.sqrt(4 * z2**2 - 4 * z2 + 2))
+    # wn^2 (a + sqrt(a^2 + 1)) with a = 1 - 2 zeta^2 (4 zeta^4 - 4 zeta^2 + 2 = a^2 + 1); for
+    # a < 0 (zeta > 0.707) the sum cancels, so it is written 1 / (sqrt(a^2 + 1) - a), which
+    # does not (at zeta = 1e4 the direct form rounds to 0 or below)
+    a = 1.0 - 2.0 * damping_ratio * damping_ratio  # inf, not OverflowError, at 1e200
+    root = math.hypot(a, 1.0)
+    return natural_frequency * math.sqrt(a + root if a >= 0 else 1.0 / (root - a))
 
 
 #: What ARL-TR-9136 measured on the bench (docs/model.md, "What the report measured"): a 10 deg fin

@@ -85,3 +85,20 @@ def test_second_order_bandwidth_is_half_power_point(zeta):
 def test_second_order_bandwidth_rejects_bad_input(wn, zeta, field):
     with pytest.raises(ValueError, match=field):
         second_order_bandwidth(wn, zeta)
+
+
+@pytest.mark.parametrize("zeta", [3.0, 1e3, 1e4, 1e8, 1e100])
+def test_second_order_bandwidth_of_a_heavily_damped_fit(zeta):
+    """For zeta >> 1 the closed form cancels (1 - 2 zeta^2 + sqrt(...)); written stably it tends
+    to wn / (2 zeta): |T|^2 = wn^4 / ((wn^2 - w^2)^2 + 4 zeta^2 wn^2 w^2) = 1/2 there, to
+    O(1/zeta^2) relative. A fuzzed config's step fitted zeta ~ 1e4 raised a math domain error."""
+    wn = 462.0
+    value = second_order_bandwidth(wn, zeta)
+    assert value == pytest.approx(wn / (2 * zeta), rel=max(1.0 / zeta**2, 1e-12))
+    w = value
+    magnitude2 = wn**4 / ((wn**2 - w**2) ** 2 + 4 * (zeta * wn * w) ** 2)
+    assert magnitude2 == pytest.approx(0.5, rel=1e-9)
+
+
+def test_second_order_bandwidth_of_an_absurd_damping_is_zero_not_an_error():
+    assert second_order_bandwidth(462.0, 1e200) == 0.0
