@@ -234,6 +234,15 @@ def test_report_built_twice_is_byte_identical(two_builds):
     assert any(name.endswith(".svg") for name in first)
 
 
+def test_figures_drawn_in_worker_processes_equal_drawn_here(two_builds, tmp_path):
+    # build_report draws the figures in FIGURE_WORKERS forked processes by default; drawn in
+    # this process instead, every file is the same byte for byte
+    one, _ = two_builds
+    here = build_report([load_variant(None, "fitted")], tmp_path / "here", settings=FAST,
+                        workers=1)
+    assert _files(here) == _files(one)
+
+
 def test_report_is_written_at_the_stated_precision(two_builds):
     folder, _ = two_builds
     results = json.loads((folder / "results.json").read_text())

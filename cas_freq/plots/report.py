@@ -29,6 +29,7 @@ from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_sv
     Margins,
     legend_room_below,
     legend_room_right,
+    plain_log_labels,
     png_bytes,
     svg_text,
     tidy_svg,
@@ -60,6 +61,7 @@ def _in_range(omega, w):
 def _log_axes(axes, omega):
     for ax in axes:
         ax.set_xscale("log")
+        plain_log_labels(ax.xaxis)
         ax.set_xlim(omega[0], omega[-1])
     axes[-1].set_xlabel("frequency ω [rad/s]")
 

@@ -495,31 +495,134 @@ def report_blocks(datas, figure_blocks, settings, command=None):
     return blocks
 
 
-def _figure_files(data, png):
-    """Yield (path, content) of a variant's figures; returns {stem: Figure block}."""
+#: Worker processes that draw a report's figures (while the next variant is computed); 1 draws
+#: them in the calling process. Two: matplotlib draws on one core, and the project's machine has
+#: two.
+FIGURE_WORKERS = 2
+
+
+def render_figures(data, stems, png=False):
+    """Draw figures of one variant.
+
+    Parameters
+    ----------
+    data : cas_freq.report.data.VariantData
+    stems : sequence of str
+        Keys of :data:`cas_freq.plots.report.VARIANT_FIGURES`.
+    png : bool
+        Also write each figure as PNG.
+
+    Returns
+    -------
+    list of (str, str, bytes or None, str)
+        (stem, SVG text, PNG bytes or None, caption) of each stem, in order.
+    """
     from cas_freq.plots import report as plots
 
+    drawn = []
+    for stem in stems:
+        draw, caption = plots.VARIANT_FIGURES[stem]
+        fig = draw(data)
+        drawn.append((stem, plots.svg_text(fig), plots.png_bytes(fig) if png else None,
+                      caption(data) if callable(caption) else caption))
+    return drawn
+
+
+class FigureRenderer:
+    """Draws each variant's figures as soon as the variant is computed: in ``workers`` processes
+    (forked from this one, so they start with its imports) while the caller computes the next
+    variant, or in this process when ``workers`` is 1 or no process can be forked.
+
+    Each variant's figures are split into ``workers`` groups (alternate stems), one task each;
+    :meth:`results` gathers them in the order of :data:`~cas_freq.plots.report.VARIANT_FIGURES`,
+    so the output does not depend on which process drew what (the SVG text of a figure is the
+    same in any process). Use as a context manager.
+    """
+
+    def __init__(self, workers=FIGURE_WORKERS, png=False):
+        self.png = png
+        self.workers = max(1, int(workers))
+        self._pool = None
+        self._pending = []  # per variant: (data, list of futures) or (data, None)
+
+    def __enter__(self):
+        import multiprocessing
+
+        if self.workers > 1 and "fork" in multiprocessing.get_all_start_methods():
+            from concurrent.futures import ProcessPoolExecutor
+
+            import cas_freq.plots.report  # noqa: F401  (imported once, before the fork)
+
+            try:
+                self._pool = ProcessPoolExecutor(self.workers,
+                                                 mp_context=multiprocessing.get_context("fork"))
+            except OSError:
+                self._pool = None
+        return self
+
+    def __exit__(self, *exc):
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+        return False
+
+    def submit(self, data):
+        """Start drawing ``data``'s figures."""
+        from cas_freq.plots.report import VARIANT_FIGURES
+
+        stems = list(VARIANT_FIGURES)
+        if self._pool is None:
+            self._pending.append((data, None))
+            return
+        groups = [stems[k::self.workers] for k in range(self.workers)]
+        self._pending.append((data, [self._pool.submit(render_figures, data, group, self.png)
+                                     for group in groups if group]))
+
+    def results(self):
+        """Per submitted variant, {stem: (SVG text, PNG bytes or None, caption)} in figure
+        order."""
+        from cas_freq.plots.report import VARIANT_FIGURES
+
+        rendered = []
+        for data, futures in self._pending:
+            if futures is None:
+                drawn = render_figures(data, list(VARIANT_FIGURES), self.png)
+            else:
+                drawn = [item for future in futures for item in future.result()]
+            by_stem = {stem: rest for stem, *rest in drawn}
+            rendered.append({stem: tuple(by_stem[stem]) for stem in VARIANT_FIGURES})
+        return rendered
+
+
+def _figure_files(data, png, rendered=None):
+    """Yield (path, content) of a variant's figures; returns {stem: Figure block}.
+    ``rendered``: the variant's figures already drawn (:meth:`FigureRenderer.results`); None
+    draws them here."""
+    if rendered is None:
+        from cas_freq.plots.report import VARIANT_FIGURES
+
+        drawn = render_figures(data, list(VARIANT_FIGURES), png)
+        rendered = {stem: rest for stem, *rest in drawn}
     slug = variant_slug(data)
     blocks = {}
-    for stem, (draw, caption) in plots.VARIANT_FIGURES.items():
-        fig = draw(data)
-        svg = plots.svg_text(fig)
+    for stem, (svg, png_data, text) in rendered.items():
         path = f"figures/{slug}/{stem}.svg"
         yield path, svg
         if png:
-            yield f"figures/{slug}/{stem}.png", plots.png_bytes(fig)
-        text = caption(data) if callable(caption) else caption
+            yield f"figures/{slug}/{stem}.png", png_data
         blocks[stem] = Figure(path, f"{text} — {data.label}", svg)
     return blocks
 
 
-def report_files(datas, settings, *, png=False, command=None):
-    """Every file of the report folder as (relative path, content), figures first."""
+def report_files(datas, settings, *, png=False, command=None, rendered=None):
+    """Every file of the report folder as (relative path, content), figures first.
+    ``rendered``: per variant, its figures already drawn (:meth:`FigureRenderer.results`);
+    None draws them here, one after the other."""
     from cas_freq.report import html, markdown
 
     figure_blocks = []
-    for data in datas:
-        figure_blocks.append((yield from _figure_files(data, png)))
+    for k, data in enumerate(datas):
+        figure_blocks.append((yield from _figure_files(
+            data, png, None if rendered is None else rendered[k])))
     blocks = report_blocks(datas, figure_blocks, settings, command)
     params = datas[0].loaded.params
     yield "results.json", results_json({
@@ -539,7 +642,7 @@ def report_files(datas, settings, *, png=False, command=None):
 
 
 def build_report(variants, out_dir=None, *, settings=None, verdicts=None, png=False,
-                 command=None, progress=None):
+                 command=None, progress=None, workers=FIGURE_WORKERS):
     """Compute, draw and write the report of one config's variants.
 
     Parameters
@@ -559,6 +662,9 @@ def build_report(variants, out_dir=None, *, settings=None, verdicts=None, png=Fa
         The command that regenerates the report (shown in it).
     progress : callable, optional
         ``progress(label)`` called before each variant's computation.
+    workers : int
+        Processes that draw the figures while the next variant is computed
+        (:class:`FigureRenderer`); 1 draws them in this process. The files are the same.
 
     Returns
     -------
@@ -575,10 +681,13 @@ def build_report(variants, out_dir=None, *, settings=None, verdicts=None, png=Fa
                            "; use `cas-freq compare` for several configs")
     settings = settings or ReportSettings()
     datas = []
-    for loaded in variants:
-        if progress:
-            progress(loaded.variant)
-        datas.append(gather_variant(loaded, settings, verdicts))
+    with FigureRenderer(workers, png) as renderer:
+        for loaded in variants:
+            if progress:
+                progress(loaded.variant)
+            datas.append(gather_variant(loaded, settings, verdicts))
+            renderer.submit(datas[-1])
+        rendered = renderer.results()
     target = Path(out_dir) if out_dir is not None else default_report_dir(variants[0].params.name)
     return write_directory_atomic(target, report_files(datas, settings, png=png,
-                                                       command=command))
+                                                       command=command, rendered=rendered))
