@@ -15,12 +15,13 @@ import io
 import re
 
 import matplotlib
+import numpy as np
 
 matplotlib.use("Agg")
 
 from matplotlib import rc_context  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.ticker import LogFormatterSciNotation  # noqa: E402
+from matplotlib.ticker import Locator, LogFormatterSciNotation  # noqa: E402
 
 from cas_freq.report.numbers import round_array  # noqa: E402
 
@@ -182,9 +183,52 @@ def tidy_svg(svg):
     return pattern.sub(lambda m: f"{names[m[1] or m[2]]}{digest}_{order[m[1] or m[2]]}", svg)
 
 
+class InView(Locator):
+    """The ticks of another locator that lie in the axis' view (matplotlib creates a tick
+    object, four lines and two texts, for every location a locator returns, drawn or not: a log
+    axis's locator returns a decade of minor ticks beyond each end)."""
+
+    def __init__(self, locator):
+        self.locator = locator
+
+    def set_axis(self, axis):
+        super().set_axis(axis)
+        self.locator.set_axis(axis)
+
+    def __call__(self):
+        ticks = np.asarray(self.locator())
+        if ticks.size == 0:
+            return ticks
+        low, high = sorted(self.axis.get_view_interval())
+        transform = self.axis.get_transform()
+        low_t, high_t = transform.transform([low, high])
+        span = abs(high_t - low_t)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            where = transform.transform(ticks)
+        # a tolerance well above matplotlib's own (it draws the ticks at the edges)
+        keep = (where >= low_t - 1e-6 * span) & (where <= high_t + 1e-6 * span)
+        return ticks[keep]
+
+    def tick_values(self, vmin, vmax):
+        return self.locator.tick_values(vmin, vmax)
+
+
+def _ticks_in_view(fig):
+    """Wrap every axis locator of ``fig`` in :class:`InView` (once; the ticks drawn are the
+    same)."""
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            for ticker in (axis.major, axis.minor):
+                if not isinstance(ticker.locator, InView):
+                    wrapped = InView(ticker.locator)
+                    wrapped.set_axis(axis)
+                    ticker.locator = wrapped
+
+
 def svg_text(fig):
     """The figure as SVG text, byte-identical for the same figure (no date, fixed ids), with
     coordinates rounded to 0.01 pt and content-hash ids renamed (:func:`tidy_svg`)."""
+    _ticks_in_view(fig)
     out = io.StringIO()
     with rc_context(STYLE):
         fig.savefig(out, format="svg", metadata={"Date": None, "Creator": "cas_freq"})
@@ -193,6 +237,7 @@ def svg_text(fig):
 
 def png_bytes(fig):
     """The figure as PNG bytes with fixed metadata."""
+    _ticks_in_view(fig)
     out = io.BytesIO()
     with rc_context(STYLE):
         fig.savefig(out, format="png", metadata={"Software": "cas_freq"})
