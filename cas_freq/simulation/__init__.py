@@ -5,7 +5,8 @@
   batch of runs;
 - :mod:`~cas_freq.simulation.simulator`: :func:`simulate` and :func:`simulate_batch`;
 - :mod:`~cas_freq.simulation.step_figures`: rise, overshoot, settling, peak, limits;
-- :mod:`~cas_freq.simulation.second_order`: the report's §7 second-order-plus-delay fit.
+- :mod:`~cas_freq.simulation.second_order`: the report's §7 second-order-plus-delay fit, of one
+  response or many at once.
 
 Nothing here imports python-control or matplotlib.
 """
@@ -20,7 +21,12 @@ from cas_freq.simulation.commands import (
     motor_command,
     read_command_csv,
 )
-from cas_freq.simulation.second_order import SecondOrderFit, fit_second_order, second_order_step
+from cas_freq.simulation.second_order import (
+    SecondOrderFit,
+    fit_second_order,
+    fit_second_order_batch,
+    second_order_step,
+)
 from cas_freq.simulation.simulator import (
     BatchResult,
     SimulationResult,
@@ -44,6 +50,7 @@ __all__ = [
     "Table",
     "default_time_step",
     "fit_second_order",
+    "fit_second_order_batch",
     "motor_command",
     "read_command_csv",
     "second_order_step",

@@ -249,7 +249,7 @@ _D_SERIES = np.array([-(2 * k + 2) / math.factorial(2 * k + 3) for k in range(_S
 _MAX_ITERATIONS = 500
 
 #: Runs iterated together in one block of fit_second_order_batch (memory: about 12 arrays of
-#: block x max_points floats, 2.5 MB each at 128 x 2000).
+#: block x max_points floats, 2 MB each at 128 x 2000, three times that in _refine's Hessian).
 _BATCH_BLOCK = 128
 
 #: Lower bounds of the scaled variables (wn / wn0, zeta, td / td_scale); the upper bound of the
