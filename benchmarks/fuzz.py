@@ -243,6 +243,17 @@ def _alarm(signum, frame):
     raise _Hang
 
 
+def _save(text, detail):
+    """Write a failing config and what it raised into $CAS_FREQ_FUZZ_SAVE (``--save DIR``)."""
+    import hashlib
+
+    folder = Path(os.environ["CAS_FREQ_FUZZ_SAVE"])
+    folder.mkdir(parents=True, exist_ok=True)
+    name = hashlib.sha256(text.encode("utf-8", "surrogateescape")).hexdigest()[:12]
+    (folder / f"{name}.yaml").write_text(text, encoding="utf-8", errors="surrogateescape")
+    (folder / f"{name}.txt").write_text(detail, encoding="utf-8")
+
+
 def run_case(job):
     """Run one command on one config text in this worker: the outcome as a string."""
     command, text = job
@@ -266,6 +277,10 @@ def run_case(job):
         except SystemExit as exc:  # argparse's refusal
             code = exc.code
         except BaseException as exc:  # noqa: BLE001 - this is what is being counted
+            import traceback
+
+            if os.environ.get("CAS_FREQ_FUZZ_SAVE"):
+                _save(text, traceback.format_exc())
             return "traceback", f"{type(exc).__name__}: {str(exc)[:200]}"
         finally:
             signal.alarm(0)
@@ -334,10 +349,16 @@ def main(argv=None):
     parser.add_argument("--seed", type=int, default=16)
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--kinds", default="mutated,extreme",
+                        help="which cases to run (all are drawn, so a seed gives the same cases)")
+    parser.add_argument("--save", metavar="DIR",
+                        help="write each config that raised, with its traceback, into DIR")
     parser.add_argument("--show", type=int, default=5, help="examples shown per bad outcome")
     args = parser.parse_args(argv)
     if args.quick:
         args.mutated, args.extreme = 200, 100
+    if args.save:
+        os.environ["CAS_FREQ_FUZZ_SAVE"] = str(Path(args.save).resolve())
     rng = random.Random(args.seed)
     base_text = SHIPPED.read_text(encoding="utf-8")
     base = yaml.safe_load(base_text)
@@ -363,15 +384,17 @@ def main(argv=None):
     for command in args.commands.split(","):
         started = time.time()
         counts, examples = {}, {}
-        jobs = [(command, text) for _, text in cases]
+        kinds = set(args.kinds.split(","))
+        chosen = [case for case in cases if case[0] in kinds]
+        jobs = [(command, text) for _, text in chosen]
         with multiprocessing.get_context("fork").Pool(args.workers, maxtasksperchild=200) as pool:
-            for (kind, _), (outcome, detail) in zip(cases, pool.imap(run_case, jobs, chunksize=4),
+            for (kind, _), (outcome, detail) in zip(chosen, pool.imap(run_case, jobs, chunksize=4),
                                                     strict=True):
                 counts.setdefault(kind, {}).setdefault(outcome, 0)
                 counts[kind][outcome] += 1
                 if outcome in ("traceback", "hang", "non-finite JSON"):
                     examples.setdefault(outcome, []).append(detail)
-        print(f"\n{command}: {len(cases)} configs in {time.time() - started:.0f} s")
+        print(f"\n{command}: {len(chosen)} configs in {time.time() - started:.0f} s")
         for kind, outcomes in counts.items():
             tried = sum(outcomes.values())
             print(f"  {kind:8s} tried {tried:5d}: clean exit 2 {outcomes.get('exit 2', 0)}, "

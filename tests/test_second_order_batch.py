@@ -195,3 +195,21 @@ def test_batch_rejects_bad_input():
         fit_second_order_batch([t, t], [t], 1.0)
     with pytest.raises(ValueError, match="method"):
         fit_second_order(t, t, 1.0, method="newton")
+
+
+def test_unidentifiable_or_degenerate_responses_give_unbounded_intervals_not_errors():
+    """Extreme configs (issue 16's fuzzing) gave steps that look first order: a second-order
+    fit then finds zeta ~ 1e7 and wn ~ 1e9, of which only wn / (2 zeta) is determined. The
+    fit must neither raise (a singular normal matrix raised LinAlgError) nor claim a
+    zero-width interval: each interval is unbounded. A flat response (no motion at all) is
+    likewise a result, not an exception."""
+    t = np.linspace(0.0, 0.2, 4001)
+    first_order = 1.0 - np.exp(-t * 30.0)  # a first-order step, pole 30 rad/s
+    flat = np.zeros_like(t)
+    fits = fit_second_order_batch([t, t], [first_order, flat], [1.0, 1.0])
+    slow = fits[0]
+    assert slow.zeta > 10 and slow.wn_rad_s / (2 * slow.zeta) == pytest.approx(30.0, rel=0.05)
+    for fit in fits:
+        for interval in (fit.wn_ci_rad_s, fit.zeta_ci, fit.td_ci_s):
+            assert interval[0] <= interval[1]
+        assert math.isinf(fit.wn_ci_rad_s[1] - fit.wn_ci_rad_s[0]) or not fit.success

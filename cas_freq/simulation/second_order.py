@@ -417,7 +417,7 @@ def _levenberg_marquardt(t, unit, p, scale, upper, max_iterations):
         diag = np.maximum(diag, 1e-30 * diag.max(axis=1, keepdims=True) + 1e-300)
         system = A + damping[active, None, None] * (diag[:, :, None] * eye)
         system = system * (free[:, :, None] & free[:, None, :]) + held[:, :, None] * eye
-        delta = np.linalg.solve(system, np.where(held, 0.0, -g)[:, :, None])[:, :, 0]
+        delta, stuck = _solve_steps(system, np.where(held, 0.0, -g))
         trial = np.clip(x + delta, _LOWER, hi)
         step = trial - x
         cost_new, normal_new, gradient_new = _normal_equations(
@@ -439,12 +439,57 @@ def _levenberg_marquardt(t, unit, p, scale, upper, max_iterations):
         done |= accept & (old - cost_new <= _FTOL * old)
         done |= ~np.any(free & (g != 0), axis=1)
         done |= damping[active] >= 1e300  # no step lowers the sum of squares any more
+        accept &= ~stuck
         taken = active[accept]
         p[taken], cost[taken], normal[taken], gradient[taken] = (
             trial[accept], cost_new[accept], normal_new[accept], gradient_new[accept])
-        converged[active[done]] = True
-        active = active[~done]
+        converged[active[done & ~stuck]] = True
+        active = active[~(done | stuck)]  # a stuck run stops, not converged
     return p, converged
+
+
+#: Largest condition number of the normalised J^T J (unit diagonal) at which the three
+#: parameters are still told apart; beyond it the data determine only a combination of them
+#: (a heavily overdamped step fixes wn / (2 zeta), not wn and zeta), and each interval is
+#: reported as unbounded rather than computed from a matrix that rounding has made singular.
+_MAX_CONDITION = 1e12
+
+
+def _standard_errors(normal, variance):
+    """Standard errors from s^2 (J^T J)^-1, or inf for each when J^T J is (nearly) singular."""
+    diagonal = np.diag(normal)
+    if not (np.isfinite(normal).all() and np.all(diagonal > 0) and np.isfinite(variance)):
+        return np.full(3, math.inf)
+    norm = np.sqrt(diagonal)
+    correlation = normal / np.outer(norm, norm)
+    if np.linalg.cond(correlation) > _MAX_CONDITION:
+        return np.full(3, math.inf)
+    cov = np.linalg.inv(correlation) / np.outer(norm, norm) * variance
+    errors = np.sqrt(np.diag(cov))
+    return np.where(np.isfinite(errors) & (np.diag(cov) >= 0), errors, math.inf)
+
+
+def _solve_steps(system, rhs):
+    """Batched solve of the damped normal equations: (steps (k, 3), stuck (k,)).
+
+    A run whose system is not finite or is singular (extreme data: a Jacobian that overflows
+    or vanishes) gets a zero step and is reported stuck, so that the others go on and it ends
+    as not converged (``success`` False), never as an exception.
+    """
+    steps = np.zeros(rhs.shape)
+    stuck = ~(np.isfinite(system).all(axis=(1, 2)) & np.isfinite(rhs).all(axis=1))
+    good = np.flatnonzero(~stuck)
+    try:
+        steps[good] = np.linalg.solve(system[good], rhs[good][:, :, None])[:, :, 0]
+    except np.linalg.LinAlgError:  # one singular system fails the stack: solve one by one
+        for i in good:
+            try:
+                steps[i] = np.linalg.solve(system[i], rhs[i])
+            except np.linalg.LinAlgError:
+                stuck[i] = True
+    stuck |= ~np.isfinite(steps).all(axis=1)
+    steps[stuck] = 0.0
+    return steps, stuck
 
 
 def fit_second_order_batch(times, responses, steps, max_points=MAX_FIT_POINTS,
@@ -614,11 +659,7 @@ def _summaries(t, unit, p, scale, upper, steps, success, sizes=None):
     t_quantile = special.stdtrit(dof, 0.975)  # Student t, two-sided 95 %
     fits = []
     for i in range(t.shape[0]):
-        try:
-            cov = np.linalg.inv(normal[i]) * (sum_squares[i] / dof[i])
-            half = t_quantile[i] * np.sqrt(np.maximum(np.diag(cov), 0.0))
-        except np.linalg.LinAlgError:
-            half = np.full(3, math.inf)
+        half = t_quantile[i] * _standard_errors(normal[i], sum_squares[i] / dof[i])
         ci = [(float(v - h), float(v + h)) for v, h in zip(values[i], half, strict=True)]
         wn, zeta, td = (float(v) for v in values[i])
         fits.append(SecondOrderFit(
