@@ -77,9 +77,10 @@ def _verdict(requirement, variant, value, condition):
         relation = ("meets" if passed else "violates" if not requirement.passes(value)
                     else "is within but cannot pass")
         message = f"{requirement.metric} = {shown} {relation} {bounds} ({condition})"
+    margin = requirement.margin(value) if UNSTABLE_MARK not in condition else None
     return Verdict(
         id=requirement.id, variant=variant, metric=requirement.metric, value=value, unit=unit,
-        min=requirement.min, max=requirement.max, margin=requirement.margin(value) if UNSTABLE_MARK not in condition else None,
+        min=requirement.min, max=requirement.max, margin=margin,
         status=status, severity=requirement.severity, source=requirement.source,
         description=requirement.description, condition=condition, message=message,
     )
