@@ -1,5 +1,9 @@
-"""Nonlinear time-domain simulation of the actuator loop (numpy and scipy only).
+"""Nonlinear time-domain simulation of the actuator loop (numpy, scipy and numba).
 
+- :mod:`~cas_freq.simulation.kernel`: the fixed-step loop compiled with numba (the default
+  engine; cached on disk after the first compile), and :mod:`~cas_freq.simulation.engine`, the
+  same loop in numpy, kept as the reference the kernel is tested against
+  (``simulate_batch(..., engine="reference")`` or ``CAS_FREQ_ENGINE=reference``);
 - :mod:`~cas_freq.simulation.commands`: fin-angle commands (step, ramp, sine, chirp, CSV table);
 - :class:`LoopParameters` (of :mod:`cas_freq.parameters`, re-exported): loop parameters of a
   batch of runs;
