@@ -616,6 +616,11 @@ VARIANT_FIGURES = {
     "sinedwell": (sinedwell, "Sine-dwell response per amplitude"),
 }
 
+#: The figures drawn from the frequency responses alone (``data.curves`` and ``data.analysis``,
+#: no simulation and no verdicts): they can be drawn from
+#: :func:`cas_freq.report.data.gather_frequency`'s data while the variant is simulated.
+FREQUENCY_FIGURES = ("bode_loops", "sensitivity", "nichols", "nyquist", "pole_zero")
+
 
 # ---- overlays for compare -------------------------------------------------------------------
 

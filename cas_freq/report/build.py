@@ -18,7 +18,8 @@ from pathlib import Path
 from cas_freq.report.data import (
     ReportSettings,
     display_path,
-    gather_variant,
+    gather_frequency,
+    gather_time,
     reference_dict,
     reference_rows,
     sinedwell_bandwidth,
@@ -528,22 +529,49 @@ def render_figures(data, stems, png=False):
     return drawn
 
 
-class FigureRenderer:
-    """Draws each variant's figures as soon as the variant is computed: in ``workers`` processes
-    (forked from this one, so they start with its imports) while the caller computes the next
-    variant, or in this process when ``workers`` is 1 or no process can be forked.
+def _figure_stems():
+    """The stems of a variant's figures, in order (imports matplotlib)."""
+    from cas_freq.plots.report import VARIANT_FIGURES
 
-    Each variant's figures are split into ``workers`` groups (alternate stems), one task each;
-    :meth:`results` gathers them in the order of :data:`~cas_freq.plots.report.VARIANT_FIGURES`,
-    so the output does not depend on which process drew what (the SVG text of a figure is the
-    same in any process). Use as a context manager.
+    return list(VARIANT_FIGURES)
+
+
+#: Which of a variant's figures :meth:`FigureRenderer.submit` draws.
+PARTS = ("all", "frequency", "time")
+
+
+def _render_share(data, share, shares, png, part):
+    """Figures ``share``, ``share + shares``, ... of one variant among those of ``part``:
+    every figure, those of :data:`~cas_freq.plots.report.FREQUENCY_FIGURES` or the others."""
+    from cas_freq.plots.report import FREQUENCY_FIGURES
+
+    stems = [stem for stem in _figure_stems()
+             if part == "all" or (stem in FREQUENCY_FIGURES) == (part == "frequency")]
+    return render_figures(data, stems[share::shares], png)
+
+
+class FigureRenderer:
+    """Draws each variant's figures while the caller computes: in ``workers`` processes, or in
+    this process (at :meth:`results`) when ``workers`` is 1 or no process can be forked.
+
+    The workers are forked on entry, before the caller computes anything, and import matplotlib
+    and the figure code themselves meanwhile (the caller never does). A variant can be sent
+    twice: after :func:`~cas_freq.report.data.gather_frequency` for the figures of the
+    frequency responses (``part="frequency"``), then complete for the others (``"time"``); or
+    once (``"all"``). Each submission is split into ``workers`` shares (alternate stems), one
+    task each, and the data are pickled to the task (the complete data ~10 MB, ~20 ms).
+    :meth:`results` gathers the figures in the order of
+    :data:`~cas_freq.plots.report.VARIANT_FIGURES`, so the output does not depend on which
+    process drew what (the SVG text of a figure is the same in any process). Use as a context
+    manager.
     """
 
     def __init__(self, workers=FIGURE_WORKERS, png=False):
         self.png = png
         self.workers = max(1, int(workers))
         self._pool = None
-        self._pending = []  # per variant: (data, list of futures) or (data, None)
+        self._stems = None  # future of the stems' order, from a worker
+        self._variants = []  # per variant: [latest data, futures]
 
     def __enter__(self):
         import multiprocessing
@@ -551,11 +579,13 @@ class FigureRenderer:
         if self.workers > 1 and "fork" in multiprocessing.get_all_start_methods():
             from concurrent.futures import ProcessPoolExecutor
 
-            import cas_freq.plots.report  # noqa: F401  (imported once, before the fork)
+            import cas_freq.plots.report  # noqa: F401  (once, before the fork: not per worker)
 
             try:
                 self._pool = ProcessPoolExecutor(self.workers,
                                                  mp_context=multiprocessing.get_context("fork"))
+                # start the workers now: they import the figure code while the caller computes
+                self._stems = [self._pool.submit(_figure_stems) for _ in range(self.workers)][0]
             except OSError:
                 self._pool = None
         return self
@@ -565,31 +595,30 @@ class FigureRenderer:
             self._pool.shutdown(wait=True, cancel_futures=True)
         return False
 
-    def submit(self, data):
-        """Start drawing ``data``'s figures."""
-        from cas_freq.plots.report import VARIANT_FIGURES
-
-        stems = list(VARIANT_FIGURES)
-        if self._pool is None:
-            self._pending.append((data, None))
-            return
-        groups = [stems[k::self.workers] for k in range(self.workers)]
-        self._pending.append((data, [self._pool.submit(render_figures, data, group, self.png)
-                                     for group in groups if group]))
+    def submit(self, index, data, part="all"):
+        """Start drawing the figures of ``part`` (one of :data:`PARTS`) of variant ``index``
+        (0, 1, ... in the report's order) from ``data``."""
+        if part not in PARTS:
+            raise ValueError(f"part: one of {PARTS}, got {part!r}")
+        if index == len(self._variants):
+            self._variants.append([data, []])
+        self._variants[index][0] = data
+        if self._pool is not None:
+            self._variants[index][1] += [
+                self._pool.submit(_render_share, data, share, self.workers, self.png, part)
+                for share in range(self.workers)]
 
     def results(self):
-        """Per submitted variant, {stem: (SVG text, PNG bytes or None, caption)} in figure
-        order."""
-        from cas_freq.plots.report import VARIANT_FIGURES
-
+        """Per variant, {stem: (SVG text, PNG bytes or None, caption)} in figure order."""
+        stems = _figure_stems() if self._pool is None else self._stems.result()
         rendered = []
-        for data, futures in self._pending:
-            if futures is None:
-                drawn = render_figures(data, list(VARIANT_FIGURES), self.png)
+        for data, futures in self._variants:
+            if self._pool is None:
+                drawn = render_figures(data, stems, self.png)
             else:
                 drawn = [item for future in futures for item in future.result()]
             by_stem = {stem: rest for stem, *rest in drawn}
-            rendered.append({stem: tuple(by_stem[stem]) for stem in VARIANT_FIGURES})
+            rendered.append({stem: tuple(by_stem[stem]) for stem in stems})
         return rendered
 
 
@@ -682,11 +711,13 @@ def build_report(variants, out_dir=None, *, settings=None, verdicts=None, png=Fa
     settings = settings or ReportSettings()
     datas = []
     with FigureRenderer(workers, png) as renderer:
-        for loaded in variants:
+        for index, loaded in enumerate(variants):
             if progress:
                 progress(loaded.variant)
-            datas.append(gather_variant(loaded, settings, verdicts))
-            renderer.submit(datas[-1])
+            early = gather_frequency(loaded, settings)
+            renderer.submit(index, early, "frequency")
+            datas.append(gather_time(early, settings, verdicts))
+            renderer.submit(index, datas[-1], "time")
         rendered = renderer.results()
     target = Path(out_dir) if out_dir is not None else default_report_dir(variants[0].params.name)
     return write_directory_atomic(target, report_files(datas, settings, png=png,

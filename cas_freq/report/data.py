@@ -129,8 +129,9 @@ class VariantData:
     analysis : cas_freq.analysis.Analysis
         Exact-delay figures, with the Padé-vs-exact table.
     curves : Curves
-    dwell : cas_freq.simulation.run.SineDwellRun
-        Sine-dwell per amplitude and the nonlinear step of each amplitude.
+    dwell : cas_freq.simulation.run.SineDwellRun or None
+        Sine-dwell per amplitude and the nonlinear step of each amplitude (None in the
+        frequency-domain part, :func:`gather_frequency`).
     linear_steps : tuple of numpy.ndarray
         Linear (Padé) output-angle step response [rad] on each step's time grid, same order as
         ``dwell.steps``.
@@ -383,7 +384,8 @@ def select_verdicts(verdicts, loaded):
 
 
 def gather_variant(loaded, settings=ReportSettings(), verdicts=None, progress=None):
-    """Compute everything the report shows about one variant.
+    """Compute everything the report shows about one variant: :func:`gather_frequency` then
+    :func:`gather_time`.
 
     Parameters
     ----------
@@ -399,35 +401,51 @@ def gather_variant(loaded, settings=ReportSettings(), verdicts=None, progress=No
     -------
     VariantData
     """
+    return gather_time(gather_frequency(loaded, settings), settings, verdicts, progress)
+
+
+def gather_frequency(loaded, settings=ReportSettings()):
+    """The frequency-domain part of a variant's data: the analysis (exact delays, with the
+    Padé-vs-exact table) and the loops on the plotting grid; no simulation yet (``dwell`` None,
+    no linear steps, ``verdicts`` None), which :func:`gather_time` adds. Enough for the figures
+    drawn from the frequency responses alone, which can be drawn meanwhile."""
     from cas_freq.analysis import analyze
+
+    analysis = analyze(loaded, pade_orders=settings.pade_order)
+    curve_range = settings.curve_range_rad_s or loop_frequency_range(analysis)
+    return VariantData(
+        loaded=loaded, label=variant_label(loaded), analysis=analysis,
+        curves=curves(loaded.params, curve_range, settings.curve_points_per_decade),
+        dwell=None, linear_steps=(), linear_step_figures=(), curve_range_rad_s=tuple(curve_range),
+        pade_order=settings.pade_order, verdicts=None,
+    )
+
+
+def gather_time(data, settings=ReportSettings(), verdicts=None, progress=None):
+    """``data`` of :func:`gather_frequency` completed: **one** sine-dwell batch (with the
+    nonlinear step of every amplitude), the linear steps, the requirement verdicts (parameters
+    as :func:`gather_variant`)."""
     from cas_freq.simulation.run import sinedwell_run
     from cas_freq.simulation.step_figures import step_figures
 
-    params = loaded.params
-    analysis = analyze(loaded, pade_orders=settings.pade_order)
+    loaded, analysis = data.loaded, data.analysis
     frequencies = settings.frequencies_rad_s or dwell_frequencies(analysis)
     dwell = sinedwell_run(loaded, settings.amplitudes_rad, frequencies,
                           progress=progress, analysis=analysis)
     amplitudes = [math.radians(run.step.amplitude_deg) for run in dwell.steps]
-    linear = linear_steps(params, [run.result.t for run in dwell.steps], amplitudes,
+    linear = linear_steps(loaded.params, [run.result.t for run in dwell.steps], amplitudes,
                           settings.pade_order)
     linear_figures = [step_figures(run.result.t, response, amplitude)
                       for run, response, amplitude in zip(dwell.steps, linear, amplitudes,
                                                           strict=True)]
-    curve_range = settings.curve_range_rad_s or loop_frequency_range(analysis)
-    data = VariantData(
-        loaded=loaded, label=variant_label(loaded), analysis=analysis,
-        curves=curves(params, curve_range, settings.curve_points_per_decade),
-        dwell=dwell, linear_steps=tuple(linear), linear_step_figures=tuple(linear_figures),
-        curve_range_rad_s=tuple(curve_range), pade_order=settings.pade_order, verdicts=None,
-    )
     if verdicts is None:
         computed = {"analyze": analysis, "steps": list(dwell.steps)}
         found = requirement_verdicts(loaded, computed)
         chosen = None if found is None else tuple(dict(v) for v in found)
     else:
         chosen = select_verdicts(verdicts, loaded)
-    return dataclasses.replace(data, verdicts=chosen)
+    return dataclasses.replace(data, dwell=dwell, linear_steps=tuple(linear),
+                               linear_step_figures=tuple(linear_figures), verdicts=chosen)
 
 
 def sinedwell_bandwidth(data, k):
