@@ -579,7 +579,11 @@ class FigureRenderer:
         if self.workers > 1 and "fork" in multiprocessing.get_all_start_methods():
             from concurrent.futures import ProcessPoolExecutor
 
-            import cas_freq.plots.report  # noqa: F401  (once, before the fork: not per worker)
+            # imported once, before the fork, not by each worker: the figure code and
+            # python-control (the pole-zero map's zeros; this process needs it for the linear
+            # steps anyway), ~1 s each
+            import cas_freq.model.systems  # noqa: F401
+            import cas_freq.plots.report  # noqa: F401
 
             try:
                 self._pool = ProcessPoolExecutor(self.workers,
