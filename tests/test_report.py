@@ -142,6 +142,45 @@ def test_variant_figure_structure(data, stem):
     assert any(re.search(r"\[(rad/s|ms|deg|-)\]", x) for x, _ in _labels(fig))
 
 
+def test_frequency_figures_need_no_simulation(base):
+    # the figures the workers draw while the variant is simulated use no sine-dwell, no step
+    # and no verdict
+    from cas_freq.report.data import gather_frequency
+
+    early = gather_frequency(base, FAST)
+    assert early.dwell is None and early.verdicts is None
+    for stem in plots.FREQUENCY_FIGURES:
+        draw, caption = plots.VARIANT_FIGURES[stem]
+        assert draw(early).axes
+        assert not callable(caption) or caption(early)
+
+
+@pytest.mark.parametrize("stem", list(plots.VARIANT_FIGURES))
+def test_fixed_layout_keeps_every_label_and_legend_in_the_figure(data, stem):
+    # the fixed layout (margins in inches, legends measured) clips nothing: titles, axis labels,
+    # tick labels and legends lie inside the figure
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    draw, _ = plots.VARIANT_FIGURES[stem]
+    fig = draw(data)
+    plots.png_bytes(fig)
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    inside = fig.bbox.padded(1.0)
+    artists = [*fig.legends, fig._suptitle]
+    for ax in fig.axes:
+        artists += [ax.get_legend(), ax.title, ax.xaxis.label, ax.yaxis.label]
+        artists += [t for t in ax.get_xticklabels() + ax.get_yticklabels() if t.get_text()]
+    for artist in artists:
+        if artist is None or not artist.get_visible():
+            continue
+        box = artist.get_window_extent(renderer)
+        if box.width == 0:
+            continue
+        assert inside.x0 <= box.x0 and box.x1 <= inside.x1, (stem, artist)
+        assert inside.y0 <= box.y0 and box.y1 <= inside.y1, (stem, artist)
+
+
 def test_bode_marks_every_crossover_in_range(data):
     fig = plots.bode_loops(data)
     magnitude = fig.axes[0]

@@ -1,6 +1,6 @@
-"""What every report figure shares: the fixed style, the figure factory, the rounding of
-plotted data and the deterministic SVG/PNG writers (only :mod:`cas_freq.plots` imports
-matplotlib).
+"""What every report figure shares: the fixed style, the figure factory with its fixed layout
+(:class:`Margins`), the rounding of plotted data, plain-text log-axis labels and the
+deterministic SVG/PNG writers (only :mod:`cas_freq.plots` imports matplotlib).
 
 The SVG files must not depend on the last bits of floating point (which differ between CPUs),
 so the plotted data are rounded to 6 significant digits (:func:`rounded`, i.e.

@@ -1,7 +1,8 @@
 """``cas-freq report``: one folder with index.html, report.md, results.json and the figures.
 
 :func:`build_report` gathers every variant's data (:mod:`cas_freq.report.data`), draws the
-figures (:mod:`cas_freq.plots.report`), lays out the content once as blocks
+figures (:mod:`cas_freq.plots.report`; in two worker processes while the next variant is
+computed, :class:`FigureRenderer`), lays out the content once as blocks
 (:mod:`cas_freq.report.document`) and renders them as Markdown and self-contained HTML; the
 folder is written atomically (:mod:`cas_freq.report.outdir`). The same input gives the same
 bytes in every file on one machine; every number is written at a stated precision
