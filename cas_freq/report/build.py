@@ -13,6 +13,7 @@ import hashlib
 import json
 import math
 import os
+import sys
 import time
 from pathlib import Path
 
@@ -555,11 +556,12 @@ class FigureRenderer:
     """Draws each variant's figures while the caller computes: in ``workers`` processes, or in
     this process (at :meth:`results`) when ``workers`` is 1 or no process can be forked.
 
-    The workers are forked on entry, before the caller computes anything, and import matplotlib
-    and the figure code themselves meanwhile (the caller never does). A variant can be sent
-    twice: after :func:`~cas_freq.report.data.gather_frequency` for the figures of the
-    frequency responses (``part="frequency"``), then complete for the others (``"time"``); or
-    once (``"all"``). Each submission is split into ``workers`` shares (alternate stems), one
+    The workers are forked (on Linux; elsewhere the figures are drawn here) on entry, after
+    this process has imported the figure code and python-control (once, not once per worker)
+    and before it computes anything. A variant can be sent twice: after
+    :func:`~cas_freq.report.data.gather_frequency` for the figures of the frequency responses
+    (``part="frequency"``), then complete for the others (``"time"``); or once (``"all"``).
+    Each submission is split into ``workers`` shares (alternate stems), one
     task each, and the data are pickled to the task (the complete data ~10 MB, ~20 ms).
     :meth:`results` gathers the figures in the order of
     :data:`~cas_freq.plots.report.VARIANT_FIGURES`, so the output does not depend on which
@@ -577,7 +579,8 @@ class FigureRenderer:
     def __enter__(self):
         import multiprocessing
 
-        if self.workers > 1 and "fork" in multiprocessing.get_all_start_methods():
+        # fork only on Linux: macOS's system libraries are not fork-safe (Python spawns there)
+        if self.workers > 1 and sys.platform.startswith("linux"):
             from concurrent.futures import ProcessPoolExecutor
 
             # imported once, before the fork, not by each worker: the figure code and
