@@ -47,8 +47,16 @@ ACCEPTED = "expected one number and one unit, e.g. '0.4 ms' or '5.54 g*cm^2' (or
 
 @functools.cache
 def registry():
-    """The shared pint unit registry (built once, on first use: ~0.1 s)."""
-    return pint.UnitRegistry()
+    """The shared pint unit registry, built once, on first use.
+
+    Built from pint's disk cache of its parsed definitions (``cache_folder=":auto:"``, the
+    user's cache folder; ~0.02 s instead of ~0.2 s of every CLI start); without a usable cache
+    folder, parsed afresh. The units are pint's own either way.
+    """
+    try:
+        return pint.UnitRegistry(cache_folder=":auto:")
+    except Exception:  # noqa: BLE001 - no writable cache folder (or a stale cache): parse afresh
+        return pint.UnitRegistry()
 
 
 def _shown(text, limit=60):
