@@ -6,6 +6,7 @@ horizon it would have had alone, so figures and the second-order fit match ``sim
 for the same variant.
 """
 
+import concurrent.futures
 import dataclasses
 import math
 
@@ -64,27 +65,50 @@ def batch_steps(params, amplitude_rad, *, fit=True, rates_hz=(None, None),
     out = {name: np.full(n, np.nan) for name in names}
     current_rate, position_rate = rates_hz
     done = 0
-    for start in range(0, n, chunk_size):
-        stop = min(start + chunk_size, n)
-        chunk = params.take(slice(start, stop))
-        result = simulate_batch(chunk, Step(amplitude_rad), current_rate_hz=current_rate,
-                                position_rate_hz=position_rate)
-        runs = [result.run(index) for index in range(stop - start)]
-        for run, alone in enumerate(runs, start):
-            figures = simulation_step_figures(alone, amplitude_rad)
-            for key, value in dataclasses.asdict(figures).items():
-                name = f"step.{key}"
-                if name in out:
-                    out[name][run] = math.nan if value is None else float(value)
-        if fit:
-            models = fit_second_order_batch([alone.t for alone in runs],
-                                            [alone.delta for alone in runs], amplitude_rad)
-            for run, model in enumerate(models, start):
-                for key in FIT_FIGURES:
-                    out[key][run] = getattr(model, key.split(".", 1)[1])
-        for _ in runs:
-            done += 1
-            if progress:
-                progress(done, n)
+    # The fits of a chunk (numpy, which releases the GIL in its array loops) run in a
+    # background thread while the next chunk is simulated; the results do not depend on it.
+    with concurrent.futures.ThreadPoolExecutor(max_workers=1) as fitter:
+        pending = None
+        for start in range(0, n, chunk_size):
+            stop = min(start + chunk_size, n)
+            chunk = params.take(slice(start, stop))
+            result = simulate_batch(chunk, Step(amplitude_rad), current_rate_hz=current_rate,
+                                    position_rate_hz=position_rate)
+            runs = [result.run(index) for index in range(stop - start)]
+            for run, alone in enumerate(runs, start):
+                figures = simulation_step_figures(alone, amplitude_rad)
+                for key, value in dataclasses.asdict(figures).items():
+                    name = f"step.{key}"
+                    if name in out:
+                        out[name][run] = math.nan if value is None else float(value)
+            if pending is not None:
+                done = _store_fits(out, *pending, done, n, progress)
+            pending = None
+            if fit:
+                pending = (start, fitter.submit(
+                    fit_second_order_batch, [alone.t for alone in runs],
+                    [alone.delta for alone in runs], amplitude_rad))
+            else:
+                done = _count(done, len(runs), n, progress)
+        if pending is not None:
+            done = _store_fits(out, *pending, done, n, progress)
     return out
+
+
+def _store_fits(out, start, future, done, n, progress):
+    """Write a chunk's fits (from ``future``) into ``out`` from run ``start``; count them."""
+    models = future.result()
+    for run, model in enumerate(models, start):
+        for key in FIT_FIGURES:
+            out[key][run] = getattr(model, key.split(".", 1)[1])
+    return _count(done, len(models), n, progress)
+
+
+def _count(done, count, n, progress):
+    """Report ``count`` more runs done."""
+    for _ in range(count):
+        done += 1
+        if progress:
+            progress(done, n)
+    return done
 
