@@ -141,9 +141,13 @@ def test_commands_with_feed_forward(case, tmp_path):
     assert_same(compiled, reference, scale)
 
 
-def test_mixed_batch_with_per_run_delays_and_commands():
+@pytest.mark.parametrize("rates_hz", [(None, None), (25e3, 2.5e3), (20e3, None), (None, 5e3)],
+                         ids=["continuous", "both-sampled", "current-sampled", "position-sampled"])
+def test_mixed_batch_with_per_run_delays_and_commands(rates_hz):
     # runs that differ in delays (whole, fractional, shorter than one step, none), derivative
-    # on the measurement or no derivative, each with its own command; every 3rd sample kept
+    # on the measurement or no derivative, each with its own command; every 3rd sample kept;
+    # each delay line interpolating (continuous controller) or holding (sampled), as the
+    # kernel reads them by separate branches
     configs = [load_variant(variant=v).params for v in ("base", "fitted", "relaxed")]
     configs += [load_variant(overrides=pairs(o)).params for o in (
         ["current_loop.delay=0.0625 ms", "position_loop.delay=0.4125 ms"],
@@ -155,8 +159,10 @@ def test_mixed_batch_with_per_run_delays_and_commands():
     params = LoopParameters.from_configs(configs)
     assert len(set(params.tau_c)) == 4 and len(set(params.tau_p)) == 5
     commands = [Step(math.radians(a)) for a in (10, 5, 1, 10, 2, 10, -10, 3)]
+    current_rate_hz, position_rate_hz = rates_hz
     compiled, reference = both(params, commands, dt=5e-6, t_end=0.03, extend=False,
-                               record_every=3)
+                               record_every=3, current_rate_hz=current_rate_hz,
+                               position_rate_hz=position_rate_hz)
     assert_same(compiled, reference, math.radians(10.0))
 
 

@@ -421,14 +421,33 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
     """Advance run ``r`` (arguments of :func:`advance_serial`).
 
     The run's states are held in local variables over the steps and written back at the end.
+    The loop calls no function that takes an array: numba counts references to an array
+    passed to a function, inlined or not, with an atomic add and subtract per call, which cost
+    more than the arithmetic of a step and, on the arrays the threads share, contend between
+    them. So the delay-line reads (:func:`_read`), pushes (:func:`_push`), command rows
+    (:func:`_command`) and the controllers' inputs (:func:`_position_update`,
+    :func:`_current_update`) are written out here on scalars and on the run's rows, with the
+    same operations in the same order (the same numbers to the bit).
     """
     n_steps = right.shape[0]
     sampled_p, sampled_c = every_p > 0, every_c > 0
     period_p, period_c = dt * max(every_p, 1), dt * max(every_c, 1)
-    m_c, m_p, f_c = m[r, 0], m[r, 1], p[r, _F_C]
-    phi = p[r, _PHI:_PHI + 9].copy()
-    g_a, g_b = p[r, _GA:_GA + 3].copy(), p[r, _GB:_GB + 3].copy()
-    cp_ki = p[r, _CP_KI]
+    m_c, m_p, f_c, f_p = m[r, 0], m[r, 1], p[r, _F_C], p[r, _F_P]
+    phi0, phi1, phi2 = p[r, _PHI], p[r, _PHI + 1], p[r, _PHI + 2]
+    phi3, phi4, phi5 = p[r, _PHI + 3], p[r, _PHI + 4], p[r, _PHI + 5]
+    phi6, phi7, phi8 = p[r, _PHI + 6], p[r, _PHI + 7], p[r, _PHI + 8]
+    g_a0, g_a1, g_a2 = p[r, _GA], p[r, _GA + 1], p[r, _GA + 2]
+    g_b0, g_b1, g_b2 = p[r, _GB], p[r, _GB + 1], p[r, _GB + 2]
+    ratio, ff_v, ff_a = p[r, _RATIO], p[r, _FF_V], p[r, _FF_A]
+    cp_kp, cp_ki, cp_gd = p[r, _CP_KP], p[r, _CP_KI], p[r, _CP_GD]
+    cp_a, cp_b, cp_c, i_max = p[r, _CP_A], p[r, _CP_B], p[r, _CP_C], p[r, _I_MAX]
+    ci_kp, ci_ki, v_max = p[r, _CI_KP], p[r, _CI_KI], p[r, _V_MAX]
+    on_measurement = p[r, _ON_MEASUREMENT] != 0.0
+    col = r if right.shape[2] > 1 else 0
+    mask_c, mask_p = voltage_right.shape[1] - 1, current_right.shape[1] - 1
+    # the delay lines' reads at step k (_read): the sample index, for a holding line
+    shift_c = 1 if f_c > 0.0 else 0  # v_a and v of a holding line (want_left False)
+    shift_p = 1 if f_p > 0.0 else 0
     i, w, th = x[r, 0], x[r, 1], x[r, 2]
     p_int, p_filter, p_e, p_y, p_rest = (s[r, _P_INT], s[r, _P_FILTER], s[r, _P_E], s[r, _P_Y],
                                          s[r, _P_REST])
@@ -442,60 +461,132 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
     out = next_record // record_every - record_base
     next_p = (k0 // every_p + 1) * every_p if sampled_p else 0
     next_c = (k0 // every_c + 1) * every_c if sampled_c else 0
+    # the run's rows of the recordings, each contiguous (views made once, outside the loop)
+    rec_theta, rec_omega, rec_i, rec_v = floats[0, r], floats[1, r], floats[2, r], floats[3, r]
+    rec_angle, rec_i_cmd, rec_integral = floats[4, r], floats[5, r], floats[6, r]
+    rec_p_limited, rec_c_limited = flags[0, r], flags[1, r]
     for row in range(n_steps):
         k = k0 + row
         # 1. voltage at the terminals over [t_k, t_k+1]: the current controller's output
         #    delayed by tau_c, linear over the step (held for a sampled controller)
-        v_a = _read(voltage_right, voltage_left, r, m_c, f_c, k, k, False, sampled_c)
-        v_b = v_a
-        if not sampled_c:
-            v_b = _read(voltage_right, voltage_left, r, m_c, f_c, k + 1, k, True, False)
-        v = _read(voltage_right, voltage_left, r, m_c, f_c, k + 1, k, False, sampled_c)
+        if sampled_c:
+            j = min(k - m_c - shift_c, k)
+            v_a = voltage_right[r, j & mask_c] if j >= 0 else 0.0
+            v_b = v_a
+            j = min(k + 1 - m_c - shift_c, k)
+            v = voltage_right[r, j & mask_c] if j >= 0 else 0.0
+        else:
+            j = k - m_c
+            if j > k:
+                v_a = voltage_right[r, k & mask_c]
+            elif f_c == 0.0:
+                v_a = voltage_right[r, j & mask_c] if j >= 0 else 0.0
+            else:
+                v_a = ((1.0 - f_c) * (voltage_left[r, j & mask_c] if j >= 0 else 0.0)
+                       + f_c * (voltage_right[r, (j - 1) & mask_c] if j >= 1 else 0.0))
+            j = k + 1 - m_c
+            if j > k:
+                v_b = voltage_right[r, k & mask_c]
+                v = v_b
+            elif f_c == 0.0:
+                v_b = voltage_left[r, j & mask_c] if j >= 0 else 0.0
+                v = voltage_right[r, j & mask_c] if j >= 0 else 0.0
+            else:
+                before = f_c * (voltage_right[r, (j - 1) & mask_c] if j >= 1 else 0.0)
+                v_b = (1.0 - f_c) * (voltage_left[r, j & mask_c] if j >= 0 else 0.0) + before
+                v = v_b
         # 2. plant (§2): x <- Phi x + G_a V_a + G_b V_b
-        x0 = phi[0] * i + phi[1] * w + phi[2] * th
-        x1 = phi[3] * i + phi[4] * w + phi[5] * th
-        x2 = phi[6] * i + phi[7] * w + phi[8] * th
-        x0 += g_a[0] * v_a
-        x1 += g_a[1] * v_a
-        x2 += g_a[2] * v_a
-        x0 += g_b[0] * v_b
-        x1 += g_b[1] * v_b
-        x2 += g_b[2] * v_b
+        x0 = phi0 * i + phi1 * w + phi2 * th
+        x1 = phi3 * i + phi4 * w + phi5 * th
+        x2 = phi6 * i + phi7 * w + phi8 * th
+        x0 += g_a0 * v_a
+        x1 += g_a1 * v_a
+        x2 += g_a2 * v_a
+        x0 += g_b0 * v_b
+        x1 += g_b1 * v_b
+        x2 += g_b2 * v_b
         i, w, th = x0, x1, x2
         k += 1
         # 3. position controller at t_k+1 (§4), its output into the delay line tau_p
-        angle, ff = _command(p, right, r, row)
+        angle = ratio * right[row, 0, col]
+        ff = ff_v * (ratio * right[row, 1, col]) + ff_a * (ratio * right[row, 2, col])
         if not sampled_p or k == next_p:
             angle_left, ff_left = angle, ff
             if sampled_p:
                 next_p += every_p
             else:
-                angle_left, ff_left = _command(p, left, r, row)
-            p_int, p_filter, p_e, p_y, p_rest, u_left, u_p, p_limited = _position_update(
-                p, r, th, angle_left, angle, ff_left, ff, p_int, p_filter, p_e, p_y, p_rest,
-                True, has_derivative, period_p, not sampled_p,
+                angle_left = ratio * left[row, 0, col]
+                ff_left = ff_v * (ratio * left[row, 1, col]) + ff_a * (ratio * left[row, 2, col])
+            e_right = angle - th
+            e_left = angle_left - th
+            if on_measurement:  # derivative on the measurement: acts on -theta
+                y_left = y_right = -th
+            else:
+                y_left, y_right = e_left, e_right
+            p_int, p_filter, p_e, p_y, p_rest, u_left, u_p, p_limited = _controller_update(
+                p_int, p_filter, p_e, p_y, p_rest, e_left, e_right, y_left, y_right,
+                ff_left, ff, True, cp_kp, cp_ki, cp_gd, cp_a, cp_b, cp_c, has_derivative,
+                i_max, period_p, not sampled_p,
             )
-        _push(current_right, current_left, r, k, u_p, u_left, sampled_p)
+        slot = k & mask_p
+        current_right[r, slot] = u_p
+        if not sampled_p:
+            current_left[r, slot] = u_left
         # 4. current controller at t_k+1 (§3), its output into the delay line tau_c
         if not sampled_c or k == next_c:
             if sampled_c:
                 next_c += every_c
-            c_int, c_e, c_rest, v_left, v_c, c_limited, i_cmd = _current_update(
-                p, r, i, k, current_right, current_left, m_p, sampled_p, sampled_c, c_int,
-                c_e, c_rest, True, period_c,
+            # the current command delayed by tau_p (_read at k, newest sample k)
+            if sampled_p:
+                j = min(k - m_p - shift_p, k)
+                i_cmd = current_right[r, j & mask_p] if j >= 0 else 0.0
+            else:
+                j = k - m_p
+                if j > k:
+                    i_cmd = current_right[r, k & mask_p]
+                elif f_p == 0.0:
+                    i_cmd = current_right[r, j & mask_p] if j >= 0 else 0.0
+                else:
+                    i_cmd = ((1.0 - f_p) * (current_left[r, j & mask_p] if j >= 0 else 0.0)
+                             + f_p * (current_right[r, (j - 1) & mask_p] if j >= 1 else 0.0))
+            e_right = i_cmd - i
+            e_left = e_right
+            if not sampled_c:
+                if sampled_p:
+                    j = min(k - m_p - 1, k)
+                    i_left = current_right[r, j & mask_p] if j >= 0 else 0.0
+                else:
+                    j = k - m_p
+                    if j > k:
+                        i_left = current_right[r, k & mask_p]
+                    elif f_p == 0.0:
+                        i_left = current_left[r, j & mask_p] if j >= 0 else 0.0
+                    else:
+                        i_left = ((1.0 - f_p) * (current_left[r, j & mask_p] if j >= 0 else 0.0)
+                                  + f_p * (current_right[r, (j - 1) & mask_p] if j >= 1
+                                           else 0.0))
+                e_left = i_left - i
+            c_int, _, c_e, _, c_rest, v_left, v_c, c_limited = _controller_update(
+                c_int, 0.0, c_e, 0.0, c_rest, e_left, e_right, 0.0, 0.0, 0.0, 0.0,
+                True, ci_kp, ci_ki, 0.0, 0.0, 0.0, 0.0, False, v_max, period_c, not sampled_c,
             )
-        _push(voltage_right, voltage_left, r, k, v_c, v_left, sampled_c)
+            if sampled_c:  # held: no jump within an update
+                v_left = v_c
+        slot = k & mask_c
+        voltage_right[r, slot] = v_c
+        if not sampled_c:
+            voltage_left[r, slot] = v_left
         # 5. recording (SIGNALS)
         if k == next_record:
-            floats[0, r, out] = th
-            floats[1, r, out] = w
-            floats[2, r, out] = i
-            floats[3, r, out] = v
-            floats[4, r, out] = angle
-            floats[5, r, out] = i_cmd
-            floats[6, r, out] = cp_ki * p_int
-            flags[0, r, out] = p_limited != 0.0
-            flags[1, r, out] = c_limited != 0.0
+            rec_theta[out] = th
+            rec_omega[out] = w
+            rec_i[out] = i
+            rec_v[out] = v
+            rec_angle[out] = angle
+            rec_i_cmd[out] = i_cmd
+            rec_integral[out] = cp_ki * p_int
+            rec_p_limited[out] = p_limited != 0.0
+            rec_c_limited[out] = c_limited != 0.0
             next_record += record_every
             out += 1
     x[r, 0], x[r, 1], x[r, 2] = i, w, th
