@@ -32,12 +32,19 @@ import time
 import tracemalloc
 from pathlib import Path
 
-import numpy as np
-from baselines import ImprovedBaseline
+# BLAS at one thread, as the cas-freq CLI runs it (set before numpy loads): the toolbox's
+# linear algebra is many small matrices, where BLAS threads only contend (and OpenBLAS's
+# worker spins on a core for ~0.1 s after each call, taking it from the simulation kernel).
+from cas_freq.cli import limit_blas_threads
 
-from cas_freq.analysis.analyze import DEFAULT_CHUNK, batch_analyze
-from cas_freq.config import load_variant
-from cas_freq.parameters import variant_parameters
+limit_blas_threads()
+
+import numpy as np  # noqa: E402
+from baselines import ImprovedBaseline  # noqa: E402
+
+from cas_freq.analysis.analyze import DEFAULT_CHUNK, batch_analyze  # noqa: E402
+from cas_freq.config import load_variant  # noqa: E402
+from cas_freq.parameters import variant_parameters  # noqa: E402
 
 SEED = 20261122
 KEYS = ("position_loop.Kp", "position_loop.Ki", "position_loop.Kd", "current_loop.Kp",
