@@ -98,3 +98,26 @@ def test_cli_refuses_a_bad_scheduler_before_work(command):
 
     code, _, err = run_cli([*command, "--scheduler", "local:zero"])
     assert code == 2 and "--scheduler" in err and err.count("\n") == 1
+
+
+def test_several_variants_share_one_cluster(monkeypatch):
+    """montecarlo --all-variants --scheduler local:1 starts one local cluster, not one per
+    variant, and gives the local output."""
+    from clirun import run_cli
+
+    import cas_freq.studies.distributed as module
+
+    started = []
+    original = module._new_client
+
+    def counting(scheduler):
+        started.append(scheduler)
+        return original(scheduler)
+
+    monkeypatch.setattr(module, "_new_client", counting)
+    argv = ["montecarlo", "--all-variants", "--samples", "20", "--tolerance", "motor.Km=5%",
+            "--no-step", "--seed", "3", "--json", "-q"]
+    code, local, _ = run_cli(argv)
+    assert code == 0 and started == []
+    code, remote, _ = run_cli([*argv, "--scheduler", "local:1"])
+    assert code == 0 and remote == local and started == ["local:1"]

@@ -94,6 +94,7 @@ def run(args):
     from cas_freq.exceptions import CasFreqError
     from cas_freq.fileio import check_output_dir
     from cas_freq.report.studies import json_text, write_report
+    from cas_freq.studies.distributed import session
     from cas_freq.studies.montecarlo import (
         fresh_seed,
         montecarlo_dict,
@@ -116,15 +117,16 @@ def run(args):
     # one seed for every variant: each is drawn around its own values with the same numbers
     seed = args.seed if args.seed is not None or len(variants) == 1 else fresh_seed()
     results = []
-    for loaded in variants:
-        label = "montecarlo" if len(variants) == 1 else f"montecarlo {loaded.variant}"
-        progress = terminal_progress(label, unit="sample")
-        results.append(run_montecarlo(loaded, tolerances, args.samples,
-                                      distribution=args.distribution, seed=seed,
-                                      step_rad=step, simulate=not args.no_step,
-                                      progress=progress, scheduler=args.scheduler))
-        if progress:
-            progress.done()
+    with session(args.scheduler):  # one cluster for every variant
+        for loaded in variants:
+            label = "montecarlo" if len(variants) == 1 else f"montecarlo {loaded.variant}"
+            progress = terminal_progress(label, unit="sample")
+            results.append(run_montecarlo(loaded, tolerances, args.samples,
+                                          distribution=args.distribution, seed=seed,
+                                          step_rad=step, simulate=not args.no_step,
+                                          progress=progress, scheduler=args.scheduler))
+            if progress:
+                progress.done()
     several = several_variants(args)
     data = [montecarlo_dict(result) for result in results]
     if args.output:

@@ -104,6 +104,7 @@ def run(args):
     from cas_freq.cli.common import terminal_progress
     from cas_freq.fileio import check_output_dir, check_output_file, write_text_atomic
     from cas_freq.report.studies import json_text, write_report
+    from cas_freq.studies.distributed import session
     from cas_freq.studies.sweep import run_sweep, sweep_csv, sweep_dict
 
     if args.csv is not None:
@@ -130,14 +131,15 @@ def run(args):
         raise CasFreqError("--frequencies: only with --sinedwell")
     variants = load_variants(args, overrides=fixed)
     results = []
-    for loaded in variants:
-        label = "sweep" if len(variants) == 1 else f"sweep {loaded.variant}"
-        progress = terminal_progress(label, unit="point")
-        results.append(run_sweep(loaded, axes, step_rad=step, fit=not args.no_fit,
-                                 sinedwell=sinedwell, progress=progress,
-                                 scheduler=args.scheduler))
-        if progress:
-            progress.done()
+    with session(args.scheduler):  # one cluster for every variant
+        for loaded in variants:
+            label = "sweep" if len(variants) == 1 else f"sweep {loaded.variant}"
+            progress = terminal_progress(label, unit="point")
+            results.append(run_sweep(loaded, axes, step_rad=step, fit=not args.no_fit,
+                                     sinedwell=sinedwell, progress=progress,
+                                     scheduler=args.scheduler))
+            if progress:
+                progress.done()
     several = several_variants(args)
     data = [sweep_dict(result) for result in results]
     data = data if several else data[0]

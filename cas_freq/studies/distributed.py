@@ -78,9 +78,33 @@ def _distributed():
     return distributed
 
 
+#: Clients open in this process, by ``--scheduler`` value (see :func:`session`).
+_OPEN = {}
+
+
+def session(scheduler):
+    """A context in which every study on ``scheduler`` shares one client (and one local
+    cluster), e.g. around the variants of ``montecarlo --all-variants``; a no-op for None."""
+    return contextlib.nullcontext() if scheduler is None else client_for(scheduler)
+
+
 @contextlib.contextmanager
 def client_for(scheduler):
-    """A dask Client for a ``--scheduler`` value (a local cluster is closed on exit)."""
+    """A dask Client for a ``--scheduler`` value: the one an enclosing :func:`client_for` of
+    the same value opened, else a new one (a local cluster is closed on exit)."""
+    if scheduler in _OPEN:
+        yield _OPEN[scheduler]
+        return
+    with _new_client(scheduler) as client:
+        _OPEN[scheduler] = client
+        try:
+            yield client
+        finally:
+            del _OPEN[scheduler]
+
+
+@contextlib.contextmanager
+def _new_client(scheduler):
     distributed = _distributed()
     kind, value = parse_scheduler(scheduler)
     if kind == "local":
