@@ -4,7 +4,7 @@ import dataclasses
 import math
 
 from cas_freq.config.requirement import UNIT_LABELS
-from cas_freq.verify.measure import UNSTABLE_MARK, measure
+from cas_freq.verify.measure import measure
 
 PASS, FAIL, ADVISORY = "PASS", "FAIL", "ADVISORY"
 
@@ -61,11 +61,11 @@ def bound_text(minimum, maximum, unit):
     return f"<= {maximum:g}{suffix}"
 
 
-def _verdict(requirement, variant, value, condition):
+def _verdict(requirement, variant, value, condition, stable=True):
     unit = UNIT_LABELS[requirement.unit]
     bounds = bound_text(requirement.min, requirement.max, unit)
-    # A figure of an unstable loop is shown but never passes (measure.UNSTABLE_MARK).
-    passed = requirement.passes(value) and UNSTABLE_MARK not in condition
+    # A figure of an unstable actuator is shown but never passes, and has no margin.
+    passed = requirement.passes(value) and stable
     if passed:
         status = PASS
     else:
@@ -77,7 +77,7 @@ def _verdict(requirement, variant, value, condition):
         relation = ("meets" if passed else "violates" if not requirement.passes(value)
                     else "is within but cannot pass")
         message = f"{requirement.metric} = {shown} {relation} {bounds} ({condition})"
-    margin = requirement.margin(value) if UNSTABLE_MARK not in condition else None
+    margin = requirement.margin(value) if stable else None
     return Verdict(
         id=requirement.id, variant=variant, metric=requirement.metric, value=value, unit=unit,
         min=requirement.min, max=requirement.max, margin=margin,
@@ -111,10 +111,10 @@ def verify_variants(variants, requirements=None, known=None):
     return {
         loaded.variant: [
             _verdict(requirement, loaded.variant, values[requirement.id],
-                     context[requirement.id])
+                     context[requirement.id], stable)
             for requirement in requirements
         ]
-        for loaded, (values, context) in zip(variants, measured, strict=True)
+        for loaded, (values, context, stable) in zip(variants, measured, strict=True)
     }
 
 

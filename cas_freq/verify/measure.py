@@ -43,10 +43,10 @@ def measure(variants, requirements, known=None):
 
     Returns
     -------
-    list of (dict, dict)
+    list of (dict, dict, bool)
         Per variant, ``values``: requirement id -> figure (float, or None when it does not
-        exist, e.g. no crossover in range) and ``context``: requirement id -> a short text of
-        what was run (for an unstable closed loop: that no figure can be trusted).
+        exist, e.g. no crossover in range), ``context``: requirement id -> a short text of
+        what was run, and whether the closed loop is stable (if not, no figure may pass).
     """
     from cas_freq.analysis import analyze
     from cas_freq.simulation.run import step_batch
@@ -84,31 +84,26 @@ def measure(variants, requirements, known=None):
                     dwells[condition] = _sinedwell_bandwidth(loaded, *condition)
                 values[key] = dwells[condition]
                 context[key] = _dwell_text(*condition)
-        out.append((json_ready(values), context))
+        out.append((json_ready(values), context, index in stable))
     return out
 
 
 #: Prefixes of the figures of the loops' open-loop responses (margins and crossovers).
 _LOOP_PREFIXES = ("position_loop.", "current_loop.")
 
-#: Marks the condition of a figure measured on a loop that is not stable: such a figure is
-#: shown (a phase margin of -52 deg says how far the loop is from stability) but never passes.
-UNSTABLE_MARK = "is unstable"
-
-
 def _unstable_figure(analysis, requirement):
     """(value, condition) of a requirement on a variant whose closed loop is not stable.
 
     The open-loop margins of either loop exist whatever the closed loop does, so they are
-    measured and shown (a negative phase margin is the plainest statement of instability) but
-    marked :data:`UNSTABLE_MARK`: no requirement passes on an unstable actuator, not even one
-    of the current loop alone. Closed-loop, step and sine-dwell figures of an unstable loop do
-    not exist (None).
+    measured and shown (a negative phase margin is the plainest statement of instability), but
+    no requirement passes on an unstable actuator, not even one of the current loop alone
+    (:func:`measure` says which variants are stable). Closed-loop, step and sine-dwell
+    figures of an unstable loop do not exist (None).
     """
     stability = analysis.stability
     if requirement.kind == "analyze" and requirement.metric.startswith(_LOOP_PREFIXES):
         return (figure(analysis, requirement.metric),
-                f"linear, exact delays; the closed loop {UNSTABLE_MARK} "
+                f"linear, exact delays; the closed loop is unstable "
                 f"(current loop alone: {stability.current_loop_verdict})")
     return None, f"not assessed: the closed loop is {stability.verdict}"
 
