@@ -243,11 +243,15 @@ def _alarm(signum, frame):
     raise _Hang
 
 
+#: ``--save DIR``: where the workers (forked after it is set) write the configs that raised.
+SAVE_DIR = None
+
+
 def _save(text, detail):
-    """Write a failing config and what it raised into $CAS_FREQ_FUZZ_SAVE (``--save DIR``)."""
+    """Write a failing config and what it raised into :data:`SAVE_DIR`."""
     import hashlib
 
-    folder = Path(os.environ["CAS_FREQ_FUZZ_SAVE"])
+    folder = SAVE_DIR
     folder.mkdir(parents=True, exist_ok=True)
     name = hashlib.sha256(text.encode("utf-8", "surrogateescape")).hexdigest()[:12]
     (folder / f"{name}.yaml").write_text(text, encoding="utf-8", errors="surrogateescape")
@@ -279,7 +283,7 @@ def run_case(job):
         except BaseException as exc:  # noqa: BLE001 - this is what is being counted
             import traceback
 
-            if os.environ.get("CAS_FREQ_FUZZ_SAVE"):
+            if SAVE_DIR is not None:
                 _save(text, traceback.format_exc())
             return "traceback", f"{type(exc).__name__}: {str(exc)[:200]}"
         finally:
@@ -358,7 +362,8 @@ def main(argv=None):
     if args.quick:
         args.mutated, args.extreme = 200, 100
     if args.save:
-        os.environ["CAS_FREQ_FUZZ_SAVE"] = str(Path(args.save).resolve())
+        global SAVE_DIR
+        SAVE_DIR = Path(args.save).resolve()
     rng = random.Random(args.seed)
     base_text = SHIPPED.read_text(encoding="utf-8")
     base = yaml.safe_load(base_text)
