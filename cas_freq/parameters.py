@@ -52,6 +52,7 @@ __all__ = [
     "base_values",
     "check_key",
     "derived_problem",
+    "drivetrain_problem",
     "filter_time_constant",
     "parse_value",
     "unit_of",
@@ -234,6 +235,30 @@ PARAMETERS = _table(
      "current-command limit +/-i_max, 1e-6..1e6 [A]"),
     ("position_loop.delay", "tau_p", "s", 0.0, False, MAX_DELAY_S,
      f"position-loop transport delay tau_p, 0 or 1e-9..{MAX_DELAY_S:g} [s]", 1e-9),
+    ("motor.coulomb_friction", "F_c", "N*m", 0.0, False, 1e3,
+     "Coulomb (dry) friction torque on the motor shaft, nonlinear simulation only, 0 or "
+     "1e-12..1e3 [N*m]", 1e-12),
+    ("gear.efficiency", "eta", "dimensionless", 0.0, True, 1.0,
+     "forward gear efficiency eta (motor drives the fin), (0, 1], default 1 [dimensionless]"),
+    ("gear.backdrive_efficiency", "eta_b", "dimensionless", 0.0, False, 1.0,
+     "backdrive efficiency eta_b (the fin drives the motor; 0: self-locking), nonlinear "
+     "simulation only, 0..1, default eta [dimensionless]"),
+    ("gear.stiffness", "K_g", "N*m/rad", 0.0, False, 1e12,
+     "gear torsional stiffness K_g at the fin (0: rigid gear), 0 or 1e-6..1e12 [N*m/rad]",
+     1e-6),
+    ("gear.backlash", "backlash", "rad", 0.0, False, 1.0,
+     "total play of the gear at the fin, nonlinear simulation only, 0 or 1e-12..1 [rad]",
+     1e-12),
+    ("load.inertia", "J_L", "kg*m^2", 0.0, False, 1e3,
+     "load inertia J_L at the fin, 0 or 1e-15..1e3 [kg*m^2]", 1e-15),
+    ("load.damping", "b_L", "N*m*s/rad", 0.0, False, 1e6,
+     "load viscous damping b_L at the fin, 0 or 1e-15..1e6 [N*m*s/rad]", 1e-15),
+    ("load.hinge_stiffness", "K_h", "N*m/rad", -1e9, False, 1e9,
+     "hinge-moment stiffness K_h at the fin: moment -K_h*delta (> 0 opposes, < 0 aids "
+     "deflection), 0 or |K_h| 1e-12..1e9 [N*m/rad]", 1e-12),
+    ("load.hinge_bias", "tau_h", "N*m", -1e9, False, 1e9,
+     "constant hinge moment at the fin, nonlinear simulation only, 0 or |value| "
+     "1e-12..1e9 [N*m]", 1e-12),
     ("simulation.current_loop_rate", None, "Hz", 1.0, False, 1e9,
      "current-controller sample rate with controllers: sampled, 1..1e9 [Hz]"),
     ("simulation.position_loop_rate", None, "Hz", 1.0, False, 1e9,
@@ -374,6 +399,17 @@ class LoopParameters:
         Current-command limit [A] and position-loop transport delay [s].
     derivative_on_measurement : numpy.ndarray of bool
         True where the derivative acts on -theta instead of on the error.
+    F_c : numpy.ndarray
+        Coulomb friction on the motor shaft [N*m] (nonlinear simulation only).
+    eta, eta_b : numpy.ndarray
+        Forward and backdrive gear efficiencies [-] (eta_b: nonlinear simulation only).
+    K_g, backlash : numpy.ndarray
+        Gear stiffness at the fin [N*m/rad] (0: rigid) and total play at the fin [rad]
+        (nonlinear simulation only).
+    J_L, b_L, K_h, tau_h : numpy.ndarray
+        Load at the fin: inertia [kg*m^2], damping [N*m*s/rad], hinge stiffness [N*m/rad]
+        and constant hinge moment [N*m] (nonlinear simulation only). All the load and
+        drivetrain fields default to "absent" (0, efficiencies 1).
     """
 
     R: np.ndarray
@@ -396,6 +432,15 @@ class LoopParameters:
     i_max: np.ndarray
     tau_p: np.ndarray
     derivative_on_measurement: np.ndarray
+    F_c: np.ndarray = 0.0
+    eta: np.ndarray = 1.0
+    eta_b: np.ndarray = 1.0
+    K_g: np.ndarray = 0.0
+    backlash: np.ndarray = 0.0
+    J_L: np.ndarray = 0.0
+    b_L: np.ndarray = 0.0
+    K_h: np.ndarray = 0.0
+    tau_h: np.ndarray = 0.0
 
     def __post_init__(self):
         names = [f.name for f in dataclasses.fields(self)]
@@ -423,6 +468,21 @@ class LoopParameters:
             raise ConfigError(
                 f"simulation parameters: Tf: must be > 0 s where cp_Kd > 0 (runs {_indices(bad)})"
             )
+        problem = drivetrain_problem(self.K_g, self.J_L, self.backlash, where="runs")
+        if problem:
+            raise ConfigError(f"simulation parameters: {problem}")
+
+    @property
+    def compliant(self):
+        """Bool array: True where the gear has a stiffness (the two-mass model)."""
+        return self.K_g > 0
+
+    @property
+    def loaded(self):
+        """Bool array: True where any load or drivetrain term differs from "absent"."""
+        return ((self.F_c != 0) | (self.eta != 1) | (self.eta_b != 1) | (self.K_g != 0)
+                | (self.backlash != 0) | (self.J_L != 0) | (self.b_L != 0) | (self.K_h != 0)
+                | (self.tau_h != 0))
 
     @property
     def n_runs(self):
@@ -469,12 +529,33 @@ class LoopParameters:
 _FIELD_PARAMETERS = {p.field: p for p in PARAMETERS.values() if p.field is not None}
 
 
+def drivetrain_problem(stiffness, load_inertia, backlash, where="samples"):
+    """What is wrong with a combination of drivetrain values (arrays), or None.
+
+    A compliant gear (``gear.stiffness`` > 0) needs a load inertia (the load side of the
+    two-mass model), and backlash is a dead zone in the gear's spring, so it needs a stiffness.
+    """
+    stiffness, load_inertia, backlash = np.broadcast_arrays(
+        *(np.atleast_1d(np.asarray(v, dtype=float)) for v in (stiffness, load_inertia, backlash))
+    )
+    bad = (stiffness > 0) & ~(load_inertia > 0)
+    if bad.any():
+        return ("gear.stiffness: a compliant gear needs load.inertia > 0 kg*m^2 (the load side "
+                f"of the two-mass model), got load.inertia = 0 ({where} {_indices(bad)})")
+    bad = (backlash > 0) & ~(stiffness > 0)
+    if bad.any():
+        return ("gear.backlash: the play is a dead zone in the gear's spring, so it needs "
+                f"gear.stiffness > 0 N*m/rad as well ({where} {_indices(bad)})")
+    return None
+
+
 def _row(config):
     """One run's fields from a validated config (derived ``mu_v`` and ``Tf`` resolved)."""
     row = {field: _value_at(config, p.key) for field, p in _FIELD_PARAMETERS.items()}
     row["mu_v"] = config.motor.viscous_friction
     row["Tf"] = config.position_loop.filter_time_constant
     row["derivative_on_measurement"] = config.position_loop.derivative_on == "measurement"
+    row["eta_b"] = config.gear.backdrive
     return row
 
 
@@ -531,6 +612,12 @@ def variant_parameters(params, changes, n=None):
         problem = derived_problem("motor.mu_v", full["motor.mu_v"])
         if problem:
             raise ConfigError(problem)
+    if full["gear.backdrive_efficiency"] is None:
+        full["gear.backdrive_efficiency"] = full["gear.efficiency"]
+    problem = drivetrain_problem(full["gear.stiffness"], full["load.inertia"],
+                                 full["gear.backlash"])
+    if problem:
+        raise ConfigError(problem)
     kp, ki, kd = full["position_loop.Kp"], full["position_loop.Ki"], full["position_loop.Kd"]
     if full["position_loop.Tf"] is None:
         undefined = (kd > 0) & (kp == 0)

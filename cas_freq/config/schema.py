@@ -19,6 +19,7 @@ from cas_freq.parameters import (
     PARAMETERS,
     Parameter,
     derived_problem,
+    drivetrain_problem,
     filter_time_constant,
     viscous_friction,
 )
@@ -75,6 +76,7 @@ class Motor(_Section):
     J: param("motor.J")
     mu_v: param("motor.mu_v") | None = None
     no_load: NoLoad | None = None
+    coulomb_friction: param("motor.coulomb_friction") = 0.0
 
     @model_validator(mode="after")
     def _one_friction_source(self):
@@ -98,9 +100,31 @@ class Motor(_Section):
 
 
 class Gear(_Section):
-    """Gear between motor and fin: fin angle = motor angle / ratio."""
+    """Gear between motor and fin: fin angle = motor angle / ratio; rigid unless ``stiffness``
+    is given (docs/model.md, "Load and drivetrain")."""
 
     ratio: param("gear.ratio")
+    efficiency: param("gear.efficiency") = 1.0
+    backdrive_efficiency: param("gear.backdrive_efficiency") | None = None
+    stiffness: param("gear.stiffness") = 0.0
+    backlash: param("gear.backlash") = 0.0
+
+    @property
+    def backdrive(self):
+        """Backdrive efficiency [-]: ``backdrive_efficiency``, else the forward efficiency."""
+        if self.backdrive_efficiency is None:
+            return self.efficiency
+        return self.backdrive_efficiency
+
+
+class Load(_Section):
+    """What the fin carries, at the fin (docs/model.md, "Load and drivetrain"); all absent
+    (0) by default: the report's unloaded bench."""
+
+    inertia: param("load.inertia") = 0.0
+    damping: param("load.damping") = 0.0
+    hinge_stiffness: param("load.hinge_stiffness") = 0.0
+    hinge_bias: param("load.hinge_bias") = 0.0
 
 
 class CurrentLoop(_Section):
@@ -244,12 +268,20 @@ class ActuatorConfig(_Section):
     description: str = ""
     motor: Motor
     gear: Gear
+    load: Load = Load()
     current_loop: CurrentLoop
     position_loop: PositionLoop
     simulation: Simulation = Simulation()
     requirements: tuple[Requirement, ...] = ()
     reference: Reference | None = None
     variants: dict[str, dict[str, Any] | None] = {}
+
+    @model_validator(mode="after")
+    def _drivetrain(self):
+        problem = drivetrain_problem(self.gear.stiffness, self.load.inertia, self.gear.backlash)
+        if problem:
+            raise PydanticCustomError("cas_value", problem.split(" (samples")[0])
+        return self
 
     @model_validator(mode="after")
     def _unique_requirement_ids(self):
