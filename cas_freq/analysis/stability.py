@@ -387,7 +387,7 @@ def _plant(params, output, states=3):
     """The plant of :func:`cas_freq.model.parts.plant_matrices`, input V [V], states
     (i, omega[, theta]), outputs ``output @ x``."""
     a, b = parts.plant_matrices(params)
-    return (a[0, :states, :states], b[0, :states], np.asarray(output, dtype=float),
+    return (a[0, :states, :states], b[0, :states, :1], np.asarray(output, dtype=float),
             np.zeros((output.shape[0], 1)))
 
 

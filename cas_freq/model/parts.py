@@ -9,9 +9,12 @@ coefficients, highest power of s first, each coefficient a float or an array tha
 over variants (and frequencies):
 
 .. math::
-    Z_e(s) = L s + R, \qquad P_m(s) = J s + \mu_v, \qquad
-    Y(s) = \frac{i}{V} = \frac{P_m}{Z_e P_m + K_e K_m}, \qquad
-    M(s) = \frac{\theta}{i} = \frac{K_m}{s P_m}
+    Z_e(s) = L s + R, \qquad
+    Y(s) = \frac{i}{V} = \frac{D}{Z_e D + K_e K_m s\, n_\theta}, \qquad
+    M(s) = \frac{\theta}{i} = \frac{K_m n_\theta}{D}
+
+with the drivetrain's polynomials :math:`D, n_\theta` of :func:`mechanics` (unloaded:
+:math:`D = s (J s + \mu_v)`, :math:`n_\theta = 1`, the report's Fig. 5);
 
     C_i(s) = \frac{K_{p,i} s + K_{i,i}}{s}, \qquad
     C_p(s) = \frac{(K_p T_f + K_d) s^2 + (K_p + K_i T_f) s + K_i}{s (T_f s + 1)}
@@ -85,9 +88,46 @@ def electrical(p):
     return (p.L, p.R)
 
 
-def mechanical(p):
-    """Shaft impedance divided by s, P_m(s) = J s + mu_v [N*m*s/rad]: torque / speed."""
-    return (p.J, p.mu_v)
+def compliance(p):
+    """Gear compliance 1/K_g at the fin [rad/(N*m)], 0 for a rigid gear (K_g = 0 in a config)."""
+    k_g = np.asarray(p.K_g, dtype=float)
+    with np.errstate(divide="ignore"):
+        return np.where(k_g > 0, 1.0 / np.where(k_g > 0, k_g, 1.0), 0.0)
+
+
+def mechanics(p):
+    r"""The drivetrain as three polynomials: :math:`\theta/i = K_m n_\theta / D` and the fin
+    output :math:`N \delta / \theta = n_{out} / n_\theta` (docs/model.md, "Load and drivetrain").
+
+    With the gear compliance :math:`c = 1/K_g` (0 for a rigid gear) and :math:`e = 1/\eta`:
+
+    .. math::
+        D = (J s^2 + \mu_v s)(c J_L s^2 + c b_L s + c K_h + 1)
+            + \frac{e}{N^2}(J_L s^2 + b_L s + K_h), \qquad
+        n_\theta = c J_L s^2 + c b_L s + c K_h + 1, \qquad n_{out} = 1
+
+    (the two-mass equations times c). For a rigid gear (c = 0), D is
+    :math:`J_{eff} s^2 + \mu_{eff} s + k_{eff}` and :math:`n_\theta = 1`; without a load it is
+    :math:`s (J s + \mu_v)`, the report's motor.
+
+    Returns
+    -------
+    tuple of tuple
+        (D [N*m*s^2/rad ...], n_theta [-], n_out [-]): coefficients, highest power first,
+        each a float or an array broadcasting over runs. D has degree 4 where any run is
+        compliant, else 2; n_theta degree 2, else 0.
+    """
+    e_n2 = 1.0 / (p.eta * p.ratio * p.ratio)
+    if not np.any(np.asarray(p.K_g) > 0):
+        return (p.J + e_n2 * p.J_L, p.mu_v + e_n2 * p.b_L, e_n2 * p.K_h), (1.0,), (1.0,)
+    c = compliance(p)
+    q2, q1, q0 = c * p.J_L, c * p.b_L, c * p.K_h + 1.0
+    d = (p.J * q2,
+         p.J * q1 + p.mu_v * q2,
+         p.J * q0 + p.mu_v * q1 + e_n2 * p.J_L,
+         p.mu_v * q0 + e_n2 * p.b_L,
+         e_n2 * p.K_h)
+    return d, (q2, q1, q0), (1.0,)
 
 
 def back_emf_coupling(p):
@@ -116,31 +156,87 @@ def reference_path(p):
     return (p.cp_Kp, p.cp_Ki)
 
 
-def plant_matrices(p):
-    r"""State-space plant of every variant: states (i, omega, theta), input the voltage.
+def plant_matrices(p, states=None, backdrive=False, engaged=True):
+    r"""State-space plant of every variant, input the voltage and two external torques.
+
+    Rigid gear (3 states :math:`(i, \omega, \theta)`), with the load reflected through the
+    gear (:math:`e = 1/\eta` while the motor drives the fin, :math:`e = \eta_b` while the fin
+    drives the motor, ``backdrive``):
 
     .. math::
-        L \dot i = V - R i - K_e \omega, \qquad J \dot\omega = K_m i - \mu_v \omega, \qquad
+        L \dot i = V - R i - K_e \omega, \qquad
+        (J + e J_L/N^2) \dot\omega = K_m i - (\mu_v + e b_L/N^2) \omega
+            - e K_h/N^2 \, \theta + \tau_m + e \tau_L / N, \qquad
         \dot\theta = \omega
+
+    Compliant gear (5 states, adding the fin's :math:`(\omega_L, \delta)`), the gear spring's
+    torque :math:`K_g (\theta/N - \delta)` on the fin and :math:`e/N` of it braking the motor:
+
+    .. math::
+        J \dot\omega = K_m i - \mu_v \omega - \frac{e K_g}{N}(\theta/N - \delta) + \tau_m,
+        \qquad
+        J_L \dot\omega_L = K_g (\theta/N - \delta) - b_L \omega_L - K_h \delta + \tau_L,
+        \qquad \dot\delta = \omega_L
+
+    Without ``engaged`` the spring carries no torque (the gear inside its backlash). In a batch
+    with any compliant run every run has 5 states; a rigid run's fin states then follow the
+    motor (:math:`\dot\omega_L = \dot\omega/N`, :math:`\dot\delta = \omega/N`).
 
     Parameters
     ----------
     p : LoopParameters or namespace
         Parameters as arrays of shape (n,).
+    states : int, optional
+        3 or 5; default 5 where any run is compliant, else 3.
+    backdrive : bool
+        Use the backdrive efficiency (power flowing from the fin to the motor).
+    engaged : bool
+        The gear's spring carries torque (False: inside the backlash).
 
     Returns
     -------
     (numpy.ndarray, numpy.ndarray)
-        A of shape (n, 3, 3) [1/s] and B of shape (n, 3, 1) [A/(V*s)].
+        A of shape (n, states, states) [1/s] and B of shape (n, states, 3), inputs
+        (V [V], tau_m [N*m] on the motor shaft, tau_L [N*m] on the fin).
     """
-    n = np.broadcast(p.R, p.L, p.Ke, p.Km, p.J, p.mu_v).shape
+    n = np.broadcast(p.R, p.L, p.Ke, p.Km, p.J, p.mu_v, p.J_L, p.K_g).shape
     n = n[0] if n else 1
-    a = np.zeros((n, 3, 3))
+    compliant = np.broadcast_to(np.asarray(p.K_g) > 0, (n,))
+    if states is None:
+        states = 5 if compliant.any() else 3
+    e = p.eta_b if backdrive else 1.0 / p.eta
+    ratio = p.ratio
+    rigid = ~compliant
+    # rigid: the load reflected onto the motor shaft (zero load terms where compliant)
+    j_l, b_l, k_h = (np.where(rigid, v, 0.0) for v in np.broadcast_arrays(p.J_L, p.b_L, p.K_h))
+    j = p.J + e * j_l / ratio**2
+    a = np.zeros((n, states, states))
+    b = np.zeros((n, states, 3))
     a[:, 0, 0] = -p.R / p.L
     a[:, 0, 1] = -p.Ke / p.L
-    a[:, 1, 0] = p.Km / p.J
-    a[:, 1, 1] = -p.mu_v / p.J
+    a[:, 1, 0] = p.Km / j
+    a[:, 1, 1] = -(p.mu_v + e * b_l / ratio**2) / j
+    a[:, 1, 2] = -e * k_h / ratio**2 / j
     a[:, 2, 1] = 1.0
-    b = np.zeros((n, 3, 1))
     b[:, 0, 0] = 1.0 / p.L
+    b[:, 1, 1] = 1.0 / j
+    b[:, 1, 2] = np.where(rigid, e / ratio / j, 0.0)
+    if states == 3:
+        if compliant.any():
+            raise ValueError("a compliant gear needs 5 states")
+        return a, b
+    k_g = np.where(compliant & engaged, p.K_g, 0.0)
+    j_load = np.where(compliant, p.J_L, 1.0)
+    a[:, 1, 2] -= e * k_g / ratio**2 / j
+    a[:, 1, 4] = e * k_g / ratio / j
+    a[:, 3] = np.where(compliant[:, None],
+                       np.stack([np.zeros(n), np.zeros(n), k_g / ratio / j_load,
+                                 -p.b_L / j_load + np.zeros(n),
+                                 -(k_g + p.K_h) / j_load + np.zeros(n)], axis=1),
+                       a[:, 1] / ratio)
+    b[:, 3] = np.where(compliant[:, None],
+                       np.stack([np.zeros(n), np.zeros(n), 1.0 / j_load], axis=1),
+                       b[:, 1] / ratio)
+    a[:, 4, 3] = np.where(compliant, 1.0, 0.0)
+    a[:, 4, 1] = np.where(compliant, 0.0, 1.0 / ratio)
     return a, b

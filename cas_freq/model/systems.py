@@ -27,7 +27,7 @@ def plant_system(params):
     """
     a, b = parts.plant_matrices(parts.one_variant(params))
     return control.ss(
-        a[0], b[0], np.eye(3), np.zeros((3, 1)),
+        a[0], b[0][:, :1], np.eye(3), np.zeros((3, 1)),
         inputs="V", outputs=["i", "omega", "theta"], states=["i", "omega", "theta"],
         name="plant",
     )
