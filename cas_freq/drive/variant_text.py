@@ -1,0 +1,136 @@
+"""A variant inserted into a config file's text, every other line kept as it was.
+
+Configs are hand-written YAML with comments that cite their sources (configs/qt_cas.yaml), and
+PyYAML drops comments when it writes. So a new variant is written as text: the lines of the
+variant are inserted at the end of the file's block-style ``variants:`` mapping (or a
+``variants:`` section is appended when the file has none), and nothing else in the file
+changes. The caller loads the result with the config loader before writing it, so a text the
+loader would read differently is never written.
+"""
+
+import re
+
+from cas_freq.exceptions import ConfigError
+
+__all__ = ["NAME_PATTERN", "insert_variant"]
+
+#: Variant names this writer accepts (a plain YAML key: no quoting needed).
+NAME_PATTERN = re.compile(r"[A-Za-z_][A-Za-z0-9_-]{0,63}")
+
+_TOP_VARIANTS = re.compile(r"variants\s*:(?P<rest>.*)")
+
+
+def _indent(line):
+    return len(line) - len(line.lstrip(" "))
+
+
+def _is_content(line):
+    """True for a line that holds YAML (not blank, not only a comment)."""
+    stripped = line.strip()
+    return bool(stripped) and not stripped.startswith("#")
+
+
+def _block(name, entries, comment, indent, step=2):
+    """The lines of variant ``name`` at ``indent`` spaces, its keys at ``indent + step``."""
+    head = " " * indent + f"{name}:"
+    lines = [f"{head}  # {comment}" if comment else head]
+    width = max((len(key) + 2 + len(value) for key, value, _ in entries), default=0)
+    for key, value, note in entries:
+        body = f"{key}: {value}"
+        lines.append(" " * (indent + step) + (f"{body.ljust(width)}  # {note}" if note else body))
+    return lines
+
+
+def insert_variant(text, name, entries, comment="", force=False):
+    """``text`` (a config file) with variant ``name`` holding ``entries`` added.
+
+    Parameters
+    ----------
+    text : str
+        The config file's text.
+    name : str
+        The variant's name, matching :data:`NAME_PATTERN`.
+    entries : sequence of (str, str, str)
+        ``(dotted key, value text, comment)`` lines of the variant (comment may be empty).
+    comment : str
+        Comment on the variant's own line.
+    force : bool
+        Replace a variant of that name (its lines, up to the next variant or the end of the
+        ``variants`` block) instead of refusing.
+
+    Returns
+    -------
+    str
+        The new text: the file's lines unchanged, the variant's lines inserted after the last
+        line of the ``variants`` block (or a ``variants:`` section appended at the end).
+
+    Raises
+    ------
+    ConfigError
+        For a name that is not a plain key, a variant that exists without ``force``, or a
+        ``variants`` section not written as a block mapping (``variants: {a: ...}``), which
+        cannot be extended without rewriting it.
+    """
+    if not NAME_PATTERN.fullmatch(name or ""):
+        raise ConfigError(f"--variant {name!r}: a new variant's name is a letter or _ followed "
+                          "by letters, digits, _ or - (at most 64 characters)")
+    if name == "base":
+        raise ConfigError("--variant 'base': base is the file without a variant; name the new "
+                          "variant otherwise")
+    lines = text.splitlines()
+    newline = "\r\n" if "\r\n" in text else "\n"
+    start = next((i for i, line in enumerate(lines)
+                  if _TOP_VARIANTS.fullmatch(line.rstrip())), None)
+    if start is None:
+        tail = ["", "variants:", *_block(name, entries, comment, 2)]
+        while lines and not lines[-1].strip():
+            lines.pop()
+        return newline.join(lines + tail) + newline
+
+    rest = _TOP_VARIANTS.fullmatch(lines[start].rstrip()).group("rest").strip()
+    if rest and not rest.startswith("#"):
+        if re.fullmatch(r"(\{\s*\}|null|~)\s*(#.*)?", rest):
+            lines[start] = "variants:"
+        else:
+            raise ConfigError(f"line {start + 1}: 'variants: {rest[:40]}' is a flow-style "
+                              "mapping; write the variants as a block (one 'name:' per line) "
+                              "so a variant can be added without rewriting the others")
+    # the block: every following line that is indented, blank, or an indented comment
+    end = start + 1  # one past the last content line of the block
+    entry_indent = key_indent = None
+    for i in range(start + 1, len(lines)):
+        line = lines[i]
+        if not line.strip():
+            continue
+        if _indent(line) == 0:
+            break  # a top-level key, or a comment at column 0 that introduces the next section
+        if _is_content(line):
+            if entry_indent is None:
+                entry_indent = _indent(line)
+            elif key_indent is None and _indent(line) > entry_indent:
+                key_indent = _indent(line)
+        end = i + 1
+    indent = entry_indent or 2
+    step = key_indent - indent if key_indent is not None else 2
+
+    # an existing variant of that name
+    pattern = re.compile(rf"{re.escape(name)}\s*:(\s.*)?")
+    for i in range(start + 1, end):
+        line = lines[i]
+        if _is_content(line) and _indent(line) == indent and pattern.fullmatch(line.strip()):
+            if not force:
+                raise ConfigError(f"variant {name!r} exists (line {i + 1}); choose another "
+                                  "--variant name or give --force to replace it")
+            stop = i + 1
+            for j in range(i + 1, end):
+                if _is_content(lines[j]) and _indent(lines[j]) <= indent:
+                    break
+                stop = j + 1
+            # keep a trailing comment or blank line that belongs to the next variant
+            while stop > i + 1 and not _is_content(lines[stop - 1]) and (
+                    not lines[stop - 1].strip() or _indent(lines[stop - 1]) <= indent):
+                stop -= 1
+            return newline.join(lines[:i] + _block(name, entries, comment, indent, step)
+                                + lines[stop:]) + newline
+    new = lines[:end] + _block(name, entries, comment, indent, step) + lines[end:]
+    return newline.join(new) + newline
