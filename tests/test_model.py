@@ -21,8 +21,9 @@ def params(request):
 def test_plant_factors_follow_the_differential_equations(params):
     # Y = i/V and M = theta/i written out from docs/model.md's equations must equal the 3-state
     # plant's transfer functions (same equations in state space); rounding-level tolerance.
-    # Both come from cas_freq.model.parts: the polynomials Z_e = Ls + R, P_m = Js + mu_v and
-    # the state matrices, written separately there; they must describe the same plant.
+    # Both come from cas_freq.model.parts: the polynomials Z_e = Ls + R, D = s (Js + mu_v)
+    # (mechanics, unloaded) and the state matrices, written separately there; they must describe
+    # the same plant.
     p = LoopParameters.from_config(params)
     plant = plant_system(params)
     s = 1j * OMEGA
@@ -33,8 +34,10 @@ def test_plant_factors_follow_the_differential_equations(params):
     np.testing.assert_allclose(response[0, 0], y, rtol=1e-10)
     np.testing.assert_allclose(response[2, 0] / response[0, 0],
                                motor.Km / (s * (motor.J * s + mu)), rtol=1e-10)
-    jm = parts.polyval(parts.mechanical(p), s)
-    y_parts = jm / (parts.polyval(parts.electrical(p), s) * jm + parts.back_emf_coupling(p))
+    d, n_theta, _ = parts.mechanics(p)
+    assert n_theta == (1.0,)
+    d = parts.polyval(d, s)
+    y_parts = d / (parts.polyval(parts.electrical(p), s) * d + parts.back_emf_coupling(p) * s)
     np.testing.assert_allclose(y_parts, y, rtol=1e-12)
 
 

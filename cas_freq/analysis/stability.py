@@ -99,19 +99,20 @@ def characteristic_polynomials(p, order=DEFAULT_PADE_ORDER):
         Stacks of coefficients (highest power first); leading zeros where a delay or Tf is 0.
     """
     n = p.n_runs
-    jm = parts.stacked(parts.mechanical(p), n)
-    plant = polyadd(polymul(parts.stacked(parts.electrical(p), n), jm),
-                    parts.back_emf_coupling(p)[:, None])
+    d, n_theta, _ = parts.mechanics(p)
+    mech, n_th = parts.stacked(d, n), parts.stacked(n_theta, n)
     dc, nc = pade_polynomials(p.tau_c, order)
     dp, np_ = pade_polynomials(p.tau_p, order)
     zero = np.zeros(p.n_runs)
     one = np.ones(p.n_runs)
     s = _stack(one, zero)
+    plant = polyadd(polymul(parts.stacked(parts.electrical(p), n), mech),
+                    polymul(s, n_th) * parts.back_emf_coupling(p)[:, None])
     # C_i = n_ci / d_ci; Ki = 0 drops the integrator (exact cancellation)
     integral = p.ci_Ki > 0
     n_ci = np.where(integral[:, None], _stack(p.ci_Kp, p.ci_Ki), _stack(zero, p.ci_Kp))
     d_ci = np.where(integral[:, None], s, _stack(zero, one))
-    qc = polyadd(polymul(polymul(d_ci, dc), plant), polymul(polymul(n_ci, nc), jm))
+    qc = polyadd(polymul(polymul(d_ci, dc), plant), polymul(polymul(n_ci, nc), mech))
     # C_p = n_cp / d_cp, without the integrator where Ki = 0 and the filter where Kd = 0
     kp, ki, kd, tf = p.cp_Kp, p.cp_Ki, p.cp_Kd, p.Tf
     has_i, has_d = (ki > 0)[:, None], (kd > 0)[:, None]
@@ -121,15 +122,23 @@ def characteristic_polynomials(p, order=DEFAULT_PADE_ORDER):
     d_cp = np.where(has_i, np.where(has_d, _stack(tf, one, zero), _stack(zero, one, zero)),
                     np.where(has_d, _stack(zero, tf, one), _stack(zero, zero, one)))
     q = polyadd(
-        polymul(polymul(polymul(d_cp, dp), s), qc),
-        polymul(polymul(polymul(n_cp, np_), n_ci), nc) * p.Km[:, None],
+        polymul(polymul(d_cp, dp), qc),
+        polymul(polymul(polymul(polymul(n_cp, np_), n_ci), nc), n_th) * p.Km[:, None],
     )
-    # the current loop alone: with mu_v = 0 (and an integrator) the pole at 0 of C_i cancels
-    # the zero of Y at 0, C_i Y = J (Kp s + Ki) / P
-    cancel = ((p.mu_v == 0) & integral)[:, None]
-    reduced = polyadd(polymul(dc, plant), polymul(polymul(n_ci, nc), _stack(p.J)))
-    qc = np.where(cancel, polyadd(np.zeros((p.n_runs, qc.shape[1])), reduced), qc)
+    # The current loop alone: where D(0) = 0 (no hinge stiffness) the shaft's position is not
+    # seen from i, a factor s common to both terms; with mu_v = 0 as well (and an integrator)
+    # the pole at 0 of C_i cancels the zero of Y at 0 (C_i Y = J (Kp s + Ki) / P, unloaded).
+    qc = _deflated(qc, mech[:, -1] == 0)
+    qc = _deflated(qc, (mech[:, -1] == 0) & (mech[:, -2] == 0) & integral)
     return qc, q
+
+
+def _deflated(polynomials, rows):
+    """The polynomials with one factor s divided out in ``rows`` (their last coefficient 0)."""
+    out = polynomials.copy()
+    out[rows, 1:] = polynomials[rows, :-1]
+    out[rows, 0] = 0.0
+    return out
 
 
 def _routh_unstable_count(a):
@@ -313,7 +322,7 @@ def _scalars(p):
     """The one run of ``p`` with every parameter a Python float."""
     return {name: getattr(p, name)[0].item() for name in (
         "R", "L", "Km", "Ke", "J", "mu_v", "ci_Kp", "ci_Ki", "tau_c", "cp_Kp", "cp_Ki",
-        "cp_Kd", "Tf", "tau_p")}
+        "cp_Kd", "Tf", "tau_p", "ratio", "K_g", "K_h", "J_L", "b_L", "eta")}
 
 
 def closed_loop_poles(params, pade_order):
@@ -333,8 +342,11 @@ def closed_loop_poles(params, pade_order):
     """
     params = parts.one_variant(params)
     v = _scalars(params)
-    # i_cmd -> (i, theta): PI, current delay, plant (states i, omega, theta)
-    plant = _plant(params, np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]))
+    # i_cmd -> (i, theta): PI, current delay, plant (states i, omega, theta[, omega_L, delta])
+    states = parts.plant_matrices(params)[0].shape[1]
+    output = np.zeros((2, states))
+    output[0, 0] = output[1, 2] = 1.0
+    plant = _plant(params, output, states=states)
     forward = _series(
         _series(_current_controller(v), pade_realization(v["tau_c"], pade_order)),
         plant,
@@ -366,7 +378,12 @@ def current_loop_poles(params, pade_order):
     params = parts.one_variant(params)
     v = _scalars(params)
     delay = pade_realization(v["tau_c"], pade_order)
-    if v["mu_v"] == 0 and v["ci_Ki"] > 0:
+    if v["K_g"] > 0 or v["K_h"] != 0:
+        forward = _series(
+            _series(_current_controller(v), delay),
+            (*parts.current_plant_matrices(params), np.zeros((1, 1))),
+        )
+    elif v["mu_v"] == 0 and v["b_L"] == 0 and v["ci_Ki"] > 0:
         # C_i Y = (Kp s + Ki) J / D: with mu_v = 0, J omega' = Km i, so i = (J/Km) s omega and
         # the plant (i, omega) read out as Kp i + (J Ki/Km) omega has exactly this transfer.
         output = np.array([[v["ci_Kp"], v["J"] * v["ci_Ki"] / v["Km"]]])

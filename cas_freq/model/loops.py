@@ -29,6 +29,7 @@ from cas_freq.model.delay import EXACT
 RESPONSE_FIELDS = (
     "R", "L", "Km", "Ke", "J", "mu_v", "ci_Kp", "ci_Ki", "tau_c",
     "cp_Kp", "cp_Ki", "cp_Kd", "Tf", "tau_p", "ff_v", "ff_a", "derivative_on_measurement",
+    "ratio", "eta", "K_g", "J_L", "b_L", "K_h",
 )
 
 
@@ -77,12 +78,15 @@ def responses(p, s, closed=True, delay=EXACT, feedforward=False):
     r"""L_i, L_p and (optionally) T of the runs ``p`` at complex frequencies ``s``.
 
     Evaluated as ratios with few complex divisions (the costly operation): with
-    :math:`C_i = n_{ci}/s` and :math:`Y = P_m/(Z_e P_m + K_e K_m)`,
-    :math:`L_i = A/B` with :math:`A = n_{ci} e^{-s\tau_c} P_m` and
-    :math:`B = s (Z_e P_m + K_e K_m)`; :math:`T_i M = K_m n_{ci} e^{-s\tau_c} / (s (A + B))`
-    (the factor :math:`P_m` cancels); :math:`C_p = n_{cp} / (s (T_f s + 1))`, so
-    :math:`L_p = N/D` with :math:`N = n_{cp} K_m n_{ci} e^{-s\tau_c} e^{-s\tau_p}` and
-    :math:`D = s (T_f s + 1) s (A + B)`, and :math:`T = N_r/(D + N)` with :math:`N_r = N` for
+    :math:`C_i = n_{ci}/s` and :math:`Y = D_m/(Z_e D_m + K_e K_m s n_\theta)`,
+    :math:`L_i = A/B` with :math:`A = n_{ci} e^{-s\tau_c} D_m` and
+    :math:`B = s (Z_e D_m + K_e K_m s n_\theta)` (:math:`D_m, n_\theta, n_{out}` the drivetrain of
+    :func:`cas_freq.model.parts.mechanics`);
+    :math:`T_i M = K_m n_{ci} e^{-s\tau_c} n_\theta / (A + B)` (the factor :math:`D_m` cancels);
+    :math:`C_p = n_{cp} / (s (T_f s + 1))`, so :math:`L_p = N/D` with
+    :math:`N = n_{cp} K_m n_{ci} e^{-s\tau_c} e^{-s\tau_p} n_\theta` and
+    :math:`D = s (T_f s + 1) (A + B)`, and :math:`T = N_r/(D + N)` with :math:`N_r` as N with
+    :math:`n_{out}` in place of :math:`n_\theta` (the fin, :math:`N\delta/\theta_{cmd}`) for
     the derivative on the error, or the reference path :math:`(K_p s + K_i)(T_f s + 1)` in
     place of :math:`n_{cp}` on the measurement, plus :math:`F s (T_f s + 1)` with feed-forward.
 
@@ -103,38 +107,54 @@ def responses(p, s, closed=True, delay=EXACT, feedforward=False):
     -------
     LoopResponses
     """
-    jm = parts.polyval(parts.mechanical(p), s)
+    d, n_theta, n_out = _mechanics(p, s)
     drive = parts.polyval(parts.current_controller(p), s) * delay.response(s, p.tau_c)
-    a = drive * jm
-    b = (parts.polyval(parts.electrical(p), s) * jm + parts.back_emf_coupling(p)) * s
+    a = drive * d
+    b = (parts.polyval(parts.electrical(p), s) * d
+         + parts.back_emf_coupling(p) * (s if n_theta is None else s * n_theta)) * s
     li = a / b
     n_cp = parts.polyval(parts.position_controller(p), s)
     forward = (p.Km * delay.response(s, p.tau_p)) * drive
     numerator = n_cp * forward
     filter_ = parts.polyval(parts.position_filter(p), s)
-    denominator = (filter_ * (s * s)) * (a + b)
+    denominator = (filter_ * s) * (a + b)
+    if n_theta is not None:  # the fin (T) sees n_out/n_theta of the motor angle
+        forward_out = forward * n_out
+        forward = forward * n_theta
+        numerator = n_cp * forward
+    else:
+        forward_out = forward
     lp = numerator / denominator
     t = None
     if closed:
         closed_den = denominator + numerator
-        reference = numerator
+        reference = n_cp * forward_out
         on_measurement = p.derivative_on_measurement
         if np.any(on_measurement):
-            measured = parts.polyval(parts.reference_path(p), s) * filter_ * forward
-            reference = np.where(on_measurement, measured, numerator)
+            measured = parts.polyval(parts.reference_path(p), s) * filter_ * forward_out
+            reference = np.where(on_measurement, measured, reference)
         if feedforward:
             rate = (p.ff_a * s + p.ff_v) * s
-            reference = reference + rate * s * filter_ * forward
+            reference = reference + rate * s * filter_ * forward_out
         t = reference / closed_den
     return LoopResponses(li, lp, t)
 
 
+def _mechanics(p, s):
+    """D, n_theta, n_out of :func:`cas_freq.model.parts.mechanics` at ``s``; n_theta and n_out
+    None where they are 1 (a rigid gear: the fin follows the motor)."""
+    d, n_theta, n_out = parts.mechanics(p)
+    if len(n_theta) == 1:
+        return parts.polyval(d, s), None, None
+    return parts.polyval(d, s), parts.polyval(n_theta, s), parts.polyval(n_out, s)
+
+
 def current_loop(p, s, delay=EXACT):
     """L_i(s) alone (cheaper than :func:`responses`)."""
-    jm = parts.polyval(parts.mechanical(p), s)
+    d, n_theta, _ = _mechanics(p, s)
+    coupling = parts.back_emf_coupling(p) * (s if n_theta is None else s * n_theta)
     return (parts.polyval(parts.current_controller(p), s) * delay.response(s, p.tau_c)
-            * jm / ((parts.polyval(parts.electrical(p), s) * jm + parts.back_emf_coupling(p))
-                    * s))
+            * d / ((parts.polyval(parts.electrical(p), s) * d + coupling) * s))
 
 
 class ActuatorLoops:

@@ -240,3 +240,42 @@ def plant_matrices(p, states=None, backdrive=False, engaged=True):
     a[:, 4, 3] = np.where(compliant, 1.0, 0.0)
     a[:, 4, 1] = np.where(compliant, 0.0, 1.0 / ratio)
     return a, b
+
+
+def current_plant_matrices(p):
+    r"""V -> i of one variant without the modes the current does not see: (A, B, C).
+
+    Unloaded or rigid without a hinge stiffness: the states (i, omega) (theta is not seen).
+    Compliant without a hinge stiffness: the rigid-body position (theta and N delta moving
+    together) is not seen; the states reduce to (i, omega, omega_L, theta/N - delta) with
+    :math:`A_r = T A T^+` (A maps that direction to 0). With a hinge stiffness: every state.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        A (m, m) [1/s], B (m, 1) [A/(V*s)], C (1, m) [-].
+    """
+    a, b = plant_matrices(p)
+    a, b = a[0], b[0, :, :1]
+    k_h = float(np.asarray(p.K_h).reshape(-1)[0])
+    if k_h == 0 and a.shape[0] == 3:
+        a, b = a[:2, :2], b[:2]
+    elif k_h == 0:
+        t = np.zeros((4, 5))
+        t[0, 0] = t[1, 1] = t[2, 3] = 1.0
+        t[3, 2], t[3, 4] = 1.0 / float(np.asarray(p.ratio).reshape(-1)[0]), -1.0
+        a, b = t @ a @ np.linalg.pinv(t), t @ b
+    c = np.zeros((1, a.shape[0]))
+    c[0, 0] = 1.0
+    return a, b, c
+
+
+def fin_output(states, ratio):
+    """Output row of N delta (the fin angle on the motor's scale) [rad] for a plant of
+    ``states`` (3: theta itself; 5: N times the fin state delta)."""
+    row = np.zeros(states)
+    if states == 3:
+        row[2] = 1.0
+    else:
+        row[4] = ratio
+    return row

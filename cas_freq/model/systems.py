@@ -22,14 +22,18 @@ from cas_freq.model.delay import DEFAULT_PADE_ORDER, pade_system
 def plant_system(params):
     """The plant of :func:`cas_freq.model.parts.plant_matrices` as a python-control system.
 
-    States ``i`` [A], ``omega`` [rad/s], ``theta`` [rad] (motor shaft); input ``V`` [V];
-    outputs the three states.
+    States ``i`` [A], ``omega`` [rad/s], ``theta`` [rad] (motor shaft), and with a compliant
+    gear ``omega_L`` [rad/s], ``delta`` [rad] (the fin); input ``V`` [V]; outputs the states
+    and ``fin``, N delta [rad] (the fin angle on the motor's scale: theta for a rigid gear).
     """
-    a, b = parts.plant_matrices(parts.one_variant(params))
+    p = parts.one_variant(params)
+    a, b = parts.plant_matrices(p)
+    states = a.shape[1]
+    names = ["i", "omega", "theta", "omega_L", "delta"][:states]
+    c = np.vstack([np.eye(states), parts.fin_output(states, float(p.ratio[0]))])
     return control.ss(
-        a[0], b[0][:, :1], np.eye(3), np.zeros((3, 1)),
-        inputs="V", outputs=["i", "omega", "theta"], states=["i", "omega", "theta"],
-        name="plant",
+        a[0], b[0][:, :1], c, np.zeros((states + 1, 1)),
+        inputs="V", outputs=[*names, "fin"], states=names, name="plant",
     )
 
 
@@ -87,9 +91,9 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
     c_p = _ss(parts.position_controller(p),
               (float(np.squeeze(filter_[0])), float(filter_[1]), 0.0))
 
-    # Current loop, broken at the voltage: the electrical and mechanical states only (theta
-    # is not observable from i and would add a spurious pole at 0).
-    y = control.ss(plant.A[:2, :2], plant.B[:2], [[1.0, 0.0]], [[0.0]])
+    # Current loop, broken at the voltage: without the modes i does not see (the shaft's
+    # position, unless a hinge stiffness acts on it), which would add spurious poles at 0.
+    y = control.ss(*parts.current_plant_matrices(p), [[0.0]])
     l_i = control.series(c_i, delay_c, y)
     t_i = control.feedback(l_i, 1)
 
@@ -98,13 +102,20 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
     delay = control.ss(delay_c, inputs="v_c", outputs="V", name="current_delay")
     error = control.summing_junction(inputs=["i_cmd", "-i"], output="e_i", name="current_error")
     to_theta = control.interconnect(
-        [current_pi, delay, plant, error], inputs="i_cmd", outputs="theta", check_unused=False
+        [current_pi, delay, plant, error], inputs="i_cmd", outputs=["theta", "fin"],
+        check_unused=False,
     )
-    # theta per controller output, then the three position-loop systems.
-    seen = control.series(delay_p, control.ss(to_theta.A, to_theta.B, to_theta.C, to_theta.D))
+    # (theta, fin) per controller output, then the three position-loop systems.
+    seen_both = control.series(
+        delay_p, control.ss(to_theta.A, to_theta.B, to_theta.C, to_theta.D)
+    )
+    seen = control.ss(seen_both.A, seen_both.B, seen_both.C[:1], seen_both.D[:1])
     l_p = control.series(c_p, seen)
     sensitivity = control.feedback(control.ss([], [], [], [[1.0]]), l_p)
-    closed = _position_closed_loop(p, seen, l_p)
+    if plant.nstates == 3:
+        closed = _position_closed_loop(p, seen, l_p)
+    else:  # T = N delta / theta_cmd: the loop closed on theta, read at the fin
+        closed = _fin_closed_loop(p, c_p, seen_both)
     return LinearModel(pade_order, plant, l_i, t_i, l_p, sensitivity, closed)
 
 
@@ -132,6 +143,27 @@ def _position_closed_loop(p, seen, l_p):
         inputs="r",
         outputs="theta",
     )
+
+
+def _fin_closed_loop(p, c_p, seen_both):
+    """T = N delta / theta_cmd of a compliant gear: u = C_p (r - theta) (or the derivative on
+    theta), plant (theta, N delta) per u; the output N delta."""
+    plant = control.ss(seen_both, inputs="u", outputs=["theta", "fin"], name="seen")
+    if not p.derivative_on_measurement[0]:
+        controller = control.ss(c_p, inputs="e", outputs="u", name="c_p")
+        blocks = [controller, plant]
+    else:
+        pi = control.ss(_ss(parts.reference_path(p), (1.0, 0.0)), inputs="e", outputs="u_pi",
+                        name="pi")
+        tf, kd = float(p.Tf[0]), float(p.cp_Kd[0])
+        derivative = control.ss(
+            control.tf([kd, 0.0], [tf, 1.0]) if kd > 0 else control.tf([0.0], [1.0]),
+            inputs="theta", outputs="u_d", name="derivative",
+        )
+        blocks = [pi, derivative, plant,
+                  control.summing_junction(inputs=["u_pi", "-u_d"], output="u", name="u_sum")]
+    error = control.summing_junction(inputs=["r", "-theta"], output="e", name="e_sum")
+    return control.interconnect([*blocks, error], inputs="r", outputs="fin")
 
 
 def exact_frequency_responses(loops, omega):
