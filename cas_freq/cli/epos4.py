@@ -10,6 +10,7 @@
 The objects, their units and their sources: :mod:`cas_freq.drive.epos4`.
 """
 
+import argparse
 import os
 from pathlib import Path
 
@@ -67,7 +68,8 @@ def register(commands):
     exporter.add_argument("--json", action="store_true", help="print JSON instead of a table")
     exporter.set_defaults(handler=run_export)
     for sub in (importer, exporter):
-        sub.add_argument("-q", "--quiet", action="store_true",
+        # SUPPRESS: `cas-freq epos4 -q export` keeps the -q given before the action
+        sub.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS,
                          help="do not say on stderr which file was written")
 
 
