@@ -25,6 +25,7 @@ from cas_freq.analysis.closed_loop import (
     closed_loop_figures,
     figures_of_run,
 )
+from cas_freq.analysis.drivetrain import drivetrain, drivetrain_notes
 from cas_freq.analysis.frequency import (
     DEFAULT_POINTS_PER_DECADE,
     DEFAULT_RANGE_RAD_S,
@@ -326,6 +327,8 @@ class Analysis:
     #: closed-loop peak) lies at an end of the analysed range, where it is not a peak;
     #: written into the JSON as ``<section>.<figure>_at_range_edge``.
     range_edges: tuple = ()
+    #: The load and drivetrain figures (:mod:`cas_freq.analysis.drivetrain`); None unloaded.
+    drivetrain: object = None
 
     def to_dict(self):
         """JSON-ready dict, the JSON of ``cas-freq analyze`` (non-finite numbers become None)."""
@@ -443,6 +446,9 @@ def analyze(
     if not stability.stable:
         notes.append("sensitivity peak and disk margin are not reported for a loop that is "
                      "not stable")
+    load = drivetrain(params, order) if params.loaded[0] else None
+    if load is not None:
+        notes.extend(drivetrain_notes(load))
     rows = pade_study(params, pade_orders, omega) if pade_orders > 0 else ()
     edges = _range_edges(figures, omega, stability.stable)
     for section, figure, at_edge in edges:
@@ -464,6 +470,7 @@ def analyze(
         pade_vs_exact=rows,
         notes=tuple(notes),
         range_edges=edges,
+        drivetrain=load,
     )
 
 
@@ -493,6 +500,8 @@ def to_dict(analysis):
     """JSON-ready dict of an :class:`Analysis` (non-finite numbers become None)."""
     data = dataclasses.asdict(analysis)
     edges = data.pop("range_edges")
+    if data["drivetrain"] is None:
+        del data["drivetrain"]
     stability = data.pop("stability")
     data["stability"] = stability["verdict"]
     data["stability_pade_order"] = stability["pade_order"]

@@ -69,6 +69,8 @@ def analysis_table(analysis):
             f"at {_fmt(closed.peak_rad_s, 'rad/s')}",
             f"    phase -90 deg at   {_fmt(closed.phase_90_rad_s, 'rad/s')}",
         ]
+    if analysis.drivetrain is not None:
+        lines += _drivetrain_lines(analysis.drivetrain)
     if analysis.pade_vs_exact:
         lines.append(
             "  Padé vs exact      PM_p [deg]  GM_p [dB]  PM_i [deg]  w_BW [rad/s]  max|dT|"
@@ -220,3 +222,28 @@ def command_table(run):
         f"({_limit_text(r.t, r.voltage_limited)})",
     ]
     return "\n".join(lines)
+
+
+def _drivetrain_lines(load):
+    """The drivetrain block of the analyze text (cas_freq.analysis.drivetrain)."""
+    gear = "compliant gear, two masses" if load.compliant else "rigid gear"
+    lines = [
+        f"  load and drivetrain ({gear}), reflected to the motor shaft",
+        f"    inertia J_eff      {_fmt(load.reflected_inertia_kg_m2, 'kg*m^2')}",
+        f"    damping mu_eff     {_fmt(load.reflected_damping_n_m_s_rad, 'N*m*s/rad')}",
+        f"    stiffness k_eff    {_fmt(load.reflected_stiffness_n_m_rad, 'N*m/rad')}",
+        "    open-loop plant    " + ("stable" if load.plant_stable else
+                                    f"UNSTABLE (pole at +{_fmt(load.plant_unstable_pole_rad_s)}"
+                                    " rad/s)"),
+    ]
+    for label, modes in (("resonance", load.resonances),
+                         ("anti-resonance", load.anti_resonances)):
+        for mode in modes:
+            lines.append(f"    {label:<18} {_fmt(mode.frequency_rad_s, 'rad/s')}, "
+                         f"zeta {_fmt(mode.damping)}")
+    low, high = load.stable_hinge_stiffness_n_m_rad
+    lines.append("    stable for K_h     " + (
+        "none scanned" if low is None and high is None else
+        f"{'-inf' if low is None else _fmt(low)} .. {'+inf' if high is None else _fmt(high)} "
+        "N*m/rad at the fin"))
+    return lines

@@ -1,0 +1,195 @@
+r"""Figures of the load and drivetrain of one variant (docs/model.md, "Load and drivetrain").
+
+- The load reflected to the motor shaft (rigid gear): :math:`J_{eff} = J + J_L/(\eta N^2)`,
+  :math:`\mu_{eff} = \mu_v + b_L/(\eta N^2)`, :math:`k_{eff} = K_h/(\eta N^2)`.
+- The open-loop plant's mechanical poles, the roots of D (:func:`cas_freq.model.parts.mechanics`):
+  an aiding hinge moment (:math:`K_h < 0`) puts one in the right half-plane, a statically
+  unstable surface.
+- A compliant gear's resonance (the complex roots of D, the poles of :math:`\theta/i`) and
+  anti-resonance (the roots of :math:`n_\theta`, the zeros of :math:`\theta/i`, where the fin
+  moves and the motor does not), each as natural frequency and damping ratio. Without damping
+  and hinge moment they are the textbook two-mass values
+  :math:`\omega_r^2 = K_g (1/J_L + 1/(\eta N^2 J))` and :math:`\omega_a^2 = K_g/J_L`.
+- The range of hinge stiffness over which the closed loop is stable, all else fixed: how much
+  aiding moment the loop tolerates (and whether a stiff opposing one destabilises it), found
+  by scanning :math:`K_h` and bisecting the verdict of the Padé model.
+"""
+
+import dataclasses
+
+import numpy as np
+
+from cas_freq.analysis.stability import stability_verdicts
+from cas_freq.model import parts
+from cas_freq.model.delay import DEFAULT_PADE_ORDER
+
+#: Hinge stiffness scanned, relative to the loop's own stiffness at the fin Km Kp eta N^2:
+#: +-(1e-4 .. 1e4) of it, log-spaced, and 0.
+_SCAN_DECADES = 4
+_SCAN_POINTS = 33
+#: Bisection steps on each stability boundary (relative width 2**-40).
+_BISECTIONS = 40
+
+
+@dataclasses.dataclass(frozen=True)
+class Mode:
+    """A pair of complex roots (or a real root) of the drivetrain: frequency and damping."""
+
+    frequency_rad_s: float
+    damping: float
+
+
+@dataclasses.dataclass(frozen=True)
+class Drivetrain:
+    """The load and drivetrain of one variant, at the motor shaft unless named "fin".
+
+    Attributes
+    ----------
+    compliant : bool
+        True for a two-mass gear (``gear.stiffness`` given).
+    reflected_inertia_kg_m2, reflected_damping_n_m_s_rad, reflected_stiffness_n_m_rad : float
+        J_eff, mu_eff, k_eff of the rigid model (the compliant gear's low-frequency limit).
+    plant_stable : bool
+        Whether the open-loop plant's mechanics have no pole in the right half-plane.
+    plant_unstable_pole_rad_s : float or None
+        The largest real part of a mechanical pole, where it is positive [rad/s].
+    resonances, anti_resonances : tuple of Mode
+        The compliant gear's resonance(s) (complex poles of theta/i) and anti-resonance(s)
+        (complex zeros); empty for a rigid gear.
+    stable_hinge_stiffness_n_m_rad : (float or None, float or None)
+        The closed loop is stable for hinge stiffness K_h (at the fin) between these bounds,
+        the other parameters fixed; None where no bound lies within the scan (+-1e4 of the
+        loop's stiffness at the fin). Both None if the loop is stable nowhere in the scan.
+    hinge_stiffness_n_m_rad : float
+        The variant's own K_h at the fin.
+    """
+
+    compliant: bool
+    reflected_inertia_kg_m2: float
+    reflected_damping_n_m_s_rad: float
+    reflected_stiffness_n_m_rad: float
+    plant_stable: bool
+    plant_unstable_pole_rad_s: float | None
+    resonances: tuple
+    anti_resonances: tuple
+    stable_hinge_stiffness_n_m_rad: tuple
+    hinge_stiffness_n_m_rad: float
+
+
+def _modes(coefficients):
+    """Complex root pairs of a polynomial (highest power first) as Modes, slowest first."""
+    coefficients = np.trim_zeros(np.asarray(coefficients, dtype=float), "f")
+    if coefficients.size < 3:
+        return ()
+    roots = np.roots(coefficients)
+    pairs = roots[roots.imag > 0]
+    modes = [Mode(float(abs(r)), float(-r.real / abs(r))) for r in pairs]
+    return tuple(sorted(modes, key=lambda m: m.frequency_rad_s))
+
+
+def drivetrain(params, pade_order=DEFAULT_PADE_ORDER):
+    """The drivetrain figures of one variant.
+
+    Parameters
+    ----------
+    params : cas_freq.parameters.LoopParameters
+        One variant.
+    pade_order : int
+        Padé order of the stability verdicts of the hinge-stiffness scan.
+
+    Returns
+    -------
+    Drivetrain
+    """
+    p = parts.one_variant(params)
+    e_n2 = 1.0 / float(p.eta[0] * p.ratio[0] ** 2)
+    d, n_theta, _ = parts.mechanics(p)
+    d = [float(np.squeeze(c)) for c in d]
+    roots = np.roots(np.trim_zeros(np.asarray(d), "f"))
+    unstable = roots.real[roots.real > 0]
+    compliant = bool(p.K_g[0] > 0)
+    return Drivetrain(
+        compliant=compliant,
+        reflected_inertia_kg_m2=float(p.J[0] + e_n2 * p.J_L[0]),
+        reflected_damping_n_m_s_rad=float(p.mu_v[0] + e_n2 * p.b_L[0]),
+        reflected_stiffness_n_m_rad=float(e_n2 * p.K_h[0]),
+        plant_stable=not unstable.size,
+        plant_unstable_pole_rad_s=float(unstable.max()) if unstable.size else None,
+        resonances=_modes(d) if compliant else (),
+        anti_resonances=_modes([float(np.squeeze(c)) for c in n_theta]) if compliant else (),
+        stable_hinge_stiffness_n_m_rad=stable_hinge_range(p, pade_order),
+        hinge_stiffness_n_m_rad=float(p.K_h[0]),
+    )
+
+
+def stable_hinge_range(p, pade_order=DEFAULT_PADE_ORDER):
+    """(lowest, highest) hinge stiffness [N*m/rad] at the fin with a stable closed loop.
+
+    The stable interval that contains the variant's own K_h if it is stable, else the one
+    nearest to it; None for a bound beyond the scan. (None, None) if no scanned K_h is stable.
+    """
+    scale = float(p.Km[0] * max(p.cp_Kp[0], 1e-12) * p.eta[0] * p.ratio[0] ** 2)
+    magnitudes = scale * np.logspace(-_SCAN_DECADES, _SCAN_DECADES, _SCAN_POINTS)
+    own = float(p.K_h[0])
+    grid = np.unique(np.concatenate([-magnitudes[::-1], [0.0, own], magnitudes]))
+    stable = _stable(p, grid, pade_order)
+    if not stable.any():
+        return (None, None)
+    index = int(np.flatnonzero(grid == own)[0])
+    if not stable[index]:
+        candidates = np.flatnonzero(stable)
+        index = int(candidates[np.argmin(np.abs(candidates - index))])
+    low, high = index, index
+    while low > 0 and stable[low - 1]:
+        low -= 1
+    while high < grid.size - 1 and stable[high + 1]:
+        high += 1
+    lower = None if low == 0 else _boundary(p, grid[low - 1], grid[low], pade_order)
+    upper = None if high == grid.size - 1 else _boundary(p, grid[high + 1], grid[high],
+                                                         pade_order)
+    return (lower, upper)
+
+
+def _stable(p, hinge, pade_order):
+    """Bool per hinge stiffness: the closed loop is stable (Padé model)."""
+    batch = p.take(np.zeros(len(hinge), dtype=int)).replace(K_h=np.asarray(hinge, float))
+    return stability_verdicts(batch, pade_order)[0] == "stable"
+
+
+def _boundary(p, unstable, stable, pade_order):
+    """The hinge stiffness where the verdict changes between ``unstable`` and ``stable``."""
+    for _ in range(_BISECTIONS):
+        middle = 0.5 * (unstable + stable)
+        if _stable(p, [middle], pade_order)[0]:
+            stable = middle
+        else:
+            unstable = middle
+    return float(0.5 * (unstable + stable))
+
+
+def drivetrain_notes(load):
+    """Plain sentences on what the drivetrain figures mean for stability."""
+    notes = []
+    own = load.hinge_stiffness_n_m_rad
+    if not load.plant_stable:
+        notes.append(
+            f"the open-loop plant is statically unstable: the aiding hinge stiffness "
+            f"{own:.4g} N*m/rad puts a mechanical pole at +{load.plant_unstable_pole_rad_s:.4g} "
+            "rad/s; only feedback can hold the fin"
+        )
+    low, high = load.stable_hinge_stiffness_n_m_rad
+    if low is None and high is None:
+        notes.append("the closed loop is unstable for every hinge stiffness scanned")
+        return notes
+    inside = (low is None or own > low) and (high is None or own < high)
+    span = (f"{'-inf' if low is None else f'{low:.4g}'} .. "
+            f"{'+inf' if high is None else f'{high:.4g}'} N*m/rad")
+    if inside:
+        margin = [] if low is None else [f"{own - low:.4g} N*m/rad more aiding stiffness"]
+        margin += [] if high is None else [f"{high - own:.4g} N*m/rad more opposing"]
+        notes.append(f"closed loop stable for hinge stiffness {span} at the fin; it is lost "
+                     f"with {' or '.join(margin) or 'no stiffness within the scan'}")
+    else:
+        notes.append(f"closed loop unstable at this hinge stiffness ({own:.4g} N*m/rad); "
+                     f"the nearest stable range is {span}")
+    return notes
