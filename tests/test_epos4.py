@@ -342,3 +342,33 @@ def test_insert_variant_with_four_space_indentation_and_a_trailing_comment():
     assert "    v:\n        position_loop.Kp: 6343500 uA/rad" in new
     assert new.index("# about w") < new.index("    v:") < new.index("# next section")
     assert list(yaml.safe_load(new)["variants"]) == ["w", "v"]
+
+
+# --------------------------------------------------------------------------- any input
+
+
+def test_any_text_is_read_or_refused_with_a_config_error(tmp_path):
+    """Whatever the file holds, the reader returns or raises ConfigError (exit 2), never
+    another exception: random INI-ish text built from the pieces of a parameter file."""
+    hypothesis = pytest.importorskip("hypothesis")
+    from hypothesis import strategies as st
+
+    pieces = st.sampled_from([
+        "[30A0sub1]", "[30a1sub03]", "[30A1sub9]", "[3001sub2]", "[FileInfo]", "[", "]", "=",
+        "ParameterValue=", "DefaultValue=", "DataType=0x0007", "DataType=", "0x", "616300",
+        "-1", "4294967296", "0xFA040300", "$NODEID+1", ";c", "#c", " ", "\t", "\n", "\r\n",
+        "é", "\x00", "1.5", "ParameterValue=0x4E20", "DataType=0x0004",
+    ])
+    path = tmp_path / "fuzz.dcf"
+
+    @hypothesis.settings(max_examples=300, deadline=None, database=None,
+                         suppress_health_check=list(hypothesis.HealthCheck))
+    @hypothesis.given(st.lists(pieces, max_size=40))
+    def check(parts):
+        path.write_text("".join(parts), encoding="utf-8", errors="surrogatepass")
+        try:
+            epos4.read_export(path)
+        except ConfigError:
+            pass
+
+    check()

@@ -99,7 +99,8 @@ def run_import(args):
                            "modified, write the result to another file")
 
     export = epos4.read_export(args.export_file)
-    data = read_config_file(config)  # the config must load before it is extended
+    load_all_variants(config)  # the config must load as it is before it is extended
+    data = read_config_file(config)
     text = config.read_bytes()[:MAX_FILE_BYTES].decode("utf-8")
     if args.variant in (data.get("variants") or {}) and not args.force:
         raise ConfigError(f"{config}: variant {args.variant!r} exists; choose another --variant "
