@@ -5,13 +5,14 @@
 >>> act.analyze().closed_loop.bandwidth_rad_s        # every figure of ``analyze --json``
 >>> act.frequency_response(omega).plot()             # Bode of L_i, L_p and T
 >>> act.simulate(step="10 deg").plot()               # nonlinear step: fin angle and current
+>>> act.simulate_profile("10 deg", "2000 deg/s", "1e5 deg/s^2").profile  # a profile move
 >>> act.vary({"position_loop.Kp": np.linspace(2, 12, 200)}).analyze().closed_loop.bandwidth_rad_s
 
 Nothing is computed here: each method calls the engine the CLI uses (:mod:`cas_freq.config`,
 :mod:`cas_freq.analysis`, :mod:`cas_freq.simulation`, :mod:`cas_freq.model`), so every figure
 is the one the matching command prints. The figures are defined in docs/model.md. matplotlib
 and python-control are imported only by :meth:`FrequencyResponse.plot`,
-:meth:`StepResponse.plot` and :meth:`Actuator.to_control`.
+:meth:`StepResponse.plot`, :meth:`ProfileResponse.plot` and :meth:`Actuator.to_control`.
 """
 
 import dataclasses
@@ -157,6 +158,33 @@ class Actuator:
 
         return StepResponse.of(step_run(self.loaded, angle(str(step), "step")))
 
+    def simulate_profile(self, distance="10 deg", velocity="2000 deg/s",
+                         acceleration="1e5 deg/s^2", deceleration=None):
+        """A profile move of the fin, with and without feed-forward, as ``cas-freq simulate
+        --profile``.
+
+        Parameters
+        ----------
+        distance : str or float
+            The move at the fin (``"10 deg"``; a number is rad), non-zero, within ±90°.
+        velocity : str or float
+            Velocity limit at the fin (``"2000 deg/s"``; a number is rad/s) [> 0].
+        acceleration, deceleration : str or float
+            Acceleration and deceleration (default: the acceleration) limits at the fin
+            (``"1e5 deg/s^2"``; a number is rad/s^2) [> 0].
+
+        Returns
+        -------
+        ProfileResponse
+        """
+        from cas_freq.simulation.profile_run import make_profile, profile_run
+
+        move = make_profile(distance, velocity, acceleration, deceleration,
+                            names={"distance": "distance", "velocity": "velocity",
+                                   "acceleration": "acceleration",
+                                   "deceleration": "deceleration"})
+        return ProfileResponse.of(profile_run(self.loaded, move))
+
     def vary(self, changes):
         """Many variants at once: this one with some keys changed per sample.
 
@@ -281,6 +309,61 @@ class StepResponse:
         from cas_freq.plots.api import step_figure
 
         return step_figure(self)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class ProfileResponse:
+    """A simulated profile move of the fin (the config's feed-forward acting).
+
+    Attributes
+    ----------
+    time_s : numpy.ndarray
+        Sample times [s].
+    fin_angle_deg, command_deg : numpy.ndarray
+        Fin angle and profile command [deg].
+    current_a, voltage_v : numpy.ndarray
+        Motor current [A] and terminal voltage [V].
+    profile : cas_freq.simulation.profile_figures.ProfileFigures
+        Tracking error, overshoot, settling and arrival times, largest current and voltage.
+    without_feedforward : cas_freq.simulation.profile_figures.ProfileFigures
+        The same figures of the move with ff_v = ff_a = 0.
+    run : cas_freq.simulation.profile_run.ProfileRun
+        Both runs and everything ``cas-freq simulate --profile`` has.
+    """
+
+    time_s: np.ndarray
+    fin_angle_deg: np.ndarray
+    command_deg: np.ndarray
+    current_a: np.ndarray
+    voltage_v: np.ndarray
+    profile: object
+    without_feedforward: object
+    run: object
+
+    @classmethod
+    def of(cls, run):
+        """The view of a :class:`cas_freq.simulation.profile_run.ProfileRun`."""
+        r = run.result
+        return cls(r.t, np.degrees(r.delta), np.degrees(r.command), r.i, r.V, run.profile,
+                   run.without_feedforward, run)
+
+    def to_dict(self):
+        """JSON-ready dict: the JSON of ``cas-freq simulate --profile ... --json``."""
+        from cas_freq.simulation.profile_run import profile_run_dict
+
+        return profile_run_dict(self.run)
+
+    def plot(self):
+        """Command and fin angle [deg], and tracking error [deg], with and without
+        feed-forward, against time [ms].
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from cas_freq.plots.profile import profile_figure
+
+        return profile_figure(self.run)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

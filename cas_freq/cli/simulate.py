@@ -1,5 +1,5 @@
-"""``cas-freq simulate``: the nonlinear step, its figures and the second-order fit; or any
-command from a CSV table."""
+"""``cas-freq simulate``: the nonlinear step, its figures and the second-order fit; a profile
+move with and without feed-forward; or any command from a CSV table."""
 
 from cas_freq.cli.common import (
     EXIT_OK,
@@ -30,6 +30,18 @@ def register(commands):
         help="fin command from a CSV of time [s], angle [deg] (optional header; held after "
         "its last point)",
     )
+    what.add_argument(
+        "--profile", metavar="DIST",
+        help="trapezoidal profile move of DIST at the fin (e.g. 10deg), as the drive's profile "
+        "position mode moves; needs --velocity and --acceleration",
+    )
+    parser.add_argument("--velocity", metavar="V",
+                        help="profile velocity limit at the fin, e.g. 2000deg/s (motor side: x "
+                        "the gear ratio)")
+    parser.add_argument("--acceleration", metavar="A",
+                        help="profile acceleration limit at the fin, e.g. 1e5deg/s^2")
+    parser.add_argument("--deceleration", metavar="D",
+                        help="profile deceleration limit at the fin (default: --acceleration)")
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.add_argument("--csv", metavar="FILE", help="write the time series to FILE (for several "
                         "variants: FILE's stem.<variant>.csv per variant, e.g. out.base.csv, "
@@ -53,6 +65,7 @@ def run(args):
         step_runs,
     )
 
+    move = _profile(args)
     variants = load_variants(args)
     if args.csv and len(variants) > 1:
         for loaded in variants:
@@ -64,6 +77,12 @@ def run(args):
         command = read_command_csv(args.command)
         runs = [command_run(loaded, command, progress=progress) for loaded in variants]
         to_dict, to_table = command_run_dict, command_table
+    elif move is not None:
+        from cas_freq.report.profile import profile_table
+        from cas_freq.simulation.profile_run import profile_run_dict, profile_runs
+
+        runs = profile_runs(variants, move, progress=progress)
+        to_dict, to_table = profile_run_dict, profile_table
     else:
         runs = step_runs(variants, angle(args.step, "--step"), progress=progress)
         to_dict, to_table = step_run_dict, step_table
@@ -81,3 +100,25 @@ def run(args):
     else:
         print("\n\n".join(to_table(result) for result in runs))
     return EXIT_OK
+
+
+def _profile(args):
+    """The :class:`~cas_freq.simulation.commands.Profile` of ``--profile`` and its limits, or
+    None without ``--profile`` (when the limits must not be given either)."""
+    from cas_freq.exceptions import CasFreqError
+
+    limits = {"velocity": args.velocity, "acceleration": args.acceleration,
+              "deceleration": args.deceleration}
+    if args.profile is None:
+        given = [f"--{name}" for name, value in limits.items() if value is not None]
+        if given:
+            raise CasFreqError(f"{', '.join(given)}: only with --profile DIST (a profile move)")
+        return None
+    missing = [f"--{name}" for name in ("velocity", "acceleration") if limits[name] is None]
+    if missing:
+        raise CasFreqError(f"--profile: needs {' and '.join(missing)} (e.g. --profile 10deg "
+                           "--velocity 2000deg/s --acceleration 1e5deg/s^2)")
+    from cas_freq.simulation.profile_run import make_profile
+
+    return make_profile(args.profile, **limits,
+                        names={"distance": "--profile", **{k: f"--{k}" for k in limits}})

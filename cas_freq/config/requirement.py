@@ -1,12 +1,14 @@
 """A requirement of a config's ``requirements:`` list, and the figures it may refer to.
 
 A requirement names a figure by its dotted key in the JSON of ``analyze``
-(``closed_loop.bandwidth_rad_s``), ``simulate`` (``step.overshoot_pct``, ``fit.zeta``) or
-``sinedwell`` (``sinedwell.bandwidth_rad_s``), bounds it with ``min`` and/or ``max``, and states
-the test condition the figure needs (``step`` for step and fit figures, ``amplitude`` for the
-sine-dwell). Bounds are stored in the figure's own unit, the one its key's suffix names
-(``_rad_s`` rad/s, ``_deg`` deg, ``_db`` dB, ``_pct`` %, ``_s`` s, ``_a`` A, ``_v`` V); a bound
-may be a plain number in that unit or a string with any unit of the same dimension.
+(``closed_loop.bandwidth_rad_s``), ``simulate`` (``step.overshoot_pct``, ``fit.zeta``),
+``sinedwell`` (``sinedwell.bandwidth_rad_s``) or ``simulate --profile``
+(``profile.tracking_error_max_deg``), bounds it with ``min`` and/or ``max``, and states the test
+condition the figure needs (``step`` for step and fit figures, ``amplitude`` for the sine-dwell,
+``profile`` -- distance, velocity, acceleration -- for a profile move). Bounds are stored in the
+figure's own unit, the one its key's suffix names (``_rad_s`` rad/s, ``_deg`` deg, ``_db`` dB,
+``_pct`` %, ``_s`` s, ``_a`` A, ``_v`` V); a bound may be a plain number in that unit or a
+string with any unit of the same dimension.
 """
 
 import math
@@ -30,8 +32,16 @@ _STEP_FIGURES = (
     "max_current_a", "max_voltage_v",
 )
 _FIT_FIGURES = ("wn_rad_s", "zeta", "td_s", "bandwidth_closed_form_rad_s", "rms_residual")
+#: Figures of a profile move (:class:`~cas_freq.simulation.profile_figures.ProfileFigures`),
+#: measured with the config's feed-forward.
+_PROFILE_FIGURES = (
+    "tracking_error_max_deg", "tracking_error_rms_deg", "overshoot_pct", "settling_time_s",
+    "settling_time_5pct_s", "arrival_time_s", "arrival_time_5pct_s", "max_current_a",
+    "max_voltage_v",
+)
 
-#: Figure key -> the command whose JSON holds it: ``analyze``, ``step`` or ``sinedwell``.
+#: Figure key -> the command whose JSON holds it: ``analyze``, ``step``, ``sinedwell`` or
+#: ``profile`` (``simulate --profile``).
 METRICS = {
     **{f"{loop}.{name}": "analyze" for loop in ("current_loop", "position_loop")
        for name in _LOOP_FIGURES},
@@ -40,6 +50,7 @@ METRICS = {
     **{f"step.{name}": "step" for name in _STEP_FIGURES},
     **{f"fit.{name}": "step" for name in _FIT_FIGURES},
     "sinedwell.bandwidth_rad_s": "sinedwell",
+    **{f"profile.{name}": "profile" for name in _PROFILE_FIGURES},
 }
 
 #: Key suffix -> unit (as pint spells it; "dB" is handled without pint).
@@ -131,6 +142,73 @@ def parse_frequency_spec(spec):
     return tuple(sorted(set(values.tolist())))
 
 
+def _quantity_field(value, unit, example, what):
+    """A value with a unit (a string; a plain number is refused) as a float in ``unit``."""
+    text = f"give {what} with a unit (e.g. '{example}'), got {value!r}"
+    if not isinstance(value, str):
+        raise PydanticCustomError("cas_value", text)
+    try:
+        number = to_si(value, unit)
+        unitless = not has_unit(value)
+    except (TypeError, ValueError) as exc:
+        raise PydanticCustomError("cas_value", f"{text} ({exc})") from None
+    if unitless:
+        raise PydanticCustomError("cas_value", text)
+    return number
+
+
+class ProfileCondition(BaseModel):
+    """The move a ``profile.*`` requirement is measured on (values at the fin, SI inside).
+
+    Attributes
+    ----------
+    distance : float
+        The move [rad], non-zero, within ±90 deg (negative: the other way).
+    velocity : float
+        Velocity limit [rad/s], > 0.
+    acceleration : float
+        Acceleration limit [rad/s^2], > 0.
+    deceleration : float or None
+        Deceleration limit [rad/s^2], > 0; None: the acceleration.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    distance: float
+    velocity: float
+    acceleration: float
+    deceleration: float | None = None
+
+    @field_validator("distance", mode="before")
+    @classmethod
+    def _distance(cls, value):
+        number = _quantity_field(value, "rad", "10 deg", "the move at the fin")
+        if not (number != 0 and abs(number) <= math.pi / 2):
+            raise PydanticCustomError(
+                "cas_value", f"must be non-zero and within ±90 deg at the fin, got {value!r}"
+            )
+        return number
+
+    @field_validator("velocity", "acceleration", "deceleration", mode="before")
+    @classmethod
+    def _limit(cls, value, info):
+        if value is None:
+            return value
+        unit, example, what = (("rad/s", "2000 deg/s", "a speed at the fin")
+                               if info.field_name == "velocity" else
+                               ("rad/s^2", "1e5 deg/s^2", "an acceleration at the fin"))
+        number = _quantity_field(value, unit, example, what)
+        if not number > 0:
+            raise PydanticCustomError("cas_value", f"must be > 0, got {value!r}")
+        return number
+
+    def command(self):
+        """The :class:`~cas_freq.simulation.commands.Profile` of this condition."""
+        from cas_freq.simulation.commands import Profile
+
+        return Profile(self.distance, self.velocity, self.acceleration, self.deceleration)
+
+
 class Requirement(BaseModel):
     """One requirement on one figure, checked for every variant by ``cas-freq verify``.
 
@@ -153,6 +231,9 @@ class Requirement(BaseModel):
     frequencies : tuple of float or None
         Sine-dwell frequencies [rad/s] (``MIN:MAX:N`` log-spaced or a list in the config);
         None for the ``sinedwell`` command's default grid.
+    profile : ProfileCondition or None
+        The profile move (``distance``, ``velocity``, ``acceleration``, optional
+        ``deceleration``, each with a unit) the ``profile.*`` figures are measured on.
     description : str
         Free text shown beside the verdict.
     """
@@ -168,6 +249,7 @@ class Requirement(BaseModel):
     step: float | None = None
     amplitude: float | None = None
     frequencies: tuple[float, ...] | None = None
+    profile: ProfileCondition | None = None
     description: str = ""
 
     @field_validator("metric")
@@ -235,18 +317,20 @@ class Requirement(BaseModel):
                 "cas_value", f"{self.id}: min {self.min:g} is above max {self.max:g}"
             )
         kind = METRICS[self.metric]
-        needs = {"step": "step", "sinedwell": "amplitude"}.get(kind)
+        needs = {"step": "step", "sinedwell": "amplitude", "profile": "profile"}.get(kind)
         if self.frequencies is not None and kind != "sinedwell":
             raise PydanticCustomError(
                 "cas_value", f"{self.id}: 'frequencies' does not apply to {self.metric}"
             )
-        for condition in ("step", "amplitude"):
+        for condition in ("step", "amplitude", "profile"):
             given = getattr(self, condition) is not None
             if condition == needs and not given:
+                example = ("{distance: 10 deg, velocity: 2000 deg/s, acceleration: 1e5 deg/s^2}"
+                           if condition == "profile" else "10 deg")
                 raise PydanticCustomError(
                     "cas_value",
                     f"{self.id}: {self.metric} needs the test condition '{condition}' "
-                    f"(e.g. {condition}: 10 deg)",
+                    f"(e.g. {condition}: {example})",
                 )
             if condition != needs and given:
                 raise PydanticCustomError(
@@ -261,7 +345,8 @@ class Requirement(BaseModel):
 
     @property
     def kind(self):
-        """``analyze``, ``step`` or ``sinedwell``: what must run to measure the figure."""
+        """``analyze``, ``step``, ``sinedwell`` or ``profile``: what must run to measure the
+        figure."""
         return METRICS[self.metric]
 
     def passes(self, value):

@@ -455,7 +455,7 @@ def footer_text(datas):
     return text + "."
 
 
-def report_blocks(datas, figure_blocks, settings, command=None):
+def report_blocks(datas, figure_blocks, settings, command=None, extra=()):
     """Every block of the report, in order: the verdict, the parameters, the summary, the
     requirement verdicts, the reference (if declared), one section per variant, the footer.
 
@@ -467,6 +467,8 @@ def report_blocks(datas, figure_blocks, settings, command=None):
     settings : ReportSettings
     command : str, optional
         The command that regenerates the report, shown near the top.
+    extra : sequence of blocks
+        Sections shown after the reference (the profile moves, :mod:`cas_freq.report.profile`).
     """
     params = datas[0].loaded.params
     amplitudes = ", ".join(f"{math.degrees(a):g}°" for a in settings.amplitudes_rad)
@@ -491,7 +493,7 @@ def report_blocks(datas, figure_blocks, settings, command=None):
     blocks += [Heading(2, "Parameters"), parameter_table(datas),
                Heading(2, "Summary"), summary_table(datas),
                Heading(2, "Requirement verdicts"), *verdict_blocks(datas),
-               *reference_blocks(datas)]
+               *reference_blocks(datas), *extra]
     for data, figures in zip(datas, figure_blocks, strict=True):
         blocks += variant_blocks(data, figures, settings)
     blocks.append(Paragraph(footer_text(datas)))
@@ -660,7 +662,10 @@ def report_files(datas, settings, *, png=False, command=None, rendered=None):
     for k, data in enumerate(datas):
         figure_blocks.append((yield from _figure_files(
             data, png, None if rendered is None else rendered[k])))
-    blocks = report_blocks(datas, figure_blocks, settings, command)
+    from cas_freq.report.profile import profile_section
+
+    profile = yield from profile_section(datas, png)  # nothing without a profile requirement
+    blocks = report_blocks(datas, figure_blocks, settings, command, profile.blocks)
     params = datas[0].loaded.params
     yield "results.json", results_json({
         "config": params.name,
@@ -671,6 +676,7 @@ def report_files(datas, settings, *, png=False, command=None, rendered=None):
                          "config_sha256": config_hash(datas[0].loaded.source)},
         "reference": reference_dict(params.reference),
         "variants": [variant_results(d) for d in datas],
+        **profile.results,
         "figures": {d.loaded.variant: sorted(b.path for b in f.values())
                     for d, f in zip(datas, figure_blocks, strict=True)},
     })

@@ -207,6 +207,110 @@ class Table:
         return np.asarray(self.angle_rad[-1])
 
 
+@dataclasses.dataclass(frozen=True, eq=False)
+class Profile:
+    r"""Trapezoidal move of ``distance_rad`` [rad] at the fin from ``start_s`` [s], as a drive's
+    profile position mode moves (the EPOS4's, with profile velocity, acceleration and
+    deceleration; docs/model.md, "Profile moves").
+
+    The speed rises at ``acceleration_rad_s2`` to the peak speed, holds it, and falls at
+    ``deceleration_rad_s2`` (default: the acceleration) to stop at the target; the acceleration
+    is piecewise constant. With distance :math:`D = |	ext{distance}|`, limits :math:`v, a, d`:
+
+    .. math::
+
+        v_p = \min\left(v, \sqrt{rac{2 D a d}{a + d}}ight),\quad
+        t_a = rac{v_p}{a},\quad t_d = rac{v_p}{d},\quad
+        t_c = rac{D}{v_p} - rac{v_p}{2a} - rac{v_p}{2d}
+
+    and the move lasts :math:`T = t_a + t_c + t_d`: a trapezoid when the distance is long enough
+    to reach :math:`v` (:math:`t_c > 0`), a triangle (:math:`t_c = 0`) otherwise. A negative
+    distance moves the other way. Limits are positive speeds and accelerations (their
+    magnitudes); the distance may be an array of shape (n_runs,), the limits scalars.
+    """
+
+    distance_rad: float | np.ndarray
+    velocity_rad_s: float
+    acceleration_rad_s2: float
+    deceleration_rad_s2: float | None = None
+    start_s: float = 0.0
+
+    #: The response to a move settles: the simulator may extend its horizon until it does.
+    settles = True
+
+    def __post_init__(self):
+        distance = np.asarray(self.distance_rad, dtype=float)
+        if not (np.all(np.isfinite(distance)) and np.all(distance != 0)):
+            raise ConfigError(f"profile: distance must be finite and non-zero [rad], got "
+                              f"{self.distance_rad!r}")
+        if self.deceleration_rad_s2 is None:
+            object.__setattr__(self, "deceleration_rad_s2", self.acceleration_rad_s2)
+        for name, unit in (("velocity_rad_s", "rad/s"), ("acceleration_rad_s2", "rad/s^2"),
+                           ("deceleration_rad_s2", "rad/s^2")):
+            value = getattr(self, name)
+            ok = isinstance(value, (int, float, np.floating, np.integer)) and \
+                not isinstance(value, bool) and math.isfinite(value) and value > 0
+            if not ok:
+                raise ConfigError(f"profile: {name} must be a finite number > 0 {unit}, "
+                                  f"got {value!r}")
+        if not (isinstance(self.start_s, (int, float)) and math.isfinite(self.start_s)
+                and self.start_s >= 0):
+            raise ConfigError(f"profile: start_s must be a finite time >= 0 s, got "
+                              f"{self.start_s!r}")
+        object.__setattr__(self, "distance_rad", distance if distance.ndim else float(distance))
+
+    @property
+    def peak_rate_rad_s(self):
+        """Largest speed of the move [rad/s] (> 0): the velocity limit, or less (a triangle)."""
+        a, d = self.acceleration_rad_s2, self.deceleration_rad_s2
+        reach = np.sqrt(2.0 * np.abs(self.distance_rad) * a * d / (a + d))
+        return np.minimum(self.velocity_rad_s, reach)
+
+    def phases(self):
+        """(t_a, t_c, t_d) [s]: accelerating, cruising and decelerating times of the move."""
+        peak = self.peak_rate_rad_s
+        a, d = self.acceleration_rad_s2, self.deceleration_rad_s2
+        cruise = np.abs(self.distance_rad) / peak - 0.5 * peak / a - 0.5 * peak / d
+        return peak / a, np.maximum(cruise, 0.0), peak / d
+
+    @property
+    def move_time_s(self):
+        """How long the move lasts [s] (the largest of a batch's)."""
+        return float(np.max(sum(self.phases())))
+
+    @property
+    def duration_s(self):
+        """Time the move ends [s] (from t = 0, as :attr:`Table.duration_s`)."""
+        return self.start_s + self.move_time_s
+
+    def fin(self, t, left=False):
+        """Angle [rad], rate [rad/s], accel. [rad/s^2] at ``t`` [s] (left limits if ``left``)."""
+        tau = _since(t, self.start_s)
+        t_a, t_c, t_d = self.phases()
+        t_2 = t_a + t_c  # the deceleration starts
+        total = t_2 + t_d
+        sign = np.sign(self.distance_rad)
+        a, d = self.acceleration_rad_s2, self.deceleration_rad_s2
+        peak, distance = self.peak_rate_rad_s, np.abs(self.distance_rad)
+        accelerating = _after(tau, 0.0, left) & ~_after(tau, t_a, left)
+        cruising = _after(tau, t_a, left) & ~_after(tau, t_2, left)
+        decelerating = _after(tau, t_2, left) & ~_after(tau, total, left)
+        # each phase's closed form on its own interval, clipped so that the angle is continuous
+        rising = np.clip(tau, 0.0, t_a)
+        remaining = np.clip(total - tau, 0.0, t_d)
+        angle = np.where(tau < t_a, 0.5 * a * rising**2,
+                         np.where(tau < t_2, 0.5 * a * t_a**2 + peak * (tau - t_a),
+                                  distance - 0.5 * d * remaining**2))
+        rate = np.where(accelerating, a * rising, 0.0) + np.where(cruising, peak, 0.0) \
+            + np.where(decelerating, d * remaining, 0.0)
+        accel = np.where(accelerating, a, 0.0) - np.where(decelerating, d, 0.0)
+        return sign * angle, sign * rate, sign * accel
+
+    def final_rad(self):
+        """The value the command holds at the end [rad]."""
+        return np.asarray(self.distance_rad, dtype=float)
+
+
 def read_command_csv(path):
     """Read a user command: time [s] >= 0 and fin angle [deg], as :func:`read_angle_series_csv`.
 
@@ -372,7 +476,7 @@ def motor_command(command, ratio, t, left=False):
 
     Parameters
     ----------
-    command : Step, Ramp, Sine, Chirp or Table
+    command : Step, Ramp, Sine, Chirp, Table or Profile
         Fin command.
     ratio : float or numpy.ndarray
         Gear ratio N [-].

@@ -3,8 +3,9 @@
 Each figure is computed exactly as the command that prints it computes it, so a verdict can be
 reproduced by hand: ``analyze`` (exact delays, default range) for loop and closed-loop figures,
 ``simulate --step`` for ``step.*`` and ``fit.*``, ``sinedwell`` (feed-forward off) for
-``sinedwell.bandwidth_rad_s``. Runs shared by several requirements (the same step size, the
-same amplitude and grid) are done once.
+``sinedwell.bandwidth_rad_s``, ``simulate --profile`` (the config's feed-forward) for
+``profile.*``. Runs shared by several requirements (the same step size, the same amplitude and
+grid, the same move) are done once.
 """
 
 import math
@@ -63,6 +64,13 @@ def measure(variants, requirements, known=None):
         runs = step_batch([(variants[index], size) for index in missing], verdicts) \
             if missing else []
         steps[size].update(zip(missing, runs, strict=True))
+    moves = {}
+    for condition in dict.fromkeys(r.profile for r in requirements if r.kind == "profile"):
+        from cas_freq.simulation.profile_run import profile_runs
+
+        runs = profile_runs([variants[index] for index in stable], condition.command(),
+                            verdicts) if stable else []
+        moves[condition] = dict(zip(stable, runs, strict=True))
     out = []
     for index, loaded in enumerate(variants):
         values, context = {}, {}
@@ -78,6 +86,13 @@ def measure(variants, requirements, known=None):
                 run = steps[requirement.step][index]
                 values[key] = figure(run, requirement.metric)
                 context[key] = f"nonlinear step of {run.step.amplitude_deg:g} deg"
+            elif requirement.kind == "profile":
+                from cas_freq.simulation.profile_run import profile_condition_text
+
+                run = moves[requirement.profile][index]
+                values[key] = figure(run, requirement.metric)
+                context[key] = (f"profile move of {profile_condition_text(run.move)}, "
+                                "feed-forward as configured")
             else:
                 condition = (requirement.amplitude, requirement.frequencies)
                 if condition not in dwells:

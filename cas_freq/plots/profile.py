@@ -1,0 +1,57 @@
+"""Figure of a profile move: command and fin angle, and the tracking error, with and without
+feed-forward (the API's ``ProfileResponse.plot()`` and the report's profile section)."""
+
+import numpy as np
+from matplotlib.figure import Figure
+
+#: (which run, legend label, line style) of the two runs drawn.
+_RUNS = (
+    ("result", "with feed-forward", "-"),
+    ("result_without_feedforward", "without feed-forward", "--"),
+)
+
+
+def profile_figure(run):
+    """Fin angle against its profile command, and the tracking error, against time.
+
+    Parameters
+    ----------
+    run : cas_freq.simulation.profile_run.ProfileRun
+        The move, simulated with and without feed-forward.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two axes sharing the time axis [ms]: command and fin angle [deg]; tracking error
+        delta_cmd - delta [deg]. The move's span is shaded.
+    """
+    move_end = run.move.start_s + run.move.move_time_s
+    # up to the later of the two runs' 2 % arrivals, with room after it (not the whole horizon)
+    arrivals = [f.arrival_time_s for f in (run.profile, run.without_feedforward)]
+    view_end = run.move.start_s + 1.5 * max([run.move.move_time_s, *(
+        a for a in arrivals if np.isfinite(a))])
+    fig = Figure(figsize=(8, 6), layout="constrained")
+    angle, error = fig.subplots(2, 1, sharex=True)
+    first = run.result
+    keep = first.t <= view_end
+    angle.plot(1e3 * first.t[keep], np.degrees(first.command[keep]), color="k", ls=":", lw=0.9,
+               label="command δ_cmd")
+    for name, label, style in _RUNS:
+        result = getattr(run, name)
+        keep = result.t <= view_end
+        t_ms = 1e3 * result.t[keep]
+        angle.plot(t_ms, np.degrees(result.delta[keep]), ls=style, label=f"δ, {label}")
+        error.plot(t_ms, np.degrees(result.command[keep] - result.delta[keep]), ls=style,
+                   label=label)
+    for ax in (angle, error):
+        ax.axvspan(1e3 * run.move.start_s, 1e3 * move_end, color="0.9", zorder=0)
+        ax.grid(True, alpha=0.35)
+    angle.set_ylabel("fin angle [deg]")
+    angle.set_title(f"profile move of {run.profile.distance_deg:g}° (nonlinear, limits and "
+                    "delays; the move shaded)")
+    angle.legend()
+    error.axhline(0.0, color="k", lw=0.6)
+    error.set_ylabel("tracking error δ_cmd − δ [deg]")
+    error.set_xlabel("time [ms]")
+    error.legend()
+    return fig
