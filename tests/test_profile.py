@@ -432,8 +432,9 @@ def test_report_section(tmp_path, base):
     assert kinds[0] is Heading and Table in kinds and Figure in kinds
     table = next(block for block in made.blocks if isinstance(block, Table))
     assert table.header == ("figure", "unit", "base, with ff", "base, without ff")
-    assert made.results["profile_moves"][0]["variants"][0]["profile"][
-        "tracking_error_max_deg"] == pytest.approx(1.748, rel=1e-3)
+    moved = made.results["profile_moves"][0]["variants"][0]
+    assert moved["profile"]["tracking_error_max_deg"] == pytest.approx(1.748, rel=1e-3)
+    assert moved["figure"] == "figures/base/profile_1.svg"
 
 
 def test_api_simulate_profile():

@@ -178,8 +178,10 @@ def profile_section(datas, png=False):
                                       for which in ("with ff", "without ff")))
         blocks.append(Table(header, _table_rows(runs),
                             f"profile move {number_}: with and without the feed-forward"))
+        paths = []
         for run in runs:
             stem = f"figures/{sanitise_name(run.variant, fallback='variant')}/profile_{number_}"
+            paths.append(f"{stem}.svg")
             svg, png_data = _draw(run, png)
             yield f"{stem}.svg", svg
             if png:
@@ -188,7 +190,8 @@ def profile_section(datas, png=False):
                 f"{stem}.svg", f"Profile move {number_}: command and fin angle, tracking error, "
                 f"with and without feed-forward — {run.config} / {run.variant}", svg))
         results.append({"condition": profile_condition_text(move),
-                        "variants": [profile_run_dict(run) for run in runs]})
+                        "variants": [{**profile_run_dict(run), "figure": path}
+                                     for run, path in zip(runs, paths, strict=True)]})
     return ProfileSection(blocks, results)
 
 
