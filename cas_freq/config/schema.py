@@ -11,7 +11,14 @@ Keys follow docs/model.md and the report's symbols (``Kp``, ``Ki``, ``Kd``, ``Tf
 
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    field_validator,
+    model_validator,
+)
 from pydantic_core import PydanticCustomError
 
 from cas_freq.config.requirement import Requirement
@@ -261,6 +268,38 @@ class Reference(_Section):
     fit: ReferenceFit | None = None
 
 
+class LoadEnvelopeSpec(_Section):
+    """What the report's load envelope sweeps (:mod:`cas_freq.studies.envelope`).
+
+    ``hinge_stiffness``: the grid of ``load.hinge_stiffness`` at the fin, ``MIN:MAX:N`` (N
+    evenly spaced, 2 <= N <= 201) or a list, numbers in N*m/rad or strings with a unit;
+    ``variants``: which variants (default every variant); ``step``: the fin step of the step
+    figures (default the first step requirement's).
+    """
+
+    hinge_stiffness: tuple[float, ...]
+    variants: tuple[str, ...] | None = None
+    step: float | None = None
+
+    @field_validator("hinge_stiffness", mode="before")
+    @classmethod
+    def _grid(cls, value):
+        from cas_freq.exceptions import ConfigError
+        from cas_freq.studies.sweep import parse_grid_values
+
+        text = ",".join(str(v) for v in value) if isinstance(value, (list, tuple)) else value
+        try:
+            values = parse_grid_values("load.hinge_stiffness", str(text))
+        except ConfigError as exc:
+            raise PydanticCustomError("cas_value", str(exc).replace("--set ", "")) from None
+        if not 2 <= values.size <= 201:
+            raise PydanticCustomError(
+                "cas_value", f"expected 2 to 201 hinge stiffness values, got {values.size}")
+        return tuple(float(v) for v in values)
+
+    _step_angle = field_validator("step", mode="before")(Requirement._angle.__func__)
+
+
 class ActuatorConfig(_Section):
     """A whole actuator: motor, gear, both loops, and the named variants of the file."""
 
@@ -274,7 +313,19 @@ class ActuatorConfig(_Section):
     simulation: Simulation = Simulation()
     requirements: tuple[Requirement, ...] = ()
     reference: Reference | None = None
+    load_envelope: LoadEnvelopeSpec | None = None
     variants: dict[str, dict[str, Any] | None] = {}
+
+    @model_validator(mode="after")
+    def _envelope_variants(self):
+        names = (BASE_VARIANT, *self.variants)
+        envelope = self.load_envelope
+        unknown = [n for n in (envelope.variants or ()) if n not in names] if envelope else []
+        if unknown:
+            raise PydanticCustomError(
+                "cas_value", f"load_envelope.variants: unknown variant(s) {', '.join(unknown)}; "
+                f"accepted: {', '.join(names)}")
+        return self
 
     @model_validator(mode="after")
     def _drivetrain(self):

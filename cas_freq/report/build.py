@@ -468,7 +468,8 @@ def report_blocks(datas, figure_blocks, settings, command=None, extra=()):
     command : str, optional
         The command that regenerates the report, shown near the top.
     extra : sequence of blocks
-        Sections shown after the reference (the profile moves, :mod:`cas_freq.report.profile`).
+        Sections shown after the reference (the profile moves and the load envelope,
+        :mod:`cas_freq.report.profile`, :mod:`cas_freq.report.envelope`).
     """
     params = datas[0].loaded.params
     amplitudes = ", ".join(f"{math.degrees(a):g}°" for a in settings.amplitudes_rad)
@@ -662,10 +663,13 @@ def report_files(datas, settings, *, png=False, command=None, rendered=None):
     for k, data in enumerate(datas):
         figure_blocks.append((yield from _figure_files(
             data, png, None if rendered is None else rendered[k])))
+    from cas_freq.report.envelope import envelope_section
     from cas_freq.report.profile import profile_section
 
     profile = yield from profile_section(datas, png)  # nothing without a profile requirement
-    blocks = report_blocks(datas, figure_blocks, settings, command, profile.blocks)
+    envelope = yield from envelope_section(datas, png)  # nothing without a load_envelope:
+    blocks = report_blocks(datas, figure_blocks, settings, command,
+                           (*profile.blocks, *envelope.blocks))
     params = datas[0].loaded.params
     yield "results.json", results_json({
         "config": params.name,
@@ -677,6 +681,7 @@ def report_files(datas, settings, *, png=False, command=None, rendered=None):
         "reference": reference_dict(params.reference),
         "variants": [variant_results(d) for d in datas],
         **profile.results,
+        **envelope.results,
         "figures": {d.loaded.variant: sorted(b.path for b in f.values())
                     for d, f in zip(datas, figure_blocks, strict=True)},
     })

@@ -1,0 +1,84 @@
+"""The load envelope figure: figures of merit against hinge stiffness (matplotlib).
+
+Three panels sharing the hinge-stiffness axis (at the fin, N*m/rad): the linear bandwidth, the
+position loop's phase and gain margins, and the nonlinear step's overshoot (when simulated).
+Requirement bounds are drawn as lines, the stiffness where each required requirement is lost
+as a vertical line, and the hinge stiffness where the closed loop is not stable is shaded.
+Plotted data are rounded as every report figure (:func:`cas_freq.plots.common.rounded`).
+"""
+
+import numpy as np
+
+from cas_freq.plots.common import Margins, figure, legend_room_right, rounded
+
+#: (figure key, axis label, panel) of the plotted series.
+_SERIES = (
+    ("closed_loop.bandwidth_rad_s", "ω_BW linear (−3 dB of T)", 0),
+    ("position_loop.phase_margin_deg", "L_p phase margin [deg]", 1),
+    ("position_loop.gain_margin_db", "L_p gain margin (upper) [dB]", 1),
+    ("step.overshoot_pct", "step overshoot", 2),
+)
+_PANEL_LABELS = ("ω_BW [rad/s]", "margin [deg], [dB]", "overshoot [%]")
+
+
+def envelope_figure(envelope, config_name):
+    """The figure of one :class:`cas_freq.studies.envelope.LoadEnvelope`."""
+    panels = 3 if "step.overshoot_pct" in envelope.figures else 2
+    margins = Margins(left=0.8, right=2.6, bottom=0.6, top=0.45, hgap=0.15)
+    fig, axes = figure(panels, 1, (8.0, 1.9 * panels + 1.0), sharex=True, margins=margins)
+    axes = axes[:, 0]
+    k = rounded(envelope.hinge_stiffness)
+    unstable = envelope.stability.astype(str) != "stable"
+    for ax in axes:
+        _shade(ax, k, unstable)
+        ax.axvline(envelope.nominal_n_m_rad, color="0.4", lw=1, ls=":")
+        ax.grid(True, alpha=0.3)
+    for key, label, panel in _SERIES:
+        if panel < panels and key in envelope.figures:
+            axes[panel].plot(k, rounded(envelope.figures[key]), "o-", ms=3, label=label)
+    by_metric = {}
+    for requirement in envelope.requirements:
+        by_metric.setdefault(requirement.metric, []).append(requirement)
+    for key, _, panel in _SERIES:
+        if panel >= panels:
+            continue
+        for requirement in by_metric.get(key, ()):
+            _bounds(axes[panel], requirement)
+    for ax, label in zip(axes, _PANEL_LABELS, strict=False):
+        ax.set_ylabel(label)
+    axes[-1].set_xlabel("hinge stiffness K_h at the fin [N·m/rad] (> 0 opposes, < 0 aids)")
+    fig.suptitle(f"Load envelope — {config_name} / {envelope.variant} (dotted: the variant's "
+                 "own K_h; shaded: closed loop not stable)", fontsize=9)
+    for ax in axes:
+        handles, labels = ax.get_legend_handles_labels()
+        if handles:
+            legend = ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.02, 1.0),
+                               fontsize=7, frameon=False)
+            legend_room_right(fig, margins, legend)
+    return fig
+
+
+def _shade(ax, k, unstable):
+    """Shade the runs of grid points where the loop is not stable (half a step either side)."""
+    if not unstable.any():
+        return
+    edges = np.concatenate([[k[0]], 0.5 * (k[1:] + k[:-1]), [k[-1]]])
+    start = None
+    for j, flag in enumerate(np.append(unstable, False)):
+        if flag and start is None:
+            start = j
+        elif not flag and start is not None:
+            ax.axvspan(edges[start], edges[j], color="C3", alpha=0.12, lw=0)
+            start = None
+
+
+def _bounds(ax, requirement):
+    """The requirement's bound(s) and where it is lost."""
+    for bound in (requirement.min, requirement.max):
+        if bound is not None:
+            ax.axhline(bound, color="C3", ls="-.", lw=1,
+                       label=f"{requirement.id} bound {bound:g}")
+    for loss in (requirement.lost_below, requirement.lost_above):
+        if loss is not None:
+            ax.axvline(loss.at, color="C3", lw=1,
+                       label=f"{requirement.id} lost at K_h = {loss.at:.3g}")

@@ -1,0 +1,177 @@
+"""The report's "Load envelope" section (shown when the config has a ``load_envelope:``).
+
+For each chosen variant: where the closed loop is stable in hinge stiffness, each
+requirement's verdict at the variant's own stiffness and the stiffness at which it is lost on
+either side (:mod:`cas_freq.studies.envelope`), a table of the figures on the grid, and a
+figure (:mod:`cas_freq.plots.envelope`).
+"""
+
+import math
+
+import numpy as np
+
+from cas_freq.report.numbers import number
+
+#: Most rows of an envelope table (the figure shows every grid point).
+TABLE_ROWS = 17
+
+#: (column, unit, figure key) of the envelope table.
+_COLUMNS = (
+    ("ω_BW", "rad/s", "closed_loop.bandwidth_rad_s"),
+    ("T peak", "dB", "closed_loop.peak_db"),
+    ("PM_p", "deg", "position_loop.phase_margin_deg"),
+    ("GM_p", "dB", "position_loop.gain_margin_db"),
+    ("PM_i", "deg", "current_loop.phase_margin_deg"),
+    ("overshoot", "%", "step.overshoot_pct"),
+    ("settling 2 %", "ms", "step.settling_time_s"),
+)
+
+
+class EnvelopeSection:
+    """The section's blocks and its results.json entry (empty without ``load_envelope:``)."""
+
+    def __init__(self, blocks=(), results=None):
+        self.blocks = tuple(blocks)
+        self.results = {} if results is None else {"load_envelope": results}
+
+
+def _bound_text(requirement):
+    parts = []
+    if requirement.min is not None:
+        parts.append(f"≥ {requirement.min:g}")
+    if requirement.max is not None:
+        parts.append(f"≤ {requirement.max:g}")
+    return " and ".join(parts)
+
+
+def _loss_text(loss, side, envelope):
+    if loss is None:
+        end = envelope.hinge_stiffness[0 if side == "below" else -1]
+        return f"holds to the grid's end ({number(float(end), 4)} N·m/rad)"
+    why = "the closed loop goes unstable" if loss.how == "unstable" else "the bound is crossed"
+    return (f"lost {side} K_h ≈ {number(loss.at, 4)} N·m/rad ({why}; between "
+            f"{number(loss.between[0], 4)} and {number(loss.between[1], 4)})")
+
+
+def requirement_items(envelope):
+    """One sentence per requirement: its verdict at the nominal stiffness, and its losses."""
+    items = []
+    for r in envelope.requirements:
+        head = f"{r.id} ({r.severity}, {r.metric} {_bound_text(r)})"
+        if not r.evaluated:
+            items.append(f"{head}: not evaluated ({r.reason}).")
+        elif not r.at_nominal:
+            held = envelope.hinge_stiffness[r.passed]
+            where = ("holds nowhere on the grid" if not held.size else
+                     f"holds on grid points from {number(float(held.min()), 4)} to "
+                     f"{number(float(held.max()), 4)} N·m/rad (not necessarily all between)")
+            items.append(f"{head}: FAILS at the variant's own K_h "
+                         f"({number(envelope.nominal_n_m_rad, 4)} N·m/rad); {where}.")
+        else:
+            items.append(f"{head}: holds at the variant's own K_h; aiding side: "
+                         f"{_loss_text(r.lost_below, 'below', envelope)}; opposing side: "
+                         f"{_loss_text(r.lost_above, 'above', envelope)}.")
+    return items
+
+
+def table_rows(envelope):
+    """Rows of the envelope table: at most :data:`TABLE_ROWS` grid points, evenly chosen, and
+    always the variant's own stiffness."""
+    grid = envelope.hinge_stiffness
+    picks = np.unique(np.round(np.linspace(0, grid.size - 1, min(TABLE_ROWS, grid.size))))
+    nominal = int(np.flatnonzero(grid == envelope.nominal_n_m_rad)[0])
+    picks = sorted({*picks.astype(int).tolist(), nominal})
+    columns = [c for c in _COLUMNS if c[2] in envelope.figures]
+    rows = []
+    for j in picks:
+        failing = [r.id for r in envelope.requirements if r.evaluated and not r.passed[j]]
+        cells = []
+        stable = str(envelope.stability[j]) == "stable"
+        for _, unit, key in columns:
+            value = float(envelope.figures[key][j])
+            # closed-loop and step figures of a loop that is not stable are not shown (verify
+            # does not trust them); the open-loop margins say how far it is from stability
+            trusted = stable or not key.startswith(("closed_loop.", "step."))
+            value = value if math.isfinite(value) and trusted else None
+            cells.append(number(value * 1e3 if unit == "ms" and value is not None else value, 4))
+        label = number(float(grid[j]), 4) + (" (own)" if j == nominal else "")
+        rows.append((label, str(envelope.stability[j]), *cells, ", ".join(failing) or "—"))
+    header = ("K_h [N·m/rad]", "closed loop", *(f"{name} [{unit}]" for name, unit, _ in columns),
+              "requirements failed")
+    return header, tuple(rows)
+
+
+def envelope_section(datas, png=False):
+    """Compute and lay out the load envelope of each chosen variant.
+
+    A generator: yields (path, content) of each variant's figure and returns an
+    :class:`EnvelopeSection`.
+
+    Parameters
+    ----------
+    datas : list of cas_freq.report.data.VariantData
+    png : bool
+        Also write each figure as PNG.
+    """
+    from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
+    from cas_freq.report.outdir import sanitise_name
+    from cas_freq.studies.envelope import envelope_dict, load_envelope
+
+    params = datas[0].loaded.params
+    spec = params.load_envelope
+    if spec is None:
+        return EnvelopeSection()
+    wanted = spec.variants or tuple(d.loaded.variant for d in datas)
+    chosen = [d for d in datas if d.loaded.variant in wanted]
+    grid = spec.hinge_stiffness
+    blocks = [Heading(2, "Load envelope"), Paragraph(
+        f"Every figure against the hinge stiffness K_h at the fin (the aerodynamic hinge moment "
+        f"−K_h·δ; > 0 opposes deflection, < 0 aids it, a statically unstable surface), from "
+        f"{number(min(grid), 4)} to {number(max(grid), 4)} N·m/rad ({len(grid)} points, the "
+        "config's load_envelope: section), each variant's other load and drivetrain values "
+        "kept. Requirements are checked at every point as `cas-freq verify` checks them (a "
+        "figure of a loop that is not stable never passes); where one is lost is found by "
+        "bisection between grid points, of the requirement's verdict or, where the loop goes "
+        "unstable first, of the Padé model's stability verdict. Figures need not vary "
+        "smoothly: the bandwidth drops at once where a low-frequency dip of T (the hinge "
+        "spring taking the loop's stiffness until the integrator catches up) crosses −3 dB.")]
+    missing = [name for name in wanted if name not in {d.loaded.variant for d in datas}]
+    if missing:
+        blocks.append(Paragraph(f"Not in this report (not selected): {', '.join(missing)}."))
+    results = []
+    for data in chosen:
+        envelope = load_envelope(data.loaded, grid, spec.step)
+        low, high = envelope.stable_range
+        span = ("nowhere on the scan" if low is None and high is None else
+                f"for K_h from {'−∞' if low is None else number(low, 4)} to "
+                f"{'+∞' if high is None else number(high, 4)} N·m/rad")
+        step = ("" if envelope.step_deg is None else
+                f" Step figures: nonlinear {envelope.step_deg:g}° fin steps.")
+        blocks += [
+            Heading(3, f"Load envelope ({data.loaded.variant})"),
+            Paragraph(f"Own hinge stiffness {number(envelope.nominal_n_m_rad, 4)} N·m/rad. "
+                      f"The closed loop is stable {span}.{step}"),
+            Bullets(tuple(requirement_items(envelope))),
+        ]
+        header, rows = table_rows(envelope)
+        blocks.append(Table(header, rows, f"load envelope of {data.loaded.variant} (every "
+                                          "grid point is in results.json and the figure)"))
+        stem = f"figures/{sanitise_name(data.loaded.variant, fallback='variant')}/load_envelope"
+        svg, png_data = _draw(envelope, params.name, png)
+        yield f"{stem}.svg", svg
+        if png:
+            yield f"{stem}.png", png_data
+        blocks.append(Figure(f"{stem}.svg", f"Load envelope: bandwidth, margins and step "
+                             f"overshoot against hinge stiffness — {params.name} / "
+                             f"{data.loaded.variant}", svg))
+        results.append(envelope_dict(envelope))
+    return EnvelopeSection(blocks, results)
+
+
+def _draw(envelope, config_name, png):
+    """(SVG text, PNG bytes or None) of the envelope's figure (imports matplotlib)."""
+    from cas_freq.plots.common import png_bytes, svg_text
+    from cas_freq.plots.envelope import envelope_figure
+
+    fig = envelope_figure(envelope, config_name)
+    return svg_text(fig), png_bytes(fig) if png else None
