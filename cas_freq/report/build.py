@@ -28,6 +28,7 @@ from cas_freq.report.data import (
     variant_results,
 )
 from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
+from cas_freq.report.drivetrain import drivetrain_blocks
 from cas_freq.report.numbers import JSON_DIGITS, number, rounded_json
 from cas_freq.report.outdir import sanitise_name, write_directory_atomic
 
@@ -332,6 +333,7 @@ def variant_blocks(data, figure_blocks, settings):
         f"{a.stability.pade_order} model); every frequency response below uses exact delays."))
     if a.notes:
         blocks.append(Bullets(tuple(a.notes)))
+    blocks += drivetrain_blocks(data)
     blocks += [Heading(3, f"Frequency response ({data.loaded.variant})"), margins_table(a),
                crossings_table(a, data.curve_range_rad_s), closed_loop_table(a)]
     blocks += [figure_blocks[n] for n in ("bode_loops", "closed_loop", "sensitivity", "nichols",

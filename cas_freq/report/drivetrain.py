@@ -1,0 +1,67 @@
+"""The "Load and drivetrain" part of a loaded variant's report section.
+
+The linear figures of :mod:`cas_freq.analysis.drivetrain` as a table, and a sentence naming the
+nonlinear load terms that act in this variant's step and sine-dwell simulations (so that the
+figures beside the linear ones are read as what they are).
+"""
+
+import math
+
+from cas_freq.report.numbers import number
+
+
+def _modes(modes):
+    return "; ".join(f"{number(m.frequency_rad_s, 4)} rad/s (ζ {number(m.damping, 3)})"
+                     for m in modes) or "—"
+
+
+def nonlinear_terms(params):
+    """The nonlinear load terms of a config as text, or None when there is none."""
+    terms = []
+    if params.motor.coulomb_friction:
+        terms.append(f"Coulomb friction {number(params.motor.coulomb_friction * 1e3, 4)} mN·m "
+                     "on the motor shaft")
+    if params.gear.backlash:
+        terms.append(f"backlash {number(math.degrees(params.gear.backlash), 4)}° (total, at "
+                     "the fin)")
+    if params.load.hinge_bias:
+        terms.append(f"a constant hinge moment {number(params.load.hinge_bias, 4)} N·m")
+    if params.gear.backdrive != params.gear.efficiency:
+        terms.append(f"backdrive efficiency {number(params.gear.backdrive, 3)}"
+                     + (" (self-locking)" if params.gear.backdrive == 0 else "")
+                     + f" against the forward {number(params.gear.efficiency, 3)}")
+    return ", ".join(terms) if terms else None
+
+
+def drivetrain_blocks(data):
+    """Blocks for a loaded variant (none for an unloaded one)."""
+    from cas_freq.report.document import Paragraph, Table
+
+    load = data.analysis.drivetrain
+    if load is None:
+        return []
+    low, high = load.stable_hinge_stiffness_n_m_rad
+    span = ("none scanned" if low is None and high is None else
+            f"{'−∞' if low is None else number(low, 4)} .. "
+            f"{'+∞' if high is None else number(high, 4)}")
+    rows = (
+        ("gear", "", "compliant (two masses)" if load.compliant else "rigid"),
+        ("reflected inertia J_eff", "kg·m²", number(load.reflected_inertia_kg_m2, 4)),
+        ("reflected damping μ_eff", "N·m·s/rad", number(load.reflected_damping_n_m_s_rad, 4)),
+        ("reflected hinge stiffness k_eff", "N·m/rad", number(load.reflected_stiffness_n_m_rad,
+                                                               4)),
+        ("open-loop plant", "", "stable" if load.plant_stable else
+         f"UNSTABLE, pole at +{number(load.plant_unstable_pole_rad_s, 4)} rad/s"),
+        ("resonances (poles of θ/i)", "", _modes(load.resonances)),
+        ("anti-resonances (zeros of θ/i)", "", _modes(load.anti_resonances)),
+        ("closed loop stable for K_h (at the fin)", "N·m/rad", span),
+    )
+    blocks = [Table(("load and drivetrain", "unit", "value"), rows,
+                    f"load and drivetrain of {data.loaded.variant} (motor shaft unless named)")]
+    terms = nonlinear_terms(data.loaded.params)
+    if terms:
+        blocks.append(Paragraph(
+            f"Nonlinear load terms in this variant's steps and sine-dwells: {terms}. The linear "
+            "figures above do not see them (they are about the operating point); the step and "
+            "bandwidth-versus-amplitude figures below do, beside the linear ones."))
+    return blocks
