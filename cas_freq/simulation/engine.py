@@ -25,12 +25,17 @@ from scipy.linalg import expm
 from cas_freq.simulation.commands import Step
 from cas_freq.simulation.controllers import Controller
 from cas_freq.simulation.delay_line import DelayLine
+from cas_freq.simulation.mechanics import NX, Drivetrain
 
 #: Names of the signals recorded per sample, in the order of :meth:`Engine.sample`.
 SIGNALS = (
     "theta", "omega", "i", "V", "theta_cmd", "current_command", "position_integral",
     "current_limited", "voltage_limited",
 )
+#: Signals recorded after :data:`SIGNALS` when some run of the batch is loaded
+#: (:mod:`~cas_freq.simulation.mechanics`): the fin's angle [rad] and rate [rad/s], states of a
+#: compliant gear (a rigid gear's follow the motor, theta/N and omega/N).
+LOAD_SIGNALS = ("delta", "omega_L")
 
 _CHUNK = 2048
 
@@ -156,8 +161,14 @@ class Engine:
         n = p.n_runs
         self.dt = dt
         self.commands = commands
-        self.phi, self.g_a, self.g_b = plant_step_matrices(p, dt)
-        self.x = np.zeros((n, 3))  # (i, omega, theta) per run
+        # a batch with some loaded run: the 5-state plant of mechanics.py for every run
+        self.drivetrain = Drivetrain(p, dt) if np.any(p.loaded) else None
+        #: Names of the signals of :meth:`sample` and :meth:`advance`.
+        self.signals = SIGNALS if self.drivetrain is None else SIGNALS + LOAD_SIGNALS
+        if self.drivetrain is None:
+            self.phi, self.g_a, self.g_b = plant_step_matrices(p, dt)
+        self.x = np.zeros((n, 3 if self.drivetrain is None else NX))  # (i, omega, theta, ...)
+        self.omega_before = np.zeros(n)  # omega one step earlier (loaded plant)
         self._next = np.empty((n, 3))
         self._inputs = np.empty((n, 3))
         self._volts = np.empty((n, 3))
@@ -246,14 +257,17 @@ class Engine:
         return tuple(np.array(value) for value in self.sample())
 
     def sample(self):
-        """The recorded signals at the present step, in the order of :data:`SIGNALS`.
+        """The recorded signals at the present step, in the order of :attr:`signals`.
 
         Some are views of the engine's state, valid until the next step.
         """
-        return (
+        values = (
             self.x[:, 2], self.x[:, 1], self.x[:, 0], self.v, self.theta_cmd, self.i_cmd,
             self.cp_Ki * self.position.integral, self.current_limited, self.voltage_limited,
         )
+        if self.drivetrain is None:
+            return values
+        return values + (self.x[:, 4], self.x[:, 3])
 
     def advance(self, n_steps, record_every=1):
         """Advance ``n_steps`` steps; record every ``record_every``-th sample.
@@ -261,14 +275,14 @@ class Engine:
         Returns
         -------
         tuple of (numpy.ndarray, dict of str to numpy.ndarray)
-            Times of the recorded samples [s] and each signal of :data:`SIGNALS`, shape
+            Times of the recorded samples [s] and each signal of :attr:`signals`, shape
             (n_runs, n_samples).
         """
         first = self.k + 1
         steps = np.arange(first, first + n_steps)
         kept = steps[steps % record_every == 0]
-        n = self.x.shape[0]
-        states = np.empty((kept.size, n, 3))
+        n, nx = self.x.shape
+        states = np.empty((kept.size, n, nx))
         volts, theta_cmd, i_cmd, integral = (np.empty((kept.size, n)) for _ in range(4))
         limited = np.zeros((2, kept.size, n), dtype=bool)
         position, current = self.position, self.current
@@ -299,7 +313,9 @@ class Engine:
             theta_cmd=theta_cmd, current_command=i_cmd, position_integral=self.cp_Ki * integral,
             current_limited=limited[0], voltage_limited=limited[1],
         )
-        return kept * self.dt, {name: out[name].T for name in SIGNALS}
+        if self.drivetrain is not None:
+            out.update(delta=states[:, :, 4], omega_L=states[:, :, 3])
+        return kept * self.dt, {name: out[name].T for name in self.signals}
 
     def _step(self, left, right):
         """One step: the plant over [t_k, t_k+1], then the controllers at t_k+1.
@@ -314,6 +330,12 @@ class Engine:
             v_next, v_b = line.read(k + 1), v_a
         else:
             v_next, v_b = line.read_limits(k + 1)
+        if self.drivetrain is not None:  # the loaded plant, its mode and torques per run
+            x = self.drivetrain.step(self.x, self.omega_before, v_a, v_b)
+            self.omega_before = self.x[:, 1]
+            self.x = x
+            self._controllers(k, v_next, left, right)
+            return
         # x <- Phi x + G_a V_a + G_b V_b, in place and in this order (the rounding of the
         # clamp flags where an output rests exactly at its limit depends on it). Each voltage
         # is first copied into every column: a product without broadcasting is cheaper.
@@ -325,6 +347,11 @@ class Engine:
             volts[...] = v_b[:, None]
         x += np.multiply(self.g_b, volts, out=inputs)
         self._next, self.x = self.x, x
+        self._controllers(k, v_next, left, right)
+
+    def _controllers(self, k, v_next, left, right):
+        """The controllers at t_k+1 after the plant's step from t_k (:meth:`_step`)."""
+        line = self.voltage_line
         self.k = k = k + 1
         self.v = v_next
         self.theta_cmd = right[0]

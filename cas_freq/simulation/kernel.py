@@ -39,9 +39,10 @@ import numba
 import numpy as np
 from numba import njit, prange
 
+from cas_freq.simulation import mechanics as mech
 from cas_freq.simulation.controllers import derivative_filter
 from cas_freq.simulation.delay_line import delay_steps, ring_size
-from cas_freq.simulation.engine import SIGNALS, plant_step_matrices
+from cas_freq.simulation.engine import LOAD_SIGNALS, SIGNALS, plant_step_matrices
 
 # numba's threading layer: workqueue unless NUMBA_THREADING_LAYER chooses. The default order
 # picks GNU OpenMP where present, and a process forked after a parallel kernel ran (a
@@ -103,7 +104,17 @@ _C_LIMITED = 13  # 1.0 where the right-limit output was clamped
 _I_CMD = 14  # current command read at the current controller [A]
 _V = 15  # voltage at the motor terminals at the present step (right limit) [V]
 _THETA_CMD = 16  # motor-angle command at the present step [rad]
-_NS = 17
+_W_BEFORE = 17  # motor speed one step earlier [rad/s] (loaded runs)
+_NS = 18
+
+# The loaded plant's table (mechanics.table): per mode, the matrices; then the run's constants.
+_PER_MODE = mech._PER_MODE
+_M_PHI, _M_GA, _M_GB, _M_H, _M_A1, _M_B1 = mech.PHI, mech.GA, mech.GB, mech.H, mech.A1, mech.B1
+_Q_COMPLIANT, _Q_K_G, _Q_HALF, _Q_TAU_H = (mech.COMPLIANT, mech.K_G, mech.HALF_PLAY,
+                                           mech.TAU_H)
+_Q_J_L, _Q_B_L, _Q_K_H, _Q_F_C = mech.J_LOAD, mech.B_LOAD, mech.K_HINGE, mech.F_COULOMB
+_Q_E_FORWARD, _Q_E_BACK, _Q_LOADED = mech.E_FORWARD, mech.E_BACK, mech.LOADED
+_FORWARD, _BACKDRIVE, _GAP = mech.FORWARD, mech.BACKDRIVE, mech.GAP
 
 # Rows of the float recordings (the bool ones are current_limited, voltage_limited).
 _FLOAT_SIGNALS = SIGNALS[:7]
@@ -377,18 +388,27 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
 @_jit(parallel=True)
 def advance_parallel(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                      right, left, k0, record_every, record_base, floats, flags,
-                     every_c, every_p, has_derivative, dt):
+                     every_c, every_p, has_derivative, dt, q):
     """:func:`advance_serial` with the runs shared among numba's threads (NUMBA_NUM_THREADS)."""
     for run in prange(x.shape[0]):
-        _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
-                     current_left, right, left, k0, record_every, record_base, floats, flags,
-                     every_c, every_p, has_derivative, dt)
+        if q is None:
+            _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
+                         current_left, right, left, k0, record_every, record_base, floats,
+                         flags, every_c, every_p, has_derivative, dt, None)
+        elif q[run, _Q_LOADED] != 0.0:
+            _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
+                         current_left, right, left, k0, record_every, record_base, floats,
+                         flags, every_c, every_p, has_derivative, dt, q)
+        else:
+            _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
+                         current_left, right, left, k0, record_every, record_base, floats,
+                         flags, every_c, every_p, has_derivative, dt, None)
 
 
 @_jit()
 def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                    right, left, k0, record_every, record_base, floats, flags,
-                   every_c, every_p, has_derivative, dt):
+                   every_c, every_p, has_derivative, dt, q):
     """Advance every run from step ``k0`` by ``len(right)`` steps (Engine._step, per run).
 
     Parameters
@@ -404,20 +424,34 @@ def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, curre
         Step k is recorded if ``k % record_every == 0``, in row
         ``k // record_every - record_base``.
     floats, flags : numpy.ndarray
-        Recordings (7, n_runs, rows) and (2, n_runs, rows) of bool, written.
+        Recordings (7, n_runs, rows), or (9, ...) with the fin's angle and rate where ``q`` is
+        given (written for the loaded runs only), and (2, n_runs, rows) of bool, written.
     every_c, every_p, has_derivative, dt
         As for :func:`start_batch`.
+    q : numpy.ndarray or None
+        The loaded plant's table (n_runs, mechanics.COLUMNS) where some run is loaded, else
+        None. Runs with ``q[r, LOADED] == 0`` take the unloaded path (the same machine code
+        as a batch without ``q``: numba prunes the loaded branches where ``q`` is None).
     """
     for r in range(x.shape[0]):
-        _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
-                     current_left, right, left, k0, record_every, record_base, floats, flags,
-                     every_c, every_p, has_derivative, dt)
+        if q is None:
+            _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
+                         current_left, right, left, k0, record_every, record_base, floats,
+                         flags, every_c, every_p, has_derivative, dt, None)
+        elif q[r, _Q_LOADED] != 0.0:
+            _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
+                         current_left, right, left, k0, record_every, record_base, floats,
+                         flags, every_c, every_p, has_derivative, dt, q)
+        else:
+            _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
+                         current_left, right, left, k0, record_every, record_base, floats,
+                         flags, every_c, every_p, has_derivative, dt, None)
 
 
 @_jit()
 def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                  right, left, k0, record_every, record_base, floats, flags,
-                 every_c, every_p, has_derivative, dt):
+                 every_c, every_p, has_derivative, dt, q):
     """Advance run ``r`` (arguments of :func:`advance_serial`).
 
     The run's states are held in local variables over the steps and written back at the end.
@@ -465,6 +499,18 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
     rec_theta, rec_omega, rec_i, rec_v = floats[0, r], floats[1, r], floats[2, r], floats[3, r]
     rec_angle, rec_i_cmd, rec_integral = floats[4, r], floats[5, r], floats[6, r]
     rec_p_limited, rec_c_limited = flags[0, r], flags[1, r]
+    # a loaded run (q given): fin states, constants and recordings (mechanics.py)
+    w_l = d_l = w_before = 0.0
+    compliant = False
+    half = k_g = tau_h = j_l = b_l = k_h = coulomb = e_forward = e_back = 0.0
+    rec_delta, rec_omega_l = rec_theta, rec_omega
+    if q is not None:
+        w_l, d_l, w_before = x[r, 3], x[r, 4], s[r, _W_BEFORE]
+        compliant = q[r, _Q_COMPLIANT] != 0.0
+        half, k_g, tau_h = q[r, _Q_HALF], q[r, _Q_K_G], q[r, _Q_TAU_H]
+        j_l, b_l, k_h, coulomb = q[r, _Q_J_L], q[r, _Q_B_L], q[r, _Q_K_H], q[r, _Q_F_C]
+        e_forward, e_back = q[r, _Q_E_FORWARD], q[r, _Q_E_BACK]
+        rec_delta, rec_omega_l = floats[7, r], floats[8, r]
     for row in range(n_steps):
         k = k0 + row
         # 1. voltage at the terminals over [t_k, t_k+1]: the current controller's output
@@ -496,16 +542,89 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
                 v_b = (1.0 - f_c) * (voltage_left[r, j & mask_c] if j >= 0 else 0.0) + before
                 v = v_b
         # 2. plant (§2): x <- Phi x + G_a V_a + G_b V_b
-        x0 = phi0 * i + phi1 * w + phi2 * th
-        x1 = phi3 * i + phi4 * w + phi5 * th
-        x2 = phi6 * i + phi7 * w + phi8 * th
-        x0 += g_a0 * v_a
-        x1 += g_a1 * v_a
-        x2 += g_a2 * v_a
-        x0 += g_b0 * v_b
-        x1 += g_b1 * v_b
-        x2 += g_b2 * v_b
-        i, w, th = x0, x1, x2
+        if q is None:
+            x0 = phi0 * i + phi1 * w + phi2 * th
+            x1 = phi3 * i + phi4 * w + phi5 * th
+            x2 = phi6 * i + phi7 * w + phi8 * th
+            x0 += g_a0 * v_a
+            x1 += g_a1 * v_a
+            x2 += g_a2 * v_a
+            x0 += g_b0 * v_b
+            x1 += g_b1 * v_b
+            x2 += g_b2 * v_b
+            i, w, th = x0, x1, x2
+        else:
+            # the loaded plant (mechanics.py, Drivetrain.inputs and step, in their order):
+            # contact and spring offset, power and mode, torques, friction, exact step
+            gear = th / ratio - d_l
+            above, below = gear > half, gear < -half
+            dz = offset = 0.0
+            if above:
+                dz, offset = gear - half, -k_g * half
+            elif below:
+                dz, offset = gear + half, k_g * half
+            rate = w / ratio
+            if compliant:
+                power = k_g * dz * rate
+            else:
+                accel = (w - w_before) / (ratio * dt)
+                power = (j_l * accel + b_l * rate + k_h * (th / ratio) - tau_h) * rate
+            if compliant and half > 0.0 and not above and not below:
+                mode = _GAP
+            elif power < 0.0:
+                mode = _BACKDRIVE
+            else:
+                mode = _FORWARD
+            e = e_back if mode == _BACKDRIVE else e_forward
+            c = offset if compliant else 0.0
+            tau_l = tau_h + c
+            tau_m = -(e * c) / ratio
+            base = mode * _PER_MODE
+            if coulomb > 0.0:
+                b_m = q[r, base + _M_B1]
+                a1 = base + _M_A1
+                acc = (q[r, a1] * i + q[r, a1 + 1] * w + q[r, a1 + 2] * th + q[r, a1 + 3] * w_l
+                       + q[r, a1 + 4] * d_l + b_m * tau_m + q[r, base + _M_B1 + 1] * tau_l)
+                stop = (acc + w / dt) / b_m
+                if abs(w) > coulomb * dt * b_m:
+                    tau_f = coulomb * _sign(w)
+                else:
+                    tau_f = min(max(stop, -coulomb), coulomb)
+                tau_m = tau_m - tau_f
+            w_before = w
+            # x <- Phi x + G_a V_a + G_b V_b + H (tau_m, tau_L), as the reference's sums
+            at, ga, gb, h = base + _M_PHI, base + _M_GA, base + _M_GB, base + _M_H
+            x0 = (q[r, at] * i + q[r, at + 1] * w + q[r, at + 2] * th
+                  + q[r, at + 3] * w_l + q[r, at + 4] * d_l)
+            x0 += q[r, ga] * v_a
+            x0 += q[r, gb] * v_b
+            x0 += q[r, h] * tau_m
+            x0 += q[r, h + 1] * tau_l
+            x1 = (q[r, at + 5] * i + q[r, at + 6] * w + q[r, at + 7] * th
+                  + q[r, at + 8] * w_l + q[r, at + 9] * d_l)
+            x1 += q[r, ga + 1] * v_a
+            x1 += q[r, gb + 1] * v_b
+            x1 += q[r, h + 2] * tau_m
+            x1 += q[r, h + 3] * tau_l
+            x2 = (q[r, at + 10] * i + q[r, at + 11] * w + q[r, at + 12] * th
+                  + q[r, at + 13] * w_l + q[r, at + 14] * d_l)
+            x2 += q[r, ga + 2] * v_a
+            x2 += q[r, gb + 2] * v_b
+            x2 += q[r, h + 4] * tau_m
+            x2 += q[r, h + 5] * tau_l
+            x3 = (q[r, at + 15] * i + q[r, at + 16] * w + q[r, at + 17] * th
+                  + q[r, at + 18] * w_l + q[r, at + 19] * d_l)
+            x3 += q[r, ga + 3] * v_a
+            x3 += q[r, gb + 3] * v_b
+            x3 += q[r, h + 6] * tau_m
+            x3 += q[r, h + 7] * tau_l
+            x4 = (q[r, at + 20] * i + q[r, at + 21] * w + q[r, at + 22] * th
+                  + q[r, at + 23] * w_l + q[r, at + 24] * d_l)
+            x4 += q[r, ga + 4] * v_a
+            x4 += q[r, gb + 4] * v_b
+            x4 += q[r, h + 8] * tau_m
+            x4 += q[r, h + 9] * tau_l
+            i, w, th, w_l, d_l = x0, x1, x2, x3, x4
         k += 1
         # 3. position controller at t_k+1 (§4), its output into the delay line tau_p
         angle = ratio * right[row, 0, col]
@@ -587,6 +706,9 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
             rec_integral[out] = cp_ki * p_int
             rec_p_limited[out] = p_limited != 0.0
             rec_c_limited[out] = c_limited != 0.0
+            if q is not None:
+                rec_delta[out] = d_l
+                rec_omega_l[out] = w_l
             next_record += record_every
             out += 1
     x[r, 0], x[r, 1], x[r, 2] = i, w, th
@@ -596,6 +718,8 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
     s[r, _C_INT], s[r, _C_E], s[r, _C_REST] = c_int, c_e, c_rest
     s[r, _C_V_LEFT], s[r, _C_V], s[r, _C_LIMITED] = v_left, v_c, c_limited
     s[r, _I_CMD], s[r, _V], s[r, _THETA_CMD] = i_cmd, v, angle
+    if q is not None:
+        x[r, 3], x[r, 4], s[r, _W_BEFORE] = w_l, d_l, w_before
 
 
 # --- the engine -------------------------------------------------------------------------------
@@ -648,7 +772,12 @@ class CompiledEngine:
         self.m = np.stack([m_c, m_p], axis=1)
         p[:, _F_C], p[:, _F_P] = f_c, f_p
         self.p = p
-        self.x = np.zeros((n, 3))
+        # a batch with some loaded run: the loaded plant's table (mechanics.py) and 5 states
+        loaded = bool(np.any(pr.loaded))
+        self.q = mech.table(pr, dt) if loaded else None
+        #: Names of the signals of :meth:`sample` and :meth:`advance`.
+        self.signals = SIGNALS + LOAD_SIGNALS if loaded else SIGNALS
+        self.x = np.zeros((n, mech.NX if loaded else 3))
         self.s = np.zeros((n, _NS))
         # ring buffers of the delay lines, right and left limits (delay_line.py), of 2**n
         # slots (a slot is then a bit mask, not a division)
@@ -673,12 +802,15 @@ class CompiledEngine:
         return tuple(np.array(value) for value in self.sample())
 
     def sample(self):
-        """The recorded signals at the present step, in the order of :data:`SIGNALS`."""
+        """The recorded signals at the present step, in the order of :attr:`signals`."""
         x, s = self.x, self.s
-        return (
+        values = (
             x[:, 2], x[:, 1], x[:, 0], s[:, _V], s[:, _THETA_CMD], s[:, _I_CMD],
             self.p[:, _CP_KI] * s[:, _P_INT], s[:, _P_LIMITED] != 0, s[:, _C_LIMITED] != 0,
         )
+        if self.q is None:
+            return values
+        return values + (x[:, 4], x[:, 3])
 
     def advance(self, n_steps, record_every=1):
         """Advance ``n_steps`` steps; record every ``record_every``-th sample (Engine.advance).
@@ -686,15 +818,17 @@ class CompiledEngine:
         Returns
         -------
         tuple of (numpy.ndarray, dict of str to numpy.ndarray)
-            Times of the recorded samples [s] and each signal of :data:`SIGNALS`, shape
+            Times of the recorded samples [s] and each signal of :attr:`signals`, shape
             (n_runs, n_samples).
         """
         first = self.k + 1
         base = -(-first // record_every)  # the first recorded step is base * record_every
         rows = (first + n_steps - 1) // record_every - base + 1
         n = self.x.shape[0]
+        q = self.q
+        names = _FLOAT_SIGNALS if q is None else _FLOAT_SIGNALS + LOAD_SIGNALS
         # each run's samples contiguous (the kernel writes them run by run)
-        floats = np.empty((len(_FLOAT_SIGNALS), n, rows))
+        floats = np.empty((len(names), n, rows))
         flags = np.empty((2, n, rows), dtype=np.bool_)
         block = max(64, _BLOCK_VALUES // (1 if n == 1 else self.commands.columns))
         parallel = n > 1 and numba.get_num_threads() > 1 and _PARALLEL.acquire(blocking=False)
@@ -704,15 +838,20 @@ class CompiledEngine:
                 stop = min(start + block, first + n_steps)
                 right, left = self._rows(np.arange(start, stop) * self.dt)
                 advance(*self._args(), right, left, start - 1, record_every, base, floats,
-                        flags, self.every_c, self.every_p, self.has_derivative, self.dt)
+                        flags, self.every_c, self.every_p, self.has_derivative, self.dt, q)
                 self.k = stop - 1
         finally:
             if parallel:
                 _PARALLEL.release()
         kept = np.arange(base, base + rows) * record_every
-        out = dict(zip(_FLOAT_SIGNALS, floats, strict=True))
+        if q is not None:  # the unloaded runs' fin follows the motor (the kernel skips them)
+            unloaded = q[:, mech.LOADED] == 0.0
+            ratio = self.p[unloaded, _RATIO][:, None]
+            floats[7, unloaded] = floats[0, unloaded] / ratio
+            floats[8, unloaded] = floats[1, unloaded] / ratio
+        out = dict(zip(names, floats, strict=True))
         out["current_limited"], out["voltage_limited"] = flags
-        return kept * self.dt, {name: out[name] for name in SIGNALS}
+        return kept * self.dt, {name: out[name] for name in self.signals}
 
 
 def threads():

@@ -58,7 +58,7 @@ import numpy as np
 
 from cas_freq.exceptions import ConfigError, ModelError
 from cas_freq.parameters import LoopParameters
-from cas_freq.simulation.engine import SIGNALS, CommandSet, Engine
+from cas_freq.simulation.engine import CommandSet, Engine
 
 #: Largest default step [s].
 MAX_DEFAULT_STEP_S = 20e-6
@@ -113,6 +113,7 @@ class _Signals:
     settled: object
     current_rate_hz: float | None
     position_rate_hz: float | None
+    omega_L: np.ndarray | None = None
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -124,7 +125,8 @@ class SimulationResult(_Signals):
     t : numpy.ndarray
         Sample times [s].
     delta, theta : numpy.ndarray
-        Fin angle [rad] and motor angle [rad] (theta = N * delta).
+        Fin angle [rad] and motor angle [rad] (theta = N * delta for a rigid gear; a
+        compliant gear's fin angle is its own state, docs/model.md "Load and drivetrain").
     omega, i : numpy.ndarray
         Motor speed [rad/s] and current [A].
     V : numpy.ndarray
@@ -147,6 +149,9 @@ class SimulationResult(_Signals):
         Whether this run settled (None for commands that do not settle, e.g. a sine).
     current_rate_hz, position_rate_hz : float or None
         Rates of sampled controllers; None for continuous ones.
+    omega_L : numpy.ndarray or None
+        Fin rate [rad/s] where some run of the batch is loaded (omega / N for a rigid gear),
+        else None.
     """
 
 
@@ -182,10 +187,11 @@ class BatchResult(_Signals):
             extended = t_end > self.first_t_end_s * (1 + 1e-12)
         fields = {name: getattr(self, name)[index][keep] for name in _ARRAYS}
         settled = None if self.settled is None else bool(self.settled[index])
+        omega_l = None if self.omega_L is None else self.omega_L[index][keep]
         return SimulationResult(
             t=t, **fields, dt_s=self.dt_s, t_end_s=t_end, extended=extended,
             settled=settled, current_rate_hz=self.current_rate_hz,
-            position_rate_hz=self.position_rate_hz,
+            position_rate_hz=self.position_rate_hz, omega_L=omega_l,
         )
 
 
@@ -489,7 +495,8 @@ def simulate_batch(
 
     command_set = CommandSet(commands, p.ratio)
     engine = engine_class(engine)(p, command_set, dt, every_c, every_p)
-    first = dict(zip(SIGNALS, engine.start(), strict=True))
+    names = engine.signals  # SIGNALS, and LOAD_SIGNALS where some run is loaded
+    first = dict(zip(names, engine.start(), strict=True))
     # every signal (n_runs, n_samples): the engines record run by run
     parts = [([0.0], {name: value[:, None] for name, value in first.items()})]
     steps_done, horizon = 0, t_end
@@ -501,10 +508,15 @@ def simulate_batch(
         steps_done = target
         t = np.concatenate([np.asarray(part[0]) for part in parts])
         signals = {name: np.concatenate([part[1][name] for part in parts], axis=1)
-                   for name in SIGNALS}
+                   for name in names}
         parts = [(t, signals)]  # an extended horizon continues from here
         ratio = p.ratio[:, None]
         delta = signals["theta"] / ratio
+        omega_l = None
+        if "delta" in signals:  # a compliant gear's fin angle is a state of its own
+            compliant = np.asarray(p.compliant, dtype=bool)[:, None]
+            delta = np.where(compliant, signals["delta"], delta)
+            omega_l = np.where(compliant, signals["omega_L"], signals["omega"] / ratio)
         command = signals["theta_cmd"] / ratio
         settled = None
         if settles:
@@ -522,7 +534,7 @@ def simulate_batch(
         dt_s=float(dt), t_end_s=float(steps_done * dt), extended=extended, settled=settled,
         current_rate_hz=current_rate_hz, position_rate_hz=position_rate_hz,
         t_end_runs=np.where(np.isnan(run_end), steps_done * dt, run_end) if settles else None,
-        first_t_end_s=float(int(round(t_end / dt)) * dt),
+        first_t_end_s=float(int(round(t_end / dt)) * dt), omega_L=omega_l,
     )
 
 

@@ -1,0 +1,259 @@
+r"""The loaded drivetrain in the simulator: exact steps per mode and the nonlinear terms.
+
+The linear plant with a load, a compliant gear, backdrive and backlash is
+:func:`cas_freq.model.parts.plant_matrices` (docs/model.md and ../shared/MODEL.md, "Load and
+drivetrain"); this module discretises it per mode and decides, per run at the start of every
+step, which mode applies and which constant torques act over the step. Within a step the
+dynamics are the exact linear ones; the switching is explicit (decided from the state at
+:math:`t_k`), so its error is first order in dt at each switch. Runs without any load term
+never come here: the engines keep their unloaded 3-state path for them (the same numbers to
+the bit as without this module).
+
+States (five for every loaded run): :math:`x = (i, \omega, \theta, \omega_L, \delta)`; a rigid
+gear's fin states follow the motor (:math:`\delta = \theta/N`). Inputs: the voltage V, linear
+over the step (first-order hold, as the unloaded plant), and two torques held over the step
+(zero-order hold): :math:`\tau_m` on the motor shaft and :math:`\tau_L` on the fin.
+
+.. math::
+    x_{k+1} = \Phi_m x_k + G_{a,m} V_a + G_{b,m} V_b + H_m (\tau_m, \tau_L)^T
+
+for the mode m, from the exponential of the augmented matrix
+:math:`[[A, B_V, 0, B_\tau], [0, 0, 1/dt, 0], [0, 0, 0, 0], [0, 0, 0, 0]]\,dt` (Franklin, Powell
+& Workman, *Digital Control of Dynamic Systems*, 3rd ed., §6.3.2), one exponential per distinct
+plant and mode.
+
+Modes (:data:`FORWARD`, :data:`BACKDRIVE`, :data:`GAP`):
+
+- **Forward / backdrive.** The gear's reaction on the motor is scaled by
+  :math:`e = 1/\eta` while the motor drives the fin and by :math:`e = \eta_b` while the fin
+  drives the motor (``plant_matrices(backdrive=True)``; :math:`\eta_b = 0` is a self-locking
+  worm: the fin cannot drive the motor). Backdrive when the power the gear delivers to the fin
+  is negative, :math:`P < 0`:
+
+  - rigid gear: :math:`P = (J_L \ddot\delta + b_L \dot\delta + K_h \delta - \tau_h)\,\dot\delta`
+    with :math:`\delta = \theta_k/N`, :math:`\dot\delta = \omega_k/N` and
+    :math:`\ddot\delta = (\omega_k - \omega_{k-1})/(N\,dt)` (the previous step's change;
+    :math:`\omega_{-1} = 0`);
+  - compliant gear: :math:`P = K_g\, dz(\theta_k/N - \delta_k)\, \omega_k/N`.
+
+  :math:`P = 0` (at rest, or inside the play) is forward.
+- **Backlash** (compliant gear only), total play b at the fin:
+  :math:`dz(x) = x - b/2` for :math:`x > b/2`, :math:`x + b/2` for :math:`x < -b/2`, else 0,
+  with :math:`x = \theta/N - \delta`. Inside the play (:data:`GAP`) the spring carries no torque
+  (``plant_matrices(engaged=False)``). In contact the spring torque is
+  :math:`K_g (x \mp b/2)`: the engaged matrices carry :math:`K_g x`, and the constant
+  :math:`c = \mp K_g b/2` enters as :math:`\tau_L \mathrel{+}= c` on the fin and
+  :math:`\tau_m \mathrel{+}= -e\,c/N` on the motor.
+- **Hinge bias** :math:`\tau_h`: :math:`\tau_L \mathrel{+}= \tau_h` (a rigid gear's B reflects
+  it to the motor with e/N).
+- **Coulomb friction** :math:`F_c` on the motor shaft, with a stiction band. With
+  :math:`J_m` the mode's motor-side inertia (:math:`J + e J_L/N^2` rigid, J compliant; 1 over
+  the mode's :math:`B_{\omega,\tau_m}`) and :math:`\tau_{net}` the net motor-side torque of the
+  linear terms at :math:`t_k` (:math:`J_m` times the mode's :math:`\dot\omega` from
+  :math:`A x_k + B_\tau (\tau_m, \tau_L)`: :math:`K_m i - \mu \omega` minus the reflected load
+  or spring, plus the other torques):
+
+  - sliding, :math:`|\omega_k| > F_c\,dt/J_m`: :math:`\tau_m \mathrel{-}= F_c\,
+    \mathrm{sign}(\omega_k)`;
+  - otherwise stuck or breaking away: the friction is the torque that would stop the shaft
+    within the step, clamped to :math:`\pm F_c`:
+    :math:`\tau_f = \mathrm{clip}(\tau_{net} + J_m \omega_k/dt, -F_c, F_c)`,
+    :math:`\tau_m \mathrel{-}= \tau_f`.
+
+  A shaft at rest under a torque below :math:`F_c` therefore stays at rest (to the change of
+  the torque within one step), and a sliding shaft feels the full :math:`F_c` against its
+  motion.
+
+The order per step: contact and spring offset; power and mode; torques; friction; the exact
+step. Both engines (:class:`Drivetrain` vectorised for the numpy reference, the kernel's
+scalar code) perform these operations in this order.
+"""
+
+import numpy as np
+from scipy.linalg import expm
+
+from cas_freq.model.parts import plant_matrices
+
+#: Mode indices: engaged with the motor driving, engaged with the fin driving, inside the play.
+FORWARD, BACKDRIVE, GAP = 0, 1, 2
+MODES = 3
+#: States of a loaded run: i, omega, theta, omega_L, delta.
+NX = 5
+
+# Columns of the kernel's table of a loaded run (:func:`table`): per mode _PER_MODE values from
+# mode * _PER_MODE: Phi (row-major), G_a, G_b, H (row-major, 5 x 2), A's omega row, B's omega
+# row for (tau_m, tau_L); then the run's constants.
+PHI, GA, GB, H, A1, B1 = 0, 25, 30, 35, 45, 50
+_PER_MODE = 52
+COMPLIANT = MODES * _PER_MODE  # 1.0 for a compliant gear
+K_G = COMPLIANT + 1  # gear stiffness [N*m/rad]
+HALF_PLAY = COMPLIANT + 2  # b/2 [rad]
+TAU_H = COMPLIANT + 3  # hinge bias [N*m]
+J_LOAD = COMPLIANT + 4  # load inertia [kg*m^2]
+B_LOAD = COMPLIANT + 5  # load damping [N*m*s/rad]
+K_HINGE = COMPLIANT + 6  # hinge stiffness [N*m/rad]
+F_COULOMB = COMPLIANT + 7  # Coulomb friction [N*m]
+E_FORWARD = COMPLIANT + 8  # 1/eta
+E_BACK = COMPLIANT + 9  # eta_b
+RATIO = COMPLIANT + 10  # N
+LOADED = COMPLIANT + 11  # 1.0 where the run has any load term
+COLUMNS = COMPLIANT + 12
+
+
+def step_matrices(params, dt):
+    """Exact one-step matrices of every run's 5-state plant in each mode.
+
+    Parameters
+    ----------
+    params : LoopParameters
+        Batch parameters.
+    dt : float
+        Step [s].
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        :math:`\\Phi` (n, 3, 5, 5), :math:`G_a`, :math:`G_b` (n, 3, 5), H (n, 3, 5, 2) for
+        (tau_m, tau_L) [per N*m], and the continuous omega rows A[1] (n, 3, 5) and
+        B[1, 1:] (n, 3, 2), modes in the order FORWARD, BACKDRIVE, GAP.
+    """
+    n = params.n_runs
+    a, b = _plants(params)
+    size = NX + 4
+    m = np.zeros((n, MODES, size, size))
+    m[..., :NX, :NX] = a
+    m[..., :NX, NX] = b[..., 0]
+    m[..., NX, NX + 1] = 1.0 / dt
+    m[..., :NX, NX + 2:] = b[..., 1:]
+    flat = (m * dt).reshape(n * MODES, size * size)
+    unique, inverse = np.unique(flat, axis=0, return_inverse=True)
+    e = expm(unique.reshape(-1, size, size))[inverse.reshape(-1)].reshape(n, MODES, size, size)
+    phi = e[..., :NX, :NX].copy()
+    g_a = e[..., :NX, NX] - e[..., :NX, NX + 1]
+    g_b = e[..., :NX, NX + 1].copy()
+    h = e[..., :NX, NX + 2:].copy()
+    return phi, g_a, g_b, h, a[..., 1, :].copy(), b[..., 1, 1:].copy()
+
+
+#: The fields :func:`~cas_freq.model.parts.plant_matrices` reads.
+_PLANT_FIELDS = ("R", "L", "Ke", "Km", "J", "mu_v", "ratio", "eta", "eta_b", "K_g", "J_L",
+                 "b_L", "K_h")
+
+
+def _plants(params):
+    """A (n, 3, 5, 5) and B (n, 3, 5, 3) of every run in the modes FORWARD, BACKDRIVE, GAP.
+
+    ``plant_matrices`` is called for one run at a time (each distinct plant once): in a batch
+    of several runs its 5-state rigid rows divide an (n, 5) array by the (n,) gear ratios,
+    which does not broadcast (fails, or for n = 5 divides by the wrong runs' ratios).
+    """
+    values = np.stack([np.broadcast_to(np.asarray(getattr(params, name), dtype=float),
+                                       (params.n_runs,)) for name in _PLANT_FIELDS], axis=1)
+    unique, first, inverse = np.unique(values, axis=0, return_index=True, return_inverse=True)
+    a = np.empty((unique.shape[0], MODES, NX, NX))
+    b = np.empty((unique.shape[0], MODES, NX, 3))
+    for row, index in enumerate(first):
+        run = params.run(int(index))
+        for mode, options in enumerate(({}, {"backdrive": True}, {"engaged": False})):
+            a[row, mode], b[row, mode] = (m[0] for m in plant_matrices(run, states=NX,
+                                                                         **options))
+    inverse = inverse.reshape(-1)
+    return a[inverse], b[inverse]
+
+
+def table(params, dt):
+    """The kernel's per-run table (n, :data:`COLUMNS`) of a batch with some loaded run."""
+    p = params
+    n = p.n_runs
+    phi, g_a, g_b, h, a1, b1 = step_matrices(p, dt)
+    q = np.zeros((n, COLUMNS))
+    for mode in range(MODES):
+        base = mode * _PER_MODE
+        q[:, base + PHI:base + GA] = phi[:, mode].reshape(n, 25)
+        q[:, base + GA:base + GB] = g_a[:, mode]
+        q[:, base + GB:base + H] = g_b[:, mode]
+        q[:, base + H:base + A1] = h[:, mode].reshape(n, 10)
+        q[:, base + A1:base + B1] = a1[:, mode]
+        q[:, base + B1:base + _PER_MODE] = b1[:, mode]
+    q[:, COMPLIANT] = p.compliant
+    q[:, K_G], q[:, HALF_PLAY], q[:, TAU_H] = p.K_g, 0.5 * p.backlash, p.tau_h
+    q[:, J_LOAD], q[:, B_LOAD], q[:, K_HINGE], q[:, F_COULOMB] = p.J_L, p.b_L, p.K_h, p.F_c
+    q[:, E_FORWARD], q[:, E_BACK], q[:, RATIO] = 1.0 / p.eta, p.eta_b, p.ratio
+    q[:, LOADED] = p.loaded
+    return q
+
+
+class Drivetrain:
+    """The loaded plant of a batch, stepped with numpy (the reference engine's plant).
+
+    Parameters
+    ----------
+    params : LoopParameters
+        Batch parameters.
+    dt : float
+        Step [s].
+    """
+
+    def __init__(self, params, dt):
+        p = params
+        self.dt = dt
+        self.phi, self.g_a, self.g_b, self.h, self.a1, self.b1 = step_matrices(p, dt)
+        self.compliant = np.asarray(p.compliant, dtype=bool)
+        self.any_compliant = bool(self.compliant.any())
+        self.half = 0.5 * p.backlash
+        self.k_g, self.tau_h, self.ratio = p.K_g, p.tau_h, p.ratio
+        self.j_l, self.b_l, self.k_h, self.f_c = p.J_L, p.b_L, p.K_h, p.F_c
+        self.e = np.stack([1.0 / p.eta, p.eta_b, 1.0 / p.eta], axis=1)  # per mode
+        self.friction = bool(np.any(p.F_c > 0))
+        self.rows = np.arange(p.n_runs)
+
+    def inputs(self, x, omega_before):
+        """Mode (n,) and torques (tau_m, tau_L) (n,) [N*m] for the step from state ``x``.
+
+        ``omega_before`` is the motor speed one step earlier [rad/s] (rigid gear's fin
+        acceleration). The rules of the module docstring, in their order.
+        """
+        dt, ratio = self.dt, self.ratio
+        w, th = x[:, 1], x[:, 2]
+        # contact and spring offset (compliant gear)
+        gear = th / ratio - x[:, 4]
+        half = self.half
+        above, below = gear > half, gear < -half
+        dz = np.where(above, gear - half, np.where(below, gear + half, 0.0))
+        offset = np.where(above, -self.k_g * half, np.where(below, self.k_g * half, 0.0))
+        gap = self.compliant & (half > 0) & ~above & ~below
+        # power the gear delivers to the fin
+        rate = w / ratio
+        accel = (w - omega_before) / (ratio * dt)
+        delta = th / ratio
+        power_rigid = (self.j_l * accel + self.b_l * rate + self.k_h * delta - self.tau_h) * rate
+        power_compliant = self.k_g * dz * rate
+        power = np.where(self.compliant, power_compliant, power_rigid)
+        mode = np.where(gap, GAP, np.where(power < 0.0, BACKDRIVE, FORWARD))
+        e = self.e[self.rows, mode]
+        c = np.where(self.compliant, offset, 0.0)
+        tau_l = self.tau_h + c
+        tau_m = -(e * c) / ratio
+        if self.friction:
+            a1, b1 = self.a1[self.rows, mode], self.b1[self.rows, mode]
+            b_m = b1[:, 0]
+            acc = (a1[:, 0] * x[:, 0] + a1[:, 1] * w + a1[:, 2] * th + a1[:, 3] * x[:, 3]
+                   + a1[:, 4] * x[:, 4] + b_m * tau_m + b1[:, 1] * tau_l)
+            f_c = self.f_c
+            stop = (acc + w / dt) / b_m  # tau_net + J_m omega / dt
+            sliding = np.abs(w) > f_c * dt * b_m
+            tau_f = np.where(sliding, f_c * np.sign(w), np.minimum(np.maximum(stop, -f_c), f_c))
+            tau_m = tau_m - tau_f
+        return mode, tau_m, tau_l
+
+    def step(self, x, omega_before, v_a, v_b):
+        """The state after one step from ``x`` (n, 5) with the voltage from v_a to v_b [V]."""
+        mode, tau_m, tau_l = self.inputs(x, omega_before)
+        rows = self.rows
+        phi, g_a, g_b, h = (m[rows, mode] for m in (self.phi, self.g_a, self.g_b, self.h))
+        out = np.einsum("rij,rj->ri", phi, x)
+        out += g_a * v_a[:, None]
+        out += g_b * v_b[:, None]
+        out += h[:, :, 0] * tau_m[:, None]
+        out += h[:, :, 1] * tau_l[:, None]
+        return out
