@@ -185,6 +185,29 @@ class Actuator:
                                    "deceleration": "deceleration"})
         return ProfileResponse.of(profile_run(self.loaded, move))
 
+    def load_envelope(self, hinge_stiffness, step=None):
+        """Every figure and requirement verdict against hinge stiffness (the report's load
+        envelope, :mod:`cas_freq.studies.envelope`).
+
+        Parameters
+        ----------
+        hinge_stiffness : array_like
+            Hinge stiffness values at the fin [N*m/rad] (> 0 opposes deflection, < 0 aids it).
+        step : str, optional
+            Fin step of the step figures (``"10 deg"``); default the first step requirement's.
+
+        Returns
+        -------
+        cas_freq.studies.envelope.LoadEnvelope
+            ``figures`` per grid point, ``stable_range``, and per requirement its verdicts and
+            where it is lost (``requirements[k].lost_below`` / ``lost_above``).
+        """
+        from cas_freq.cli.common import angle
+        from cas_freq.studies.envelope import load_envelope
+
+        step_rad = None if step is None else angle(str(step), "step")
+        return load_envelope(self.loaded, np.asarray(hinge_stiffness, dtype=float), step_rad)
+
     def vary(self, changes):
         """Many variants at once: this one with some keys changed per sample.
 

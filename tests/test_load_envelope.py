@@ -95,3 +95,16 @@ def test_bad_load_envelope_section_exits_2(tmp_path, section, words):
     code, _, err = run_cli(["analyze", str(path)])
     assert code == 2
     assert words in err
+
+
+def test_api_load_envelope_is_the_study():
+    # Python API: Actuator.load_envelope runs the same study as the report's section.
+    import cas_freq
+
+    act = cas_freq.load(CONFIG, variant="fitted")
+    envelope = act.load_envelope([-10.0, 10.0, 30.0])
+    assert envelope.variant == "fitted"
+    np.testing.assert_array_equal(envelope.hinge_stiffness, [-10.0, 0.0, 10.0, 30.0])
+    bandwidth = next(r for r in envelope.requirements if r.id == "BW-1")
+    assert bandwidth.at_nominal and bandwidth.lost_above.how == "bound"
+    assert 0.0 < bandwidth.lost_above.at < 10.0
