@@ -64,6 +64,14 @@ Modes (:data:`FORWARD`, :data:`BACKDRIVE`, :data:`GAP`):
   the torque within one step), and a sliding shaft feels the full :math:`F_c` against its
   motion.
 
+Where the motion should stop (a shaft held by the gear's friction: the motor torque between
+the backdrive and the forward value, e.g. a self-locking gear holding an aiding load; or by
+Coulomb friction) the explicit rule alternates from step to step (omega changes sign every step
+or two). That is the discrete form of the sticking motion: the speed of the alternation is
+O(dt) (measured: halving dt halves it, 0.013, 0.006, 0.003 rad/s at dt = 5, 2.5, 1.25 us for a
+self-locking gear holding a 0.1 N*m bias) and the position, current and torques converge to
+those of the stuck shaft.
+
 The order per step: contact and spring offset; power and mode; torques; friction; the exact
 step. Both engines (:class:`Drivetrain` vectorised for the numpy reference, the kernel's
 scalar code) perform these operations in this order.
