@@ -14,6 +14,11 @@ position controller (on :math:`\theta`), then the current controller (on :math:`
 current command delayed by :math:`\tau_p`) are updated (:mod:`~cas_freq.simulation.controllers`)
 and their outputs pushed into the delay lines (:mod:`~cas_freq.simulation.delay_line`).
 
+Where some run of the batch has a load or drivetrain term, every run of the batch steps the
+5-state loaded plant of :mod:`~cas_freq.simulation.mechanics` instead (mode and torques decided
+per run at the start of each step), and the fin's angle and rate are recorded as well
+(:data:`LOAD_SIGNALS`). A batch without any keeps the 3-state step below, to the bit.
+
 Continuous controllers are updated every step and read back with linear interpolation, so the
 whole loop is integrated to second order in dt. Sampled controllers are updated every
 ``n`` steps and held (zero-order hold).

@@ -10,6 +10,11 @@ one machine-code loop, ``prange`` over the runs. Per step :math:`t_k \to t_{k+1}
 2. **Plant** (§2): :math:`x_{k+1} = \Phi x_k + G_a V_a + G_b V_b`, the exact step of the linear
    motor for a voltage linear over the step (matrices from
    :func:`~cas_freq.simulation.engine.plant_step_matrices`, computed in numpy and passed in).
+   A loaded run (:mod:`~cas_freq.simulation.mechanics`) steps its 5 states with the matrices of
+   the mode chosen at the step's start and the torques of its nonlinear terms (the table of
+   :func:`~cas_freq.simulation.mechanics.table`); the unloaded runs of the batch keep the
+   3-state step, compiled without the loaded branches (numba prunes them where the table
+   argument is None).
 3. **Position controller** (§4): PID with filtered derivative, feed-forward, clamp to ±i_max,
    anti-windup (:func:`_controller_update`, the scalar form of
    :class:`~cas_freq.simulation.controllers.Controller`); its output enters the delay line τp.

@@ -5,6 +5,10 @@ The loop: PID position controller (derivative on error or on measurement, feed-f
 anti-windup) -> delay tau_c -> motor (i, omega, theta) -> fin angle delta = theta / N. The
 numerics are in :mod:`~cas_freq.simulation.engine`: exact discretisation of the linear plant,
 trapezoidal controllers, delay lines. numpy and scipy only (no python-control, no matplotlib).
+With a load or drivetrain term ("Load and drivetrain" of the model) the plant is the loaded one
+of :mod:`~cas_freq.simulation.mechanics` (load inertia, damping and hinge moment, a compliant
+gear whose fin angle delta is a state of its own, efficiencies, backlash, Coulomb friction);
+runs without any keep the unloaded plant and its numbers.
 
 Engines
 -------
