@@ -215,11 +215,17 @@ def test_analyze_json_agrees_with_an_independent_computation(sets):
 
 
 def test_absent_load_keys_give_the_unloaded_figures_exactly():
-    # docs/model.md: all load keys absent (or explicitly at their defaults) = the report's model.
-    plain = run_cli(["analyze", CONFIG, "--variant", "fitted", "--json"])
-    explicit = run_cli(["analyze", CONFIG, "--variant", "fitted", "--json",
-                        "--set", "load.inertia=0", "--set", "gear.efficiency=1",
-                        "--set", "load.hinge_stiffness=0", "--set", "gear.stiffness=0"])
+    # docs/model.md: all load keys absent (or explicitly at their defaults) = the unloaded
+    # model. On the DC servo config (another actuator; the shipped QT-CAS file's loaded variant
+    # needs its stiffness and inertia, and every variant is checked with the overrides).
+    dc = "configs/dc_servo.yaml"
+    plain = run_cli(["analyze", dc, "--json"])
+    explicit = run_cli(["analyze", dc, "--json", "--set", "load.inertia=0",
+                        "--set", "gear.efficiency=1", "--set", "load.hinge_stiffness=0",
+                        "--set", "gear.stiffness=0", "--set", "load.damping=0",
+                        "--set", "gear.backlash=0", "--set", "motor.coulomb_friction=0",
+                        "--set", "load.hinge_bias=0", "--set", "gear.backdrive_efficiency=1"])
+    assert plain[0] == explicit[0] == 0, explicit[2]
     a, b = json.loads(plain[1]), json.loads(explicit[1])
     for data in (a, b):
         data.pop("overrides")
@@ -254,3 +260,28 @@ def test_bad_drivetrain_values_exit_2_naming_the_key(sets, words):
     code, _, err = run_cli(argv)
     assert code == 2
     assert words in err
+
+
+def test_plant_matrices_of_a_mixed_batch_are_each_runs_own():
+    # A 5-state batch of a rigid run (N = 20) and a compliant one: each row of the batch must be
+    # the run's own matrices (the rigid run's slaved fin rows omega_L' = omega'/N, delta' =
+    # omega/N with its own N); once, the (n,) ratios were broadcast against (n, 5) rows.
+    from cas_freq.model import parts
+
+    rigid = _params(J_L=5e-5, K_h=2.0)
+    compliant = _params(J_L=5e-5, K_h=2.0, K_g=3000.0, ratio=30.0)
+    both = LoopParameters(**{f: np.concatenate([getattr(rigid, f), getattr(compliant, f)])
+                             for f in ("R", "L", "Km", "Ke", "J", "mu_v", "ratio", "ci_Kp",
+                                       "ci_Ki", "v_max", "tau_c", "cp_Kp", "cp_Ki", "cp_Kd",
+                                       "Tf", "ff_v", "ff_a", "i_max", "tau_p",
+                                       "derivative_on_measurement", "K_g", "J_L", "K_h")})
+    for options in ({}, {"backdrive": True}, {"engaged": False}):
+        a, b = parts.plant_matrices(both, **options)
+        a0, b0 = parts.plant_matrices(rigid, states=5, **options)
+        a1, b1 = parts.plant_matrices(compliant, **options)
+        np.testing.assert_array_equal(a[0], a0[0])
+        np.testing.assert_array_equal(a[1], a1[0])
+        np.testing.assert_array_equal(b[0], b0[0])
+        np.testing.assert_array_equal(b[1], b1[0])
+        np.testing.assert_allclose(a[0, 3], a[0, 1] / 20.0, rtol=1e-15)
+        np.testing.assert_allclose(a[0, 4, 1], 1.0 / 20.0, rtol=1e-15)

@@ -227,16 +227,17 @@ def plant_matrices(p, states=None, backdrive=False, engaged=True):
         return a, b
     k_g = np.where(compliant & engaged, p.K_g, 0.0)
     j_load = np.where(compliant, p.J_L, 1.0)
+    column = np.broadcast_to(np.asarray(ratio, dtype=float), (n,))[:, None]  # per run
     a[:, 1, 2] -= e * k_g / ratio**2 / j
     a[:, 1, 4] = e * k_g / ratio / j
     a[:, 3] = np.where(compliant[:, None],
                        np.stack([np.zeros(n), np.zeros(n), k_g / ratio / j_load,
                                  -p.b_L / j_load + np.zeros(n),
                                  -(k_g + p.K_h) / j_load + np.zeros(n)], axis=1),
-                       a[:, 1] / ratio)
+                       a[:, 1] / column)
     b[:, 3] = np.where(compliant[:, None],
                        np.stack([np.zeros(n), np.zeros(n), 1.0 / j_load], axis=1),
-                       b[:, 1] / ratio)
+                       b[:, 1] / column)
     a[:, 4, 3] = np.where(compliant, 1.0, 0.0)
     a[:, 4, 1] = np.where(compliant, 0.0, 1.0 / ratio)
     return a, b

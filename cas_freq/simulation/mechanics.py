@@ -83,8 +83,6 @@ step. Both engines (:class:`Drivetrain` vectorised for the numpy reference, the 
 scalar code) perform these operations in this order.
 """
 
-import functools
-import types
 
 import numpy as np
 from scipy.linalg import expm
@@ -152,55 +150,13 @@ def step_matrices(params, dt):
     return phi, g_a, g_b, h, a[..., 1, :].copy(), b[..., 1, 1:].copy()
 
 
-#: The fields :func:`~cas_freq.model.parts.plant_matrices` reads.
-_PLANT_FIELDS = ("R", "L", "Ke", "Km", "J", "mu_v", "ratio", "eta", "eta_b", "K_g", "J_L",
-                 "b_L", "K_h")
 _MODE_OPTIONS = ({}, {"backdrive": True}, {"engaged": False})
 
 
-@functools.cache
-def _batches_broadcast():
-    """Whether ``plant_matrices`` gives a 5-state batch of several runs correctly.
-
-    At commit 368eb49 it does not: the rigid runs' slaved rows divide an (n, 5) array by the
-    (n,) gear ratios, which fails to broadcast (or, for n = 5, divides by the wrong runs'
-    ratios). Checked on two runs (rigid with N = 2, compliant with N = 3) against the slaved
-    row omega_L' = omega'/N of its docstring.
-    """
-    two = types.SimpleNamespace(
-        R=np.array([1.0, 1.0]), L=np.array([1.0, 1.0]), Ke=np.array([1.0, 1.0]),
-        Km=np.array([1.0, 1.0]), J=np.array([1.0, 1.0]), mu_v=np.array([1.0, 1.0]),
-        ratio=np.array([2.0, 3.0]), eta=np.array([1.0, 1.0]), eta_b=np.array([1.0, 1.0]),
-        K_g=np.array([0.0, 1.0]), J_L=np.array([1.0, 1.0]), b_L=np.array([1.0, 1.0]),
-        K_h=np.array([1.0, 1.0]))
-    try:
-        a, b = plant_matrices(two, states=NX)
-    except ValueError:
-        return False
-    return bool(np.array_equal(a[0, 3], a[0, 1] / 2.0) and np.array_equal(b[0, 3], b[0, 1] / 2.0))
-
-
 def _plants(params):
-    """A (n, 3, 5, 5) and B (n, 3, 5, 3) of every run in the modes FORWARD, BACKDRIVE, GAP.
-
-    From ``plant_matrices`` on the whole batch where it broadcasts (:func:`_batches_broadcast`),
-    else one run at a time (each distinct plant once).
-    """
-    if _batches_broadcast():
-        modes = [plant_matrices(params, states=NX, **options) for options in _MODE_OPTIONS]
-        return (np.stack([m[0] for m in modes], axis=1), np.stack([m[1] for m in modes], axis=1))
-    values = np.stack([np.broadcast_to(np.asarray(getattr(params, name), dtype=float),
-                                       (params.n_runs,)) for name in _PLANT_FIELDS], axis=1)
-    unique, inverse = np.unique(values, axis=0, return_inverse=True)
-    a = np.empty((unique.shape[0], MODES, NX, NX))
-    b = np.empty((unique.shape[0], MODES, NX, 3))
-    for row, run in enumerate(unique):
-        one = types.SimpleNamespace(**{name: run[[k]] for k, name in enumerate(_PLANT_FIELDS)})
-        for mode, options in enumerate(_MODE_OPTIONS):
-            a[row, mode], b[row, mode] = (m[0] for m in plant_matrices(one, states=NX,
-                                                                         **options))
-    inverse = inverse.reshape(-1)
-    return a[inverse], b[inverse]
+    """A (n, 3, 5, 5) and B (n, 3, 5, 3) of every run in the modes FORWARD, BACKDRIVE, GAP."""
+    modes = [plant_matrices(params, states=NX, **options) for options in _MODE_OPTIONS]
+    return (np.stack([m[0] for m in modes], axis=1), np.stack([m[1] for m in modes], axis=1))
 
 
 def table(params, dt):
