@@ -176,11 +176,13 @@ def test_parameter_table_lists_exactly_the_keys_that_differ(shipped_raw):
     per_variant = [_yaml_values(shipped_raw, name) for name in names]
     keys = set().union(*per_variant)
     expected = {k for k in keys if _differ([values.get(k) for values in per_variant])}
-    # what the YAML says: the fitted motor (Km, J, mu_v replacing the no-load point) and the
-    # relaxed position gains
+    # what the YAML says: the fitted motor (Km, J, mu_v replacing the no-load point), the
+    # relaxed position gains, and the loaded variant's load and drivetrain
     assert expected == {"motor.Km", "motor.J", "motor.mu_v", "motor.no_load.speed",
                         "motor.no_load.current", "position_loop.Kp", "position_loop.Ki",
-                        "position_loop.Kd"}
+                        "position_loop.Kd", "motor.coulomb_friction", "gear.efficiency",
+                        "gear.backdrive_efficiency", "gear.stiffness", "gear.backlash",
+                        "load.inertia", "load.hinge_stiffness", "load.hinge_bias"}
     rows, equal = parameter_differences([load_variant(None, name) for name in names])
     assert [row[0] for row in rows] == [k for k in config_keys() if k in expected]
     assert equal == len(config_keys()) - len(expected)
@@ -207,6 +209,7 @@ def test_parameter_values_carry_the_units_the_config_writes():
 
 def test_parameter_table_converts_to_the_baseline_unit(write_config, shipped_raw):
     raw = shipped_raw
+    raw.pop("load_envelope")  # it names the shipped variants replaced here
     raw["variants"] = {
         "same_in_us": {"current_loop.delay": "60 us"},  # = 0.06 ms: not a difference
         "slow": {"position_loop.delay": "500 us", "simulation": {"controllers": "sampled"}},

@@ -43,9 +43,10 @@ def shipped_variants():
 
 def test_shipped_variants_in_file_order(shipped_raw, shipped_variants):
     # "base" first, then the file's variants in file order.
-    assert variant_names(shipped_raw) == ["base", "fitted", "relaxed"]
-    assert [v.variant for v in load_all_variants()] == ["base", "fitted", "relaxed"]
-    assert list(shipped_variants) == ["base", "fitted", "relaxed"]
+    names = ["base", "fitted", "relaxed", "loaded"]
+    assert variant_names(shipped_raw) == names
+    assert [v.variant for v in load_all_variants()] == names
+    assert list(shipped_variants) == names
 
 
 @pytest.mark.parametrize("variant", ["base", "fitted"])
@@ -128,7 +129,7 @@ def test_set_overrides_apply_after_the_variant(shipped_config_path):
 
 def test_overrides_apply_to_every_variant(shipped_config_path):
     loaded = load_all_variants(shipped_config_path, [("position_loop.Ki", 0.0)])
-    assert [lv.params.position_loop.Ki for lv in loaded] == [0.0, 0.0, 0.0]
+    assert [lv.params.position_loop.Ki for lv in loaded] == [0.0, 0.0, 0.0, 0.0]
 
 
 def test_setting_mu_v_removes_no_load(shipped_config_path):
@@ -162,6 +163,7 @@ def test_setting_a_no_load_field_removes_mu_v(shipped_config_path):
 
 
 def test_variant_may_set_mu_v_over_no_load(shipped_raw, write_config):
+    shipped_raw.pop("load_envelope")  # it names the shipped variants replaced here
     shipped_raw["variants"] = {"lossy": {"motor.mu_v": "2e-6 N*m*s/rad"}}
     loaded = load_variant(write_config(shipped_raw), "lossy")
     assert loaded.params.motor.mu_v == pytest.approx(2e-6, rel=RTOL)
@@ -169,6 +171,7 @@ def test_variant_may_set_mu_v_over_no_load(shipped_raw, write_config):
 
 
 def test_nested_dict_variant_overrides(shipped_raw, write_config):
+    shipped_raw.pop("load_envelope")  # it names the shipped variants replaced here
     shipped_raw["variants"] = {
         "heavy": {"motor": {"J": "1 g*cm^2"}, "position_loop": {"Kp": 5, "Tf": "0.5 ms"}},
         "empty": None,
@@ -188,6 +191,7 @@ def test_nested_dict_variant_overrides(shipped_raw, write_config):
 def test_nested_no_load_variant_replaces_mu_v(shipped_raw, write_config):
     shipped_raw["motor"].pop("no_load")
     shipped_raw["motor"]["mu_v"] = 1.2e-6
+    shipped_raw.pop("load_envelope")  # it names the shipped variants replaced here
     shipped_raw["variants"] = {"catalog": {"motor": {"no_load": {"speed": 1000, "current": 0.5}}}}
     motor = load_variant(write_config(shipped_raw), "catalog").params.motor
     assert motor.mu_v is None
@@ -195,6 +199,7 @@ def test_nested_no_load_variant_replaces_mu_v(shipped_raw, write_config):
 
 
 def test_nested_partial_no_load_variant_merges_like_dotted(shipped_raw, write_config):
+    shipped_raw.pop("load_envelope")  # it names the shipped variants replaced here
     shipped_raw["variants"] = {
         "nested": {"motor": {"no_load": {"current": 0.3}}},
         "dotted": {"motor.no_load.current": 0.3},
@@ -510,7 +515,7 @@ def test_unknown_variant(shipped_config_path):
         load_variant(shipped_config_path, "fited")
     message = str(info.value)
     assert "unknown variant 'fited'" in message
-    assert "['base', 'fitted', 'relaxed']" in message  # what is accepted
+    assert "['base', 'fitted', 'relaxed', 'loaded']" in message  # what is accepted
 
 
 def test_bad_yaml_syntax_names_the_line(shipped_config_path, write_config):

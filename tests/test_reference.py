@@ -28,6 +28,7 @@ def _raw(reference):
     data = load_variant(None, "base").params.model_dump(exclude={"reference"})
     data["requirements"] = ()
     data["variants"] = {}
+    data.pop("load_envelope")  # it names the shipped variants removed here
     if reference is not None:
         data["reference"] = reference
     return data
