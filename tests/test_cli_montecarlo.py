@@ -128,17 +128,19 @@ def test_several_variants_share_the_draws(tmp_path, capsys):
     lines = (report / "samples.csv").read_text().splitlines()
     assert lines[0].startswith("variant,sample,motor.Km [")
     rows = [line.split(",") for line in lines[1:]]
-    assert [row[0] for row in rows] == ["base"] * 6 + ["fitted"] * 6 + ["relaxed"] * 6 + ["loaded"] * 6
+    assert [row[0] for row in rows] == (["base"] * 6 + ["fitted"] * 6 + ["relaxed"] * 6
+                                        + ["loaded"] * 6)
     # the same standard-normal numbers around each variant's own Km: the relative deviations
     # of the samples agree, to the CSV's 10 significant digits (a sample's rounding, <= 5e-11
     # of it, is below 1e-9 of the deviation's scale 1)
     nominal = {item.variant: item.params.motor.Km for item in
-               [load_variant(None, name) for name in ("base", "fitted", "relaxed")]}
+               [load_variant(None, name) for name in ("base", "fitted", "relaxed", "loaded")]}
     deviations = {}
     for row in rows:
         deviations.setdefault(row[0], []).append(float(row[2]) / nominal[row[0]] - 1.0)
     np.testing.assert_allclose(deviations["fitted"], deviations["base"], rtol=0, atol=1e-9)
     np.testing.assert_allclose(deviations["relaxed"], deviations["base"], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(deviations["loaded"], deviations["base"], rtol=0, atol=1e-9)
 
     assert main([*argv, "--variant", "base", "--variant", "relaxed", "--seed", "4"]) == 0
     text = capsys.readouterr().out

@@ -143,4 +143,4 @@ def test_several_variants_json_text_csv_and_report(tmp_path, capsys):
     assert sorted(p.name for p in report.iterdir()) == [
         ".cas-freq-output", "sweep.base.svg", "sweep.csv", "sweep.fitted.svg", "sweep.json",
         "sweep.loaded.svg", "sweep.relaxed.svg"]
-    assert len(_strict((report / "sweep.json").read_text())) == 3
+    assert len(_strict((report / "sweep.json").read_text())) == 4
