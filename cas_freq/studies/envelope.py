@@ -26,8 +26,8 @@ from cas_freq.parameters import LoopParameters
 from cas_freq.studies.sweep import evaluate_figures
 
 KEY = "load.hinge_stiffness"
-#: Bisection steps refining a loss between two grid points (a 2.5 N*m/rad step to 6e-4).
-BISECTIONS = 12
+#: Bisection steps refining a loss between two grid points (a 5 N*m/rad step to 0.005).
+BISECTIONS = 10
 
 
 @dataclasses.dataclass(frozen=True)
