@@ -33,9 +33,10 @@ def envelope_figure(envelope, config_name):
         _shade(ax, k, unstable)
         ax.axvline(envelope.nominal_n_m_rad, color="0.4", lw=1, ls=":")
         ax.grid(True, alpha=0.3)
+    trusted = {key: _trusted(envelope, key) for key, _, _ in _SERIES}
     for key, label, panel in _SERIES:
         if panel < panels and key in envelope.figures:
-            axes[panel].plot(k, rounded(envelope.figures[key]), "o-", ms=3, label=label)
+            axes[panel].plot(k, rounded(trusted[key]), "o-", ms=3, label=label)
     by_metric = {}
     for requirement in envelope.requirements:
         by_metric.setdefault(requirement.metric, []).append(requirement)
@@ -44,6 +45,8 @@ def envelope_figure(envelope, config_name):
             continue
         for requirement in by_metric.get(key, ()):
             _bounds(axes[panel], requirement)
+    if panels == 3:  # after the bound lines, which set the panel's top
+        _unsettled(axes[2], k, envelope, trusted["step.overshoot_pct"])
     for ax, label in zip(axes, _PANEL_LABELS, strict=False):
         ax.set_ylabel(label)
     axes[-1].set_xlabel("hinge stiffness K_h at the fin [N·m/rad] (> 0 opposes, < 0 aids)")
@@ -56,6 +59,30 @@ def envelope_figure(envelope, config_name):
                                fontsize=7, frameon=False)
             legend_room_right(fig, margins, legend)
     return fig
+
+
+def _trusted(envelope, key):
+    """The figure per grid point, NaN where it is not trusted: closed-loop and step figures of
+    a loop that is not stable, and the overshoot of a step that did not settle."""
+    values = np.array(envelope.figures.get(key, np.full(envelope.hinge_stiffness.size, np.nan)),
+                      dtype=float)
+    stable = envelope.stability.astype(str) == "stable"
+    if key.startswith(("closed_loop.", "step.")):
+        values = np.where(stable, values, np.nan)
+    if key == "step.overshoot_pct" and "step.settling_time_s" in envelope.figures:
+        values = np.where(np.isfinite(envelope.figures["step.settling_time_s"]), values, np.nan)
+    return values
+
+
+def _unsettled(ax, k, envelope, overshoot):
+    """Mark the stable points whose step did not settle (diverged under the limits, or still
+    moving at the end of the simulation) at the top of the overshoot panel."""
+    stable = envelope.stability.astype(str) == "stable"
+    missing = stable & ~np.isfinite(overshoot)
+    if missing.any():
+        top = ax.get_ylim()[1]
+        ax.plot(k[missing], np.full(missing.sum(), top), "x", color="C3", clip_on=False,
+                label="step did not settle")
 
 
 def _shade(ax, k, unstable):

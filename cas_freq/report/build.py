@@ -414,12 +414,27 @@ _PARAMETER_ROWS = (
     ("controllers (simulation)", "", None, lambda p: p.simulation.controllers),
 )
 
+#: Rows of the load and drivetrain (docs/model.md §5), shown when some variant is loaded; each
+#: getter's value is 0 (or the efficiency 1) where the key is absent.
+_LOAD_ROWS = (
+    ("load inertia J_L (fin)", "kg·m²", 1.0, lambda p: p.load.inertia),
+    ("load damping b_L (fin)", "N·m·s/rad", 1.0, lambda p: p.load.damping),
+    ("hinge stiffness K_h (fin)", "N·m/rad", 1.0, lambda p: p.load.hinge_stiffness),
+    ("hinge bias (fin)", "N·m", 1.0, lambda p: p.load.hinge_bias),
+    ("gear efficiency η", "-", 1.0, lambda p: p.gear.efficiency),
+    ("gear backdrive efficiency η_b", "-", 1.0, lambda p: p.gear.backdrive),
+    ("gear stiffness K_g (fin; 0 rigid)", "N·m/rad", 1.0, lambda p: p.gear.stiffness),
+    ("gear backlash (fin, total)", "deg", 180.0 / math.pi, lambda p: p.gear.backlash),
+    ("motor Coulomb friction", "mN·m", 1e3, lambda p: p.motor.coulomb_friction),
+)
+
 
 def parameter_table(datas):
     """The parameters of every variant (motor, gear, gains, delays, limits) with units; motor
     angles, loops on the motor shaft (docs/model.md)."""
     rows = []
-    for label, unit, scale, get in _PARAMETER_ROWS:
+    loaded = any(d.analysis.drivetrain is not None for d in datas)
+    for label, unit, scale, get in _PARAMETER_ROWS + (_LOAD_ROWS if loaded else ()):
         values = []
         for data in datas:
             value = get(data.loaded.params)

@@ -87,8 +87,13 @@ def table_rows(envelope):
         failing = [r.id for r in envelope.requirements if r.evaluated and not r.passed[j]]
         cells = []
         stable = str(envelope.stability[j]) == "stable"
+        settled = math.isfinite(float(envelope.figures.get("step.settling_time_s",
+                                                           [math.nan] * grid.size)[j]))
         for _, unit, key in columns:
             value = float(envelope.figures[key][j])
+            if key == "step.overshoot_pct" and stable and not settled:
+                cells.append("not settled")  # a run the limits let diverge, or still moving
+                continue
             # closed-loop and step figures of a loop that is not stable are not shown (verify
             # does not trust them); the open-loop margins say how far it is from stability
             trusted = stable or not key.startswith(("closed_loop.", "step."))
