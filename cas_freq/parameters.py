@@ -246,6 +246,9 @@ PARAMETERS = _table(
     ("gear.stiffness", "K_g", "N*m/rad", 0.0, False, 1e12,
      "gear torsional stiffness K_g at the fin (0: rigid gear), 0 or 1e-6..1e12 [N*m/rad]",
      1e-6),
+    ("gear.damping", "c_g", "N*m*s/rad", 0.0, False, 1e6,
+     "gear mesh damping c_g at the fin, in parallel with the gear's spring (needs "
+     "gear.stiffness), 0 or 1e-15..1e6 [N*m*s/rad]", 1e-15),
     ("gear.backlash", "backlash", "rad", 0.0, False, 1.0,
      "total play of the gear at the fin, nonlinear simulation only, 0 or 1e-12..1 [rad]",
      1e-12),
@@ -403,9 +406,9 @@ class LoopParameters:
         Coulomb friction on the motor shaft [N*m] (nonlinear simulation only).
     eta, eta_b : numpy.ndarray
         Forward and backdrive gear efficiencies [-] (eta_b: nonlinear simulation only).
-    K_g, backlash : numpy.ndarray
-        Gear stiffness at the fin [N*m/rad] (0: rigid) and total play at the fin [rad]
-        (nonlinear simulation only).
+    K_g, c_g, backlash : numpy.ndarray
+        Gear stiffness at the fin [N*m/rad] (0: rigid), the mesh damping in parallel with it
+        [N*m*s/rad] and total play at the fin [rad] (nonlinear simulation only).
     J_L, b_L, K_h, tau_h : numpy.ndarray
         Load at the fin: inertia [kg*m^2], damping [N*m*s/rad], hinge stiffness [N*m/rad]
         and constant hinge moment [N*m] (nonlinear simulation only). All the load and
@@ -436,6 +439,7 @@ class LoopParameters:
     eta: np.ndarray = 1.0
     eta_b: np.ndarray = 1.0
     K_g: np.ndarray = 0.0
+    c_g: np.ndarray = 0.0
     backlash: np.ndarray = 0.0
     J_L: np.ndarray = 0.0
     b_L: np.ndarray = 0.0
@@ -468,7 +472,7 @@ class LoopParameters:
             raise ConfigError(
                 f"simulation parameters: Tf: must be > 0 s where cp_Kd > 0 (runs {_indices(bad)})"
             )
-        problem = drivetrain_problem(self.K_g, self.J_L, self.backlash, where="runs")
+        problem = drivetrain_problem(self.K_g, self.J_L, self.backlash, self.c_g, where="runs")
         if problem:
             raise ConfigError(f"simulation parameters: {problem}")
 
@@ -481,8 +485,8 @@ class LoopParameters:
     def loaded(self):
         """Bool array: True where any load or drivetrain term differs from "absent"."""
         return ((self.F_c != 0) | (self.eta != 1) | (self.eta_b != 1) | (self.K_g != 0)
-                | (self.backlash != 0) | (self.J_L != 0) | (self.b_L != 0) | (self.K_h != 0)
-                | (self.tau_h != 0))
+                | (self.c_g != 0) | (self.backlash != 0) | (self.J_L != 0) | (self.b_L != 0)
+                | (self.K_h != 0) | (self.tau_h != 0))
 
     @property
     def n_runs(self):
@@ -529,15 +533,21 @@ class LoopParameters:
 _FIELD_PARAMETERS = {p.field: p for p in PARAMETERS.values() if p.field is not None}
 
 
-def drivetrain_problem(stiffness, load_inertia, backlash, where="samples"):
+def drivetrain_problem(stiffness, load_inertia, backlash, damping=0.0, where="samples"):
     """What is wrong with a combination of drivetrain values (arrays), or None.
 
     A compliant gear (``gear.stiffness`` > 0) needs a load inertia (the load side of the
-    two-mass model), and backlash is a dead zone in the gear's spring, so it needs a stiffness.
+    two-mass model); backlash is a dead zone in the gear's spring and the mesh damping acts in
+    parallel with it, so both need a stiffness.
     """
-    stiffness, load_inertia, backlash = np.broadcast_arrays(
-        *(np.atleast_1d(np.asarray(v, dtype=float)) for v in (stiffness, load_inertia, backlash))
+    stiffness, load_inertia, backlash, damping = np.broadcast_arrays(
+        *(np.atleast_1d(np.asarray(v, dtype=float))
+          for v in (stiffness, load_inertia, backlash, damping))
     )
+    bad = (damping > 0) & ~(stiffness > 0)
+    if bad.any():
+        return ("gear.damping: the mesh damping acts in parallel with the gear's spring, so it "
+                f"needs gear.stiffness > 0 N*m/rad as well ({where} {_indices(bad)})")
     bad = (stiffness > 0) & ~(load_inertia > 0)
     if bad.any():
         return ("gear.stiffness: a compliant gear needs load.inertia > 0 kg*m^2 (the load side "
@@ -615,7 +625,7 @@ def variant_parameters(params, changes, n=None):
     if full["gear.backdrive_efficiency"] is None:
         full["gear.backdrive_efficiency"] = full["gear.efficiency"]
     problem = drivetrain_problem(full["gear.stiffness"], full["load.inertia"],
-                                 full["gear.backlash"])
+                                 full["gear.backlash"], full["gear.damping"])
     if problem:
         raise ConfigError(problem)
     kp, ki, kd = full["position_loop.Kp"], full["position_loop.Ki"], full["position_loop.Kd"]

@@ -37,7 +37,7 @@ def _hand_plant(p):
     - (K_g/(eta N)) (theta/N - delta); J_L w_L' = K_g (theta/N - delta) - b_L w_L - K_h delta.
     """
     v = {name: float(getattr(p, name)[0]) for name in (
-        "R", "L", "Ke", "Km", "J", "mu_v", "ratio", "eta", "K_g", "J_L", "b_L", "K_h")}
+        "R", "L", "Ke", "Km", "J", "mu_v", "ratio", "eta", "K_g", "c_g", "J_L", "b_L", "K_h")}
     n, eta = v["ratio"], v["eta"]
     if v["K_g"] == 0:
         j = v["J"] + v["J_L"] / (eta * n * n)
@@ -48,13 +48,15 @@ def _hand_plant(p):
                       [0.0, 1.0, 0.0]])
         c_fin = np.array([0.0, 0.0, 1.0])
     else:
-        kg, jl = v["K_g"], v["J_L"]
+        # gear torque K_g (theta/N - delta) + c_g (omega/N - omega_L)
+        kg, cg, jl = v["K_g"], v["c_g"], v["J_L"]
         a = np.zeros((5, 5))
         a[0, :2] = [-v["R"] / v["L"], -v["Ke"] / v["L"]]
-        a[1, :] = [v["Km"] / v["J"], -v["mu_v"] / v["J"], -kg / (eta * n * n * v["J"]), 0.0,
-                   kg / (eta * n * v["J"])]
+        a[1, :] = [v["Km"] / v["J"], -v["mu_v"] / v["J"] - cg / (eta * n * n * v["J"]),
+                   -kg / (eta * n * n * v["J"]), cg / (eta * n * v["J"]), kg / (eta * n * v["J"])]
         a[2, 1] = 1.0
-        a[3, :] = [0.0, 0.0, kg / (n * jl), -v["b_L"] / jl, -(kg + v["K_h"]) / jl]
+        a[3, :] = [0.0, cg / (n * jl), kg / (n * jl), -(v["b_L"] + cg) / jl,
+                   -(kg + v["K_h"]) / jl]
         a[4, 3] = 1.0
         c_fin = np.array([0.0, 0.0, 0.0, 0.0, n])  # N delta
     b = np.zeros(a.shape[0])
@@ -174,6 +176,7 @@ def test_stiff_gear_tends_to_the_rigid_model():
     {"J_L": 5e-5, "K_h": 2.0, "eta": 0.7},
     {"J_L": 5e-5, "K_h": 2.0, "eta": 0.7, "K_g": 3000.0, "b_L": 1e-3},
     {"J_L": 5e-5, "K_h": -5.0, "K_g": 3000.0},
+    {"J_L": 5e-5, "K_h": 2.0, "eta": 0.7, "K_g": 3000.0, "c_g": 0.04, "b_L": 1e-3},
 ])
 def test_loops_equal_the_hand_written_plant(changes):
     # Polynomials of the drivetrain (cas_freq.model) vs a per-frequency solve of the state
@@ -250,6 +253,7 @@ def test_stable_hinge_range_brackets_the_stability_boundary():
 @pytest.mark.parametrize("sets, words", [
     (["gear.stiffness=300"], "a compliant gear needs load.inertia > 0"),
     (["gear.backlash=0.01"], "needs gear.stiffness > 0"),
+    (["gear.damping=0.01"], "gear.damping: the mesh damping acts in parallel"),
     (["gear.efficiency=0"], "gear.efficiency: must be > 0 and <= 1"),
     (["gear.backdrive_efficiency=1.5"], "gear.backdrive_efficiency: must be >= 0 and <= 1"),
 ])
@@ -285,3 +289,18 @@ def test_plant_matrices_of_a_mixed_batch_are_each_runs_own():
         np.testing.assert_array_equal(b[1], b1[0])
         np.testing.assert_allclose(a[0, 3], a[0, 1] / 20.0, rtol=1e-15)
         np.testing.assert_allclose(a[0, 4, 1], 1.0 / 20.0, rtol=1e-15)
+
+
+def test_mesh_damping_damps_the_two_mass_resonance():
+    # With a mesh damper c_g across the gear (and nothing else damping), the resonance's
+    # damping ratio tends to c_g w_r / (2 K_g) for light damping (a Kelvin-Voigt spring: loss
+    # factor c_g w / K_g = 2 zeta); and the anti-resonance's to c_g w_a / (2 K_g).
+    kg, jl, j, n = 3000.0, 5e-5, 7.19e-7, 20.0
+    cg = 2e-3
+    p = _params(J_L=jl, K_g=kg, c_g=cg, mu_v=0.0)
+    load = drivetrain(p)
+    w_r = math.sqrt(kg * (1 / jl + 1 / (n * n * j)))
+    w_a = math.sqrt(kg / jl)
+    assert load.resonances[0].frequency_rad_s == pytest.approx(w_r, rel=1e-3)
+    assert load.resonances[0].damping == pytest.approx(cg * w_r / (2 * kg), rel=1e-3)
+    assert load.anti_resonances[0].damping == pytest.approx(cg * w_a / (2 * kg), rel=1e-9)

@@ -76,6 +76,7 @@ def test_unloaded_numbers_unchanged(base):
     absent = load_variant(None, overrides=[
         ("motor.coulomb_friction", "0"), ("gear.efficiency", "1"),
         ("gear.backdrive_efficiency", "1"), ("gear.stiffness", "0"), ("gear.backlash", "0"),
+        ("gear.damping", "0"),
         ("load.inertia", "0"), ("load.damping", "0"), ("load.hinge_stiffness", "0"),
         ("load.hinge_bias", "0")]).params
     for engine in ("compiled", "reference"):

@@ -322,7 +322,7 @@ def _scalars(p):
     """The one run of ``p`` with every parameter a Python float."""
     return {name: getattr(p, name)[0].item() for name in (
         "R", "L", "Km", "Ke", "J", "mu_v", "ci_Kp", "ci_Ki", "tau_c", "cp_Kp", "cp_Ki",
-        "cp_Kd", "Tf", "tau_p", "ratio", "K_g", "K_h", "J_L", "b_L", "eta")}
+        "cp_Kd", "Tf", "tau_p", "ratio", "K_g", "c_g", "K_h", "J_L", "b_L", "eta")}
 
 
 def closed_loop_poles(params, pade_order):

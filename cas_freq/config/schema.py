@@ -114,6 +114,7 @@ class Gear(_Section):
     efficiency: param("gear.efficiency") = 1.0
     backdrive_efficiency: param("gear.backdrive_efficiency") | None = None
     stiffness: param("gear.stiffness") = 0.0
+    damping: param("gear.damping") = 0.0
     backlash: param("gear.backlash") = 0.0
 
     @property
@@ -329,7 +330,8 @@ class ActuatorConfig(_Section):
 
     @model_validator(mode="after")
     def _drivetrain(self):
-        problem = drivetrain_problem(self.gear.stiffness, self.load.inertia, self.gear.backlash)
+        problem = drivetrain_problem(self.gear.stiffness, self.load.inertia, self.gear.backlash,
+                                     self.gear.damping)
         if problem:
             raise PydanticCustomError("cas_value", problem.split(" (samples")[0])
         return self

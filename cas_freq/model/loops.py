@@ -29,7 +29,7 @@ from cas_freq.model.delay import EXACT
 RESPONSE_FIELDS = (
     "R", "L", "Km", "Ke", "J", "mu_v", "ci_Kp", "ci_Ki", "tau_c",
     "cp_Kp", "cp_Ki", "cp_Kd", "Tf", "tau_p", "ff_v", "ff_a", "derivative_on_measurement",
-    "ratio", "eta", "K_g", "J_L", "b_L", "K_h",
+    "ratio", "eta", "K_g", "c_g", "J_L", "b_L", "K_h",
 )
 
 

@@ -99,12 +99,13 @@ def mechanics(p):
     r"""The drivetrain as three polynomials: :math:`\theta/i = K_m n_\theta / D` and the fin
     output :math:`N \delta / \theta = n_{out} / n_\theta` (docs/model.md, "Load and drivetrain").
 
-    With the gear compliance :math:`c = 1/K_g` (0 for a rigid gear) and :math:`e = 1/\eta`:
+    With the gear compliance :math:`c = 1/K_g` (0 for a rigid gear), the mesh damping
+    :math:`c_g` in parallel with the spring, :math:`g = c\,c_g s + 1` (the gear's impedance
+    :math:`K_g + c_g s` over :math:`K_g`) and :math:`e = 1/\eta`:
 
     .. math::
-        D = (J s^2 + \mu_v s)(c J_L s^2 + c b_L s + c K_h + 1)
-            + \frac{e}{N^2}(J_L s^2 + b_L s + K_h), \qquad
-        n_\theta = c J_L s^2 + c b_L s + c K_h + 1, \qquad n_{out} = 1
+        D = (J s^2 + \mu_v s)\, n_\theta + \frac{e}{N^2}\, g\, (J_L s^2 + b_L s + K_h),
+        \qquad n_\theta = c J_L s^2 + c b_L s + c K_h + g, \qquad n_{out} = g
 
     (the two-mass equations times c). For a rigid gear (c = 0), D is
     :math:`J_{eff} s^2 + \mu_{eff} s + k_{eff}` and :math:`n_\theta = 1`; without a load it is
@@ -121,13 +122,14 @@ def mechanics(p):
     if not np.any(np.asarray(p.K_g) > 0):
         return (p.J + e_n2 * p.J_L, p.mu_v + e_n2 * p.b_L, e_n2 * p.K_h), (1.0,), (1.0,)
     c = compliance(p)
-    q2, q1, q0 = c * p.J_L, c * p.b_L, c * p.K_h + 1.0
+    g1 = c * p.c_g  # the gear's impedance over K_g: g = (K_g + c_g s)/K_g = g1 s + 1
+    q2, q1, q0 = c * p.J_L, c * p.b_L + g1, c * p.K_h + 1.0
     d = (p.J * q2,
-         p.J * q1 + p.mu_v * q2,
-         p.J * q0 + p.mu_v * q1 + e_n2 * p.J_L,
-         p.mu_v * q0 + e_n2 * p.b_L,
+         p.J * q1 + p.mu_v * q2 + e_n2 * g1 * p.J_L,
+         p.J * q0 + p.mu_v * q1 + e_n2 * (p.J_L + g1 * p.b_L),
+         p.mu_v * q0 + e_n2 * (p.b_L + g1 * p.K_h),
          e_n2 * p.K_h)
-    return d, (q2, q1, q0), (1.0,)
+    return d, (q2, q1, q0), (g1, 1.0)
 
 
 def back_emf_coupling(p):
@@ -169,16 +171,17 @@ def plant_matrices(p, states=None, backdrive=False, engaged=True):
             - e K_h/N^2 \, \theta + \tau_m + e \tau_L / N, \qquad
         \dot\theta = \omega
 
-    Compliant gear (5 states, adding the fin's :math:`(\omega_L, \delta)`), the gear spring's
-    torque :math:`K_g (\theta/N - \delta)` on the fin and :math:`e/N` of it braking the motor:
+    Compliant gear (5 states, adding the fin's :math:`(\omega_L, \delta)`), the gear's torque
+    :math:`\tau_g = K_g (\theta/N - \delta) + c_g (\omega/N - \omega_L)` (spring and mesh
+    damping) on the fin and :math:`e/N` of it braking the motor:
 
     .. math::
-        J \dot\omega = K_m i - \mu_v \omega - \frac{e K_g}{N}(\theta/N - \delta) + \tau_m,
+        J \dot\omega = K_m i - \mu_v \omega - \frac{e}{N}\tau_g + \tau_m,
         \qquad
-        J_L \dot\omega_L = K_g (\theta/N - \delta) - b_L \omega_L - K_h \delta + \tau_L,
+        J_L \dot\omega_L = \tau_g - b_L \omega_L - K_h \delta + \tau_L,
         \qquad \dot\delta = \omega_L
 
-    Without ``engaged`` the spring carries no torque (the gear inside its backlash). In a batch
+    Without ``engaged`` the gear carries no torque (inside its backlash). In a batch
     with any compliant run every run has 5 states; a rigid run's fin states then follow the
     motor (:math:`\dot\omega_L = \dot\omega/N`, :math:`\dot\delta = \omega/N`).
 
@@ -199,7 +202,7 @@ def plant_matrices(p, states=None, backdrive=False, engaged=True):
         A of shape (n, states, states) [1/s] and B of shape (n, states, 3), inputs
         (V [V], tau_m [N*m] on the motor shaft, tau_L [N*m] on the fin).
     """
-    n = np.broadcast(p.R, p.L, p.Ke, p.Km, p.J, p.mu_v, p.J_L, p.K_g).shape
+    n = np.broadcast(p.R, p.L, p.Ke, p.Km, p.J, p.mu_v, p.J_L, p.K_g, p.c_g).shape
     n = n[0] if n else 1
     compliant = np.broadcast_to(np.asarray(p.K_g) > 0, (n,))
     if states is None:
@@ -226,13 +229,16 @@ def plant_matrices(p, states=None, backdrive=False, engaged=True):
             raise ValueError("a compliant gear needs 5 states")
         return a, b
     k_g = np.where(compliant & engaged, p.K_g, 0.0)
+    c_g = np.where(compliant & engaged, p.c_g, 0.0)
     j_load = np.where(compliant, p.J_L, 1.0)
     column = np.broadcast_to(np.asarray(ratio, dtype=float), (n,))[:, None]  # per run
+    a[:, 1, 1] -= e * c_g / ratio**2 / j
     a[:, 1, 2] -= e * k_g / ratio**2 / j
+    a[:, 1, 3] = e * c_g / ratio / j
     a[:, 1, 4] = e * k_g / ratio / j
     a[:, 3] = np.where(compliant[:, None],
-                       np.stack([np.zeros(n), np.zeros(n), k_g / ratio / j_load,
-                                 -p.b_L / j_load + np.zeros(n),
+                       np.stack([np.zeros(n), c_g / ratio / j_load, k_g / ratio / j_load,
+                                 -(p.b_L + c_g) / j_load + np.zeros(n),
                                  -(k_g + p.K_h) / j_load + np.zeros(n)], axis=1),
                        a[:, 1] / column)
     b[:, 3] = np.where(compliant[:, None],

@@ -424,6 +424,7 @@ _LOAD_ROWS = (
     ("gear efficiency η", "-", 1.0, lambda p: p.gear.efficiency),
     ("gear backdrive efficiency η_b", "-", 1.0, lambda p: p.gear.backdrive),
     ("gear stiffness K_g (fin; 0 rigid)", "N·m/rad", 1.0, lambda p: p.gear.stiffness),
+    ("gear mesh damping c_g (fin)", "N·m·s/rad", 1.0, lambda p: p.gear.damping),
     ("gear backlash (fin, total)", "deg", 180.0 / math.pi, lambda p: p.gear.backlash),
     ("motor Coulomb friction", "mN·m", 1e3, lambda p: p.motor.coulomb_friction),
 )

@@ -119,6 +119,7 @@ _Q_COMPLIANT, _Q_K_G, _Q_HALF, _Q_TAU_H = (mech.COMPLIANT, mech.K_G, mech.HALF_P
                                            mech.TAU_H)
 _Q_J_L, _Q_B_L, _Q_K_H, _Q_F_C = mech.J_LOAD, mech.B_LOAD, mech.K_HINGE, mech.F_COULOMB
 _Q_E_FORWARD, _Q_E_BACK, _Q_LOADED = mech.E_FORWARD, mech.E_BACK, mech.LOADED
+_Q_C_G = mech.C_G
 _FORWARD, _BACKDRIVE, _GAP = mech.FORWARD, mech.BACKDRIVE, mech.GAP
 
 # Rows of the float recordings (the bool ones are current_limited, voltage_limited).
@@ -507,12 +508,13 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
     # a loaded run (q given): fin states, constants and recordings (mechanics.py)
     w_l = d_l = w_before = 0.0
     compliant = False
-    half = k_g = tau_h = j_l = b_l = k_h = coulomb = e_forward = e_back = 0.0
+    half = k_g = c_g = tau_h = j_l = b_l = k_h = coulomb = e_forward = e_back = 0.0
     rec_delta, rec_omega_l = rec_theta, rec_omega
     if q is not None:
         w_l, d_l, w_before = x[r, 3], x[r, 4], s[r, _W_BEFORE]
         compliant = q[r, _Q_COMPLIANT] != 0.0
         half, k_g, tau_h = q[r, _Q_HALF], q[r, _Q_K_G], q[r, _Q_TAU_H]
+        c_g = q[r, _Q_C_G]
         j_l, b_l, k_h, coulomb = q[r, _Q_J_L], q[r, _Q_B_L], q[r, _Q_K_H], q[r, _Q_F_C]
         e_forward, e_back = q[r, _Q_E_FORWARD], q[r, _Q_E_BACK]
         rec_delta, rec_omega_l = floats[7, r], floats[8, r]
@@ -570,7 +572,7 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
                 dz, offset = gear + half, k_g * half
             rate = w / ratio
             if compliant:
-                power = k_g * dz * rate
+                power = (k_g * dz + c_g * (rate - w_l)) * rate
             else:
                 accel = (w - w_before) / (ratio * dt)
                 power = (j_l * accel + b_l * rate + k_h * (th / ratio) - tau_h) * rate

@@ -34,7 +34,8 @@ Modes (:data:`FORWARD`, :data:`BACKDRIVE`, :data:`GAP`):
     with :math:`\delta = \theta_k/N`, :math:`\dot\delta = \omega_k/N` and
     :math:`\ddot\delta = (\omega_k - \omega_{k-1})/(N\,dt)` (the previous step's change;
     :math:`\omega_{-1} = 0`);
-  - compliant gear: :math:`P = K_g\, dz(\theta_k/N - \delta_k)\, \omega_k/N`.
+  - compliant gear: :math:`P = (K_g\, dz(\theta_k/N - \delta_k) + c_g (\omega_k/N -
+    \omega_{L,k}))\, \omega_k/N` (the gear's spring and mesh damping).
 
   :math:`P = 0` (at rest, or inside the play) is forward.
 - **Backlash** (compliant gear only), total play b at the fin:
@@ -112,7 +113,8 @@ E_FORWARD = COMPLIANT + 8  # 1/eta
 E_BACK = COMPLIANT + 9  # eta_b
 RATIO = COMPLIANT + 10  # N
 LOADED = COMPLIANT + 11  # 1.0 where the run has any load term
-COLUMNS = COMPLIANT + 12
+C_G = COMPLIANT + 12  # gear mesh damping [N*m*s/rad]
+COLUMNS = COMPLIANT + 13
 
 
 def step_matrices(params, dt):
@@ -178,6 +180,7 @@ def table(params, dt):
     q[:, J_LOAD], q[:, B_LOAD], q[:, K_HINGE], q[:, F_COULOMB] = p.J_L, p.b_L, p.K_h, p.F_c
     q[:, E_FORWARD], q[:, E_BACK], q[:, RATIO] = 1.0 / p.eta, p.eta_b, p.ratio
     q[:, LOADED] = p.loaded
+    q[:, C_G] = p.c_g
     return q
 
 
@@ -199,7 +202,7 @@ class Drivetrain:
         self.compliant = np.asarray(p.compliant, dtype=bool)
         self.any_compliant = bool(self.compliant.any())
         self.half = 0.5 * p.backlash
-        self.k_g, self.tau_h, self.ratio = p.K_g, p.tau_h, p.ratio
+        self.k_g, self.c_g, self.tau_h, self.ratio = p.K_g, p.c_g, p.tau_h, p.ratio
         self.j_l, self.b_l, self.k_h, self.f_c = p.J_L, p.b_L, p.K_h, p.F_c
         self.e = np.stack([1.0 / p.eta, p.eta_b, 1.0 / p.eta], axis=1)  # per mode
         self.friction = bool(np.any(p.F_c > 0))
@@ -225,7 +228,7 @@ class Drivetrain:
         accel = (w - omega_before) / (ratio * dt)
         delta = th / ratio
         power_rigid = (self.j_l * accel + self.b_l * rate + self.k_h * delta - self.tau_h) * rate
-        power_compliant = self.k_g * dz * rate
+        power_compliant = (self.k_g * dz + self.c_g * (rate - x[:, 3])) * rate
         power = np.where(self.compliant, power_compliant, power_rigid)
         mode = np.where(gap, GAP, np.where(power < 0.0, BACKDRIVE, FORWARD))
         e = self.e[self.rows, mode]
