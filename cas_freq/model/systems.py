@@ -112,47 +112,22 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
     seen = control.ss(seen_both.A, seen_both.B, seen_both.C[:1], seen_both.D[:1])
     l_p = control.series(c_p, seen)
     sensitivity = control.feedback(control.ss([], [], [], [[1.0]]), l_p)
-    if plant.nstates == 3:
-        closed = _position_closed_loop(p, seen, l_p)
-    else:  # T = N delta / theta_cmd: the loop closed on theta, read at the fin
-        closed = _fin_closed_loop(p, c_p, seen_both)
+    # T: the loop closed on theta, read at the fin (N delta) where the gear is compliant
+    closed = _position_closed_loop(p, c_p, seen if plant.nstates == 3 else seen_both, l_p)
     return LinearModel(pade_order, plant, l_i, t_i, l_p, sensitivity, closed)
 
 
-def _position_closed_loop(p, seen, l_p):
-    """T = theta/theta_cmd, as a minimal realisation for either derivative placement."""
+def _position_closed_loop(p, c_p, seen, l_p):
+    """T = N delta/theta_cmd (theta/theta_cmd for a rigid gear), a minimal realisation for
+    either derivative placement; ``seen`` gives (theta, N delta) per controller output."""
+    if seen.noutputs == 1 and not p.derivative_on_measurement[0]:
+        return control.feedback(l_p, 1)  # the fin follows theta: T = L_p/(1 + L_p)
+    plant = control.ss(seen, inputs="u", outputs=["theta", "fin"][:seen.noutputs],
+                       name="seen")
     if not p.derivative_on_measurement[0]:
-        return control.feedback(l_p, 1)
-    # u = (Kp + Ki/s)(r - theta) - Kd s/(Tf s + 1) theta: one PI state, one filter state.
-    pi = control.ss(_ss(parts.reference_path(p), (1.0, 0.0)), inputs="e", outputs="u_pi",
-                    name="pi")
-    tf, kd = float(p.Tf[0]), float(p.cp_Kd[0])
-    derivative = control.ss(
-        control.tf([kd, 0.0], [tf, 1.0]) if kd > 0 else control.tf([0.0], [1.0]),
-        inputs="theta", outputs="u_d", name="derivative",
-    )
-    plant = control.ss(seen, inputs="u", outputs="theta", name="seen")
-    return control.interconnect(
-        [
-            pi,
-            derivative,
-            plant,
-            control.summing_junction(inputs=["u_pi", "-u_d"], output="u", name="u_sum"),
-            control.summing_junction(inputs=["r", "-theta"], output="e", name="e_sum"),
-        ],
-        inputs="r",
-        outputs="theta",
-    )
-
-
-def _fin_closed_loop(p, c_p, seen_both):
-    """T = N delta / theta_cmd of a compliant gear: u = C_p (r - theta) (or the derivative on
-    theta), plant (theta, N delta) per u; the output N delta."""
-    plant = control.ss(seen_both, inputs="u", outputs=["theta", "fin"], name="seen")
-    if not p.derivative_on_measurement[0]:
-        controller = control.ss(c_p, inputs="e", outputs="u", name="c_p")
-        blocks = [controller, plant]
+        blocks = [control.ss(c_p, inputs="e", outputs="u", name="c_p"), plant]
     else:
+        # u = (Kp + Ki/s)(r - theta) - Kd s/(Tf s + 1) theta: one PI state, one filter state.
         pi = control.ss(_ss(parts.reference_path(p), (1.0, 0.0)), inputs="e", outputs="u_pi",
                         name="pi")
         tf, kd = float(p.Tf[0]), float(p.cp_Kd[0])
@@ -163,7 +138,8 @@ def _fin_closed_loop(p, c_p, seen_both):
         blocks = [pi, derivative, plant,
                   control.summing_junction(inputs=["u_pi", "-u_d"], output="u", name="u_sum")]
     error = control.summing_junction(inputs=["r", "-theta"], output="e", name="e_sum")
-    return control.interconnect([*blocks, error], inputs="r", outputs="fin")
+    return control.interconnect([*blocks, error], inputs="r",
+                                outputs="fin" if seen.noutputs == 2 else "theta")
 
 
 def exact_frequency_responses(loops, omega):

@@ -25,12 +25,11 @@ whole loop is integrated to second order in dt. Sampled controllers are updated 
 """
 
 import numpy as np
-from scipy.linalg import expm
 
 from cas_freq.simulation.commands import Step
 from cas_freq.simulation.controllers import Controller
 from cas_freq.simulation.delay_line import DelayLine
-from cas_freq.simulation.mechanics import NX, Drivetrain
+from cas_freq.simulation.mechanics import NX, Drivetrain, distinct_exponentials
 
 #: Names of the signals recorded per sample, in the order of :meth:`Engine.sample`.
 SIGNALS = (
@@ -74,11 +73,7 @@ def plant_step_matrices(params, dt):
     m[:, 2, 1] = 1.0
     m[:, 0, 3] = 1.0 / p.L
     m[:, 3, 4] = 1.0 / dt
-    # One exponential per distinct plant (a sine-dwell batch repeats one plant over hundreds of
-    # runs): scipy's expm works matrix by matrix, so the result is the same to the bit, and
-    # each 5 x 5 exponential costs several BLAS calls, slow when BLAS threads are contended.
-    unique, inverse = np.unique((m * dt).reshape(p.n_runs, 25), axis=0, return_inverse=True)
-    e = expm(unique.reshape(-1, 5, 5))[inverse.reshape(-1)]
+    e = distinct_exponentials(m * dt)
     return e[:, :3, :3], e[:, :3, 3] - e[:, :3, 4], e[:, :3, 4].copy()
 
 

@@ -117,6 +117,19 @@ C_G = COMPLIANT + 12  # gear mesh damping [N*m*s/rad]
 COLUMNS = COMPLIANT + 13
 
 
+def distinct_exponentials(matrices):
+    """expm of each matrix of a stack (..., m, m), computed once per distinct matrix.
+
+    A sine-dwell batch repeats one plant over hundreds of runs; scipy's expm works matrix by
+    matrix, so the result is the same to the bit, and each exponential costs several BLAS
+    calls, slow when BLAS threads are contended.
+    """
+    shape = matrices.shape
+    size = shape[-1]
+    unique, inverse = np.unique(matrices.reshape(-1, size * size), axis=0, return_inverse=True)
+    return expm(unique.reshape(-1, size, size))[inverse.reshape(-1)].reshape(shape)
+
+
 def step_matrices(params, dt):
     """Exact one-step matrices of every run's 5-state plant in each mode.
 
@@ -142,9 +155,7 @@ def step_matrices(params, dt):
     m[..., :NX, NX] = b[..., 0]
     m[..., NX, NX + 1] = 1.0 / dt
     m[..., :NX, NX + 2:] = b[..., 1:]
-    flat = (m * dt).reshape(n * MODES, size * size)
-    unique, inverse = np.unique(flat, axis=0, return_inverse=True)
-    e = expm(unique.reshape(-1, size, size))[inverse.reshape(-1)].reshape(n, MODES, size, size)
+    e = distinct_exponentials(m * dt)
     phi = e[..., :NX, :NX].copy()
     g_a = e[..., :NX, NX] - e[..., :NX, NX + 1]
     g_b = e[..., :NX, NX + 1].copy()
