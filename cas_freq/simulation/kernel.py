@@ -819,6 +819,11 @@ class CompiledEngine:
             return values
         return values + (x[:, 4], x[:, 3])
 
+    def recorded_rows(self, n_steps, record_every=1):
+        """How many samples :meth:`advance_into` records over the next ``n_steps`` steps."""
+        first = self.k + 1
+        return (first + n_steps - 1) // record_every - (-(-first // record_every)) + 1
+
     def advance(self, n_steps, record_every=1):
         """Advance ``n_steps`` steps; record every ``record_every``-th sample (Engine.advance).
 
@@ -828,15 +833,25 @@ class CompiledEngine:
             Times of the recorded samples [s] and each signal of :attr:`signals`, shape
             (n_runs, n_samples).
         """
+        rows = self.recorded_rows(n_steps, record_every)
+        names = _FLOAT_SIGNALS if self.q is None else _FLOAT_SIGNALS + LOAD_SIGNALS
+        # each run's samples contiguous (the kernel writes them run by run)
+        floats = np.empty((len(names), self.x.shape[0], rows))
+        flags = np.empty((2, self.x.shape[0], rows), dtype=np.bool_)
+        t = self.advance_into(n_steps, record_every, floats, flags, 0)
+        out = dict(zip(names, floats, strict=True))
+        out["current_limited"], out["voltage_limited"] = flags
+        return t, {name: out[name] for name in self.signals}
+
+    def advance_into(self, n_steps, record_every, floats, flags, offset):
+        """Advance ``n_steps`` steps, writing the recorded samples into ``floats`` (the float
+        signals of :attr:`signals` in order, n_runs, capacity) and ``flags`` (2, n_runs,
+        capacity) from column ``offset`` on; returns their times [s]."""
         first = self.k + 1
         base = -(-first // record_every)  # the first recorded step is base * record_every
         rows = (first + n_steps - 1) // record_every - base + 1
         n = self.x.shape[0]
         q = self.q
-        names = _FLOAT_SIGNALS if q is None else _FLOAT_SIGNALS + LOAD_SIGNALS
-        # each run's samples contiguous (the kernel writes them run by run)
-        floats = np.empty((len(names), n, rows))
-        flags = np.empty((2, n, rows), dtype=np.bool_)
         block = max(64, _BLOCK_VALUES // (1 if n == 1 else self.commands.columns))
         parallel = n > 1 and numba.get_num_threads() > 1 and _PARALLEL.acquire(blocking=False)
         advance = advance_parallel if parallel else advance_serial
@@ -844,8 +859,10 @@ class CompiledEngine:
             for start in range(first, first + n_steps, block):
                 stop = min(start + block, first + n_steps)
                 right, left = self._rows(np.arange(start, stop) * self.dt)
-                advance(*self._args(), right, left, start - 1, record_every, base, floats,
-                        flags, self.every_c, self.every_p, self.has_derivative, self.dt, q)
+                # the kernel writes sample j of this call at column j - (base - offset)
+                advance(*self._args(), right, left, start - 1, record_every, base - offset,
+                        floats, flags, self.every_c, self.every_p, self.has_derivative,
+                        self.dt, q)
                 self.k = stop - 1
         finally:
             if parallel:
@@ -854,11 +871,10 @@ class CompiledEngine:
         if q is not None:  # the unloaded runs' fin follows the motor (the kernel skips them)
             unloaded = q[:, mech.LOADED] == 0.0
             ratio = self.p[unloaded, _RATIO][:, None]
-            floats[7, unloaded] = floats[0, unloaded] / ratio
-            floats[8, unloaded] = floats[1, unloaded] / ratio
-        out = dict(zip(names, floats, strict=True))
-        out["current_limited"], out["voltage_limited"] = flags
-        return kept * self.dt, {name: out[name] for name in self.signals}
+            columns = slice(offset, offset + rows)
+            floats[7, unloaded, columns] = floats[0, unloaded, columns] / ratio
+            floats[8, unloaded, columns] = floats[1, unloaded, columns] / ratio
+        return kept * self.dt
 
 
 def threads():

@@ -414,17 +414,80 @@ def _settled(t, delta, command, final, t_from):
     return np.all(np.abs(delta[:, window] - final[:, None]) <= band[:, None], axis=1)
 
 
-def _advance(engine, done, target, record_every, progress):
+#: Recorded signals held as booleans (the others are floats).
+_FLAGS = ("current_limited", "voltage_limited")
+
+
+class _Recording:
+    """The recorded signals of a batch, in buffers the compiled kernel writes into directly.
+
+    Floats (n_float_signals, n_runs, capacity) and flags (2, n_runs, capacity); ``size``
+    columns filled. The reference engine's pieces are copied in. A horizon extension grows the
+    buffers (doubling, so every sample is copied at most about once more).
+    """
+
+    def __init__(self, names, n_runs, capacity):
+        self.names = names
+        self.floats_names = [name for name in names if name not in _FLAGS]
+        self.floats = np.empty((len(self.floats_names), n_runs, capacity))
+        self.flags = np.empty((len(_FLAGS), n_runs, capacity), dtype=bool)
+        self.times = []
+        self.size = 0
+
+    def reserve(self, capacity):
+        """Make room for ``capacity`` columns in all."""
+        if capacity <= self.floats.shape[2]:
+            return
+        capacity = max(capacity, 2 * self.floats.shape[2])
+        for attr in ("floats", "flags"):
+            old = getattr(self, attr)
+            new = np.empty(old.shape[:2] + (capacity,), dtype=old.dtype)
+            new[:, :, :self.size] = old[:, :, :self.size]
+            setattr(self, attr, new)
+
+    def append(self, t, signals):
+        """Copy in the samples at times ``t`` [s], ``signals`` name -> (n_runs, len(t))."""
+        count = len(t)
+        self.reserve(self.size + count)
+        end = self.size + count
+        for row, name in enumerate(self.floats_names):
+            self.floats[row, :, self.size:end] = signals[name]
+        for row, name in enumerate(_FLAGS):
+            self.flags[row, :, self.size:end] = signals[name]
+        self.times.append(np.asarray(t, dtype=float))
+        self.size = end
+
+    def advance(self, engine, steps, record_every):
+        """Advance ``engine`` by ``steps``, its samples written here (by the kernel itself
+        where the engine can)."""
+        if hasattr(engine, "advance_into"):
+            rows = engine.recorded_rows(steps, record_every)
+            self.reserve(self.size + rows)
+            t = engine.advance_into(steps, record_every, self.floats, self.flags, self.size)
+            self.times.append(t)
+            self.size += rows
+        else:
+            self.append(*engine.advance(steps, record_every))
+
+    def signals(self):
+        """(times [s], name -> (n_runs, size) views) of everything recorded."""
+        if len(self.times) > 1:
+            self.times = [np.concatenate(self.times)]
+        out = {name: self.floats[row, :, :self.size]
+               for row, name in enumerate(self.floats_names)}
+        out.update({name: self.flags[row, :, :self.size] for row, name in enumerate(_FLAGS)})
+        return self.times[0], {name: out[name] for name in self.names}
+
+
+def _advance(engine, recording, done, target, record_every, progress):
     """Advance the engine from step ``done`` to ``target``, reporting progress in pieces."""
     pieces = 50 if progress else 1
     size = max(1, -(-(target - done) // pieces))
-    parts = []
     for start in range(done, target, size):
         stop = min(start + size, target)
-        parts.append(engine.advance(stop - start, record_every))
+        recording.advance(engine, stop - start, record_every)
         if progress:
             progress(stop, target)
-    return parts
 
 
 def simulate_batch(
@@ -502,18 +565,16 @@ def simulate_batch(
     names = engine.signals  # SIGNALS, and LOAD_SIGNALS where some run is loaded
     first = dict(zip(names, engine.start(), strict=True))
     # every signal (n_runs, n_samples): the engines record run by run
-    parts = [([0.0], {name: value[:, None] for name, value in first.items()})]
+    recording = _Recording(names, n, 1 + int(round(t_end / dt)) // record_every + 1)
+    recording.append([0.0], {name: value[:, None] for name, value in first.items()})
     steps_done, horizon = 0, t_end
     extended = False
     run_end = np.full(n, np.nan)
     while True:
         target = int(round(horizon / dt))
-        parts += _advance(engine, steps_done, target, record_every, progress)
+        _advance(engine, recording, steps_done, target, record_every, progress)
         steps_done = target
-        t = np.concatenate([np.asarray(part[0]) for part in parts])
-        signals = {name: np.concatenate([part[1][name] for part in parts], axis=1)
-                   for name in names}
-        parts = [(t, signals)]  # an extended horizon continues from here
+        t, signals = recording.signals()
         ratio = p.ratio[:, None]
         delta = signals["theta"] / ratio
         omega_l = None
