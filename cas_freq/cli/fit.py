@@ -10,24 +10,63 @@ from cas_freq.exceptions import CasFreqError
 def register(commands):
     """Add the ``fit`` sub-parser."""
     parser = commands.add_parser(
-        "fit", help="second-order fit (report §7) to a measured step response CSV",
-        description="Step figures and the (wn, zeta, td) least-squares fit, with 95 % "
-        "confidence intervals, of a step response given as a CSV (the step applied at t = 0): "
-        "two columns, time [s] and fin angle [deg], with an optional header; or a header naming "
-        "a time column (t or time, in s or ms: 't [s]', 'time_s') and a fin angle column "
-        "(delta, fin_angle, fin or angle, in deg or rad: 'delta [deg]', 'fin_angle_deg'), "
-        "other columns ignored, as 'cas-freq simulate --csv' writes it.",
+        "fit", help="second-order fit (report §7) to step recordings or a step response CSV",
+        description="Second-order-plus-delay fit (report §7): (wn, zeta, td) with 95 % "
+        "confidence intervals, the RMS residual and the closed-form bandwidth. "
+        "With --data: of each bench step recording (a CSV whose header names time, command, "
+        "position and optionally current and voltage columns with their units, e.g. "
+        "'time_s,command_deg,position_deg'; the trigger and step size from the command, the "
+        "pre-trigger mean removed; README 'Bench recordings') and, for several, of all at once, "
+        "beside CONFIG's own simulated step (base variant). "
+        "Without --data, 'cas-freq fit FILE --step 10deg' fits one step response CSV (the step "
+        "at t = 0): two columns, time [s] and fin angle [deg], with an optional header; or a "
+        "header naming a time column (t or time, in s or ms: 't [s]', 'time_s') and a fin angle "
+        "column (delta, fin_angle, fin or angle, in deg or rad: 'delta [deg]', "
+        "'fin_angle_deg'), other columns ignored, as 'cas-freq simulate --csv' writes it.",
     )
-    parser.add_argument("csv", metavar="FILE",
-                        help="CSV: time [s], fin angle [deg]; or named columns (see above)")
+    parser.add_argument("target", nargs="?", default=None, metavar="CONFIG|FILE",
+                        help="with --data: the config YAML (default: the shipped "
+                        "configs/qt_cas.yaml); without: the step response CSV (time [s], fin "
+                        "angle [deg], or named columns, see above)")
+    parser.add_argument("--data", nargs="+", metavar="FILE",
+                        help="step recordings (CSV with a header naming columns and units)")
+    parser.add_argument("--model", choices=["second-order"], default="second-order",
+                        help="model to fit (default and, for now, only: second-order)")
+    parser.add_argument("--columns", metavar="ROLE=NAME,...",
+                        help="name recording columns outright, e.g. time=t_ms,position=enc_deg "
+                        "(roles: time, command, position, current, voltage)")
     parser.add_argument(
-        "--step", required=True, metavar="ANGLE", help="the commanded step, e.g. 10deg",
+        "--step", metavar="ANGLE",
+        help="the commanded step, e.g. 10deg (required without --data; with --data, for "
+        "recordings without a command column, and checked against the command within 1 %%)",
     )
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    parser.add_argument("-o", "--output", metavar="DIR",
+                        help="with --data: write fit.json and fit.svg (data vs fit, residuals) "
+                        "into DIR (replaced as a whole)")
     parser.set_defaults(handler=run)
 
 
 def run(args):
+    """``fit --data FILE...`` (:mod:`cas_freq.cli.fit_recordings`) or ``fit FILE --step``."""
+    if args.data:
+        from cas_freq.cli.fit_recordings import run_recordings
+
+        return run_recordings(args)
+    for option in ("columns", "output"):
+        if getattr(args, option) is not None:
+            raise CasFreqError(f"--{option} needs --data FILE...")
+    if args.target is None:
+        raise CasFreqError("give --data FILE [FILE ...] (step recordings) or a step response "
+                           "FILE with --step ANGLE")
+    if args.step is None:
+        raise CasFreqError(f"{args.target}: --step ANGLE is required to fit a step response "
+                           "FILE (or give recordings with --data)")
+    args.csv = args.target
+    return run_file(args)
+
+
+def run_file(args):
     """Fit the response in the file and print the figures and the fit."""
     import numpy as np
 

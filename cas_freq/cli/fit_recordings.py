@@ -1,0 +1,171 @@
+"""``cas-freq fit [CONFIG] --data FILE...``: the second-order fit of bench step recordings.
+
+Each recording's step figures and (wn, zeta, td) with ~95 % intervals, RMS residual and
+closed-form bandwidth; with several, the joint fit and the spread between runs; beside them, the
+step figures and fit of CONFIG's base variant simulated for the same step
+(:func:`cas_freq.simulation.run.step_batch`). ``-o DIR`` writes fit.json and fit.svg.
+"""
+
+import dataclasses
+import math
+
+from cas_freq.cli.common import EXIT_OK, angle, print_json, wrote
+from cas_freq.exceptions import CasFreqError
+
+
+def _fit_dict(fit, unit_step=False):
+    """JSON-ready fields of a SecondOrderFit; ``rms_residual`` [rad], or of the step if
+    ``unit_step``."""
+    data = dataclasses.asdict(fit)
+    rms = data.pop("rms_residual")
+    data["rms_residual_of_step" if unit_step else "rms_residual_rad"] = rms
+    return data
+
+
+def results(fits, model_runs, config):
+    """The JSON-ready dict of the fits (and of the config's simulated steps)."""
+    import numpy as np
+
+    from cas_freq.fileio import json_ready
+
+    recordings = []
+    for run in fits.runs:
+        r = run.recording
+        fit = _fit_dict(run.fit)
+        fit["rms_residual_of_step"] = run.fit.rms_residual / abs(run.step_rad)
+        recordings.append({
+            "source": r.source,
+            "samples": int(np.count_nonzero(r.after)),
+            "pre_trigger_samples": int(np.count_nonzero(~r.after)),
+            "trigger_s": r.trigger_s,
+            "position_offset_deg": math.degrees(r.position_offset_rad),
+            "command_offset_deg": math.degrees(r.command_offset_rad),
+            "step_deg": math.degrees(run.step_rad),
+            "step_from": run.step_source,
+            "step": dataclasses.asdict(run.figures),
+            "fit": fit,
+        })
+    model = []
+    for item in model_runs:
+        model.append({"config": item.config, "config_path": item.config_path,
+                      "variant": item.variant, "step": dataclasses.asdict(item.step),
+                      "fit": _fit_dict(item.fit)})
+    return json_ready({
+        "model": "second-order",
+        "recordings": recordings,
+        "joint": None if fits.joint is None else _fit_dict(fits.joint, unit_step=True),
+        "spread": fits.spread,
+        "config_simulated": model,
+        "config_path": config,
+    })
+
+
+def _ms(value, unit=" ms"):
+    """A time [s] in ms; one below 1e-9 s is 0; None is '—'."""
+    if value is None:
+        return "—"
+    return f"{0.0 if abs(value) < 1e-9 else value * 1e3:.4g}{unit}"
+
+
+def _fit_lines(f, indent="    "):
+    """Text lines of a fit dict."""
+    return [
+        f"{indent}wn {f['wn_rad_s']:.4g} rad/s [{f['wn_ci_rad_s'][0]:.4g}, "
+        f"{f['wn_ci_rad_s'][1]:.4g}]",
+        f"{indent}zeta {f['zeta']:.4g} [{f['zeta_ci'][0]:.4g}, {f['zeta_ci'][1]:.4g}]",
+        f"{indent}td {_ms(f['td_s'])} [{_ms(f['td_ci_s'][0], '')}, {_ms(f['td_ci_s'][1], '')}]",
+        f"{indent}closed-form bandwidth {f['bandwidth_closed_form_rad_s']:.4g} rad/s",
+    ]
+
+
+def _step_lines(s, indent="  "):
+    """Text lines of step figures."""
+    return [
+        f"{indent}rise time 10-90 %   {_ms(s['rise_time_s'])}",
+        f"{indent}overshoot           {s['overshoot_pct']:.4g} %",
+        f"{indent}settling ±2 % / ±5 % {_ms(s['settling_time_s'])} / "
+        f"{_ms(s['settling_time_5pct_s'])}",
+    ]
+
+
+def table(data):
+    """The text output of :func:`results`' dict."""
+    blocks = []
+    for rec in data["recordings"]:
+        offset = (f", pre-trigger offset {rec['position_offset_deg']:.4g} deg removed"
+                  if rec["pre_trigger_samples"] else ", no pre-trigger samples")
+        f = rec["fit"]
+        blocks.append("\n".join([
+            f"{rec['source']}: step of {rec['step_deg']:.4g} deg (from the "
+            f"{'command column' if rec['step_from'] == 'command' else '--step option'}), "
+            f"{rec['samples']} samples from the trigger{offset}",
+            *_step_lines(rec["step"]),
+            "  second-order fit (report §7)",
+            *_fit_lines(f),
+            f"    rms residual {100 * f['rms_residual_of_step']:.3g} % of the step "
+            f"({math.degrees(f['rms_residual_rad']):.3g} deg)",
+        ]))
+    if data["joint"] is not None:
+        f, spread = data["joint"], data["spread"]
+        lines = [f"joint fit of {len(data['recordings'])} recordings (one wn, zeta, td)",
+                 *_fit_lines(f, "  "),
+                 f"  rms residual {100 * f['rms_residual_of_step']:.3g} % of the step",
+                 "spread between the runs' own fits (standard deviation; min .. max)"]
+        for key, label, scale, unit in (("wn_rad_s", "wn", 1.0, " rad/s"),
+                                        ("zeta", "zeta", 1.0, ""),
+                                        ("td_s", "td", 1e3, " ms"),
+                                        ("bandwidth_closed_form_rad_s", "bandwidth", 1.0,
+                                         " rad/s")):
+            s = spread[key]
+            lines.append(f"  {label} {s['std'] * scale:.3g}{unit}; {s['min'] * scale:.4g} .. "
+                         f"{s['max'] * scale:.4g}{unit}")
+        blocks.append("\n".join(lines))
+    for model in data["config_simulated"]:
+        blocks.append("\n".join([
+            f"model {model['config']} / {model['variant']} ({model['config_path']}), simulated "
+            f"step of {model['step']['amplitude_deg']:.4g} deg (nonlinear, with its limits)",
+            *_step_lines(model["step"]),
+            "  its own second-order fit",
+            *_fit_lines(model["fit"]),
+        ]))
+    return "\n\n".join(blocks)
+
+
+def run_recordings(args):
+    """Read the recordings, fit them, simulate the config's step, print, write ``-o``."""
+    from cas_freq.identification import fit_recordings, read_recording
+    from cas_freq.identification.columns import parse_column_option
+    from cas_freq.report.outdir import check_output_dir
+
+    if args.output is not None:
+        check_output_dir(args.output, "-o")
+    columns = None
+    if args.columns is not None:
+        try:
+            columns = parse_column_option(args.columns)
+        except ValueError as exc:
+            raise CasFreqError(str(exc)) from None
+    step = None if args.step is None else angle(args.step, "--step")
+    from cas_freq.cli.common import selected_variants
+
+    loaded = selected_variants(args.target, [], [])[0]
+    recordings = [read_recording(path, columns) for path in args.data]
+    fits = fit_recordings(recordings, step)
+    from cas_freq.simulation.run import step_batch
+
+    sizes = list(dict.fromkeys(round(run.step_rad, 12) for run in fits.runs))
+    model_runs = step_batch([(loaded, size) for size in sizes])
+    data = results(fits, model_runs, loaded.source)
+    if args.output is not None:
+        from cas_freq.plots.common import svg_text
+        from cas_freq.plots.recordings import recording_fit_figure
+        from cas_freq.report.studies import json_text, write_report
+
+        write_report(args.output, {"fit.json": json_text(data),
+                                   "fit.svg": svg_text(recording_fit_figure(fits))})
+        wrote(args.output)
+    if args.json:
+        print_json(data)
+    else:
+        print(table(data))
+    return EXIT_OK

@@ -1,0 +1,10 @@
+"""Identification from bench recordings (issue 14): read step recordings
+(:mod:`~cas_freq.identification.recordings`, column names and units in
+:mod:`~cas_freq.identification.columns`) and fit the report's second-order-plus-delay model to
+one or several of them (:mod:`~cas_freq.identification.step_fit`).
+"""
+
+from cas_freq.identification.recordings import Recording, read_recording
+from cas_freq.identification.step_fit import RecordingFits, RunFit, fit_recordings
+
+__all__ = ["Recording", "RecordingFits", "RunFit", "fit_recordings", "read_recording"]

@@ -1,0 +1,206 @@
+"""Read a bench step recording: a CSV whose header names the columns and their units.
+
+The columns (:mod:`cas_freq.identification.columns`): time (required), the commanded fin angle
+(optional), the measured fin angle (required), motor current and voltage (optional); others are
+ignored, so what ``cas-freq simulate --step 10deg --csv FILE`` writes is a recording. Lines
+starting with ``#`` are comments. Sampling may be irregular.
+
+The trigger (the step's time) is the command's jump when there is a command column: the first
+sample at which the command has moved by half of its change (for a step sampled at the jump, the
+first sample at the new level); without a command column, or when the command holds one level
+throughout (it stepped at the recording's start, as in ``simulate --csv``), the trigger is
+t = 0 of the file's time. Samples before the trigger are the pre-trigger segment: the mean of the
+position and of the command there is the offset, subtracted from each (without pre-trigger
+samples the offsets are 0). The step size is the command's median after the trigger less its
+offset.
+"""
+
+import dataclasses
+import math
+import statistics
+from pathlib import Path
+
+import numpy as np
+
+from cas_freq.exceptions import ConfigError
+from cas_freq.identification.columns import ROLES, find_columns
+
+#: Fewest samples from the trigger on (a fit of three parameters needs some more than three).
+MIN_SAMPLES = 10
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Recording:
+    """A step recording in SI, the trigger at t = 0 and the offsets removed.
+
+    Attributes
+    ----------
+    time_s : numpy.ndarray
+        Times [s] from the trigger (negative before it), strictly increasing.
+    command_rad : numpy.ndarray or None
+        Commanded fin angle [rad] less its pre-trigger mean; None without a command column.
+    position_rad : numpy.ndarray
+        Measured fin angle [rad] less its pre-trigger mean.
+    current_a, voltage_v : numpy.ndarray or None
+        Motor current [A] and voltage [V] as recorded, if there are such columns.
+    step_rad : float or None
+        The commanded step [rad], from the command column (None without one).
+    trigger_s : float
+        Time of the trigger in the file's own time [s].
+    position_offset_rad, command_offset_rad : float
+        The pre-trigger means removed [rad] (0 without pre-trigger samples).
+    source : str
+        The file read.
+    """
+
+    time_s: np.ndarray
+    command_rad: np.ndarray | None
+    position_rad: np.ndarray
+    current_a: np.ndarray | None
+    voltage_v: np.ndarray | None
+    step_rad: float | None
+    trigger_s: float
+    position_offset_rad: float
+    command_offset_rad: float
+    source: str
+
+    @property
+    def after(self):
+        """Boolean mask of the samples from the trigger on."""
+        return self.time_s >= 0.0
+
+
+def _cells(path):
+    """(line number, cells) of every non-comment, non-blank line of the CSV ``path``."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: cannot read the file ({exc})") from None
+    import csv
+
+    for number, line in enumerate(text.splitlines(), start=1):
+        if not line.strip() or line.lstrip().startswith("#"):
+            continue
+        yield number, next(csv.reader([line]))
+
+
+def _number(path, number, column, cell):
+    """The float of one cell, or ConfigError naming file, line and column."""
+    try:
+        value = float(cell)
+    except ValueError:
+        what = "empty" if not cell.strip() else f"not a number: {cell.strip()[:30]!r}"
+        raise ConfigError(f"{path}: line {number}: column {column.header!r}: {what}") from None
+    if not math.isfinite(value):
+        raise ConfigError(f"{path}: line {number}: column {column.header!r}: {cell.strip()} "
+                          "(values must be finite numbers)")
+    return value
+
+
+def read_recording(path, columns=None):
+    """Read a step recording.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV file with a header (module docstring).
+    columns : dict, optional
+        ``role -> header cell`` naming columns outright (roles: time, command, position,
+        current, voltage), e.g. ``{"time": "t_ms", "position": "enc_deg"}``.
+
+    Returns
+    -------
+    Recording
+
+    Raises
+    ------
+    ConfigError
+        (a ValueError) naming the file and line for: no header, no time or position column
+        (listing what is accepted), a unit pint does not know or of the wrong dimension, a
+        row of another width, an empty, non-numeric or non-finite cell, a time that repeats or
+        decreases, a command that does not step, fewer than :data:`MIN_SAMPLES` samples from
+        the trigger on.
+    """
+    path = str(path)
+    rows = _cells(path)
+    try:
+        header_line, header = next(rows)
+    except StopIteration:
+        raise ConfigError(f"{path}: no data (an empty file or only comments)") from None
+    try:
+        [float(cell) for cell in header]
+    except ValueError:
+        pass
+    else:
+        raise ConfigError(f"{path}: line {header_line}: expected a header naming the columns "
+                          "(e.g. 'time_s,command_deg,position_deg'), got numbers")
+    try:
+        found = find_columns(header, columns)
+    except ValueError as exc:
+        raise ConfigError(f"{path}: line {header_line}: {exc}") from None
+    values = {role: [] for role in found}
+    lines = []
+    time = found["time"]
+    for number, cells in rows:
+        if len(cells) != len(header):
+            raise ConfigError(f"{path}: line {number}: expected {len(header)} columns as the "
+                              f"header, got {len(cells)}")
+        row = {role: _number(path, number, column, cells[column.index]) * column.scale
+               for role, column in found.items()}
+        if lines:
+            previous = values["time"][-1]
+            if row["time"] == previous:
+                raise ConfigError(f"{path}: line {number}: time {cells[time.index].strip()} "
+                                  f"{time.unit} repeats line {lines[-1]}'s")
+            if row["time"] < previous:
+                raise ConfigError(f"{path}: line {number}: time {cells[time.index].strip()} "
+                                  f"{time.unit} is before line {lines[-1]}'s (times must "
+                                  "increase)")
+        for role, value in row.items():
+            values[role].append(value)
+        lines.append(number)
+    if not lines:
+        raise ConfigError(f"{path}: no data rows after the header (line {header_line})")
+    arrays = {role: np.array(items) for role, items in values.items()}
+    return _triggered(path, arrays, lines, found)
+
+
+def _triggered(path, arrays, lines, found):
+    """The :class:`Recording` of the columns read: trigger found, offsets removed."""
+    t = arrays["time"]
+    command = arrays.get("command")
+    trigger = 0.0
+    if command is not None:
+        first, last = command[0], float(np.median(command[-max(1, command.size // 4):]))
+        change = last - first
+        if abs(change) > 1e-9 * max(abs(first), abs(last), 1.0):
+            trigger = float(t[np.flatnonzero(np.abs(command - first) >= 0.5 * abs(change))[0]])
+        elif t[0] < 0 or first == 0.0:
+            raise ConfigError(f"{path}: column {found['command'].header!r}: the command does "
+                              f"not step (it holds {math.degrees(first):g} deg from line "
+                              f"{lines[0]} to line {lines[-1]})")
+        # else one level throughout, from t >= 0: the step is at t = 0, the recording's start
+    before, after = t < trigger, t >= trigger
+    count = int(np.count_nonzero(after))
+    if count < MIN_SAMPLES:
+        where = f"line {lines[int(np.argmax(after))]}" if count else f"after line {lines[-1]}"
+        raise ConfigError(f"{path}: {count} samples from the trigger at t = {trigger:g} s "
+                          f"({where}) on; at least {MIN_SAMPLES} are needed")
+    position = arrays["position"]
+    position_offset = float(np.mean(position[before])) if before.any() else 0.0
+    command_offset = float(np.mean(command[before])) if before.any() and command is not None \
+        else 0.0
+    step = None
+    if command is not None:
+        step = float(statistics.median(command[after])) - command_offset
+    return Recording(
+        time_s=t - trigger,
+        command_rad=None if command is None else command - command_offset,
+        position_rad=position - position_offset,
+        current_a=arrays.get("current"), voltage_v=arrays.get("voltage"),
+        step_rad=step, trigger_s=trigger, position_offset_rad=position_offset,
+        command_offset_rad=command_offset, source=path,
+    )
+
+
+__all__ = ["MIN_SAMPLES", "ROLES", "Recording", "read_recording"]
