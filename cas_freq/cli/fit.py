@@ -53,9 +53,9 @@ def run(args):
         from cas_freq.cli.fit_recordings import run_recordings
 
         return run_recordings(args)
-    for option in ("columns", "output"):
+    for option, name in (("columns", "--columns"), ("output", "-o")):
         if getattr(args, option) is not None:
-            raise CasFreqError(f"--{option} needs --data FILE...")
+            raise CasFreqError(f"{name} needs --data FILE...")
     if args.target is None:
         raise CasFreqError("give --data FILE [FILE ...] (step recordings) or a step response "
                            "FILE with --step ANGLE")

@@ -107,6 +107,11 @@ def step_size(recording, given=None):
     return float(measured), "command"
 
 
+def _after(signal, recording):
+    """``signal`` from the trigger on, or None."""
+    return None if signal is None else signal[recording.after]
+
+
 def fit_recordings(recordings, step_rad=None):
     """Second-order-plus-delay fit of each recording and, for several, of all at once.
 
@@ -130,8 +135,10 @@ def fit_recordings(recordings, step_rad=None):
     responses = [r.position_rad[r.after] for r in recordings]
     try:
         fits = fit_second_order_batch(times, responses, [step for step, _ in steps])
-        figures = [step_figures(t, y, step)
-                   for t, y, (step, _) in zip(times, responses, steps, strict=True)]
+        figures = [step_figures(t, y, step, current=_after(r.current_a, r),
+                                voltage=_after(r.voltage_v, r))
+                   for r, t, y, (step, _) in zip(recordings, times, responses, steps,
+                                                 strict=True)]
     except ValueError as exc:
         raise ConfigError(f"{recordings[0].source}: {exc}") from None
     runs = [
