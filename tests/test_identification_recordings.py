@@ -340,3 +340,16 @@ def test_figure_structure():
     assert len(top.lines) == 9 and len(bottom.lines) == 3 + 1
     assert top.get_ylabel() == "fin angle [deg]" and bottom.get_ylabel() == "data - fit [deg]"
     assert top.get_legend().get_texts()[1].get_text().startswith("fit: wn 461.5 rad/s")
+
+
+def test_readme_quotes_the_example_fit():
+    """The README's "Bench recordings" section quotes the joint fit of the example recordings
+    as ``cas-freq fit --data examples/recordings/step_run*.csv`` prints it."""
+    joint = fit_recordings(_examples()).joint
+    text = " ".join((EXAMPLES.parents[1] / "README.md").read_text(encoding="utf-8").split())
+    wn, zeta, td = joint.wn_ci_rad_s, joint.zeta_ci, joint.td_ci_s
+    quoted = (f"ωn {joint.wn_rad_s:.4g} rad/s [{wn[0]:.4g}, {wn[1]:.4g}], ζ {joint.zeta:.4g} "
+              f"[{zeta[0]:.4g}, {zeta[1]:.4g}], td {joint.td_s * 1e3:.4g} ms "
+              f"[{td[0] * 1e3:.4g}, {td[1] * 1e3:.4g}] and a closed-form bandwidth of "
+              f"{joint.bandwidth_closed_form_rad_s:.4g} rad/s")
+    assert quoted in text
