@@ -5,8 +5,8 @@ Each recording is fitted on its own (its samples from the trigger on, in units o
 several recordings also together: one (ωn, ζ, td) for all runs at once, the least-squares fit of
 the pooled unit-step samples (each run strided as its own fit is). The pooled fit's intervals
 come from the same :math:`s^2 (J^T J)^{-1}` as each run's (docs/model.md), with the residual
-variance of all runs pooled; the spread between the runs' own estimates (their standard deviation) shows whether the
-runs differ by more than their intervals allow.
+variance of all runs pooled; the spread between the runs' own estimates (their standard
+deviation) shows whether the runs differ by more than their intervals allow.
 """
 
 import dataclasses
