@@ -308,6 +308,9 @@ def test_cli_table_and_column_option(tmp_path):
     assert "step of 10 deg (from the --step option)" in out
     assert "wn 462 rad/s" in out and "closed-form bandwidth 565.9 rad/s" in out
     assert "model qt_cas / base" in out and "joint fit" not in out
+    code, out, err = run_cli(["fit", "--data", str(path), "--step", "10deg", "--variant",
+                              "fitted", "--columns", "time=stamp_ms,position=enc_deg"])
+    assert code == 0 and "model qt_cas / fitted" in out, err
 
 
 @pytest.mark.parametrize(("args", "expect"), [
@@ -319,6 +322,8 @@ def test_cli_table_and_column_option(tmp_path):
     ([], "give --data FILE"),
     (["{good}"], "--step ANGLE is required"),
     (["{good}", "--step", "10deg", "-o", "{tmp}/o"], "-o needs --data"),
+    (["{good}", "--step", "10deg", "--variant", "fitted"], "--variant needs --data"),
+    (["--data", "{good}", "--variant", "nope"], "unknown variant 'nope'"),
 ])
 def test_cli_bad_input_exits_2(tmp_path, args, expect):
     good = EXAMPLES / "step_run1.csv"

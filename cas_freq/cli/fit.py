@@ -17,7 +17,7 @@ def register(commands):
         "position and optionally current and voltage columns with their units, e.g. "
         "'time_s,command_deg,position_deg'; the trigger and step size from the command, the "
         "pre-trigger mean removed; README 'Bench recordings') and, for several, of all at once, "
-        "beside CONFIG's own simulated step (base variant). "
+        "beside CONFIG's own simulated step (the base variant, or --variant). "
         "Without --data, 'cas-freq fit FILE --step 10deg' fits one step response CSV (the step "
         "at t = 0): two columns, time [s] and fin angle [deg], with an optional header; or a "
         "header naming a time column (t or time, in s or ms: 't [s]', 'time_s') and a fin angle "
@@ -30,6 +30,9 @@ def register(commands):
                         "angle [deg], or named columns, see above)")
     parser.add_argument("--data", nargs="+", metavar="FILE",
                         help="step recordings (CSV with a header naming columns and units)")
+    parser.add_argument("--variant", metavar="NAME",
+                        help="with --data: the config's variant simulated beside the data "
+                        "(default: base)")
     parser.add_argument("--model", choices=["second-order"], default="second-order",
                         help="model to fit (default and, for now, only: second-order)")
     parser.add_argument("--columns", metavar="ROLE=NAME,...",
@@ -53,7 +56,7 @@ def run(args):
         from cas_freq.cli.fit_recordings import run_recordings
 
         return run_recordings(args)
-    for option, name in (("columns", "--columns"), ("output", "-o")):
+    for option, name in (("columns", "--columns"), ("output", "-o"), ("variant", "--variant")):
         if getattr(args, option) is not None:
             raise CasFreqError(f"{name} needs --data FILE...")
     if args.target is None:

@@ -148,7 +148,7 @@ def run_recordings(args):
     step = None if args.step is None else angle(args.step, "--step")
     from cas_freq.cli.common import selected_variants
 
-    loaded = selected_variants(args.target, [], [])[0]
+    loaded = selected_variants(args.target, [args.variant] if args.variant else [], [])[0]
     recordings = [read_recording(path, columns) for path in args.data]
     fits = fit_recordings(recordings, step)
     from cas_freq.simulation.run import step_batch
