@@ -15,6 +15,7 @@ samples the offsets are 0). The step size is the command's median after the trig
 offset.
 """
 
+import csv
 import dataclasses
 import math
 import statistics
@@ -23,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from cas_freq.exceptions import ConfigError
-from cas_freq.identification.columns import ROLES, find_columns
+from cas_freq.identification.columns import find_columns
 
 #: Fewest samples from the trigger on (a fit of three parameters needs some more than three).
 MIN_SAMPLES = 10
@@ -76,8 +77,6 @@ def _cells(path):
         text = Path(path).read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{path}: cannot read the file ({exc})") from None
-    import csv
-
     for number, line in enumerate(text.splitlines(), start=1):
         if not line.strip() or line.lstrip().startswith("#"):
             continue
@@ -203,4 +202,4 @@ def _triggered(path, arrays, lines, found):
     )
 
 
-__all__ = ["MIN_SAMPLES", "ROLES", "Recording", "read_recording"]
+__all__ = ["MIN_SAMPLES", "Recording", "read_recording"]
