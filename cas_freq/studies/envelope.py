@@ -214,10 +214,12 @@ def _refined(params, results, step_rad, fit):
     requirements = {r.id: r for r in params.requirements}
     brackets = [list(getattr(results[n], side).bracket) for n, side in tasks]
     stepped = any(requirements[results[n].id].kind == "step" for n, _ in tasks)
+    fitted = fit and any(results[n].metric.startswith("fit.") for n, _ in tasks)
     for _ in range(BISECTIONS):
         middles = np.array([0.5 * (good + bad) for good, bad in brackets])
         figures, stability = evaluate_figures(params, {KEY: middles},
-                                              step_rad=step_rad if stepped else None, fit=fit)
+                                              step_rad=step_rad if stepped else None,
+                                              fit=fitted)
         for t, (n, _) in enumerate(tasks):
             requirement = requirements[results[n].id]
             value = figures.get(requirement.metric, np.full(len(tasks), np.nan))[t]
