@@ -107,17 +107,20 @@ def responses(p, s, closed=True, delay=EXACT, feedforward=False):
     -------
     LoopResponses
     """
-    d, n_theta, n_out = _mechanics(p, s)
+    d, n_theta, n_out, factored = _mechanics(p, s)
     drive = parts.polyval(parts.current_controller(p), s) * delay.response(s, p.tau_c)
     a = drive * d
-    b = (parts.polyval(parts.electrical(p), s) * d
-         + parts.back_emf_coupling(p) * (s if n_theta is None else s * n_theta)) * s
+    # with D = s D_1 (no hinge stiffness) d is D_1: A and B are divided by s, D is not
+    coupling = parts.back_emf_coupling(p)
+    if n_theta is not None:
+        coupling = coupling * n_theta
+    b = (parts.polyval(parts.electrical(p), s) * d + (coupling if factored else coupling * s)) * s
     li = a / b
     n_cp = parts.polyval(parts.position_controller(p), s)
     forward = (p.Km * delay.response(s, p.tau_p)) * drive
     numerator = n_cp * forward
     filter_ = parts.polyval(parts.position_filter(p), s)
-    denominator = (filter_ * s) * (a + b)
+    denominator = (filter_ * (s * s if factored else s)) * (a + b)
     if n_theta is not None:  # the fin (T) sees n_out/n_theta of the motor angle
         forward_out = forward * n_out
         forward = forward * n_theta
@@ -141,20 +144,28 @@ def responses(p, s, closed=True, delay=EXACT, feedforward=False):
 
 
 def _mechanics(p, s):
-    """D, n_theta, n_out of :func:`cas_freq.model.parts.mechanics` at ``s``; n_theta and n_out
-    None where they are 1 (a rigid gear: the fin follows the motor)."""
+    """The drivetrain of :func:`cas_freq.model.parts.mechanics` at ``s``: (D or D/s, n_theta,
+    n_out, factored). ``factored``: D's constant term (the hinge stiffness) is 0 in every run,
+    and the first value is D/s (the unloaded loop's J s + mu_v, evaluated as the report's
+    model always was: fewer operations, the same numbers). n_theta and n_out are None where
+    they are 1 (a rigid gear: the fin follows the motor)."""
     d, n_theta, n_out = parts.mechanics(p)
+    factored = not np.any(d[-1])
+    d = parts.polyval(d[:-1] if factored else d, s)
     if len(n_theta) == 1:
-        return parts.polyval(d, s), None, None
-    return parts.polyval(d, s), parts.polyval(n_theta, s), parts.polyval(n_out, s)
+        return d, None, None, factored
+    return d, parts.polyval(n_theta, s), parts.polyval(n_out, s), factored
 
 
 def current_loop(p, s, delay=EXACT):
     """L_i(s) alone (cheaper than :func:`responses`)."""
-    d, n_theta, _ = _mechanics(p, s)
-    coupling = parts.back_emf_coupling(p) * (s if n_theta is None else s * n_theta)
+    d, n_theta, _, factored = _mechanics(p, s)
+    coupling = parts.back_emf_coupling(p)
+    if n_theta is not None:
+        coupling = coupling * n_theta
     return (parts.polyval(parts.current_controller(p), s) * delay.response(s, p.tau_c)
-            * d / ((parts.polyval(parts.electrical(p), s) * d + coupling) * s))
+            * d / ((parts.polyval(parts.electrical(p), s) * d
+                    + (coupling if factored else coupling * s)) * s))
 
 
 class ActuatorLoops:
