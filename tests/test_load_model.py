@@ -304,3 +304,22 @@ def test_mesh_damping_damps_the_two_mass_resonance():
     assert load.resonances[0].frequency_rad_s == pytest.approx(w_r, rel=1e-3)
     assert load.resonances[0].damping == pytest.approx(cg * w_r / (2 * kg), rel=1e-3)
     assert load.anti_resonances[0].damping == pytest.approx(cg * w_a / (2 * kg), rel=1e-9)
+
+
+@pytest.mark.parametrize("changes", [
+    {"mu_v": 0.0, "J_L": 5e-5},  # frictionless: the integrator's pole cancels Y's zero at 0
+    {"J_L": 5e-5, "K_h": 2.0, "eta": 0.7},
+    {"J_L": 5e-5, "K_g": 3000.0, "c_g": 0.03},
+])
+def test_current_loop_poles_equal_python_controls(changes):
+    # The current loop's poles (state matrix of cas_freq.analysis.stability, unobservable
+    # modes removed) against python-control's T_i of the loaded plant; python-control keeps
+    # the modes i does not see as poles at 0 (dropped here). Rounding-level tolerance.
+    from cas_freq.analysis.stability import current_loop_poles
+    from cas_freq.model.systems import linear_model
+
+    p = _params(**changes)
+    ours = np.sort_complex(current_loop_poles(p, 6))
+    theirs = np.asarray(linear_model(p, 6).current_closed_loop.poles())
+    theirs = np.sort_complex(theirs[np.abs(theirs) > 1e-6])
+    np.testing.assert_allclose(ours, theirs, rtol=1e-7)

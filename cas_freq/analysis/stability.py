@@ -378,20 +378,18 @@ def current_loop_poles(params, pade_order):
     params = parts.one_variant(params)
     v = _scalars(params)
     delay = pade_realization(v["tau_c"], pade_order)
-    if v["K_g"] > 0 or v["K_h"] != 0:
-        forward = _series(
-            _series(_current_controller(v), delay),
-            (*parts.current_plant_matrices(params), np.zeros((1, 1))),
-        )
-    elif v["mu_v"] == 0 and v["b_L"] == 0 and v["ci_Ki"] > 0:
-        # C_i Y = (Kp s + Ki) J / D: with mu_v = 0, J omega' = Km i, so i = (J/Km) s omega and
-        # the plant (i, omega) read out as Kp i + (J Ki/Km) omega has exactly this transfer.
-        output = np.array([[v["ci_Kp"], v["J"] * v["ci_Ki"] / v["Km"]]])
+    rigid_free = v["K_g"] == 0 and v["K_h"] == 0  # the shaft's position is not seen from i
+    if rigid_free and v["mu_v"] == 0 and v["b_L"] == 0 and v["ci_Ki"] > 0:
+        # C_i Y = (Kp s + Ki) J_eff / D: with mu_eff = 0, J_eff omega' = Km i, so i = (J_eff/Km)
+        # s omega and the plant (i, omega) read out as Kp i + (J_eff Ki/Km) omega has exactly
+        # this transfer.
+        j_eff = v["J"] + v["J_L"] / (v["eta"] * v["ratio"] ** 2)
+        output = np.array([[v["ci_Kp"], j_eff * v["ci_Ki"] / v["Km"]]])
         forward = _series(delay, _plant(params, output, states=2))
     else:
         forward = _series(
             _series(_current_controller(v), delay),
-            _plant(params, np.array([[1.0, 0.0]]), states=2),
+            (*parts.current_plant_matrices(params), np.zeros((1, 1))),
         )
     return _sorted(np.linalg.eigvals(_close_loop(forward, 0, 0)[0]))
 
