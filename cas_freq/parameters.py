@@ -538,7 +538,8 @@ def drivetrain_problem(stiffness, load_inertia, backlash, damping=0.0, where="sa
 
     A compliant gear (``gear.stiffness`` > 0) needs a load inertia (the load side of the
     two-mass model); backlash is a dead zone in the gear's spring and the mesh damping acts in
-    parallel with it, so both need a stiffness.
+    parallel with it, so both need a stiffness. The message ends with the indices of the bad
+    ``where`` (samples, runs), unless ``where`` is None (one config).
     """
     stiffness, load_inertia, backlash, damping = np.broadcast_arrays(
         *(np.atleast_1d(np.asarray(v, dtype=float))
@@ -547,16 +548,21 @@ def drivetrain_problem(stiffness, load_inertia, backlash, damping=0.0, where="sa
     bad = (damping > 0) & ~(stiffness > 0)
     if bad.any():
         return ("gear.damping: the mesh damping acts in parallel with the gear's spring, so it "
-                f"needs gear.stiffness > 0 N*m/rad as well ({where} {_indices(bad)})")
+                f"needs gear.stiffness > 0 N*m/rad as well{_which(where, bad)}")
     bad = (stiffness > 0) & ~(load_inertia > 0)
     if bad.any():
         return ("gear.stiffness: a compliant gear needs load.inertia > 0 kg*m^2 (the load side "
-                f"of the two-mass model), got load.inertia = 0 ({where} {_indices(bad)})")
+                f"of the two-mass model), got load.inertia = 0{_which(where, bad)}")
     bad = (backlash > 0) & ~(stiffness > 0)
     if bad.any():
         return ("gear.backlash: the play is a dead zone in the gear's spring, so it needs "
-                f"gear.stiffness > 0 N*m/rad as well ({where} {_indices(bad)})")
+                f"gear.stiffness > 0 N*m/rad as well{_which(where, bad)}")
     return None
+
+
+def _which(where, bad):
+    """`` (samples [0, 3])`` naming the bad entries, or nothing for one config."""
+    return "" if where is None else f" ({where} {_indices(bad)})"
 
 
 def _row(config):

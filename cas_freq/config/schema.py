@@ -331,9 +331,9 @@ class ActuatorConfig(_Section):
     @model_validator(mode="after")
     def _drivetrain(self):
         problem = drivetrain_problem(self.gear.stiffness, self.load.inertia, self.gear.backlash,
-                                     self.gear.damping)
+                                     self.gear.damping, where=None)
         if problem:
-            raise PydanticCustomError("cas_value", problem.split(" (samples")[0])
+            raise PydanticCustomError("cas_value", problem)
         return self
 
     @model_validator(mode="after")

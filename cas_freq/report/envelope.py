@@ -82,13 +82,13 @@ def table_rows(envelope):
     nominal = int(np.flatnonzero(grid == envelope.nominal_n_m_rad)[0])
     picks = sorted({*picks.astype(int).tolist(), nominal})
     columns = [c for c in _COLUMNS if c[2] in envelope.figures]
+    settling = envelope.figures.get("step.settling_time_s", np.full(grid.size, np.nan))
     rows = []
     for j in picks:
         failing = [r.id for r in envelope.requirements if r.evaluated and not r.passed[j]]
         cells = []
         stable = str(envelope.stability[j]) == "stable"
-        settled = math.isfinite(float(envelope.figures.get("step.settling_time_s",
-                                                           [math.nan] * grid.size)[j]))
+        settled = math.isfinite(float(settling[j]))
         for _, unit, key in columns:
             value = float(envelope.figures[key][j])
             if key == "step.overshoot_pct" and stable and not settled:

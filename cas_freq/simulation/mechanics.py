@@ -1,8 +1,8 @@
 r"""The loaded drivetrain in the simulator: exact steps per mode and the nonlinear terms.
 
 The linear plant with a load, a compliant gear, backdrive and backlash is
-:func:`cas_freq.model.parts.plant_matrices` (docs/model.md and ../shared/MODEL.md, "Load and
-drivetrain"); this module discretises it per mode and decides, per run at the start of every
+:func:`cas_freq.model.parts.plant_matrices` (docs/model.md §5, "Load and drivetrain"); this
+module discretises it per mode and decides, per run at the start of every
 step, which mode applies and which constant torques act over the step. Within a step the
 dynamics are the exact linear ones; the switching is explicit (decided from the state at
 :math:`t_k`), so its error is first order in dt at each switch. Runs without any load term
