@@ -41,7 +41,16 @@ SIGNALS = (
 #: compliant gear (a rigid gear's follow the motor, theta/N and omega/N).
 LOAD_SIGNALS = ("delta", "omega_L")
 
+#: The recorded signals held as booleans (the others are floats).
+FLAG_SIGNALS = ("current_limited", "voltage_limited")
+
 _CHUNK = 2048
+
+
+def recorded_rows(first, n_steps, record_every):
+    """Samples recorded over steps ``first`` .. ``first + n_steps - 1`` (every
+    ``record_every``-th step)."""
+    return (first + n_steps - 1) // record_every - (-(-first // record_every)) + 1
 
 
 def plant_step_matrices(params, dt):
@@ -268,6 +277,24 @@ class Engine:
         if self.drivetrain is None:
             return values
         return values + (self.x[:, 4], self.x[:, 3])
+
+    def recorded_rows(self, n_steps, record_every=1):
+        """How many samples the next ``n_steps`` steps record."""
+        return recorded_rows(self.k + 1, n_steps, record_every)
+
+    def advance_into(self, n_steps, record_every, floats, flags, offset):
+        """:meth:`advance`, its samples copied into ``floats`` (the float signals of
+        :attr:`signals` in order, n_runs, capacity) and ``flags`` (current_limited,
+        voltage_limited) from column ``offset`` on (the compiled engine writes them there
+        itself); returns their times [s]."""
+        t, signals = self.advance(n_steps, record_every)
+        columns = slice(offset, offset + len(t))
+        names = [name for name in self.signals if name not in FLAG_SIGNALS]
+        for row, name in enumerate(names):
+            floats[row, :, columns] = signals[name]
+        for row, name in enumerate(FLAG_SIGNALS):
+            flags[row, :, columns] = signals[name]
+        return t
 
     def advance(self, n_steps, record_every=1):
         """Advance ``n_steps`` steps; record every ``record_every``-th sample.

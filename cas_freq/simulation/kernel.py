@@ -47,7 +47,12 @@ from numba import njit, prange
 from cas_freq.simulation import mechanics as mech
 from cas_freq.simulation.controllers import derivative_filter
 from cas_freq.simulation.delay_line import delay_steps, ring_size
-from cas_freq.simulation.engine import LOAD_SIGNALS, SIGNALS, plant_step_matrices
+from cas_freq.simulation.engine import (
+    LOAD_SIGNALS,
+    SIGNALS,
+    plant_step_matrices,
+    recorded_rows,
+)
 
 # numba's threading layer: workqueue unless NUMBA_THREADING_LAYER chooses. The default order
 # picks GNU OpenMP where present, and a process forked after a parallel kernel ran (a
@@ -820,9 +825,8 @@ class CompiledEngine:
         return values + (x[:, 4], x[:, 3])
 
     def recorded_rows(self, n_steps, record_every=1):
-        """How many samples :meth:`advance_into` records over the next ``n_steps`` steps."""
-        first = self.k + 1
-        return (first + n_steps - 1) // record_every - (-(-first // record_every)) + 1
+        """How many samples the next ``n_steps`` steps record."""
+        return recorded_rows(self.k + 1, n_steps, record_every)
 
     def advance(self, n_steps, record_every=1):
         """Advance ``n_steps`` steps; record every ``record_every``-th sample (Engine.advance).
@@ -849,7 +853,7 @@ class CompiledEngine:
         capacity) from column ``offset`` on; returns their times [s]."""
         first = self.k + 1
         base = -(-first // record_every)  # the first recorded step is base * record_every
-        rows = (first + n_steps - 1) // record_every - base + 1
+        rows = recorded_rows(first, n_steps, record_every)
         n = self.x.shape[0]
         q = self.q
         block = max(64, _BLOCK_VALUES // (1 if n == 1 else self.commands.columns))

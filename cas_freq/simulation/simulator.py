@@ -62,7 +62,7 @@ import numpy as np
 
 from cas_freq.exceptions import ConfigError, ModelError
 from cas_freq.parameters import LoopParameters
-from cas_freq.simulation.engine import CommandSet, Engine
+from cas_freq.simulation.engine import FLAG_SIGNALS, CommandSet, Engine
 
 #: Largest default step [s].
 MAX_DEFAULT_STEP_S = 20e-6
@@ -414,23 +414,19 @@ def _settled(t, delta, command, final, t_from):
     return np.all(np.abs(delta[:, window] - final[:, None]) <= band[:, None], axis=1)
 
 
-#: Recorded signals held as booleans (the others are floats).
-_FLAGS = ("current_limited", "voltage_limited")
-
-
 class _Recording:
     """The recorded signals of a batch, in buffers the compiled kernel writes into directly.
 
     Floats (n_float_signals, n_runs, capacity) and flags (2, n_runs, capacity); ``size``
-    columns filled. The reference engine's pieces are copied in. A horizon extension grows the
+    columns filled. A horizon extension grows the
     buffers (doubling, so every sample is copied at most about once more).
     """
 
     def __init__(self, names, n_runs, capacity):
         self.names = names
-        self.floats_names = [name for name in names if name not in _FLAGS]
+        self.floats_names = [name for name in names if name not in FLAG_SIGNALS]
         self.floats = np.empty((len(self.floats_names), n_runs, capacity))
-        self.flags = np.empty((len(_FLAGS), n_runs, capacity), dtype=bool)
+        self.flags = np.empty((len(FLAG_SIGNALS), n_runs, capacity), dtype=bool)
         self.times = []
         self.size = 0
 
@@ -452,22 +448,19 @@ class _Recording:
         end = self.size + count
         for row, name in enumerate(self.floats_names):
             self.floats[row, :, self.size:end] = signals[name]
-        for row, name in enumerate(_FLAGS):
+        for row, name in enumerate(FLAG_SIGNALS):
             self.flags[row, :, self.size:end] = signals[name]
         self.times.append(np.asarray(t, dtype=float))
         self.size = end
 
     def advance(self, engine, steps, record_every):
-        """Advance ``engine`` by ``steps``, its samples written here (by the kernel itself
-        where the engine can)."""
-        if hasattr(engine, "advance_into"):
-            rows = engine.recorded_rows(steps, record_every)
-            self.reserve(self.size + rows)
-            t = engine.advance_into(steps, record_every, self.floats, self.flags, self.size)
-            self.times.append(t)
-            self.size += rows
-        else:
-            self.append(*engine.advance(steps, record_every))
+        """Advance ``engine`` by ``steps``, its samples written here (the compiled kernel
+        writes them itself, the reference engine copies them in)."""
+        rows = engine.recorded_rows(steps, record_every)
+        self.reserve(self.size + rows)
+        self.times.append(engine.advance_into(steps, record_every, self.floats, self.flags,
+                                              self.size))
+        self.size += rows
 
     def signals(self):
         """(times [s], name -> (n_runs, size) views) of everything recorded."""
@@ -475,7 +468,7 @@ class _Recording:
             self.times = [np.concatenate(self.times)]
         out = {name: self.floats[row, :, :self.size]
                for row, name in enumerate(self.floats_names)}
-        out.update({name: self.flags[row, :, :self.size] for row, name in enumerate(_FLAGS)})
+        out.update({name: self.flags[row, :, :self.size] for row, name in enumerate(FLAG_SIGNALS)})
         return self.times[0], {name: out[name] for name in self.names}
 
 
