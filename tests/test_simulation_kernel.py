@@ -199,7 +199,7 @@ def test_progress_and_chunks_do_not_change_the_result():
 
 
 def test_engine_choice(monkeypatch):
-    from cas_freq.simulation.kernel import CompiledEngine
+    from cas_freq.simulation.compiled import CompiledEngine
 
     monkeypatch.delenv(simulator_module.ENGINE_ENV, raising=False)
     assert simulator_module.engine_class() is CompiledEngine
@@ -218,6 +218,7 @@ def test_without_numba_the_reference_runs(monkeypatch):
     monkeypatch.delenv(simulator_module.ENGINE_ENV, raising=False)
     monkeypatch.setitem(sys.modules, "numba", None)
     monkeypatch.delitem(sys.modules, "cas_freq.simulation.kernel", raising=False)
+    monkeypatch.delitem(sys.modules, "cas_freq.simulation.compiled", raising=False)
     with pytest.warns(UserWarning, match="compiled engine is unavailable"):
         assert simulator_module.engine_class() is Engine
     with warnings.catch_warnings():

@@ -28,7 +28,8 @@ numbers to the last bit or nearly (the clamp flags where an output rests exactly
 depend on the last bit); in a batch the reference's shortcuts are taken for the whole batch at
 once and may round a run differently by an ulp.
 
-The state lives in numpy arrays between calls (:class:`CompiledEngine`), so the simulator can
+The state lives in numpy arrays between calls (the engine of :mod:`cas_freq.simulation.compiled`
+builds the tables with :func:`parameter_table`), so the simulator can
 advance a batch by any number of steps, check settling, extend the horizon and report progress
 as with the reference engine. Functions are compiled with ``cache=True``: the first call in a
 fresh environment compiles them (10 to 30 s on a 2-core machine); later processes load the
@@ -38,7 +39,6 @@ writable; where no place is writable, the functions are compiled in each process
 """
 
 import os
-import threading
 
 import numba
 import numpy as np
@@ -48,16 +48,15 @@ from cas_freq.simulation import mechanics as mech
 from cas_freq.simulation.controllers import derivative_filter
 from cas_freq.simulation.delay_line import delay_steps, ring_size
 from cas_freq.simulation.engine import (
-    LOAD_SIGNALS,
     SIGNALS,
     plant_step_matrices,
-    recorded_rows,
 )
 
 # numba's threading layer: workqueue unless NUMBA_THREADING_LAYER chooses. The default order
 # picks GNU OpenMP where present, and a process forked after a parallel kernel ran (a
 # multiprocessing pool) is then terminated when it launches one; workqueue is fork-safe, and
-# :data:`_PARALLEL` keeps two threads from launching at once, which workqueue does not allow.
+# the lock of cas_freq.simulation.compiled keeps two threads from launching at once, which
+# workqueue does not allow.
 if "NUMBA_THREADING_LAYER" not in os.environ:
     numba.config.THREADING_LAYER = "workqueue"
 
@@ -128,7 +127,7 @@ _Q_C_G = mech.C_G
 _FORWARD, _BACKDRIVE, _GAP = mech.FORWARD, mech.BACKDRIVE, mech.GAP
 
 # Rows of the float recordings (the bool ones are current_limited, voltage_limited).
-_FLOAT_SIGNALS = SIGNALS[:7]
+FLOAT_SIGNALS = SIGNALS[:7]
 
 
 # --- delay lines (delay_line.py) --------------------------------------------------------------
@@ -734,153 +733,68 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
         x[r, 3], x[r, 4], s[r, _W_BEFORE] = w_l, d_l, w_before
 
 
-# --- the engine -------------------------------------------------------------------------------
+# --- the tables the kernel reads, and the samples it holds (for compiled.py) -----------------
 
-#: Command values per kernel call, about (steps x columns) (memory of the command rows).
-_BLOCK_VALUES = 2**18
-#: Held while a thread runs the parallel kernel: the workqueue threading layer aborts the
-#: process if two threads launch parallel kernels at once, so a batch that finds it held
-#: (another thread, e.g. a dask worker thread, is simulating) runs serially instead.
-_PARALLEL = threading.Lock()
-
-
-class CompiledEngine:
-    """State of a batch of runs, advanced by the compiled kernel (the interface of Engine).
+def parameter_table(params, dt, position_every=None):
+    """The kernel's per-run parameter table and delay steps of a batch.
 
     Parameters
     ----------
     params : LoopParameters
         Batch parameters.
-    commands : CommandSet
-        Commands of every run.
     dt : float
         Step [s].
-    current_every, position_every : int or None
-        Update period of a sampled controller in steps; None for a continuous one.
+    position_every : int or None
+        Update period of a sampled position controller in steps; None for a continuous one.
+
+    Returns
+    -------
+    tuple
+        The table ``p`` (n_runs, _NP), the whole delay steps ``m`` (n_runs, 2) of tau_c and
+        tau_p, whether any run has a derivative term, and the ring sizes (2**k slots, a slot is
+        then a bit mask, not a division) of the voltage and current delay lines.
     """
-
-    def __init__(self, params, commands, dt, current_every=None, position_every=None):
-        pr = params
-        n = pr.n_runs
-        self.dt = dt
-        self.commands = commands
-        self.every_c, self.every_p = current_every or 0, position_every or 0
-        phi, g_a, g_b = plant_step_matrices(pr, dt)
-        p = np.zeros((n, _NP))
-        p[:, _PHI:_PHI + 9] = phi.reshape(n, 9)
-        p[:, _GA:_GA + 3] = g_a
-        p[:, _GB:_GB + 3] = g_b
-        p[:, _RATIO], p[:, _FF_V], p[:, _FF_A] = pr.ratio, pr.ff_v, pr.ff_a
-        p[:, _CP_KP], p[:, _CP_KI], p[:, _I_MAX] = pr.cp_Kp, pr.cp_Ki, pr.i_max
-        p[:, _CI_KP], p[:, _CI_KI], p[:, _V_MAX] = pr.ci_Kp, pr.ci_Ki, pr.v_max
-        p[:, _ON_MEASUREMENT] = pr.derivative_on_measurement
-        # the derivative filter's coefficients (controllers.py), as the reference computes them
-        self.has_derivative = bool(np.any(pr.cp_Kd > 0))
-        if self.has_derivative:
-            filter_ = derivative_filter(pr.cp_Kd, pr.Tf, dt * (position_every or 1),
-                                        sampled=position_every is not None)
-            p[:, _CP_GD], p[:, _CP_A], p[:, _CP_B], p[:, _CP_C] = filter_
-        (m_c, f_c), (m_p, f_p) = delay_steps(pr.tau_c, dt), delay_steps(pr.tau_p, dt)
-        self.m = np.stack([m_c, m_p], axis=1)
-        p[:, _F_C], p[:, _F_P] = f_c, f_p
-        self.p = p
-        # a batch with some loaded run: the loaded plant's table (mechanics.py) and 5 states
-        loaded = bool(np.any(pr.loaded))
-        self.q = mech.table(pr, dt) if loaded else None
-        #: Names of the signals of :meth:`sample` and :meth:`advance`.
-        self.signals = SIGNALS + LOAD_SIGNALS if loaded else SIGNALS
-        self.x = np.zeros((n, mech.NX if loaded else 3))
-        self.s = np.zeros((n, _NS))
-        # ring buffers of the delay lines, right and left limits (delay_line.py), of 2**n
-        # slots (a slot is then a bit mask, not a division)
-        slots_c, slots_p = (1 << (ring_size(m) - 1).bit_length() for m in (m_c, m_p))
-        self.voltage = (np.zeros((n, slots_c)), np.zeros((n, slots_c)))
-        self.current = (np.zeros((n, slots_p)), np.zeros((n, slots_p)))
-        self.k = 0
-
-    def _rows(self, times):
-        """Fin command rows at ``times``: right and left limits, each (len(t), 3, columns)."""
-        return tuple(np.ascontiguousarray(np.stack(self.commands.fin(times, left=left), axis=1))
-                     for left in (False, True))
-
-    def _args(self):
-        return (self.p, self.m, self.x, self.s, *self.voltage, *self.current)
-
-    def start(self):
-        """Controller outputs at t = 0, then the sample at 0 (as Engine.start)."""
-        right, left = self._rows(np.zeros(1))
-        start_batch(*self._args(), right, left, self.every_c, self.every_p,
-                    self.has_derivative, self.dt)
-        return tuple(np.array(value) for value in self.sample())
-
-    def sample(self):
-        """The recorded signals at the present step, in the order of :attr:`signals`."""
-        x, s = self.x, self.s
-        values = (
-            x[:, 2], x[:, 1], x[:, 0], s[:, _V], s[:, _THETA_CMD], s[:, _I_CMD],
-            self.p[:, _CP_KI] * s[:, _P_INT], s[:, _P_LIMITED] != 0, s[:, _C_LIMITED] != 0,
-        )
-        if self.q is None:
-            return values
-        return values + (x[:, 4], x[:, 3])
-
-    def recorded_rows(self, n_steps, record_every=1):
-        """How many samples the next ``n_steps`` steps record."""
-        return recorded_rows(self.k + 1, n_steps, record_every)
-
-    def advance(self, n_steps, record_every=1):
-        """Advance ``n_steps`` steps; record every ``record_every``-th sample (Engine.advance).
-
-        Returns
-        -------
-        tuple of (numpy.ndarray, dict of str to numpy.ndarray)
-            Times of the recorded samples [s] and each signal of :attr:`signals`, shape
-            (n_runs, n_samples).
-        """
-        rows = self.recorded_rows(n_steps, record_every)
-        names = _FLOAT_SIGNALS if self.q is None else _FLOAT_SIGNALS + LOAD_SIGNALS
-        # each run's samples contiguous (the kernel writes them run by run)
-        floats = np.empty((len(names), self.x.shape[0], rows))
-        flags = np.empty((2, self.x.shape[0], rows), dtype=np.bool_)
-        t = self.advance_into(n_steps, record_every, floats, flags, 0)
-        out = dict(zip(names, floats, strict=True))
-        out["current_limited"], out["voltage_limited"] = flags
-        return t, {name: out[name] for name in self.signals}
-
-    def advance_into(self, n_steps, record_every, floats, flags, offset):
-        """Advance ``n_steps`` steps, writing the recorded samples into ``floats`` (the float
-        signals of :attr:`signals` in order, n_runs, capacity) and ``flags`` (2, n_runs,
-        capacity) from column ``offset`` on; returns their times [s]."""
-        first = self.k + 1
-        base = -(-first // record_every)  # the first recorded step is base * record_every
-        rows = recorded_rows(first, n_steps, record_every)
-        n = self.x.shape[0]
-        q = self.q
-        block = max(64, _BLOCK_VALUES // (1 if n == 1 else self.commands.columns))
-        parallel = n > 1 and numba.get_num_threads() > 1 and _PARALLEL.acquire(blocking=False)
-        advance = advance_parallel if parallel else advance_serial
-        try:
-            for start in range(first, first + n_steps, block):
-                stop = min(start + block, first + n_steps)
-                right, left = self._rows(np.arange(start, stop) * self.dt)
-                # the kernel writes sample j of this call at column j - (base - offset)
-                advance(*self._args(), right, left, start - 1, record_every, base - offset,
-                        floats, flags, self.every_c, self.every_p, self.has_derivative,
-                        self.dt, q)
-                self.k = stop - 1
-        finally:
-            if parallel:
-                _PARALLEL.release()
-        kept = np.arange(base, base + rows) * record_every
-        if q is not None:  # the unloaded runs' fin follows the motor (the kernel skips them)
-            unloaded = q[:, mech.LOADED] == 0.0
-            ratio = self.p[unloaded, _RATIO][:, None]
-            columns = slice(offset, offset + rows)
-            floats[7, unloaded, columns] = floats[0, unloaded, columns] / ratio
-            floats[8, unloaded, columns] = floats[1, unloaded, columns] / ratio
-        return kept * self.dt
+    pr = params
+    n = pr.n_runs
+    phi, g_a, g_b = plant_step_matrices(pr, dt)
+    p = np.zeros((n, _NP))
+    p[:, _PHI:_PHI + 9] = phi.reshape(n, 9)
+    p[:, _GA:_GA + 3] = g_a
+    p[:, _GB:_GB + 3] = g_b
+    p[:, _RATIO], p[:, _FF_V], p[:, _FF_A] = pr.ratio, pr.ff_v, pr.ff_a
+    p[:, _CP_KP], p[:, _CP_KI], p[:, _I_MAX] = pr.cp_Kp, pr.cp_Ki, pr.i_max
+    p[:, _CI_KP], p[:, _CI_KI], p[:, _V_MAX] = pr.ci_Kp, pr.ci_Ki, pr.v_max
+    p[:, _ON_MEASUREMENT] = pr.derivative_on_measurement
+    # the derivative filter's coefficients (controllers.py), as the reference computes them
+    has_derivative = bool(np.any(pr.cp_Kd > 0))
+    if has_derivative:
+        filter_ = derivative_filter(pr.cp_Kd, pr.Tf, dt * (position_every or 1),
+                                    sampled=position_every is not None)
+        p[:, _CP_GD], p[:, _CP_A], p[:, _CP_B], p[:, _CP_C] = filter_
+    (m_c, f_c), (m_p, f_p) = delay_steps(pr.tau_c, dt), delay_steps(pr.tau_p, dt)
+    p[:, _F_C], p[:, _F_P] = f_c, f_p
+    slots = tuple(1 << (ring_size(m) - 1).bit_length() for m in (m_c, m_p))
+    return p, np.stack([m_c, m_p], axis=1), has_derivative, slots
 
 
-def threads():
-    """Threads the kernel runs on (numba's, ``NUMBA_NUM_THREADS``)."""
-    return numba.get_num_threads()
+def controller_state(n_runs):
+    """A zeroed controller state table (n_runs, _NS)."""
+    return np.zeros((n_runs, _NS))
+
+
+def sample(p, x, s, loaded):
+    """The recorded signals at the present step (SIGNALS, then LOAD_SIGNALS if ``loaded``)."""
+    values = (
+        x[:, 2], x[:, 1], x[:, 0], s[:, _V], s[:, _THETA_CMD], s[:, _I_CMD],
+        p[:, _CP_KI] * s[:, _P_INT], s[:, _P_LIMITED] != 0, s[:, _C_LIMITED] != 0,
+    )
+    return values + (x[:, 4], x[:, 3]) if loaded else values
+
+
+def rigid_fin(p, q, floats, columns):
+    """Fill the fin rows (delta, omega_L) of a loaded batch's unloaded runs, which the kernel
+    skips: their fin follows the motor (theta/N, omega/N)."""
+    unloaded = q[:, mech.LOADED] == 0.0
+    ratio = p[unloaded, _RATIO][:, None]
+    floats[7, unloaded, columns] = floats[0, unloaded, columns] / ratio
+    floats[8, unloaded, columns] = floats[1, unloaded, columns] / ratio

@@ -300,7 +300,7 @@ def engine_class(requested=None):
     if engine_name(requested) == "reference":
         return Engine
     try:
-        from cas_freq.simulation.kernel import CompiledEngine
+        from cas_freq.simulation.compiled import CompiledEngine
     except ImportError as exc:
         warnings.warn(f"simulation: the compiled engine is unavailable ({exc}); running the "
                       f"numpy reference engine instead (set {ENGINE_ENV}=reference to choose "

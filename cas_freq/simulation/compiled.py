@@ -1,0 +1,134 @@
+"""The batch engine of the compiled kernel: the interface of the reference Engine, its state in
+numpy arrays between calls to the numba functions of :mod:`cas_freq.simulation.kernel`.
+
+The engine builds the kernel's tables once (:func:`~cas_freq.simulation.kernel.parameter_table`
+and, for a batch with a loaded run, :func:`cas_freq.simulation.mechanics.table`), evaluates the
+commands a block of steps at a time, and runs the parallel kernel unless another thread is
+running it (the workqueue threading layer allows one at a time).
+"""
+
+import threading
+
+import numba
+import numpy as np
+
+from cas_freq.simulation import kernel
+from cas_freq.simulation import mechanics as mech
+from cas_freq.simulation.engine import LOAD_SIGNALS, SIGNALS, recorded_rows
+
+#: Command values per kernel call, about (steps x columns) (memory of the command rows).
+_BLOCK_VALUES = 2**18
+#: Held while a thread runs the parallel kernel: the workqueue threading layer aborts the
+#: process if two threads launch parallel kernels at once, so a batch that finds it held
+#: (another thread, e.g. a dask worker thread, is simulating) runs serially instead.
+_PARALLEL = threading.Lock()
+
+
+class CompiledEngine:
+    """State of a batch of runs, advanced by the compiled kernel (the interface of Engine).
+
+    Parameters
+    ----------
+    params : LoopParameters
+        Batch parameters.
+    commands : CommandSet
+        Commands of every run.
+    dt : float
+        Step [s].
+    current_every, position_every : int or None
+        Update period of a sampled controller in steps; None for a continuous one.
+    """
+
+    def __init__(self, params, commands, dt, current_every=None, position_every=None):
+        n = params.n_runs
+        self.dt = dt
+        self.commands = commands
+        self.every_c, self.every_p = current_every or 0, position_every or 0
+        self.p, self.m, self.has_derivative, (slots_c, slots_p) = kernel.parameter_table(
+            params, dt, position_every)
+        # a batch with some loaded run: the loaded plant's table (mechanics.py) and 5 states
+        loaded = bool(np.any(params.loaded))
+        self.q = mech.table(params, dt) if loaded else None
+        #: Names of the signals of :meth:`sample` and :meth:`advance`.
+        self.signals = SIGNALS + LOAD_SIGNALS if loaded else SIGNALS
+        self.x = np.zeros((n, mech.NX if loaded else 3))
+        self.s = kernel.controller_state(n)
+        # ring buffers of the delay lines, right and left limits (delay_line.py)
+        self.voltage = (np.zeros((n, slots_c)), np.zeros((n, slots_c)))
+        self.current = (np.zeros((n, slots_p)), np.zeros((n, slots_p)))
+        self.k = 0
+
+    def _rows(self, times):
+        """Fin command rows at ``times``: right and left limits, each (len(t), 3, columns)."""
+        return tuple(np.ascontiguousarray(np.stack(self.commands.fin(times, left=left), axis=1))
+                     for left in (False, True))
+
+    def _args(self):
+        return (self.p, self.m, self.x, self.s, *self.voltage, *self.current)
+
+    def start(self):
+        """Controller outputs at t = 0, then the sample at 0 (as Engine.start)."""
+        right, left = self._rows(np.zeros(1))
+        kernel.start_batch(*self._args(), right, left, self.every_c, self.every_p,
+                           self.has_derivative, self.dt)
+        return tuple(np.array(value) for value in self.sample())
+
+    def sample(self):
+        """The recorded signals at the present step, in the order of :attr:`signals`."""
+        return kernel.sample(self.p, self.x, self.s, self.q is not None)
+
+    def recorded_rows(self, n_steps, record_every=1):
+        """How many samples the next ``n_steps`` steps record."""
+        return recorded_rows(self.k + 1, n_steps, record_every)
+
+    def advance(self, n_steps, record_every=1):
+        """Advance ``n_steps`` steps; record every ``record_every``-th sample (Engine.advance).
+
+        Returns
+        -------
+        tuple of (numpy.ndarray, dict of str to numpy.ndarray)
+            Times of the recorded samples [s] and each signal of :attr:`signals`, shape
+            (n_runs, n_samples).
+        """
+        rows = self.recorded_rows(n_steps, record_every)
+        names = kernel.FLOAT_SIGNALS + (() if self.q is None else LOAD_SIGNALS)
+        # each run's samples contiguous (the kernel writes them run by run)
+        floats = np.empty((len(names), self.x.shape[0], rows))
+        flags = np.empty((2, self.x.shape[0], rows), dtype=np.bool_)
+        t = self.advance_into(n_steps, record_every, floats, flags, 0)
+        out = dict(zip(names, floats, strict=True))
+        out["current_limited"], out["voltage_limited"] = flags
+        return t, {name: out[name] for name in self.signals}
+
+    def advance_into(self, n_steps, record_every, floats, flags, offset):
+        """Advance ``n_steps`` steps, writing the recorded samples into ``floats`` (the float
+        signals of :attr:`signals` in order, n_runs, capacity) and ``flags`` (2, n_runs,
+        capacity) from column ``offset`` on; returns their times [s]."""
+        first = self.k + 1
+        base = -(-first // record_every)  # the first recorded step is base * record_every
+        rows = recorded_rows(first, n_steps, record_every)
+        n = self.x.shape[0]
+        q = self.q
+        block = max(64, _BLOCK_VALUES // (1 if n == 1 else self.commands.columns))
+        parallel = n > 1 and numba.get_num_threads() > 1 and _PARALLEL.acquire(blocking=False)
+        advance = kernel.advance_parallel if parallel else kernel.advance_serial
+        try:
+            for start in range(first, first + n_steps, block):
+                stop = min(start + block, first + n_steps)
+                right, left = self._rows(np.arange(start, stop) * self.dt)
+                # the kernel writes sample j of this call at column j - (base - offset)
+                advance(*self._args(), right, left, start - 1, record_every, base - offset,
+                        floats, flags, self.every_c, self.every_p, self.has_derivative,
+                        self.dt, q)
+                self.k = stop - 1
+        finally:
+            if parallel:
+                _PARALLEL.release()
+        if q is not None:
+            kernel.rigid_fin(self.p, q, floats, slice(offset, offset + rows))
+        return np.arange(base, base + rows) * record_every * self.dt
+
+
+def threads():
+    """Threads the kernel runs on (numba's, ``NUMBA_NUM_THREADS``)."""
+    return numba.get_num_threads()
