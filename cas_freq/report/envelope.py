@@ -145,7 +145,9 @@ def envelope_section(datas, png=False):
         blocks.append(Paragraph(f"Not in this report (not selected): {', '.join(missing)}."))
     results = []
     for data in chosen:
-        envelope = load_envelope(data.loaded, grid, spec.step)
+        known = data.analysis.drivetrain  # a loaded variant's range, computed by analyze
+        envelope = load_envelope(data.loaded, grid, spec.step, stable_range=None if known is None
+                                 else known.stable_hinge_stiffness_n_m_rad)
         low, high = envelope.stable_range
         span = ("nowhere on the scan" if low is None and high is None else
                 f"for K_h from {'−∞' if low is None else number(low, 4)} to "

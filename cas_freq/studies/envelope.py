@@ -119,7 +119,7 @@ class LoadEnvelope:
     requirements: tuple
 
 
-def load_envelope(loaded, hinge_stiffness, step_rad=None, progress=None):
+def load_envelope(loaded, hinge_stiffness, step_rad=None, progress=None, stable_range=None):
     """The load envelope of one variant.
 
     Parameters
@@ -133,6 +133,9 @@ def load_envelope(loaded, hinge_stiffness, step_rad=None, progress=None):
         no step if no requirement needs one.
     progress : callable, optional
         ``progress(done, total)``.
+    stable_range : (float or None, float or None), optional
+        The variant's stable hinge-stiffness range when already known (``analyze``'s
+        drivetrain figures of a loaded variant); computed otherwise.
 
     Returns
     -------
@@ -147,7 +150,8 @@ def load_envelope(loaded, hinge_stiffness, step_rad=None, progress=None):
     fit = any(r.metric.startswith("fit.") for r in stepped)
     figures, stability = evaluate_figures(params, {KEY: grid}, step_rad=step_rad, fit=fit,
                                           progress=progress)
-    stable_range = stable_hinge_range(LoopParameters.from_config(params))
+    if stable_range is None:
+        stable_range = stable_hinge_range(LoopParameters.from_config(params))
     stable = stability.astype(str) == "stable"
     index = int(np.flatnonzero(grid == nominal)[0])
     results = tuple(
