@@ -43,19 +43,46 @@ def register(commands):
         help="the commanded step, e.g. 10deg (required without --data; with --data, for "
         "recordings without a command column, and checked against the command within 1 %%)",
     )
+    parser.add_argument(
+        "--params", action="append", metavar="[NAME:]KEY[=START],...",
+        help="with --data: fit these config keys (e.g. motor.Km,motor.J,motor.mu_v; any key "
+        "--set takes, load and drivetrain keys included; KEY=START sets a start, e.g. "
+        "motor.coulomb_friction=1mN*m) through the nonlinear simulator, with 95 %% intervals, "
+        "correlations and identifiability; give it again for alternative models, compared by "
+        "AICc and BIC")
+    parser.add_argument("--channels", metavar="position[,current]",
+                        help="with --params: the recorded signals fitted (default: position, "
+                        "and current where every recording has a current column)")
+    parser.add_argument("--name", default="identified", metavar="VARIANT",
+                        help="with --params: the fitted variant's name in the config -o writes "
+                        "(default: identified)")
+    parser.add_argument("--set", dest="overrides", action="append", default=[],
+                        metavar="KEY=VALUE",
+                        help="with --params: change a key of the variant before the fit (e.g. "
+                        "to give a drivetrain the recordings may need); repeatable")
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    parser.add_argument("-o", "--output", metavar="DIR",
+    parser.add_argument("-o", "--output", metavar="DIR|FILE.yaml",
                         help="with --data: write fit.json and fit.svg (data vs fit, residuals) "
-                        "into DIR (replaced as a whole)")
+                        "into DIR (replaced as a whole); with --params also config.yaml (the "
+                        "config with the fitted variant), or only that config to FILE.yaml")
     parser.set_defaults(handler=run)
 
 
 def run(args):
     """``fit --data FILE...`` (:mod:`cas_freq.cli.fit_recordings`) or ``fit FILE --step``."""
+    if args.data and args.params:
+        from cas_freq.cli.fit_params import run_params
+
+        return run_params(args)
+    for option, name in (("channels", "--channels"), ("overrides", "--set")):
+        if getattr(args, option):
+            raise CasFreqError(f"{name} needs --params KEYS (a fit of config keys)")
     if args.data:
         from cas_freq.cli.fit_recordings import run_recordings
 
         return run_recordings(args)
+    if args.params:
+        raise CasFreqError("--params needs --data FILE... (step recordings to fit)")
     for option, name in (("columns", "--columns"), ("output", "-o"), ("variant", "--variant")):
         if getattr(args, option) is not None:
             raise CasFreqError(f"{name} needs --data FILE...")

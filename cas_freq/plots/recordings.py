@@ -47,3 +47,64 @@ def recording_fit_figure(fits):
     bottom.set_ylabel("data - fit [deg]")
     bottom.set_xlabel("time from the trigger [ms]")
     return fig
+
+
+def physical_fit_figure(recordings, fits, best):
+    """The report's Fig. 10 for a physical fit: data, starting model and fitted model(s).
+
+    Parameters
+    ----------
+    recordings : sequence of Recording
+    fits : sequence of PhysicalFit
+        The models fitted (:func:`cas_freq.identification.physical.fit_physical`), all from the
+        same start.
+    best : str
+        Name of the best model: drawn solid; the others dotted.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Fin angle [deg] over time [ms] (data as dots, start dashed, fits), the current [A]
+        likewise where it was fitted, and the residuals (data less the best fit) below.
+    """
+    first = fits[0]
+    current = "current" in first.channels
+    rows = 3 if current else 2
+    fig, axes = figure(rows, 1, (7.0, 3.0 + 2.2 * (rows - 1)), sharex=True,
+                       height_ratios=[2, 2, 1][-rows:] if current else [2, 1])
+    position, residual = axes[0, 0], axes[rows - 1, 0]
+    panels = [("position", position, np.degrees, "fin angle [deg]")]
+    if current:
+        panels.append(("current", axes[1, 0], lambda values: values, "motor current [A]"))
+    ordered = sorted(fits, key=lambda fit: fit.name != best)
+    for number, r in enumerate(recordings):
+        colour = f"C{number % 10}"
+        t_ms = rounded(r.time_s[r.after] * 1e3)
+        name = r.source.rsplit("/", 1)[-1]
+        for channel, axis, scale, _ in panels:
+            data = r.position_rad if channel == "position" else r.current_a
+            axis.plot(t_ms, rounded(scale(data[r.after])), ".", color=colour, markersize=2,
+                      alpha=0.45, label=f"{name} (data)" if channel == "position" else None)
+            model = (first.start_response.position if channel == "position"
+                     else first.start_response.current)[number][0]
+            axis.plot(t_ms, rounded(scale(model)), "--", color="0.45", linewidth=0.8,
+                      label="start" if number == 0 and channel == "position" else None)
+            for fit in ordered:
+                signal = (fit.fitted_response.position if channel == "position"
+                          else fit.fitted_response.current)[number][0]
+                solid = fit.name == best
+                axis.plot(t_ms, rounded(scale(signal)), "-" if solid else ":", color=colour,
+                          linewidth=1.1 if solid else 0.9,
+                          label=(f"fit {fit.name!r}" if number == 0 and channel == "position"
+                                 else None))
+        fitted = next(fit for fit in fits if fit.name == best)
+        residual.plot(t_ms, rounded(np.degrees(r.position_rad[r.after]
+                                               - fitted.fitted_response.position[number][0])),
+                      "-", color=colour, linewidth=0.7)
+    for _, axis, _, label in panels:
+        axis.set_ylabel(label)
+    position.set_title("Recordings, starting model and fitted model")
+    position.legend(loc="lower right")
+    residual.set_ylabel(f"data − fit {best!r} [deg]")
+    residual.set_xlabel("time from the trigger [ms]")
+    return fig

@@ -1,0 +1,247 @@
+"""``cas-freq fit [CONFIG] --data FILE... --params KEYS``: config keys fitted to step recordings
+through the nonlinear simulator (:mod:`cas_freq.identification.physical`), with intervals,
+correlations and identifiability; several ``--params`` are alternative models compared by an
+information criterion. ``-o FILE.yaml`` writes the config with the fitted variant (of the best
+model); ``-o DIR`` writes fit.json, fit.svg and config.yaml.
+"""
+
+import math
+import time
+from pathlib import Path
+
+from cas_freq.cli.common import EXIT_OK, angle, print_json, wrote
+from cas_freq.exceptions import CasFreqError
+
+#: Akaike differences and what they say (Burnham & Anderson's rule of thumb).
+SUPPORT = ((2.0, "as well supported"), (10.0, "less supported"), (math.inf, "not supported"))
+
+
+def _channels(option, recordings):
+    """The channels fitted: the option's, or position and current where every file has it."""
+    if option is None:
+        every = all(r.current_a is not None for r in recordings)
+        return ("position", "current") if every else ("position",)
+    names = tuple(dict.fromkeys(part.strip() for part in option.split(",")))
+    if "position" not in names or not set(names) <= {"position", "current"}:
+        raise CasFreqError(f"--channels {option}: expected position or position,current")
+    return names
+
+
+def _key_rows(fit):
+    """JSON of each key: start, estimate, interval, standard error, verdicts."""
+    verdicts = fit.identifiability["fitted"].keys
+    rows = []
+    for index, free in enumerate(fit.free):
+        low, high = fit.interval[index]
+        v = verdicts[index]
+        rows.append({
+            "key": free.key, "unit": free.unit, "start": fit.start[index],
+            "estimate": fit.estimate[index], "ci95": [low, high],
+            "coordinate": "log" if free.log else "linear",
+            "half_width": v.half_width, "half_width_others_known": v.conditional_half_width,
+            "verdict": v.verdict, "at_bound": fit.at_bound[index],
+        })
+    return rows
+
+
+def _identifiability_dict(found):
+    """JSON of an Identifiability."""
+    def combination(c):
+        return {"combination": c.text, "value": c.value, "unit": c.unit,
+                "half_width": c.half_width, "verdict": c.verdict,
+                "exponents": list(c.exponents)}
+
+    return {
+        "keys": [{"key": k.key, "half_width": k.half_width,
+                  "half_width_others_known": k.conditional_half_width, "verdict": k.verdict}
+                 for k in found.keys],
+        "determined": [combination(c) for c in found.determined],
+        "not_well_determined": [combination(c) for c in found.undetermined],
+        "condition_number": found.condition,
+    }
+
+
+def fit_dict(fit, seconds):
+    """JSON-ready dict of one PhysicalFit."""
+    from cas_freq.identification.free_keys import labels
+
+    ident = {name: _identifiability_dict(found) for name, found in fit.identifiability.items()}
+    return {
+        "name": fit.name,
+        "keys": _key_rows(fit),
+        "correlation": {"labels": labels(fit.free), "matrix": fit.correlation.tolist()},
+        "channels": list(fit.channels),
+        "rms_residual": {"position_deg": {k: math.degrees(v) for k, v in
+                                          fit.rms["position"].items()},
+                         **({"current_a": fit.rms["current"]} if "current" in fit.rms else {})},
+        "samples": fit.n_samples,
+        "parameters_counted": fit.n_parameters,
+        "log_likelihood": fit.log_likelihood,
+        **fit.criteria(),
+        "identifiability": ident,
+        "assumed_current_noise_a": fit.assumed_current_noise_a,
+        "converged": fit.converged,
+        "simulator_batches": fit.evaluations,
+        "seconds": seconds,
+    }
+
+
+def comparison(fits):
+    """Rows of the model comparison, best (lowest AICc) first, with differences and support."""
+    rows = [{"name": f.name, "free_keys": len(f.free), "parameters_counted": f.n_parameters,
+             "rms_position_deg": math.degrees(f.rms["position"]["fit"]), **f.criteria()}
+            for f in fits]
+    best_aicc = min(row["aicc"] for row in rows)
+    best_bic = min(row["bic"] for row in rows)
+    for row in rows:
+        row["delta_aicc"] = row["aicc"] - best_aicc
+        row["delta_bic"] = row["bic"] - best_bic
+        row["support"] = next(text for limit, text in SUPPORT if row["delta_aicc"] <= limit)
+    return sorted(rows, key=lambda row: row["aicc"])
+
+
+def _number(value, unit=""):
+    text = "—" if value is None or not math.isfinite(value) else f"{value:.4g}"
+    return f"{text} {unit}".rstrip() if text != "—" else text
+
+
+def _half(h):
+    """A log half-width as ±x % (or a factor)."""
+    if not math.isfinite(h) or h > 50:
+        return "unbounded"
+    if h < 0.2:
+        return f"±{100 * (math.exp(h) - 1):.2g} %"
+    return f"×/÷ {math.exp(h):.3g}"
+
+
+def _ident_lines(found, title, indent="  "):
+    lines = [f"{indent}{title}"]
+    for c in found["determined"]:
+        lines.append(f"{indent}  well determined: {c['combination']} = {c['value']:.5g} "
+                     f"{c['unit']} ({_half(c['half_width'])})")
+    for c in found["not_well_determined"]:
+        lines.append(f"{indent}  {c['verdict']}: {c['combination']} ({_half(c['half_width'])})")
+    for k in found["keys"]:
+        lines.append(f"{indent}  {k['key']}: {k['verdict']} ({_half(k['half_width'])}; "
+                     f"{_half(k['half_width_others_known'])} if the others were known)")
+    return lines
+
+
+def table(data):
+    """Text of the result dict."""
+    blocks = [f"{data['config_path']} / {data['variant']}: {len(data['recordings'])} "
+              f"recording(s), {data['models'][0]['samples']} samples from the triggers"]
+    for model in data["models"]:
+        rms = model["rms_residual"]
+        lines = [f"model {model['name']!r}: {len(model['keys'])} free keys, fitted to "
+                 f"{' and '.join(model['channels'])} ({model['simulator_batches']} simulator "
+                 f"batches, {model['seconds']:.2g} s"
+                 f"{'' if model['converged'] else ', NOT converged: evaluation limit'})"]
+        for row in model["keys"]:
+            low, high = row["ci95"]
+            interval = "—" if low is None else f"[{low:.4g}, {high:.4g}]"
+            bound = f", at its {row['at_bound']} search bound" if row["at_bound"] else ""
+            lines.append(f"  {row['key']:<24} {row['start']:<10.4g} -> {row['estimate']:.5g} "
+                         f"{row['unit']}  95 % {interval}  {row['verdict']}{bound}")
+        pos = rms["position_deg"]
+        lines.append(f"  rms residual: position {pos['fit']:.3g} deg (start {pos['start']:.3g})"
+                     + (f", current {rms['current_a']['fit']:.3g} A (start "
+                        f"{rms['current_a']['start']:.3g})" if "current_a" in rms else ""))
+        labels = model["correlation"]["labels"]
+        lines.append("  correlation: " + "  ".join(f"{name:>8}" for name in labels))
+        for name, row in zip(labels, model["correlation"]["matrix"], strict=True):
+            cells = "  ".join("      —" if v is None else f"{v:8.3f}" for v in row)
+            lines.append(f"  {name:>11}  {cells}")
+        ident = model["identifiability"]
+        fitted_to = " and ".join(model["channels"])
+        lines += _ident_lines(ident["fitted"], f"identifiability from the {fitted_to} data:")
+        if "position" in ident:
+            lines += _ident_lines(ident["position"], "from the position alone it would be:")
+        if model["assumed_current_noise_a"] is not None:
+            lines += _ident_lines(
+                ident["with_current"], "with current recorded too (predicted, assuming "
+                f"{model['assumed_current_noise_a']:.3g} A RMS current noise):")
+        blocks.append("\n".join(lines))
+    if len(data["models"]) > 1:
+        lines = ["comparison (same data; AICc and BIC of the Gaussian likelihood, one noise "
+                 "variance per recording and signal counted)",
+                 f"  {'model':<16} {'keys':>4} {'rms deg':>8} {'dAICc':>9} {'dBIC':>9}  support"]
+        for row in data["comparison"]:
+            lines.append(f"  {row['name']:<16} {row['free_keys']:>4} "
+                         f"{row['rms_position_deg']:>8.4g} {row['delta_aicc']:>9.4g} "
+                         f"{row['delta_bic']:>9.4g}  {row['support']}")
+        blocks.append("\n".join(lines))
+    if data["written"]:
+        blocks.append(f"variant {data['new_variant']!r} (model {data['best']!r}) written to "
+                      f"{data['written']}")
+    return "\n\n".join(blocks)
+
+
+def run_params(args):
+    """Fit each ``--params`` model, compare, print, write ``-o``."""
+    from cas_freq.cli.common import selected_variants
+    from cas_freq.fileio import check_output_file, json_ready, write_text_atomic
+    from cas_freq.identification import read_recording
+    from cas_freq.identification.columns import parse_column_option
+    from cas_freq.identification.fitted_config import fitted_config_text
+    from cas_freq.identification.free_keys import parse_model_spec
+    from cas_freq.identification.physical import fit_physical
+    from cas_freq.identification.step_fit import step_size
+
+    output = args.output
+    as_file = output is not None and Path(output).suffix.lower() in (".yaml", ".yml")
+    if output is not None and not as_file:
+        from cas_freq.report.outdir import check_output_dir
+
+        check_output_dir(output, "-o")
+    elif as_file:
+        check_output_file(output, "-o")
+    specs = [parse_model_spec(text, number) for number, text in enumerate(args.params, 1)]
+    names = [spec.name for spec in specs]
+    if len(set(names)) != len(names):
+        raise CasFreqError(f"--params: two models are named alike ({', '.join(names)}); name "
+                           "them, e.g. --params 'coulomb: motor.Km,...'")
+    columns = parse_column_option(args.columns) if args.columns is not None else None
+    loaded = selected_variants(args.target, [args.variant] if args.variant else [],
+                               args.overrides)[0]
+    if as_file and Path(output).resolve() == Path(loaded.source).resolve():
+        raise CasFreqError(f"-o {output}: is the input config; inputs are never modified")
+    recordings = [read_recording(path, columns) for path in args.data]
+    given = None if args.step is None else angle(args.step, "--step")
+    steps = [step_size(r, given)[0] for r in recordings]
+    channels = _channels(args.channels, recordings)
+    fits, models = [], []
+    for spec in specs:
+        start = time.perf_counter()
+        fit = fit_physical(loaded, recordings, steps, spec, channels)
+        fits.append(fit)
+        models.append(fit_dict(fit, time.perf_counter() - start))
+    rows = comparison(fits)
+    best = next(f for f in fits if f.name == rows[0]["name"])
+    data = {"config_path": loaded.source, "variant": loaded.variant,
+            "overrides": [f"{k}={v}" for k, v in loaded.overrides],
+            "recordings": [r.source for r in recordings],
+            "steps_deg": [math.degrees(s) for s in steps], "models": models,
+            "comparison": rows, "best": best.name, "new_variant": args.name, "written": None}
+    text = None
+    if output is not None:
+        text = fitted_config_text(loaded, best, args.name, args.data)
+        data["written"] = str(output if as_file else Path(output) / "config.yaml")
+    data = json_ready(data)
+    if output is not None:
+        if as_file:
+            write_text_atomic(output, text)
+        else:
+            from cas_freq.plots.common import svg_text
+            from cas_freq.plots.recordings import physical_fit_figure
+            from cas_freq.report.studies import json_text, write_report
+
+            figure = physical_fit_figure(recordings, fits, best.name)
+            write_report(output, {"fit.json": json_text(data), "config.yaml": text,
+                                  "fit.svg": svg_text(figure)})
+        wrote(output)
+    if args.json:
+        print_json(data)
+    else:
+        print(table(data))
+    return EXIT_OK

@@ -1,0 +1,190 @@
+"""Which config keys a physical fit frees, from where it starts, and in which coordinate.
+
+A model to fit is written ``[NAME:] KEY[=START],KEY[=START],...`` (the ``--params`` option):
+the dotted keys that are free (any key a sweep can vary, :data:`cas_freq.parameters.VARIABLE_KEYS`,
+load and drivetrain keys included), each starting from the variant's value or from ``START``
+(a number in the key's SI unit or a string with a unit, as ``--set`` takes it). A key the
+variant leaves at 0 or absent (``motor.coulomb_friction``, ``gear.stiffness``) needs a START.
+
+A positive key (every key whose range is >= 0, started above 0) is fitted as its logarithm: a
+step of the optimiser is a relative change, the intervals are ratios (they stay positive), and
+the identifiability of products and ratios (Km/J) is a linear question. A key that may take
+either sign (``load.hinge_stiffness``, ``load.hinge_bias``) is fitted as value / scale, the
+scale being the start's magnitude (or 1 in SI for a start of 0).
+"""
+
+import dataclasses
+import math
+import re
+
+from cas_freq.exceptions import ConfigError
+from cas_freq.parameters import PARAMETERS, VARIABLE_KEYS, check_key, parse_value
+
+#: How far a fit may move a key from its start: a factor (log keys) or scales (others).
+SEARCH_FACTOR = 1e3
+
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_-]{0,63}")
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelSpec:
+    """One model to fit: a name and its free keys with optional starts.
+
+    Attributes
+    ----------
+    name : str
+        The model's name (``"model 1"`` when the option gives none).
+    keys : tuple of str
+        Free dotted keys, in the option's order.
+    starts : dict
+        Key -> start value [SI] where the option gives one.
+    """
+
+    name: str
+    keys: tuple
+    starts: dict
+
+
+def parse_model_spec(text, number=1):
+    """Read one ``--params`` option: ``[NAME:] KEY[=START],...``.
+
+    Raises
+    ------
+    ConfigError
+        For an empty list, a repeated or unknown key (listing the accepted ones), a start that
+        does not read as a value of the key, or a malformed name.
+    """
+    option = f"--params {text!r}"
+    name, colon, rest = str(text).partition(":")
+    if colon and "=" not in name and "." not in name:
+        name = name.strip()
+        if not _NAME.fullmatch(name):
+            raise ConfigError(f"{option}: the model name {name!r} must be a letter or _ followed "
+                              "by letters, digits, _ or -")
+    else:
+        name, rest = f"model {number}", str(text)
+    keys, starts = [], {}
+    for part in rest.split(","):
+        key, equals, value = part.partition("=")
+        key = key.strip()
+        if not key:
+            raise ConfigError(f"{option}: expected KEY[=START],KEY[=START],... e.g. "
+                              "motor.Km,motor.J,motor.mu_v")
+        try:
+            check_key(key)
+        except ConfigError as exc:
+            raise ConfigError(f"{option}: {exc}") from None
+        if key in keys:
+            raise ConfigError(f"{option}: {key} is given twice")
+        keys.append(key)
+        if equals:
+            starts[key] = parse_value(key, value.strip())
+    return ModelSpec(name=name, keys=tuple(keys), starts=starts)
+
+
+@dataclasses.dataclass(frozen=True)
+class FreeKey:
+    """One free key: its start and the coordinate it is fitted in.
+
+    Attributes
+    ----------
+    key : str
+        Dotted config key.
+    start : float
+        Start value [SI].
+    log : bool
+        Fitted as ln(value) (else as value / scale).
+    scale : float
+        Value per unit of the coordinate for a linear key [SI] (1 for a log key).
+    lower, upper : float
+        Bounds of the coordinate (the key's accepted range within :data:`SEARCH_FACTOR` of
+        the start).
+    """
+
+    key: str
+    start: float
+    log: bool
+    scale: float
+    lower: float
+    upper: float
+
+    @property
+    def unit(self):
+        """The key's SI unit."""
+        return PARAMETERS[self.key].unit
+
+    @property
+    def short(self):
+        """The key's last part (``Km`` of ``motor.Km``)."""
+        return self.key.rsplit(".", 1)[-1]
+
+    def coordinate(self, value):
+        """The fit coordinate of a value [SI]."""
+        return math.log(value) if self.log else value / self.scale
+
+    def value(self, coordinate):
+        """The value [SI] of a fit coordinate."""
+        return math.exp(coordinate) if self.log else coordinate * self.scale
+
+
+def _bounds(parameter, start, log, scale):
+    """(lower, upper) of the coordinate: the key's range within SEARCH_FACTOR of the start."""
+    if log:
+        low = math.log(start / SEARCH_FACTOR)
+        high = math.log(start * SEARCH_FACTOR)
+        floor = max(parameter.lower or 0.0, parameter.smallest or 0.0)
+        if floor > 0:
+            low = max(low, math.log(floor))
+        if parameter.upper is not None:
+            high = min(high, math.log(parameter.upper))
+        return low, high
+    low, high = start - SEARCH_FACTOR * scale, start + SEARCH_FACTOR * scale
+    if parameter.lower is not None:
+        low = max(low, parameter.lower)
+    if parameter.upper is not None:
+        high = min(high, parameter.upper)
+    return low / scale, high / scale
+
+
+def free_keys(spec, loop, variant="base"):
+    """The :class:`FreeKey` of each key of ``spec``, started from ``loop`` (one run's
+    :class:`~cas_freq.parameters.LoopParameters`, derived values resolved) or the spec's start.
+
+    Raises
+    ------
+    ConfigError
+        For a key the simulator does not read, or a key that starts at 0 (or absent) where a
+        fit in ratios needs a start above 0.
+    """
+    free = []
+    for key in spec.keys:
+        parameter = PARAMETERS[key]
+        if parameter.field is None:
+            accepted = ", ".join(k for k in VARIABLE_KEYS if PARAMETERS[k].field)
+            raise ConfigError(f"--params: {key} is not a parameter of the simulated loops; "
+                              f"free one of: {accepted}")
+        if key in spec.starts:
+            start = float(spec.starts[key])
+        else:
+            value = getattr(loop, parameter.field)
+            start = 0.0 if value is None else float(value[0])
+        nonnegative = parameter.lower is not None and parameter.lower >= 0
+        if nonnegative and not start > 0:
+            raise ConfigError(
+                f"--params: {key} is {start:g} {parameter.unit} in variant {variant!r}; a fit "
+                f"needs a start above 0: give one, e.g. --params ...,{key}=VALUE (in "
+                f"{parameter.unit} or with a unit)")
+        scale = 1.0 if nonnegative else (abs(start) or 1.0)
+        low, high = _bounds(parameter, start, nonnegative, scale)
+        free.append(FreeKey(key=key, start=start, log=nonnegative, scale=scale,
+                            lower=low, upper=high))
+    return free
+
+
+def labels(free):
+    """A short label per free key: its last part, or the whole key where two share one."""
+    shorts = [item.short for item in free]
+    return [item.short if shorts.count(item.short) == 1 else item.key for item in free]
+
+
+__all__ = ["FreeKey", "ModelSpec", "SEARCH_FACTOR", "free_keys", "labels", "parse_model_spec"]

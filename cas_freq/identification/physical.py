@@ -1,0 +1,364 @@
+r"""Least-squares fit of config keys to step recordings through the nonlinear simulator.
+
+The residuals are data less model at every sample from the trigger on, in blocks: the fin
+angle of each recording and, where used, its motor current. Each block b has its own noise
+level :math:`\sigma_b`, estimated from the data as the block's RMS residual, so the fit
+maximises the Gaussian likelihood with the variances concentrated out,
+
+.. math::
+
+    -2 \ln L = \sum_b n_b \left(\ln \frac{2\pi\,\mathrm{RSS}_b}{n_b} + 1\right),
+
+by weighted least squares (:func:`scipy.optimize.least_squares`, trust-region reflective within
+the keys' bounds) with the weights :math:`1/\sigma_b` updated until they settle. The
+Jacobian is central differences of the coordinates (:mod:`~cas_freq.identification.free_keys`:
+logarithms of positive keys) by :data:`RELATIVE_STEP`, every perturbed run of every recording
+in one simulator batch (:class:`~cas_freq.identification.replay.RecordingReplayer`).
+
+At the estimate, :math:`F = J_w^T J_w` (weighted Jacobian) gives the covariance
+:math:`s^2 F^{-1}`, the ~95 % intervals (Student's t; ratios for log keys), the correlation
+matrix and the identifiability (:mod:`~cas_freq.identification.identifiability`). The
+intervals assume independent residuals; a model that does not fit the data leaves correlated
+residuals and intervals that are too narrow: read them with the RMS residual.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+from scipy import optimize, stats
+
+from cas_freq.exceptions import ConfigError
+from cas_freq.identification.free_keys import free_keys
+from cas_freq.identification.identifiability import identifiability
+from cas_freq.identification.replay import RecordingReplayer
+from cas_freq.parameters import variant_parameters
+
+#: Central-difference step of the fit coordinates (0.1 % of a positive key).
+RELATIVE_STEP = 1e-3
+
+#: Reweighting passes at most, and the relative change of every sigma_b that ends them.
+MAX_PASSES = 6
+SIGMA_SETTLED = 0.01
+
+#: Assumed current noise for the predicted identifiability with current data, as a fraction of
+#: the fitted response's peak current (when the recordings have no current column).
+ASSUMED_CURRENT_NOISE = 0.01
+
+#: Confidence level of every interval.
+LEVEL = 0.95
+
+#: Width of the weak prior that holds each coordinate near its start [coordinate units: ln for
+#: a log key, a factor e^6.9 = 1000]: it decides only where the data do not (a direction they
+#: leave flat stays at the start instead of wandering), and shifts a determined one by less than
+#: ~1e-4 of its interval.
+PRIOR_WIDTH = math.log(1e3)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Block:
+    """One block of residuals: a recording's position or current from the trigger on."""
+
+    recording: int
+    channel: str
+    data: np.ndarray
+
+    def model(self, replay):
+        """This block's (n_sets, n) model values from a Replay."""
+        signals = replay.position if self.channel == "position" else replay.current
+        return signals[self.recording]
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class PhysicalFit:
+    """A fitted model.
+
+    Attributes
+    ----------
+    name : str
+        The model's name.
+    free : list of FreeKey
+        Free keys, in order.
+    estimate, start : numpy.ndarray
+        Fitted and start values [SI].
+    interval : numpy.ndarray
+        (n_keys, 2) ~95 % interval [SI].
+    standard_error : numpy.ndarray
+        Standard error of each coordinate (relative for log keys).
+    correlation : numpy.ndarray
+        Correlation matrix of the estimates (coordinates).
+    channels : tuple of str
+        The data fitted: ``("position",)`` or ``("position", "current")``.
+    sigma : dict
+        (recording, channel) -> noise level estimated from the residual [rad or A].
+    rms : dict
+        channel -> {"fit": , "start": } RMS residual over every recording [rad] or [A].
+    n_samples : int
+        Residuals fitted.
+    log_likelihood : float
+        ln L at the estimate, the variances concentrated out.
+    identifiability : dict
+        ``"fitted"``: the Identifiability of the data fitted; ``"position"``: of the position
+        alone (where current was fitted too); ``"with_current"``: with current added (measured
+        if fitted, else predicted with :data:`ASSUMED_CURRENT_NOISE`).
+    fitted_response, start_response : Replay
+        The simulated recordings at the estimate and at the start.
+    converged : bool
+        Whether the optimiser met its tolerance (else it stopped at its evaluation limit).
+    evaluations : int
+        Simulator batches run.
+    assumed_current_noise_a : float or None
+        The current noise assumed for the predicted identifiability [A].
+    at_bound : tuple
+        Per key ``"lower"`` or ``"upper"`` where the estimate is at the search bound
+        (:data:`~cas_freq.identification.free_keys.SEARCH_FACTOR` from the start, or the key's
+        range), else None: the data pull it further than the fit may go.
+    """
+
+    name: str
+    free: list
+    estimate: np.ndarray
+    start: np.ndarray
+    interval: np.ndarray
+    standard_error: np.ndarray
+    correlation: np.ndarray
+    channels: tuple
+    sigma: dict
+    rms: dict
+    n_samples: int
+    log_likelihood: float
+    identifiability: dict
+    fitted_response: object
+    start_response: object
+    converged: bool
+    evaluations: int
+    assumed_current_noise_a: float | None
+    at_bound: tuple
+
+    @property
+    def n_parameters(self):
+        """Free keys plus one noise variance per block (what an information criterion counts)."""
+        return len(self.free) + len(self.sigma)
+
+    def criteria(self):
+        """AIC, AICc and BIC of the fit [-]."""
+        k, n = self.n_parameters, self.n_samples
+        aic = -2.0 * self.log_likelihood + 2.0 * k
+        aicc = aic + 2.0 * k * (k + 1) / (n - k - 1) if n > k + 1 else math.inf
+        bic = -2.0 * self.log_likelihood + k * math.log(n)
+        return {"aic": aic, "aicc": aicc, "bic": bic}
+
+
+def _blocks(recordings, channels):
+    """The residual blocks of the recordings."""
+    blocks = []
+    for index, r in enumerate(recordings):
+        blocks.append(Block(index, "position", r.position_rad[r.after]))
+        if "current" in channels:
+            blocks.append(Block(index, "current", r.current_a[r.after]))
+    return blocks
+
+
+def _first_sigma(recording, block):
+    """A first noise level: the pre-trigger spread, else 1 % of the block's range."""
+    before = ~recording.after
+    data = recording.position_rad if block.channel == "position" else recording.current_a
+    if np.count_nonzero(before) >= 5 and np.std(data[before]) > 0:
+        return float(np.std(data[before]))
+    return 0.01 * float(np.ptp(block.data)) or 1.0
+
+
+class _Problem:
+    """The residual function and its Jacobian, with a count of simulator batches."""
+
+    def __init__(self, replayer, free, blocks):
+        self.replayer, self.free, self.blocks = replayer, free, blocks
+        self.sigma = np.ones(len(blocks))
+        self.batches = 0
+        self.x0 = np.array([f.coordinate(f.start) for f in free])
+
+    def values(self, x):
+        """Key -> value [SI] arrays of one or several coordinate vectors (rows of ``x``)."""
+        x = np.atleast_2d(x)
+        return {f.key: np.array([f.value(c) for c in x[:, j]]) for j, f in enumerate(self.free)}
+
+    def replay(self, x):
+        """The Replay of the coordinate vectors ``x`` (rows)."""
+        self.batches += 1
+        return self.replayer.replay(self.values(x))
+
+    def stacked(self, replay, row=0, blocks=None):
+        """Weighted residuals (model less data) / sigma of one parameter set."""
+        blocks = self.blocks if blocks is None else blocks
+        return np.concatenate([(b.model(replay)[row] - b.data) / self.sigma[self.blocks.index(b)]
+                               for b in blocks])
+
+    def residuals(self, x):
+        """Weighted residuals, then the prior's rows."""
+        return np.concatenate([self.stacked(self.replay(x)), (x - self.x0) / PRIOR_WIDTH])
+
+    def jacobian_with_prior(self, x):
+        """The Jacobian of :meth:`residuals`."""
+        return np.vstack([self.jacobian(x), np.eye(len(x)) / PRIOR_WIDTH])
+
+    def jacobian(self, x, blocks=None):
+        """d(weighted residual)/d(coordinate) by central differences (one-sided at a bound)."""
+        steps = []
+        for j, f in enumerate(self.free):
+            h = RELATIVE_STEP
+            low, high = x[j] - h, x[j] + h
+            if low < f.lower:
+                low = x[j]
+            if high > f.upper:
+                high = x[j]
+            steps.append((low, high))
+        rows = []
+        for j, (low, high) in enumerate(steps):
+            for value in (low, high):
+                row = np.array(x, dtype=float)
+                row[j] = value
+                rows.append(row)
+        replay = self.replay(np.array(rows))
+        columns = []
+        for j, (low, high) in enumerate(steps):
+            down = self.stacked(replay, 2 * j, blocks)
+            up = self.stacked(replay, 2 * j + 1, blocks)
+            columns.append((up - down) / (high - low))
+        return np.column_stack(columns)
+
+
+def fit_physical(loaded, recordings, steps_rad, spec, channels=("position",), max_batches=400):
+    """Fit the free keys of ``spec`` to the recordings.
+
+    Parameters
+    ----------
+    loaded : cas_freq.config.LoadedVariant
+        The variant (with any ``--set``) the keys start from and the rest is taken from.
+    recordings : sequence of Recording
+    steps_rad : sequence of float
+        Each recording's step [rad].
+    spec : ModelSpec
+        The free keys (:func:`~cas_freq.identification.free_keys.parse_model_spec`).
+    channels : tuple of str
+        ``("position",)`` or ``("position", "current")`` (every recording needs a current
+        column).
+    max_batches : int
+        Most simulator batches (evaluations and Jacobians) of the whole fit.
+
+    Returns
+    -------
+    PhysicalFit
+
+    Raises
+    ------
+    ConfigError
+        For a key that cannot be fitted, or current asked of a recording without it.
+    """
+    recordings = list(recordings)
+    if "current" in channels:
+        missing = [r.source for r in recordings if r.current_a is None]
+        if missing:
+            raise ConfigError(f"{missing[0]}: no current column, so current cannot be fitted; "
+                              "fit the position alone (--channels position)")
+    free = free_keys(spec, variant_parameters(loaded.params, {}), loaded.variant)
+    replayer = RecordingReplayer(loaded.params, recordings, steps_rad)
+    blocks = _blocks(recordings, channels)
+    problem = _Problem(replayer, free, blocks)
+    problem.sigma = np.array([_first_sigma(recordings[b.recording], b) for b in blocks])
+    x0 = problem.x0
+    lower = np.array([f.lower for f in free])
+    upper = np.array([f.upper for f in free])
+    x, converged = x0, False
+    for _ in range(MAX_PASSES):
+        budget = max(1, (max_batches - problem.batches) // 2)
+        solution = optimize.least_squares(
+            problem.residuals, x, jac=problem.jacobian_with_prior, bounds=(lower, upper),
+            method="trf", x_scale=1.0, xtol=1e-10, ftol=1e-12, gtol=1e-12, max_nfev=budget)
+        x, converged = solution.x, solution.status > 0
+        fitted = problem.replay(x)
+        new = np.array([math.sqrt(np.mean((b.model(fitted)[0] - b.data) ** 2)) or 1e-300
+                        for b in blocks])
+        settled = np.all(np.abs(new / problem.sigma - 1.0) < SIGMA_SETTLED)
+        problem.sigma = new
+        if settled or problem.batches >= max_batches:
+            break
+    return _result(spec, free, problem, x, x0, fitted, recordings, channels, converged)
+
+
+def _rms(blocks, replay, channel):
+    """RMS of data less model over every block of ``channel`` (None if none)."""
+    chosen = [b for b in blocks if b.channel == channel]
+    if not chosen:
+        return None
+    return math.sqrt(np.mean(np.concatenate([(b.model(replay)[0] - b.data) ** 2
+                                             for b in chosen])))
+
+
+def _result(spec, free, problem, x, x0, fitted, recordings, channels, converged):
+    """The PhysicalFit at the estimate ``x``."""
+    blocks = problem.blocks
+    weighted = problem.jacobian(x)
+    n, p = weighted.shape
+    residual = problem.stacked(fitted)
+    s2 = float(residual @ residual) / max(n - p, 1)
+    q = float(stats.t.ppf(0.5 + LEVEL / 2, max(n - p, 1)))
+    found = {"fitted": identifiability(weighted.T @ weighted, free, x, s2, q)}
+    assumed = None
+    position_blocks = [b for b in blocks if b.channel == "position"]
+    if "current" in channels:
+        rows = problem.jacobian(x, position_blocks)
+        found["position"] = identifiability(rows.T @ rows, free, x, s2, q)
+        found["with_current"] = found["fitted"]
+    else:
+        # predicted: current blocks of the simulated response with an assumed noise
+        peak = max(float(np.max(np.abs(c[0]))) for c in fitted.current)
+        assumed = ASSUMED_CURRENT_NOISE * peak
+        extra = [Block(b.recording, "current", np.zeros(b.data.size)) for b in position_blocks]
+        problem.blocks = blocks + extra
+        problem.sigma = np.concatenate([problem.sigma, np.full(len(extra), assumed)])
+        rows = problem.jacobian(x)
+        problem.blocks, problem.sigma = blocks, problem.sigma[:len(blocks)]
+        found["with_current"] = identifiability(rows.T @ rows, free, x, s2, q)
+    covariance = found["fitted"].covariance
+    error = np.sqrt(np.diag(covariance))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        correlation = covariance / np.outer(error, error)
+    interval = np.array([_interval(f, c, q * e) for f, c, e in zip(free, x, error, strict=True)])
+    rss = {(b.recording, b.channel): float(np.sum((b.model(fitted)[0] - b.data) ** 2))
+           for b in blocks}
+    log_likelihood = -0.5 * sum(b.data.size * (math.log(2 * math.pi * rss[(b.recording,
+                                b.channel)] / b.data.size) + 1.0) for b in blocks)
+    start = problem.replay(x0)
+    return PhysicalFit(
+        name=spec.name, free=free,
+        estimate=np.array([f.value(c) for f, c in zip(free, x, strict=True)]),
+        start=np.array([f.start for f in free]), interval=interval, standard_error=error,
+        correlation=correlation, channels=tuple(channels),
+        sigma={(b.recording, b.channel): math.sqrt(rss[(b.recording, b.channel)]
+                                                   / b.data.size) for b in blocks},
+        rms={channel: {"fit": _rms(blocks, fitted, channel), "start": _rms(blocks, start, channel)}
+             for channel in channels},
+        n_samples=n, log_likelihood=log_likelihood, identifiability=found,
+        fitted_response=fitted, start_response=start, converged=converged,
+        evaluations=problem.batches, assumed_current_noise_a=assumed,
+        at_bound=tuple(_bound(f, c) for f, c in zip(free, x, strict=True)),
+    )
+
+
+def _bound(free, coordinate, tolerance=1e-6):
+    """``"lower"``/``"upper"`` where the coordinate sits at its bound, else None."""
+    if coordinate <= free.lower + tolerance:
+        return "lower"
+    if coordinate >= free.upper - tolerance:
+        return "upper"
+    return None
+
+
+def _interval(free, coordinate, half_width):
+    """(low, high) [SI] of a coordinate's interval; (nan, nan) where it is unbounded."""
+    if not math.isfinite(half_width) or half_width > 50:
+        return (math.nan, math.nan)
+    return (free.value(coordinate - half_width), free.value(coordinate + half_width))
+
+
+__all__ = ["ASSUMED_CURRENT_NOISE", "LEVEL", "PhysicalFit", "RELATIVE_STEP", "fit_physical"]
