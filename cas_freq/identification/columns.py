@@ -21,6 +21,8 @@ ROLES = {
                 "rad", "deg", False),
     "position": (("position", "delta", "fin_angle", "fin", "angle", "pos"), "rad", "deg", True),
     "current": (("current", "i"), "A", "A", False),
+    "current_command": (("current_command", "i_cmd", "current_demand", "current_cmd",
+                         "i_command"), "A", "A", False),
     "voltage": (("voltage", "v"), "V", "V", False),
 }
 

@@ -96,20 +96,22 @@ def _number(path, number, column, cell):
     return value
 
 
-def read_recording(path, columns=None):
-    """Read a step recording.
+def read_columns(path, columns=None):
+    """The recognised columns of a recording CSV, each as an array in SI.
 
     Parameters
     ----------
     path : str or Path
         CSV file with a header (module docstring).
     columns : dict, optional
-        ``role -> header cell`` naming columns outright (roles: time, command, position,
-        current, voltage), e.g. ``{"time": "t_ms", "position": "enc_deg"}``.
+        ``role -> header cell`` naming columns outright
+        (:func:`~cas_freq.identification.columns.find_columns`).
 
     Returns
     -------
-    Recording
+    tuple of (dict, list of int, dict)
+        ``role -> numpy.ndarray`` in the role's SI unit, the file's line number of each row,
+        and ``role -> Column`` as found in the header.
 
     Raises
     ------
@@ -117,8 +119,7 @@ def read_recording(path, columns=None):
         (a ValueError) naming the file and line for: no header, no time or position column
         (listing what is accepted), a unit pint does not know or of the wrong dimension, a
         row of another width, an empty, non-numeric or non-finite cell, a time that repeats or
-        decreases, a command that does not step, fewer than :data:`MIN_SAMPLES` samples from
-        the trigger on.
+        decreases, no data rows.
     """
     path = str(path)
     rows = _cells(path)
@@ -160,8 +161,33 @@ def read_recording(path, columns=None):
         lines.append(number)
     if not lines:
         raise ConfigError(f"{path}: no data rows after the header (line {header_line})")
-    arrays = {role: np.array(items) for role, items in values.items()}
-    return _triggered(path, arrays, lines, found)
+    return {role: np.array(items) for role, items in values.items()}, lines, found
+
+
+def read_recording(path, columns=None):
+    """Read a step recording.
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV file with a header (module docstring).
+    columns : dict, optional
+        ``role -> header cell`` naming columns outright (roles: time, command, position,
+        current, current_command, voltage), e.g. ``{"time": "t_ms", "position": "enc_deg"}``.
+
+    Returns
+    -------
+    Recording
+
+    Raises
+    ------
+    ConfigError
+        (a ValueError) naming the file and line for what :func:`read_columns` rejects, a
+        command that does not step, fewer than :data:`MIN_SAMPLES` samples from the trigger
+        on.
+    """
+    arrays, lines, found = read_columns(path, columns)
+    return _triggered(str(path), arrays, lines, found)
 
 
 def _triggered(path, arrays, lines, found):
@@ -202,4 +228,4 @@ def _triggered(path, arrays, lines, found):
     )
 
 
-__all__ = ["MIN_SAMPLES", "Recording", "read_recording"]
+__all__ = ["MIN_SAMPLES", "Recording", "read_columns", "read_recording"]
