@@ -11,6 +11,7 @@ from pathlib import Path
 
 from cas_freq.cli.common import EXIT_OK, angle, print_json, wrote
 from cas_freq.exceptions import CasFreqError
+from cas_freq.identification.identifiability import UNBOUNDED
 
 #: Akaike differences and what they say (Burnham & Anderson's rule of thumb).
 SUPPORT = ((2.0, "as well supported"), (10.0, "less supported"), (math.inf, "not supported"))
@@ -96,7 +97,8 @@ def comparison(fits):
     for row in rows:
         row["delta_aicc"] = row["aicc"] - best_aicc
         row["delta_bic"] = row["bic"] - best_bic
-        row["support"] = next(text for limit, text in SUPPORT if row["delta_aicc"] <= limit)
+        row["support"] = ("best" if row["aicc"] == best_aicc else
+                          next(text for limit, text in SUPPORT if row["delta_aicc"] <= limit))
     return sorted(rows, key=lambda row: row["aicc"])
 
 
@@ -107,8 +109,8 @@ def _number(value, unit=""):
 
 def _half(h):
     """A log half-width as ±x % (or a factor)."""
-    if not math.isfinite(h) or h > 50:
-        return "unbounded"
+    if not math.isfinite(h) or h > UNBOUNDED:
+        return "unbounded: beyond ×/÷ 100"
     if h < 0.2:
         return f"±{100 * (math.exp(h) - 1):.2g} %"
     return f"×/÷ {math.exp(h):.3g}"

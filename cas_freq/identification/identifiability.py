@@ -141,7 +141,7 @@ class Identifiability:
     condition: float
 
 
-def _relative(half_width, free, coordinate):
+def relative_half_width(half_width, free, coordinate):
     """Half-width of a linear key relative to its magnitude (or its scale near 0)."""
     if free.log:
         return half_width
@@ -172,15 +172,23 @@ def identifiability(fisher, free, x, s2, q):
     covariance = s2 * (vectors / floored) @ vectors.T
     keys = []
     for j, f in enumerate(free):
-        h = _relative(q * math.sqrt(covariance[j, j]), f, x[j])
-        alone = _relative(q * math.sqrt(s2 / max(fisher[j, j], RANK_TOLERANCE * top)), f, x[j])
+        h = relative_half_width(q * math.sqrt(covariance[j, j]), f, x[j])
+        information = max(fisher[j, j], RANK_TOLERANCE * top)
+        alone = relative_half_width(q * math.sqrt(s2 / information), f, x[j])
         keys.append(KeyVerdict(f.key, names[j], h, alone, verdict(h)))
     logs = [j for j, f in enumerate(free) if f.log]
     values = np.array([f.value(c) for f, c in zip(free, x, strict=True)])
     determined, undetermined = [], []
     if logs:
+        def width(exponents):
+            """Half-width of e.x for exponents over the log keys, summed over F's eigenvectors
+            (no cancellation of the large variance of a direction e is orthogonal to)."""
+            rows = np.zeros(np.shape(exponents)[:-1] + (len(free),))
+            rows[..., logs] = exponents
+            return q * np.sqrt(s2 * np.sum((rows @ vectors) ** 2 / floored, axis=-1))
+
         determined, undetermined = _combinations(covariance[np.ix_(logs, logs)], logs, free,
-                                                 names, values, q)
+                                                 names, values, width)
     condition = float(w[-1] / w[0]) if w[0] > 0 else math.inf
     return Identifiability(covariance=covariance, keys=keys, determined=determined,
                            undetermined=undetermined, condition=condition)
@@ -199,9 +207,10 @@ def _combination(exponents, logs, free, names, values, half_width):
         half_width=half_width, verdict=verdict(half_width))
 
 
-#: A log half-width beyond this is "unbounded" (a factor e^50): such a direction is given as
-#: F's eigenvector rather than as a simple product.
-UNBOUNDED = 50.0
+#: A log half-width beyond this (a factor 100 either way) is "unbounded": the data say nothing
+#: useful of such a direction, given as F's eigenvector rather than as a simple product, and of
+#: a key with such an interval (no interval is printed).
+UNBOUNDED = math.log(100.0)
 
 
 def _candidates(n):
@@ -214,7 +223,7 @@ def _candidates(n):
     return grid[~np.all(grid % 2 == 0, axis=1)]
 
 
-def _combinations(covariance, logs, free, names, values, q):
+def _combinations(covariance, logs, free, names, values, width):
     """(determined, not well determined) products of the log keys.
 
     A basis of the log keys' space: the simplest products, best determined first, each
@@ -222,13 +231,12 @@ def _combinations(covariance, logs, free, names, values, q):
     eigenvectors (exponents rounded to 0.5 where close) for the unbounded ones.
     """
     w, vectors = np.linalg.eigh(covariance)
-    widths_of_axes = q * np.sqrt(np.maximum(w, 0.0))
-    unbounded = [k for k in range(len(w)) if widths_of_axes[k] > UNBOUNDED]
+    unbounded = [k for k in range(len(w)) if width(vectors[:, k]) > UNBOUNDED]
     wanted = len(logs) - len(unbounded)
     picked = []
     if wanted and len(logs) <= MAX_SEARCH_KEYS:
         grid = _candidates(len(logs))
-        widths = q * np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", grid, covariance, grid), 0.0))
+        widths = width(grid)
         keep = widths <= UNBOUNDED
         grid, widths = grid[keep], widths[keep]
         rank = np.select([widths <= WELL, widths <= NOT], [0, 1], 2)
@@ -246,7 +254,7 @@ def _combinations(covariance, logs, free, names, values, q):
         v = v * np.sign(v[np.argmax(np.abs(v) > 1e-9)])
         halves = np.round(2 * v) / 2
         v = np.where(np.abs(v - halves) < 0.1, halves, np.round(v, 2))
-        picked.append((v, q * math.sqrt(max(float(v @ covariance @ v), 0.0))))
+        picked.append((v, float(width(v))))
     found = [_combination(e, logs, free, names, values, h) for e, h in picked]
     return ([c for c in found if c.verdict == "well determined"],
             [c for c in found if c.verdict != "well determined"])

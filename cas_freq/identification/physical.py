@@ -30,7 +30,7 @@ from scipy import optimize, stats
 
 from cas_freq.exceptions import ConfigError
 from cas_freq.identification.free_keys import free_keys
-from cas_freq.identification.identifiability import identifiability
+from cas_freq.identification.identifiability import UNBOUNDED, identifiability, relative_half_width
 from cas_freq.identification.replay import RecordingReplayer
 from cas_freq.parameters import variant_parameters
 
@@ -356,7 +356,8 @@ def _bound(free, coordinate, tolerance=1e-6):
 
 def _interval(free, coordinate, half_width):
     """(low, high) [SI] of a coordinate's interval; (nan, nan) where it is unbounded."""
-    if not math.isfinite(half_width) or half_width > 50:
+    relative = relative_half_width(half_width, free, coordinate)
+    if not math.isfinite(half_width) or relative > UNBOUNDED:
         return (math.nan, math.nan)
     return (free.value(coordinate - half_width), free.value(coordinate + half_width))
 
