@@ -17,7 +17,9 @@ def register(commands):
         "position and optionally current and voltage columns with their units, e.g. "
         "'time_s,command_deg,position_deg'; the trigger and step size from the command, the "
         "pre-trigger mean removed; README 'Bench recordings') and, for several, of all at once, "
-        "beside CONFIG's own simulated step (the base variant, or --variant). "
+        "beside CONFIG's own simulated step (the base variant, or --variant). Sweep "
+        "recordings (chirp or stepped sine) give the empirical frequency response and "
+        "coherence against the variant's T (and T_i with a current_command column). "
         "Without --data, 'cas-freq fit FILE --step 10deg' fits one step response CSV (the step "
         "at t = 0): two columns, time [s] and fin angle [deg], with an optional header; or a "
         "header naming a time column (t or time, in s or ms: 't [s]', 'time_s') and a fin angle "
@@ -29,7 +31,9 @@ def register(commands):
                         "configs/qt_cas.yaml); without: the step response CSV (time [s], fin "
                         "angle [deg], or named columns, see above)")
     parser.add_argument("--data", nargs="+", metavar="FILE",
-                        help="step recordings (CSV with a header naming columns and units)")
+                        help="step or sweep recordings (CSV with a header naming columns and "
+                        "units; a command that oscillates makes a sweep: its frequency "
+                        "response with coherence against the model's)")
     parser.add_argument("--variant", metavar="NAME",
                         help="with --data: the config's variant simulated beside the data "
                         "(default: base)")
@@ -37,7 +41,7 @@ def register(commands):
                         help="model to fit (default and, for now, only: second-order)")
     parser.add_argument("--columns", metavar="ROLE=NAME,...",
                         help="name recording columns outright, e.g. time=t_ms,position=enc_deg "
-                        "(roles: time, command, position, current, voltage)")
+                        "(roles: time, command, position, current, current_command, voltage)")
     parser.add_argument(
         "--step", metavar="ANGLE",
         help="the commanded step, e.g. 10deg (required without --data; with --data, for "
@@ -62,7 +66,8 @@ def register(commands):
                         "to give a drivetrain the recordings may need); repeatable")
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.add_argument("-o", "--output", metavar="DIR|FILE.yaml",
-                        help="with --data: write fit.json and fit.svg (data vs fit, residuals) "
+                        help="with --data: write fit.json and fit.svg (data vs fit, residuals; for "
+                        "sweeps frf.json and frf.svg) "
                         "into DIR (replaced as a whole); with --params also config.yaml (the "
                         "config with the fitted variant), or only that config to FILE.yaml")
     parser.set_defaults(handler=run)
@@ -79,6 +84,10 @@ def run(args):
             raise CasFreqError(f"{name} needs --params KEYS (a fit of config keys)")
     if args.data:
         from cas_freq.cli.fit_recordings import run_recordings
+        from cas_freq.cli.fit_sweep import are_sweeps, column_option, run_sweep
+
+        if are_sweeps(args.data, column_option(args)):
+            return run_sweep(args)
 
         return run_recordings(args)
     if args.params:
