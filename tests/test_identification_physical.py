@@ -209,3 +209,36 @@ def test_cli_bad_input_exits_2(args, message):
     result = _cli("fit", *args)
     assert result.returncode == 2
     assert message in result.stderr
+
+
+def test_recorded_command_rate_and_acceleration():
+    """A cubic spline reproduces a cubic exactly: angle t^3, rate 3t^2, acceleration 6t; the
+    ends hold."""
+    from cas_freq.simulation.commands import Recorded
+
+    t = np.linspace(0.0, 1.0, 21)
+    command = Recorded(t, t**3)
+    angle, rate, accel = command.fin(np.array([0.25, 0.5, 2.0]))
+    assert angle[:2] == pytest.approx([0.25**3, 0.5**3], abs=1e-12)
+    assert rate[:2] == pytest.approx([3 * 0.25**2, 3 * 0.25], abs=1e-12)
+    assert accel[:2] == pytest.approx([1.5, 3.0], abs=1e-9)
+    assert (angle[2], rate[2], accel[2]) == (pytest.approx(1.0), 0.0, 0.0)
+
+
+def test_profile_recording_from_simulate_is_replayed_with_its_feedforward(tmp_path):
+    """What `simulate --profile --csv` writes is a recording of a move (not a step): replayed
+    from its first sample with the spline's rate and acceleration feeding the feed-forward, the
+    fit from the catalog start recovers the fitted variant's Km/J (noise-free data: within
+    0.05 %; the spline's derivatives of the sampled move are the only error) and Km/mu_v
+    (within 2 %)."""
+    csv = tmp_path / "move.csv"
+    result = _cli("simulate", "--variant", "fitted", "--profile", "10deg", "--velocity",
+                  "2000deg/s", "--acceleration", "1e5deg/s^2", "--csv", str(csv))
+    assert result.returncode == 0, result.stderr
+    recording = read_recording(csv)
+    assert recording.start_s < 0  # the move starts before its half-way trigger
+    fit = fit_physical(load_variant(None, "base"), [recording], [recording.step_rad],
+                       parse_model_spec("motor.Km,motor.J,motor.mu_v"), ("position", "current"))
+    km, j, mu = fit.estimate
+    assert km / j == pytest.approx(KM / J, rel=5e-4)
+    assert km / mu == pytest.approx(KM / MU, rel=0.02)

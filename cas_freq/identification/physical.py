@@ -109,6 +109,9 @@ class PhysicalFit:
         Simulator batches run.
     assumed_current_noise_a : float or None
         The current noise assumed for the predicted identifiability [A].
+    masks : list of numpy.ndarray
+        Per recording, the samples fitted (bool): from the trigger on for a step, from the
+        command's first move on for another command.
     at_bound : tuple
         Per key ``"lower"`` or ``"upper"`` where the estimate is at the search bound
         (:data:`~cas_freq.identification.free_keys.SEARCH_FACTOR` from the start, or the key's
@@ -133,6 +136,7 @@ class PhysicalFit:
     converged: bool
     evaluations: int
     assumed_current_noise_a: float | None
+    masks: list
     at_bound: tuple
 
     @property
@@ -149,19 +153,20 @@ class PhysicalFit:
         return {"aic": aic, "aicc": aicc, "bic": bic}
 
 
-def _blocks(recordings, channels):
-    """The residual blocks of the recordings."""
+def _blocks(recordings, channels, masks):
+    """The residual blocks of the recordings (their samples in ``masks``)."""
     blocks = []
-    for index, r in enumerate(recordings):
-        blocks.append(Block(index, "position", r.position_rad[r.after]))
+    for index, (r, mask) in enumerate(zip(recordings, masks, strict=True)):
+        blocks.append(Block(index, "position", r.position_rad[mask]))
         if "current" in channels:
-            blocks.append(Block(index, "current", r.current_a[r.after]))
+            blocks.append(Block(index, "current", r.current_a[mask]))
     return blocks
 
 
-def _first_sigma(recording, block):
-    """A first noise level: the pre-trigger spread, else 1 % of the block's range."""
-    before = ~recording.after
+def _first_sigma(recording, block, mask):
+    """A first noise level: the spread before the fitted samples, else 1 % of the block's
+    range."""
+    before = recording.time_s < recording.time_s[mask][0]
     data = recording.position_rad if block.channel == "position" else recording.current_a
     if np.count_nonzero(before) >= 5 and np.std(data[before]) > 0:
         return float(np.std(data[before]))
@@ -262,9 +267,10 @@ def fit_physical(loaded, recordings, steps_rad, spec, channels=("position",), ma
                               "fit the position alone (--channels position)")
     free = free_keys(spec, variant_parameters(loaded.params, {}), loaded.variant)
     replayer = RecordingReplayer(loaded.params, recordings, steps_rad)
-    blocks = _blocks(recordings, channels)
+    blocks = _blocks(recordings, channels, replayer.masks)
     problem = _Problem(replayer, free, blocks)
-    problem.sigma = np.array([_first_sigma(recordings[b.recording], b) for b in blocks])
+    problem.sigma = np.array([_first_sigma(recordings[b.recording], b,
+                                           replayer.masks[b.recording]) for b in blocks])
     x0 = problem.x0
     lower = np.array([f.lower for f in free])
     upper = np.array([f.upper for f in free])
@@ -341,6 +347,7 @@ def _result(spec, free, problem, x, x0, fitted, recordings, channels, converged)
         n_samples=n, log_likelihood=log_likelihood, identifiability=found,
         fitted_response=fitted, start_response=start, converged=converged,
         evaluations=problem.batches, assumed_current_noise_a=assumed,
+        masks=problem.replayer.masks,
         at_bound=tuple(_bound(f, c) for f, c in zip(free, x, strict=True)),
     )
 

@@ -9,10 +9,11 @@ The trigger (the step's time) is the command's jump when there is a command colu
 sample at which the command has moved by half of its change (for a step sampled at the jump, the
 first sample at the new level); without a command column, or when the command holds one level
 throughout (it stepped at the recording's start, as in ``simulate --csv``), the trigger is
-t = 0 of the file's time. Samples before the trigger are the pre-trigger segment: the mean of the
-position and of the command there is the offset, subtracted from each (without pre-trigger
-samples the offsets are 0). The step size is the command's median after the trigger less its
-offset.
+t = 0 of the file's time. The samples before the command first leaves its initial level (for a
+step, the samples before the trigger; for a profile move, those before the move starts) are the
+pre-trigger segment: the mean of the position and of the command there is the offset,
+subtracted from each (without pre-trigger samples the offsets are 0). The step size is the
+command's median after the trigger less its offset.
 """
 
 import csv
@@ -52,6 +53,9 @@ class Recording:
         The pre-trigger means removed [rad] (0 without pre-trigger samples).
     source : str
         The file read.
+    start_s : float
+        Time [s] from the trigger at which the command first leaves its initial level (0 for a
+        step sampled at its jump, < 0 for a move that ramps up to the trigger).
     """
 
     time_s: np.ndarray
@@ -64,6 +68,7 @@ class Recording:
     position_offset_rad: float
     command_offset_rad: float
     source: str
+    start_s: float = 0.0
 
     @property
     def after(self):
@@ -194,18 +199,20 @@ def _triggered(path, arrays, lines, found):
     """The :class:`Recording` of the columns read: trigger found, offsets removed."""
     t = arrays["time"]
     command = arrays.get("command")
-    trigger = 0.0
+    trigger = start = 0.0
     if command is not None:
         first, last = command[0], float(np.median(command[-max(1, command.size // 4):]))
         change = last - first
         if abs(change) > 1e-9 * max(abs(first), abs(last), 1.0):
             trigger = float(t[np.flatnonzero(np.abs(command - first) >= 0.5 * abs(change))[0]])
+            start = float(t[np.flatnonzero(np.abs(command - first) > 1e-6 * abs(change))[0]])
         elif t[0] < 0 or first == 0.0:
             raise ConfigError(f"{path}: column {found['command'].header!r}: the command does "
                               f"not step (it holds {math.degrees(first):g} deg from line "
                               f"{lines[0]} to line {lines[-1]})")
         # else one level throughout, from t >= 0: the step is at t = 0, the recording's start
-    before, after = t < trigger, t >= trigger
+    start = min(start, trigger) if command is not None else trigger
+    before, after = t < start, t >= trigger
     count = int(np.count_nonzero(after))
     if count < MIN_SAMPLES:
         where = f"line {lines[int(np.argmax(after))]}" if count else f"after line {lines[-1]}"
@@ -224,7 +231,7 @@ def _triggered(path, arrays, lines, found):
         position_rad=position - position_offset,
         current_a=arrays.get("current"), voltage_v=arrays.get("voltage"),
         step_rad=step, trigger_s=trigger, position_offset_rad=position_offset,
-        command_offset_rad=command_offset, source=path,
+        command_offset_rad=command_offset, source=path, start_s=start - trigger,
     )
 
 

@@ -1,9 +1,10 @@
 """The nonlinear simulator replaying step recordings for many parameter sets at once.
 
-Each recording is replayed as it was recorded: its own command (a :class:`Step` of its step
-size when the command steps and holds, else the recorded command as a piecewise-linear
-:class:`Table` from the last pre-trigger sample on), its own length, the variant's limits and
-controller sampling; the simulated fin angle and motor current are read at the recording's own
+Each recording is replayed as it was recorded: its own command, its own length, the variant's
+limits and controller sampling. The command is a :class:`Step` of the recording's step size at
+the trigger when the recorded command steps and holds (fitted from the trigger on); else the
+recorded command as a :class:`Recorded` spline, whose derivatives feed the feed-forward,
+simulated from the recording's first sample and fitted from where the command starts to move; the simulated fin angle and motor current are read at the recording's own
 sample times (linear interpolation between the simulator's samples, kept at most a quarter of
 the recording's shortest interval apart). Every parameter set of a call, times every
 recording, is one batch of :func:`cas_freq.simulation.simulate_batch`.
@@ -14,7 +15,7 @@ import dataclasses
 import numpy as np
 
 from cas_freq.parameters import variant_parameters
-from cas_freq.simulation.commands import Step, Table
+from cas_freq.simulation.commands import Recorded, Step
 from cas_freq.simulation.simulator import default_time_step, simulate_batch, step_bound
 
 #: A command is a step when every sample from the trigger on is within this fraction of the
@@ -23,14 +24,20 @@ STEP_FLATNESS = 1e-3
 
 
 def recording_command(recording, step_rad):
-    """The command that replays ``recording``: a Step, or a Table of the recorded command."""
+    """(command, origin [s], fitted samples) that replay ``recording``.
+
+    A Step at the trigger (origin 0, the samples from the trigger on) when the command steps
+    and holds; else a Recorded spline of the recorded command, the simulation starting at the first
+    sample (origin: its time) and the samples from the command's first move on fitted.
+    """
     command = recording.command_rad
     after = recording.after
     if command is None or np.all(np.abs(command[after] - step_rad)
                                  <= STEP_FLATNESS * abs(step_rad)):
-        return Step(step_rad)
-    first = max(int(np.argmax(after)) - 1, 0)
-    return Table(recording.time_s[first:], command[first:], source=recording.source)
+        return Step(step_rad), 0.0, after
+    origin = float(recording.time_s[0])
+    moved = Recorded(recording.time_s - origin, command, source=recording.source)
+    return moved, origin, recording.time_s >= recording.start_s
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -68,9 +75,14 @@ class RecordingReplayer:
     def __init__(self, config, recordings, steps_rad):
         self.config = config
         self.recordings = list(recordings)
-        self.times = [r.time_s[r.after] for r in self.recordings]
-        self.commands = [recording_command(r, s)
-                         for r, s in zip(self.recordings, steps_rad, strict=True)]
+        replayed = [recording_command(r, s) for r, s in zip(self.recordings, steps_rad,
+                                                             strict=True)]
+        self.commands = [command for command, _, _ in replayed]
+        #: per recording, the samples fitted (bool mask over the recording's samples)
+        self.masks = [mask for _, _, mask in replayed]
+        # simulation times of the fitted samples
+        self.times = [r.time_s[mask] - origin for r, (_, origin, mask)
+                      in zip(self.recordings, replayed, strict=True)]
         self.rates = config.simulation.rates_hz
         one = variant_parameters(config, {})
         periods = [1.0 / rate for rate in self.rates if rate]

@@ -79,11 +79,12 @@ def physical_fit_figure(recordings, fits, best):
     ordered = sorted(fits, key=lambda fit: fit.name != best)
     for number, r in enumerate(recordings):
         colour = f"C{number % 10}"
-        t_ms = rounded(r.time_s[r.after] * 1e3)
+        fitted_samples = first.masks[number]
+        t_ms = rounded(r.time_s[fitted_samples] * 1e3)
         name = r.source.rsplit("/", 1)[-1]
         for channel, axis, scale, _ in panels:
             data = r.position_rad if channel == "position" else r.current_a
-            axis.plot(t_ms, rounded(scale(data[r.after])), ".", color=colour, markersize=2,
+            axis.plot(t_ms, rounded(scale(data[fitted_samples])), ".", color=colour, markersize=2,
                       alpha=0.45, label=f"{name} (data)" if channel == "position" else None)
             model = (first.start_response.position if channel == "position"
                      else first.start_response.current)[number][0]
@@ -98,7 +99,7 @@ def physical_fit_figure(recordings, fits, best):
                           label=(f"fit {fit.name!r}" if number == 0 and channel == "position"
                                  else None))
         fitted = next(fit for fit in fits if fit.name == best)
-        residual.plot(t_ms, rounded(np.degrees(r.position_rad[r.after]
+        residual.plot(t_ms, rounded(np.degrees(r.position_rad[fitted_samples]
                                                - fitted.fitted_response.position[number][0])),
                       "-", color=colour, linewidth=0.7)
     for _, axis, _, label in panels:

@@ -208,6 +208,55 @@ class Table:
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
+class Recorded:
+    """A recorded command through (``time_s`` [s], ``angle_rad`` [rad]) samples: a cubic
+    interpolating spline (not-a-knot, :class:`scipy.interpolate.CubicSpline`), whose first and
+    second derivatives are the rate and acceleration the feed-forward needs.
+
+    For a smooth move (a drive's profile, recorded with its position demand) the spline's
+    derivatives stand in for the velocity and acceleration demands the drive used; a command
+    with jumps (a step) belongs in :class:`Step`. The angle holds its first value before the
+    first sample and its last after the last, with rate and acceleration 0 there.
+    """
+
+    time_s: np.ndarray
+    angle_rad: np.ndarray
+    source: str = "recorded command"
+
+    settles = True
+
+    def __post_init__(self):
+        from scipy.interpolate import CubicSpline
+
+        Table(self.time_s, self.angle_rad, self.source)  # the same checks as a table's
+        time = np.asarray(self.time_s, dtype=float)
+        angle = np.asarray(self.angle_rad, dtype=float)
+        object.__setattr__(self, "time_s", time)
+        object.__setattr__(self, "angle_rad", angle)
+        object.__setattr__(self, "_spline", CubicSpline(time, angle))
+
+    @property
+    def duration_s(self):
+        """Time of the last sample [s]."""
+        return float(self.time_s[-1])
+
+    def fin(self, t, left=False):
+        """Angle [rad], rate [rad/s], accel. [rad/s^2] at ``t`` [s] (``left`` is the same: the
+        spline is smooth)."""
+        t = np.asarray(t, dtype=float)
+        inside = (t >= self.time_s[0]) & (t <= self.time_s[-1])
+        clipped = np.clip(t, self.time_s[0], self.time_s[-1])
+        angle = self._spline(clipped)
+        rate = np.where(inside, self._spline(clipped, 1), 0.0)
+        accel = np.where(inside, self._spline(clipped, 2), 0.0)
+        return angle, rate, accel
+
+    def final_rad(self):
+        """The value the command holds at the end [rad]."""
+        return np.asarray(self.angle_rad[-1])
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
 class Profile:
     r"""Trapezoidal move of ``distance_rad`` [rad] at the fin from ``start_s`` [s], as a drive's
     profile position mode moves (the EPOS4's, with profile velocity, acceleration and
@@ -219,7 +268,8 @@ class Profile:
 
     .. math::
 
-        v_p = \min\left(v, \sqrt{rac{2 D a d}{a + d}}ight),\quad
+        v_p = \min\left(v, \sqrt{rac{2 D a d}{a + d}}
+ight),\quad
         t_a = rac{v_p}{a},\quad t_d = rac{v_p}{d},\quad
         t_c = rac{D}{v_p} - rac{v_p}{2a} - rac{v_p}{2d}
 
