@@ -71,7 +71,10 @@ class Frf:
 def default_nperseg(n):
     """Segment length letting :data:`AVERAGES` half-overlapping Hann segments fit ``n``
     samples: 2 n / (AVERAGES + 1), at least 16."""
-    return max(16, int(2 * n // (AVERAGES + 1)))
+    length = max(16, int(2 * n // (AVERAGES + 1)))
+    while length > 16 and 1 + (n - length) // (length - length // 2) < AVERAGES:
+        length -= 1
+    return length
 
 
 def estimate(x, y, interval_s, nperseg=None):
