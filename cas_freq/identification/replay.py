@@ -4,8 +4,8 @@ Each recording is replayed as it was recorded: its own command, its own length, 
 limits and controller sampling. The command is a :class:`Step` of the recording's step size at
 the trigger when the recorded command steps and holds (fitted from the trigger on); else the
 recorded command as a :class:`Recorded` spline, whose derivatives feed the feed-forward,
-simulated from the recording's first sample and fitted from where the command starts to move; the simulated fin angle and motor current are read at the recording's own
-sample times (linear interpolation between the simulator's samples, kept at most a quarter of
+simulated from the recording's first sample and fitted from where the command starts to move.
+The simulated fin angle and motor current are read at the recording's own sample times (linear interpolation between the simulator's samples, kept at most a quarter of
 the recording's shortest interval apart). Every parameter set of a call, times every
 recording, is one batch of :func:`cas_freq.simulation.simulate_batch`.
 """
