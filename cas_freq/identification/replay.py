@@ -5,9 +5,10 @@ limits and controller sampling. The command is a :class:`Step` of the recording'
 the trigger when the recorded command steps and holds (fitted from the trigger on); else the
 recorded command as a :class:`Recorded` spline, whose derivatives feed the feed-forward,
 simulated from the recording's first sample and fitted from where the command starts to move.
-The simulated fin angle and motor current are read at the recording's own sample times (linear interpolation between the simulator's samples, kept at most a quarter of
-the recording's shortest interval apart). Every parameter set of a call, times every
-recording, is one batch of :func:`cas_freq.simulation.simulate_batch`.
+The simulated fin angle and motor current are read at the recording's own sample times
+(linear interpolation between the simulator's samples, kept at most a quarter of the
+recording's shortest interval apart). Every parameter set of a call, times every recording, is
+one batch of :func:`cas_freq.simulation.simulate_batch`.
 """
 
 import dataclasses
