@@ -1,7 +1,9 @@
 """Identification from bench recordings (issue 14): read step recordings
 (:mod:`~cas_freq.identification.recordings`, column names and units in
 :mod:`~cas_freq.identification.columns`) and fit the report's second-order-plus-delay model to
-one or several of them (:mod:`~cas_freq.identification.step_fit`).
+one or several of them (:mod:`~cas_freq.identification.step_fit`); read sweep recordings
+(:mod:`~cas_freq.identification.sweep`) and estimate their frequency responses with coherence
+(:mod:`~cas_freq.identification.frf`).
 """
 
 from cas_freq.identification.recordings import Recording, read_recording
