@@ -13,6 +13,9 @@ from cas_freq.cli.common import EXIT_OK, angle, print_json, wrote
 from cas_freq.exceptions import CasFreqError
 from cas_freq.identification.identifiability import UNBOUNDED
 
+#: A residual this many times the pre-trigger noise is reported as a misfit.
+MISFIT = 2.0
+
 #: Akaike differences and what they say (Burnham & Anderson's rule of thumb).
 SUPPORT = ((2.0, "as well supported"), (10.0, "less supported"), (math.inf, "not supported"))
 
@@ -78,6 +81,9 @@ def fit_dict(fit, seconds):
         "samples": fit.n_samples,
         "parameters_counted": fit.n_parameters,
         "log_likelihood": fit.log_likelihood,
+        "residual_over_noise": [
+            {"recording": index, "channel": channel, "ratio": ratio}
+            for (index, channel), ratio in sorted(fit.noise_ratio.items())],
         **fit.criteria(),
         "identifiability": ident,
         "assumed_current_noise_a": fit.assumed_current_noise_a,
@@ -149,6 +155,11 @@ def table(data):
         lines.append(f"  rms residual: position {pos['fit']:.3g} deg (start {pos['start']:.3g})"
                      + (f", current {rms['current_a']['fit']:.3g} A (start "
                         f"{rms['current_a']['start']:.3g})" if "current_a" in rms else ""))
+        worst = max((item["ratio"] for item in model["residual_over_noise"]), default=None)
+        if worst is not None and worst > MISFIT:
+            lines.append(f"  MISFIT: a residual is {worst:.3g}x the noise before the trigger: "
+                         "the model does not follow the data (or the fit stopped in a local "
+                         "minimum: try other starts, KEY=START); the intervals are too narrow")
         labels = model["correlation"]["labels"]
         lines.append("  correlation: " + "  ".join(f"{name:>8}" for name in labels))
         for name, row in zip(labels, model["correlation"]["matrix"], strict=True):

@@ -201,9 +201,13 @@ def _combination(exponents, logs, free, names, values, half_width):
         full[j] = float(e)
     chosen = [j for j in logs if full[j]]
     value = math.prod(values[j] ** full[j] for j in chosen)
+    if len(chosen) == 1 and full[chosen[0]] == 1:  # one key: its own unit, as the config has it
+        unit = free[chosen[0]].unit
+    else:
+        unit = _unit([full[j] for j in chosen], [free[j].unit for j in chosen])
     return Combination(
         exponents=tuple(full), text=monomial([full[j] for j in chosen], [names[j] for j in chosen]),
-        value=value, unit=_unit([full[j] for j in chosen], [free[j].unit for j in chosen]),
+        value=value, unit=unit,
         half_width=half_width, verdict=verdict(half_width))
 
 

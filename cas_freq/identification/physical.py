@@ -112,6 +112,11 @@ class PhysicalFit:
     masks : list of numpy.ndarray
         Per recording, the samples fitted (bool): from the trigger on for a step, from the
         command's first move on for another command.
+    noise_ratio : dict
+        (recording, channel) -> the fit's RMS residual over the spread of the samples before
+        the fitted window (its noise, where there are at least 5 such samples and they vary):
+        about 1 when the model follows the data to their noise; well above 1, the model does
+        not (or the fit stopped in a local minimum: try other starts).
     at_bound : tuple
         Per key ``"lower"`` or ``"upper"`` where the estimate is at the search bound
         (:data:`~cas_freq.identification.free_keys.SEARCH_FACTOR` from the start, or the key's
@@ -137,6 +142,7 @@ class PhysicalFit:
     evaluations: int
     assumed_current_noise_a: float | None
     masks: list
+    noise_ratio: dict
     at_bound: tuple
 
     @property
@@ -348,8 +354,22 @@ def _result(spec, free, problem, x, x0, fitted, recordings, channels, converged)
         fitted_response=fitted, start_response=start, converged=converged,
         evaluations=problem.batches, assumed_current_noise_a=assumed,
         masks=problem.replayer.masks,
+        noise_ratio=_noise_ratios(blocks, recordings, problem.replayer.masks, rss),
         at_bound=tuple(_bound(f, c) for f, c in zip(free, x, strict=True)),
     )
+
+
+def _noise_ratios(blocks, recordings, masks, rss):
+    """RMS residual over the pre-window spread, per block that has such a spread."""
+    ratios = {}
+    for b in blocks:
+        r, mask = recordings[b.recording], masks[b.recording]
+        data = r.position_rad if b.channel == "position" else r.current_a
+        before = data[r.time_s < r.time_s[mask][0]]
+        if before.size >= 5 and np.std(before) > 0:
+            rms = math.sqrt(rss[(b.recording, b.channel)] / b.data.size)
+            ratios[(b.recording, b.channel)] = rms / float(np.std(before))
+    return ratios
 
 
 def _bound(free, coordinate, tolerance=1e-6):
