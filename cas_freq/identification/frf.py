@@ -24,7 +24,6 @@ import math
 import numpy as np
 from scipy import signal
 
-from cas_freq.model import parts
 from cas_freq.model.loops import ActuatorLoops
 from cas_freq.simulation.sinedwell import crossing_bandwidth
 
@@ -123,16 +122,9 @@ def model_responses(params, omega_rad_s):
         ``current_loop``: T_i = i/i_cmd [-] (complex).
     """
     loops = ActuatorLoops(params)
-    p = loops._p
     s = 1j * np.asarray(omega_rad_s, dtype=float)
     current_loop = loops.current_closed_loop(s)
-    if np.any(p.derivative_on_measurement):
-        reference = parts.polyval(parts.reference_path(p), s) / s
-    else:
-        reference = (parts.polyval(parts.position_controller(p), s)
-                     / (s * parts.polyval(parts.position_filter(p), s)))
-    current = (p.ratio * loops.delay.response(s, p.tau_p) * current_loop * reference
-               * loops.sensitivity(s))
+    current = loops.current_response(s)
     return {"position": loops.closed_loop(s), "current": current, "current_loop": current_loop}
 
 

@@ -214,6 +214,25 @@ class ActuatorLoops:
         """T(s) = theta/theta_cmd = delta/delta_cmd [-] (with the feed-forward if asked)."""
         return self._responses(s, feedforward=feedforward).closed_loop
 
+    def current_response(self, s):
+        r"""i/delta_cmd [A/rad]: the motor current per fin command, without feed-forward.
+
+        The current command is the position controller's output :math:`C_r \theta_{cmd} -
+        C_p \theta` delayed by tau_p, so
+        :math:`i/\delta_{cmd} = N e^{-s\tau_p} T_i C_r/(1 + L_p)`, with :math:`C_r = C_p` for
+        the derivative on the error and the reference path
+        :math:`(K_p s + K_i)/s` for the derivative on the measurement.
+        """
+        p = self._p
+        s = np.asarray(s, dtype=complex)
+        if np.any(p.derivative_on_measurement):
+            reference = parts.polyval(parts.reference_path(p), s) / s
+        else:
+            reference = (parts.polyval(parts.position_controller(p), s)
+                         / (s * parts.polyval(parts.position_filter(p), s)))
+        return (p.ratio * self.delay.response(s, p.tau_p) * self.current_closed_loop(s)
+                * reference * self.sensitivity(s))
+
     @property
     def total_delay(self):
         """Sum of both transport delays [s] (sets how finely a grid must sample the phase)."""
