@@ -23,7 +23,7 @@ from cas_freq.cli.common import (
     several_variants,
     wrote,
 )
-from cas_freq.exceptions import CasFreqError, ConfigError
+from cas_freq.exceptions import CasFreqError
 
 
 def register(commands):
@@ -82,12 +82,9 @@ def _same_file(a, b):
 
 def run_import(args):
     """Read the export, add the variant to the config's text, check it loads, write it."""
-    import tempfile
-
-    from cas_freq.config import default_config_path, load_all_variants
-    from cas_freq.config.loader import MAX_FILE_BYTES, read_config_file
+    from cas_freq.config import default_config_path
     from cas_freq.drive import epos4
-    from cas_freq.drive.variant_text import insert_variant
+    from cas_freq.drive.variant_text import config_with_variant
     from cas_freq.fileio import check_output_file, write_text_atomic
 
     if args.json and args.output is None:
@@ -99,42 +96,13 @@ def run_import(args):
                            "modified, write the result to another file")
 
     export = epos4.read_export(args.export_file)
-    load_all_variants(config)  # the config must load as it is before it is extended
-    data = read_config_file(config)
-    text = config.read_bytes()[:MAX_FILE_BYTES].decode("utf-8")
-    if args.variant in (data.get("variants") or {}) and not args.force:
-        raise ConfigError(f"{config}: variant {args.variant!r} exists; choose another --variant "
-                          "name or give --force to replace it")
-    entries = epos4.variant_entries(export)
+    values = epos4.import_values(export)
     absent = list(export.absent)
     comment = f"EPOS4 parameters imported by cas-freq epos4 import from {Path(export.path).name}"
-    try:
-        new_text = insert_variant(text, args.variant, entries, comment, force=args.force)
-    except ConfigError as exc:
-        raise ConfigError(f"{config}: {exc}") from None
-
-    # load the result as any command will, before anything is written
-    with tempfile.TemporaryDirectory(prefix="cas_freq_epos4_") as folder:
-        trial = Path(folder) / config.name
-        trial.write_text(new_text, encoding="utf-8")
-        try:
-            loaded = {item.variant: item for item in load_all_variants(trial)}
-        except CasFreqError as exc:
-            message = str(exc).replace(str(trial), f"{config} with variant {args.variant!r}")
-            raise ConfigError(f"the imported values do not make a valid variant: "
-                              f"{message}") from None
-    if args.variant not in loaded:
-        raise ConfigError(f"{config}: the variant {args.variant!r} was written but does not "
-                          "load as a variant; is 'variants' written as a block mapping?")
-    values = epos4.import_values(export)
-    from cas_freq.parameters import base_values, unit_of
-
-    got = base_values(loaded[args.variant].params)
-    for key, (_, si) in values.items():
-        if abs(got[key] - si) > 1e-12 * max(1.0, abs(si)):
-            raise ConfigError(f"{config}: variant {args.variant!r} loads {key} = {got[key]!r}, "
-                              f"not the imported {si!r}; the variants block was not read as "
-                              "expected")
+    new_text = config_with_variant(config, args.variant, epos4.variant_entries(export), comment,
+                                   {key: si for key, (_, si) in values.items()},
+                                   "the imported values", force=args.force)
+    from cas_freq.parameters import unit_of
 
     if output is None:
         print(new_text, end="")

@@ -12,7 +12,7 @@ import re
 
 from cas_freq.exceptions import ConfigError
 
-__all__ = ["NAME_PATTERN", "insert_variant"]
+__all__ = ["NAME_PATTERN", "config_with_variant", "insert_variant"]
 
 #: Variant names this writer accepts (a plain YAML key: no quoting needed).
 NAME_PATTERN = re.compile(r"[A-Za-z_][A-Za-z0-9_-]{0,63}")
@@ -134,3 +134,68 @@ def insert_variant(text, name, entries, comment="", force=False):
                                 + lines[stop:]) + newline
     new = lines[:end] + _block(name, entries, comment, indent, step) + lines[end:]
     return newline.join(new) + newline
+
+
+def config_with_variant(config, name, entries, comment, expected, what, force=False,
+                        tolerance=1e-12):
+    """The text of config file ``config`` with variant ``name`` added, loaded back and checked.
+
+    The variant is inserted (:func:`insert_variant`), the result is loaded with the config
+    loader as every command will load it, and each key of ``expected`` must load as its
+    value; nothing is written.
+
+    Parameters
+    ----------
+    config : str or Path
+        The config file (it must load as it is).
+    name, entries, comment, force
+        As :func:`insert_variant`.
+    expected : dict of str to float
+        Dotted key -> the value [SI] the variant must load.
+    what : str
+        What the values are, for messages (``"the imported values"``).
+    tolerance : float
+        Largest relative difference between a loaded and an expected value.
+
+    Raises
+    ------
+    ConfigError
+        Naming the file and the variant, for a variant that exists (without ``force``), a text
+        that does not load, or a value that loads otherwise.
+    """
+    import tempfile
+    from pathlib import Path
+
+    from cas_freq.config import load_all_variants
+    from cas_freq.config.loader import MAX_FILE_BYTES, read_config_file
+    from cas_freq.exceptions import CasFreqError
+    from cas_freq.parameters import base_values
+
+    config = Path(config)
+    load_all_variants(config)  # the config must load as it is before it is extended
+    if name in (read_config_file(config).get("variants") or {}) and not force:
+        raise ConfigError(f"{config}: variant {name!r} exists; choose another name or give "
+                          "--force to replace it")
+    text = config.read_bytes()[:MAX_FILE_BYTES].decode("utf-8")
+    try:
+        new_text = insert_variant(text, name, entries, comment, force=force)
+    except ConfigError as exc:
+        raise ConfigError(f"{config}: {exc}") from None
+    with tempfile.TemporaryDirectory(prefix="cas_freq_variant_") as folder:
+        trial = Path(folder) / config.name
+        trial.write_text(new_text, encoding="utf-8")
+        try:
+            loaded = {item.variant: item for item in load_all_variants(trial)}
+        except CasFreqError as exc:
+            message = str(exc).replace(str(trial), f"{config} with variant {name!r}")
+            raise ConfigError(f"{what} do not make a valid variant: {message}") from None
+    if name not in loaded:
+        raise ConfigError(f"{config}: the variant {name!r} was written but does not load as a "
+                          "variant; is 'variants' written as a block mapping?")
+    got = base_values(loaded[name].params)
+    for key, value in expected.items():
+        if abs(got[key] - value) > tolerance * abs(value):
+            raise ConfigError(f"{config}: variant {name!r} loads {key} = {got[key]!r}, not "
+                              f"{value!r} ({what}); the variants block was not read as "
+                              "expected")
+    return new_text

@@ -2,23 +2,19 @@
 
 The new variant holds everything that makes the fitted model: the starting variant's own
 entries (as written in the file), the ``--set`` overrides of the fit, and the fitted keys, each
-with its interval as a comment. It is inserted into the config's text
-(:func:`cas_freq.drive.variant_text.insert_variant`, every other line kept) and the result is
-loaded with the config loader before it is returned, so a text that would not load, or would
-load other values than the fitted ones, is never written.
+with its interval as a comment. It is inserted into the config's text and loaded back
+(:func:`cas_freq.drive.variant_text.config_with_variant`, every other line kept), so a text
+that would not load, or would load other values than the fitted ones, is never written.
 """
 
 import math
-import tempfile
 from pathlib import Path
 
 import yaml
 
-from cas_freq.config import load_all_variants
-from cas_freq.config.loader import MAX_FILE_BYTES, _flatten, read_config_file
-from cas_freq.drive.variant_text import insert_variant
-from cas_freq.exceptions import CasFreqError, ConfigError
-from cas_freq.parameters import PARAMETERS, base_values
+from cas_freq.config.loader import _flatten, read_config_file
+from cas_freq.drive.variant_text import config_with_variant
+from cas_freq.parameters import PARAMETERS
 
 
 def _scalar(value):
@@ -67,7 +63,7 @@ def variant_entries(loaded, fit):
 
 
 def fitted_config_text(loaded, fit, name, sources):
-    """The config's text with variant ``name`` of the fit added.
+    """The config's text with variant ``name`` of the fit added, loaded back and checked.
 
     Raises
     ------
@@ -75,29 +71,12 @@ def fitted_config_text(loaded, fit, name, sources):
         For a name that exists or is not a plain key, or a result that does not load back with
         the fitted values.
     """
-    path = Path(loaded.source)
-    text = path.read_bytes()[:MAX_FILE_BYTES].decode("utf-8")
-    if name in (read_config_file(path).get("variants") or {}):
-        raise ConfigError(f"{path}: variant {name!r} exists; choose another --name")
     files = ", ".join(Path(source).name for source in sources)
     comment = (f"cas-freq fit of {', '.join(f.key for f in fit.free)} to {files} "
                f"(model {fit.name!r}, from variant {loaded.variant})")
-    new_text = insert_variant(text, name, variant_entries(loaded, fit), comment)
-    with tempfile.TemporaryDirectory(prefix="cas_freq_fit_") as folder:
-        trial = Path(folder) / path.name
-        trial.write_text(new_text, encoding="utf-8")
-        try:
-            variants = {item.variant: item for item in load_all_variants(trial)}
-        except CasFreqError as exc:
-            message = str(exc).replace(str(trial), f"{path} with variant {name!r}")
-            raise ConfigError(f"the fitted values do not make a valid variant: {message}") \
-                from None
-    got = base_values(variants[name].params)
-    for free, value in zip(fit.free, fit.estimate, strict=True):
-        if abs(got[free.key] - value) > 1e-5 * abs(value):
-            raise ConfigError(f"{path}: variant {name!r} loads {free.key} = {got[free.key]!r}, "
-                              f"not the fitted {value!r}")
-    return new_text
+    expected = {free.key: value for free, value in zip(fit.free, fit.estimate, strict=True)}
+    return config_with_variant(loaded.source, name, variant_entries(loaded, fit), comment,
+                               expected, "the fitted values", tolerance=1e-5)
 
 
 __all__ = ["fitted_config_text", "variant_entries"]
