@@ -124,6 +124,22 @@ def wrote(path):
         print(f"wrote {path}", file=sys.stderr, flush=True)
 
 
+def write_and_print(args, data, files, text):
+    """The end of a command with ``-o DIR`` and ``--json``: write ``files()`` (name -> text,
+    called only with ``-o``; None: the command wrote its output itself) into ``args.output``
+    as a whole, then print ``data`` as JSON or ``text(data)``. Returns EXIT_OK."""
+    if args.output is not None and files is not None:
+        from cas_freq.report.studies import write_report
+
+        write_report(args.output, files())
+        wrote(args.output)
+    if args.json:
+        print_json(data)
+    else:
+        print(text(data))
+    return EXIT_OK
+
+
 def file_safe(name):
     """``name`` for use in a file name: every character but letters, digits, ``.``, ``_``
     and ``-`` replaced by ``_``."""

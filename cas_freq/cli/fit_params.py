@@ -9,7 +9,7 @@ import math
 import time
 from pathlib import Path
 
-from cas_freq.cli.common import EXIT_OK, angle, print_json, wrote
+from cas_freq.cli.common import angle, write_and_print, wrote
 from cas_freq.exceptions import CasFreqError
 from cas_freq.identification.identifiability import UNBOUNDED
 
@@ -241,20 +241,16 @@ def run_params(args):
         text = fitted_config_text(loaded, best, args.name, args.data)
         data["written"] = str(output if as_file else Path(output) / "config.yaml")
     data = json_ready(data)
-    if output is not None:
-        if as_file:
-            write_text_atomic(output, text)
-        else:
-            from cas_freq.plots.common import svg_text
-            from cas_freq.plots.recordings import physical_fit_figure
-            from cas_freq.report.studies import json_text, write_report
-
-            figure = physical_fit_figure(recordings, fits, best.name)
-            write_report(output, {"fit.json": json_text(data), "config.yaml": text,
-                                  "fit.svg": svg_text(figure)})
+    if as_file:
+        write_text_atomic(output, text)
         wrote(output)
-    if args.json:
-        print_json(data)
-    else:
-        print(table(data))
-    return EXIT_OK
+
+    def files():
+        from cas_freq.plots.common import svg_text
+        from cas_freq.plots.recordings import physical_fit_figure
+        from cas_freq.report.studies import json_text
+
+        figure = physical_fit_figure(recordings, fits, best.name)
+        return {"fit.json": json_text(data), "config.yaml": text, "fit.svg": svg_text(figure)}
+
+    return write_and_print(args, data, None if as_file else files, table)

@@ -9,7 +9,7 @@ step figures and fit of CONFIG's base variant simulated for the same step
 import dataclasses
 import math
 
-from cas_freq.cli.common import EXIT_OK, angle, print_json, wrote
+from cas_freq.cli.common import angle, write_and_print
 from cas_freq.exceptions import CasFreqError
 
 
@@ -156,16 +156,12 @@ def run_recordings(args):
     sizes = list(dict.fromkeys(round(run.step_rad, 12) for run in fits.runs))
     model_runs = step_batch([(loaded, size) for size in sizes])
     data = results(fits, model_runs, loaded.source)
-    if args.output is not None:
+
+    def files():
         from cas_freq.plots.common import svg_text
         from cas_freq.plots.recordings import recording_fit_figure
-        from cas_freq.report.studies import json_text, write_report
+        from cas_freq.report.studies import json_text
 
-        write_report(args.output, {"fit.json": json_text(data),
-                                   "fit.svg": svg_text(recording_fit_figure(fits))})
-        wrote(args.output)
-    if args.json:
-        print_json(data)
-    else:
-        print(table(data))
-    return EXIT_OK
+        return {"fit.json": json_text(data), "fit.svg": svg_text(recording_fit_figure(fits))}
+
+    return write_and_print(args, data, files, table)

@@ -9,7 +9,7 @@ the model's, and with several recordings how each compares with the first. ``-o 
 frf.json and frf.svg.
 """
 
-from cas_freq.cli.common import EXIT_OK, print_json, wrote
+from cas_freq.cli.common import write_and_print
 from cas_freq.exceptions import CasFreqError
 
 #: Responses estimated: key, input and output attributes of a SweepRecording, label, unit.
@@ -203,19 +203,15 @@ def run_sweep(args):
     loaded = selected_variants(args.target, [args.variant] if args.variant else [], [])[0]
     recordings = [read_sweep(path, columns) for path in args.data]
     _, data = results(recordings, loaded)
-    if args.output is not None:
+
+    def files():
         from cas_freq.plots.common import svg_text
         from cas_freq.plots.frf import frf_figure
-        from cas_freq.report.studies import json_text, write_report
+        from cas_freq.report.studies import json_text
 
-        write_report(args.output, {"frf.json": json_text(data),
-                                   "frf.svg": svg_text(frf_figure(data))})
-        wrote(args.output)
-    if args.json:
-        print_json(data)
-    else:
-        print(table(data))
-    return EXIT_OK
+        return {"frf.json": json_text(data), "frf.svg": svg_text(frf_figure(data))}
+
+    return write_and_print(args, data, files, table)
 
 
 __all__ = ["are_sweeps", "column_option", "results", "run_sweep", "table"]
