@@ -10,7 +10,8 @@ from cas_freq.exceptions import CasFreqError
 def register(commands):
     """Add the ``fit`` sub-parser."""
     parser = commands.add_parser(
-        "fit", help="second-order fit (report §7) to step recordings or a step response CSV",
+        "fit", help="fit bench recordings: the second-order model (report §7), config keys "
+        "through the nonlinear simulator (--params), or sweeps' frequency responses",
         description="Second-order-plus-delay fit (report §7): (wn, zeta, td) with 95 % "
         "confidence intervals, the RMS residual and the closed-form bandwidth. "
         "With --data: of each bench step recording (a CSV whose header names time, command, "
@@ -20,6 +21,10 @@ def register(commands):
         "beside CONFIG's own simulated step (the base variant, or --variant). Sweep "
         "recordings (chirp or stepped sine) give the empirical frequency response and "
         "coherence against the variant's T (and T_i with a current_command column). "
+        "With --params KEYS: those config keys fitted to the recordings through the nonlinear "
+        "simulator (each replayed with its own command), with 95 %% intervals, correlations and "
+        "which keys and products of keys the data determine; several --params are alternative "
+        "models ranked by AICc; -o FILE.yaml writes the config with the fitted variant. "
         "Without --data, 'cas-freq fit FILE --step 10deg' fits one step response CSV (the step "
         "at t = 0): two columns, time [s] and fin angle [deg], with an optional header; or a "
         "header naming a time column (t or time, in s or ms: 't [s]', 'time_s') and a fin angle "
