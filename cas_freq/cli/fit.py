@@ -22,7 +22,7 @@ def register(commands):
         "recordings (chirp or stepped sine) give the empirical frequency response and "
         "coherence against the variant's T (and T_i with a current_command column). "
         "With --params KEYS: those config keys fitted to the recordings through the nonlinear "
-        "simulator (each replayed with its own command), with 95 %% intervals, correlations and "
+        "simulator (each replayed with its own command), with 95 % intervals, correlations and "
         "which keys and products of keys the data determine; several --params are alternative "
         "models ranked by AICc; -o FILE.yaml writes the config with the fitted variant. "
         "Without --data, 'cas-freq fit FILE --step 10deg' fits one step response CSV (the step "
