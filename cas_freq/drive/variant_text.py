@@ -12,7 +12,8 @@ import re
 
 from cas_freq.exceptions import ConfigError
 
-__all__ = ["NAME_PATTERN", "config_with_variant", "insert_variant"]
+__all__ = ["NAME_PATTERN", "config_with_variant", "insert_variant", "si_text",
+           "variant_entries"]
 
 #: Variant names this writer accepts (a plain YAML key: no quoting needed).
 NAME_PATTERN = re.compile(r"[A-Za-z_][A-Za-z0-9_-]{0,63}")
@@ -134,6 +135,41 @@ def insert_variant(text, name, entries, comment="", force=False):
                                 + lines[stop:]) + newline
     new = lines[:end] + _block(name, entries, comment, indent, step) + lines[end:]
     return newline.join(new) + newline
+
+
+def _scalar(value):
+    """A YAML scalar's text that reads back as ``value``."""
+    import yaml
+
+    text = yaml.safe_dump(value, default_flow_style=True, width=1000).strip()
+    return text.removesuffix("...").strip()
+
+
+def si_text(key, value):
+    """``'0.0075 N*m/A'``: a value [SI] with its key's unit, 6 significant digits."""
+    from cas_freq.parameters import PARAMETERS
+
+    unit = PARAMETERS[key].unit
+    return f"{value:.6g}" if unit == "dimensionless" else f"{value:.6g} {unit}"
+
+
+def variant_entries(loaded, changed):
+    """(key, value text, comment) lines of a new variant: ``loaded``'s own entries as its file
+    writes them, its ``--set`` overrides, then ``changed`` (key -> (value text, comment)),
+    which replace any of those."""
+    from cas_freq.config.loader import _flatten, read_config_file
+
+    entries = {}
+    if loaded.variant != "base":
+        data = read_config_file(loaded.source)
+        for key, value in _flatten(data["variants"][loaded.variant] or {}).items():
+            entries[key] = (_scalar(value), f"variant {loaded.variant}")
+    for key, value in loaded.overrides:
+        entries[key] = (_scalar(value), "--set")
+    for key, item in changed.items():
+        entries.pop(key, None)
+        entries[key] = item
+    return [(key, text, note) for key, (text, note) in entries.items()]
 
 
 def config_with_variant(config, name, entries, comment, expected, what, force=False,

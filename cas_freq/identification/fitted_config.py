@@ -10,23 +10,8 @@ that would not load, or would load other values than the fitted ones, is never w
 import math
 from pathlib import Path
 
-import yaml
-
-from cas_freq.config.loader import _flatten, read_config_file
-from cas_freq.drive.variant_text import config_with_variant
-from cas_freq.parameters import PARAMETERS
-
-
-def _scalar(value):
-    """A YAML scalar's text that reads back as ``value``."""
-    text = yaml.safe_dump(value, default_flow_style=True, width=1000).strip()
-    return text.removesuffix("...").strip()
-
-
-def _si(key, value):
-    """``'0.0075 N*m/A'``: a fitted value with its SI unit, 6 significant digits."""
-    unit = PARAMETERS[key].unit
-    return f"{value:.6g}" if unit == "dimensionless" else f"{value:.6g} {unit}"
+from cas_freq.drive.variant_text import config_with_variant, si_text
+from cas_freq.drive.variant_text import variant_entries as entries_with
 
 
 def _comment(fit, index, labels):
@@ -48,18 +33,10 @@ def variant_entries(loaded, fit):
     """(key, value text, comment) lines of the fitted variant."""
     from cas_freq.identification.free_keys import labels
 
-    data = read_config_file(loaded.source)
-    entries = {}
-    if loaded.variant != "base":
-        for key, value in _flatten(data["variants"][loaded.variant] or {}).items():
-            entries[key] = (_scalar(value), f"variant {loaded.variant}")
-    for key, value in loaded.overrides:
-        entries[key] = (_scalar(value), "--set")
     names = labels(fit.free)
-    for index, (free, value) in enumerate(zip(fit.free, fit.estimate, strict=True)):
-        entries.pop(free.key, None)
-        entries[free.key] = (_si(free.key, value), _comment(fit, index, names))
-    return [(key, text, note) for key, (text, note) in entries.items()]
+    changed = {free.key: (si_text(free.key, value), _comment(fit, index, names))
+               for index, (free, value) in enumerate(zip(fit.free, fit.estimate, strict=True))}
+    return entries_with(loaded, changed)
 
 
 def fitted_config_text(loaded, fit, name, sources):

@@ -166,7 +166,7 @@ def run_montecarlo(loaded, tolerances, samples, *, distribution="normal", seed=N
         )
         dwelt = [r for r in requirements if r.kind == "sinedwell"]
         if dwelt:
-            sinedwell = _dwell_condition(dwelt[0])
+            sinedwell = dwell_condition(dwelt[0])
     values, seed = draw(loaded.params, tolerances, samples, distribution, seed)
     figures, stability = evaluate_figures(loaded.params, values, step_rad=step_rad,
                                           fit=fit_needed, sinedwell=sinedwell,
@@ -180,7 +180,7 @@ def run_montecarlo(loaded, tolerances, samples, *, distribution="normal", seed=N
     )
 
 
-def _dwell_condition(requirement):
+def dwell_condition(requirement):
     """(amplitude [rad], frequencies [rad/s]) a sine-dwell requirement is measured at."""
     from cas_freq.simulation.run import DEFAULT_SINEDWELL_FREQUENCIES_RAD_S
 
@@ -199,7 +199,7 @@ def requirement_results(mc):
         step = requirement.step
         values = mc.figures.get(requirement.metric)
         reason = None
-        if kind == "sinedwell" and mc.sinedwell != _dwell_condition(requirement):
+        if kind == "sinedwell" and mc.sinedwell != dwell_condition(requirement):
             reason = ("sine-dwell not simulated" if mc.sinedwell is None else
                       "only the first sine-dwell condition of the requirements is simulated")
         elif values is None and requirement.metric.startswith("fit.") and mc.step_deg:

@@ -1,0 +1,155 @@
+r"""Tune free keys to the config's requirements: a global quasi-random search, then local
+refinement, every candidate a row of one batch.
+
+1. **Global.** ``global_count`` scrambled Sobol points of the keys' box (logarithmic for
+   positive ranges, :mod:`~cas_freq.tuning.space`), plus the variant's own values.
+2. **Refinement.** ``rounds`` rounds of ``round_count`` Sobol points in a box around the
+   incumbent, its half-width a quarter of the range, halved every round (clipped to the
+   range).
+3. **Incumbent.** The best feasible candidate by the objective (its nominal figure); without a
+   feasible one, the one whose requirements fall shortest (summed relative shortfall,
+   :mod:`~cas_freq.tuning.evaluate`).
+
+Every draw comes from the seed, so a seed reproduces the tune. The trade-off is the Pareto
+front of the feasible candidates in (bandwidth up, phase margin up, overshoot down), nominal
+figures.
+"""
+
+import dataclasses
+
+import numpy as np
+
+from cas_freq.tuning.evaluate import OBJECTIVES, TRADE_OFF, evaluate, joined
+from cas_freq.tuning.space import sobol
+
+#: Defaults of the search: global points, refinement rounds and points per round.
+GLOBAL_COUNT = 128
+ROUNDS = 6
+ROUND_COUNT = 32
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class TuneResult:
+    """What a tune found.
+
+    Attributes
+    ----------
+    keys : list of TuneKey
+    held, skipped : list
+        Constraints held; (requirement, why) not held.
+    scenarios : Scenarios
+    objective : str
+    evaluation : Evaluation
+        Every candidate evaluated (index 0: the variant's own values).
+    best : int
+        Index of the chosen candidate.
+    feasible : bool
+        Whether it meets every held requirement at the target yield.
+    pareto : numpy.ndarray
+        Indices of the feasible candidates on the trade-off front, by bandwidth.
+    seed : int
+    """
+
+    keys: list
+    held: list
+    skipped: list
+    scenarios: object
+    objective: str
+    evaluation: object
+    best: int
+    feasible: bool
+    pareto: np.ndarray
+    seed: int
+
+    def values(self, index=None):
+        """Key -> value [SI] of a candidate (default: the best)."""
+        index = self.best if index is None else index
+        return {key: float(v[index]) for key, v in self.evaluation.values.items()}
+
+
+def _rank(evaluation, objective):
+    """Index of the incumbent."""
+    _, sense = OBJECTIVES[objective]
+    feasible = evaluation.feasible & np.isfinite(evaluation.objective)
+    if feasible.any():
+        score = np.where(feasible, sense * evaluation.objective, -np.inf)
+        return int(np.argmax(score))
+    total = evaluation.violation.sum(axis=1)
+    return int(np.argmin(total))
+
+
+def pareto_front(evaluation):
+    """Indices of the feasible candidates no other feasible candidate beats in every
+    trade-off figure (ties kept once), ordered by bandwidth."""
+    rows = np.flatnonzero(evaluation.feasible)
+    points = np.column_stack([sense * evaluation.nominal[name][rows]
+                              for name, sense in TRADE_OFF])
+    good = np.all(np.isfinite(points), axis=1)
+    rows, points = rows[good], points[good]
+    front = []
+    for i, point in enumerate(points):
+        beaten = np.all(points >= point, axis=1) & np.any(points > point, axis=1)
+        duplicate = [j for j in front if np.array_equal(points[j], point)]
+        if not beaten.any() and not duplicate:
+            front.append(i)
+    chosen = rows[front]
+    order = np.argsort(evaluation.nominal[TRADE_OFF[0][0]][chosen], kind="stable")
+    return chosen[order]
+
+
+def tune(params, keys, scenario_set, held, skipped, objective="max-bandwidth", seed=0,
+         global_count=GLOBAL_COUNT, rounds=ROUNDS, round_count=ROUND_COUNT, scheduler=None,
+         progress=None):
+    """Search the keys' box for the best tuning (module docstring).
+
+    Parameters
+    ----------
+    params : cas_freq.config.ActuatorConfig
+        The variant tuned.
+    keys : list of TuneKey
+    scenario_set : Scenarios
+    held, skipped : list
+        From :func:`cas_freq.tuning.evaluate.constraints`.
+    objective : str
+        A key of :data:`~cas_freq.tuning.evaluate.OBJECTIVES`.
+    seed : int
+    global_count, rounds, round_count : int
+        Candidates of the global stage; refinement rounds and candidates per round.
+    scheduler : str, optional
+        Evaluate on a dask.distributed cluster (``local:N`` or an address).
+    progress : callable, optional
+        ``progress(done, total)`` in candidates.
+
+    Returns
+    -------
+    TuneResult
+    """
+    k = len(keys)
+    total = 1 + global_count + rounds * round_count
+    start = np.clip([[key.unit_of(key.start) for key in keys]], 0.0, 1.0)
+    batches = [np.vstack([start, sobol(global_count, k, seed)])]
+    evaluations = [evaluate(params, keys, batches[0], scenario_set, held, objective, scheduler)]
+    done = batches[0].shape[0]
+    if progress:
+        progress(done, total)
+    for number in range(rounds):
+        everything = joined(evaluations)
+        centre = np.vstack(batches)[_rank(everything, objective)]
+        half = 0.25 * 0.5**number
+        points = sobol(round_count, k, seed + 1 + number)
+        batch = np.clip(centre + (2.0 * points - 1.0) * half, 0.0, 1.0)
+        batches.append(batch)
+        evaluations.append(evaluate(params, keys, batch, scenario_set, held, objective,
+                                    scheduler))
+        done += batch.shape[0]
+        if progress:
+            progress(done, total)
+    everything = joined(evaluations)
+    best = _rank(everything, objective)
+    return TuneResult(keys=keys, held=held, skipped=skipped, scenarios=scenario_set,
+                      objective=objective, evaluation=everything, best=best,
+                      feasible=bool(everything.feasible[best]),
+                      pareto=pareto_front(everything), seed=seed)
+
+
+__all__ = ["GLOBAL_COUNT", "ROUNDS", "ROUND_COUNT", "TuneResult", "pareto_front", "tune"]
