@@ -2,10 +2,11 @@
 
 A tune is nominal (one scenario), or robust over a tolerance set (``--tolerance KEY=TOL``, as
 ``montecarlo`` takes them): ``montecarlo:N`` draws N samples
-(:func:`cas_freq.studies.montecarlo.draw`, seeded), ``corners`` takes every corner of the
-tolerance box (each key at -TOL and +TOL, 2^k scenarios). With ``load_cases`` each of those is taken again at every hinge stiffness of the
-config's ``load_envelope`` grid. Scenario 0 is always the nominal model (the variant, at the
-first load case when there are load cases): the objective is its figure.
+(:func:`cas_freq.studies.montecarlo.draw`, seeded); ``corners`` takes every corner of the
+tolerance box (each key at -TOL and +TOL, 2^k scenarios). With ``load_cases`` each of those is
+taken again at every hinge stiffness of the config's ``load_envelope`` grid. Scenario 0 is
+always the nominal model (the variant, at the first load case when there are load cases): the
+objective is its figure.
 
 A toleranced key keeps its tolerance relative to the candidate's value when the key is also
 free (a toleranced gain is the tuned gain times the drawn factor); otherwise it is the drawn
