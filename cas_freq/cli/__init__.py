@@ -26,7 +26,7 @@ EXIT_INTERRUPTED = 130
 
 #: Command modules of ``cas_freq.cli``, in the order ``--help`` lists them.
 COMMANDS = ("analyze", "simulate", "sinedwell", "fit", "verify", "report", "compare", "sweep",
-            "montecarlo", "epos4")
+            "montecarlo", "tune", "epos4")
 
 
 def build_parser():

@@ -1,0 +1,198 @@
+"""``cas-freq tune``: free keys tuned to the config's requirements (:mod:`cas_freq.tuning`).
+
+Exit 0 with a feasible tuning, 1 when no candidate in the bounds meets every held requirement
+(at the target yield), 2 on bad input.
+"""
+
+import time
+from pathlib import Path
+
+from cas_freq.cli.common import EXIT_FAILED, EXIT_OK, add_config_arguments, print_json, wrote
+from cas_freq.exceptions import CasFreqError
+
+
+def register(commands):
+    """Add the ``tune`` sub-parser."""
+    from cas_freq.tuning.evaluate import OBJECTIVES
+    from cas_freq.tuning.search import GLOBAL_COUNT, ROUND_COUNT, ROUNDS
+    from cas_freq.tuning.space import DEFAULT_FACTOR, DEFAULT_FREE
+
+    parser = commands.add_parser(
+        "tune", help="tune keys (gains, filters, ...) to the config's requirements",
+        description="Search free keys for the best objective subject to the config's "
+        "requirements (every one, advisory included, unless --required-only; bounds tightened "
+        "by --margin), on the nominal model or over a tolerance set and load cases: a global "
+        "Sobol search of the bounds, then refinement around the best, every candidate checked "
+        "with the figures verify uses. Prints the tuned values, every requirement before and "
+        "after, the binding ones (or, when nothing in the bounds is feasible, how far the "
+        "closest candidate is), the Pareto front of bandwidth, phase margin and overshoot, and "
+        "the gains in EPOS4 units; -o writes the config with the tuned variant.",
+    )
+    add_config_arguments(parser, all_by_default=False)
+    parser.add_argument("--free", default=",".join(DEFAULT_FREE), metavar="KEY,KEY,...",
+                        help=f"keys to tune (default: {','.join(DEFAULT_FREE)})")
+    parser.add_argument("--bounds", action="append", default=[], metavar="KEY=LO:HI",
+                        help="a free key's range, SI or with units (default: the variant's "
+                        f"value /{DEFAULT_FACTOR:g} .. x{DEFAULT_FACTOR:g}); repeatable")
+    parser.add_argument("--objective", choices=tuple(OBJECTIVES), default="max-bandwidth")
+    parser.add_argument("--robust", metavar="montecarlo:N|corners",
+                        help="hold the requirements over a tolerance set (--tolerance) too")
+    parser.add_argument("--tolerance", action="append", default=[], metavar="KEY=TOL",
+                        help="a toleranced key for --robust, as montecarlo takes it "
+                        "(e.g. motor.Km=10%%)")
+    parser.add_argument("--distribution", choices=("normal", "uniform"), default="normal")
+    parser.add_argument("--yield", dest="yield_pct", type=float, default=99.0, metavar="PCT",
+                        help="share of the Monte Carlo samples that must pass (default 99)")
+    parser.add_argument("--load-cases", action="store_true",
+                        help="also hold the requirements at every hinge stiffness of the "
+                        "config's load_envelope grid")
+    parser.add_argument("--margin", type=float, default=2.0, metavar="PCT",
+                        help="tighten every bound by this share of its magnitude (default 2)")
+    parser.add_argument("--required-only", action="store_true",
+                        help="hold only the required requirements (not the advisory ones)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the search (default 0)")
+    parser.add_argument("--candidates", type=int, default=GLOBAL_COUNT, metavar="N",
+                        help=f"global search points (default {GLOBAL_COUNT})")
+    parser.add_argument("--rounds", type=int, default=ROUNDS, metavar="N",
+                        help=f"refinement rounds of {ROUND_COUNT} points (default {ROUNDS})")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="evaluate on a dask.distributed cluster: local:N or an address")
+    parser.add_argument("--name", default="tuned", metavar="VARIANT",
+                        help="the tuned variant's name in -o's config (default: tuned)")
+    parser.add_argument("-o", "--output", metavar="FILE.yaml",
+                        help="write CONFIG with the tuned variant added (inputs never change)")
+    parser.add_argument("--compare", metavar="DIR",
+                        help="with -o: write the compare report of the variant before and "
+                        "after into DIR")
+    parser.add_argument("--json", action="store_true", help="print JSON instead of text")
+    parser.set_defaults(handler=run)
+
+
+def _check_counts(args):
+    for name, value, low in (("--candidates", args.candidates, 1), ("--rounds", args.rounds, 0)):
+        if not low <= value <= 100_000:
+            raise CasFreqError(f"{name}: must be {low}..100000, got {value}")
+    if not 0.0 <= args.margin < 100.0:
+        raise CasFreqError(f"--margin: a percentage 0..100, got {args.margin:g}")
+    if args.compare and not args.output:
+        raise CasFreqError("--compare needs -o FILE.yaml (the report compares its variants)")
+
+
+def _load_cases(loaded, wanted):
+    """The load_envelope's hinge stiffnesses, if asked."""
+    if not wanted:
+        return None
+    envelope = getattr(loaded.params, "load_envelope", None)
+    if envelope is None:
+        raise CasFreqError(f"--load-cases: {loaded.source} declares no load_envelope")
+    return list(envelope.hinge_stiffness)
+
+
+def run(args):
+    """Tune, print, write the config (and the comparison)."""
+    from cas_freq.cli.common import load_variants, terminal_progress
+    from cas_freq.fileio import check_output_file, json_ready, write_text_atomic
+    from cas_freq.studies.distributed import session
+    from cas_freq.studies.montecarlo import parse_tolerance
+    from cas_freq.tuning import tune
+    from cas_freq.tuning.evaluate import constraints
+    from cas_freq.tuning.scenarios import scenarios
+    from cas_freq.tuning.space import parse_bounds, parse_free, tune_keys
+    from cas_freq.tuning.summary import tune_dict, tune_text
+
+    _check_counts(args)
+    output = check_output_file(args.output, "-o") if args.output else None
+    variants = load_variants(args)
+    if len(variants) != 1:
+        raise CasFreqError("tune: one variant at a time (--variant NAME)")
+    loaded = variants[0]
+    if output is not None and output.exists() and output.resolve() == \
+            Path(loaded.source).resolve():
+        raise CasFreqError(f"-o {output}: is the input config; inputs are never modified")
+    free = parse_free(args.free)
+    keys = tune_keys(loaded.params, free, parse_bounds(args.bounds, free))
+    held, skipped = constraints(loaded.params.requirements, args.margin / 100.0,
+                                advisory=not args.required_only)
+    if not held:
+        raise CasFreqError(f"{loaded.source}: no requirement to tune to (the config's "
+                           "requirements: section)")
+    scenario_set = scenarios(loaded.params, args.robust,
+                             [parse_tolerance(t) for t in args.tolerance], args.yield_pct,
+                             args.seed, _load_cases(loaded, args.load_cases), args.distribution)
+    progress = terminal_progress("tune", unit="candidate")
+    start = time.perf_counter()
+    with session(args.scheduler):
+        result = tune(loaded.params, keys, scenario_set, held, skipped, args.objective,
+                      seed=args.seed, global_count=args.candidates, rounds=args.rounds,
+                      scheduler=args.scheduler, progress=progress)
+    if progress:
+        progress.done()
+    data = tune_dict(result, loaded.params.name, loaded.variant, time.perf_counter() - start)
+    data["drive"] = None
+    if result.feasible or output is not None:
+        text, tuned = _tuned_config(loaded, result, args.name, output)
+        data["drive"] = _drive_settings(tuned)
+        if output is not None:
+            write_text_atomic(output, text)
+            wrote(output)
+            data["written"] = str(output)
+            if args.compare:
+                _compare(loaded, output, args.name, args.compare)
+    data = json_ready(data)
+    if args.json:
+        print_json(data)
+    else:
+        print(tune_text(data))
+        if data["drive"]:
+            print("\n" + data["drive"]["table"])
+    return EXIT_OK if result.feasible else EXIT_FAILED
+
+
+def _tuned_config(loaded, result, name, output):
+    """(config text with the tuned variant, the tuned LoadedVariant)."""
+    import tempfile
+
+    from cas_freq.config import load_variant
+    from cas_freq.drive.variant_text import config_with_variant, si_text, variant_entries
+
+    values = result.values()
+    verdict = "meets every held requirement" if result.feasible else "INFEASIBLE: the closest"
+    changed = {key: (si_text(key, value), f"tuned ({result.objective}; {verdict})")
+               for key, value in values.items()}
+    comment = (f"cas-freq tune of {', '.join(values)} from variant {loaded.variant} "
+               f"({result.scenarios.label}, seed {result.seed})")
+    text = config_with_variant(loaded.source, name, variant_entries(loaded, changed), comment,
+                               values, "the tuned values", tolerance=1e-5)
+    with tempfile.TemporaryDirectory(prefix="cas_freq_tune_") as folder:
+        path = Path(folder) / (output.name if output is not None else "tuned.yaml")
+        path.write_text(text, encoding="utf-8")
+        tuned = load_variant(path, name)
+    return text, tuned
+
+
+def _drive_settings(tuned):
+    """The tuned variant's gains in EPOS4 units (None if the drive cannot hold them)."""
+    from cas_freq.drive import epos4
+    from cas_freq.exceptions import ConfigError
+
+    try:
+        settings = epos4.settings_of(tuned.params, f"variant {tuned.variant!r}")
+    except ConfigError as exc:
+        return {"table": f"EPOS4 units: not writable ({exc})", "objects": []}
+    return {"table": epos4.settings_table(settings, f"{tuned.variant} in EPOS4 units"),
+            "objects": [item.to_dict() for item in settings]}
+
+
+def _compare(loaded, output, name, folder):
+    """The compare report of the variant before and the tuned one (from the written file)."""
+    from cas_freq.config import load_variant
+    from cas_freq.report.compare import build_compare
+
+    before = load_variant(output, loaded.variant, loaded.overrides)
+    after = load_variant(output, name, loaded.overrides)
+    build_compare([before, after], folder, command=f"cas-freq compare {output} --variants "
+                  f"{loaded.variant},{name}", selected=[loaded.variant, name])
+    wrote(folder)
+
+
+__all__ = ["register", "run"]
