@@ -64,6 +64,9 @@ def register(commands):
     parser.add_argument("--compare", metavar="DIR",
                         help="with -o: write the compare report of the variant before and "
                         "after into DIR")
+    parser.add_argument("--report", metavar="DIR",
+                        help="write tune.json and trade-off.svg (every candidate's bandwidth "
+                        "against phase margin, the Pareto front) into DIR (replaced as a whole)")
     parser.add_argument("--json", action="store_true", help="print JSON instead of text")
     parser.set_defaults(handler=run)
 
@@ -102,6 +105,10 @@ def run(args):
 
     _check_counts(args)
     output = check_output_file(args.output, "-o") if args.output else None
+    if args.report is not None:
+        from cas_freq.report.outdir import check_output_dir
+
+        check_output_dir(args.report, "--report")
     variants = load_variants(args)
     if len(variants) != 1:
         raise CasFreqError("tune: one variant at a time (--variant NAME)")
@@ -139,6 +146,14 @@ def run(args):
             if args.compare:
                 _compare(loaded, output, args.name, args.compare)
     data = json_ready(data)
+    if args.report is not None:
+        from cas_freq.plots.common import svg_text
+        from cas_freq.plots.tune import trade_off_figure
+        from cas_freq.report.studies import json_text, write_report
+
+        write_report(args.report, {"tune.json": json_text(data),
+                                   "trade-off.svg": svg_text(trade_off_figure(result))})
+        wrote(args.report)
     if args.json:
         print_json(data)
     else:

@@ -3,9 +3,10 @@ refinement, every candidate a row of one batch.
 
 1. **Global.** ``global_count`` scrambled Sobol points of the keys' box (logarithmic for
    positive ranges, :mod:`~cas_freq.tuning.space`), plus the variant's own values.
-2. **Refinement.** ``rounds`` rounds of ``round_count`` Sobol points in a box around the
-   incumbent, its half-width a quarter of the range, halved every round (clipped to the
-   range).
+2. **Refinement.** ``rounds`` rounds of ``round_count`` Sobol points, shared between boxes
+   around the incumbent and the next best candidates that lie outside its box (up to
+   :data:`CENTRES` in all), the half-width a quarter of the range, halved every round once
+   some candidate is feasible (clipped to the range).
 3. **Incumbent.** The best feasible candidate by the objective (its nominal figure); without a
    feasible one, the one whose requirements fall shortest (summed relative shortfall,
    :mod:`~cas_freq.tuning.evaluate`).
@@ -26,6 +27,8 @@ from cas_freq.tuning.space import sobol
 GLOBAL_COUNT = 128
 ROUNDS = 6
 ROUND_COUNT = 32
+#: Centres each refinement round searches around (the best, then the next best far enough).
+CENTRES = 3
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -67,15 +70,30 @@ class TuneResult:
         return {key: float(v[index]) for key, v in self.evaluation.values.items()}
 
 
-def _rank(evaluation, objective):
-    """Index of the incumbent."""
+def _order(evaluation, objective):
+    """Candidates from best to worst: the feasible ones by the objective, then the others by
+    their summed shortfall."""
     _, sense = OBJECTIVES[objective]
     feasible = evaluation.feasible & np.isfinite(evaluation.objective)
-    if feasible.any():
-        score = np.where(feasible, sense * evaluation.objective, -np.inf)
-        return int(np.argmax(score))
-    total = evaluation.violation.sum(axis=1)
-    return int(np.argmin(total))
+    score = np.where(feasible, -sense * evaluation.objective, np.inf)
+    return np.lexsort((evaluation.violation.sum(axis=1), score))
+
+
+def _rank(evaluation, objective):
+    """Index of the incumbent."""
+    return int(_order(evaluation, objective)[0])
+
+
+def _centres(points, order, half, count=CENTRES):
+    """Up to ``count`` of the best candidates, each more than ``half`` (unit box, max norm)
+    from those before: the refinement searches around each."""
+    chosen = []
+    for index in order:
+        if all(np.max(np.abs(points[index] - points[c])) > half for c in chosen):
+            chosen.append(index)
+            if len(chosen) == count:
+                break
+    return chosen
 
 
 def pareto_front(evaluation):
@@ -132,12 +150,17 @@ def tune(params, keys, scenario_set, held, skipped, objective="max-bandwidth", s
     done = batches[0].shape[0]
     if progress:
         progress(done, total)
+    shrinks = 0
     for number in range(rounds):
         everything = joined(evaluations)
-        centre = np.vstack(batches)[_rank(everything, objective)]
-        half = 0.25 * 0.5**number
-        points = sobol(round_count, k, seed + 1 + number)
-        batch = np.clip(centre + (2.0 * points - 1.0) * half, 0.0, 1.0)
+        points = np.vstack(batches)
+        half = 0.25 * 0.5**shrinks
+        shrinks += bool(everything.feasible.any())  # the box shrinks once something is feasible
+        centres = _centres(points, _order(everything, objective), half)
+        draws = sobol(round_count, k, seed + 1 + number)
+        shares = np.array_split(np.arange(round_count), len(centres))
+        batch = np.vstack([np.clip(points[c] + (2.0 * draws[rows] - 1.0) * half, 0.0, 1.0)
+                           for c, rows in zip(centres, shares, strict=True)])
         batches.append(batch)
         evaluations.append(evaluate(params, keys, batch, scenario_set, held, objective,
                                     scheduler))

@@ -11,6 +11,9 @@ from cas_freq.tuning.evaluate import OBJECTIVES, TRADE_OFF
 #: A held requirement within this relative distance of its tightened bound is binding.
 BINDING = 0.02
 
+#: Most rows of the Pareto front printed.
+MAX_ROWS = 12
+
 
 def _bound_text(constraint):
     r = constraint.requirement
@@ -123,9 +126,10 @@ def tune_text(data):
     for item in data["not_held"]:
         lines.append(f"  not held: {item['id']} ({item['why']})")
     tuned, before = data["tuned"], data["before"]
-    verdict = "FEASIBLE" if data["feasible"] else "INFEASIBLE: no candidate in the bounds meets " \
+    verdict = "FEASIBLE" if data["feasible"] else (
+        f"INFEASIBLE: none of the {data['candidates']} candidates searched in the bounds meets "
         "every held requirement" + (" at the target yield" if data["scenarios"]["count"] > 1
-                                    else "")
+                                    else ""))
     lines += ["", f"result: {verdict}"]
     lines.append(f"  {'key':<22} {'before':>11} {'tuned':>11}  range")
     for free in data["free"]:
@@ -150,12 +154,17 @@ def tune_text(data):
         lines.append("  best value of each over every candidate: " + ", ".join(
             f"{key} {_number(value)}" for key, value in data["best_reachable"].items()))
     if data["pareto"]:
-        lines += ["", f"trade-off: {len(data['pareto'])} feasible candidates on the Pareto front "
-                  "of bandwidth (up), phase margin (up) and overshoot (down), nominal"]
+        front = data["pareto"]
+        shown = front if len(front) <= MAX_ROWS else [
+            front[int(i)] for i in np.unique(np.linspace(0, len(front) - 1, MAX_ROWS).round())]
+        lines += ["", f"trade-off: {len(front)} feasible candidates on the Pareto front of "
+                  "bandwidth (up), phase margin (up) and overshoot (down), nominal"
+                  + (f"; {len(shown)} shown, evenly by bandwidth (all in --json)"
+                     if len(shown) < len(front) else "")]
         keys = [free["key"] for free in data["free"]]
         head = "  " + " ".join(f"{key.rsplit('.', 1)[-1]:>10}" for key in keys)
         lines.append(head + f" {'BW rad/s':>9} {'PM deg':>7} {'OS %':>6}")
-        for point in data["pareto"]:
+        for point in shown:
             lines.append("  " + " ".join(f"{point[key]:>10.4g}" for key in keys)
                          + f" {point['closed_loop.bandwidth_rad_s']:>9.4g}"
                          f" {point['position_loop.phase_margin_deg']:>7.3g}"
