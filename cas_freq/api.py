@@ -208,6 +208,52 @@ class Actuator:
         step_rad = None if step is None else angle(str(step), "step")
         return load_envelope(self.loaded, np.asarray(hinge_stiffness, dtype=float), step_rad)
 
+    def tune(self, free=None, objective="max-bandwidth", robust=None, tolerances=(),
+             bounds=None, yield_pct=99.0, margin_pct=2.0, required_only=False, seed=0,
+             load_cases=False, scheduler=None, candidates=None, rounds=None):
+        """Tune keys to this variant's requirements, as ``cas-freq tune`` does.
+
+        Parameters
+        ----------
+        free : sequence of str, optional
+            Keys to tune (default the position loop's Kp, Ki, Kd).
+        objective : {"max-bandwidth", "min-settling", "max-margin"}
+        robust : {None, "corners", "montecarlo:N"}
+            Hold the requirements over the tolerance set too.
+        tolerances : sequence of str
+            ``"KEY=TOL"`` as ``--tolerance`` (``"motor.Km=10%"``).
+        bounds : dict of str to (lo, hi), optional
+            Ranges [SI or strings with units]; default the value /4 .. x4.
+        yield_pct : float
+            Share of the Monte Carlo samples that must pass [%].
+        margin_pct : float
+            Every bound tightened by this share of its magnitude [%].
+        required_only : bool
+            Hold only the required requirements.
+        seed : int
+        load_cases : bool
+            Also at every hinge stiffness of the config's load_envelope.
+        scheduler : str, optional
+            ``local:N`` or a dask.distributed scheduler address.
+        candidates, rounds : int, optional
+            Global points and refinement rounds (defaults of :mod:`cas_freq.tuning.search`).
+
+        Returns
+        -------
+        cas_freq.tuning.TuneResult
+            ``values()`` the tuned keys [SI], ``feasible``, ``evaluation`` (every candidate),
+            ``pareto`` (indices of the trade-off front).
+        """
+        from cas_freq.tuning import search
+        from cas_freq.tuning.run import tune_variant
+
+        texts = [f"{key}={low}:{high}" for key, (low, high) in (bounds or {}).items()]
+        return tune_variant(
+            self.loaded, None if free is None else ",".join(free), texts, objective, robust,
+            tolerances, yield_pct, margin_pct, required_only, seed, load_cases,
+            scheduler=scheduler, candidates=candidates or search.GLOBAL_COUNT,
+            rounds=search.ROUNDS if rounds is None else rounds)
+
     def vary(self, changes):
         """Many variants at once: this one with some keys changed per sample.
 

@@ -81,26 +81,12 @@ def _check_counts(args):
         raise CasFreqError("--compare needs -o FILE.yaml (the report compares its variants)")
 
 
-def _load_cases(loaded, wanted):
-    """The load_envelope's hinge stiffnesses, if asked."""
-    if not wanted:
-        return None
-    envelope = getattr(loaded.params, "load_envelope", None)
-    if envelope is None:
-        raise CasFreqError(f"--load-cases: {loaded.source} declares no load_envelope")
-    return list(envelope.hinge_stiffness)
-
-
 def run(args):
     """Tune, print, write the config (and the comparison)."""
     from cas_freq.cli.common import load_variants, terminal_progress
     from cas_freq.fileio import check_output_file, json_ready, write_text_atomic
     from cas_freq.studies.distributed import session
-    from cas_freq.studies.montecarlo import parse_tolerance
-    from cas_freq.tuning import tune
-    from cas_freq.tuning.evaluate import constraints
-    from cas_freq.tuning.scenarios import scenarios
-    from cas_freq.tuning.space import parse_bounds, parse_free, tune_keys
+    from cas_freq.tuning.run import tune_variant
     from cas_freq.tuning.summary import tune_dict, tune_text
 
     _check_counts(args)
@@ -116,22 +102,13 @@ def run(args):
     if output is not None and output.exists() and output.resolve() == \
             Path(loaded.source).resolve():
         raise CasFreqError(f"-o {output}: is the input config; inputs are never modified")
-    free = parse_free(args.free)
-    keys = tune_keys(loaded.params, free, parse_bounds(args.bounds, free))
-    held, skipped = constraints(loaded.params.requirements, args.margin / 100.0,
-                                advisory=not args.required_only)
-    if not held:
-        raise CasFreqError(f"{loaded.source}: no requirement to tune to (the config's "
-                           "requirements: section)")
-    scenario_set = scenarios(loaded.params, args.robust,
-                             [parse_tolerance(t) for t in args.tolerance], args.yield_pct,
-                             args.seed, _load_cases(loaded, args.load_cases), args.distribution)
     progress = terminal_progress("tune", unit="candidate")
     start = time.perf_counter()
     with session(args.scheduler):
-        result = tune(loaded.params, keys, scenario_set, held, skipped, args.objective,
-                      seed=args.seed, global_count=args.candidates, rounds=args.rounds,
-                      scheduler=args.scheduler, progress=progress)
+        result = tune_variant(
+            loaded, args.free, args.bounds, args.objective, args.robust, args.tolerance,
+            args.yield_pct, args.margin, args.required_only, args.seed, args.load_cases,
+            args.distribution, args.scheduler, args.candidates, args.rounds, progress)
     if progress:
         progress.done()
     data = tune_dict(result, loaded.params.name, loaded.variant, time.perf_counter() - start)
