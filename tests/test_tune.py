@@ -387,22 +387,13 @@ def test_dc_servo_tune_consistent_with_verify(tmp_path):
         assert vcode == 0  # every held requirement (required ones included) passes verify
 
 
-# ---- bugs found (strict xfail: they pass once fixed, and then the marker must go) ---------------
+# ---- bugs the first version of this file found (fixed) --------------------------------------
 
-@pytest.mark.xfail(reason="--yield is range-checked only under --robust montecarlo:N "
-                   "(scenarios.py); `cas-freq tune --yield 150` without it runs the search "
-                   "and exits 0/1 instead of 2 (bad input)", strict=True)
 def test_bad_yield_without_montecarlo_exit_2():
     code, _, err = run_cli(["tune", "--candidates", "1", "--rounds", "0", "--yield", "150"])
     assert code == 2 and "--yield" in err
 
 
-@pytest.mark.xfail(reason="when --bounds exclude the variant's value, candidate 0 is the "
-                   "variant's value clipped into the box (search.py np.clip of unit_of(start)), "
-                   "yet the output reports it as 'before' (TuneResult: 'index 0: the variant's "
-                   "own values'): `cas-freq tune --bounds position_loop.Kp=0.01:0.02 --json` "
-                   "shows before Kp 0.02 and BW-1 null, not 6.3435 A/rad and 1385 rad/s",
-                   strict=True)
 def test_before_is_the_variant_even_outside_the_bounds():
     code, data, _ = _json(["--bounds", "position_loop.Kp=0.01:0.02", "--candidates", "1",
                            "--rounds", "0"])

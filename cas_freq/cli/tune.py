@@ -41,8 +41,9 @@ def register(commands):
                         help="a toleranced key for --robust, as montecarlo takes it "
                         "(e.g. motor.Km=10%%)")
     parser.add_argument("--distribution", choices=("normal", "uniform"), default="normal")
-    parser.add_argument("--yield", dest="yield_pct", type=float, default=99.0, metavar="PCT",
-                        help="share of the Monte Carlo samples that must pass (default 99)")
+    parser.add_argument("--yield", dest="yield_pct", type=float, default=None, metavar="PCT",
+                        help="with --robust montecarlo:N, the share of the samples that must "
+                        "pass (default 99; corners must all pass)")
     parser.add_argument("--load-cases", action="store_true",
                         help="also hold the requirements at every hinge stiffness of the "
                         "config's load_envelope grid")
@@ -77,6 +78,12 @@ def _check_counts(args):
             raise CasFreqError(f"{name}: must be {low}..100000, got {value}")
     if not 0.0 <= args.margin < 100.0:
         raise CasFreqError(f"--margin: a percentage 0..100, got {args.margin:g}")
+    if args.yield_pct is not None and not (args.robust or "").startswith("montecarlo"):
+        raise CasFreqError(f"--yield {args.yield_pct:g}: applies to --robust montecarlo:N "
+                           "(every corner of --robust corners must pass; a nominal tune has "
+                           "one scenario)")
+    if args.yield_pct is not None and not 0.0 < args.yield_pct <= 100.0:
+        raise CasFreqError(f"--yield: a percentage in (0, 100], got {args.yield_pct:g}")
     if args.compare and not args.output:
         raise CasFreqError("--compare needs -o FILE.yaml (the report compares its variants)")
 
@@ -107,8 +114,9 @@ def run(args):
     with session(args.scheduler):
         result = tune_variant(
             loaded, args.free, args.bounds, args.objective, args.robust, args.tolerance,
-            args.yield_pct, args.margin, args.required_only, args.seed, args.load_cases,
-            args.distribution, args.scheduler, args.candidates, args.rounds, progress)
+            99.0 if args.yield_pct is None else args.yield_pct, args.margin,
+            args.required_only, args.seed, args.load_cases, args.distribution, args.scheduler,
+            args.candidates, args.rounds, progress)
     if progress:
         progress.done()
     data = tune_dict(result, loaded.params.name, loaded.variant, time.perf_counter() - start)

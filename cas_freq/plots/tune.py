@@ -38,8 +38,10 @@ def trade_off_figure(result):
         order = np.argsort(margin[front])
         axis.plot(margin[front][order], bandwidth[front][order], "-", color="C3", linewidth=1.0,
                   label="Pareto front")
-    axis.plot(margin[0], bandwidth[0], "s", color="k", markersize=6, fillstyle="none",
-              label="before")
+    before = result.before.nominal
+    axis.plot(rounded(before["position_loop.phase_margin_deg"]),
+              rounded(before["closed_loop.bandwidth_rad_s"]), "s", color="k", markersize=6,
+              fillstyle="none", label="before")
     axis.plot(margin[result.best], bandwidth[result.best], "*", color="C3", markersize=11,
               label="tuned")
     axis.set_xlabel("position-loop phase margin [deg]")

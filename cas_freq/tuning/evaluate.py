@@ -1,9 +1,10 @@
 """Every figure and requirement verdict of many candidate tunings at once.
 
-The candidates, each in every scenario (:mod:`~cas_freq.tuning.scenarios`), are one batch of
-:func:`cas_freq.studies.sweep.evaluate_figures`: the batch analysis, the nonlinear step of the
-step requirements (and its second-order fit where a requirement needs it) and the sine-dwell
-of the first sine-dwell requirement, the same code as ``verify`` and ``montecarlo``. A
+The candidates, each in every scenario (:mod:`~cas_freq.tuning.scenarios`), go through
+:func:`cas_freq.studies.sweep.evaluate_figures`, the same code as ``verify`` and
+``montecarlo``: first the batch analysis of all, then the nonlinear step of the step
+requirements (and its second-order fit where a requirement needs it) and the sine-dwell of the
+first sine-dwell requirement of the candidates the linear requirements leave feasible. A
 requirement passes in a scenario as ``verify`` decides it (an unstable loop fails every
 requirement), with its bound moved inwards by ``margin`` of its magnitude.
 """
@@ -121,7 +122,8 @@ class Evaluation:
         (n,) the nominal scenario passes and ``yield_all`` reaches the target.
     violation : numpy.ndarray
         (n, n_constraints) shortfall of each constraint at the target quantile of the counted
-        scenarios (0 where it holds).
+        scenarios (0 where it holds; NaN for a step or sine-dwell requirement of a candidate
+        the linear requirements screened out, whose step was not simulated).
     nominal : dict of str to numpy.ndarray
         Figure -> (n,) values in the nominal scenario (the trade-off figures and every
         constraint's).
@@ -143,6 +145,42 @@ def _quantile_shortfall(constraint, values, counted, target):
     return np.quantile(shortfall, 1.0 - allowed, axis=1, method="higher")
 
 
+def _screened_figures(params, changes, n, m, scenario_set, held, step, fit, sinedwell,
+                      scheduler):
+    """Figures of every row: the linear ones of all, the simulated ones (step, fit,
+    sine-dwell) only of the candidates the linear requirements leave feasible.
+
+    A candidate whose linear figures already fail (in the nominal scenario, or at the target
+    yield) cannot be feasible whatever its step does, so its simulated figures stay NaN (its
+    shortfall NaN: not known, not counted when candidates are ranked). The figures of the
+    others are those of one batch with the simulation, as ``verify`` computes them.
+    """
+    figures, stability = evaluate_figures(params, changes, scheduler=scheduler)
+    linear = [c for c in held if c.requirement.kind not in ("step", "sinedwell")]
+    stable = (stability.astype(str) == "stable").reshape(n, m)
+    ok = stable.copy()
+    for c in linear:
+        ok &= c.passes(figures[c.metric].reshape(n, m))
+    counted = scenario_set.counted
+    keep = ok[:, 0] & (ok[:, counted].mean(axis=1) >= scenario_set.target - 1e-12)
+    rows = np.repeat(keep, m)
+    simulated = {key: values[rows] for key, values in changes.items()}
+    if keep.any():
+        more, _ = evaluate_figures(params, simulated, step_rad=step, fit=fit,
+                                   sinedwell=sinedwell, scheduler=scheduler)
+        for name, values in more.items():
+            if name not in figures:
+                figures[name] = np.full(n * m, np.nan)
+                figures[name][rows] = values
+    else:
+        from cas_freq.studies.steps import FIT_FIGURES, STEP_FIGURES
+
+        for name in STEP_FIGURES + (FIT_FIGURES if fit else ()) + (
+                ("sinedwell.bandwidth_rad_s",) if sinedwell else ()):
+            figures[name] = np.full(n * m, np.nan)
+    return figures, stability, keep
+
+
 def evaluate(params, keys, unit, scenario_set, held, objective, scheduler=None):
     """Evaluate candidates given as unit-box points ``unit`` (n, k)."""
     from cas_freq.parameters import base_values
@@ -161,9 +199,9 @@ def evaluate(params, keys, unit, scenario_set, held, objective, scheduler=None):
         from cas_freq.studies.montecarlo import dwell_condition
 
         sinedwell = dwell_condition(dwell)
-    figures, stability = evaluate_figures(params, changes, step_rad=step, fit=fit,
-                                          sinedwell=sinedwell, scheduler=scheduler)
     m = scenario_set.count
+    figures, stability, simulated = _screened_figures(params, changes, n, m, scenario_set,
+                                                      held, step, fit, sinedwell, scheduler)
     stable = (stability.astype(str) == "stable").reshape(n, m)
     counted, target = scenario_set.counted, scenario_set.target
     passed, violation, every = [], [], np.ones((n, m), dtype=bool)
@@ -173,8 +211,10 @@ def evaluate(params, keys, unit, scenario_set, held, objective, scheduler=None):
         ok = stable & c.passes(figure)
         every &= ok
         passed.append(ok[:, counted].mean(axis=1))
-        violation.append(_quantile_shortfall(c, np.where(stable, figure, np.nan), counted,
-                                             target))
+        shortfall = _quantile_shortfall(c, np.where(stable, figure, np.nan), counted, target)
+        if c.requirement.kind in ("step", "sinedwell"):  # NaN: not simulated (screened out)
+            shortfall = np.where(simulated, shortfall, np.nan)
+        violation.append(shortfall)
         nominal[c.metric] = figure[:, 0]
     for name, _ in TRADE_OFF:
         nominal[name] = np.where(stable[:, 0], figures[name].reshape(n, m)[:, 0], np.nan)
@@ -190,16 +230,16 @@ def evaluate(params, keys, unit, scenario_set, held, objective, scheduler=None):
         violation=np.column_stack(violation) if held else np.zeros(shape), nominal=nominal)
 
 
-def joined(evaluations):
-    """One Evaluation of several, candidates in order."""
+def joined(evaluations, rows=slice(None)):
+    """One Evaluation of several, candidates in order (``rows`` of them)."""
     fields = {}
     for field in dataclasses.fields(Evaluation):
         items = [getattr(e, field.name) for e in evaluations]
         if isinstance(items[0], dict):
-            fields[field.name] = {key: np.concatenate([item[key] for item in items])
+            fields[field.name] = {key: np.concatenate([item[key] for item in items])[rows]
                                   for key in items[0]}
         else:
-            fields[field.name] = np.concatenate(items)
+            fields[field.name] = np.concatenate(items)[rows]
     return Evaluation(**fields)
 
 

@@ -43,7 +43,10 @@ class TuneResult:
     scenarios : Scenarios
     objective : str
     evaluation : Evaluation
-        Every candidate evaluated (index 0: the variant's own values).
+        Every candidate evaluated (index 0: the variant's own values, brought into the
+        bounds where they lie outside).
+    before : Evaluation
+        The variant's own values, as they are (one candidate; outside the bounds, maybe).
     best : int
         Index of the chosen candidate.
     feasible : bool
@@ -59,6 +62,7 @@ class TuneResult:
     scenarios: object
     objective: str
     evaluation: object
+    before: object
     best: int
     feasible: bool
     pareto: np.ndarray
@@ -72,11 +76,11 @@ class TuneResult:
 
 def _order(evaluation, objective):
     """Candidates from best to worst: the feasible ones by the objective, then the others by
-    their summed shortfall."""
+    their summed shortfall (of the requirements evaluated)."""
     _, sense = OBJECTIVES[objective]
     feasible = evaluation.feasible & np.isfinite(evaluation.objective)
     score = np.where(feasible, -sense * evaluation.objective, np.inf)
-    return np.lexsort((evaluation.violation.sum(axis=1), score))
+    return np.lexsort((np.nansum(evaluation.violation, axis=1), score))
 
 
 def _rank(evaluation, objective):
@@ -144,9 +148,14 @@ def tune(params, keys, scenario_set, held, skipped, objective="max-bandwidth", s
     """
     k = len(keys)
     total = 1 + global_count + rounds * round_count
-    start = np.clip([[key.unit_of(key.start) for key in keys]], 0.0, 1.0)
+    own = np.array([[key.unit_of(key.start) for key in keys]])
+    start = np.clip(own, 0.0, 1.0)
     batches = [np.vstack([start, sobol(global_count, k, seed)])]
     evaluations = [evaluate(params, keys, batches[0], scenario_set, held, objective, scheduler)]
+    if np.array_equal(own, start):
+        before = joined([evaluations[0]], rows=slice(0, 1))
+    else:  # outside the bounds: evaluated as it is, not a candidate
+        before = evaluate(params, keys, own, scenario_set, held, objective, scheduler)
     done = batches[0].shape[0]
     if progress:
         progress(done, total)
@@ -170,7 +179,7 @@ def tune(params, keys, scenario_set, held, skipped, objective="max-bandwidth", s
     everything = joined(evaluations)
     best = _rank(everything, objective)
     return TuneResult(keys=keys, held=held, skipped=skipped, scenarios=scenario_set,
-                      objective=objective, evaluation=everything, best=best,
+                      objective=objective, evaluation=everything, before=before, best=best,
                       feasible=bool(everything.feasible[best]),
                       pareto=pareto_front(everything), seed=seed)
 

@@ -25,9 +25,8 @@ def _bound_text(constraint):
     return " and ".join(parts) + f" {r.unit}".rstrip()
 
 
-def _requirements(result, index):
+def _requirements(result, index, e):
     """Per held requirement: the nominal value, yield, shortfall, binding or not."""
-    e = result.evaluation
     rows = []
     for j, c in enumerate(result.held):
         value = float(e.nominal[c.metric][index])
@@ -38,9 +37,11 @@ def _requirements(result, index):
             "id": c.id, "metric": c.metric, "severity": c.requirement.severity,
             "bound": _bound_text(c), "nominal": value if math.isfinite(value) else None,
             "yield_pct": 100.0 * float(e.passed[index, j]),
-            "shortfall": float(e.violation[index, j]),
+            "shortfall": (None if np.isnan(e.violation[index, j])
+                          else float(e.violation[index, j])),
             "binding": bool(distance is not None and distance <= BINDING
                             and e.violation[index, j] == 0.0),
+            "simulated": not np.isnan(e.violation[index, j]),
         })
     return rows
 
@@ -63,14 +64,16 @@ def _best_reachable(result):
     return out
 
 
-def _candidate(result, index):
-    e = result.evaluation
+def _candidate(result, index, e=None):
+    """A candidate's values, feasibility, yield, objective and requirements (of ``e``,
+    default every candidate's evaluation)."""
+    e = result.evaluation if e is None else e
     return {
-        "values": result.values(index),
+        "values": {key: float(v[index]) for key, v in e.values.items()},
         "feasible": bool(e.feasible[index]),
         "yield_pct": 100.0 * float(e.yield_all[index]),
         "objective": None if not math.isfinite(e.objective[index]) else float(e.objective[index]),
-        "requirements": _requirements(result, index),
+        "requirements": _requirements(result, index, e),
     }
 
 
@@ -99,7 +102,7 @@ def tune_dict(result, config, variant, seconds):
         "candidates": int(e.objective.size), "feasible_candidates": int(e.feasible.sum()),
         "seed": result.seed, "seconds": seconds,
         "feasible": result.feasible,
-        "before": _candidate(result, 0),
+        "before": _candidate(result, 0, result.before),
         "tuned": _candidate(result, result.best),
         "at_bound": at_bound,
         "best_reachable": _best_reachable(result),
@@ -141,14 +144,16 @@ def tune_text(data):
     lines.append(f"  {'requirement':<40} {'before':>10} {'tuned':>10}  bound (tightened)")
     for b, t in zip(before["requirements"], tuned["requirements"], strict=True):
         note = "  binding" if t["binding"] else ""
-        if t["shortfall"] > 0:
+        if t["shortfall"] is None:
+            note = "  not simulated: the linear requirements already fail"
+        elif t["shortfall"] > 0:
             note = f"  short by {100 * t['shortfall']:.3g} %"
         lines.append(f"  {t['id'] + ' ' + t['metric']:<40} {_number(b['nominal']):>10} "
                      f"{_number(t['nominal']):>10}  {t['bound']}"
                      + (f"  yield {t['yield_pct']:.4g} %" if data["scenarios"]["count"] > 1
                         else "") + note)
     if not data["feasible"]:
-        failing = [t for t in tuned["requirements"] if t["shortfall"] > 0]
+        failing = [t for t in tuned["requirements"] if t["shortfall"]]
         lines.append("  the closest candidate misses: " + ", ".join(
             f"{t['id']} (by {100 * t['shortfall']:.3g} % of its bound)" for t in failing))
         lines.append("  best value of each over every candidate: " + ", ".join(
