@@ -146,7 +146,7 @@ def _quantile_shortfall(constraint, values, counted, target):
 
 
 def _screened_figures(params, changes, n, m, scenario_set, held, step, fit, sinedwell,
-                      scheduler):
+                      scheduler, screen=True):
     """Figures of every row: the linear ones of all, the simulated ones (step, fit,
     sine-dwell) only of the candidates the linear requirements leave feasible.
 
@@ -163,6 +163,8 @@ def _screened_figures(params, changes, n, m, scenario_set, held, step, fit, sine
         ok &= c.passes(figures[c.metric].reshape(n, m))
     counted = scenario_set.counted
     keep = ok[:, 0] & (ok[:, counted].mean(axis=1) >= scenario_set.target - 1e-12)
+    if not screen:
+        keep = np.ones(n, dtype=bool)
     rows = np.repeat(keep, m)
     simulated = {key: values[rows] for key, values in changes.items()}
     if keep.any():
@@ -181,8 +183,9 @@ def _screened_figures(params, changes, n, m, scenario_set, held, step, fit, sine
     return figures, stability, keep
 
 
-def evaluate(params, keys, unit, scenario_set, held, objective, scheduler=None):
-    """Evaluate candidates given as unit-box points ``unit`` (n, k)."""
+def evaluate(params, keys, unit, scenario_set, held, objective, scheduler=None, screen=True):
+    """Evaluate candidates given as unit-box points ``unit`` (n, k); ``screen``: simulate only
+    the candidates the linear requirements leave feasible (else every one)."""
     from cas_freq.parameters import base_values
 
     unit = np.atleast_2d(unit)
@@ -201,7 +204,8 @@ def evaluate(params, keys, unit, scenario_set, held, objective, scheduler=None):
         sinedwell = dwell_condition(dwell)
     m = scenario_set.count
     figures, stability, simulated = _screened_figures(params, changes, n, m, scenario_set,
-                                                      held, step, fit, sinedwell, scheduler)
+                                                      held, step, fit, sinedwell, scheduler,
+                                                      screen)
     stable = (stability.astype(str) == "stable").reshape(n, m)
     counted, target = scenario_set.counted, scenario_set.target
     passed, violation, every = [], [], np.ones((n, m), dtype=bool)

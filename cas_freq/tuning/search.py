@@ -46,7 +46,8 @@ class TuneResult:
         Every candidate evaluated (index 0: the variant's own values, brought into the
         bounds where they lie outside).
     before : Evaluation
-        The variant's own values, as they are (one candidate; outside the bounds, maybe).
+        The variant's own values, as they are (outside the bounds, maybe), every figure
+        simulated.
     best : int
         Index of the chosen candidate.
     feasible : bool
@@ -152,10 +153,8 @@ def tune(params, keys, scenario_set, held, skipped, objective="max-bandwidth", s
     start = np.clip(own, 0.0, 1.0)
     batches = [np.vstack([start, sobol(global_count, k, seed)])]
     evaluations = [evaluate(params, keys, batches[0], scenario_set, held, objective, scheduler)]
-    if np.array_equal(own, start):
-        before = joined([evaluations[0]], rows=slice(0, 1))
-    else:  # outside the bounds: evaluated as it is, not a candidate
-        before = evaluate(params, keys, own, scenario_set, held, objective, scheduler)
+    # the variant as it is (outside the bounds, maybe: then not a candidate), every figure
+    before = evaluate(params, keys, own, scenario_set, held, objective, scheduler, screen=False)
     done = batches[0].shape[0]
     if progress:
         progress(done, total)
