@@ -139,10 +139,11 @@ class Evaluation:
 
 
 def _quantile_shortfall(constraint, values, counted, target):
-    """Shortfall at the target's quantile: the (1 - target) worst share may fail."""
-    shortfall = constraint.shortfall(values[:, counted])
-    allowed = 1.0 - target
-    return np.quantile(shortfall, 1.0 - allowed, axis=1, method="higher")
+    """Shortfall of the k-th best counted scenario, k = ceil(target * count): 0 exactly when at
+    least the target share of them passes (the others may fail)."""
+    shortfall = np.sort(constraint.shortfall(values[:, counted]), axis=1)
+    k = max(1, math.ceil(target * shortfall.shape[1] - 1e-9))
+    return shortfall[:, k - 1]
 
 
 def _screened_figures(params, changes, n, m, scenario_set, held, step, fit, sinedwell,
