@@ -405,3 +405,20 @@ def test_before_is_the_variant_even_outside_the_bounds():
     code, out, _ = run_cli(["verify", "--json"])
     measured = next(v["value"] for v in json.loads(out)["verdicts"] if v["id"] == "BW-1")
     assert _requirement(data, "BW-1", "before")["nominal"] == pytest.approx(measured, rel=1e-6)
+
+
+def test_a_tune_on_a_local_cluster_is_the_local_tune():
+    """--scheduler local:2 evaluates the batches on dask workers; the result is the local one
+    to the last digit of the JSON (the chunks are evaluated by the same code, in order). Two
+    batches of one config in one session also guard the scatter key (a second scatter of the
+    same config reused the first's key, which its release then dropped: "lost
+    dependencies")."""
+    pytest.importorskip("distributed", reason="the 'distributed' extra is not installed")
+    argv = ["--variant", "fitted", "--candidates", "32", "--rounds", "1"]
+    runs = []
+    for extra in ([], ["--scheduler", "local:2"]):
+        code, data, err = _json(argv + extra)
+        assert code in (0, 1), err
+        data.pop("seconds")
+        runs.append(data)
+    assert runs[0] == runs[1]

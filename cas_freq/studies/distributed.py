@@ -169,7 +169,10 @@ def evaluate_figures_distributed(params, changes, scheduler, *, progress=None,
     n = len(next(iter(changes.values()))) if changes else 0
     slices = chunk_slices(n, chunk_samples)
     with client_for(scheduler) as client:
-        shared = client.scatter(params, broadcast=True)
+        # hash=False: a key of its own each call. With the default content hash, a second
+        # study of the same config in one session (tune's batches) reuses the first's key,
+        # which the first's release then drops from the workers ("lost dependencies").
+        shared = client.scatter(params, broadcast=True, hash=False)
         futures = [
             client.submit(_evaluate_chunk, shared, {k: v[part] for k, v in changes.items()},
                           options, retries=RETRIES, pure=False)
