@@ -244,15 +244,15 @@ class Actuator:
             ``values()`` the tuned keys [SI], ``feasible``, ``evaluation`` (every candidate),
             ``pareto`` (indices of the trade-off front).
         """
-        from cas_freq.tuning import search
+        from cas_freq.tuning import options
         from cas_freq.tuning.run import tune_variant
 
         texts = [f"{key}={low}:{high}" for key, (low, high) in (bounds or {}).items()]
         return tune_variant(
             self.loaded, None if free is None else ",".join(free), texts, objective, robust,
             tolerances, yield_pct, margin_pct, required_only, seed, load_cases,
-            scheduler=scheduler, candidates=candidates or search.GLOBAL_COUNT,
-            rounds=search.ROUNDS if rounds is None else rounds)
+            scheduler=scheduler, candidates=candidates or options.GLOBAL_COUNT,
+            rounds=options.ROUNDS if rounds is None else rounds)
 
     def vary(self, changes):
         """Many variants at once: this one with some keys changed per sample.

@@ -352,8 +352,9 @@ def test_pareto_front_of_a_tune():
     from cas_freq.config import load_variant
     from cas_freq.tuning import tune
     from cas_freq.tuning.evaluate import constraints
+    from cas_freq.tuning.options import DEFAULT_FREE
     from cas_freq.tuning.scenarios import scenarios
-    from cas_freq.tuning.space import DEFAULT_FREE, tune_keys
+    from cas_freq.tuning.space import tune_keys
 
     loaded = load_variant(QT_CAS, "fitted")
     keys = tune_keys(loaded.params, DEFAULT_FREE, {})

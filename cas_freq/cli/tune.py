@@ -13,9 +13,14 @@ from cas_freq.exceptions import CasFreqError
 
 def register(commands):
     """Add the ``tune`` sub-parser."""
-    from cas_freq.tuning.evaluate import OBJECTIVES
-    from cas_freq.tuning.search import GLOBAL_COUNT, ROUND_COUNT, ROUNDS
-    from cas_freq.tuning.space import DEFAULT_FACTOR, DEFAULT_FREE
+    from cas_freq.tuning.options import (
+        DEFAULT_FACTOR,
+        DEFAULT_FREE,
+        GLOBAL_COUNT,
+        OBJECTIVES,
+        ROUND_COUNT,
+        ROUNDS,
+    )
 
     parser = commands.add_parser(
         "tune", help="tune keys (gains, filters, ...) to the config's requirements",

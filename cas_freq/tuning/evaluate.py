@@ -15,13 +15,7 @@ import math
 import numpy as np
 
 from cas_freq.studies.sweep import evaluate_figures
-
-#: The objectives: figure, and +1 to maximise or -1 to minimise it.
-OBJECTIVES = {
-    "max-bandwidth": ("closed_loop.bandwidth_rad_s", 1.0),
-    "min-settling": ("step.settling_time_s", -1.0),
-    "max-margin": ("position_loop.phase_margin_deg", 1.0),
-}
+from cas_freq.tuning.options import OBJECTIVES
 
 #: The figures of the trade-off (Pareto front): figure, +1 maximised / -1 minimised.
 TRADE_OFF = (("closed_loop.bandwidth_rad_s", 1.0), ("position_loop.phase_margin_deg", 1.0),

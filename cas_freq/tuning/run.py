@@ -5,14 +5,15 @@ from cas_freq.exceptions import ConfigError
 from cas_freq.studies.montecarlo import parse_tolerance
 from cas_freq.tuning import search
 from cas_freq.tuning.evaluate import constraints
+from cas_freq.tuning.options import DEFAULT_FREE, GLOBAL_COUNT, ROUNDS
 from cas_freq.tuning.scenarios import scenarios
-from cas_freq.tuning.space import DEFAULT_FREE, parse_bounds, parse_free, tune_keys
+from cas_freq.tuning.space import parse_bounds, parse_free, tune_keys
 
 
 def tune_variant(loaded, free=None, bounds=(), objective="max-bandwidth", robust=None,
                  tolerances=(), yield_pct=99.0, margin_pct=2.0, required_only=False, seed=0,
                  load_cases=False, distribution="normal", scheduler=None,
-                 candidates=search.GLOBAL_COUNT, rounds=search.ROUNDS, progress=None):
+                 candidates=GLOBAL_COUNT, rounds=ROUNDS, progress=None):
     """Tune a loaded variant.
 
     Parameters

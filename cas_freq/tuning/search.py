@@ -20,13 +20,10 @@ import dataclasses
 
 import numpy as np
 
-from cas_freq.tuning.evaluate import OBJECTIVES, TRADE_OFF, evaluate, joined
+from cas_freq.tuning.evaluate import TRADE_OFF, evaluate, joined
+from cas_freq.tuning.options import GLOBAL_COUNT, OBJECTIVES, ROUND_COUNT, ROUNDS
 from cas_freq.tuning.space import sobol
 
-#: Defaults of the search: global points, refinement rounds and points per round.
-GLOBAL_COUNT = 128
-ROUNDS = 6
-ROUND_COUNT = 32
 #: Centres each refinement round searches around (the best, then the next best far enough).
 CENTRES = 3
 

@@ -15,12 +15,7 @@ import numpy as np
 
 from cas_freq.exceptions import ConfigError
 from cas_freq.parameters import PARAMETERS, check_key, parse_value, variant_parameters
-
-#: Keys freed when ``--free`` is not given.
-DEFAULT_FREE = ("position_loop.Kp", "position_loop.Ki", "position_loop.Kd")
-
-#: Default range of a key without ``--bounds``: its value divided and multiplied by this.
-DEFAULT_FACTOR = 4.0
+from cas_freq.tuning.options import DEFAULT_FACTOR, DEFAULT_FREE
 
 
 @dataclasses.dataclass(frozen=True)

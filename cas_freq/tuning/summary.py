@@ -6,7 +6,8 @@ import math
 
 import numpy as np
 
-from cas_freq.tuning.evaluate import OBJECTIVES, TRADE_OFF
+from cas_freq.tuning.evaluate import TRADE_OFF
+from cas_freq.tuning.options import OBJECTIVES
 
 #: A held requirement within this relative distance of its tightened bound is binding.
 BINDING = 0.02
