@@ -72,7 +72,7 @@ def test_model_spec_errors_name_the_problem(text, message):
 
 def test_free_keys_need_a_positive_start_and_keep_signed_keys_linear():
     loop = variant_parameters(load_variant(None, "base").params, {})
-    with pytest.raises(ConfigError, match="motor.coulomb_friction is 0 .* needs a start"):
+    with pytest.raises(ConfigError, match="motor.coulomb_friction is 0 .* needs a start above 0"):
         free_keys(parse_model_spec("motor.coulomb_friction"), loop)
     signed, positive = free_keys(parse_model_spec("load.hinge_stiffness,motor.J"), loop)
     assert not signed.log and signed.scale == 1.0  # starts at 0: a scale of 1 N*m/rad

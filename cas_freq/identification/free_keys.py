@@ -170,10 +170,12 @@ def free_keys(spec, loop, variant="base"):
             start = 0.0 if value is None else float(value[0])
         nonnegative = parameter.lower is not None and parameter.lower >= 0
         if nonnegative and not start > 0:
+            where = ("given as the start" if key in spec.starts
+                     else f"in variant {variant!r}")
             raise ConfigError(
-                f"--params: {key} is {start:g} {parameter.unit} in variant {variant!r}; a fit "
-                f"needs a start above 0: give one, e.g. --params ...,{key}=VALUE (in "
-                f"{parameter.unit} or with a unit)")
+                f"--params: {key} is {start:g} {parameter.unit} ({where}); a fit of a key "
+                f"that cannot be negative needs a start above 0: give one, e.g. --params "
+                f"...,{key}=VALUE (in {parameter.unit} or with a unit)")
         scale = 1.0 if nonnegative else (abs(start) or 1.0)
         low, high = _bounds(parameter, start, nonnegative, scale)
         free.append(FreeKey(key=key, start=start, log=nonnegative, scale=scale,
