@@ -207,6 +207,8 @@ def test_cli_directory_output_and_comparison(tmp_path):
       "configs/qt_cas.yaml"], "inputs are never modified"),
     (["--data", "examples/recordings/step_run1.csv", "--set", "motor.J=1e-6"],
      "--set needs --params"),
+    (["--data", "examples/recordings/step_run1.csv", "--params", "motor.J", "--columns",
+      "bogus"], "--columns: expected ROLE=NAME"),
 ])
 def test_cli_bad_input_exits_2(args, message):
     result = _cli("fit", *args)

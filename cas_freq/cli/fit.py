@@ -78,6 +78,19 @@ def register(commands):
     parser.set_defaults(handler=run)
 
 
+def column_option(args):
+    """The ``--columns`` mapping of ``args`` (None without the option); a malformed one is
+    bad input (exit 2)."""
+    from cas_freq.identification.columns import parse_column_option
+
+    if args.columns is None:
+        return None
+    try:
+        return parse_column_option(args.columns)
+    except ValueError as exc:
+        raise CasFreqError(str(exc)) from None
+
+
 def run(args):
     """``fit --data FILE...`` (:mod:`cas_freq.cli.fit_recordings`) or ``fit FILE --step``."""
     if args.data and args.params:
@@ -89,7 +102,7 @@ def run(args):
             raise CasFreqError(f"{name} needs --params KEYS (a fit of config keys)")
     if args.data:
         from cas_freq.cli.fit_recordings import run_recordings
-        from cas_freq.cli.fit_sweep import are_sweeps, column_option, run_sweep
+        from cas_freq.cli.fit_sweep import are_sweeps, run_sweep
 
         if are_sweeps(args.data, column_option(args)):
             return run_sweep(args)

@@ -193,9 +193,9 @@ def table(data):
 def run_params(args):
     """Fit each ``--params`` model, compare, print, write ``-o``."""
     from cas_freq.cli.common import selected_variants
+    from cas_freq.cli.fit import column_option
     from cas_freq.fileio import check_output_file, json_ready, write_text_atomic
     from cas_freq.identification import read_recording
-    from cas_freq.identification.columns import parse_column_option
     from cas_freq.identification.fitted_config import fitted_config_text
     from cas_freq.identification.free_keys import parse_model_spec
     from cas_freq.identification.physical import fit_physical
@@ -214,7 +214,7 @@ def run_params(args):
     if len(set(names)) != len(names):
         raise CasFreqError(f"--params: two models are named alike ({', '.join(names)}); name "
                            "them, e.g. --params 'coulomb: motor.Km,...'")
-    columns = parse_column_option(args.columns) if args.columns is not None else None
+    columns = column_option(args)
     loaded = selected_variants(args.target, [args.variant] if args.variant else [],
                                args.overrides)[0]
     if as_file and Path(output).resolve() == Path(loaded.source).resolve():

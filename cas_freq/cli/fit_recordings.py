@@ -10,7 +10,6 @@ import dataclasses
 import math
 
 from cas_freq.cli.common import angle, write_and_print
-from cas_freq.exceptions import CasFreqError
 
 
 def _fit_dict(fit, unit_step=False):
@@ -133,18 +132,13 @@ def table(data):
 
 def run_recordings(args):
     """Read the recordings, fit them, simulate the config's step, print, write ``-o``."""
+    from cas_freq.cli.fit import column_option
     from cas_freq.identification import fit_recordings, read_recording
-    from cas_freq.identification.columns import parse_column_option
     from cas_freq.report.outdir import check_output_dir
 
     if args.output is not None:
         check_output_dir(args.output, "-o")
-    columns = None
-    if args.columns is not None:
-        try:
-            columns = parse_column_option(args.columns)
-        except ValueError as exc:
-            raise CasFreqError(str(exc)) from None
+    columns = column_option(args)
     step = None if args.step is None else angle(args.step, "--step")
     from cas_freq.cli.common import selected_variants
 

@@ -20,18 +20,6 @@ RESPONSES = (
 )
 
 
-def column_option(args):
-    """The ``--columns`` mapping of ``args`` (None without the option)."""
-    from cas_freq.identification.columns import parse_column_option
-
-    if args.columns is None:
-        return None
-    try:
-        return parse_column_option(args.columns)
-    except ValueError as exc:
-        raise CasFreqError(str(exc)) from None
-
-
 def are_sweeps(paths, columns):
     """True if every recording is a sweep, False if every one is a step; a mix is an error
     naming the files of each kind."""
@@ -199,6 +187,8 @@ def run_sweep(args):
                            "command oscillates)")
     if args.output is not None:
         check_output_dir(args.output, "-o")
+    from cas_freq.cli.fit import column_option
+
     columns = column_option(args)
     loaded = selected_variants(args.target, [args.variant] if args.variant else [], [])[0]
     recordings = [read_sweep(path, columns) for path in args.data]
@@ -214,4 +204,4 @@ def run_sweep(args):
     return write_and_print(args, data, files, table)
 
 
-__all__ = ["are_sweeps", "column_option", "results", "run_sweep", "table"]
+__all__ = ["are_sweeps", "results", "run_sweep", "table"]
