@@ -6,8 +6,10 @@ import math
 
 import numpy as np
 
+from cas_freq.config.requirement import UNIT_LABELS
 from cas_freq.tuning.evaluate import TRADE_OFF
 from cas_freq.tuning.options import OBJECTIVES
+from cas_freq.verify.evaluate import bound_text
 
 #: A held requirement within this relative distance of its tightened bound is binding.
 BINDING = 0.02
@@ -17,13 +19,8 @@ MAX_ROWS = 12
 
 
 def _bound_text(constraint):
-    r = constraint.requirement
-    parts = []
-    if constraint.low is not None:
-        parts.append(f">= {constraint.low:.4g}")
-    if constraint.high is not None:
-        parts.append(f"<= {constraint.high:.4g}")
-    return " and ".join(parts) + f" {r.unit}".rstrip()
+    """The tightened bound as ``verify`` writes a bound: ``>= 306 rad/s``."""
+    return bound_text(constraint.low, constraint.high, UNIT_LABELS[constraint.requirement.unit])
 
 
 def _requirements(result, index, e):
