@@ -57,11 +57,16 @@ PRIOR_WIDTH = math.log(1e3)
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class Block:
-    """One block of residuals: a recording's position or current from the trigger on."""
+    """One block of residuals: a recording's position or current over its fitted samples.
+
+    ``noise`` is the spread (standard deviation) of the same signal before the fitted samples,
+    where there are at least 5 such samples and they vary, else None.
+    """
 
     recording: int
     channel: str
     data: np.ndarray
+    noise: float | None = None
 
     def model(self, replay):
         """This block's (n_sets, n) model values from a Replay."""
@@ -163,20 +168,20 @@ def _blocks(recordings, channels, masks):
     """The residual blocks of the recordings (their samples in ``masks``)."""
     blocks = []
     for index, (r, mask) in enumerate(zip(recordings, masks, strict=True)):
-        blocks.append(Block(index, "position", r.position_rad[mask]))
-        if "current" in channels:
-            blocks.append(Block(index, "current", r.current_a[mask]))
+        before = r.time_s < r.time_s[mask][0]
+        for channel in ("position", "current"):
+            if channel not in channels:
+                continue
+            signal = r.position_rad if channel == "position" else r.current_a
+            spread = float(np.std(signal[before])) if np.count_nonzero(before) >= 5 else 0.0
+            blocks.append(Block(index, channel, signal[mask], spread or None))
     return blocks
 
 
-def _first_sigma(recording, block, mask):
+def _first_sigma(block):
     """A first noise level: the spread before the fitted samples, else 1 % of the block's
     range."""
-    before = recording.time_s < recording.time_s[mask][0]
-    data = recording.position_rad if block.channel == "position" else recording.current_a
-    if np.count_nonzero(before) >= 5 and np.std(data[before]) > 0:
-        return float(np.std(data[before]))
-    return 0.01 * float(np.ptp(block.data)) or 1.0
+    return block.noise or 0.01 * float(np.ptp(block.data)) or 1.0
 
 
 class _Problem:
@@ -198,11 +203,13 @@ class _Problem:
         self.batches += 1
         return self.replayer.replay(self.values(x))
 
-    def stacked(self, replay, row=0, blocks=None):
-        """Weighted residuals (model less data) / sigma of one parameter set."""
-        blocks = self.blocks if blocks is None else blocks
-        return np.concatenate([(b.model(replay)[row] - b.data) / self.sigma[self.blocks.index(b)]
-                               for b in blocks])
+    def stacked(self, replay, row=0, blocks=None, sigma=None):
+        """Weighted residuals (model less data) / sigma of one parameter set, of ``blocks``
+        with their ``sigma`` (default: the fitted blocks and their current sigma)."""
+        if blocks is None:
+            blocks, sigma = self.blocks, self.sigma
+        return np.concatenate([(b.model(replay)[row] - b.data) / s
+                               for b, s in zip(blocks, sigma, strict=True)])
 
     def residuals(self, x):
         """Weighted residuals, then the prior's rows."""
@@ -212,8 +219,9 @@ class _Problem:
         """The Jacobian of :meth:`residuals`."""
         return np.vstack([self.jacobian(x), np.eye(len(x)) / PRIOR_WIDTH])
 
-    def jacobian(self, x, blocks=None):
-        """d(weighted residual)/d(coordinate) by central differences (one-sided at a bound)."""
+    def jacobian(self, x, blocks=None, sigma=None):
+        """d(weighted residual)/d(coordinate) by central differences (one-sided at a bound),
+        of ``blocks`` with their ``sigma`` (default the fitted ones)."""
         steps = []
         for j, f in enumerate(self.free):
             h = RELATIVE_STEP
@@ -232,8 +240,8 @@ class _Problem:
         replay = self.replay(np.array(rows))
         columns = []
         for j, (low, high) in enumerate(steps):
-            down = self.stacked(replay, 2 * j, blocks)
-            up = self.stacked(replay, 2 * j + 1, blocks)
+            down = self.stacked(replay, 2 * j, blocks, sigma)
+            up = self.stacked(replay, 2 * j + 1, blocks, sigma)
             columns.append((up - down) / (high - low))
         return np.column_stack(columns)
 
@@ -275,8 +283,7 @@ def fit_physical(loaded, recordings, steps_rad, spec, channels=("position",), ma
     replayer = RecordingReplayer(loaded.params, recordings, steps_rad)
     blocks = _blocks(recordings, channels, replayer.masks)
     problem = _Problem(replayer, free, blocks)
-    problem.sigma = np.array([_first_sigma(recordings[b.recording], b,
-                                           replayer.masks[b.recording]) for b in blocks])
+    problem.sigma = np.array([_first_sigma(b) for b in blocks])
     x0 = problem.x0
     lower = np.array([f.lower for f in free])
     upper = np.array([f.upper for f in free])
@@ -294,7 +301,7 @@ def fit_physical(loaded, recordings, steps_rad, spec, channels=("position",), ma
         problem.sigma = new
         if settled or problem.batches >= max_batches:
             break
-    return _result(spec, free, problem, x, x0, fitted, recordings, channels, converged)
+    return _result(spec, free, problem, x, x0, fitted, channels, converged)
 
 
 def _rms(blocks, replay, channel):
@@ -306,7 +313,7 @@ def _rms(blocks, replay, channel):
                                              for b in chosen])))
 
 
-def _result(spec, free, problem, x, x0, fitted, recordings, channels, converged):
+def _result(spec, free, problem, x, x0, fitted, channels, converged):
     """The PhysicalFit at the estimate ``x``."""
     blocks = problem.blocks
     weighted = problem.jacobian(x)
@@ -316,20 +323,19 @@ def _result(spec, free, problem, x, x0, fitted, recordings, channels, converged)
     q = float(stats.t.ppf(0.5 + LEVEL / 2, max(n - p, 1)))
     found = {"fitted": identifiability(weighted.T @ weighted, free, x, s2, q)}
     assumed = None
-    position_blocks = [b for b in blocks if b.channel == "position"]
+    position = [(b, s) for b, s in zip(blocks, problem.sigma, strict=True)
+                if b.channel == "position"]
     if "current" in channels:
-        rows = problem.jacobian(x, position_blocks)
+        rows = problem.jacobian(x, *zip(*position, strict=True))
         found["position"] = identifiability(rows.T @ rows, free, x, s2, q)
         found["with_current"] = found["fitted"]
     else:
         # predicted: current blocks of the simulated response with an assumed noise
         peak = max(float(np.max(np.abs(c[0]))) for c in fitted.current)
         assumed = ASSUMED_CURRENT_NOISE * peak
-        extra = [Block(b.recording, "current", np.zeros(b.data.size)) for b in position_blocks]
-        problem.blocks = blocks + extra
-        problem.sigma = np.concatenate([problem.sigma, np.full(len(extra), assumed)])
-        rows = problem.jacobian(x)
-        problem.blocks, problem.sigma = blocks, problem.sigma[:len(blocks)]
+        extra = [Block(b.recording, "current", np.zeros(b.data.size)) for b, _ in position]
+        rows = problem.jacobian(x, blocks + extra,
+                                np.concatenate([problem.sigma, np.full(len(extra), assumed)]))
         found["with_current"] = identifiability(rows.T @ rows, free, x, s2, q)
     covariance = found["fitted"].covariance
     error = np.sqrt(np.diag(covariance))
@@ -354,22 +360,15 @@ def _result(spec, free, problem, x, x0, fitted, recordings, channels, converged)
         fitted_response=fitted, start_response=start, converged=converged,
         evaluations=problem.batches, assumed_current_noise_a=assumed,
         masks=problem.replayer.masks,
-        noise_ratio=_noise_ratios(blocks, recordings, problem.replayer.masks, rss),
+        noise_ratio=_noise_ratios(blocks, rss),
         at_bound=tuple(_bound(f, c) for f, c in zip(free, x, strict=True)),
     )
 
 
-def _noise_ratios(blocks, recordings, masks, rss):
+def _noise_ratios(blocks, rss):
     """RMS residual over the pre-window spread, per block that has such a spread."""
-    ratios = {}
-    for b in blocks:
-        r, mask = recordings[b.recording], masks[b.recording]
-        data = r.position_rad if b.channel == "position" else r.current_a
-        before = data[r.time_s < r.time_s[mask][0]]
-        if before.size >= 5 and np.std(before) > 0:
-            rms = math.sqrt(rss[(b.recording, b.channel)] / b.data.size)
-            ratios[(b.recording, b.channel)] = rms / float(np.std(before))
-    return ratios
+    return {(b.recording, b.channel): math.sqrt(rss[(b.recording, b.channel)] / b.data.size)
+            / b.noise for b in blocks if b.noise}
 
 
 def _bound(free, coordinate, tolerance=1e-6):
