@@ -99,9 +99,9 @@ def run_import(args):
     values = epos4.import_values(export)
     absent = list(export.absent)
     comment = f"EPOS4 parameters imported by cas-freq epos4 import from {Path(export.path).name}"
-    new_text = config_with_variant(config, args.variant, epos4.variant_entries(export), comment,
-                                   {key: si for key, (_, si) in values.items()},
-                                   "the imported values", force=args.force)
+    new_text, _ = config_with_variant(
+        config, args.variant, epos4.variant_entries(export), comment,
+        {key: si for key, (_, si) in values.items()}, "the imported values", force=args.force)
     from cas_freq.parameters import unit_of
 
     if output is None:

@@ -127,7 +127,7 @@ def run(args):
     data = tune_dict(result, loaded.params.name, loaded.variant, time.perf_counter() - start)
     data["drive"] = None
     if result.feasible or output is not None:
-        text, tuned = _tuned_config(loaded, result, args.name, output)
+        text, tuned = _tuned_config(loaded, result, args.name)
         data["drive"] = _drive_settings(tuned)
         if output is not None:
             write_text_atomic(output, text)
@@ -153,11 +153,8 @@ def run(args):
     return EXIT_OK if result.feasible else EXIT_FAILED
 
 
-def _tuned_config(loaded, result, name, output):
+def _tuned_config(loaded, result, name):
     """(config text with the tuned variant, the tuned LoadedVariant)."""
-    import tempfile
-
-    from cas_freq.config import load_variant
     from cas_freq.drive.variant_text import config_with_variant, si_text, variant_entries
 
     values = result.values()
@@ -166,13 +163,8 @@ def _tuned_config(loaded, result, name, output):
                for key, value in values.items()}
     comment = (f"cas-freq tune of {', '.join(values)} from variant {loaded.variant} "
                f"({result.scenarios.label}, seed {result.seed})")
-    text = config_with_variant(loaded.source, name, variant_entries(loaded, changed), comment,
+    return config_with_variant(loaded.source, name, variant_entries(loaded, changed), comment,
                                values, "the tuned values", tolerance=1e-5)
-    with tempfile.TemporaryDirectory(prefix="cas_freq_tune_") as folder:
-        path = Path(folder) / (output.name if output is not None else "tuned.yaml")
-        path.write_text(text, encoding="utf-8")
-        tuned = load_variant(path, name)
-    return text, tuned
 
 
 def _drive_settings(tuned):

@@ -174,7 +174,7 @@ def variant_entries(loaded, changed):
 
 def config_with_variant(config, name, entries, comment, expected, what, force=False,
                         tolerance=1e-12):
-    """The text of config file ``config`` with variant ``name`` added, loaded back and checked.
+    """Config file ``config`` with variant ``name`` added, loaded back and checked.
 
     The variant is inserted (:func:`insert_variant`), the result is loaded with the config
     loader as every command will load it, and each key of ``expected`` must load as its
@@ -192,6 +192,11 @@ def config_with_variant(config, name, entries, comment, expected, what, force=Fa
         What the values are, for messages (``"the imported values"``).
     tolerance : float
         Largest relative difference between a loaded and an expected value.
+
+    Returns
+    -------
+    (str, cas_freq.config.LoadedVariant)
+        The new text, and the new variant as the loader read it (from a temporary copy).
 
     Raises
     ------
@@ -234,4 +239,4 @@ def config_with_variant(config, name, entries, comment, expected, what, force=Fa
             raise ConfigError(f"{config}: variant {name!r} loads {key} = {got[key]!r}, not "
                               f"{value!r} ({what}); the variants block was not read as "
                               "expected")
-    return new_text
+    return new_text, loaded[name]

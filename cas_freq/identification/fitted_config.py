@@ -52,8 +52,9 @@ def fitted_config_text(loaded, fit, name, sources):
     comment = (f"cas-freq fit of {', '.join(f.key for f in fit.free)} to {files} "
                f"(model {fit.name!r}, from variant {loaded.variant})")
     expected = {free.key: value for free, value in zip(fit.free, fit.estimate, strict=True)}
-    return config_with_variant(loaded.source, name, variant_entries(loaded, fit), comment,
-                               expected, "the fitted values", tolerance=1e-5)
+    text, _ = config_with_variant(loaded.source, name, variant_entries(loaded, fit), comment,
+                                  expected, "the fitted values", tolerance=1e-5)
+    return text
 
 
 __all__ = ["fitted_config_text", "variant_entries"]
