@@ -211,7 +211,6 @@ def _triggered(path, arrays, lines, found):
                               f"not step (it holds {math.degrees(first):g} deg from line "
                               f"{lines[0]} to line {lines[-1]})")
         # else one level throughout, from t >= 0: the step is at t = 0, the recording's start
-    start = min(start, trigger) if command is not None else trigger
     before, after = t < start, t >= trigger
     count = int(np.count_nonzero(after))
     if count < MIN_SAMPLES:
