@@ -25,7 +25,7 @@ import math
 import numbers
 import re
 
-import pint
+from cas_freq import unit_cache
 
 #: Longest accepted value string.
 MAX_TEXT = 64
@@ -53,6 +53,8 @@ def registry():
     user's cache folder; ~0.02 s instead of ~0.2 s of every CLI start); without a usable cache
     folder, parsed afresh. The units are pint's own either way.
     """
+    import pint  # here, not at the top: a start whose units are all cached never imports it
+
     try:
         return pint.UnitRegistry(cache_folder=":auto:")
     except Exception:  # noqa: BLE001 - no writable cache folder (or a stale cache): parse afresh
@@ -196,6 +198,21 @@ def to_si(value, unit):
     if _PERCENT.search(unit_text) and unit != "percent":
         raise ValueError(f"cannot read {_shown(value)}: a percentage is not a value in {unit}; "
                          "write the value itself")
+    factor = unit_cache.cached_factor(unit_text, unit)
+    if factor is not None:
+        result = magnitude * factor  # what pint returns for a factor it gave (unit_cache)
+    else:
+        result = _pint_convert(value, magnitude, unit_text, unit)
+    if not math.isfinite(result):
+        raise ValueError(f"{_shown(value)} is not finite in {unit}")
+    return result
+
+
+def _pint_convert(value, magnitude, unit_text, unit):
+    """``magnitude`` in ``unit_text`` converted to ``unit`` by pint (``value`` for messages);
+    the factor is remembered (:mod:`cas_freq.unit_cache`) when the conversion is one."""
+    import pint
+
     source = parse_unit(unit_text, value)
     target = registry().Unit(unit)
     if source.dimensionality != target.dimensionality:
@@ -205,8 +222,10 @@ def to_si(value, unit):
         )
     try:
         result = float(registry().Quantity(magnitude, source).to(target).magnitude)
+        factor = float(registry().Quantity(1.0, source).to(target).magnitude)
+        offset = float(registry().Quantity(0.0, source).to(target).magnitude)
     except (OverflowError, ArithmeticError, pint.errors.PintError) as exc:
         raise ValueError(f"cannot read {_shown(value)}: cannot convert to {unit} ({exc})") from None
-    if not math.isfinite(result):
-        raise ValueError(f"{_shown(value)} is not finite in {unit}")
+    if offset == 0.0 and math.isfinite(factor) and factor != 0.0 and result == magnitude * factor:
+        unit_cache.store_factor(unit_text, unit, factor)
     return result

@@ -23,7 +23,8 @@ import pytest
 
 from cas_freq.config import default_config_path, load_variant
 from cas_freq.parameters import LoopParameters, variant_parameters
-from cas_freq.simulation import Step, simulate_batch
+from cas_freq.simulation import Step, second_order, simulate_batch
+from cas_freq.simulation.fit_kernel import normal_equations
 from cas_freq.simulation.second_order import (
     fit_second_order,
     fit_second_order_batch,
@@ -166,6 +167,32 @@ def test_batch_recovers_truth(fitted):
             half = (high - low) / 2.0
             assert abs(value - estimate) <= 3.0 * half
             assert 0 < half < widest
+
+
+def test_compiled_normal_equations_equal_the_numpy_reference():
+    # The fit's sums (r^T r, J^T J, J^T r) from the compiled one-pass kernel against the numpy
+    # residuals and Jacobian of second_order (the same formulas, summed by einsum): to 1e-13
+    # relative to each sum's scale (found ~2e-15; the sums run in another order and libm's
+    # exp/sin/cos may differ from numpy's in the last bit). The cases cross every branch:
+    # underdamped, zeta = 1 exactly and near it (the series), overdamped up to zeta = 5, td
+    # at 0 and beyond the first samples, and padding (t = 0, unit = 0) after short runs.
+    rng = np.random.default_rng(8)
+    k, m = 24, 700
+    zetas = np.array([0.05, 0.3, 0.7, 0.999, 1.0, 1.0, 1.001, 1.3, 2.0, 5.0] * 3)[:k]
+    p = np.column_stack([rng.uniform(0.5, 1.5, k), zetas, rng.uniform(0.0, 1.2, k)])
+    p[::5, 2] = 0.0
+    scale = np.column_stack([rng.uniform(200.0, 900.0, k), np.ones(k), np.full(k, 1e-3)])
+    t = np.tile(np.linspace(0.0, 0.04, m), (k, 1))
+    unit = np.clip(t * 60.0, 0.0, 1.0) + 0.01 * rng.standard_normal((k, m))
+    for run, length in enumerate(rng.integers(100, m, k // 3)):
+        t[run, length:] = unit[run, length:] = 0.0
+    expected = second_order._normal_equations(
+        *second_order._residuals_and_jacobian(t, unit, p, scale))
+    got = normal_equations(t, unit, p, scale)
+    for value, reference in zip(got, expected, strict=True):
+        assert value.shape == reference.shape
+        size = np.abs(reference).reshape(k, -1).max(axis=1)
+        assert np.all(np.abs(value - reference).reshape(k, -1).max(axis=1) <= 1e-13 * size)
 
 
 def test_blocks_and_order_do_not_matter():

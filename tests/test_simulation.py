@@ -372,3 +372,24 @@ def test_simulation_imports_neither_control_nor_matplotlib():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_batches_recording_into_kept_buffers_give_the_same_runs():
+    # A study's chunks record into one RecordingBuffers: each batch must give exactly what it
+    # gives in fresh memory, whatever the batch before left there (a longer horizon, more
+    # runs), and the buffers then start each batch at the longest horizon seen (no copy).
+    from cas_freq.simulation.simulator import RecordingBuffers
+
+    base = params()
+    stiff = params(overrides=[("position_loop.Kp", 2.0), ("position_loop.Kd", 0.01)])
+    batches = [LoopParameters.from_configs(configs)
+               for configs in ([base, stiff, base], [stiff], [base, base])]
+    buffers = RecordingBuffers()
+    for batch in batches:
+        kept = simulate_batch(batch, Step(LARGE), buffers=buffers)
+        fresh = simulate_batch(batch, Step(LARGE))
+        assert kept.t_end_s == fresh.t_end_s
+        for name in ("t", "delta", "theta", "omega", "i", "V", "command", "current_command",
+                     "position_integral", "current_limited", "voltage_limited"):
+            np.testing.assert_array_equal(getattr(kept, name), getattr(fresh, name), name)
+        assert buffers.capacity >= kept.t.size

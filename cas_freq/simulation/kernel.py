@@ -42,7 +42,7 @@ import os
 
 import numba
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
 from cas_freq.simulation import mechanics as mech
 from cas_freq.simulation.controllers import derivative_filter
@@ -51,6 +51,7 @@ from cas_freq.simulation.engine import (
     SIGNALS,
     plant_step_matrices,
 )
+from cas_freq.simulation.jit import cached_jit as _jit
 
 # numba's threading layer: workqueue unless NUMBA_THREADING_LAYER chooses. The default order
 # picks GNU OpenMP where present, and a process forked after a parallel kernel ran (a
@@ -59,18 +60,6 @@ from cas_freq.simulation.engine import (
 # workqueue does not allow.
 if "NUMBA_THREADING_LAYER" not in os.environ:
     numba.config.THREADING_LAYER = "workqueue"
-
-
-def _jit(**options):
-    """``numba.njit`` with ``cache=True``; without a cache if no cache directory is usable."""
-
-    def decorate(function):
-        try:
-            return njit(cache=True, error_model="numpy", **options)(function)
-        except RuntimeError:  # numba: "cannot cache function ...: no locator available"
-            return njit(cache=False, error_model="numpy", **options)(function)
-
-    return decorate
 
 
 # Columns of the parameter table ``p`` (n_runs, _NP), one row per run.
@@ -395,7 +384,7 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
                          sampled_c)
 
 
-@_jit(parallel=True)
+@_jit(parallel=True, nogil=True)
 def advance_parallel(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                      right, left, k0, record_every, record_base, floats, flags,
                      every_c, every_p, has_derivative, dt, q):
@@ -415,7 +404,7 @@ def advance_parallel(p, m, x, s, voltage_right, voltage_left, current_right, cur
                          flags, every_c, every_p, has_derivative, dt, None)
 
 
-@_jit()
+@_jit(nogil=True)
 def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                    right, left, k0, record_every, record_base, floats, flags,
                    every_c, every_p, has_derivative, dt, q):

@@ -239,11 +239,11 @@ def _start(t, unit, initial=None):
 # zeta = 1 and free of the cancellation of the closed forms there.
 
 #: Terms of the power series in x = (1 - zeta^2) s^2 (|x| < 1): the 12th is below 1e-20.
-_SERIES_TERMS = 12
+SERIES_TERMS = 12
 #: Coefficients of C = sum c_k (-x)^k, S / s = sum s_k (-x)^k, D / s^3 = sum d_k (-x)^k.
-_C_SERIES = np.array([1.0 / math.factorial(2 * k) for k in range(_SERIES_TERMS)])
-_S_SERIES = np.array([1.0 / math.factorial(2 * k + 1) for k in range(_SERIES_TERMS)])
-_D_SERIES = np.array([-(2 * k + 2) / math.factorial(2 * k + 3) for k in range(_SERIES_TERMS)])
+C_SERIES = np.array([1.0 / math.factorial(2 * k) for k in range(SERIES_TERMS)])
+S_SERIES = np.array([1.0 / math.factorial(2 * k + 1) for k in range(SERIES_TERMS)])
+D_SERIES = np.array([-(2 * k + 2) / math.factorial(2 * k + 3) for k in range(SERIES_TERMS)])
 
 #: Most Levenberg-Marquardt trial steps per run (found: 10-45).
 _MAX_ITERATIONS = 500
@@ -307,9 +307,9 @@ def _unit_step_terms(s, zeta):
     if near.any():
         sn, xn = s[near], x[near]
         decay = np.exp(-np.broadcast_to(zeta, s.shape)[near] * sn)
-        ec[near] = decay * _series(xn, _C_SERIES)
-        es[near] = decay * sn * _series(xn, _S_SERIES)
-        ed[near] = decay * sn**3 * _series(xn, _D_SERIES)
+        ec[near] = decay * _series(xn, C_SERIES)
+        es[near] = decay * sn * _series(xn, S_SERIES)
+        ed[near] = decay * sn**3 * _series(xn, D_SERIES)
     return ec, es, ed
 
 
@@ -367,6 +367,18 @@ def _normal_equations(residuals, jacobian):
             np.einsum("kim,km->ki", jacobian, residuals))
 
 
+def _normal_equations_at(t, unit, p, scale):
+    """Sum of squares (k,), J^T J (k, 3, 3) and J^T r (k, 3) at the scaled variables ``p``.
+
+    Computed by the compiled :func:`cas_freq.simulation.fit_kernel.normal_equations`, in one
+    pass over the samples; ``_normal_equations(*_residuals_and_jacobian(...))`` is its numpy
+    reference (the same to ~1e-15 relative). Arguments as in :func:`_residuals_and_jacobian`.
+    """
+    from cas_freq.simulation.fit_kernel import normal_equations
+
+    return normal_equations(*(np.ascontiguousarray(a, dtype=float) for a in (t, unit, p, scale)))
+
+
 def _levenberg_marquardt(t, unit, p, scale, upper, max_iterations):
     """Bounded Levenberg-Marquardt on k runs at once; each run stops when it has converged.
 
@@ -401,7 +413,7 @@ def _levenberg_marquardt(t, unit, p, scale, upper, max_iterations):
     k = t.shape[0]
     p = np.clip(p, _LOWER, upper)
     # Per run only what a step needs: the sum of squares, J J^T (3 x 3) and J r (3).
-    cost, normal, gradient = _normal_equations(*_residuals_and_jacobian(t, unit, p, scale))
+    cost, normal, gradient = _normal_equations_at(t, unit, p, scale)
     damping = np.full(k, 1e-3)
     growth = np.full(k, 2.0)
     converged = np.zeros(k, dtype=bool)
@@ -420,8 +432,8 @@ def _levenberg_marquardt(t, unit, p, scale, upper, max_iterations):
         delta, stuck = _solve_steps(system, np.where(held, 0.0, -g))
         trial = np.clip(x + delta, _LOWER, hi)
         step = trial - x
-        cost_new, normal_new, gradient_new = _normal_equations(
-            *_residuals_and_jacobian(t[active], unit[active], trial, scale[active]))
+        cost_new, normal_new, gradient_new = _normal_equations_at(t[active], unit[active], trial,
+                                                                  scale[active])
         predicted = -(2.0 * np.einsum("ki,ki->k", g, step)
                       + np.einsum("ki,kij,kj->k", step, A, step))
         old = cost[active]
@@ -585,16 +597,15 @@ def _refine(t, unit, p, scale, upper, iterations=4):
         Refined scaled variables, shape (k, 3).
     """
     k = p.shape[0]
-    r, jac = _residuals_and_jacobian(t, unit, p, scale)
-    gradient = np.einsum("kim,km->ki", jac, r)
+    before, _, gradient = _normal_equations_at(t, unit, p, scale)
     # Hessian of half the sum of squares: column j from the gradient at p + h e_j, all at once
     # (forward differences, ~1e-6 relative: enough for Newton steps whose fixed point is set by
     # the gradient alone).
     h = 1e-6 * np.maximum(np.abs(p), 1.0)
     probes = (p[:, None, :] + np.eye(3)[None] * h[:, None, :]).reshape(3 * k, 3)
-    r3, jac3 = _residuals_and_jacobian(np.repeat(t, 3, axis=0), np.repeat(unit, 3, axis=0),
-                                       probes, np.repeat(scale, 3, axis=0))
-    g3 = np.einsum("kim,km->ki", jac3, r3).reshape(k, 3, 3)  # [run, probe j, component i]
+    _, _, g3 = _normal_equations_at(np.repeat(t, 3, axis=0), np.repeat(unit, 3, axis=0),
+                                    probes, np.repeat(scale, 3, axis=0))
+    g3 = g3.reshape(k, 3, 3)  # [run, probe j, component i]
     hessian = ((g3 - gradient[:, None, :]) / h[:, :, None]).transpose(0, 2, 1)
     hessian = 0.5 * (hessian + hessian.transpose(0, 2, 1))
     eye = np.eye(3)
@@ -616,9 +627,7 @@ def _refine(t, unit, p, scale, upper, iterations=4):
         system = np.where(usable[:, None, None], system, eye)
         delta = np.linalg.solve(system, -np.where(free, gradient, 0.0)[:, :, None])[:, :, 0]
         q = np.where(usable[:, None], np.clip(q + delta, _LOWER, upper), q)
-        r_q, jac_q = _residuals_and_jacobian(t, unit, q, scale)
-        gradient = np.einsum("kim,km->ki", jac_q, r_q)
-    before, after = np.einsum("km,km->k", r, r), np.einsum("km,km->k", r_q, r_q)
+        after, _, gradient = _normal_equations_at(t, unit, q, scale)
     moved = np.linalg.norm(q - p, axis=1) <= _MOVE * np.linalg.norm(p, axis=1)
     keep = usable & moved & (after <= before * (1.0 + 1e-12))
     return np.where(keep[:, None], q, p)
@@ -651,10 +660,10 @@ def _summaries(t, unit, p, scale, upper, steps, success, sizes=None):
 
     sizes = np.full(t.shape[0], t.shape[1]) if sizes is None else sizes
     p = _refine(t, unit, p, scale, upper)
-    r, jac = _residuals_and_jacobian(t, unit, p, scale)
+    sum_squares, normal, _ = _normal_equations_at(t, unit, p, scale)
     values = p * scale
     # In the unscaled variables (wn [rad/s], zeta, td [s]).
-    sum_squares, normal, _ = _normal_equations(r, jac / scale[:, :, None])
+    normal = normal / (scale[:, :, None] * scale[:, None, :])
     dof = np.maximum(sizes - 3, 1)
     t_quantile = special.stdtrit(dof, 0.975)  # Student t, two-sided 95 %
     fits = []

@@ -14,7 +14,7 @@ import numpy as np
 
 from cas_freq.simulation.commands import Step
 from cas_freq.simulation.second_order import fit_second_order_batch
-from cas_freq.simulation.simulator import simulate_batch
+from cas_freq.simulation.simulator import RecordingBuffers, simulate_batch
 from cas_freq.simulation.step_figures import simulation_step_figures
 
 #: Runs simulated together: memory is about 10 signals x 8 B x samples (up to 80,001) per run.
@@ -65,6 +65,9 @@ def batch_steps(params, amplitude_rad, *, fit=True, rates_hz=(None, None),
     out = {name: np.full(n, np.nan) for name in names}
     current_rate, position_rate = rates_hz
     done = 0
+    # Every chunk records into the same memory; its figures are taken before the next starts,
+    # and its fits get the fin angle and times, arrays of their own (BatchResult.delta, .t).
+    buffers = RecordingBuffers()
     # The fits of a chunk (numpy, which releases the GIL in its array loops) run in a
     # background thread while the next chunk is simulated; the results do not depend on it.
     with concurrent.futures.ThreadPoolExecutor(max_workers=1) as fitter:
@@ -73,7 +76,7 @@ def batch_steps(params, amplitude_rad, *, fit=True, rates_hz=(None, None),
             stop = min(start + chunk_size, n)
             chunk = params.take(slice(start, stop))
             result = simulate_batch(chunk, Step(amplitude_rad), current_rate_hz=current_rate,
-                                    position_rate_hz=position_rate)
+                                    position_rate_hz=position_rate, buffers=buffers)
             runs = [result.run(index) for index in range(stop - start)]
             for run, alone in enumerate(runs, start):
                 figures = simulation_step_figures(alone, amplitude_rad)
