@@ -134,3 +134,20 @@ def test_csv_errors_name_file_and_row(tmp_path, text, message):
 def test_csv_missing_file(tmp_path):
     with pytest.raises(ConfigError, match="cannot read"):
         read_command_csv(tmp_path / "none.csv")
+
+
+def test_fin_limits_are_the_right_and_left_limits_of_fin():
+    # The compiled engine asks for both limits at once; the sine computes its sine and cosine
+    # once for both. Each limit must be fin's, bit for bit, also at the start (where the left
+    # limit is still 0) and for per-run amplitudes and frequencies.
+    from cas_freq.simulation.commands import Sine, Step, fin_limits
+
+    t = np.array([-1e-3, 0.0, 0.5e-3, 1e-3, 2e-3])[:, None]
+    for command in (Sine(np.array([0.1, 0.2]), np.array([50.0, 900.0]), start_s=1e-3),
+                    Sine(0.1, 300.0), Step(0.2, start_s=1e-3)):
+        right, left = fin_limits(command, t)
+        for got, expected in ((right, command.fin(t)), (left, command.fin(t, left=True))):
+            for part, reference in zip(got, expected, strict=True):
+                np.testing.assert_array_equal(part, reference)
+        # the grid holds each command's start, where the limits differ (the rate of a sine)
+        assert any(not np.array_equal(a, b) for a, b in zip(right, left, strict=True))

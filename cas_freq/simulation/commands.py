@@ -31,6 +31,15 @@ def _after(t, start, left):
     return t > start if left else t >= start
 
 
+def fin_limits(command, t):
+    """Right and left limits of a command at ``t``: ``(command.fin(t), command.fin(t,
+    left=True))``, from one evaluation where the command offers it (:meth:`Sine.fin_limits`)."""
+    both = getattr(command, "fin_limits", None)
+    if both is not None:
+        return both(t)
+    return command.fin(t), command.fin(t, left=True)
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class Step:
     """Step of ``amplitude_rad`` [rad] at the fin at ``start_s`` [s]."""
@@ -95,11 +104,21 @@ class Sine:
     def fin(self, t, left=False):
         """Angle [rad], rate [rad/s], accel. [rad/s^2] at ``t`` [s] (left limits if ``left``)."""
         tau = _since(t, self.start_s)
-        on = _after(tau, 0.0, left)
+        return self._fin(tau, *self._sine_cosine(tau), left)
+
+    def fin_limits(self, t):
+        """``(fin(t), fin(t, left=True))``, the sine and cosine computed once for both."""
+        tau = _since(t, self.start_s)
+        sine, cosine = self._sine_cosine(tau)
+        return tuple(self._fin(tau, sine, cosine, left) for left in (False, True))
+
+    def _sine_cosine(self, tau):
+        phase = self.frequency_rad_s * np.maximum(tau, 0.0)
+        return np.sin(phase), np.cos(phase)  # once each (the dwell's costliest part)
+
+    def _fin(self, tau, sine, cosine, left):
         w = self.frequency_rad_s
-        phase = w * np.maximum(tau, 0.0)
-        a = np.where(on, self.amplitude_rad, 0.0)  # 0 before the start
-        sine, cosine = np.sin(phase), np.cos(phase)  # once each (the dwell's costliest part)
+        a = np.where(_after(tau, 0.0, left), self.amplitude_rad, 0.0)  # 0 before the start
         angle = a * sine
         return angle, a * w * cosine, -(w * w) * angle
 

@@ -60,8 +60,8 @@ class CompiledEngine:
 
     def _rows(self, times):
         """Fin command rows at ``times``: right and left limits, each (len(t), 3, columns)."""
-        return tuple(np.ascontiguousarray(np.stack(self.commands.fin(times, left=left), axis=1))
-                     for left in (False, True))
+        return tuple(np.ascontiguousarray(np.stack(limit, axis=1))
+                     for limit in self.commands.fin_limits(times))
 
     def _args(self):
         return (self.p, self.m, self.x, self.s, *self.voltage, *self.current)

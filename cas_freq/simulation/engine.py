@@ -26,7 +26,7 @@ whole loop is integrated to second order in dt. Sampled controllers are updated 
 
 import numpy as np
 
-from cas_freq.simulation.commands import Step
+from cas_freq.simulation.commands import Step, fin_limits
 from cas_freq.simulation.controllers import Controller
 from cas_freq.simulation.delay_line import DelayLine
 from cas_freq.simulation.mechanics import NX, Drivetrain, distinct_exponentials
@@ -131,7 +131,17 @@ class CommandSet:
             parts = [c.fin(t, left=left) for c in self.commands]
             return tuple(np.stack([np.broadcast_to(p[j], t.shape) for p in parts], axis=1)
                          for j in range(3))
-        out = self.commands.fin(t[:, None], left)
+        return self._shaped(self.commands.fin(t[:, None], left), t)
+
+    def fin_limits(self, t):
+        """``(fin(t), fin(t, left=True))``, from one evaluation of the command where it can."""
+        if isinstance(self.commands, (list, tuple)):
+            return self.fin(t), self.fin(t, left=True)
+        return tuple(self._shaped(limit, t) for limit in fin_limits(self.commands, t[:, None]))
+
+    @staticmethod
+    def _shaped(out, t):
+        """The (angle, rate, acceleration) of one command broadcast to (len(t), columns)."""
         shape = np.broadcast_shapes(*(np.shape(a) for a in out))
         if len(shape) < 2:
             shape = (t.shape[0], 1)

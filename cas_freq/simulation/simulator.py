@@ -448,8 +448,9 @@ class _Recording:
     sized for the longest horizon that they have recorded.
     """
 
-    def __init__(self, names, n_runs, capacity, buffers=None):
+    def __init__(self, names, n_runs, capacity, buffers=None, limit=None):
         self.names = names
+        self.limit = limit  # most columns the batch can record (its horizon's cap)
         self.floats_names = [name for name in names if name not in FLAG_SIGNALS]
         self.buffers = buffers
         if buffers is not None:
@@ -468,7 +469,8 @@ class _Recording:
         """Make room for ``capacity`` columns in all."""
         if capacity <= self.floats.shape[2]:
             return
-        capacity = max(capacity, 2 * self.floats.shape[2])
+        doubled = 2 * self.floats.shape[2]
+        capacity = max(capacity, doubled if self.limit is None else min(doubled, self.limit))
         for attr in ("floats", "flags"):
             old = getattr(self, attr)
             new = np.empty(old.shape[:2] + (capacity,), dtype=old.dtype)
@@ -598,7 +600,8 @@ def simulate_batch(
     names = engine.signals  # SIGNALS, and LOAD_SIGNALS where some run is loaded
     first = dict(zip(names, engine.start(), strict=True))
     # every signal (n_runs, n_samples): the engines record run by run
-    recording = _Recording(names, n, 1 + int(round(t_end / dt)) // record_every + 1, buffers)
+    columns = [1 + int(round(end / dt)) // record_every + 1 for end in (t_end, cap)]
+    recording = _Recording(names, n, columns[0], buffers, limit=columns[1])
     recording.append([0.0], {name: value[:, None] for name, value in first.items()})
     steps_done, horizon = 0, t_end
     extended = False

@@ -23,6 +23,7 @@ import numpy as np
 
 from cas_freq.analysis.drivetrain import stable_hinge_range
 from cas_freq.parameters import LoopParameters
+from cas_freq.simulation.simulator import RecordingBuffers
 from cas_freq.studies.sweep import evaluate_figures
 
 KEY = "load.hinge_stiffness"
@@ -219,11 +220,12 @@ def _refined(params, results, step_rad, fit):
     brackets = [list(getattr(results[n], side).bracket) for n, side in tasks]
     stepped = any(requirements[results[n].id].kind == "step" for n, _ in tasks)
     fitted = fit and any(results[n].metric.startswith("fit.") for n, _ in tasks)
+    buffers = RecordingBuffers()  # the bisection's small batches record into the same memory
     for _ in range(BISECTIONS):
         middles = np.array([0.5 * (good + bad) for good, bad in brackets])
         figures, stability = evaluate_figures(params, {KEY: middles},
                                               step_rad=step_rad if stepped else None,
-                                              fit=fitted)
+                                              fit=fitted, buffers=buffers)
         for t, (n, _) in enumerate(tasks):
             requirement = requirements[results[n].id]
             value = figures.get(requirement.metric, np.full(len(tasks), np.nan))[t]

@@ -32,7 +32,7 @@ FIT_FIGURES = (
 
 
 def batch_steps(params, amplitude_rad, *, fit=True, rates_hz=(None, None),
-                chunk_size=DEFAULT_STEP_CHUNK, progress=None):
+                chunk_size=DEFAULT_STEP_CHUNK, progress=None, buffers=None):
     """Step figures (and second-order fits) of every run.
 
     Parameters
@@ -53,6 +53,9 @@ def batch_steps(params, amplitude_rad, *, fit=True, rates_hz=(None, None),
         Runs simulated together.
     progress : callable, optional
         ``progress(done, total)`` for each run once its chunk's figures and fits are done.
+    buffers : cas_freq.simulation.simulator.RecordingBuffers, optional
+        Memory the chunks record into, kept by the caller between calls (a bisection's many
+        small batches); default: new for this call.
 
     Returns
     -------
@@ -67,7 +70,7 @@ def batch_steps(params, amplitude_rad, *, fit=True, rates_hz=(None, None),
     done = 0
     # Every chunk records into the same memory; its figures are taken before the next starts,
     # and its fits get the fin angle and times, arrays of their own (BatchResult.delta, .t).
-    buffers = RecordingBuffers()
+    buffers = RecordingBuffers() if buffers is None else buffers
     # The fits of a chunk (numpy, which releases the GIL in its array loops) run in a
     # background thread while the next chunk is simulated; the results do not depend on it.
     with concurrent.futures.ThreadPoolExecutor(max_workers=1) as fitter:

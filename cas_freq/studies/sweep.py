@@ -73,7 +73,7 @@ def grid(axes):
 
 
 def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None,
-                     progress=None, scheduler=None):
+                     progress=None, scheduler=None, buffers=None):
     """Every figure of each sample: the batch analysis, the step's if ``step_rad``, and the
     sine-dwell bandwidth if ``sinedwell``.
 
@@ -96,6 +96,9 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None
     scheduler : str, optional
         Evaluate the samples in chunks on a dask.distributed cluster: ``local:N`` or a
         scheduler address (:mod:`cas_freq.studies.distributed`; the same numbers as locally).
+    buffers : cas_freq.simulation.simulator.RecordingBuffers, optional
+        Memory the steps record into, kept by the caller between calls (local runs only; see
+        :func:`~cas_freq.studies.steps.batch_steps`).
 
     Returns
     -------
@@ -130,7 +133,7 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None
         from cas_freq.studies.steps import batch_steps
 
         figures.update(batch_steps(loop, step_rad, fit=fit, rates_hz=params.simulation.rates_hz,
-                                   progress=stage_progress("step")))
+                                   progress=stage_progress("step"), buffers=buffers))
     if sinedwell is not None:
         from cas_freq.simulation.sinedwell import sine_dwell_bandwidths
 
