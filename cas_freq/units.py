@@ -18,6 +18,10 @@ so ``'9**9**9 ohm'`` is refused at once). Decimal commas (``"0,4 ms"``), several
 (``"6 3435 A/rad"``), stray dots (``"0.071.5 mH"``) are refused saying what was read; a percent
 is accepted only where the quantity itself is a percentage (unit ``percent``). A bare number in
 a string (``"0.4"``) is already SI.
+
+pint is imported only when a conversion needs it: the factor of each (unit text, SI unit) pair
+pint has converted before is read from a disk cache (:mod:`cas_freq.unit_cache`) and applied
+as pint applies it, so a CLI start whose units were all seen before does not import pint.
 """
 
 import functools
