@@ -147,11 +147,12 @@ class CommandSet:
             shape = (t.shape[0], 1)
         return tuple(np.broadcast_to(a, shape) for a in out)
 
-    def motor(self, t, left=False):
-        """(angle [rad], rate [rad/s], acceleration [rad/s^2]) at the motor, each (len(t), n)."""
+    def motor_limits(self, t):
+        """Right and left limits of (angle [rad], rate [rad/s], acceleration [rad/s^2]) at
+        the motor, each (len(t), n), from :meth:`fin_limits`."""
         n = self.ratio.shape[0]
-        return tuple(self.ratio * np.broadcast_to(part, (t.shape[0], n))
-                     for part in self.fin(t, left))
+        return tuple(tuple(self.ratio * np.broadcast_to(part, (t.shape[0], n)) for part in limit)
+                     for limit in self.fin_limits(t))
 
 
 class Engine:
@@ -230,10 +231,8 @@ class Engine:
             current [A] (same shape, or None where it is 0 throughout); and per time, whether
             the limits differ (a list of bool).
         """
-        limits = []
-        for left in (False, True):
-            angle, rate, accel = self.commands.motor(times, left=left)
-            limits.append((angle, self.ff_v * rate + self.ff_a * accel))
+        limits = [(angle, self.ff_v * rate + self.ff_a * accel)
+                  for angle, rate, accel in self.commands.motor_limits(times)]
         (angle, ff), (angle_left, ff_left) = limits
         if self.position_every is not None:  # a sampler sees the values from now on
             angle_left, ff_left = angle, ff
