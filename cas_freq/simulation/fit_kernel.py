@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from cas_freq.simulation.jit import cached_jit
+from cas_freq.jit import cached_jit
 from cas_freq.simulation.second_order import C_SERIES, D_SERIES, S_SERIES
 
 

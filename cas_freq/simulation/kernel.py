@@ -46,6 +46,7 @@ import numba
 import numpy as np
 from numba import prange
 
+from cas_freq.jit import cached_jit as _jit
 from cas_freq.simulation import mechanics as mech
 from cas_freq.simulation.controllers import derivative_filter
 from cas_freq.simulation.delay_line import delay_steps, ring_size
@@ -53,7 +54,6 @@ from cas_freq.simulation.engine import (
     SIGNALS,
     plant_step_matrices,
 )
-from cas_freq.simulation.jit import cached_jit as _jit
 
 # numba's threading layer: workqueue unless NUMBA_THREADING_LAYER chooses. The default order
 # picks GNU OpenMP where present, and a process forked after a parallel kernel ran (a

@@ -61,6 +61,7 @@ import warnings
 import numpy as np
 
 from cas_freq.exceptions import ConfigError, ModelError
+from cas_freq.jit import ENGINE_ENV, ENGINES, engine_name  # noqa: F401 (re-exported)
 from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.engine import FLAG_SIGNALS, CommandSet, Engine
 
@@ -83,10 +84,6 @@ MAX_STEP_RUNS = 200_000_000
 MAX_MEMORY_BYTES = 2 * 2**30
 #: Environment variable: a factor (> 0) on the three budgets.
 BUDGET_ENV = "CAS_FREQ_BUDGET"
-#: Environment variable choosing the engine: ``compiled`` (default) or ``reference``.
-ENGINE_ENV = "CAS_FREQ_ENGINE"
-#: Engines: the numba kernel and the numpy reference.
-ENGINES = ("compiled", "reference")
 #: Estimated bytes per recorded sample and run (7 float and 2 bool signals, held up to about
 #: three times while a horizon is assembled and transposed).
 _BYTES_PER_SAMPLE = 200
@@ -262,33 +259,6 @@ def budget_runs(steps, dt, record_every=1, max_delay_s=0.0):
     per_run = memory_estimate(1, steps, record_every, max_delay_s, dt) - _BYTES_PER_STEP * steps
     by_memory = (MAX_MEMORY_BYTES * factor - _BYTES_PER_STEP * steps) / per_run
     return int(max(0.0, min(MAX_STEP_RUNS * factor / max(steps, 1), by_memory)))
-
-
-def engine_name(requested=None):
-    """The engine a simulation uses: ``requested``, else ``$CAS_FREQ_ENGINE``, else compiled.
-
-    Parameters
-    ----------
-    requested : {"compiled", "reference"} or None
-        The caller's choice.
-
-    Returns
-    -------
-    str
-        ``"compiled"`` or ``"reference"``.
-
-    Raises
-    ------
-    ConfigError
-        For another name (naming where it came from).
-    """
-    source = "engine"
-    if requested is None:
-        requested = os.environ.get(ENGINE_ENV, "").strip().lower() or "compiled"
-        source = ENGINE_ENV
-    if requested not in ENGINES:
-        raise ConfigError(f"{source}: expected one of {', '.join(ENGINES)}, got {requested!r}")
-    return requested
 
 
 def engine_class(requested=None):
