@@ -6,6 +6,8 @@ responses of large batches) has a numpy reference it is tested against.
 reference instead; numba is imported only by the kernels' modules.
 """
 
+import functools
+import importlib.util
 import os
 
 from cas_freq.exceptions import ConfigError
@@ -14,6 +16,9 @@ from cas_freq.exceptions import ConfigError
 ENGINE_ENV = "CAS_FREQ_ENGINE"
 #: Engines: the numba kernels and the numpy references.
 ENGINES = ("compiled", "reference")
+#: Array size (points) from which the frequency-domain analysis uses its compiled kernels:
+#: below it numpy is about as fast, and a single analysis needs no numba.
+COMPILED_FROM = 65_536
 
 
 def engine_name(requested=None):
@@ -41,6 +46,19 @@ def engine_name(requested=None):
     if requested not in ENGINES:
         raise ConfigError(f"{source}: expected one of {', '.join(ENGINES)}, got {requested!r}")
     return requested
+
+
+def compiled_for(points):
+    """True where an analysis step on ``points`` array points should take its compiled kernel:
+    at least :data:`COMPILED_FROM` points, the compiled engine chosen (:func:`engine_name`) and
+    numba installed (else the numpy reference runs, with the same results)."""
+    return (points >= COMPILED_FROM and engine_name() == "compiled"
+            and _numba_installed())
+
+
+@functools.cache
+def _numba_installed():
+    return importlib.util.find_spec("numba") is not None
 
 
 def cached_jit(**options):

@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 
 from cas_freq.analysis import FIGURES, batch_analyze, response_kernel
-from cas_freq.analysis.analyze import COMPILED_FROM
 from cas_freq.analysis.frequency import (
     DEFAULT_POINTS_PER_DECADE,
     DEFAULT_RANGE_RAD_S,
@@ -20,6 +19,7 @@ from cas_freq.analysis.frequency import (
 )
 from cas_freq.analysis.response_kernel import grid_responses
 from cas_freq.config import load_variant
+from cas_freq.jit import COMPILED_FROM
 from cas_freq.model.delay import EXACT, DelayModel
 from cas_freq.model.loops import Selector, responses
 from cas_freq.parameters import LoopParameters, variant_parameters

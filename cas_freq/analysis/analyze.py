@@ -44,15 +44,12 @@ from cas_freq.analysis.stability import (
     stability_verdicts,
 )
 from cas_freq.fileio import json_ready
-from cas_freq.jit import engine_name
+from cas_freq.jit import compiled_for
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, EXACT, DelayModel
 from cas_freq.model.loops import Selector, current_loop, responses
 
 #: Variants per chunk: the grid responses take about 26 kB per variant and response.
 DEFAULT_CHUNK = 256
-#: Grid points (runs x frequencies) from which the responses are computed by the compiled
-#: kernel: below, numpy is as fast and a single analysis needs no numba.
-COMPILED_FROM = 65_536
 
 #: Every figure name of a batch analysis, in output order (``stable`` is 1.0 or 0.0).
 FIGURES = (
@@ -145,16 +142,13 @@ def _figures_on(p, omega, verdict, current_verdict, columns=None, delay=EXACT,
 
 
 def _grid_responses(p, omega, n, delay):
-    """L_i, L_p and T on the grid: compiled (:mod:`cas_freq.analysis.response_kernel`) for
-    :data:`COMPILED_FROM` points or more, unless ``CAS_FREQ_ENGINE=reference`` or numba is
-    missing; numpy (:func:`cas_freq.model.loops.responses`) otherwise."""
-    if n * omega.size >= COMPILED_FROM and engine_name() == "compiled":
-        try:
-            from cas_freq.analysis.response_kernel import grid_responses
-        except ImportError:  # no numba: the numpy reference gives the same responses
-            pass
-        else:
-            return grid_responses(p, omega, n, delay)
+    """L_i, L_p and T on the grid: compiled (:mod:`cas_freq.analysis.response_kernel`) where
+    :func:`cas_freq.jit.compiled_for` says so, else numpy (:func:`cas_freq.model.loops.responses`,
+    the reference)."""
+    if compiled_for(n * omega.size):
+        from cas_freq.analysis.response_kernel import grid_responses
+
+        return grid_responses(p, omega, n, delay)
     return responses(p, 1j * omega, delay=delay)
 
 

@@ -16,6 +16,7 @@ import numpy as np
 from cas_freq.analysis.margins import _first_true, _maxima, phase_jumps
 from cas_freq.analysis.roots import refine_roots
 from cas_freq.formulas import HALF_POWER
+from cas_freq.jit import compiled_for
 
 #: Closed-loop figures, as in the JSON of ``analyze``.
 CLOSED_LOOP_FIGURES = ("dc_gain_db", "bandwidth_rad_s", "peak_db", "peak_rad_s", "phase_90_rad_s")
@@ -73,7 +74,8 @@ def closed_loop_figures(evaluate, omega, response, valid):
         out["_peak"] = np.full(n, np.nan)
         out["_maximum_at_top"] = np.zeros(n, dtype=bool)
         return out
-    response = response[runs]
+    if runs.size < n:
+        response = response[runs]
     log_w = np.log(omega)
     dc = np.abs(evaluate(runs, np.full(runs.size, omega[0] * 1e-3)))
     magnitude = np.abs(response) / dc[:, None]
@@ -124,9 +126,7 @@ def _first_phase_90(response):
     except at the crossing. Rows with a jump before their crossing are unwrapped in full.
     """
     n, m = response.shape
-    above = (response.real > 0) | (response.imag >= 0)
-    crossing = _first_true(above[:, :-1] & ~above[:, 1:])
-    jump = _first_true(phase_jumps(response))
+    crossing, jump = first_fall_below_90(response)
     simple = (crossing < m - 1) & (jump > crossing)
     hard = np.flatnonzero(jump <= crossing)
     rows = np.flatnonzero(simple)
@@ -145,6 +145,25 @@ def _first_phase_90(response):
     parts = [np.concatenate([f[i] for f in found]) for i in range(5)]
     order = np.argsort(parts[0], kind="stable")
     return tuple(part[order] for part in parts)
+
+
+def first_fall_below_90(response):
+    """Per row (n, m): the first k where the phase falls below -90 deg between k and k + 1
+    while unwrapped from the first point (the point leaves ``Re > 0 or Im >= 0``), m - 1 if
+    it never does; and the first phase jump (:func:`phase_jumps`), m - 1 if none. A jump
+    after the crossing is reported as m - 1 on the compiled path, which stops at the crossing
+    (:mod:`cas_freq.analysis.scan_kernel`, on large arrays: :func:`cas_freq.jit.compiled_for`);
+    :func:`_first_phase_90` only asks whether the jump comes after the crossing.
+    """
+    if compiled_for(response.size):
+        from cas_freq.analysis.scan_kernel import first_fall_below_90 as kernel
+
+        crossing = np.empty(response.shape[0], dtype=np.int64)
+        jump = np.empty(response.shape[0], dtype=np.int64)
+        kernel(response, crossing, jump)
+        return crossing, jump
+    above = (response.real > 0) | (response.imag >= 0)
+    return _first_true(above[:, :-1] & ~above[:, 1:]), _first_true(phase_jumps(response))
 
 
 def figures_of_run(figures, run=0):

@@ -41,6 +41,7 @@ import math
 import numpy as np
 
 from cas_freq.analysis.roots import refine_maxima, refine_roots
+from cas_freq.jit import compiled_for
 
 #: Phase crossings refined: those within this of the best grid estimate of their kind [dB].
 CANDIDATE_DB = 1.0
@@ -164,6 +165,22 @@ def _first_true(mask):
     return np.where(has, np.argmax(mask, axis=1), mask.shape[1])
 
 
+def first_turned_jumps(response, rows, turn, width):
+    """For each of ``rows``, the first k < width - 1 where ``response[row, :width] * turn``
+    jumps (:func:`phase_jumps`) between k and k + 1, else width - 1.
+
+    Compiled (:mod:`cas_freq.analysis.scan_kernel`, stopping at each row's first jump) on
+    large arrays (:func:`cas_freq.jit.compiled_for`); this numpy form is its reference.
+    """
+    if compiled_for(rows.size * width):
+        from cas_freq.analysis.scan_kernel import first_turned_jumps as kernel
+
+        out = np.empty(rows.size, dtype=np.int64)
+        kernel(response, rows.astype(np.int64), np.asarray(turn, dtype=complex), width, out)
+        return out
+    return _first_true(phase_jumps(response[rows, :width] * turn[:, None]))
+
+
 def continuous_phase_at(response, omega, rows, columns):
     """Continuous phase [rad] of ``response[rows, columns]``, unwrapped from the first grid
     point on the branch set by the low-frequency asymptote (-90° per integrator).
@@ -178,9 +195,10 @@ def continuous_phase_at(response, omega, rows, columns):
         return out
     width = int(columns.max()) + 1
     needed = np.unique(rows)
-    turned = response[needed, :width] * np.exp(-1j * target[needed])[:, None]
     first_jump = np.full(response.shape[0], width)
-    first_jump[needed] = _first_true(phase_jumps(turned)) if width > 1 else width
+    if width > 1:
+        first_jump[needed] = first_turned_jumps(response, needed,
+                                                np.exp(-1j * target[needed]), width)
     simple = columns <= first_jump[rows]
     value = response[rows, columns] * np.exp(-1j * target[rows])
     out[simple] = np.angle(value[simple]) + target[rows[simple]]

@@ -1,0 +1,112 @@
+"""The compiled first-event scans against their numpy references (exact: they return indices).
+
+:func:`cas_freq.analysis.margins.first_turned_jumps` and
+:func:`cas_freq.analysis.closed_loop.first_fall_below_90` run their kernel
+(:mod:`cas_freq.analysis.scan_kernel`) on large arrays and numpy below
+:data:`cas_freq.jit.COMPILED_FROM`; ``CAS_FREQ_ENGINE=reference`` forces numpy. Both forms
+make the same comparisons on the same products, so the indices must be equal. The responses:
+the loops of random variants of two actuators (many jumps and crossings, on the analysis
+grid), spirals built to jump at known points, and rows with NaN, with no event, and with an
+event at the first or the last interval.
+"""
+
+import numpy as np
+import pytest
+
+from cas_freq.analysis.closed_loop import first_fall_below_90
+from cas_freq.analysis.frequency import (
+    DEFAULT_POINTS_PER_DECADE,
+    DEFAULT_RANGE_RAD_S,
+    frequency_grid,
+)
+from cas_freq.analysis.margins import first_turned_jumps
+from cas_freq.config import load_variant
+from cas_freq.model.loops import Selector, responses
+from cas_freq.parameters import variant_parameters
+
+
+def _loops(config, variant, n=48, seed=0):
+    loaded = load_variant(config, variant)
+    rng = np.random.default_rng(seed)
+    base = {"position_loop.Kp": loaded.params.position_loop.Kp,
+            "position_loop.Kd": loaded.params.position_loop.Kd,
+            "current_loop.Kp": loaded.params.current_loop.Kp}
+    params = variant_parameters(loaded.params,
+                                {k: v * rng.uniform(0.3, 3.0, n) for k, v in base.items()})
+    omega = frequency_grid(*DEFAULT_RANGE_RAD_S, DEFAULT_POINTS_PER_DECADE, 0.001)
+    grid = responses(Selector(params)(column=True), 1j * omega)
+    return [np.broadcast_to(r, (n, omega.size)).copy()
+            for r in (grid.current_loop, grid.position_loop, grid.closed_loop)]
+
+
+def _synthetic(m=400):
+    k = np.arange(m)
+    rows = [
+        np.exp(-1j * 0.02 * k) * (1 + k / m),           # a slow clockwise spiral: jumps at pi
+        np.exp(1j * 0.05 * k),                          # anticlockwise: jumps the other way
+        np.full(m, 1.0 + 0.5j),                         # nothing happens
+        np.exp(-1j * (np.pi / 2 + 0.01 * k)),           # below -90 deg from the start
+        np.where(k < 1, 1j, -1.0 - 1e-3j),              # event in the first interval
+        np.where(k < m - 1, 1.0 + 0j, -1.0 - 1e-3j),    # event in the last interval
+        np.where(k == 7, np.nan + 0j, np.exp(-1j * 0.03 * k)),  # a NaN on the way
+    ]
+    return np.array(rows)
+
+
+def _arrays():
+    arrays = _loops("configs/qt_cas.yaml", "base") + _loops("configs/dc_servo.yaml", "base")
+    return arrays + [_synthetic()]
+
+
+def _reference(monkeypatch, function, *args):
+    monkeypatch.setenv("CAS_FREQ_ENGINE", "reference")
+    return function(*args)
+
+
+def _compiled(monkeypatch, function, *args):
+    monkeypatch.setenv("CAS_FREQ_ENGINE", "compiled")
+    monkeypatch.setattr("cas_freq.jit.COMPILED_FROM", 0)
+    return function(*args)
+
+
+@pytest.mark.parametrize("index", range(7))
+def test_first_turned_jumps_equal_numpy(monkeypatch, index):
+    response = _arrays()[index]
+    n, m = response.shape
+    rng = np.random.default_rng(index)
+    rows = np.unique(rng.integers(0, n, n))
+    turn = np.exp(-1j * rng.integers(-3, 1, rows.size) * np.pi / 2)
+    view = response[:, : m - 3]  # the analysis passes column slices of its grid
+    for array, width in ((response, 2), (response, m // 3), (response, m), (view, m - 3)):
+        expected = _reference(monkeypatch, first_turned_jumps, array, rows, turn, width)
+        got = _compiled(monkeypatch, first_turned_jumps, array, rows, turn, width)
+        np.testing.assert_array_equal(got, expected)
+    assert np.any(expected < width - 1), "no jump at all: the case tests nothing"
+
+
+@pytest.mark.parametrize("index", range(7))
+def test_first_fall_below_90_agrees_with_numpy(monkeypatch, index):
+    response = _arrays()[index]
+    response = response[:, 1:]  # a column slice, as the analysis passes
+    m = response.shape[1]
+    crossing, jump = _reference(monkeypatch, first_fall_below_90, response)
+    got_crossing, got_jump = _compiled(monkeypatch, first_fall_below_90, response)
+    np.testing.assert_array_equal(got_crossing, crossing)
+    # the kernel stops at the crossing: a later jump is m - 1 there; what the caller asks,
+    # whether the jump comes after the crossing, is the same
+    np.testing.assert_array_equal(got_jump <= got_crossing, jump <= crossing)
+    before = jump <= crossing
+    np.testing.assert_array_equal(got_jump[before], jump[before])
+    assert np.all(got_jump[~before] == m - 1)
+
+
+def test_the_synthetic_rows_have_their_events_where_built():
+    response = _synthetic()
+    m = response.shape[1]
+    crossing, jump = first_fall_below_90(response)
+    assert crossing[2] == m - 1 and jump[2] == m - 1  # nothing happens
+    assert crossing[4] == 0 and crossing[5] == m - 2
+    # the clockwise spiral falls below -90 deg after 0.02 k > pi/2 and jumps after pi
+    assert crossing[0] == int(np.ceil(np.pi / 2 / 0.02)) - 1
+    assert jump[0] == int(np.ceil(np.pi / 0.02)) - 1 > crossing[0]
+
