@@ -1,10 +1,11 @@
-"""The compiled first-event scans against their numpy references (exact: they return indices).
+"""The compiled grid scans against their numpy references, to the bit.
 
-:func:`cas_freq.analysis.margins.first_turned_jumps` and
+:func:`cas_freq.analysis.margins.first_turned_jumps`, ``magnitudes``, ``_long_chords`` and
 :func:`cas_freq.analysis.closed_loop.first_fall_below_90` run their kernel
 (:mod:`cas_freq.analysis.scan_kernel`) on large arrays and numpy below
 :data:`cas_freq.jit.COMPILED_FROM`; ``CAS_FREQ_ENGINE=reference`` forces numpy. Both forms
-make the same comparisons on the same products, so the indices must be equal. The responses:
+make the same comparisons on the same products (the magnitudes: the same operations in the
+same order), so the indices and values must be equal. The responses:
 the loops of random variants of two actuators (many jumps and crossings, on the analysis
 grid), spirals built to jump at known points, and rows with NaN, with no event, and with an
 event at the first or the last interval.
@@ -19,7 +20,7 @@ from cas_freq.analysis.frequency import (
     DEFAULT_RANGE_RAD_S,
     frequency_grid,
 )
-from cas_freq.analysis.margins import first_turned_jumps
+from cas_freq.analysis.margins import _long_chords, first_turned_jumps, magnitudes
 from cas_freq.config import load_variant
 from cas_freq.model.loops import Selector, responses
 from cas_freq.parameters import variant_parameters
@@ -110,3 +111,18 @@ def test_the_synthetic_rows_have_their_events_where_built():
     assert crossing[0] == int(np.ceil(np.pi / 2 / 0.02)) - 1
     assert jump[0] == int(np.ceil(np.pi / 0.02)) - 1 > crossing[0]
 
+
+
+@pytest.mark.parametrize("index", range(7))
+def test_magnitudes_and_long_chords_equal_numpy_to_the_bit(monkeypatch, index):
+    response = _arrays()[index][:, 2:]  # a column slice, as the analysis passes
+    expected = _reference(monkeypatch, magnitudes, response)
+    got = _compiled(monkeypatch, magnitudes, response)
+    for a, b in zip(got, expected, strict=True):
+        np.testing.assert_array_equal(a, b)
+    rows, k = _reference(monkeypatch, _long_chords, response, expected[1])
+    got_rows, got_k = _compiled(monkeypatch, _long_chords, response, expected[1])
+    np.testing.assert_array_equal(got_rows, rows)
+    np.testing.assert_array_equal(got_k, k)
+    if index in (1, 2, 6):  # loops of the shipped actuator and spirals that pass near -1
+        assert rows.size > 0

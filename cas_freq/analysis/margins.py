@@ -361,6 +361,39 @@ def _parabola_vertex(x, y):
     return np.where(a != 0, y1 - b * b / (4.0 * a), y1)
 
 
+def _long_chords(inner, distance2):
+    """(rows, k) of the grid intervals whose chord is longer than sqrt(3) times the distance
+    of its nearer end to -1 (``distance2``: |1 + L|^2), in row-major order; compiled on large
+    arrays (:mod:`cas_freq.analysis.scan_kernel`), this numpy form its reference."""
+    if compiled_for(inner.size):
+        from cas_freq.analysis.scan_kernel import long_chords
+
+        empty = np.empty(0, dtype=np.int64)
+        count = long_chords(inner, distance2, empty, empty)
+        rows, k = np.empty(count, dtype=np.int64), np.empty(count, dtype=np.int64)
+        long_chords(inner, distance2, rows, k)
+        return rows, k
+    chord = inner[:, 1:] - inner[:, :-1]
+    length2 = chord.real ** 2 + chord.imag ** 2
+    return np.nonzero(length2 > 3.0 * np.minimum(distance2[:, :-1], distance2[:, 1:]))
+
+
+def magnitudes(response):
+    """|L|^2, |1 + L|^2 and the disk-margin ratio |1 - L|^2 / |1 + L|^2 on the grid (n, m);
+    compiled in one pass on large arrays (:mod:`cas_freq.analysis.scan_kernel`, the same
+    operations), this numpy form its reference."""
+    if compiled_for(response.size):
+        from cas_freq.analysis.scan_kernel import magnitudes as kernel
+
+        squared, plus, disk = (np.empty(response.shape) for _ in range(3))
+        kernel(response, squared, plus, disk)
+        return squared, plus, disk
+    re, im = response.real, response.imag
+    plus = (re + 1.0) ** 2 + im * im
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return re * re + im * im, plus, ((re - 1.0) ** 2 + im * im) / plus
+
+
 def near_minus_one_probes(omega, inner, runs=None, distance2=None):
     """Probes where an inner loop L_i passes close to -1 between two grid samples.
 
@@ -393,12 +426,12 @@ def near_minus_one_probes(omega, inner, runs=None, distance2=None):
         plus = inner + 1.0
         distance2 = plus.real ** 2 + plus.imag ** 2
     ends2 = distance2
-    chord = inner[:, 1:] - inner[:, :-1]
-    length2 = chord.real ** 2 + chord.imag ** 2
-    rows, k = np.nonzero(length2 > 3.0 * np.minimum(ends2[:, :-1], ends2[:, 1:]))
+    rows, k = _long_chords(inner, ends2)
     if rows.size == 0:
         return Probes.none()
-    a, chord, length2 = inner[rows, k], chord[rows, k], length2[rows, k]
+    a = inner[rows, k]
+    chord = inner[rows, k + 1] - a
+    length2 = chord.real ** 2 + chord.imag ** 2
     to_point = -1.0 - a
     t = (chord.real * to_point.real + chord.imag * to_point.imag) / length2
     inside = (t > 0.0) & (t < 1.0)
@@ -489,9 +522,9 @@ def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=Fal
     """
     n = response.shape[0]
     log_w = np.log(omega)
-    re, im = response.real, response.imag
+    im = response.imag
     out = {}
-    squared = re * re + im * im
+    squared, plus, disk = magnitudes(response)
     probes = extremum_probes(evaluate, omega, response, squared) + (probes or Probes.none())
     samples = _samples(evaluate, log_w, response, probes)
 
@@ -552,14 +585,12 @@ def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=Fal
 
     # Sensitivity peak and disk margin, refined together.
     every = np.arange(n)
-    plus = (re + 1.0) ** 2 + im * im  # |1 + L|^2
     if inner:
         out["_inner_probes"] = near_minus_one_probes(omega, response, distance2=plus)
     (s_w, s_value, _), (d_w, distance, _) = _maxima(
         evaluate, omega,
         [(every, -plus, lambda v, i: 1.0 / np.abs(1.0 + v), response),
-         (every, ((re - 1.0) ** 2 + im * im) / plus, lambda v, i: _disk_distance(v),
-          response)],
+         (every, disk, lambda v, i: _disk_distance(v), response)],
     )
     # for the grid split of the analysis: the raw maxima and whether they are at the top end
     out["_sensitivity_max"], out["_disk_distance_max"] = s_value, distance

@@ -1,11 +1,15 @@
-"""Scans of a batch's grid responses that stop at the first event of each row (numba).
+"""Scans of a batch's grid responses, compiled (numba): first events, magnitudes, chords.
+
+:func:`first_turned_jumps` and :func:`first_fall_below_90` stop at the first event of each
+row; :func:`magnitudes` and :func:`long_chords` compute in one pass what numpy computes in
+several, with the same operations in the same order (so the same numbers, to the bit).
 
 The numpy forms in :mod:`cas_freq.analysis.margins` and :mod:`cas_freq.analysis.closed_loop`
 (the references, ``tests/test_scan_kernel.py``) test every grid point of every row and then
 take the first; these kernels walk each row only up to its first event, with the same tests
 (:func:`~cas_freq.analysis.margins.phase_jumps`: the sign of the cross product of
 neighbouring points where the imaginary part changes sign). On the batches of
-``benchmarks/run.py`` they replace two full passes over (256 x 1,601) arrays per loop.
+``benchmarks/run.py`` they replace about ten full passes over (256 x 1,601) arrays per loop.
 """
 
 from cas_freq.jit import cached_jit
@@ -55,3 +59,37 @@ def first_fall_below_90(response, crossing, jump):
                 crossing[i] = k
                 break
             previous, above = current, next_above
+
+
+@cached_jit(nogil=True)
+def magnitudes(response, squared, plus, disk):
+    """|L|^2, |1 + L|^2 and |1 - L|^2 / |1 + L|^2 of every point, in one pass."""
+    n, m = response.shape
+    for i in range(n):
+        for k in range(m):
+            re, im = response[i, k].real, response[i, k].imag
+            im2 = im * im
+            squared[i, k] = re * re + im2
+            shifted = re + 1.0
+            plus[i, k] = shifted * shifted + im2
+            shifted = re - 1.0
+            disk[i, k] = (shifted * shifted + im2) / plus[i, k]
+
+
+@cached_jit(nogil=True)
+def long_chords(inner, distance2, rows, columns):
+    """The intervals (row, k) where the chord from point k to k + 1 is longer than sqrt(3)
+    times the nearer end's distance to -1, in row-major order; returns how many (the first
+    that many entries of ``rows`` and ``columns``; call with empty arrays to count)."""
+    n, m = inner.shape
+    count = 0
+    for i in range(n):
+        for k in range(m - 1):
+            chord = inner[i, k + 1] - inner[i, k]
+            length2 = chord.real * chord.real + chord.imag * chord.imag
+            # (min, unlike numpy.minimum, may drop a NaN; a NaN end makes the chord NaN)
+            if length2 > 3.0 * min(distance2[i, k], distance2[i, k + 1]):
+                if count < rows.size:
+                    rows[count], columns[count] = i, k
+                count += 1
+    return count
