@@ -236,11 +236,13 @@ def test_report_built_twice_is_byte_identical(two_builds):
 
 def test_figures_drawn_in_worker_processes_equal_drawn_here(two_builds, tmp_path):
     # build_report draws the figures in FIGURE_WORKERS forked processes by default; drawn in
-    # this process instead, every file is the same byte for byte
+    # this process instead, every file is the same byte for byte (the load envelope's figure
+    # included: a worker draws it while the report is computed)
     one, _ = two_builds
     here = build_report([load_variant(None, "fitted")], tmp_path / "here", settings=FAST,
                         workers=1)
     assert _files(here) == _files(one)
+    assert "figures/fitted/load_envelope.svg" in _files(one)
 
 
 def test_report_is_written_at_the_stated_precision(two_builds):

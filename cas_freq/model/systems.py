@@ -142,6 +142,26 @@ def _position_closed_loop(p, c_p, seen, l_p):
                                 outputs="fin" if seen.noutputs == 2 else "theta")
 
 
+def closed_loop_zeros(params, pade_order):
+    """Zeros [rad/s] of python-control's T = δ/δ_cmd with Padé delays of ``pade_order``.
+
+    Parameters
+    ----------
+    params : cas_freq.config.ActuatorConfig
+        One variant.
+    pade_order : int
+        Padé order of both delays (that of the engine's poles).
+
+    Returns
+    -------
+    numpy.ndarray
+        Complex zeros [rad/s], sorted by real part then imaginary part.
+    """
+    zeros = np.asarray(control.zeros(linear_model(params, pade_order).closed_loop), complex)
+    zeros = zeros[np.isfinite(zeros)]
+    return zeros[np.lexsort((zeros.imag, zeros.real))]
+
+
 def exact_frequency_responses(loops, omega):
     """The loops' exact-delay frequency responses as python-control FRD objects.
 

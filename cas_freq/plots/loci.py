@@ -215,28 +215,15 @@ def nyquist_caption(data):  # noqa: ARG001  (the same for every variant)
 VIEW_SPAN = 2.5
 
 
-def closed_loop_zeros(params, pade_order):
-    """Zeros [rad/s] of python-control's T = δ/δ_cmd with Padé delays of ``pade_order``.
+def closed_loop_zeros(data):
+    """Zeros [rad/s] of T of a variant's data: those computed with its time-domain part
+    (:func:`cas_freq.report.data.gather_time`), else computed here (python-control)."""
+    known = getattr(data, "closed_loop_zeros", None)  # data of the figure API may lack them
+    if known is not None:
+        return np.asarray(known, dtype=complex)
+    from cas_freq.model.systems import closed_loop_zeros as zeros
 
-    Parameters
-    ----------
-    params : cas_freq.config.ActuatorConfig
-        One variant.
-    pade_order : int
-        Padé order of both delays (that of the engine's poles).
-
-    Returns
-    -------
-    numpy.ndarray
-        Complex zeros [rad/s], sorted by real part then imaginary part.
-    """
-    import control
-
-    from cas_freq.model.systems import linear_model
-
-    zeros = np.asarray(control.zeros(linear_model(params, pade_order).closed_loop), complex)
-    zeros = zeros[np.isfinite(zeros)]
-    return zeros[np.lexsort((zeros.imag, zeros.real))]
+    return zeros(data.loaded.params, data.analysis.stability.pade_order)
 
 
 def engine_poles(analysis):
@@ -319,7 +306,7 @@ def pole_zero(data):
     a = data.analysis
     order = a.stability.pade_order
     poles = engine_poles(a)
-    zeros = closed_loop_zeros(data.loaded.params, order)
+    zeros = closed_loop_zeros(data)
     view = pole_zero_view(a, poles)
     (x0, x1), (y0, y1) = view
     layout = Margins(top=0.6)
@@ -364,7 +351,7 @@ def pole_zero_caption(data):
     """Caption of :func:`pole_zero` for one variant: what lies outside the view."""
     a = data.analysis
     poles = engine_poles(a)
-    zeros = closed_loop_zeros(data.loaded.params, a.stability.pade_order)
+    zeros = closed_loop_zeros(data)
     view = pole_zero_view(a, poles)
     (x0, x1), (y0, y1) = view
     return (f"Closed-loop pole-zero map of T (Padé {a.stability.pade_order} delays, the poles "

@@ -617,9 +617,10 @@ VARIANT_FIGURES = {
 }
 
 #: The figures drawn from the frequency responses alone (``data.curves`` and ``data.analysis``,
-#: no simulation and no verdicts): they can be drawn from
-#: :func:`cas_freq.report.data.gather_frequency`'s data while the variant is simulated.
-FREQUENCY_FIGURES = ("bode_loops", "sensitivity", "nichols", "nyquist", "pole_zero")
+#: no simulation, no verdicts and no python-control): they can be drawn from
+#: :func:`cas_freq.report.data.gather_frequency`'s data while the variant is simulated. (The
+#: pole-zero map takes T's zeros, which the time-domain part computes with python-control.)
+FREQUENCY_FIGURES = ("bode_loops", "sensitivity", "nichols", "nyquist")
 
 
 # ---- overlays for compare -------------------------------------------------------------------

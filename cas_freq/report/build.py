@@ -573,13 +573,24 @@ def _render_share(data, share, shares, png, part):
     return render_figures(data, stems[share::shares], png)
 
 
+class _Later:
+    """A drawing done when its result is asked for (:meth:`FigureRenderer.draw` without
+    workers)."""
+
+    def __init__(self, function, args):
+        self.function, self.args = function, args
+
+    def result(self):
+        return self.function(*self.args)
+
+
 class FigureRenderer:
     """Draws each variant's figures while the caller computes: in ``workers`` processes, or in
     this process (at :meth:`results`) when ``workers`` is 1 or no process can be forked.
 
     The workers are forked (on Linux; elsewhere the figures are drawn here) on entry, after
-    this process has imported the figure code and python-control (once, not once per worker)
-    and before it computes anything. A variant can be sent twice: after
+    this process has imported the figure code (once, not once per worker) and before it
+    computes anything; they never import python-control. A variant can be sent twice: after
     :func:`~cas_freq.report.data.gather_frequency` for the figures of the frequency responses
     (``part="frequency"``), then complete for the others (``"time"``); or once (``"all"``).
     Each submission is split into ``workers`` shares (alternate stems), one
@@ -604,10 +615,9 @@ class FigureRenderer:
         if self.workers > 1 and sys.platform.startswith("linux"):
             from concurrent.futures import ProcessPoolExecutor
 
-            # imported once, before the fork, not by each worker: the figure code and
-            # python-control (the pole-zero map's zeros; this process needs it for the linear
-            # steps anyway), ~1 s each
-            import cas_freq.model.systems  # noqa: F401
+            # the figure code is imported once, before the fork, not by each worker (~0.6 s);
+            # python-control (~0.7 s) only here, after the fork, while the workers draw: it
+            # is needed for the linear steps and the zeros of T, which are computed here
             import cas_freq.plots.report  # noqa: F401
 
             try:
@@ -636,6 +646,14 @@ class FigureRenderer:
             self._variants[index][1] += [
                 self._pool.submit(_render_share, data, share, self.workers, self.png, part)
                 for share in range(self.workers)]
+
+    def draw(self, function, *args):
+        """Start ``function(*args)`` (a module-level drawing function) in a worker; returns an
+        object whose ``result()`` is its value (computed then, in this process, without
+        workers)."""
+        if self._pool is not None:
+            return self._pool.submit(function, *args)
+        return _Later(function, args)
 
     def results(self):
         """Per variant, {stem: (SVG text, PNG bytes or None, caption)} in figure order."""
@@ -671,10 +689,11 @@ def _figure_files(data, png, rendered=None):
     return blocks
 
 
-def report_files(datas, settings, *, png=False, command=None, rendered=None):
+def report_files(datas, settings, *, png=False, command=None, rendered=None, envelopes=None):
     """Every file of the report folder as (relative path, content), figures first.
     ``rendered``: per variant, its figures already drawn (:meth:`FigureRenderer.results`);
-    None draws them here, one after the other."""
+    None draws them here, one after the other. ``envelopes``: the load envelopes already
+    computed and drawn (:func:`cas_freq.report.envelope.envelope_section`'s ``computed``)."""
     from cas_freq.report import html, markdown
 
     figure_blocks = []
@@ -685,7 +704,8 @@ def report_files(datas, settings, *, png=False, command=None, rendered=None):
     from cas_freq.report.profile import profile_section
 
     profile = yield from profile_section(datas, png)  # nothing without a profile requirement
-    envelope = yield from envelope_section(datas, png)  # nothing without a load_envelope:
+    # nothing without a load_envelope:
+    envelope = yield from envelope_section(datas, png, envelopes)
     blocks = report_blocks(datas, figure_blocks, settings, command,
                            (*profile.blocks, *envelope.blocks))
     params = datas[0].loaded.params
@@ -745,8 +765,12 @@ def build_report(variants, out_dir=None, *, settings=None, verdicts=None, png=Fa
     if len(names) > 1:
         raise CasFreqError(f"report: variants of one config expected, got configs {sorted(names)}"
                            "; use `cas-freq compare` for several configs")
+    from cas_freq.report.envelope import compute_envelope, draw_envelope, envelope_variants
+
     settings = settings or ReportSettings()
-    datas = []
+    params = variants[0].params
+    enveloped = envelope_variants(params)
+    datas, envelopes = [], {}
     with FigureRenderer(workers, png) as renderer:
         for index, loaded in enumerate(variants):
             if progress:
@@ -755,7 +779,12 @@ def build_report(variants, out_dir=None, *, settings=None, verdicts=None, png=Fa
             renderer.submit(index, early, "frequency")
             datas.append(gather_time(early, settings, verdicts))
             renderer.submit(index, datas[-1], "time")
+            if enveloped is None or loaded.variant in enveloped:
+                # computed while the workers draw this variant's figures, then drawn by them
+                envelope = compute_envelope(datas[-1])
+                envelopes[loaded.variant] = (envelope, renderer.draw(
+                    draw_envelope, envelope, params.name, png))
         rendered = renderer.results()
-    target = Path(out_dir) if out_dir is not None else default_report_dir(variants[0].params.name)
-    return write_directory_atomic(target, report_files(datas, settings, png=png,
-                                                       command=command, rendered=rendered))
+        target = Path(out_dir) if out_dir is not None else default_report_dir(params.name)
+        return write_directory_atomic(target, report_files(
+            datas, settings, png=png, command=command, rendered=rendered, envelopes=envelopes))

@@ -143,6 +143,10 @@ class VariantData:
         Padé order of the linear step responses and of the Padé-vs-exact table.
     verdicts : tuple of dict or None
         Requirement verdicts of this variant; None when they were not evaluated.
+    closed_loop_zeros : numpy.ndarray or None
+        Zeros of T [rad/s] with Padé delays of the stability verdict's order (python-control,
+        :func:`cas_freq.model.systems.closed_loop_zeros`), computed with the time-domain part
+        (None before it).
     """
 
     loaded: object
@@ -155,6 +159,7 @@ class VariantData:
     curve_range_rad_s: tuple
     pade_order: int
     verdicts: tuple | None
+    closed_loop_zeros: np.ndarray | None = None
 
     @property
     def small_index(self):
@@ -425,6 +430,7 @@ def gather_time(data, settings=ReportSettings(), verdicts=None, progress=None):
     """``data`` of :func:`gather_frequency` completed: **one** sine-dwell batch (with the
     nonlinear step of every amplitude), the linear steps, the requirement verdicts (parameters
     as :func:`gather_variant`)."""
+    from cas_freq.model.systems import closed_loop_zeros
     from cas_freq.simulation.run import sinedwell_run
     from cas_freq.simulation.step_figures import step_figures
 
@@ -444,8 +450,10 @@ def gather_time(data, settings=ReportSettings(), verdicts=None, progress=None):
         chosen = None if found is None else tuple(dict(v) for v in found)
     else:
         chosen = select_verdicts(verdicts, loaded)
+    zeros = closed_loop_zeros(loaded.params, analysis.stability.pade_order)
     return dataclasses.replace(data, dwell=dwell, linear_steps=tuple(linear),
-                               linear_step_figures=tuple(linear_figures), verdicts=chosen)
+                               linear_step_figures=tuple(linear_figures), verdicts=chosen,
+                               closed_loop_zeros=zeros)
 
 
 def sinedwell_bandwidth(data, k):

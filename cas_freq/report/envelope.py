@@ -106,8 +106,28 @@ def table_rows(envelope):
     return header, tuple(rows)
 
 
-def envelope_section(datas, png=False):
-    """Compute and lay out the load envelope of each chosen variant.
+def envelope_variants(params):
+    """Names of the variants whose load envelope is asked for (() without a
+    ``load_envelope:``; None for every variant of the report)."""
+    spec = params.load_envelope
+    if spec is None:
+        return ()
+    return spec.variants or None
+
+
+def compute_envelope(data):
+    """The load envelope of one variant of the report (the config's ``load_envelope:``)."""
+    from cas_freq.studies.envelope import load_envelope
+
+    spec = data.loaded.params.load_envelope
+    known = data.analysis.drivetrain  # a loaded variant's range, computed by analyze
+    return load_envelope(data.loaded, spec.hinge_stiffness, spec.step, stable_range=None
+                         if known is None else known.stable_hinge_stiffness_n_m_rad)
+
+
+def envelope_section(datas, png=False, computed=None):
+    """Lay out the load envelope of each chosen variant (computing and drawing what
+    ``computed`` does not hold).
 
     A generator: yields (path, content) of each variant's figure and returns an
     :class:`EnvelopeSection`.
@@ -117,16 +137,21 @@ def envelope_section(datas, png=False):
     datas : list of cas_freq.report.data.VariantData
     png : bool
         Also write each figure as PNG.
+    computed : dict, optional
+        Variant name -> (envelope, drawing): its :func:`compute_envelope` and an object whose
+        ``result()`` is :func:`draw_envelope`'s (SVG, PNG) (a future of a process that drew
+        it while the report was being computed).
     """
     from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
     from cas_freq.report.outdir import sanitise_name
-    from cas_freq.studies.envelope import envelope_dict, load_envelope
+    from cas_freq.studies.envelope import envelope_dict
 
     params = datas[0].loaded.params
     spec = params.load_envelope
     if spec is None:
         return EnvelopeSection()
-    wanted = spec.variants or tuple(d.loaded.variant for d in datas)
+    computed = computed or {}
+    wanted = envelope_variants(params) or tuple(d.loaded.variant for d in datas)
     chosen = [d for d in datas if d.loaded.variant in wanted]
     grid = spec.hinge_stiffness
     blocks = [Heading(2, "Load envelope"), Paragraph(
@@ -145,9 +170,9 @@ def envelope_section(datas, png=False):
         blocks.append(Paragraph(f"Not in this report (not selected): {', '.join(missing)}."))
     results = []
     for data in chosen:
-        known = data.analysis.drivetrain  # a loaded variant's range, computed by analyze
-        envelope = load_envelope(data.loaded, grid, spec.step, stable_range=None if known is None
-                                 else known.stable_hinge_stiffness_n_m_rad)
+        envelope, drawing = computed.get(data.loaded.variant, (None, None))
+        if envelope is None:
+            envelope = compute_envelope(data)
         low, high = envelope.stable_range
         span = ("nowhere on the scan" if low is None and high is None else
                 f"for K_h from {'−∞' if low is None else number(low, 4)} to "
@@ -164,7 +189,8 @@ def envelope_section(datas, png=False):
         blocks.append(Table(header, rows, f"load envelope of {data.loaded.variant} (every "
                                           "grid point is in results.json and the figure)"))
         stem = f"figures/{sanitise_name(data.loaded.variant, fallback='variant')}/load_envelope"
-        svg, png_data = _draw(envelope, params.name, png)
+        svg, png_data = (draw_envelope(envelope, params.name, png) if drawing is None
+                         else drawing.result())
         yield f"{stem}.svg", svg
         if png:
             yield f"{stem}.png", png_data
@@ -175,7 +201,7 @@ def envelope_section(datas, png=False):
     return EnvelopeSection(blocks, results)
 
 
-def _draw(envelope, config_name, png):
+def draw_envelope(envelope, config_name, png):
     """(SVG text, PNG bytes or None) of the envelope's figure (imports matplotlib)."""
     from cas_freq.plots.common import png_bytes, svg_text
     from cas_freq.plots.envelope import envelope_figure
