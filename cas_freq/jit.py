@@ -1,9 +1,12 @@
 """Compiled code in cas_freq: numba's ``njit`` as the kernels use it, and the engine choice.
 
-Every compiled kernel (the simulation loop, the second-order fit's sums, the frequency
-responses of large batches) has a numpy reference it is tested against.
-``CAS_FREQ_ENGINE=reference`` (or ``engine="reference"`` where a function takes it) runs the
-reference instead; numba is imported only by the kernels' modules.
+Every compiled kernel has a numpy reference it is tested against: the simulation loop
+(:mod:`cas_freq.simulation.kernel`), the second-order fit's sums
+(:mod:`cas_freq.simulation.fit_kernel`), and, for large batches only (:data:`COMPILED_FROM`),
+the analysis' grid responses and scans (:mod:`cas_freq.analysis.response_kernel`,
+:mod:`cas_freq.analysis.scan_kernel`). ``CAS_FREQ_ENGINE=reference`` (or ``engine="reference"``
+where a function takes it) runs the references instead, as does a machine without numba; numba
+is imported only by the kernels' modules.
 """
 
 import functools
@@ -48,12 +51,17 @@ def engine_name(requested=None):
     return requested
 
 
+def use_compiled():
+    """True where the compiled kernels should run: the compiled engine chosen
+    (:func:`engine_name`) and numba installed (else the numpy references run, with the same
+    results)."""
+    return engine_name() == "compiled" and _numba_installed()
+
+
 def compiled_for(points):
-    """True where an analysis step on ``points`` array points should take its compiled kernel:
-    at least :data:`COMPILED_FROM` points, the compiled engine chosen (:func:`engine_name`) and
-    numba installed (else the numpy reference runs, with the same results)."""
-    return (points >= COMPILED_FROM and engine_name() == "compiled"
-            and _numba_installed())
+    """:func:`use_compiled`, for an analysis step on ``points`` array points: only from
+    :data:`COMPILED_FROM` points."""
+    return points >= COMPILED_FROM and use_compiled()
 
 
 @functools.cache

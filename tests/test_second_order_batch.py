@@ -145,6 +145,18 @@ def test_batch_equals_batch_of_one(fitted):
         _assert_same_fit(fit, reference, rel=1e-9, td_abs=1e-15, ci_rel=1e-7)
 
 
+def test_reference_engine_fits_the_same(fitted, monkeypatch):
+    # CAS_FREQ_ENGINE=reference: the sums come from the numpy form instead of the kernel,
+    # equal to ~1e-15 (test below), so the same minimum to the batch-of-one tolerance
+    _, responses, batch, _, _ = fitted
+    picked = responses[::4]
+    monkeypatch.setenv("CAS_FREQ_ENGINE", "reference")
+    reference = fit_second_order_batch([r[0] for r in picked], [r[1] for r in picked],
+                                       [r[2] for r in picked])
+    for fit, expected in zip(batch[::4], reference, strict=True):
+        _assert_same_fit(fit, expected, rel=1e-9, td_abs=1e-15, ci_rel=1e-7)
+
+
 def test_batch_recovers_truth(fitted):
     # Clean responses: the model itself, so its parameters to rounding: 1e-9 relative (found
     # 2e-14), td to 1e-12 s where it is 0 (its bound). Noisy ones (1 % white noise): the truth

@@ -29,6 +29,7 @@ import math
 import numpy as np
 
 from cas_freq.formulas import second_order_bandwidth
+from cas_freq.jit import use_compiled
 
 # scipy.optimize (the cross-check only) and scipy.special are imported inside the functions that
 # use them: importing scipy.optimize costs 0.4-0.7 s, which every CLI start paid through
@@ -372,8 +373,12 @@ def _normal_equations_at(t, unit, p, scale):
 
     Computed by the compiled :func:`cas_freq.simulation.fit_kernel.normal_equations`, in one
     pass over the samples; ``_normal_equations(*_residuals_and_jacobian(...))`` is its numpy
-    reference (the same to ~1e-15 relative). Arguments as in :func:`_residuals_and_jacobian`.
+    reference (the same to ~1e-15 relative), used with ``CAS_FREQ_ENGINE=reference`` or
+    without numba (:func:`cas_freq.jit.use_compiled`). Arguments as in
+    :func:`_residuals_and_jacobian`.
     """
+    if not use_compiled():
+        return _normal_equations(*_residuals_and_jacobian(t, unit, p, scale))
     from cas_freq.simulation.fit_kernel import normal_equations
 
     return normal_equations(*(np.ascontiguousarray(a, dtype=float) for a in (t, unit, p, scale)))
