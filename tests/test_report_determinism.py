@@ -117,6 +117,26 @@ def test_round_array_keeps_gaps():
     assert round_array(np.ones((2, 3)) / 3).shape == (2, 3)
 
 
+@pytest.mark.parametrize("digits", [3, 4, 6])
+def test_round_array_gives_formatted_floats_to_the_bit(digits):
+    # The vectorised rounding must give exactly float(format(v, ".6g")) (Python's correctly
+    # rounded formatting, the reference): random magnitudes over 42 decades, decimal values
+    # with exact ties at the last digit (0.1234565), powers of ten and their neighbouring
+    # floats (where log10 may be off), values that round up to the next power (999999.5).
+    rng = np.random.default_rng(digits)
+    powers = 10.0 ** np.arange(-9, 25, dtype=float)
+    values = np.concatenate([
+        rng.standard_normal(50_000) * 10.0 ** rng.uniform(-12, 30, 50_000),
+        np.round(rng.uniform(-1e7, 1e7, 50_000)) / 10.0 ** rng.integers(0, 9, 50_000),
+        powers, -powers, np.nextafter(powers, 0.0), np.nextafter(powers, np.inf),
+        [0.1234565, 1.234565, 999999.5, 9999995.0, 0.5, 2.5e-7, 1.5e300, -3.7e-300, 1e-9],
+    ])
+    expected = [float(format(v, f".{digits}g")) + 0.0 if abs(v) >= ZERO else 0.0
+                for v in values.tolist()]
+    got = round_array(values, digits)
+    np.testing.assert_array_equal(got.view(np.int64), np.array(expected).view(np.int64))
+
+
 # ---- comparing results.json within the written precision ---------------------------------------
 
 def test_json_differences_within_the_written_precision():

