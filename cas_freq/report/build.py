@@ -647,6 +647,11 @@ class FigureRenderer:
                 self._pool.submit(_render_share, data, share, self.workers, self.png, part)
                 for share in range(self.workers)]
 
+    @property
+    def parallel(self):
+        """True when worker processes draw (else everything is done in this process)."""
+        return self._pool is not None
+
     def draw(self, function, *args):
         """Start ``function(*args)`` (a module-level drawing function) in a worker; returns an
         object whose ``result()`` is its value (computed then, in this process, without
@@ -765,13 +770,20 @@ def build_report(variants, out_dir=None, *, settings=None, verdicts=None, png=Fa
     if len(names) > 1:
         raise CasFreqError(f"report: variants of one config expected, got configs {sorted(names)}"
                            "; use `cas-freq compare` for several configs")
-    from cas_freq.report.envelope import compute_envelope, draw_envelope, envelope_variants
+    from cas_freq.report.envelope import envelope_job, envelope_variants
 
     settings = settings or ReportSettings()
     params = variants[0].params
     enveloped = envelope_variants(params)
     datas, envelopes = [], {}
     with FigureRenderer(workers, png) as renderer:
+        if renderer.parallel:
+            # a worker computes and draws the load envelopes first, while this process
+            # analyses and simulates the first variant (the other worker draws its figures)
+            envelopes = {loaded.variant: renderer.draw(envelope_job, loaded, None, params.name,
+                                                       png)
+                         for loaded in variants
+                         if enveloped is None or loaded.variant in enveloped}
         for index, loaded in enumerate(variants):
             if progress:
                 progress(loaded.variant)
@@ -779,11 +791,6 @@ def build_report(variants, out_dir=None, *, settings=None, verdicts=None, png=Fa
             renderer.submit(index, early, "frequency")
             datas.append(gather_time(early, settings, verdicts))
             renderer.submit(index, datas[-1], "time")
-            if enveloped is None or loaded.variant in enveloped:
-                # computed while the workers draw this variant's figures, then drawn by them
-                envelope = compute_envelope(datas[-1])
-                envelopes[loaded.variant] = (envelope, renderer.draw(
-                    draw_envelope, envelope, params.name, png))
         rendered = renderer.results()
         target = Path(out_dir) if out_dir is not None else default_report_dir(params.name)
         return write_directory_atomic(target, report_files(

@@ -115,19 +115,33 @@ def envelope_variants(params):
     return spec.variants or None
 
 
-def compute_envelope(data):
-    """The load envelope of one variant of the report (the config's ``load_envelope:``)."""
+def compute_envelope(loaded, drivetrain=None):
+    """The load envelope of one variant of the report (the config's ``load_envelope:``).
+
+    Parameters
+    ----------
+    loaded : cas_freq.config.LoadedVariant
+    drivetrain : cas_freq.analysis.drivetrain.DrivetrainFigures, optional
+        The variant's drivetrain figures from its analysis (a loaded variant's stable range,
+        then not computed again; computed the same way otherwise).
+    """
     from cas_freq.studies.envelope import load_envelope
 
-    spec = data.loaded.params.load_envelope
-    known = data.analysis.drivetrain  # a loaded variant's range, computed by analyze
-    return load_envelope(data.loaded, spec.hinge_stiffness, spec.step, stable_range=None
-                         if known is None else known.stable_hinge_stiffness_n_m_rad)
+    spec = loaded.params.load_envelope
+    return load_envelope(loaded, spec.hinge_stiffness, spec.step, stable_range=None
+                         if drivetrain is None else drivetrain.stable_hinge_stiffness_n_m_rad)
+
+
+def envelope_job(loaded, drivetrain, config_name, png):
+    """(envelope, (SVG, PNG or None)): :func:`compute_envelope` and :func:`draw_envelope`, as
+    one task for a worker process."""
+    envelope = compute_envelope(loaded, drivetrain)
+    return envelope, draw_envelope(envelope, config_name, png)
 
 
 def envelope_section(datas, png=False, computed=None):
-    """Lay out the load envelope of each chosen variant (computing and drawing what
-    ``computed`` does not hold).
+    """Lay out the load envelope of each chosen variant (computed and drawn here unless
+    ``computed`` holds it).
 
     A generator: yields (path, content) of each variant's figure and returns an
     :class:`EnvelopeSection`.
@@ -138,9 +152,8 @@ def envelope_section(datas, png=False, computed=None):
     png : bool
         Also write each figure as PNG.
     computed : dict, optional
-        Variant name -> (envelope, drawing): its :func:`compute_envelope` and an object whose
-        ``result()`` is :func:`draw_envelope`'s (SVG, PNG) (a future of a process that drew
-        it while the report was being computed).
+        Variant name -> an object whose ``result()`` is its :func:`envelope_job` (a future
+        of a worker process that computed and drew it while the report was being computed).
     """
     from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
     from cas_freq.report.outdir import sanitise_name
@@ -170,9 +183,10 @@ def envelope_section(datas, png=False, computed=None):
         blocks.append(Paragraph(f"Not in this report (not selected): {', '.join(missing)}."))
     results = []
     for data in chosen:
-        envelope, drawing = computed.get(data.loaded.variant, (None, None))
-        if envelope is None:
-            envelope = compute_envelope(data)
+        job = computed.get(data.loaded.variant)
+        envelope, (svg, png_data) = (
+            envelope_job(data.loaded, data.analysis.drivetrain, params.name, png)
+            if job is None else job.result())
         low, high = envelope.stable_range
         span = ("nowhere on the scan" if low is None and high is None else
                 f"for K_h from {'−∞' if low is None else number(low, 4)} to "
@@ -189,8 +203,6 @@ def envelope_section(datas, png=False, computed=None):
         blocks.append(Table(header, rows, f"load envelope of {data.loaded.variant} (every "
                                           "grid point is in results.json and the figure)"))
         stem = f"figures/{sanitise_name(data.loaded.variant, fallback='variant')}/load_envelope"
-        svg, png_data = (draw_envelope(envelope, params.name, png) if drawing is None
-                         else drawing.result())
         yield f"{stem}.svg", svg
         if png:
             yield f"{stem}.png", png_data
