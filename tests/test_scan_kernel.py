@@ -4,11 +4,11 @@
 :func:`cas_freq.analysis.closed_loop.first_fall_below_90` run their kernel
 (:mod:`cas_freq.analysis.scan_kernel`) on large arrays and numpy below
 :data:`cas_freq.jit.COMPILED_FROM`; ``CAS_FREQ_ENGINE=reference`` forces numpy. Both forms
-make the same comparisons on the same products (the magnitudes: the same operations in the
-same order), so the indices and values must be equal. The responses:
-the loops of random variants of two actuators (many jumps and crossings, on the analysis
-grid), spirals built to jump at known points, and rows with NaN, with no event, and with an
-event at the first or the last interval.
+make the same comparisons on the same values (turns by whole quarters are exact; the
+magnitudes: the same operations in the same order), so the indices and values must be
+equal. The responses: the loops of random variants of two actuators (many jumps and
+crossings, on the analysis grid), spirals built to jump at known points, and rows with NaN,
+with no event, and with an event at the first or the last interval.
 """
 
 import numpy as np
@@ -20,8 +20,15 @@ from cas_freq.analysis.frequency import (
     DEFAULT_RANGE_RAD_S,
     frequency_grid,
 )
-from cas_freq.analysis.margins import _long_chords, first_turned_jumps, magnitudes
+from cas_freq.analysis.margins import (
+    _long_chords,
+    continuous_phase_at,
+    first_turned_jumps,
+    magnitudes,
+    quarter_turn,
+)
 from cas_freq.config import load_variant
+from cas_freq.jit import use_compiled
 from cas_freq.model.loops import Selector, responses
 from cas_freq.parameters import variant_parameters
 
@@ -67,6 +74,7 @@ def _reference(monkeypatch, function, *args):
 def _compiled(monkeypatch, function, *args):
     monkeypatch.setenv("CAS_FREQ_ENGINE", "compiled")
     monkeypatch.setattr("cas_freq.jit.COMPILED_FROM", 0)
+    assert use_compiled(), "numba is needed: without it both sides would run numpy"
     return function(*args)
 
 
@@ -76,13 +84,47 @@ def test_first_turned_jumps_equal_numpy(monkeypatch, index):
     n, m = response.shape
     rng = np.random.default_rng(index)
     rows = np.unique(rng.integers(0, n, n))
-    turn = np.exp(-1j * rng.integers(-3, 1, rows.size) * np.pi / 2)
+    quarters = rng.integers(-5, 6, rows.size).astype(float)
+    quarters[0] = np.nan  # a row whose low-frequency slope is not a number
     view = response[:, : m - 3]  # the analysis passes column slices of its grid
     for array, width in ((response, 2), (response, m // 3), (response, m), (view, m - 3)):
-        expected = _reference(monkeypatch, first_turned_jumps, array, rows, turn, width)
-        got = _compiled(monkeypatch, first_turned_jumps, array, rows, turn, width)
+        expected = _reference(monkeypatch, first_turned_jumps, array, rows, quarters, width)
+        got = _compiled(monkeypatch, first_turned_jumps, array, rows, quarters, width)
         np.testing.assert_array_equal(got, expected)
-    assert np.any(expected < width - 1), "no jump at all: the case tests nothing"
+        if width == m:
+            assert np.any(expected < width - 1), "no jump at all: the case tests nothing"
+
+
+def test_quarter_turn_is_exact():
+    rng = np.random.default_rng(1)
+    values = rng.standard_normal(1000) + 1j * rng.standard_normal(1000)
+    for quarters in range(-5, 6):
+        exact = values * 1j ** (quarters % 4)  # a product by 1, -1, 1j or -1j is exact
+        np.testing.assert_array_equal(quarter_turn(values, float(quarters)), exact)
+    assert np.isnan(quarter_turn(values[:3], np.nan)).all()
+
+
+def test_a_point_on_the_turned_axis_gives_the_same_phase_on_both_paths(monkeypatch):
+    # A point whose turn by -1 (two quarters) lands exactly on the negative real axis: a
+    # complex product by exp(1j pi) = (-1 + 1.2e-16j) puts it above or below the axis
+    # depending on whether the CPU fuses the multiply (numpy's SIMD loops may, numba does
+    # not), i.e. a phase of +180 or -180 deg. The exact quarter turn has no such freedom.
+    point = 1.002002002002002 + 1.2270985444909916e-16j
+    width = 70_000  # above COMPILED_FROM with one row
+    row = np.empty((1, width), dtype=complex)
+    row[0, 0] = np.exp(-1j * 0.1)
+    row[0, 1] = point
+    row[0, 2:] = np.exp(1j * 0.1)
+    ratio = 1.01
+    omega = ratio ** np.arange(width, dtype=float)
+    row[0, 0] *= abs(point) * ratio ** 2  # slope -2 over the first interval: two quarters
+    rows, columns = np.array([0, 0]), np.array([1, width - 1])
+    monkeypatch.setenv("CAS_FREQ_ENGINE", "reference")
+    expected = continuous_phase_at(row, omega, rows, columns)
+    monkeypatch.setenv("CAS_FREQ_ENGINE", "compiled")
+    assert use_compiled()
+    got = continuous_phase_at(row, omega, rows, columns)
+    np.testing.assert_array_equal(got, expected)
 
 
 @pytest.mark.parametrize("index", range(7))

@@ -165,31 +165,50 @@ def _first_true(mask):
     return np.where(has, np.argmax(mask, axis=1), mask.shape[1])
 
 
-def first_turned_jumps(response, rows, turn, width):
-    """For each of ``rows``, the first k < width - 1 where ``response[row, :width] * turn``
-    jumps (:func:`phase_jumps`) between k and k + 1, else width - 1.
+def quarter_turn(values, quarters):
+    """``values * 1j ** quarters`` for whole numbers of quarter turns (float array
+    broadcasting against ``values``; NaN gives NaN), exactly: a quarter turn swaps the parts
+    and negates one, so nothing is rounded and no CPU's complex multiply (with or without
+    FMA) can move a point across an axis."""
+    values = np.asarray(values, dtype=complex)
+    q = np.broadcast_to(np.mod(quarters, 4.0), values.shape)
+    re, im = values.real, values.imag
+    turns = [q == 0.0, q == 1.0, q == 2.0, q == 3.0]
+    out = np.empty(values.shape, dtype=complex)
+    out.real = np.select(turns, [re, -im, -re, im], np.nan)
+    out.imag = np.select(turns, [im, re, -im, -re], np.nan)
+    return out
+
+
+def first_turned_jumps(response, rows, quarters, width):
+    """For each of ``rows``, the first k < width - 1 where ``response[row, :width]`` turned by
+    ``quarters`` (:func:`quarter_turn`, one per row) jumps (:func:`phase_jumps`) between k and
+    k + 1, else width - 1.
 
     Compiled (:mod:`cas_freq.analysis.scan_kernel`, stopping at each row's first jump) on
     large arrays (:func:`cas_freq.jit.compiled_for`); this numpy form is its reference.
     """
+    quarters = np.asarray(quarters, dtype=float)
     if compiled_for(rows.size * width):
         from cas_freq.analysis.scan_kernel import first_turned_jumps as kernel
 
         out = np.empty(rows.size, dtype=np.int64)
-        kernel(response, rows.astype(np.int64), np.asarray(turn, dtype=complex), width, out)
+        kernel(response, rows.astype(np.int64), quarters, width, out)
         return out
-    return _first_true(phase_jumps(response[rows, :width] * turn[:, None]))
+    return _first_true(phase_jumps(quarter_turn(response[rows, :width], quarters[:, None])))
 
 
 def continuous_phase_at(response, omega, rows, columns):
     """Continuous phase [rad] of ``response[rows, columns]``, unwrapped from the first grid
     point on the branch set by the low-frequency asymptote (-90° per integrator).
 
-    Rows whose turned response (``response * exp(-1j target)``) does not jump before the
-    column need one angle; the others are unwrapped like ``numpy.unwrap``.
+    Rows whose turned response (``response * exp(-1j target)``, an exact
+    :func:`quarter_turn`) does not jump before the column need one angle; the others are
+    unwrapped like ``numpy.unwrap``.
     """
     slope = np.log(np.abs(response[:, 1]) / np.abs(response[:, 0])) / math.log(omega[1] / omega[0])
-    target = -np.round(-slope) * math.pi / 2
+    quarters = np.round(-slope)  # exp(-1j target) = 1j ** quarters
+    target = -quarters * math.pi / 2
     out = np.empty(rows.size)
     if rows.size == 0:
         return out
@@ -197,13 +216,12 @@ def continuous_phase_at(response, omega, rows, columns):
     needed = np.unique(rows)
     first_jump = np.full(response.shape[0], width)
     if width > 1:
-        first_jump[needed] = first_turned_jumps(response, needed,
-                                                np.exp(-1j * target[needed]), width)
+        first_jump[needed] = first_turned_jumps(response, needed, quarters[needed], width)
     simple = columns <= first_jump[rows]
-    value = response[rows, columns] * np.exp(-1j * target[rows])
+    value = quarter_turn(response[rows, columns], quarters[rows])
     out[simple] = np.angle(value[simple]) + target[rows[simple]]
     for row in np.unique(rows[~simple]):
-        unwrapped = np.unwrap(np.angle(response[row, :width] * np.exp(-1j * target[row])))
+        unwrapped = np.unwrap(np.angle(quarter_turn(response[row, :width], quarters[row])))
         mine = (rows == row) & ~simple
         out[mine] = unwrapped[columns[mine]] + target[row]
     return out

@@ -12,6 +12,8 @@ neighbouring points where the imaginary part changes sign). On the batches of
 ``benchmarks/run.py`` they replace about ten full passes over (256 x 1,601) arrays per loop.
 """
 
+import math
+
 from cas_freq.jit import cached_jit
 
 
@@ -23,16 +25,31 @@ def _jumps(previous, current):
     return (upper and not next_upper and cross > 0) or (not upper and next_upper and cross < 0)
 
 
+@cached_jit(inline="always")
+def _quarter_turn(value, quarters):
+    """``value * 1j ** quarters`` exactly, as :func:`~cas_freq.analysis.margins.quarter_turn`."""
+    if quarters != quarters or abs(quarters) == math.inf:
+        return complex(math.nan, math.nan)
+    q = quarters % 4.0
+    if q == 0.0:
+        return value
+    if q == 1.0:
+        return complex(-value.imag, value.real)
+    if q == 2.0:
+        return complex(-value.real, -value.imag)
+    return complex(value.imag, -value.real)
+
+
 @cached_jit(nogil=True)
-def first_turned_jumps(response, rows, turn, width, out):
-    """out[q]: the first k < width - 1 where ``response[rows[q]] * turn[q]`` jumps between
-    k and k + 1, else width - 1."""
+def first_turned_jumps(response, rows, quarters, width, out):
+    """out[q]: the first k < width - 1 where ``response[rows[q]]`` turned by ``quarters[q]``
+    quarter turns jumps between k and k + 1, else width - 1."""
     for q in range(rows.size):
         i = rows[q]
         out[q] = width - 1
-        previous = response[i, 0] * turn[q]
+        previous = _quarter_turn(response[i, 0], quarters[q])
         for k in range(width - 1):
-            current = response[i, k + 1] * turn[q]
+            current = _quarter_turn(response[i, k + 1], quarters[q])
             if _jumps(previous, current):
                 out[q] = k
                 break
