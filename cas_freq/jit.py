@@ -10,7 +10,6 @@ is imported only by the kernels' modules.
 """
 
 import functools
-import importlib.util
 import os
 
 from cas_freq.exceptions import ConfigError
@@ -53,7 +52,7 @@ def engine_name(requested=None):
 
 def use_compiled():
     """True where the compiled kernels should run: the compiled engine chosen
-    (:func:`engine_name`) and numba installed (else the numpy references run, with the same
+    (:func:`engine_name`) and numba importable (else the numpy references run, with the same
     results)."""
     return engine_name() == "compiled" and _numba_installed()
 
@@ -66,7 +65,12 @@ def compiled_for(points):
 
 @functools.cache
 def _numba_installed():
-    return importlib.util.find_spec("numba") is not None
+    """numba imports (an installed numba can fail to, e.g. against a newer numpy)."""
+    try:
+        import numba  # noqa: F401
+    except Exception:  # noqa: BLE001  (any failure to import means: no compiled kernels)
+        return False
+    return True
 
 
 def cached_jit(**options):

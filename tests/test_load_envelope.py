@@ -108,3 +108,20 @@ def test_api_load_envelope_is_the_study():
     bandwidth = next(r for r in envelope.requirements if r.id == "BW-1")
     assert bandwidth.at_nominal and bandwidth.lost_above.how == "bound"
     assert 0.0 < bandwidth.lost_above.at < 10.0
+
+
+def test_report_envelope_of_every_variant_is_on_the_reports_grid():
+    # The report's section describes one grid, its first variant's load_envelope:; a variant
+    # that sets another one in the config is still computed on the report's (review finding:
+    # computed on its own grid, the table and the text disagreed; with none, it crashed).
+    from cas_freq.report.envelope import compute_envelope
+
+    loaded = load_variant(CONFIG, "fitted")
+    spec = loaded.params.load_envelope
+    report_spec = spec.model_copy(update={"hinge_stiffness": (-10.0, 10.0), "step": None})
+    params = loaded.params.model_copy(update={
+        "load_envelope": None,
+        "requirements": tuple(r for r in loaded.params.requirements if r.kind == "analyze")})
+    own = type(loaded)(loaded.source, loaded.variant, params, loaded.overrides)
+    envelope = compute_envelope(own, report_spec)
+    np.testing.assert_array_equal(envelope.hinge_stiffness, [-10.0, 0.0, 10.0])

@@ -150,9 +150,18 @@ def test_reference_engine_fits_the_same(fitted, monkeypatch):
     # equal to ~1e-15 (test below), so the same minimum to the batch-of-one tolerance
     _, responses, batch, _, _ = fitted
     picked = responses[::4]
+    calls = []
+    numpy_form = second_order._residuals_and_jacobian
+
+    def counted(*args):
+        calls.append(1)
+        return numpy_form(*args)
+
+    monkeypatch.setattr(second_order, "_residuals_and_jacobian", counted)
     monkeypatch.setenv("CAS_FREQ_ENGINE", "reference")
     reference = fit_second_order_batch([r[0] for r in picked], [r[1] for r in picked],
                                        [r[2] for r in picked])
+    assert calls, "the numpy form did not run"
     for fit, expected in zip(batch[::4], reference, strict=True):
         _assert_same_fit(fit, expected, rel=1e-9, td_abs=1e-15, ci_rel=1e-7)
 

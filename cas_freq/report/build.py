@@ -780,8 +780,9 @@ def build_report(variants, out_dir=None, *, settings=None, verdicts=None, png=Fa
         if renderer.parallel:
             # a worker computes and draws the load envelopes first, while this process
             # analyses and simulates the first variant (the other worker draws its figures)
-            envelopes = {loaded.variant: renderer.draw(envelope_job, loaded, None, params.name,
-                                                       png)
+            envelopes = {loaded.variant: renderer.draw(envelope_job, loaded,
+                                                       params.load_envelope, None,
+                                                       params.name, png)
                          for loaded in variants
                          if enveloped is None or loaded.variant in enveloped}
         for index, loaded in enumerate(variants):

@@ -115,27 +115,29 @@ def envelope_variants(params):
     return spec.variants or None
 
 
-def compute_envelope(loaded, drivetrain=None):
-    """The load envelope of one variant of the report (the config's ``load_envelope:``).
+def compute_envelope(loaded, spec, drivetrain=None):
+    """The load envelope of one variant of the report.
 
     Parameters
     ----------
     loaded : cas_freq.config.LoadedVariant
+    spec : cas_freq.config.schema.LoadEnvelopeSpec
+        The report's ``load_envelope:`` (its first variant's, used for every variant, as
+        the section's text describes it): hinge-stiffness grid and step.
     drivetrain : cas_freq.analysis.drivetrain.DrivetrainFigures, optional
         The variant's drivetrain figures from its analysis (a loaded variant's stable range,
         then not computed again; computed the same way otherwise).
     """
     from cas_freq.studies.envelope import load_envelope
 
-    spec = loaded.params.load_envelope
     return load_envelope(loaded, spec.hinge_stiffness, spec.step, stable_range=None
                          if drivetrain is None else drivetrain.stable_hinge_stiffness_n_m_rad)
 
 
-def envelope_job(loaded, drivetrain, config_name, png):
+def envelope_job(loaded, spec, drivetrain, config_name, png):
     """(envelope, (SVG, PNG or None)): :func:`compute_envelope` and :func:`draw_envelope`, as
     one task for a worker process."""
-    envelope = compute_envelope(loaded, drivetrain)
+    envelope = compute_envelope(loaded, spec, drivetrain)
     return envelope, draw_envelope(envelope, config_name, png)
 
 
@@ -185,7 +187,7 @@ def envelope_section(datas, png=False, computed=None):
     for data in chosen:
         job = computed.get(data.loaded.variant)
         envelope, (svg, png_data) = (
-            envelope_job(data.loaded, data.analysis.drivetrain, params.name, png)
+            envelope_job(data.loaded, spec, data.analysis.drivetrain, params.name, png)
             if job is None else job.result())
         low, high = envelope.stable_range
         span = ("nowhere on the scan" if low is None and high is None else
