@@ -181,6 +181,30 @@ def test_ctrl_c_in_any_command_is_one_line_and_exit_130(monkeypatch, capsys):
     assert captured.out == "" and captured.err == "cas-freq verify: interrupted\n"
 
 
+def test_ctrl_c_during_an_extension_import_is_an_interrupt(monkeypatch, capsys):
+    # SIGINT while a C extension initialises (matplotlib's _image, at the report's import of
+    # the figure code) surfaces as an ImportError raised from the KeyboardInterrupt: exit 130
+    # with the one line, as for any Ctrl-C (seen as exit 1 in a CI run before this was handled)
+    from cas_freq.cli import main
+
+    def interrupted(args):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as exc:
+            raise ImportError("initialization failed") from exc
+
+    monkeypatch.setattr("cas_freq.cli.verify.run", interrupted)
+    assert main(["verify"]) == 130
+    assert capsys.readouterr().err == "cas-freq verify: interrupted\n"
+
+    def failed(args):
+        raise ImportError("a real import error")
+
+    monkeypatch.setattr("cas_freq.cli.verify.run", failed)
+    with pytest.raises(ImportError, match="a real import error"):
+        main(["verify"])
+
+
 class _Killed(BaseException):
     """What a SIGKILL does to the process: nothing after it runs."""
 

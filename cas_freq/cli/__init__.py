@@ -79,6 +79,13 @@ def main(argv=None):
     except KeyboardInterrupt:
         _interrupted(command)
         return EXIT_INTERRUPTED
+    except Exception as exc:
+        # a Ctrl-C while a C extension module initialises (matplotlib's, at import) surfaces
+        # as "ImportError: initialization failed" raised from the KeyboardInterrupt
+        if not _raised_by_interrupt(exc):
+            raise
+        _interrupted(command)
+        return EXIT_INTERRUPTED
     finally:
         set_quiet(False)  # --quiet is per call (main may run more than once in a process)
 
@@ -145,6 +152,17 @@ def _option_action(options, token):
         if len(matches) == 1:
             return matches.pop()
     return None
+
+
+def _raised_by_interrupt(exc):
+    """True where a KeyboardInterrupt is in the chain of causes and contexts of ``exc``."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
 
 
 def _interrupted(command):
