@@ -79,8 +79,8 @@ def round_array(values, digits=JSON_DIGITS):
     :math:`M \cdot 10^{-k}`) are what formatting gives wherever :math:`10^{|k|}` is exact
     (:math:`|k| \le 22`, one correctly rounded division or product), :math:`v \cdot 10^k` is
     no closer than 1e-6 to a rounding tie (its error is below 1e-9 there), and M has ``d``
-    digits (:math:`\log_{10}` may be a bit off at powers of ten). The other elements are
-    formatted one by one (:func:`_round_formatted`).
+    digits (:math:`\log_{10}` may be a bit off at powers of ten). The other elements go
+    through :func:`round_significant` one by one.
     """
     values = np.asarray(values, dtype=float)
     out = np.array(values, dtype=float, copy=True)
@@ -101,15 +101,9 @@ def round_array(values, digits=JSON_DIGITS):
     fast &= (magnitude >= 10.0 ** (digits - 1)) & (magnitude <= 10.0 ** digits)
     rounded = np.where(k >= 0, significand / power, significand * power) + 0.0
     slow = np.flatnonzero(~fast)
-    rounded[slow] = _round_formatted(v[slow], digits)
+    rounded[slow] = [round_significant(x, digits) for x in v[slow].tolist()]
     out[work] = rounded
     return out
-
-
-def _round_formatted(values, digits):
-    """Each of ``values`` (finite, >= ZERO in magnitude) through ``format(v, ".{digits}g")``."""
-    return np.array([float(format(v, f".{digits}g")) + 0.0 for v in values.tolist()],
-                    dtype=float)
 
 
 def number(value, digits=TEXT_DIGITS, unit=""):

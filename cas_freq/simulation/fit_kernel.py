@@ -39,13 +39,9 @@ def normal_equations(t, unit, p, scale):
 
     Parameters
     ----------
-    t, unit : numpy.ndarray
-        Times [s] and unit responses, shape (k, m); padding is t = 0, unit = 0 (its residual
-        and Jacobian are 0 for any td >= 0).
-    p : numpy.ndarray
-        Scaled variables (wn / scale_wn, zeta, td / scale_td), shape (k, 3).
-    scale : numpy.ndarray
-        (scale_wn [rad/s], 1, scale_td [s]), shape (k, 3).
+    t, unit, p, scale : numpy.ndarray
+        As in :func:`~cas_freq.simulation.second_order._residuals_and_jacobian`: times [s] and
+        unit responses (k, m), scaled variables and their scales (k, 3).
 
     Returns
     -------
