@@ -4,7 +4,7 @@
 >>> act = cf.load("configs/qt_cas.yaml", variant="fitted", set={"position_loop.Kp": "5 A/rad"})
 >>> act.analyze().closed_loop.bandwidth_rad_s        # every figure of ``analyze --json``
 >>> act.frequency_response(omega).plot()             # Bode of L_i, L_p and T
->>> act.simulate(step="10 deg").plot()               # nonlinear step: fin angle and current
+>>> act.simulate(step="10 deg").plot()               # nonlinear step: output angle and current
 >>> act.simulate_profile("10 deg", "2000 deg/s", "1e5 deg/s^2").profile  # a profile move
 >>> act.vary({"position_loop.Kp": np.linspace(2, 12, 200)}).analyze().closed_loop.bandwidth_rad_s
 
@@ -142,12 +142,12 @@ class Actuator:
                                  **{name: getattr(loops, name)(s) for name in _LOOPS})
 
     def simulate(self, step="10 deg"):
-        """Nonlinear step of the fin, as ``cas-freq simulate --step``.
+        """Nonlinear step of the output, as ``cas-freq simulate --step``.
 
         Parameters
         ----------
         step : str
-            Step at the fin with a unit (``"10 deg"``, ``"0.1 rad"``), non-zero, within ±90°.
+            Step at the output with a unit (``"10 deg"``, ``"0.1 rad"``), non-zero, within ±90°.
 
         Returns
         -------
@@ -160,17 +160,17 @@ class Actuator:
 
     def simulate_profile(self, distance="10 deg", velocity="2000 deg/s",
                          acceleration="1e5 deg/s^2", deceleration=None):
-        """A profile move of the fin, with and without feed-forward, as ``cas-freq simulate
+        """A profile move of the output, with and without feed-forward, as ``cas-freq simulate
         --profile``.
 
         Parameters
         ----------
         distance : str or float
-            The move at the fin (``"10 deg"``; a number is rad), non-zero, within ±90°.
+            The move at the output (``"10 deg"``; a number is rad), non-zero, within ±90°.
         velocity : str or float
-            Velocity limit at the fin (``"2000 deg/s"``; a number is rad/s) [> 0].
+            Velocity limit at the output (``"2000 deg/s"``; a number is rad/s) [> 0].
         acceleration, deceleration : str or float
-            Acceleration and deceleration (default: the acceleration) limits at the fin
+            Acceleration and deceleration (default: the acceleration) limits at the output
             (``"1e5 deg/s^2"``; a number is rad/s^2) [> 0].
 
         Returns
@@ -186,15 +186,17 @@ class Actuator:
         return ProfileResponse.of(profile_run(self.loaded, move))
 
     def load_envelope(self, hinge_stiffness, step=None):
-        """Every figure and requirement verdict against hinge stiffness (the report's load
+        """Every figure and requirement verdict against the load spring K_h (the report's load
         envelope, :mod:`cas_freq.studies.envelope`).
 
         Parameters
         ----------
         hinge_stiffness : array_like
-            Hinge stiffness values at the fin [N*m/rad] (> 0 opposes deflection, < 0 aids it).
+            Values of ``load.hinge_stiffness`` (the load spring K_h) at the output [N*m/rad]
+            (> 0 opposes deflection, < 0 aids it).
         step : str, optional
-            Fin step of the step figures (``"10 deg"``); default the first step requirement's.
+            Output step of the step figures (``"10 deg"``); default the first step
+            requirement's.
 
         Returns
         -------
@@ -328,26 +330,27 @@ class FrequencyResponse:
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class StepResponse:
-    """A simulated nonlinear fin step.
+    """A simulated nonlinear output step.
 
     Attributes
     ----------
     time_s : numpy.ndarray
         Sample times [s].
-    fin_angle_deg, command_deg : numpy.ndarray
-        Fin angle and fin command [deg].
+    output_angle_deg, command_deg : numpy.ndarray
+        Output angle and its command [deg].
     current_a, voltage_v : numpy.ndarray
         Motor current [A] and terminal voltage [V].
     step : cas_freq.simulation.step_figures.StepFigures
         Rise time, overshoot, settling times, peak, largest current and voltage.
     fit : cas_freq.simulation.second_order.SecondOrderFit
-        The report's second-order fit (wn, zeta, td with 95 % intervals, bandwidth).
+        The second-order-plus-delay fit (docs/model.md §7): wn, zeta, td with 95 % intervals,
+        bandwidth.
     run : cas_freq.simulation.run.StepRun
         Everything ``cas-freq simulate`` has (limit flags, simulation settings, ...).
     """
 
     time_s: np.ndarray
-    fin_angle_deg: np.ndarray
+    output_angle_deg: np.ndarray
     command_deg: np.ndarray
     current_a: np.ndarray
     voltage_v: np.ndarray
@@ -369,7 +372,7 @@ class StepResponse:
         return step_run_dict(self.run)
 
     def plot(self):
-        """Fin angle with its command [deg], and motor current [A], against time [ms].
+        """Output angle with its command [deg], and motor current [A], against time [ms].
 
         Returns
         -------
@@ -382,14 +385,14 @@ class StepResponse:
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class ProfileResponse:
-    """A simulated profile move of the fin (the config's feed-forward acting).
+    """A simulated profile move of the output (the config's feed-forward acting).
 
     Attributes
     ----------
     time_s : numpy.ndarray
         Sample times [s].
-    fin_angle_deg, command_deg : numpy.ndarray
-        Fin angle and profile command [deg].
+    output_angle_deg, command_deg : numpy.ndarray
+        Output angle and profile command [deg].
     current_a, voltage_v : numpy.ndarray
         Motor current [A] and terminal voltage [V].
     profile : cas_freq.simulation.profile_figures.ProfileFigures
@@ -401,7 +404,7 @@ class ProfileResponse:
     """
 
     time_s: np.ndarray
-    fin_angle_deg: np.ndarray
+    output_angle_deg: np.ndarray
     command_deg: np.ndarray
     current_a: np.ndarray
     voltage_v: np.ndarray
@@ -423,7 +426,7 @@ class ProfileResponse:
         return profile_run_dict(self.run)
 
     def plot(self):
-        """Command and fin angle [deg], and tracking error [deg], with and without
+        """Command and output angle [deg], and tracking error [deg], with and without
         feed-forward, against time [ms].
 
         Returns

@@ -83,21 +83,3 @@ def second_order_bandwidth(natural_frequency, damping_ratio):
     a = 1.0 - 2.0 * damping_ratio * damping_ratio  # inf, not OverflowError, at 1e200
     root = math.hypot(a, 1.0)
     return natural_frequency * math.sqrt(a + root if a >= 0 else 1.0 / (root - a))
-
-
-#: What ARL-TR-9136 measured on the bench (docs/model.md, "What the report measured"): a 10 deg fin
-#: step, its figures and the report's second-order fit to it. For comparison only, never for
-#: tuning the model. ``bandwidth_rad_s`` is the report's rounded 566 rad/s;
-#: ``second_order_bandwidth(462, 0.54)`` gives 565.9 rad/s. ``cas-freq report`` does not use
-#: this table: it shows a config's own ``reference:`` section (configs/qt_cas.yaml declares
-#: these values there; tests/test_reference.py checks that both agree).
-REPORT_BENCH = {
-    "step_deg": 10.0,
-    "rise_time_s": 5e-3,
-    "overshoot_pct": 13.0,
-    "settling_time_s": 30e-3,
-    "wn_rad_s": 462.0,
-    "zeta": 0.54,
-    "td_s": 2e-3,
-    "bandwidth_rad_s": 566.0,
-}

@@ -209,7 +209,7 @@ PARAMETERS = _table(
     ("motor.no_load.current", None, "A", 0.0, False, 1e6,
      "motor no-load current I0, from which mu_v is derived, 0 or 1e-9..1e6 [A]", 1e-9),
     ("gear.ratio", "ratio", "dimensionless", 1e-3, False, 1e6,
-     "gear ratio N: motor angle = N * fin angle, 1e-3..1e6 [dimensionless]"),
+     "gear ratio N: motor angle = N * output angle, 1e-3..1e6 [dimensionless]"),
     ("current_loop.Kp", "ci_Kp", "V/A", 0.0, False, 1e9,
      "current-loop proportional gain, 0 or 1e-9..1e9 [V/A]", 1e-9),
     ("current_loop.Ki", "ci_Ki", "V/(A*s)", 0.0, False, 1e9,
@@ -239,28 +239,28 @@ PARAMETERS = _table(
      "Coulomb (dry) friction torque on the motor shaft, nonlinear simulation only, 0 or "
      "1e-12..1e3 [N*m]", 1e-12),
     ("gear.efficiency", "eta", "dimensionless", 0.0, True, 1.0,
-     "forward gear efficiency eta (motor drives the fin), (0, 1], default 1 [dimensionless]"),
+     "forward gear efficiency eta (motor drives the output), (0, 1], default 1 [dimensionless]"),
     ("gear.backdrive_efficiency", "eta_b", "dimensionless", 0.0, False, 1.0,
-     "backdrive efficiency eta_b (the fin drives the motor; 0: self-locking), nonlinear "
+     "backdrive efficiency eta_b (the output drives the motor; 0: self-locking), nonlinear "
      "simulation only, 0..1, default eta [dimensionless]"),
     ("gear.stiffness", "K_g", "N*m/rad", 0.0, False, 1e12,
-     "gear torsional stiffness K_g at the fin (0: rigid gear), 0 or 1e-6..1e12 [N*m/rad]",
+     "gear torsional stiffness K_g at the output (0: rigid gear), 0 or 1e-6..1e12 [N*m/rad]",
      1e-6),
     ("gear.damping", "c_g", "N*m*s/rad", 0.0, False, 1e6,
-     "gear mesh damping c_g at the fin, in parallel with the gear's spring (needs "
+     "gear mesh damping c_g at the output, in parallel with the gear's spring (needs "
      "gear.stiffness), 0 or 1e-15..1e6 [N*m*s/rad]", 1e-15),
     ("gear.backlash", "backlash", "rad", 0.0, False, 1.0,
-     "total play of the gear at the fin, nonlinear simulation only, 0 or 1e-12..1 [rad]",
+     "total play of the gear at the output, nonlinear simulation only, 0 or 1e-12..1 [rad]",
      1e-12),
     ("load.inertia", "J_L", "kg*m^2", 0.0, False, 1e3,
-     "load inertia J_L at the fin, 0 or 1e-15..1e3 [kg*m^2]", 1e-15),
+     "load inertia J_L at the output, 0 or 1e-15..1e3 [kg*m^2]", 1e-15),
     ("load.damping", "b_L", "N*m*s/rad", 0.0, False, 1e6,
-     "load viscous damping b_L at the fin, 0 or 1e-15..1e6 [N*m*s/rad]", 1e-15),
+     "load viscous damping b_L at the output, 0 or 1e-15..1e6 [N*m*s/rad]", 1e-15),
     ("load.hinge_stiffness", "K_h", "N*m/rad", -1e9, False, 1e9,
-     "hinge-moment stiffness K_h at the fin: moment -K_h*delta (> 0 opposes, < 0 aids "
+     "load spring K_h at the output: load moment -K_h*delta (> 0 opposes, < 0 aids "
      "deflection), 0 or |K_h| 1e-12..1e9 [N*m/rad]", 1e-12),
     ("load.hinge_bias", "tau_h", "N*m", -1e9, False, 1e9,
-     "constant hinge moment at the fin, nonlinear simulation only, 0 or |value| "
+     "constant load moment at the output, nonlinear simulation only, 0 or |value| "
      "1e-12..1e9 [N*m]", 1e-12),
     ("simulation.current_loop_rate", None, "Hz", 1.0, False, 1e9,
      "current-controller sample rate with controllers: sampled, 1..1e9 [Hz]"),

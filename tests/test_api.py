@@ -124,7 +124,7 @@ def test_simulate_is_the_cli_step():
     assert code == 0, err
     assert json.loads(json.dumps(st.to_dict())) == json.loads(out)
     assert st.step.amplitude_deg == pytest.approx(10.0)
-    assert st.fin_angle_deg.shape == st.time_s.shape == st.current_a.shape
+    assert st.output_angle_deg.shape == st.time_s.shape == st.current_a.shape
     assert st.command_deg[-1] == pytest.approx(10.0)
 
 

@@ -98,13 +98,13 @@ def test_reads_what_simulate_writes(tmp_path):
     fits the same samples with the same stride as simulate's own fit, so the two differ only
     by the CSV's 9 significant digits (<= 5e-10 of each value): measured 1.4e-7 relative on
     wn and zeta. rel 1e-5 leaves a margin of ~70 and still catches a wrong column or unit
-    (command_fin is a flat line; rad for deg is a factor of 57).
+    (command_output is a flat line; rad for deg is a factor of 57).
     """
     path = tmp_path / "sim.csv"
     code, out, err = _run(["simulate", "--step", "10deg", "--csv", str(path), "--json"])
     assert code == 0, err
     own = json.loads(out)["fit"]
-    assert path.read_text().startswith("t [s],command_fin [deg],delta [deg],theta [rad]")
+    assert path.read_text().startswith("t [s],command_output [deg],delta [deg],theta [rad]")
     code, out, err = _run(["fit", str(path), "--step", "10deg", "--json"])
     assert code == 0, err
     fit = json.loads(out)["fit"]
@@ -137,9 +137,9 @@ def test_header_names_columns_and_units(tmp_path, header, scale_t, scale_y):
 
 @pytest.mark.parametrize(("content", "expect"), [
     ("a,b,c\n0,1,2\n", "row 1: the header names no time column (t or time, in s or ms"),
-    ("t [s],x,y\n0,1,2\n", "the header names no fin angle column (delta, fin_angle"),
+    ("t [s],x,y\n0,1,2\n", "the header names no output angle column (delta, output_angle"),
     ("x,y,z\n0,1,2\n", "no time column (t or time, in s or ms (e.g. 't [s]', 'time_s')) and "
-     "no fin angle column"),
+     "no output angle column"),
     ("time [min],delta [deg]\n0,1\n", "row 1: column 'time [min]': unit 'min' not accepted; "
      "expected t or time, in s or ms"),
     ("t [s],delta [deg],i [A]\n0,0,0\n0.01,1\n", "row 3: expected 3 columns, got 2"),

@@ -52,7 +52,7 @@ def test_csv_time_series(simulated):
     _, data, path = simulated
     with open(path, newline="") as stream:
         rows = list(csv.reader(stream))
-    assert rows[0][:3] == ["t [s]", "command_fin [deg]", "delta [deg]"]
+    assert rows[0][:3] == ["t [s]", "command_output [deg]", "delta [deg]"]
     final = [float(value) for value in rows[-1]]
     assert final[1] == pytest.approx(10.0)
     assert abs(final[2] - 10.0) < 0.2  # settled within ±2 % by the end of the horizon

@@ -49,6 +49,8 @@ LOAD_BUDGET_S = 2.0
 
 SHIPPED_TEXT = default_config_path().read_text(encoding="utf-8")
 SHIPPED = yaml.safe_load(SHIPPED_TEXT)
+#: Line of the shipped config's ``motor.R`` (1-based), where a duplicate is inserted below.
+_R_LINE = SHIPPED_TEXT[:SHIPPED_TEXT.index("  R: 0.361 ohm")].count("\n") + 1
 
 
 def _one_clean_line(code, err):
@@ -136,7 +138,7 @@ YAML_CASES = {
         f"a{i}: &a{i} [" + ",".join([f"*a{i - 1}"] * 9) + "]\n" for i in range(1, 9)),
         "more than 100000 values once its aliases are expanded"),
     "duplicate-key": (SHIPPED_TEXT.replace("  R: 0.361 ohm", "  R: 0.361 ohm\n  R: 0.5 ohm"),
-                      "duplicate key 'R' at line 16 (first at line 15)"),
+                      f"duplicate key 'R' at line {_R_LINE + 1} (first at line {_R_LINE})"),
     "control-characters": (SHIPPED_TEXT.replace("R: 0.361 ohm", 'R: "0.3\\n61\\x07 ohm"'),
                            "motor.R: cannot read"),
     "float-tag": (SHIPPED_TEXT.replace("R: 0.361 ohm", "R: !!float abc"),

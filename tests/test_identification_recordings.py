@@ -343,7 +343,7 @@ def test_figure_structure():
     top, bottom = fig.axes
     # per run: data, fit, command above; residuals below
     assert len(top.lines) == 9 and len(bottom.lines) == 3 + 1
-    assert top.get_ylabel() == "fin angle [deg]" and bottom.get_ylabel() == "data - fit [deg]"
+    assert top.get_ylabel() == "output angle [deg]" and bottom.get_ylabel() == "data - fit [deg]"
     assert top.get_legend().get_texts()[1].get_text().startswith("fit: wn 461.5 rad/s")
 
 

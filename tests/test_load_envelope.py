@@ -84,7 +84,8 @@ def test_envelope_dict_is_strict_json(fitted_envelope):
     ("load_envelope:\n  hinge_stiffness: '-20:60:1'\n", "expected 2 to 201"),
     ("load_envelope:\n  hinge_stiffness: '-20:60:5'\n  variants: [nope]\n",
      "load_envelope.variants: unknown variant(s) nope"),
-    ("load_envelope:\n  hinge_stiffness: '0:1:5'\n  step: 10\n", "give a fin angle with a unit"),
+    ("load_envelope:\n  hinge_stiffness: '0:1:5'\n  step: 10\n",
+     "give an output angle with a unit"),
 ])
 def test_bad_load_envelope_section_exits_2(tmp_path, section, words):
     text = open(CONFIG).read()

@@ -136,7 +136,7 @@ def test_make_profile_reads_units():
     assert move.velocity_rad_s == pytest.approx(2000 * DEG)
     assert move.deceleration_rad_s2 == pytest.approx(5e4 * DEG)
     with pytest.raises(ConfigError, match=r"profile\.acceleration: expected a positive "
-                                          r"acceleration at the fin"):
+                                          r"acceleration at the output"):
         make_profile("10 deg", "2000 deg/s", "1e5 deg/s")
 
 
@@ -296,7 +296,7 @@ def test_simulate_profile_table_and_json(tmp_path):
     assert data["move"]["motor"]["acceleration_rpm_s"] == pytest.approx(1e5 * 20 / 6)
     assert data["feedforward"]["active"] is True
     header = csv.read_text().splitlines()[0]
-    assert header.startswith("t [s],command_fin [deg],delta [deg]")
+    assert header.startswith("t [s],command_output [deg],delta [deg]")
 
 
 def test_simulate_profile_dc_servo():
@@ -319,14 +319,14 @@ def test_simulate_profile_dc_servo():
      "--profile: needs --acceleration (e.g. --profile 10deg"),
     (["--step", "10deg", "--velocity", "2000deg/s"], "--velocity: only with --profile DIST"),
     (["--profile", "10deg", "--velocity", "-5deg/s", "--acceleration", "1e5deg/s^2"],
-     "--velocity: must be > 0, got '-5deg/s'; expected a positive speed at the fin"),
+     "--velocity: must be > 0, got '-5deg/s'; expected a positive speed at the output"),
     (["--profile", "10deg", "--velocity", "2000deg", "--acceleration", "1e5deg/s^2"],
-     "--velocity: expected a positive speed at the fin with a unit such as 2000deg/s, got "
+     "--velocity: expected a positive speed at the output with a unit such as 2000deg/s, got "
      "'2000deg'"),
     (["--profile", "10", "--velocity", "2000deg/s", "--acceleration", "1e5deg/s^2"],
-     "--profile: expected an angle at the fin with a unit such as 10deg, got '10'"),
+     "--profile: expected an angle at the output with a unit such as 10deg, got '10'"),
     (["--profile", "0deg", "--velocity", "2000deg/s", "--acceleration", "1e5deg/s^2"],
-     "--profile: must be non-zero and within ±90 deg at the fin, got '0deg'"),
+     "--profile: must be non-zero and within ±90 deg at the output, got '0deg'"),
     (["--profile", "10deg", "--velocity", "2000deg/s", "--acceleration", "1e5deg/s^2",
       "--deceleration", "1e5deg/s"], "--deceleration: expected a positive acceleration"),
     (["--profile", "10deg", "--velocity", "1e-4deg/s", "--acceleration", "1e5deg/s^2"],
@@ -386,10 +386,10 @@ def test_verify_profile_advisory(tmp_path):
     ({"profile": {**CONDITION, "velocity": "-2000 deg/s"}},
      "requirements.0.profile.velocity: must be > 0, got '-2000 deg/s'"),
     ({"profile": {**CONDITION, "distance": 0.17}},
-     "requirements.0.profile.distance: give the move at the fin with a unit (e.g. '10 deg'), "
+     "requirements.0.profile.distance: give the move at the output with a unit (e.g. '10 deg'), "
      "got 0.17"),
     ({"profile": {**CONDITION, "acceleration": "1e5 deg/s"}},
-     "requirements.0.profile.acceleration: give an acceleration at the fin with a unit"),
+     "requirements.0.profile.acceleration: give an acceleration at the output with a unit"),
     ({"profile": {"distance": "10 deg", "velocity": "2000 deg/s"}},
      "requirements.0.profile.acceleration: required key is missing"),
     ({"profile": {**CONDITION, "jerk": "1 deg/s^3"}}, "requirements.0.profile.jerk: unknown key"),

@@ -71,7 +71,7 @@ def test_every_metric_has_a_unit():
         ({"id": "X", "metric": "closed_loop.bandwidth_rad_s", "min": 1, "step": "10 deg"},
          "'step' does not apply"),
         ({"id": "X", "metric": "step.overshoot_pct", "max": 15, "step": 10},
-         "give a fin angle with a unit"),
+         "give an output angle with a unit"),
         ({"id": "X", "metric": "sinedwell.bandwidth_rad_s", "min": 1, "amplitude": "10 deg",
           "frequencies": "1:2"}, "MIN:MAX:N"),
         ({"id": "X", "metric": "closed_loop.peak_db", "min": 5, "max": 1}, "min 5 is above max 1"),

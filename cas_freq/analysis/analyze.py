@@ -460,7 +460,7 @@ def analyze(
                      "not stable")
     load = drivetrain(params, order) if params.loaded[0] else None
     if load is not None:
-        notes.extend(drivetrain_notes(load))
+        notes.extend(drivetrain_notes(load, loaded.params.output_label))
     rows = pade_study(params, pade_orders, omega) if pade_orders > 0 else ()
     edges = _range_edges(figures, omega, stability.stable)
     for section, figure, at_edge in edges:

@@ -167,19 +167,20 @@ def _boundary(p, unstable, stable, pade_order):
     return float(0.5 * (unstable + stable))
 
 
-def drivetrain_notes(load):
-    """Plain sentences on what the drivetrain figures mean for stability."""
+def drivetrain_notes(load, output="output"):
+    """Plain sentences on what the drivetrain figures mean for stability (``output``: what
+    they call the output, the config's ``output_label``)."""
     notes = []
     own = load.hinge_stiffness_n_m_rad
     if not load.plant_stable:
         notes.append(
-            f"the open-loop plant is statically unstable: the aiding hinge stiffness "
+            f"the open-loop plant is statically unstable: the aiding load spring K_h "
             f"{own:.4g} N*m/rad puts a mechanical pole at +{load.plant_unstable_pole_rad_s:.4g} "
-            "rad/s; only feedback can hold the fin"
+            f"rad/s; only feedback can hold the {output}"
         )
     low, high = load.stable_hinge_stiffness_n_m_rad
     if low is None and high is None:
-        notes.append("the closed loop is unstable for every hinge stiffness scanned")
+        notes.append("the closed loop is unstable for every load spring K_h scanned")
         return notes
     inside = (low is None or own > low) and (high is None or own < high)
     span = (f"{'-inf' if low is None else f'{low:.4g}'} .. "
@@ -187,9 +188,9 @@ def drivetrain_notes(load):
     if inside:
         margin = [] if low is None else [f"{own - low:.4g} N*m/rad more aiding stiffness"]
         margin += [] if high is None else [f"{high - own:.4g} N*m/rad more opposing"]
-        notes.append(f"closed loop stable for hinge stiffness {span} at the fin; it is lost "
+        notes.append(f"closed loop stable for load spring K_h {span} at the {output}; it is lost "
                      f"with {' or '.join(margin) or 'no stiffness within the scan'}")
     else:
-        notes.append(f"closed loop unstable at this hinge stiffness ({own:.4g} N*m/rad); "
+        notes.append(f"closed loop unstable at this load spring K_h ({own:.4g} N*m/rad); "
                      f"the nearest stable range is {span}")
     return notes

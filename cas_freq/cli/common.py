@@ -193,7 +193,7 @@ def angle(text, option):
                            f"{text!r} ({exc})") from None
     if not value != 0 or abs(value) > math.pi / 2:
         raise CasFreqError(
-            f"{option}: must be non-zero and within ±90 deg at the fin, got {text!r}"
+            f"{option}: must be non-zero and within ±90 deg at the output, got {text!r}"
         )
     return value
 

@@ -24,7 +24,7 @@ def register(commands):
         help="output folder (default: reports/compare-<config names>[-<variants>]/)",
     )
     parser.add_argument("--amplitudes", default=DEFAULT_AMPLITUDES, metavar="A,B,...",
-                        help=f"fin amplitudes with units (default: {DEFAULT_AMPLITUDES})")
+                        help=f"output amplitudes with units (default: {DEFAULT_AMPLITUDES})")
     parser.add_argument("--frequencies", default=DEFAULT_FREQUENCIES,
                         metavar="MIN:MAX:N|F1,F2,...",
                         help="sine-dwell frequencies in rad/s (default: 16 log-spaced over "

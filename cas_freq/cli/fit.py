@@ -10,9 +10,9 @@ from cas_freq.exceptions import CasFreqError
 def register(commands):
     """Add the ``fit`` sub-parser."""
     parser = commands.add_parser(
-        "fit", help="fit bench recordings: the second-order model (report §7), config keys "
-        "through the nonlinear simulator (--params), or sweeps' frequency responses",
-        description="Second-order-plus-delay fit (report §7): (wn, zeta, td) with 95 % "
+        "fit", help="fit bench recordings: the second-order-plus-delay model (docs/model.md §7), "
+        "config keys through the nonlinear simulator (--params), or sweeps' frequency responses",
+        description="Second-order-plus-delay fit (docs/model.md §7): (wn, zeta, td) with 95 % "
         "confidence intervals, the RMS residual and the closed-form bandwidth. "
         "With --data: of each bench step recording (a CSV whose header names time, command, "
         "position and optionally current and voltage columns with their units, e.g. "
@@ -26,15 +26,16 @@ def register(commands):
         "which keys and products of keys the data determine; several --params are alternative "
         "models ranked by AICc; -o FILE.yaml writes the config with the fitted variant. "
         "Without --data, 'cas-freq fit FILE --step 10deg' fits one step response CSV (the step "
-        "at t = 0): two columns, time [s] and fin angle [deg], with an optional header; or a "
-        "header naming a time column (t or time, in s or ms: 't [s]', 'time_s') and a fin angle "
-        "column (delta, fin_angle, fin or angle, in deg or rad: 'delta [deg]', "
-        "'fin_angle_deg'), other columns ignored, as 'cas-freq simulate --csv' writes it.",
+        "at t = 0): two columns, time [s] and output angle [deg], with an optional header; or a "
+        "header naming a time column (t or time, in s or ms: 't [s]', 'time_s') and an output "
+        "angle column (delta, output_angle, fin_angle, fin or angle, in deg or rad: 'delta "
+        "[deg]', 'output_angle_deg'), other columns ignored, as 'cas-freq "
+        "simulate --csv' writes it.",
     )
     parser.add_argument("target", nargs="?", default=None, metavar="CONFIG|FILE",
                         help="with --data: the config YAML (default: the shipped "
-                        "configs/qt_cas.yaml); without: the step response CSV (time [s], fin "
-                        "angle [deg], or named columns, see above)")
+                        "configs/qt_cas.yaml); without: the step response CSV (time [s], "
+                        "output angle [deg], or named columns, see above)")
     parser.add_argument("--data", nargs="+", metavar="FILE",
                         help="step or sweep recordings (CSV with a header naming columns and "
                         "units; a command that oscillates makes a sweep: its frequency "
@@ -165,7 +166,7 @@ def run_file(args):
         f"  rise time 10-90 %   {ms(s['rise_time_s'])}",
         f"  overshoot           {s['overshoot_pct']:.4g} %",
         f"  settling ±2 % / ±5 % {ms(s['settling_time_s'])} / {ms(s['settling_time_5pct_s'])}",
-        "  second-order fit (report §7)",
+        "  second-order-plus-delay fit (docs/model.md §7)",
         f"    wn {f['wn_rad_s']:.4g} rad/s [{f['wn_ci_rad_s'][0]:.4g}, {f['wn_ci_rad_s'][1]:.4g}]",
         f"    zeta {f['zeta']:.4g} [{f['zeta_ci'][0]:.4g}, {f['zeta_ci'][1]:.4g}]",
         f"    td {ms(f['td_s'])} [{ms(f['td_ci_s'][0], '')}, {ms(f['td_ci_s'][1], '')}]",

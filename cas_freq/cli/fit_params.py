@@ -250,7 +250,7 @@ def run_params(args):
         from cas_freq.plots.recordings import physical_fit_figure
         from cas_freq.report.studies import json_text
 
-        figure = physical_fit_figure(recordings, fits, best.name)
+        figure = physical_fit_figure(recordings, fits, best.name, loaded.params.output_label)
         return {"fit.json": json_text(data), "config.yaml": text, "fit.svg": svg_text(figure)}
 
     return write_and_print(args, data, None if as_file else files, table)

@@ -99,7 +99,7 @@ def table(data):
             f"{'command column' if rec['step_from'] == 'command' else '--step option'}), "
             f"{rec['samples']} samples from the trigger{offset}",
             *_step_lines(rec["step"]),
-            "  second-order fit (report §7)",
+            "  second-order-plus-delay fit (docs/model.md §7)",
             *_fit_lines(f),
             f"    rms residual {100 * f['rms_residual_of_step']:.3g} % of the step "
             f"({math.degrees(f['rms_residual_rad']):.3g} deg)",
@@ -156,6 +156,7 @@ def run_recordings(args):
         from cas_freq.plots.recordings import recording_fit_figure
         from cas_freq.report.studies import json_text
 
-        return {"fit.json": json_text(data), "fit.svg": svg_text(recording_fit_figure(fits))}
+        return {"fit.json": json_text(data), "fit.svg": svg_text(
+            recording_fit_figure(fits, loaded.params.output_label))}
 
     return write_and_print(args, data, files, table)

@@ -1,7 +1,7 @@
 """``cas-freq fit [CONFIG] --data FILE...`` for sweep recordings: empirical frequency responses.
 
-Each recording's H1 estimate and coherence (:mod:`cas_freq.identification.frf`) of the fin
-angle per fin command, and with a current column of the current per fin command, with a
+Each recording's H1 estimate and coherence (:mod:`cas_freq.identification.frf`) of the output
+angle per output command, and with a current column of the current per output command, with a
 current_command column of the current per current command (the current loop's T_i), beside
 CONFIG's variant evaluated at the same frequencies (exact delays); per response the RMS
 differences data vs model where the coherence is >= 0.9, the empirical -3 dB bandwidth against
@@ -12,10 +12,11 @@ frf.json and frf.svg.
 from cas_freq.cli.common import write_and_print
 from cas_freq.exceptions import CasFreqError
 
-#: Responses estimated: key, input and output attributes of a SweepRecording, label, unit.
+#: Responses estimated: key, input and output attributes of a SweepRecording, label (``{output}``:
+#: the config's ``output_label``), unit.
 RESPONSES = (
-    ("position", "command_rad", "position_rad", "fin angle / fin command", "-"),
-    ("current", "command_rad", "current_a", "current / fin command", "A/rad"),
+    ("position", "command_rad", "position_rad", "{output} angle / {output} command", "-"),
+    ("current", "command_rad", "current_a", "current / {output} command", "A/rad"),
     ("current_loop", "current_command_a", "current_a", "current / current command (T_i)", "-"),
 )
 
@@ -75,7 +76,8 @@ def analyse(recording, params):
         estimate = frf.estimate(x, y, recording.interval_s)
         model = frf.model_responses(params, estimate.omega_rad_s)[key]
         estimates[key] = estimate
-        responses[key] = {"label": label, "unit": unit, **_response(estimate, model)}
+        responses[key] = {"label": label.format(output=params.output_label), "unit": unit,
+                          **_response(estimate, model)}
     position = estimates["position"]
     value, note = frf.bandwidth(position)
     data = {
@@ -163,7 +165,8 @@ def table(data):
                      f"{'—' if model_bw is None else f'{model_bw:.4g} rad/s'}")
         blocks.append("\n".join(lines))
     if data["between_recordings"]:
-        lines = ["fin angle / fin command of each recording against the first's (coherent "
+        position = data["recordings"][0]["responses"]["position"]["label"]
+        lines = [f"{position} of each recording against the first's (coherent "
                  "frequencies both share)"]
         for item in data["between_recordings"]:
             shown = ("— (no shared coherent frequencies)" if item["rms_db"] is None else

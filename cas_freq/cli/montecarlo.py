@@ -39,7 +39,7 @@ def register(commands):
     parser.add_argument("--seed", type=int, default=None,
                         help="random seed (default: fresh, printed for reproduction)")
     parser.add_argument("--step", metavar="ANGLE",
-                        help="simulate a fin step per sample (default: only when a requirement "
+                        help="simulate an output step per sample (default: only when a requirement "
                         "needs step or fit figures)")
     parser.add_argument("--no-step", action="store_true",
                         help="simulate no step (step and fit requirements are then listed as "

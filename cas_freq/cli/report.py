@@ -23,7 +23,7 @@ def register(commands):
     )
     parser.add_argument(
         "--amplitudes", default=DEFAULT_AMPLITUDES, metavar="A,B,...",
-        help=f"sine-dwell and step amplitudes at the fin, with units; the smallest and the "
+        help=f"sine-dwell and step amplitudes at the output, with units; the smallest and the "
         f"largest are the steps shown (default: {DEFAULT_AMPLITUDES})",
     )
     parser.add_argument(

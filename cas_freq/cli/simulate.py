@@ -17,31 +17,31 @@ def register(commands):
     """Add the ``simulate`` sub-parser."""
     parser = commands.add_parser(
         "simulate", help="nonlinear step response (figures, second-order fit) or a CSV command",
-        description="Nonlinear time-domain simulation of the fin (limits, anti-windup, exact "
+        description="Nonlinear time-domain simulation of the output (limits, anti-windup, exact "
         "delays): a step with its figures and second-order fit, or a command table.",
     )
     add_config_arguments(parser)
     what = parser.add_mutually_exclusive_group(required=True)
     what.add_argument(
-        "--step", metavar="ANGLE", help="fin step with a unit, e.g. 10deg or 0.1rad",
+        "--step", metavar="ANGLE", help="output step with a unit, e.g. 10deg or 0.1rad",
     )
     what.add_argument(
         "--command", metavar="FILE",
-        help="fin command from a CSV of time [s], angle [deg] (optional header; held after "
+        help="output command from a CSV of time [s], angle [deg] (optional header; held after "
         "its last point)",
     )
     what.add_argument(
         "--profile", metavar="DIST",
-        help="trapezoidal profile move of DIST at the fin (e.g. 10deg), as the drive's profile "
+        help="trapezoidal profile move of DIST at the output (e.g. 10deg), as the drive's profile "
         "position mode moves; needs --velocity and --acceleration",
     )
     parser.add_argument("--velocity", metavar="V",
-                        help="profile velocity limit at the fin, e.g. 2000deg/s (motor side: x "
+                        help="profile velocity limit at the output, e.g. 2000deg/s (motor side: x "
                         "the gear ratio)")
     parser.add_argument("--acceleration", metavar="A",
-                        help="profile acceleration limit at the fin, e.g. 1e5deg/s^2")
+                        help="profile acceleration limit at the output, e.g. 1e5deg/s^2")
     parser.add_argument("--deceleration", metavar="D",
-                        help="profile deceleration limit at the fin (default: --acceleration)")
+                        help="profile deceleration limit at the output (default: --acceleration)")
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.add_argument("--csv", metavar="FILE", help="write the time series to FILE (for several "
                         "variants: FILE's stem.<variant>.csv per variant, e.g. out.base.csv, "

@@ -25,7 +25,7 @@ def register(commands):
     add_config_arguments(parser)
     parser.add_argument(
         "--amplitudes", default=DEFAULT_AMPLITUDES, metavar="A,B,...",
-        help=f"fin amplitudes with units (default: {DEFAULT_AMPLITUDES})",
+        help=f"output amplitudes with units (default: {DEFAULT_AMPLITUDES})",
     )
     parser.add_argument(
         "--frequencies", default=None, metavar="MIN:MAX:N|F1,F2,...",
@@ -42,7 +42,7 @@ def register(commands):
 
 
 def parse_amplitudes(text):
-    """Comma-separated fin angles with units → list of radians."""
+    """Comma-separated output angles with units → list of radians."""
     parts = [part.strip() for part in text.split(",")]
     if not text.strip() or any(not part for part in parts):
         raise CasFreqError(f"--amplitudes: expected angles such as 0.5deg,2deg,10deg, got {text!r}")

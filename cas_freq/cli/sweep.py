@@ -36,11 +36,11 @@ def register(commands):
         "with a first column 'variant' (sweep.<variant>.svg per variant with -o).",
     )
     add_config_arguments(parser)
-    parser.add_argument("--step", metavar="ANGLE", help="also simulate a fin step, e.g. 10deg")
+    parser.add_argument("--step", metavar="ANGLE", help="also simulate an output step, e.g. 10deg")
     parser.add_argument("--no-fit", action="store_true",
                         help="with --step: skip the second-order fit")
     parser.add_argument("--sinedwell", metavar="ANGLE",
-                        help="also the sine-dwell bandwidth at this fin amplitude, e.g. 10deg "
+                        help="also the sine-dwell bandwidth at this output amplitude, e.g. 10deg "
                         "(feed-forward off, as cas-freq sinedwell)")
     parser.add_argument("--frequencies", metavar="MIN:MAX:N|F1,F2,...",
                         help="with --sinedwell: frequencies in rad/s (default: 100:5000:30)")

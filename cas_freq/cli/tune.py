@@ -30,8 +30,9 @@ def register(commands):
         "Sobol search of the bounds, then refinement around the best, every candidate checked "
         "with the figures verify uses. Prints the tuned values, every requirement before and "
         "after, the binding ones (or, when nothing in the bounds is feasible, how far the "
-        "closest candidate is), the Pareto front of bandwidth, phase margin and overshoot, and "
-        "the gains in EPOS4 units; -o writes the config with the tuned variant.",
+        "closest candidate is), the Pareto front of bandwidth, phase margin and overshoot, and, "
+        "for a config whose drive: is epos4, the gains in EPOS4 units ('cas-freq epos4 export' "
+        "writes them for any config); -o writes the config with the tuned variant.",
     )
     add_config_arguments(parser, all_by_default=False)
     parser.add_argument("--free", default=",".join(DEFAULT_FREE), metavar="KEY,KEY,...",
@@ -50,7 +51,7 @@ def register(commands):
                         help="with --robust montecarlo:N, the share of the samples that must "
                         "pass (default 99; corners must all pass)")
     parser.add_argument("--load-cases", action="store_true",
-                        help="also hold the requirements at every hinge stiffness of the "
+                        help="also hold the requirements at every load spring K_h of the "
                         "config's load_envelope grid")
     parser.add_argument("--margin", type=float, default=2.0, metavar="PCT",
                         help="tighten every bound by this share of its magnitude (default 2)")
@@ -128,7 +129,8 @@ def run(args):
     data["drive"] = None
     if result.feasible or output is not None:
         text, tuned = _tuned_config(loaded, result, args.name)
-        data["drive"] = _drive_settings(tuned)
+        if loaded.params.drive == "epos4":  # the only drive cas_freq knows the units of
+            data["drive"] = _drive_settings(tuned)
         if output is not None:
             write_text_atomic(output, text)
             wrote(output)

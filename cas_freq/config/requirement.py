@@ -158,7 +158,7 @@ def _quantity_field(value, unit, example, what):
 
 
 class ProfileCondition(BaseModel):
-    """The move a ``profile.*`` requirement is measured on (values at the fin, SI inside).
+    """The move a ``profile.*`` requirement is measured on (values at the output, SI inside).
 
     Attributes
     ----------
@@ -182,10 +182,10 @@ class ProfileCondition(BaseModel):
     @field_validator("distance", mode="before")
     @classmethod
     def _distance(cls, value):
-        number = _quantity_field(value, "rad", "10 deg", "the move at the fin")
+        number = _quantity_field(value, "rad", "10 deg", "the move at the output")
         if not (number != 0 and abs(number) <= math.pi / 2):
             raise PydanticCustomError(
-                "cas_value", f"must be non-zero and within ±90 deg at the fin, got {value!r}"
+                "cas_value", f"must be non-zero and within ±90 deg at the output, got {value!r}"
             )
         return number
 
@@ -194,9 +194,9 @@ class ProfileCondition(BaseModel):
     def _limit(cls, value, info):
         if value is None:
             return value
-        unit, example, what = (("rad/s", "2000 deg/s", "a speed at the fin")
+        unit, example, what = (("rad/s", "2000 deg/s", "a speed at the output")
                                if info.field_name == "velocity" else
-                               ("rad/s^2", "1e5 deg/s^2", "an acceleration at the fin"))
+                               ("rad/s^2", "1e5 deg/s^2", "an acceleration at the output"))
         number = _quantity_field(value, unit, example, what)
         if not number > 0:
             raise PydanticCustomError("cas_value", f"must be > 0, got {value!r}")
@@ -282,7 +282,7 @@ class Requirement(BaseModel):
     def _angle(cls, value):
         if value is None:
             return value
-        text = f"give a fin angle with a unit (e.g. '10 deg'), got {value!r}"
+        text = f"give an output angle with a unit (e.g. '10 deg'), got {value!r}"
         if not isinstance(value, str):
             raise PydanticCustomError("cas_value", text)
         try:
@@ -294,7 +294,7 @@ class Requirement(BaseModel):
             raise PydanticCustomError("cas_value", text)
         if not 0 < number <= math.pi / 2:
             raise PydanticCustomError(
-                "cas_value", f"must be > 0 and at most 90 deg at the fin, got {value!r}"
+                "cas_value", f"must be > 0 and at most 90 deg at the output, got {value!r}"
             )
         return number
 

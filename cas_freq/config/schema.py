@@ -9,6 +9,7 @@ value and what is accepted (see :mod:`cas_freq.config.loader`).
 Keys follow docs/model.md and the report's symbols (``Kp``, ``Ki``, ``Kd``, ``Tf``, ``mu_v``, ...).
 """
 
+import re
 from typing import Annotated, Any, Literal
 
 from pydantic import (
@@ -302,10 +303,18 @@ class LoadEnvelopeSpec(_Section):
 
 
 class ActuatorConfig(_Section):
-    """A whole actuator: motor, gear, both loops, and the named variants of the file."""
+    """A whole actuator: motor, gear, both loops, and the named variants of the file.
+
+    ``output_name`` names what the actuator moves (``fin``) in labels and text; without it they
+    say "output". Data keys (CSV columns, JSON and API fields) never depend on it. ``drive``
+    names the drive the gains are written for (``epos4``: ``tune`` also prints them in its
+    units); without it no drive is assumed.
+    """
 
     name: Annotated[str, Field(min_length=1)]
     description: str = ""
+    output_name: str | None = None
+    drive: Literal["epos4"] | None = None
     motor: Motor
     gear: Gear
     load: Load = Load()
@@ -316,6 +325,20 @@ class ActuatorConfig(_Section):
     reference: Reference | None = None
     load_envelope: LoadEnvelopeSpec | None = None
     variants: dict[str, dict[str, Any] | None] = {}
+
+    @field_validator("output_name")
+    @classmethod
+    def _output_name(cls, value):
+        if value is not None and not re.fullmatch(r"[A-Za-z][A-Za-z0-9 _-]{0,39}", value):
+            raise PydanticCustomError(
+                "cas_value", "expected a name for labels (1 to 40 letters, digits, spaces, '_' "
+                "or '-', starting with a letter, e.g. fin), got {value}", {"value": repr(value)})
+        return value
+
+    @property
+    def output_label(self):
+        """What labels and text call the output: ``output_name``, else ``"output"``."""
+        return self.output_name or "output"
 
     @model_validator(mode="after")
     def _envelope_variants(self):

@@ -2,7 +2,7 @@
 
 A header cell names a column and, optionally, its unit: in brackets or parentheses
 (``t [s]``, ``delta (deg)``, ``time [ms]``) or as a suffix after the last underscore
-(``time_s``, ``position_deg``, ``fin_angle_rad``, ``current_a``). The names are matched
+(``time_s``, ``position_deg``, ``output_angle_rad``, ``current_a``). The names are matched
 without regard to case, the units by pint (:func:`cas_freq.units.to_si`), so ``t [us]`` or
 ``delta [mrad]`` work as well; a unit of another dimension than the signal's is an error. A
 column without a unit is in the role's default unit (:data:`ROLES`). Cells that name no role are
@@ -17,9 +17,10 @@ from cas_freq.units import to_si
 #: role -> (accepted names, SI unit, default unit of a column without one, required).
 ROLES = {
     "time": (("t", "time"), "s", "s", True),
-    "command": (("command", "command_fin", "cmd", "delta_cmd", "setpoint", "command_angle"),
-                "rad", "deg", False),
-    "position": (("position", "delta", "fin_angle", "fin", "angle", "pos"), "rad", "deg", True),
+    "command": (("command", "command_output", "command_fin", "cmd", "delta_cmd", "setpoint",
+                 "command_angle"), "rad", "deg", False),
+    "position": (("position", "delta", "output_angle", "fin_angle", "fin", "angle", "pos"),
+                 "rad", "deg", True),
     "current": (("current", "i"), "A", "A", False),
     "current_command": (("current_command", "i_cmd", "current_demand", "current_cmd",
                          "i_command"), "A", "A", False),

@@ -23,8 +23,9 @@ def plant_system(params):
     """The plant of :func:`cas_freq.model.parts.plant_matrices` as a python-control system.
 
     States ``i`` [A], ``omega`` [rad/s], ``theta`` [rad] (motor shaft), and with a compliant
-    gear ``omega_L`` [rad/s], ``delta`` [rad] (the fin); input ``V`` [V]; outputs the states
-    and ``fin``, N delta [rad] (the fin angle on the motor's scale: theta for a rigid gear).
+    gear ``omega_L`` [rad/s], ``delta`` [rad] (the output); input ``V`` [V]; outputs the states
+    and ``output``, N delta [rad] (the output angle on the motor's scale: theta for a rigid
+    gear).
     """
     p = parts.one_variant(params)
     a, b = parts.plant_matrices(p)
@@ -33,7 +34,7 @@ def plant_system(params):
     c = np.vstack([np.eye(states), parts.fin_output(states, float(p.ratio[0]))])
     return control.ss(
         a[0], b[0][:, :1], c, np.zeros((states + 1, 1)),
-        inputs="V", outputs=[*names, "fin"], states=names, name="plant",
+        inputs="V", outputs=[*names, "output"], states=names, name="plant",
     )
 
 
@@ -102,7 +103,7 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
     delay = control.ss(delay_c, inputs="v_c", outputs="V", name="current_delay")
     error = control.summing_junction(inputs=["i_cmd", "-i"], output="e_i", name="current_error")
     to_theta = control.interconnect(
-        [current_pi, delay, plant, error], inputs="i_cmd", outputs=["theta", "fin"],
+        [current_pi, delay, plant, error], inputs="i_cmd", outputs=["theta", "output"],
         check_unused=False,
     )
     # (theta, fin) per controller output, then the three position-loop systems.
@@ -122,7 +123,7 @@ def _position_closed_loop(p, c_p, seen, l_p):
     either derivative placement; ``seen`` gives (theta, N delta) per controller output."""
     if seen.noutputs == 1 and not p.derivative_on_measurement[0]:
         return control.feedback(l_p, 1)  # the fin follows theta: T = L_p/(1 + L_p)
-    plant = control.ss(seen, inputs="u", outputs=["theta", "fin"][:seen.noutputs],
+    plant = control.ss(seen, inputs="u", outputs=["theta", "output"][:seen.noutputs],
                        name="seen")
     if not p.derivative_on_measurement[0]:
         blocks = [control.ss(c_p, inputs="e", outputs="u", name="c_p"), plant]
@@ -139,7 +140,7 @@ def _position_closed_loop(p, c_p, seen, l_p):
                   control.summing_junction(inputs=["u_pi", "-u_d"], output="u", name="u_sum")]
     error = control.summing_junction(inputs=["r", "-theta"], output="e", name="e_sum")
     return control.interconnect([*blocks, error], inputs="r",
-                                outputs="fin" if seen.noutputs == 2 else "theta")
+                                outputs="output" if seen.noutputs == 2 else "theta")
 
 
 def closed_loop_zeros(params, pade_order):

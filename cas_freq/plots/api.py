@@ -49,7 +49,7 @@ def bode_figure(response):
 
 
 def step_figure(response):
-    """Fin angle with its command, and motor current, against time.
+    """Output angle with its command, and motor current, against time.
 
     Parameters
     ----------
@@ -59,14 +59,16 @@ def step_figure(response):
     Returns
     -------
     matplotlib.figure.Figure
-        Two axes sharing the time axis [ms]: fin angle and command [deg]; current [A].
+        Two axes sharing the time axis [ms]: output angle and command [deg] (labelled with the
+        config's ``output_name``); current [A].
     """
     t_ms = 1e3 * response.time_s
     fig = Figure(figsize=(8, 6), layout="constrained")
     angle, current = fig.subplots(2, 1, sharex=True)
     angle.plot(t_ms, response.command_deg, color="k", ls=":", lw=0.9, label="command δ_cmd")
-    angle.plot(t_ms, response.fin_angle_deg, label="fin angle δ")
-    angle.set_ylabel("fin angle [deg]")
+    name = response.run.output
+    angle.plot(t_ms, response.output_angle_deg, label=f"{name} angle δ")
+    angle.set_ylabel(f"{name} angle [deg]")
     angle.set_title(f"{response.step.amplitude_deg:g}° step (nonlinear, limits and delays)")
     angle.legend()
     current.plot(t_ms, response.current_a, label="motor current i")

@@ -1,6 +1,6 @@
 """The load envelope figure: figures of merit against hinge stiffness (matplotlib).
 
-Three panels sharing the hinge-stiffness axis (at the fin, N*m/rad): the linear bandwidth, the
+Three panels sharing the load-spring axis (K_h at the output, N*m/rad): the linear bandwidth, the
 position loop's phase and gain margins, and the nonlinear step's overshoot (when simulated).
 Requirement bounds are drawn as lines, the stiffness where each required requirement is lost
 as a vertical line, and the hinge stiffness where the closed loop is not stable is shaded.
@@ -49,7 +49,8 @@ def envelope_figure(envelope, config_name):
         _unsettled(axes[2], k, envelope, trusted["step.overshoot_pct"])
     for ax, label in zip(axes, _PANEL_LABELS, strict=False):
         ax.set_ylabel(label)
-    axes[-1].set_xlabel("hinge stiffness K_h at the fin [N·m/rad] (> 0 opposes, < 0 aids)")
+    axes[-1].set_xlabel("load spring K_h (load.hinge_stiffness) [N·m/rad] (> 0 opposes, < 0 "
+                        "aids)")
     fig.suptitle(f"Load envelope — {config_name} / {envelope.variant} (dotted: the variant's "
                  "own K_h; shaded: closed loop not stable)", fontsize=9)
     for ax in axes:

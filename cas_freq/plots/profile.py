@@ -1,4 +1,4 @@
-"""Figure of a profile move: command and fin angle, and the tracking error, with and without
+"""Figure of a profile move: command and output angle, and the tracking error, with and without
 feed-forward (the API's ``ProfileResponse.plot()`` and the report's profile section)."""
 
 import numpy as np
@@ -12,7 +12,7 @@ _RUNS = (
 
 
 def profile_figure(run):
-    """Fin angle against its profile command, and the tracking error, against time.
+    """Output angle against its profile command, and the tracking error, against time.
 
     Parameters
     ----------
@@ -22,7 +22,7 @@ def profile_figure(run):
     Returns
     -------
     matplotlib.figure.Figure
-        Two axes sharing the time axis [ms]: command and fin angle [deg]; tracking error
+        Two axes sharing the time axis [ms]: command and output angle [deg]; tracking error
         delta_cmd - delta [deg]. The move's span is shaded.
     """
     move_end = run.move.start_s + run.move.move_time_s
@@ -46,7 +46,7 @@ def profile_figure(run):
     for ax in (angle, error):
         ax.axvspan(1e3 * run.move.start_s, 1e3 * move_end, color="0.9", zorder=0)
         ax.grid(True, alpha=0.35)
-    angle.set_ylabel("fin angle [deg]")
+    angle.set_ylabel(f"{run.output} angle [deg]")
     angle.set_title(f"profile move of {run.profile.distance_deg:g}° (nonlinear, limits and "
                     "delays; the move shaded)")
     angle.legend()

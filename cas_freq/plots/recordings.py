@@ -10,13 +10,15 @@ import numpy as np
 from cas_freq.plots.common import figure, rounded
 
 
-def recording_fit_figure(fits):
+def recording_fit_figure(fits, output="output"):
     """Data vs fitted model and the residuals of every recording.
 
     Parameters
     ----------
     fits : RecordingFits
         From :func:`cas_freq.identification.fit_recordings`.
+    output : str
+        What the labels call the output (the config's ``output_label``).
 
     Returns
     -------
@@ -41,7 +43,7 @@ def recording_fit_figure(fits):
         bottom.plot(t_ms, rounded(np.degrees(run.residual_rad)), ".", color=colour,
                     markersize=2, alpha=0.6)
     bottom.axhline(0.0, color="k", linewidth=0.6)
-    top.set_ylabel("fin angle [deg]")
+    top.set_ylabel(f"{output} angle [deg]")
     top.set_title("step recordings and second-order-plus-delay fits (dotted: command)")
     top.legend(loc="lower right")
     bottom.set_ylabel("data - fit [deg]")
@@ -49,7 +51,7 @@ def recording_fit_figure(fits):
     return fig
 
 
-def physical_fit_figure(recordings, fits, best):
+def physical_fit_figure(recordings, fits, best, output="output"):
     """The report's Fig. 10 for a physical fit: data, starting model and fitted model(s).
 
     Parameters
@@ -60,11 +62,13 @@ def physical_fit_figure(recordings, fits, best):
         same start.
     best : str
         Name of the best model: drawn solid; the others dotted.
+    output : str
+        What the labels call the output (the config's ``output_label``).
 
     Returns
     -------
     matplotlib.figure.Figure
-        Fin angle [deg] over time [ms] (data as dots, start dashed, fits), the current [A]
+        Output angle [deg] over time [ms] (data as dots, start dashed, fits), the current [A]
         likewise where it was fitted, and the residuals (data less the best fit) below.
     """
     first = fits[0]
@@ -73,7 +77,7 @@ def physical_fit_figure(recordings, fits, best):
     fig, axes = figure(rows, 1, (7.0, 3.0 + 2.2 * (rows - 1)), sharex=True,
                        height_ratios=[2, 2, 1][-rows:] if current else [2, 1])
     position, residual = axes[0, 0], axes[rows - 1, 0]
-    panels = [("position", position, np.degrees, "fin angle [deg]")]
+    panels = [("position", position, np.degrees, f"{output} angle [deg]")]
     if current:
         panels.append(("current", axes[1, 0], lambda values: values, "motor current [A]"))
     ordered = sorted(fits, key=lambda fit: fit.name != best)

@@ -412,7 +412,7 @@ def steps(data):
                  label="nonlinear (limits, exact delays)")
         top.plot(t_ms, _r(np.degrees(data.linear_steps[k][keep])), color="C1", ls="--",
                  label=f"linear T (Padé {data.pade_order})")
-        top.set_ylabel("output angle δ [deg]")
+        top.set_ylabel(f"{params.output_label} angle δ [deg]")
         top.set_title(f"{a_deg:g}° step: {_limit_words(run.step)}")
         mid.plot(t_ms, _r(r.i[keep]), color="C0", label="motor current i")
         for sign in (1, -1):
@@ -430,7 +430,7 @@ def steps(data):
             bottom.legend(loc="upper right")
             mid.plot([], [], color="C3", ls="--", lw=0.9, label="±i_max")
             mid.legend(loc="upper right")
-    fig.suptitle(f"{data.label}: output steps, nonlinear simulation vs linear model "
+    fig.suptitle(f"{data.label}: {params.output_label} steps, nonlinear simulation vs linear model "
                  f"(Padé {data.pade_order}); limit intervals shaded")
     return fig
 
@@ -474,9 +474,9 @@ def step_fit(data):
                 f"ζ {fit_ref.zeta:g}, td {1e3 * (fit_ref.td or 0.0):g} ms")
     ax.set_xlim(0.0, window)
     ax.set_xlabel("time [ms]")
-    ax.set_ylabel("output angle δ [deg]")
+    ax.set_ylabel(f"{data.loaded.params.output_label} angle δ [deg]")
     ax.legend(loc="lower right")
-    ax.set_title(f"{a_deg:g}° step: second-order-plus-delay fit (report §7)")
+    ax.set_title(f"{a_deg:g}° step: second-order-plus-delay fit (docs/model.md §7)")
     fig.suptitle(f"{data.label}: second-order fit to the nonlinear step (exact delays)")
     return fig
 
@@ -525,7 +525,8 @@ def _amplitude_axis(ax, datas):
     ax.set_xscale("log")
     ax.set_xticks(amplitudes, [f"{a:g}" for a in amplitudes])
     ax.minorticks_off()
-    ax.set_xlabel("output amplitude [deg]")
+    names = {d.loaded.params.output_label for d in datas}
+    ax.set_xlabel(f"{names.pop() if len(names) == 1 else 'output'} amplitude [deg]")
 
 
 def _reference_points(datas):

@@ -277,7 +277,7 @@ def fit_table(data):
                      number(_ms(fit.td)), number(fit.bandwidth_rad_s), "—", "—"))
     return Table(("step", "ωn [rad/s]", "ζ [-]", "td [ms]", "ω_BW closed form [rad/s]",
                   "RMS residual [deg]", "converged"), tuple(rows),
-                 "second-order-plus-delay fits (report §7)")
+                 "second-order-plus-delay fits (docs/model.md §7)")
 
 
 def bandwidth_table(data):
@@ -415,17 +415,18 @@ _PARAMETER_ROWS = (
 )
 
 #: Rows of the load and drivetrain (docs/model.md §5), shown when some variant is loaded; each
-#: getter's value is 0 (or the efficiency 1) where the key is absent.
+#: getter's value is 0 (or the efficiency 1) where the key is absent. ``{output}`` in a label is
+#: the config's ``output_label``.
 _LOAD_ROWS = (
-    ("load inertia J_L (fin)", "kg·m²", 1.0, lambda p: p.load.inertia),
-    ("load damping b_L (fin)", "N·m·s/rad", 1.0, lambda p: p.load.damping),
-    ("hinge stiffness K_h (fin)", "N·m/rad", 1.0, lambda p: p.load.hinge_stiffness),
-    ("hinge bias (fin)", "N·m", 1.0, lambda p: p.load.hinge_bias),
+    ("load inertia J_L ({output})", "kg·m²", 1.0, lambda p: p.load.inertia),
+    ("load damping b_L ({output})", "N·m·s/rad", 1.0, lambda p: p.load.damping),
+    ("load spring K_h ({output})", "N·m/rad", 1.0, lambda p: p.load.hinge_stiffness),
+    ("constant load moment τ_h ({output})", "N·m", 1.0, lambda p: p.load.hinge_bias),
     ("gear efficiency η", "-", 1.0, lambda p: p.gear.efficiency),
     ("gear backdrive efficiency η_b", "-", 1.0, lambda p: p.gear.backdrive),
-    ("gear stiffness K_g (fin; 0 rigid)", "N·m/rad", 1.0, lambda p: p.gear.stiffness),
-    ("gear mesh damping c_g (fin)", "N·m·s/rad", 1.0, lambda p: p.gear.damping),
-    ("gear backlash (fin, total)", "deg", 180.0 / math.pi, lambda p: p.gear.backlash),
+    ("gear stiffness K_g ({output}; 0 rigid)", "N·m/rad", 1.0, lambda p: p.gear.stiffness),
+    ("gear mesh damping c_g ({output})", "N·m·s/rad", 1.0, lambda p: p.gear.damping),
+    ("gear backlash ({output}, total)", "deg", 180.0 / math.pi, lambda p: p.gear.backlash),
     ("motor Coulomb friction", "mN·m", 1e3, lambda p: p.motor.coulomb_friction),
 )
 
@@ -435,7 +436,9 @@ def parameter_table(datas):
     angles, loops on the motor shaft (docs/model.md)."""
     rows = []
     loaded = any(d.analysis.drivetrain is not None for d in datas)
+    output = datas[0].loaded.params.output_label
     for label, unit, scale, get in _PARAMETER_ROWS + (_LOAD_ROWS if loaded else ()):
+        label = label.replace("{output}", output)
         values = []
         for data in datas:
             value = get(data.loaded.params)
@@ -501,10 +504,12 @@ def report_blocks(datas, figure_blocks, settings, command=None, extra=()):
         "of the Padé model; linear step responses: Padé order "
         f"{settings.pade_order}; nonlinear simulation: exact delays as delay lines, ±i_max and "
         "±v_max clamps with anti-windup",
-        f"sine-dwell and step amplitudes at the output: {amplitudes}; sine-dwell frequencies: "
+        f"sine-dwell and step amplitudes at the {params.output_label}: {amplitudes}; sine-dwell "
+        "frequencies: "
         f"{settings.frequencies_text} (one batch per variant, "
         "feed-forward off as in docs/model.md's T)",
-        "figure definitions: docs/model.md (motor-shaft loops, output angle δ = θ / gear ratio)",
+        "figure definitions: docs/model.md (motor-shaft loops, "
+        f"{params.output_label} angle δ = θ / gear ratio)",
     ]
     if command:
         facts.append(f"regenerate with: {command}")

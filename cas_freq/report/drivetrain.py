@@ -23,9 +23,9 @@ def nonlinear_terms(params):
                      "on the motor shaft")
     if params.gear.backlash:
         terms.append(f"backlash {number(math.degrees(params.gear.backlash), 4)}° (total, at "
-                     "the fin)")
+                     f"the {params.output_label})")
     if params.load.hinge_bias:
-        terms.append(f"a constant hinge moment {number(params.load.hinge_bias, 4)} N·m")
+        terms.append(f"a constant load moment {number(params.load.hinge_bias, 4)} N·m")
     if params.gear.backdrive != params.gear.efficiency:
         terms.append(f"backdrive efficiency {number(params.gear.backdrive, 3)}"
                      + (" (self-locking)" if params.gear.backdrive == 0 else "")
@@ -48,13 +48,13 @@ def drivetrain_blocks(data):
         ("gear", "", "compliant (two masses)" if load.compliant else "rigid"),
         ("reflected inertia J_eff", "kg·m²", number(load.reflected_inertia_kg_m2, 4)),
         ("reflected damping μ_eff", "N·m·s/rad", number(load.reflected_damping_n_m_s_rad, 4)),
-        ("reflected hinge stiffness k_eff", "N·m/rad", number(load.reflected_stiffness_n_m_rad,
-                                                               4)),
+        ("reflected load spring k_eff", "N·m/rad", number(load.reflected_stiffness_n_m_rad, 4)),
         ("open-loop plant", "", "stable" if load.plant_stable else
          f"UNSTABLE, pole at +{number(load.plant_unstable_pole_rad_s, 4)} rad/s"),
         ("resonances (poles of θ/i)", "", _modes(load.resonances)),
         ("anti-resonances (zeros of θ/i)", "", _modes(load.anti_resonances)),
-        ("closed loop stable for K_h (at the fin)", "N·m/rad", span),
+        (f"closed loop stable for K_h (at the {data.loaded.params.output_label})", "N·m/rad",
+         span),
     )
     blocks = [Table(("load and drivetrain", "unit", "value"), rows,
                     f"load and drivetrain of {data.loaded.variant} (motor shaft unless named)")]

@@ -170,15 +170,16 @@ def envelope_section(datas, png=False, computed=None):
     chosen = [d for d in datas if d.loaded.variant in wanted]
     grid = spec.hinge_stiffness
     blocks = [Heading(2, "Load envelope"), Paragraph(
-        f"Every figure against the hinge stiffness K_h at the fin (the aerodynamic hinge moment "
-        f"−K_h·δ; > 0 opposes deflection, < 0 aids it, a statically unstable surface), from "
+        f"Every figure against the load spring K_h (load.hinge_stiffness) at the "
+        f"{params.output_label} (the load moment −K_h·δ; > 0 opposes deflection, < 0 aids it, "
+        f"a statically unstable load), from "
         f"{number(min(grid), 4)} to {number(max(grid), 4)} N·m/rad ({len(grid)} points, the "
         "config's load_envelope: section), each variant's other load and drivetrain values "
         "kept. Requirements are checked at every point as `cas-freq verify` checks them (a "
         "figure of a loop that is not stable never passes); where one is lost is found by "
         "bisection between grid points, of the requirement's verdict or, where the loop goes "
         "unstable first, of the Padé model's stability verdict. Figures need not vary "
-        "smoothly: the bandwidth drops at once where a low-frequency dip of T (the hinge "
+        "smoothly: the bandwidth drops at once where a low-frequency dip of T (the load "
         "spring taking the loop's stiffness until the integrator catches up) crosses −3 dB.")]
     missing = [name for name in wanted if name not in {d.loaded.variant for d in datas}]
     if missing:
@@ -194,10 +195,10 @@ def envelope_section(datas, png=False, computed=None):
                 f"for K_h from {'−∞' if low is None else number(low, 4)} to "
                 f"{'+∞' if high is None else number(high, 4)} N·m/rad")
         step = ("" if envelope.step_deg is None else
-                f" Step figures: nonlinear {envelope.step_deg:g}° fin steps.")
+                f" Step figures: nonlinear {envelope.step_deg:g}° {params.output_label} steps.")
         blocks += [
             Heading(3, f"Load envelope ({data.loaded.variant})"),
-            Paragraph(f"Own hinge stiffness {number(envelope.nominal_n_m_rad, 4)} N·m/rad. "
+            Paragraph(f"Own load spring K_h {number(envelope.nominal_n_m_rad, 4)} N·m/rad. "
                       f"The closed loop is stable {span}.{step}"),
             Bullets(tuple(requirement_items(envelope))),
         ]
@@ -209,7 +210,7 @@ def envelope_section(datas, png=False, computed=None):
         if png:
             yield f"{stem}.png", png_data
         blocks.append(Figure(f"{stem}.svg", f"Load envelope: bandwidth, margins and step "
-                             f"overshoot against hinge stiffness — {params.name} / "
+                             f"overshoot against the load spring K_h — {params.name} / "
                              f"{data.loaded.variant}", svg))
         results.append(envelope_dict(envelope))
     return EnvelopeSection(blocks, results)

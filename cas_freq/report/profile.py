@@ -68,11 +68,11 @@ def _feedforward_text(run):
 
 
 def move_text(run):
-    """The move at the fin and at the motor in the drive's units (profile position mode)."""
+    """The move at the output and at the motor in the drive's units (profile position mode)."""
     from cas_freq.simulation.profile_run import move_dict, profile_condition_text
 
     motor = move_dict(run.move, run.ratio)["motor"]
-    return (f"profile move of {profile_condition_text(run.move)} at the fin; at the motor "
+    return (f"profile move of {profile_condition_text(run.move)} at the {run.output}; at the motor "
             f"(x {run.ratio:g}): {number(motor['distance_rev'], 4)} rev, profile velocity "
             f"{number(motor['velocity_rpm'], 4)} rpm, acceleration "
             f"{number(motor['acceleration_rpm_s'], 4)} rpm/s, deceleration "
@@ -187,8 +187,9 @@ def profile_section(datas, png=False):
             if png:
                 yield f"{stem}.png", png_data
             blocks.append(Figure(
-                f"{stem}.svg", f"Profile move {number_}: command and fin angle, tracking error, "
-                f"with and without feed-forward — {run.config} / {run.variant}", svg))
+                f"{stem}.svg", f"Profile move {number_}: command and {run.output} angle, "
+                f"tracking error, with and without feed-forward — {run.config} / {run.variant}",
+                svg))
         results.append({"condition": profile_condition_text(move),
                         "variants": [{**profile_run_dict(run), "figure": path}
                                      for run, path in zip(runs, paths, strict=True)]})

@@ -110,8 +110,8 @@ def step_table(run):
     return "\n".join([
         head,
         *warning,
-        f"  nonlinear step of {step.amplitude_deg:g} deg at the fin; dt {result.dt_s * 1e6:g} us, "
-        f"{result.t_end_s * 1e3:g} ms ({settled}{extended})",
+        f"  nonlinear step of {step.amplitude_deg:g} deg at the {run.output}; "
+        f"dt {result.dt_s * 1e6:g} us, {result.t_end_s * 1e3:g} ms ({settled}{extended})",
         f"    rise time 10-90 %   {_fmt(_ms(step.rise_time_s), 'ms')}",
         f"    overshoot           {_fmt(step.overshoot_pct, '%')}",
         f"    settling ±2 % / ±5 % {_fmt(_ms(step.settling_time_s), 'ms')} / "
@@ -121,7 +121,7 @@ def step_table(run):
         f"({_limit_text(result.t, result.current_limited)})",
         f"    largest voltage     {_fmt(step.max_voltage_v, 'V')} "
         f"({_limit_text(result.t, result.voltage_limited)})",
-        "  second-order fit (report §7)",
+        "  second-order-plus-delay fit (docs/model.md §7)",
         f"    wn {_fmt(fit.wn_rad_s, 'rad/s')}, zeta {_fmt(fit.zeta)}, "
         f"td {_fmt(_ms(fit.td_s), 'ms')}"
         f", rms residual {_fmt(100 * fit.rms_residual / math.radians(abs(step.amplitude_deg)))}"
@@ -165,10 +165,11 @@ def sinedwell_table(data):
     lines.append(
         "  limits act from " + (f"{onset:g} deg" if onset is not None else "no amplitude given")
     )
-    bench = data["report_bench"]
+    bench = data.get("report_bench")
     wide = 3 if data.get("bandwidth_requirement_rad_s") is not None else 0
     lines += [
-        "  bandwidth three ways [rad/s]  (-3.01 dB; step fit = closed form of report §7)",
+        "  bandwidth three ways [rad/s]  (-3.01 dB; step fit = closed form of the "
+        "second-order-plus-delay fit, docs/model.md §7)",
         f"    {'amplitude':>10}{'linear T':>{11 + wide}}{'sine-dwell':>{12 + wide}}"
         f"{'step fit':>{10 + wide}}",
     ]
@@ -189,11 +190,19 @@ def sinedwell_table(data):
     if required is not None:
         lines.append(f"    (ok / LOW: against the config's required bandwidth >= {required:g} "
                      "rad/s)")
-    lines.append(
-        f"    report bench, {bench['step_deg']:g} deg step fit: {bench['bandwidth_rad_s']:g} "
-        f"(wn {bench['wn_rad_s']:g} rad/s, zeta {bench['zeta']:g})"
-    )
+    if bench is not None:
+        lines.append(f"    {_reference_line(bench)}")
     return "\n".join(lines)
+
+
+def _reference_line(bench):
+    """The config's reference fit: ``reference, 10 deg step fit: 566 (wn .., zeta ..; SOURCE)``."""
+    step = "" if bench["step_deg"] is None else f", {bench['step_deg']:g} deg step"
+    notes = [f"{name} {_fmt(bench[key], unit)}" for name, key, unit in
+             (("wn", "wn_rad_s", "rad/s"), ("zeta", "zeta", "")) if bench[key] is not None]
+    notes = ", ".join(notes) + ("; " if notes and bench["source"] else "") + (bench["source"] or "")
+    return (f"reference{step} fit: {_fmt(bench['bandwidth_rad_s'])}"
+            + (f" ({notes})" if notes else ""))
 
 
 def command_table(run):
@@ -245,5 +254,5 @@ def _drivetrain_lines(load):
     lines.append("    stable for K_h     " + (
         "none scanned" if low is None and high is None else
         f"{'-inf' if low is None else _fmt(low)} .. {'+inf' if high is None else _fmt(high)} "
-        "N*m/rad at the fin"))
+        "N*m/rad"))
     return lines

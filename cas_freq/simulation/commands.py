@@ -406,12 +406,14 @@ def read_command_csv(path):
 #: cell names its unit in brackets (``t [s]``) or parentheses, or as a suffix (``time_s``);
 #: without one, s.
 TIME_COLUMN = (("t", "time"), {"s": 1.0, "ms": 1e-3})
-#: Header names of the fin-angle column, best first (``delta`` is what ``simulate --csv``
-#: writes beside ``command_fin``), and their units; without one, deg.
-ANGLE_COLUMN = (("delta", "fin_angle", "fin", "angle"), {"deg": math.pi / 180.0, "rad": 1.0})
+#: Header names of the output-angle column, best first (``delta`` is what ``simulate --csv``
+#: writes beside ``command_output``; ``fin_angle`` and ``fin`` are the names of older files),
+#: and their units; without one, deg.
+ANGLE_COLUMN = (("delta", "output_angle", "fin_angle", "fin", "angle"),
+                {"deg": math.pi / 180.0, "rad": 1.0})
 _TIME_ACCEPTED = "t or time, in s or ms (e.g. 't [s]', 'time_s')"
-_ANGLE_ACCEPTED = "delta, fin_angle, fin or angle, in deg or rad (e.g. 'delta [deg]', " \
-    "'fin_angle_deg')"
+_ANGLE_ACCEPTED = "delta, output_angle, fin_angle, fin or angle, in deg or rad (e.g. " \
+    "'delta [deg]', 'output_angle_deg')"
 
 
 def _header_cell(cell):
@@ -463,7 +465,7 @@ def _header_columns(path, row_number, cells):
         return time, angle
     missing = [f"no {what} column ({accepted})"
                for what, accepted, found in (("time", _TIME_ACCEPTED, time),
-                                             ("fin angle", _ANGLE_ACCEPTED, angle))
+                                             ("output angle", _ANGLE_ACCEPTED, angle))
                if found is None]
     shown = ", ".join(repr(cell.strip()[:40]) for cell in cells[:12])
     raise ConfigError(f"{path}: row {row_number}: the header names {' and '.join(missing)}; "
@@ -471,13 +473,14 @@ def _header_columns(path, row_number, cells):
 
 
 def read_angle_series_csv(path, negative_times=False):
-    """Read a fin-angle time series: a time column and a fin angle column.
+    """Read an output-angle time series: a time column and an output angle column.
 
-    Either two columns, time [s] and fin angle [deg], with an optional header; or a header
+    Either two columns, time [s] and output angle [deg], with an optional header; or a header
     naming the columns (:data:`TIME_COLUMN`, :data:`ANGLE_COLUMN`: ``t [s]`` or ``time_s``,
-    ``delta [deg]`` or ``fin_angle_deg``, ...), which selects them and their units among any
+    ``delta [deg]`` or ``output_angle_deg``, ...), which selects them and their units among any
     number of columns: the CSV that ``cas-freq simulate --csv`` writes (``t [s]``,
-    ``command_fin [deg]``, ``delta [deg]``, ...) is read as time and ``delta``.
+    ``command_output [deg]``, ``delta [deg]``, ...; ``command_fin`` in older files) is read as
+    time and ``delta``.
 
     Parameters
     ----------

@@ -39,7 +39,7 @@ def _quantity(value, unit, name, example, positive=True):
     from cas_freq.units import has_unit, to_si
 
     what = {"rad": "an angle", "rad/s": "a positive speed"}.get(unit, "a positive acceleration")
-    expected = f"expected {what} at the fin with a unit such as {example}"
+    expected = f"expected {what} at the output with a unit such as {example}"
     try:
         number = to_si(value, unit)
         if isinstance(value, str) and not has_unit(value):
@@ -57,11 +57,11 @@ def make_profile(distance, velocity, acceleration, deceleration=None, names=None
     Parameters
     ----------
     distance : str or float
-        The move at the fin (``"10 deg"``; a number is rad), non-zero, within ±90 deg.
+        The move at the output (``"10 deg"``; a number is rad), non-zero, within ±90 deg.
     velocity : str or float
-        Velocity limit at the fin (``"2000 deg/s"``; a number is rad/s), > 0.
+        Velocity limit at the output (``"2000 deg/s"``; a number is rad/s), > 0.
     acceleration, deceleration : str or float
-        Acceleration (deceleration, default the acceleration) limit at the fin
+        Acceleration (deceleration, default the acceleration) limit at the output
         (``"1e5 deg/s^2"``; a number is rad/s^2), > 0.
     names : dict, optional
         How each of ``distance``, ``velocity``, ... is named in error messages (default
@@ -77,7 +77,7 @@ def make_profile(distance, velocity, acceleration, deceleration=None, names=None
     move = _quantity(distance, "rad", names["distance"], "10deg", positive=False)
     if not (move != 0 and abs(move) <= math.pi / 2):
         raise ConfigError(f"{names['distance']}: must be non-zero and within ±90 deg at the "
-                          f"fin, got {distance!r}")
+                          f"output, got {distance!r}")
     given = {"velocity": velocity, "acceleration": acceleration, "deceleration": deceleration}
     limits = {key: None if given[key] is None else _quantity(given[key], unit, names[key],
                                                               example)
@@ -91,10 +91,11 @@ class ProfileRun:
 
     Attributes
     ----------
-    config, config_path, variant, overrides
-        Which actuator.
+    config, config_path, variant, overrides, output
+        Which actuator; ``output`` is what text calls its output (``output_name``, else
+        "output").
     move : Profile
-        The command at the fin.
+        The command at the output.
     ratio : float
         Gear ratio N [-] (the drive's profile limits are N times the fin's).
     ff_v, ff_a : float
@@ -124,6 +125,7 @@ class ProfileRun:
     result_without_feedforward: object
     without_feedforward: object
     linear_stability: str = "stable"
+    output: str = "output"
 
 
 def profile_runs(variants, move, verdicts=None, progress=None):
@@ -134,7 +136,7 @@ def profile_runs(variants, move, verdicts=None, progress=None):
     variants : sequence of cas_freq.config.LoadedVariant
         The variants; those with the same controller sampling and time step share a batch.
     move : Profile
-        The move at the fin (one distance).
+        The move at the output (one distance).
     verdicts : dict, optional
         ``id(loaded) -> linear stability verdict`` already known; others are computed.
     progress : callable, optional
@@ -181,7 +183,7 @@ def profile_run(loaded, move, progress=None):
 
 
 def move_dict(move, ratio=None):
-    """The move's limits at the fin [deg, deg/s, deg/s^2] and, given the gear ratio, at the
+    """The move's limits at the output [deg, deg/s, deg/s^2] and, given the gear ratio, at the
     motor in the drive's default units (rpm, rpm/s), as profile position mode takes them."""
     out = {
         "distance_deg": math.degrees(float(move.distance_rad)),

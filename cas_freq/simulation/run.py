@@ -1,4 +1,4 @@
-"""The ``simulate`` command's data: a fin step, its figures and its second-order fit."""
+"""The ``simulate`` command's data: an output step, its figures and its second-order fit."""
 
 import dataclasses
 import io
@@ -12,16 +12,17 @@ from cas_freq.simulation.second_order import fit_second_order
 from cas_freq.simulation.simulator import default_time_step, simulate_batch, step_bound
 from cas_freq.simulation.step_figures import simulation_step_figures
 
-#: Columns of the time-series CSV, with their units.
+#: Columns of the time-series CSV, with their units (the same for every config; ``fit`` also
+#: reads the former ``command_fin``).
 CSV_COLUMNS = (
-    ("t", "s"), ("command_fin", "deg"), ("delta", "deg"), ("theta", "rad"), ("omega", "rad/s"),
+    ("t", "s"), ("command_output", "deg"), ("delta", "deg"), ("theta", "rad"), ("omega", "rad/s"),
     ("i", "A"), ("V", "V"), ("current_limited", "0/1"), ("voltage_limited", "0/1"),
 )
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class StepRun:
-    """A simulated fin step of one variant, with its figures and second-order fit.
+    """A simulated output step of one variant, with its figures and second-order fit.
 
     ``linear_stability`` is the verdict of the linear closed loop (Padé-model poles, as
     ``analyze`` gives it): when it is not ``"stable"`` the step's figures describe a loop that
@@ -36,6 +37,7 @@ class StepRun:
     step: object
     fit: object
     linear_stability: str = "stable"
+    output: str = "output"
 
 
 def linear_verdict(params):
@@ -47,12 +49,14 @@ def linear_verdict(params):
 
 
 def _identity(loaded):
-    """config, config_path, variant and overrides of a loaded variant, as every run holds them."""
+    """config, config_path, variant, overrides and the output's label (``output_name``, else
+    "output") of a loaded variant, as every run holds them."""
     return {
         "config": loaded.params.name,
         "config_path": loaded.source,
         "variant": loaded.variant,
         "overrides": tuple(f"{key}={value}" for key, value in loaded.overrides),
+        "output": loaded.params.output_label,
     }
 
 
@@ -206,7 +210,7 @@ def step_run_csv(run):
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class CommandRun:
-    """A simulated user command (a CSV table) of one variant: how well the fin followed it."""
+    """A simulated user command (a CSV table) of one variant: how well the output followed it."""
 
     config: str
     config_path: str
@@ -215,6 +219,7 @@ class CommandRun:
     source: str
     result: object
     linear_stability: str
+    output: str = "output"
 
 
 def command_run(loaded, command, progress=None):
@@ -272,8 +277,9 @@ class SineDwellRun:
 
     Attributes
     ----------
-    config, config_path, variant, overrides
-        Which actuator.
+    config, config_path, variant, overrides, output
+        Which actuator; ``output`` is what text calls its output (``output_name``, else
+        "output").
     feedforward : bool
         Whether the velocity/acceleration feed-forward acted on the sine commands.
     controllers : str
@@ -292,6 +298,9 @@ class SineDwellRun:
     bandwidth_requirement_rad_s : float or None
         The config's required closed-loop bandwidth (:func:`bandwidth_requirement`), which
         every estimate is shown against.
+    reference : cas_freq.config.schema.Reference or None
+        The config's ``reference:`` section (measured figures shown beside the model's), if
+        it declares one.
     """
 
     config: str
@@ -306,6 +315,8 @@ class SineDwellRun:
     steps: tuple
     limit_onset_rad: float | None
     bandwidth_requirement_rad_s: float | None = None
+    reference: object = None
+    output: str = "output"
 
 
 def bandwidth_requirement(params):
@@ -378,7 +389,7 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
         controllers=_controllers(steps[0].result),
         result=result, linear_response=linear, linear_bandwidth_rad_s=linear_bandwidth,
         steps=tuple(steps), limit_onset_rad=limit_onset_amplitude(result),
-        bandwidth_requirement_rad_s=bandwidth_requirement(params),
+        bandwidth_requirement_rad_s=bandwidth_requirement(params), reference=params.reference,
     )
 
 
@@ -386,15 +397,26 @@ def _db(values):
     return 20.0 * np.log10(np.abs(values))
 
 
+def _reference_fit(reference):
+    """The ``report_bench`` entry of a config's ``reference:`` fit (its source, step [deg],
+    bandwidth [rad/s], wn [rad/s], zeta), or None without a reference fit with a bandwidth."""
+    fit = None if reference is None else reference.fit
+    if fit is None or fit.bandwidth_rad_s is None:
+        return None
+    step = reference.step_amplitude
+    return {"source": reference.source or None,
+            "step_deg": None if step is None else float(np.degrees(step)),
+            "bandwidth_rad_s": fit.bandwidth_rad_s, "wn_rad_s": fit.wn, "zeta": fit.zeta}
+
+
 def sinedwell_run_dict(run):
     """JSON-ready dict of a :class:`SineDwellRun` (non-finite numbers become None).
 
     ``amplitudes`` has one entry per amplitude (sine-dwell response and bandwidth, and the
     nonlinear step of the same size with its second-order fit); ``bandwidth_three_ways`` puts
-    the linear, sine-dwell and step-fit bandwidths side by side with the report's bench figure.
+    the linear, sine-dwell and step-fit bandwidths side by side; ``report_bench``, only where
+    the config's ``reference:`` declares a fit with a bandwidth, is that reference fit.
     """
-    from cas_freq.formulas import REPORT_BENCH
-
     r = run.result
     amplitudes = []
     three_ways = []
@@ -425,6 +447,7 @@ def sinedwell_run_dict(run):
                 for name, value in three_ways[-1].items() if name.endswith("_rad_s")
             }
     onset = run.limit_onset_rad
+    bench = _reference_fit(run.reference)
     return json_ready({
         "config": run.config,
         "config_path": run.config_path,
@@ -442,9 +465,7 @@ def sinedwell_run_dict(run):
         "limit_onset_amplitude_deg": None if onset is None else float(np.degrees(onset)),
         "bandwidth_three_ways": three_ways,
         "bandwidth_requirement_rad_s": required,
-        "report_bench": {"step_deg": REPORT_BENCH["step_deg"],
-                         "bandwidth_rad_s": REPORT_BENCH["bandwidth_rad_s"],
-                         "wn_rad_s": REPORT_BENCH["wn_rad_s"], "zeta": REPORT_BENCH["zeta"]},
+        **({} if bench is None else {"report_bench": bench}),
         "simulation": {
             "controllers": run.controllers,
             "dt_s": r.dt_s,

@@ -148,7 +148,8 @@ def scenarios(params, robust=None, tolerances=(), yield_pct=99.0, seed=0, load_c
         offsets["load.hinge_stiffness"] = np.repeat(cases, count)
         counted = np.tile(counted, cases.size)
         count *= cases.size
-        label += f", at {cases.size} hinge stiffnesses {cases.min():g}..{cases.max():g} N*m/rad"
+        label += (f", at {cases.size} load springs K_h {cases.min():g}..{cases.max():g} "
+                  "N*m/rad")
     return Scenarios(factors=factors, offsets=offsets, count=count, counted=counted,
                      target=target, label=label)
 
