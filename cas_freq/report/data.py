@@ -17,20 +17,13 @@ import numpy as np
 from cas_freq.exceptions import CasFreqError
 from cas_freq.fileio import json_ready
 
+# the sine-dwell grid rule, one for every command (re-exported)
+from cas_freq.simulation.sinedwell import DWELL_POINTS, DWELL_SPAN, dwell_frequencies  # noqa: F401
+
 #: Default sine-dwell amplitudes at the output [deg]: small signal (no limit acts), two
 #: intermediate sizes, and a 10 deg step (ARL-TR-9136's bench step). The smallest and the
 #: largest are also the step responses the report shows.
 DEFAULT_AMPLITUDES_DEG = (0.5, 2.0, 5.0, 10.0)
-
-#: Sine-dwell frequencies of the ``cas-freq report`` command line's default (``100:5000:16``)
-#: [rad/s]: 16 log-spaced points over 100..5000 rad/s, around every bandwidth of the shipped
-#: QT-CAS variants. The horizon of the batch is set by the lowest frequency.
-DEFAULT_FREQUENCIES_RAD_S = tuple(float(w) for w in np.geomspace(100.0, 5000.0, 16))
-
-#: The sine-dwell grid derived from a loop (``frequencies_rad_s=None``): this many log-spaced
-#: points over DWELL_SPAN × the linear bandwidth ω_BW of T.
-DWELL_POINTS = 16
-DWELL_SPAN = (0.1, 5.0)
 
 #: Padé order of the linear step response and of the Padé-vs-exact table.
 DEFAULT_PADE_ORDER = 10
@@ -253,20 +246,6 @@ def loop_frequency_range(analysis, margin=3.0):
     high = 10.0 ** math.ceil(math.log10(max(frequencies) * margin))
     lowest, highest = analysis.frequency_range_rad_s
     return (max(low, lowest), min(high, highest))
-
-
-def dwell_frequencies(analysis):
-    """Sine-dwell grid of a variant [rad/s]: DWELL_POINTS log-spaced over DWELL_SPAN × the
-    linear bandwidth of T (4 significant digits); around the position loop's gain crossover when
-    the loop has no bandwidth (unstable); the fixed 100..5000 rad/s when it has neither."""
-    cl = analysis.closed_loop
-    centre = None if cl is None else cl.bandwidth_rad_s
-    if centre is None:
-        centre = analysis.position_loop.crossover_rad_s
-    if centre is None or not math.isfinite(centre) or centre <= 0:
-        return DEFAULT_FREQUENCIES_RAD_S
-    grid = np.geomspace(DWELL_SPAN[0] * centre, DWELL_SPAN[1] * centre, DWELL_POINTS)
-    return tuple(float(f"{w:.4g}") for w in grid)
 
 
 def unit_step_response(system, n_steps, dt):
