@@ -356,21 +356,36 @@ def _thin(t, window_s):
     return keep if keep[-1] == last - 1 else np.append(keep, last - 1)
 
 
-def _intervals(t, mask):
-    """(start, end) times of the runs where ``mask`` is true, at full resolution."""
+#: Gaps between limit intervals narrower than this fraction of the window are bridged when
+#: shaded (a clamp that chatters would otherwise draw thousands of spans below one pixel).
+SHADE_MERGE_FRACTION = 1e-3
+
+
+def _intervals(t, mask, merge_gap=0.0, end=None):
+    """(start, end) times of the runs where ``mask`` is true, at full resolution; runs
+    separated by at most ``merge_gap`` are joined, and only those starting by ``end`` kept."""
     mask = np.asarray(mask, bool)
     if not mask.any():
         return []
     edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
     starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
     t = np.asarray(t)
-    return [(float(t[a]), float(t[b])) for a, b in zip(starts, ends, strict=True)]
+    intervals = []
+    for a, b in zip(t[starts], t[ends], strict=True):
+        if end is not None and a > end:
+            break
+        if intervals and a - intervals[-1][1] <= merge_gap:
+            intervals[-1][1] = float(b)
+        else:
+            intervals.append([float(a), float(b)])
+    return [tuple(interval) for interval in intervals]
 
 
-def _shade_limits(ax, t_ms, result):
+def _shade_limits(ax, t_ms, result, window_ms=None):
+    gap = 0.0 if window_ms is None else SHADE_MERGE_FRACTION * window_ms
     for mask, color, alpha in ((result.current_limited, "C3", 0.15),
                                (result.voltage_limited, "C1", 0.25)):
-        for start, end in _intervals(t_ms, mask):
+        for start, end in _intervals(t_ms, mask, gap, window_ms):
             ax.axvspan(start, max(end, start + 1e-3), color=color, alpha=alpha, lw=0)
 
 
@@ -404,7 +419,7 @@ def steps(data):
         a_deg = run.step.amplitude_deg
         top, mid, bottom = axes[:, col]
         for ax in (top, mid, bottom):
-            _shade_limits(ax, 1e3 * np.asarray(r.t), r)
+            _shade_limits(ax, 1e3 * np.asarray(r.t), r, 1e3 * window_s)
             ax.set_xlim(0.0, 1e3 * window_s)
         top.plot(t_ms, _r(np.degrees(r.command[keep])), color="k", lw=0.8, ls=":",
                  label="command δ_cmd")
@@ -503,13 +518,21 @@ def _requirement_lines(ax, verdicts):
                        label=f"requirement ω_BW ≥ {bound:g} rad/s")
 
 
+def _step_amplitudes_deg(data):
+    """The variant's amplitudes [deg]: one step (and one sine-dwell, if computed) each."""
+    return np.array([run.step.amplitude_deg for run in data.dwell.steps])
+
+
 def _bandwidth_series(ax, data, color, prefix=""):
     dwell = data.dwell
-    amplitudes = np.degrees(np.asarray(dwell.result.amplitudes_rad))
-    sine = _r([np.nan if b is None else b for b in dwell.result.bandwidth_rad_s])
+    amplitudes = _step_amplitudes_deg(data)
     fits = _r([s.fit.bandwidth_closed_form_rad_s if s.fit.success else np.nan
                for s in dwell.steps])
-    ax.plot(amplitudes, sine, "o-", color=color, label=f"{prefix}sine-dwell −3 dB")
+    if dwell.result is None:  # beyond the simulation budget: said in the legend
+        ax.plot([], [], "o-", color=color, label=f"{prefix}sine-dwell −3 dB: not computed")
+    else:
+        sine = _r([np.nan if b is None else b for b in dwell.result.bandwidth_rad_s])
+        ax.plot(amplitudes, sine, "o-", color=color, label=f"{prefix}sine-dwell −3 dB")
     ax.plot(amplitudes, fits, "s:", color=color, mfc="none",
             label=f"{prefix}second-order fit to the step")
     if dwell.linear_bandwidth_rad_s is not None:
@@ -519,8 +542,7 @@ def _bandwidth_series(ax, data, color, prefix=""):
 
 def _amplitude_axis(ax, datas):
     """Log amplitude axis with a tick at each amplitude, labelled in plain degrees."""
-    amplitudes = sorted({round(float(a), 12) for d in datas
-                         for a in np.degrees(np.asarray(d.dwell.result.amplitudes_rad))}
+    amplitudes = sorted({round(float(a), 12) for d in datas for a in _step_amplitudes_deg(d)}
                         | {round(a, 12) for a, _, _ in _reference_points(datas)})
     ax.set_xscale("log")
     ax.set_xticks(amplitudes, [f"{a:g}" for a in amplitudes])

@@ -1,0 +1,211 @@
+"""Reports that never fail whole, and sine-dwell bandwidths outside their grid (issue 24).
+
+- A variant whose sine-dwell is beyond the simulation budget (a hinge spring comparable to the
+  loop stiffness: ω_BW 3.79 rad/s, so the 0.1..5 × ω_BW grid needs an 83 s horizon) is refused
+  before anything is simulated; the report and the comparison are written whole, that figure
+  "not computed" with the reason and the option that changes it.
+- A bandwidth outside the grid is a bound ("> 400", "< 2000"), judged against a requirement
+  only where the bound decides it ("not decided" otherwise).
+- ``cas-freq sinedwell``'s default grid is the report's rule.
+"""
+
+import json
+import math
+
+import pytest
+from clirun import run_cli
+
+from cas_freq.cli.common import selected_variants
+from cas_freq.report.data import ReportSettings, gather_variant, not_computed_notice
+from cas_freq.simulation.sinedwell import bandwidth_bound, bound_meets, dwell_frequencies
+
+#: The shipped config's base part, with a variant "slow": the shipped ``loaded`` variant's
+#: drivetrain with K_h = 30 N·m/rad (analyze: ω_BW 3.791 rad/s, stable).
+SLOW_VARIANT = """
+variants:
+  slow:
+    motor.Km: 0.0075 N*m/A
+    motor.mu_v: 1.2e-6 N*m*s/rad
+    gear.efficiency: 0.7
+    gear.backdrive_efficiency: 0
+    gear.stiffness: 3000 N*m/rad
+    gear.damping: 0.03 N*m*s/rad
+    load.inertia: 4.62e-5 kg*m^2
+    load.hinge_stiffness: 30 N*m/rad
+"""
+
+
+def shipped_base():
+    """configs/qt_cas.yaml without its variants, envelope, reference and requirements."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "configs" / "qt_cas.yaml").read_text()
+    return text[:text.index("\nvariants:")] + "\n"
+
+
+@pytest.fixture(scope="module")
+def slow_config(tmp_path_factory):
+    path = tmp_path_factory.mktemp("slow") / "slow.yaml"
+    path.write_text(shipped_base() + SLOW_VARIANT)
+    return path
+
+
+ONE_DEGREE = ReportSettings(amplitudes_rad=(math.radians(1.0),), pade_order=6)
+
+
+@pytest.fixture(scope="module")
+def datas(slow_config):
+    """base (a normal variant) and slow, gathered as report and compare gather them."""
+    variants = selected_variants(str(slow_config), ["base", "slow"], [])
+    return [gather_variant(loaded, ONE_DEGREE) for loaded in variants]
+
+
+def test_budget_is_checked_before_any_simulation(slow_config, monkeypatch):
+    """The slow variant's sine-dwell is refused by the budget check, before an engine is built
+    (no simulation step is taken), with the needed CAS_FREQ_BUDGET in the error."""
+    from cas_freq.analysis import analyze
+    from cas_freq.simulation import simulator
+    from cas_freq.simulation.run import dwell_parameters
+    from cas_freq.simulation.sinedwell import sine_dwell
+
+    loaded = selected_variants(str(slow_config), ["slow"], [])[0]
+    grid = dwell_frequencies(analyze(loaded))
+    assert grid[0] == pytest.approx(0.3791, rel=1e-3)  # 0.1 × ω_BW 3.791 rad/s
+
+    def no_engine(*args, **kwargs):
+        raise AssertionError("an engine was built for a batch beyond the budget")
+
+    monkeypatch.setattr(simulator, "engine_class", no_engine)
+    with pytest.raises(simulator.BudgetError) as caught:
+        sine_dwell(dwell_parameters(loaded.params, False), [math.radians(1.0)], grid)
+    # horizon 3 settling + 2 measured periods of 0.3791 rad/s = 5 x 2 pi / 0.3791 = 82.9 s
+    assert caught.value.horizon_s == pytest.approx(5 * 2 * math.pi / 0.3791, rel=1e-3)
+    assert caught.value.factor_needed > 1
+
+
+def test_report_is_written_whole_with_the_sinedwell_not_computed(slow_config, tmp_path):
+    out = tmp_path / "report"
+    code, stdout, err = run_cli(["report", str(slow_config), "--variant", "slow",
+                                 "--amplitudes", "1deg", "-o", str(out)])
+    assert code == 0, err
+    # stderr names the variant, the figure and why, with the option that changes it
+    assert "variant slow" in err and "sinedwell" in err and "CAS_FREQ_BUDGET=" in err
+    results = json.loads((out / "results.json").read_text())
+    entry = results["variants"][0]
+    assert entry["sinedwell"] is None
+    assert "82.9 s horizon" in entry["not_computed"]["sinedwell"]
+    assert "--frequencies" in entry["not_computed"]["sinedwell"]
+    figures = results["figures"]["slow"]
+    assert "figures/slow/steps.svg" in figures and "figures/slow/bode_loops.svg" in figures
+    assert "figures/slow/sinedwell.svg" not in figures
+    assert (out / "figures/slow/steps.svg").is_file()
+    assert not (out / "figures/slow/sinedwell.svg").exists()
+    markdown = (out / "report.md").read_text()
+    assert "Sine-dwell response per amplitude — qt_cas / slow: not computed: the sine-dwell " \
+           "grid 0.3791..18.96 rad/s needs" in markdown
+    assert "| ω_BW sine-dwell at 1° | rad/s | not computed |" in markdown
+    assert "not computed" in (out / "index.html").read_text()
+
+
+def test_report_and_compare_of_a_normal_and_a_slow_variant(datas):
+    from cas_freq.report.build import report_files
+    from cas_freq.report.compare import compare_files
+
+    base, slow = datas
+    assert base.dwell.result is not None and slow.dwell.result is None
+    files = dict(report_files(datas, ONE_DEGREE, rendered=None))
+    results = json.loads(files["results.json"])
+    normal, missing = results["variants"]
+    assert normal["sinedwell"]["amplitudes"][0]["bandwidth_rad_s"] > 0
+    assert "not_computed" not in normal and missing["sinedwell"] is None
+    assert "figures/base/sinedwell.svg" in files and "figures/slow/sinedwell.svg" not in files
+    labels = ["qt_cas/base", "qt_cas/slow"]
+    compared = dict(compare_files(datas, labels, ONE_DEGREE))
+    table = json.loads(compared["results.json"])["figures_table"]
+    row = next(r for r in table if r["figure"] == "sinedwell.bandwidth_rad_s 1°")
+    assert row["values"][0] > 0 and row["values"][1] == "not computed"
+    assert "figures/bandwidth_overlay.svg" in compared
+    assert "not computed" in compared["report.md"]
+    # the line build_report and build_compare pass to their notice (stderr in the CLI)
+    assert not_computed_notice(base) is None
+    assert not_computed_notice(slow).startswith("variant slow: sine-dwell (figure sinedwell")
+
+
+# ---- bounds ---------------------------------------------------------------------------------
+
+def test_bandwidth_bound_of_a_grid_without_a_crossing():
+    w = [100.0, 200.0, 400.0]
+    assert bandwidth_bound(w, [0.5, 1.0, 2.0]) == (">", 400.0)  # still above −3.01 dB at the top
+    assert bandwidth_bound(w, [-4.0, -8.0, -12.0]) == ("<", 100.0)  # below from the bottom
+    assert bandwidth_bound(w, [0.0, -1.0, -6.0]) is None  # a crossing inside the grid
+
+
+@pytest.mark.parametrize(("bound", "minimum", "maximum", "expect"), [
+    ((">", 400.0), 300.0, None, True),     # every value above 400 is >= 300
+    ((">", 400.0), 500.0, None, None),     # 450 or 600: cannot tell
+    (("<", 100.0), 300.0, None, False),    # every value below 100 is < 300
+    (("<", 100.0), 50.0, None, None),
+    (("<", 100.0), None, 200.0, True),
+    ((">", 400.0), None, 300.0, False),
+    ((">", 400.0), 300.0, 1000.0, None),   # meets the min, cannot tell the max
+    (("<", 100.0), 300.0, 1000.0, False),
+])
+def test_bound_meets_decides_only_what_the_bound_proves(bound, minimum, maximum, expect):
+    assert bound_meets(bound, minimum, maximum) is expect
+
+
+def test_sinedwell_text_gives_bounds_never_low_for_a_met_requirement():
+    """qt_cas base (ω_BW 1385 rad/s, BW-1 requires >= 300 rad/s) dwelt at 0.5° over 100..400
+    rad/s: the response is still above −3 dB at 400 rad/s, which proves >= 300."""
+    code, out, err = run_cli(["sinedwell", "--amplitudes", "0.5deg", "--frequencies",
+                              "100,200,400"])
+    assert code == 0, err
+    row = next(line for line in out.splitlines() if line.strip().startswith("0.5 deg"))
+    assert "> 400 ok" in row and "LOW" not in row
+    code, out, err = run_cli(["sinedwell", "--amplitudes", "0.5deg", "--frequencies",
+                              "100,200,400", "--json"])
+    entry = json.loads(out)["amplitudes"][0]
+    assert entry["bandwidth_rad_s"] is None
+    assert entry["bandwidth_bound"] == {"relation": ">", "edge_rad_s": 400.0}
+    three = json.loads(out)["bandwidth_three_ways"][0]
+    assert three["meets_requirement"]["sinedwell_rad_s"] is True
+
+
+def test_verify_judges_a_sinedwell_bound(tmp_path):
+    """PASS where the bound proves the requirement, a required FAIL saying "not decided" where
+    it cannot tell, an advisory where it proves a violation."""
+    config = tmp_path / "bw.yaml"
+    requirement = """
+  - id: {id}
+    metric: sinedwell.bandwidth_rad_s
+    min: {min} rad/s
+    amplitude: 0.5 deg
+    frequencies: "{grid}"
+    severity: {severity}"""
+    config.write_text(shipped_base() + "requirements:" + "".join(
+        requirement.format(id=i, min=m, grid=g, severity=s) for i, m, g, s in (
+            ("PROVEN", 300, "100,200,400", "required"),
+            ("OPEN", 500, "100,200,400", "required"),
+            ("LOW", 3000, "2000,4000", "advisory"))) + "\n")
+    code, out, err = run_cli(["verify", str(config), "--json"])
+    assert code == 1, err  # OPEN is required and not decided
+    verdicts = {v["id"]: v for v in json.loads(out)["verdicts"]}
+    assert verdicts["PROVEN"]["status"] == "PASS"
+    assert verdicts["PROVEN"]["value"] is None
+    assert (verdicts["PROVEN"]["bound"], verdicts["PROVEN"]["bound_value"]) == (">", 400.0)
+    assert verdicts["OPEN"]["status"] == "FAIL" and "not decided" in verdicts["OPEN"]["message"]
+    assert verdicts["LOW"]["status"] == "ADVISORY" and verdicts["LOW"]["bound"] == "<"
+    assert "violates" in verdicts["LOW"]["message"]
+
+
+def test_sinedwell_default_grid_is_the_reports():
+    """No --frequencies: the grid is 16 points over 0.1..5 × the variant's linear ω_BW, the
+    function the report uses (not 100..5000 rad/s for every actuator)."""
+    from cas_freq.analysis import analyze
+    from cas_freq.config import load_variant
+
+    code, out, err = run_cli(["sinedwell", "--amplitudes", "0.5deg", "--json"])
+    assert code == 0, err
+    expected = dwell_frequencies(analyze(load_variant(None, "base")))
+    assert json.loads(out)["frequencies_rad_s"] == pytest.approx(list(expected), rel=1e-12)
+    assert expected[0] == pytest.approx(138.5, rel=1e-3)  # 0.1 × 1385 rad/s
