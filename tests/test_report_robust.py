@@ -209,3 +209,56 @@ def test_sinedwell_default_grid_is_the_reports():
     expected = dwell_frequencies(analyze(load_variant(None, "base")))
     assert json.loads(out)["frequencies_rad_s"] == pytest.approx(list(expected), rel=1e-12)
     assert expected[0] == pytest.approx(138.5, rel=1e-3)  # 0.1 × 1385 rad/s
+
+
+# ---- what sets the small step apart from the linear model -------------------------------------
+
+@pytest.mark.parametrize("efficiency", [1.0, 0.75])
+def test_small_step_sentence_names_the_nonlinear_elements(tmp_path, efficiency):
+    """A rigid load on the output (J_L 4.62e-5 kg·m², nothing else nonlinear). With η = 1 the
+    0.5° step of the simulator is the linear model's (overshoot within 0.05 % of the step: what
+    is left is the Padé-10 delays), and the sentence blames the Padé delays only; with η = 0.75
+    the simulator's direction-dependent efficiency (docs/model.md §5) moves the overshoot by
+    several % (34.8 vs 40.5 %), and the sentence names the efficiency, not the Padé delays."""
+    from cas_freq.report.build import small_signal_sentence
+
+    config = tmp_path / f"eta{efficiency}.yaml"
+    config.write_text(shipped_base() + "variants:\n  loaded:\n    load.inertia: 4.62e-5 kg*m^2\n"
+                      f"    gear.efficiency: {efficiency}\n")
+    loaded = selected_variants(str(config), ["loaded"], [])[0]
+    settings = ReportSettings(amplitudes_rad=(math.radians(0.5),), pade_order=10,
+                              frequencies_rad_s=(500.0, 1000.0))
+    data = gather_variant(loaded, settings)
+    nonlinear = data.dwell.steps[0].step.overshoot_pct
+    linear = data.linear_step_figures[0].overshoot_pct
+    text = small_signal_sentence(data)
+    assert "no limit is hit" in text
+    if efficiency == 1.0:
+        assert nonlinear == pytest.approx(linear, abs=0.05)
+        assert "Padé order 10 delays" in text and "efficiency" not in text
+    else:
+        assert abs(nonlinear - linear) > 3.0
+        assert "gear efficiency" in text and "η = 0.75" in text and "Padé" not in text
+
+
+def test_nonlinear_elements_of_the_shipped_loaded_variant(tmp_path):
+    """The shipped ``loaded`` variant: η 0.7 with a self-locking worm (η_b 0), 1 mN·m Coulomb
+    friction and a 0.1 N·m hinge bias, continuous controllers, no backlash."""
+    from cas_freq.config import load_variant
+    from cas_freq.report.nonlinear import nonlinear_elements
+
+    params = load_variant(None, "loaded").params
+    found = nonlinear_elements(params, loaded=True)
+    assert len(found) == 3
+    assert "η = 0.7 " in found[0] and "η_b = 0 " in found[0]
+    assert found[1].startswith("Coulomb friction of 1 mN·m")
+    assert found[2] == "a hinge bias of 0.1 N·m on the output"
+    assert nonlinear_elements(load_variant(None, "base").params, loaded=False) == []
+    # backlash and sampled controllers when set
+    config = tmp_path / "play.yaml"
+    config.write_text(shipped_base().replace("controllers: continuous", "controllers: sampled")
+                      + "variants:\n  play:\n    gear.stiffness: 3000 N*m/rad\n"
+                      "    load.inertia: 4.62e-5 kg*m^2\n    gear.backlash: 0.1 deg\n")
+    found = nonlinear_elements(load_variant(config, "play").params, loaded=True)
+    assert "a gear backlash of 0.1°" in found
+    assert found[-1].startswith("sampled controllers (25000 Hz and 2500 Hz")

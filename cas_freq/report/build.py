@@ -305,16 +305,26 @@ def bandwidth_table(data):
 
 
 def small_signal_sentence(data):
-    """Whether the smallest step stays clear of the limits (and so is the linear case)."""
+    """Whether the smallest step stays clear of the limits, and what else (if anything) sets
+    the nonlinear simulation apart from the linear model (:func:`nonlinear_elements`)."""
+    from cas_freq.report.nonlinear import nonlinear_elements
+
     run = data.dwell.steps[data.small_index]
     step = run.step
     params = data.loaded.params
     head = (f"The {step.amplitude_deg:g}° step reaches {number(step.max_current_a)} A of the "
             f"±{params.position_loop.i_max:g} A current limit and {number(step.max_voltage_v)} V "
             f"of the ±{params.current_loop.v_max:g} V voltage limit: ")
+    elements = nonlinear_elements(params, data.analysis.drivetrain is not None)
+    others = "; ".join(elements)
     if step.current_limited or step.voltage_limited:
+        tail = f" The simulation also has {others}." if elements else ""
         return head + (f"{_limits_text(step)}, so even this step is not small-signal; the "
-                       "linear model is not its reference.")
+                       "linear model is not its reference." + tail)
+    if elements:
+        return head + ("no limit is hit, but the simulation has elements the linear model does "
+                       f"not: {others}. Differences between the nonlinear and the linear step "
+                       "come from these.")
     return head + ("no limit is hit, so it is the small-signal case and the nonlinear "
                    "simulation should agree with the linear model (differences come from the "
                    f"Padé order {data.pade_order} delays of the linear model).")
