@@ -557,7 +557,8 @@ def compare_files(datas, labels, settings, *, png=False, command=None):
         yield path, svg
         if png:
             yield f"figures/{stem}.png", plots.png_bytes(fig)
-        figure_blocks[stem] = Figure(path, caption, svg)
+        text = caption(datas, labels) if callable(caption) else caption
+        figure_blocks[stem] = Figure(path, text, svg)
     blocks = compare_blocks(datas, labels, figure_blocks, settings, command)
     all_results = [variant_results(d) for d in datas]
     rows, flats, keys = difference_rows(all_results)
