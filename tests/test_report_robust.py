@@ -12,6 +12,7 @@
 import json
 import math
 
+import numpy as np
 import pytest
 from clirun import run_cli
 
@@ -262,3 +263,69 @@ def test_nonlinear_elements_of_the_shipped_loaded_variant(tmp_path):
     found = nonlinear_elements(load_variant(config, "play").params, loaded=True)
     assert "a gear backlash of 0.1°" in found
     assert found[-1].startswith("sampled controllers (25000 Hz and 2500 Hz")
+
+
+# ---- overlays: axis ranges from the region that matters, readable legends -------------------
+
+def test_phase_window_follows_the_curves_to_past_the_crossover():
+    """A delay's phase −ωτ − 90° runs to −2880° at the top of the range; the window keeps what
+    the curve takes up to 3 × the crossover (here ω ≤ 300 rad/s: −90° .. −90 − 300 τ deg), in
+    multiples of 45° with at most 9 ticks."""
+    from cas_freq.plots.ranges import phase_window
+
+    omega = np.geomspace(1.0, 1e5, 500)
+    tau_deg = 0.5  # deg per rad/s
+    phase = -90.0 - tau_deg * omega
+    low, high, step = phase_window([(omega, phase)], [100.0])
+    lowest_shown = -90.0 - tau_deg * 300.0  # −240°
+    assert low <= lowest_shown and low > lowest_shown - 60.0
+    assert high >= -90.0 and high < -90.0 + 60.0
+    assert low % 45 == 0 and high % 45 == 0 and (high - low) / step <= 8
+
+
+def test_time_window_is_the_median_settling_times_2_5():
+    from cas_freq.plots.ranges import time_window
+
+    window, off = time_window([0.01, 0.012, 0.5], [0.013, 0.016, 0.65])
+    assert window == pytest.approx(2.5 * 0.012)
+    assert off == [2]
+    # an unsettled step counts with its own window, and the axis never exceeds the longest
+    window, off = time_window([None, 0.01], [0.02, 0.013])
+    assert window == pytest.approx(0.02) and off == []
+
+
+def _legends(fig):
+    return list(fig.legends) + [ax.get_legend() for ax in fig.axes if ax.get_legend()]
+
+
+def test_overlays_have_bounded_axes_and_readable_legends(datas):
+    from cas_freq.plots import report as plots
+    from cas_freq.plots.ranges import time_window
+
+    labels = ["qt_cas/base", "qt_cas/slow"]
+    bode = plots.bode_overlay(datas, labels)
+    phase_axis = bode.axes[1]
+    low, high = phase_axis.get_ylim()
+    assert low >= -720.0 and high <= 180.0
+    assert len([t for t in phase_axis.get_yticks() if low <= t <= high]) <= 9
+    steps = plots.step_overlay(datas, labels)
+    runs = [d.dwell.steps[d.small_index] for d in datas]
+    settle = [r.step.settling_time_s for r in runs]
+    expected, _ = time_window(settle, [plots._step_window_s(r) for r in runs])
+    assert steps.axes[0].get_xlim()[1] == pytest.approx(1e3 * expected)
+    for fig in (bode, steps, plots.bandwidth_overlay(datas, labels)):
+        legends = _legends(fig)
+        assert legends and all(legend in fig.legends for legend in legends)  # outside the axes
+        assert min(text.get_fontsize() for legend in legends
+                   for text in legend.get_texts()) >= 8.0
+    caption = plots.step_overlay_caption(datas, labels)
+    assert "2.5× the median settling time" in caption
+
+
+def test_html_prints_wide_tables_whole():
+    from cas_freq.report import html
+    from cas_freq.report.document import Table
+
+    page = html.render([Table(("a", "b"), (("1", "2"),), "t")], "t")
+    rules = page[page.index("@media print"):]
+    assert "table-layout: fixed" in rules and "width: 100%" in rules
