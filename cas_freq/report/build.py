@@ -293,7 +293,8 @@ def bandwidth_table(data):
     w = data.dwell.frequencies_rad_s
     grid = f"sine-dwell grid {len(w)} points over {w[0]:.4g}..{w[-1]:.4g} rad/s"
     if result is None:
-        caption = f"bandwidth three ways; the sine-dwell was not computed: {data.dwell.not_computed}"
+        caption = ("bandwidth three ways; the sine-dwell was not computed: "
+                   f"{data.dwell.not_computed}")
     else:
         caption = ("bandwidth three ways; a limit first acts at "
                    f"{math.degrees(onset):g}°" if onset is not None else

@@ -569,9 +569,10 @@ def variant_results(data):
 
     ``analyze``, ``simulate`` (smallest and largest step) and ``sinedwell`` are the JSON of
     those commands (``sinedwell`` null when it was not computed, with the reason under
-    ``not_computed``, :func:`not_computed`); ``linear_steps`` the step figures of the Padé model; ``verify`` the
-    requirement verdicts (None: not evaluated); ``reference_comparison`` the table beside the
-    config's ``reference:`` figures (only when it declares one).
+    ``not_computed``, :func:`not_computed`); ``linear_steps`` the step figures of the Padé
+    model; ``verify`` the requirement verdicts (None: not evaluated);
+    ``reference_comparison`` the table beside the config's ``reference:`` figures (only when it
+    declares one).
     """
     import dataclasses as dc
 

@@ -332,7 +332,7 @@ def dwell_parameters(params, feedforward):
     return loop if feedforward else loop.without_feedforward()
 
 
-def over_budget_reason(error, frequencies_rad_s):
+def over_budget_reason(error, frequencies_rad_s, option="--frequencies"):
     """Why a sine-dwell beyond the simulation budget was not computed, and what changes it.
 
     Parameters
@@ -340,14 +340,15 @@ def over_budget_reason(error, frequencies_rad_s):
     error : cas_freq.simulation.simulator.BudgetError
     frequencies_rad_s : sequence of float
         The grid [rad/s].
+    option : str
+        Where the grid is set (named in the text).
     """
     from cas_freq.simulation.simulator import BUDGET_ENV
 
     w = sorted(frequencies_rad_s)
     return (f"the sine-dwell grid {w[0]:.4g}..{w[-1]:.4g} rad/s needs a {error.horizon_s:.3g} s "
             "horizon (set by its lowest frequency), beyond the simulation budget; set "
-            f"{BUDGET_ENV}={math.ceil(error.factor_needed)} or raise the lowest of "
-            "--frequencies")
+            f"{BUDGET_ENV}={math.ceil(error.factor_needed)} or raise the lowest of {option}")
 
 
 def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward=False,

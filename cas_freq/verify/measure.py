@@ -158,5 +158,6 @@ def _sinedwell_bandwidth(loaded, analysis, amplitude, frequencies):
             current_rate_hz=current_rate_hz, position_rate_hz=position_rate_hz,
         )
     except BudgetError as error:
-        return None, None, f"{text}: not computed: {over_budget_reason(error, grid)}"
+        reason = over_budget_reason(error, grid, "the requirement's frequencies")
+        return None, None, f"{text}: not computed: {reason}"
     return result.bandwidth_rad_s[0], result.bandwidth_bounds[0], text
