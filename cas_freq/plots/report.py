@@ -25,10 +25,10 @@ from cas_freq.analysis.frequency import continuous_phase
 from cas_freq.plots import loci
 from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_svg re-exported)
     EXACT,
-    LEGEND_PAD,
     STYLE,
     SVG_DECIMALS,
     Margins,
+    legend_below,
     legend_room_below,
     legend_room_right,
     plain_log_labels,
@@ -662,25 +662,10 @@ def _colors(datas):
 
 
 def _overlay_legend(fig, layout, handles, labels):
-    """One legend below the axes of an overlay, in :data:`~cas_freq.plots.ranges.LEGEND_FONT_PT`
-    type, in columns of at most :data:`~cas_freq.plots.ranges.LEGEND_ROWS` entries (fewer
-    when they would not fit the figure's width); the figure grows by the legend's height, so
-    the axes keep theirs."""
-    from cas_freq.plots.common import _extent_in
-
-    width, height = fig.get_size_inches()
-    columns = legend_columns(len(labels))
-    while True:
-        legend = fig.legend(handles, labels, loc="lower center", fontsize=LEGEND_FONT_PT,
-                            ncols=columns)
-        legend_w, legend_h = _extent_in(fig, legend)
-        if columns == 1 or legend_w <= width - 0.2:
-            break
-        legend.remove()
-        columns -= 1
-    fig.set_size_inches(width, height + legend_h + LEGEND_PAD)
-    legend_room_below(fig, layout, [legend])
-    return legend
+    """One legend below the axes of an overlay, in 8 pt type, in columns of at most
+    :data:`~cas_freq.plots.ranges.LEGEND_ROWS` entries (:func:`legend_below`)."""
+    return legend_below(fig, layout, handles, labels, LEGEND_FONT_PT,
+                        legend_columns(len(labels)))
 
 
 def bode_overlay(datas, labels):
