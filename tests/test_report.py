@@ -249,8 +249,8 @@ def test_svg_is_reproducible_and_inlines(data):
 def test_overlay_figures(data, stem):
     draw, _ = plots.COMPARE_FIGURES[stem]
     fig = draw([data, data], ["one", "two"])
-    texts = [t.get_text() for ax in fig.axes if ax.get_legend()
-             for t in ax.get_legend().get_texts()]
+    legends = [*fig.legends, *(ax.get_legend() for ax in fig.axes if ax.get_legend())]
+    texts = [t.get_text() for legend in legends for t in legend.get_texts()]
     assert any(t.startswith("one") for t in texts) and any(t.startswith("two") for t in texts)
     for ax in fig.axes:
         assert re.search(r"\[.+\]", ax.get_ylabel())

@@ -85,6 +85,13 @@ def run(args):
     progress = label_progress("compare")
     folder = build_compare(variants, args.output, settings=settings, png=args.png,
                            command=command_text(args, names), selected=names or None,
-                           progress=progress)
+                           progress=progress, notice=_notice)
     print(folder / "index.html")
     return EXIT_OK
+
+
+def _notice(text):
+    """A figure that was not computed: one line on stderr (the compare is still written)."""
+    import sys
+
+    print(f"cas-freq compare: warning: {text}", file=sys.stderr, flush=True)

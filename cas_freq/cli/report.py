@@ -78,7 +78,8 @@ def run(args):
 
     progress = label_progress("report")
     folder = build_report(variants, args.output, settings=settings, png=args.png,
-                          command=command_text(_argv_tail(args)), progress=progress)
+                          command=command_text(_argv_tail(args)), progress=progress,
+                          notice=_notice)
     print(folder / "index.html")
     return EXIT_OK
 
@@ -99,3 +100,10 @@ def _argv_tail(args):
     if args.png:
         tail.append("--png")
     return tail
+
+
+def _notice(text):
+    """A figure that was not computed: one line on stderr (the report is still written)."""
+    import sys
+
+    print(f"cas-freq report: warning: {text}", file=sys.stderr, flush=True)

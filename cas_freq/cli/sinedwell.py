@@ -29,8 +29,8 @@ def register(commands):
     )
     parser.add_argument(
         "--frequencies", default=None, metavar="MIN:MAX:N|F1,F2,...",
-        help="frequencies in rad/s: N log-spaced from MIN to MAX, or a list "
-        "(default: 100:5000:30)",
+        help="frequencies in rad/s: N log-spaced from MIN to MAX, or a list (default: 16 "
+        "log-spaced over 0.1..5 x each variant's linear bandwidth, as the report)",
     )
     parser.add_argument(
         "--feedforward", action="store_true",
@@ -61,17 +61,27 @@ def parse_frequencies(text):
 
 def run(args):
     """Sine-dwell the selected variants; print a table or JSON."""
+    from cas_freq.analysis import analyze
     from cas_freq.report.text import sinedwell_table
-    from cas_freq.simulation.run import sinedwell_run, sinedwell_run_dict
+    from cas_freq.simulation.run import over_budget_reason, sinedwell_run, sinedwell_run_dict
+    from cas_freq.simulation.simulator import BudgetError
+    from cas_freq.simulation.sinedwell import dwell_frequencies
 
     amplitudes = parse_amplitudes(args.amplitudes)
     frequencies = None if args.frequencies is None else parse_frequencies(args.frequencies)
     data = []
     for loaded in load_variants(args):
         progress = terminal_progress(f"sine-dwell {loaded.variant}")
-        result = sinedwell_run(
-            loaded, amplitudes, frequencies, feedforward=args.feedforward, progress=progress
-        )
+        analysis = analyze(loaded)
+        grid = frequencies or dwell_frequencies(analysis)  # the report's rule by default
+        try:
+            result = sinedwell_run(
+                loaded, amplitudes, grid, feedforward=args.feedforward, progress=progress,
+                analysis=analysis,
+            )
+        except BudgetError as error:  # refused before anything was simulated
+            raise CasFreqError(f"variant {loaded.variant}: {over_budget_reason(error, grid)}"
+                               ) from None
         if progress:
             progress.done()
         data.append(sinedwell_run_dict(result))

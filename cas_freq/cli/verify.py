@@ -40,7 +40,9 @@ def verdict_table(config_name, verdicts):
     rows = [("requirement", "variant", "measured", "bound", "margin", "status")]
     for v in verdicts:
         rows.append((
-            f"{v.id} {v.metric}", v.variant, _number(v.value, v.unit),
+            f"{v.id} {v.metric}", v.variant,
+            (f"{v.bound} {_number(v.bound_value, v.unit)}" if v.bound is not None
+             else _number(v.value, v.unit)),
             bound_text(v.min, v.max, v.unit), _number(v.margin, v.unit),
             v.status if v.severity == "required" or v.status != "PASS" else "PASS (advisory)",
         ))

@@ -138,6 +138,24 @@ def legend_room_below(fig, margins, legends, gap=0.5):
     return place(fig, dataclasses.replace(margins, bottom=tallest + LEGEND_PAD + gap))
 
 
+def legend_below(fig, margins, handles, labels, fontsize, columns):
+    """A figure legend below the axes in ``columns`` columns (fewer when they would not fit the
+    figure's width); the figure grows by the legend's height, so the axes keep theirs. Returns
+    the legend."""
+    width, height = fig.get_size_inches()
+    while True:
+        legend = fig.legend(handles, labels, loc="lower center", fontsize=fontsize,
+                            ncols=columns)
+        legend_w, legend_h = _extent_in(fig, legend)
+        if columns == 1 or legend_w <= width - 0.2:
+            break
+        legend.remove()
+        columns -= 1
+    fig.set_size_inches(width, height + legend_h + LEGEND_PAD)
+    legend_room_below(fig, margins, [legend])
+    return legend
+
+
 #: Decimals of the coordinates in the SVG files [pt] (0.01 pt is far below what shows).
 SVG_DECIMALS = 2
 

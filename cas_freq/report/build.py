@@ -22,6 +22,7 @@ from cas_freq.report.data import (
     display_path,
     gather_frequency,
     gather_time,
+    not_computed_notice,
     reference_dict,
     reference_rows,
     sinedwell_bandwidth,
@@ -121,9 +122,8 @@ def summary_rows(data):
         ("T resonance peak", "dB", cl.peak_db if cl else None),
         ("T phase −90° at", "rad/s", cl.phase_90_rad_s if cl else None),
     ]
-    result = data.dwell.result
-    for k, amplitude in enumerate(result.amplitudes_rad):
-        rows.append((f"ω_BW sine-dwell at {math.degrees(amplitude):g}°", "rad/s",
+    for k, run in enumerate(data.dwell.steps):  # one step per sine-dwell amplitude
+        rows.append((f"ω_BW sine-dwell at {run.step.amplitude_deg:g}°", "rad/s",
                      sinedwell_bandwidth(data, k)))
     for k in sorted({data.small_index, data.large_index}):
         step = data.dwell.steps[k]
@@ -284,34 +284,48 @@ def bandwidth_table(data):
     """Bandwidth three ways per amplitude."""
     result = data.dwell.result
     rows = []
-    for k, amplitude in enumerate(result.amplitudes_rad):
-        hit = bool(result.limit_hit[k].any())
-        rows.append((f"{math.degrees(amplitude):g}", number(data.dwell.linear_bandwidth_rad_s),
+    for k, run in enumerate(data.dwell.steps):  # one step per sine-dwell amplitude
+        hit = "not computed" if result is None else number(bool(result.limit_hit[k].any()))
+        rows.append((f"{run.step.amplitude_deg:g}", number(data.dwell.linear_bandwidth_rad_s),
                      number(sinedwell_bandwidth(data, k)),
-                     number(data.dwell.steps[k].fit.bandwidth_closed_form_rad_s),
-                     "yes" if hit else "no"))
+                     number(run.fit.bandwidth_closed_form_rad_s), hit))
     onset = data.dwell.limit_onset_rad
-    caption = ("bandwidth three ways; a limit first acts at "
-               f"{math.degrees(onset):g}°" if onset is not None else
-               "bandwidth three ways; no limit acts at any amplitude")
-    w = result.frequencies_rad_s
-    caption += f"; sine-dwell grid {len(w)} points over {w[0]:.4g}..{w[-1]:.4g} rad/s"
+    w = data.dwell.frequencies_rad_s
+    grid = f"sine-dwell grid {len(w)} points over {w[0]:.4g}..{w[-1]:.4g} rad/s"
+    if result is None:
+        caption = ("bandwidth three ways; the sine-dwell was not computed: "
+                   f"{data.dwell.not_computed}")
+    else:
+        caption = ("bandwidth three ways; a limit first acts at "
+                   f"{math.degrees(onset):g}°" if onset is not None else
+                   "bandwidth three ways; no limit acts at any amplitude")
+        caption += f"; {grid}; > / <: the −3.01 dB point lies beyond the grid's top / bottom"
     return Table(("amplitude [deg]", "linear −3 dB of T [rad/s]", "sine-dwell −3 dB [rad/s]",
                   "step fit closed form [rad/s]", "limit acts in the dwell"), tuple(rows),
                  caption)
 
 
 def small_signal_sentence(data):
-    """Whether the smallest step stays clear of the limits (and so is the linear case)."""
+    """Whether the smallest step stays clear of the limits, and what else (if anything) sets
+    the nonlinear simulation apart from the linear model (:func:`nonlinear_elements`)."""
+    from cas_freq.report.nonlinear import nonlinear_elements
+
     run = data.dwell.steps[data.small_index]
     step = run.step
     params = data.loaded.params
     head = (f"The {step.amplitude_deg:g}° step reaches {number(step.max_current_a)} A of the "
             f"±{params.position_loop.i_max:g} A current limit and {number(step.max_voltage_v)} V "
             f"of the ±{params.current_loop.v_max:g} V voltage limit: ")
+    elements = nonlinear_elements(params, data.analysis.drivetrain is not None)
+    others = "; ".join(elements)
     if step.current_limited or step.voltage_limited:
+        tail = f" The simulation also has {others}." if elements else ""
         return head + (f"{_limits_text(step)}, so even this step is not small-signal; the "
-                       "linear model is not its reference.")
+                       "linear model is not its reference." + tail)
+    if elements:
+        return head + ("no limit is hit, but the simulation has elements the linear model does "
+                       f"not: {others}. Differences between the nonlinear and the linear step "
+                       "come from these.")
     return head + ("no limit is hit, so it is the small-signal case and the nonlinear "
                    "simulation should agree with the linear model (differences come from the "
                    f"Padé order {data.pade_order} delays of the linear model).")
@@ -547,9 +561,13 @@ def render_figures(data, stems, png=False):
         (stem, SVG text, PNG bytes or None, caption) of each stem, in order.
     """
     from cas_freq.plots import report as plots
+    from cas_freq.report.data import SINEDWELL_FIGURES, not_computed
 
+    skipped = SINEDWELL_FIGURES if "sinedwell" in not_computed(data) else ()
     drawn = []
     for stem in stems:
+        if stem in skipped:  # not drawn: its data were not computed (_figure_files says why)
+            continue
         draw, caption = plots.VARIANT_FIGURES[stem]
         fig = draw(data)
         drawn.append((stem, plots.svg_text(fig), plots.png_bytes(fig) if png else None,
@@ -675,7 +693,7 @@ class FigureRenderer:
             else:
                 drawn = [item for future in futures for item in future.result()]
             by_stem = {stem: rest for stem, *rest in drawn}
-            rendered.append({stem: tuple(by_stem[stem]) for stem in stems})
+            rendered.append({stem: tuple(by_stem[stem]) for stem in stems if stem in by_stem})
         return rendered
 
 
@@ -688,6 +706,9 @@ def _figure_files(data, png, rendered=None):
 
         drawn = render_figures(data, list(VARIANT_FIGURES), png)
         rendered = {stem: rest for stem, *rest in drawn}
+    from cas_freq.plots.report import VARIANT_FIGURES
+    from cas_freq.report.data import SINEDWELL_FIGURES, not_computed
+
     slug = variant_slug(data)
     blocks = {}
     for stem, (svg, png_data, text) in rendered.items():
@@ -696,6 +717,11 @@ def _figure_files(data, png, rendered=None):
         if png:
             yield f"figures/{slug}/{stem}.png", png_data
         blocks[stem] = Figure(path, f"{text} — {data.label}", svg)
+    reason = not_computed(data).get("sinedwell")
+    for stem in SINEDWELL_FIGURES if reason else ():
+        caption = VARIANT_FIGURES[stem][1]
+        caption = caption(data) if callable(caption) else caption
+        blocks[stem] = Paragraph(f"{caption} — {data.label}: not computed: {reason}.")
     return blocks
 
 
@@ -730,7 +756,8 @@ def report_files(datas, settings, *, png=False, command=None, rendered=None, env
         "variants": [variant_results(d) for d in datas],
         **profile.results,
         **envelope.results,
-        "figures": {d.loaded.variant: sorted(b.path for b in f.values())
+        "figures": {d.loaded.variant: sorted(b.path for b in f.values()
+                                             if isinstance(b, Figure))
                     for d, f in zip(datas, figure_blocks, strict=True)},
     })
     yield "report.md", markdown.render(blocks)
@@ -738,7 +765,7 @@ def report_files(datas, settings, *, png=False, command=None, rendered=None, env
 
 
 def build_report(variants, out_dir=None, *, settings=None, verdicts=None, png=False,
-                 command=None, progress=None, workers=FIGURE_WORKERS):
+                 command=None, progress=None, workers=FIGURE_WORKERS, notice=None):
     """Compute, draw and write the report of one config's variants.
 
     Parameters
@@ -758,6 +785,10 @@ def build_report(variants, out_dir=None, *, settings=None, verdicts=None, png=Fa
         The command that regenerates the report (shown in it).
     progress : callable, optional
         ``progress(label)`` called before each variant's computation.
+    notice : callable, optional
+        ``notice(text)`` with a line naming a variant and the figures of it that were not
+        computed, and why (:func:`~cas_freq.report.data.not_computed_notice`); the report
+        shows them as "not computed: ..." and is written whole.
     workers : int
         Processes that draw the figures while the next variant is computed
         (:class:`FigureRenderer`); 1 draws them in this process. The files are the same.
@@ -797,6 +828,9 @@ def build_report(variants, out_dir=None, *, settings=None, verdicts=None, png=Fa
             renderer.submit(index, early, "frequency")
             datas.append(gather_time(early, settings, verdicts))
             renderer.submit(index, datas[-1], "time")
+            text = not_computed_notice(datas[-1])
+            if text and notice:
+                notice(text)
         rendered = renderer.results()
         target = Path(out_dir) if out_dir is not None else default_report_dir(params.name)
         return write_directory_atomic(target, report_files(

@@ -25,6 +25,7 @@ from cas_freq.report.data import (
     ReportSettings,
     display_path,
     gather_variant,
+    not_computed_notice,
     reference_dict,
     variant_results,
 )
@@ -396,9 +397,17 @@ def flat_figures(results):
                                        if k not in ("amplitude_deg", "pade_order")
                                        and v is not None}, out)
     dwell = results["sinedwell"]
-    for entry in dwell["amplitudes"]:
-        out[f"sinedwell.bandwidth_rad_s {entry['amplitude_deg']:g}°"] = entry["bandwidth_rad_s"]
-    out["sinedwell.limit_onset_amplitude_deg"] = dwell["limit_onset_amplitude_deg"]
+    if dwell is None:  # not computed (results["not_computed"] says why)
+        for run in results["simulate"]:
+            out[f"sinedwell.bandwidth_rad_s {run['step']['amplitude_deg']:g}°"] = "not computed"
+        out["sinedwell.limit_onset_amplitude_deg"] = "not computed"
+    else:
+        for entry in dwell["amplitudes"]:
+            bound = entry.get("bandwidth_bound")
+            out[f"sinedwell.bandwidth_rad_s {entry['amplitude_deg']:g}°"] = (
+                entry["bandwidth_rad_s"] if bound is None
+                else f"{bound['relation']} {bound['edge_rad_s']:.4g}")
+        out["sinedwell.limit_onset_amplitude_deg"] = dwell["limit_onset_amplitude_deg"]
     return {k: v for k, v in out.items() if not isinstance(v, list)}
 
 
@@ -548,7 +557,8 @@ def compare_files(datas, labels, settings, *, png=False, command=None):
         yield path, svg
         if png:
             yield f"figures/{stem}.png", plots.png_bytes(fig)
-        figure_blocks[stem] = Figure(path, caption, svg)
+        text = caption(datas, labels) if callable(caption) else caption
+        figure_blocks[stem] = Figure(path, text, svg)
     blocks = compare_blocks(datas, labels, figure_blocks, settings, command)
     all_results = [variant_results(d) for d in datas]
     rows, flats, keys = difference_rows(all_results)
@@ -576,7 +586,7 @@ def compare_files(datas, labels, settings, *, png=False, command=None):
 
 
 def build_compare(variants, out_dir=None, *, settings=None, verdicts=None, png=False,
-                  command=None, selected=None, progress=None):
+                  command=None, selected=None, progress=None, notice=None):
     """Compute, draw and write the comparison of several variants.
 
     Parameters
@@ -597,6 +607,9 @@ def build_compare(variants, out_dir=None, *, settings=None, verdicts=None, png=F
         Variant names chosen with ``--variants`` (only for the default folder name).
     progress : callable, optional
         ``progress(label)`` before each entry's computation.
+    notice : callable, optional
+        ``notice(text)`` with a line per entry that lacks a figure (as
+        :func:`cas_freq.report.build.build_report`).
 
     Returns
     -------
@@ -612,6 +625,9 @@ def build_compare(variants, out_dir=None, *, settings=None, verdicts=None, png=F
         if progress:
             progress(label)
         datas.append(gather_variant(loaded, settings, verdicts))
+        text = not_computed_notice(datas[-1])
+        if text and notice:
+            notice(f"{label}: {text}")
     target = Path(out_dir) if out_dir is not None else default_compare_dir(variants, selected)
     return write_directory_atomic(target, compare_files(datas, labels, settings, png=png,
                                                         command=command))

@@ -17,20 +17,13 @@ import numpy as np
 from cas_freq.exceptions import CasFreqError
 from cas_freq.fileio import json_ready
 
+# the sine-dwell grid rule, one for every command (re-exported)
+from cas_freq.simulation.sinedwell import DWELL_POINTS, DWELL_SPAN, dwell_frequencies  # noqa: F401
+
 #: Default sine-dwell amplitudes at the output [deg]: small signal (no limit acts), two
 #: intermediate sizes, and a 10 deg step (ARL-TR-9136's bench step). The smallest and the
 #: largest are also the step responses the report shows.
 DEFAULT_AMPLITUDES_DEG = (0.5, 2.0, 5.0, 10.0)
-
-#: Sine-dwell frequencies of the ``cas-freq report`` command line's default (``100:5000:16``)
-#: [rad/s]: 16 log-spaced points over 100..5000 rad/s, around every bandwidth of the shipped
-#: QT-CAS variants. The horizon of the batch is set by the lowest frequency.
-DEFAULT_FREQUENCIES_RAD_S = tuple(float(w) for w in np.geomspace(100.0, 5000.0, 16))
-
-#: The sine-dwell grid derived from a loop (``frequencies_rad_s=None``): this many log-spaced
-#: points over DWELL_SPAN × the linear bandwidth ω_BW of T.
-DWELL_POINTS = 16
-DWELL_SPAN = (0.1, 5.0)
 
 #: Padé order of the linear step response and of the Padé-vs-exact table.
 DEFAULT_PADE_ORDER = 10
@@ -255,20 +248,6 @@ def loop_frequency_range(analysis, margin=3.0):
     return (max(low, lowest), min(high, highest))
 
 
-def dwell_frequencies(analysis):
-    """Sine-dwell grid of a variant [rad/s]: DWELL_POINTS log-spaced over DWELL_SPAN × the
-    linear bandwidth of T (4 significant digits); around the position loop's gain crossover when
-    the loop has no bandwidth (unstable); the fixed 100..5000 rad/s when it has neither."""
-    cl = analysis.closed_loop
-    centre = None if cl is None else cl.bandwidth_rad_s
-    if centre is None:
-        centre = analysis.position_loop.crossover_rad_s
-    if centre is None or not math.isfinite(centre) or centre <= 0:
-        return DEFAULT_FREQUENCIES_RAD_S
-    grid = np.geomspace(DWELL_SPAN[0] * centre, DWELL_SPAN[1] * centre, DWELL_POINTS)
-    return tuple(float(f"{w:.4g}") for w in grid)
-
-
 def unit_step_response(system, n_steps, dt):
     r"""Output of a single-input single-output ``control.StateSpace`` to a unit step from rest,
     at the times :math:`k\,\Delta t`, :math:`k = 0 \dots n-1`.
@@ -436,8 +415,10 @@ def gather_time(data, settings=ReportSettings(), verdicts=None, progress=None):
 
     loaded, analysis = data.loaded, data.analysis
     frequencies = settings.frequencies_rad_s or dwell_frequencies(analysis)
+    # a sine-dwell beyond the simulation budget is refused before it starts and left out
+    # (dwell.result None, dwell.not_computed the reason); the steps are still simulated
     dwell = sinedwell_run(loaded, settings.amplitudes_rad, frequencies,
-                          progress=progress, analysis=analysis)
+                          progress=progress, analysis=analysis, over_budget="skip")
     amplitudes = [math.radians(run.step.amplitude_deg) for run in dwell.steps]
     linear = linear_steps(loaded.params, [run.result.t for run in dwell.steps], amplitudes,
                           settings.pade_order)
@@ -457,20 +438,42 @@ def gather_time(data, settings=ReportSettings(), verdicts=None, progress=None):
 
 
 def sinedwell_bandwidth(data, k):
-    """Sine-dwell bandwidth [rad/s] of amplitude ``k``, or why there is none in the grid: "above
-    the grid's 5000 rad/s" (no point below −3.01 dB) or "below the grid's 100 rad/s" (the first
-    point already below)."""
-    from cas_freq.simulation.sinedwell import HALF_POWER_DB
+    """Sine-dwell bandwidth [rad/s] of amplitude ``k``, or as text what is known instead: a
+    bound from the grid ("> 5000" when no point is below −3.01 dB, "< 100" when the first one
+    already is) or "not computed" (the sine-dwell was beyond the simulation budget)."""
+    from cas_freq.simulation.sinedwell import bandwidth_text
 
     result = data.dwell.result
+    if result is None:
+        return "not computed"
     value = result.bandwidth_rad_s[k]
     if value is not None:
         return value
-    magnitude = np.asarray(result.magnitude_db[k], dtype=float)
-    w = result.frequencies_rad_s
-    if not np.any(magnitude < HALF_POWER_DB):
-        return f"above the grid's {w[-1]:.4g} rad/s"
-    return f"below the grid's {w[0]:.4g} rad/s"
+    return bandwidth_text(None, result.bandwidth_bounds[k])
+
+
+#: The figures of a variant that need the sine-dwell (file stems of
+#: :data:`cas_freq.plots.report.VARIANT_FIGURES`).
+SINEDWELL_FIGURES = ("sinedwell",)
+
+
+def not_computed(data):
+    """What of a variant could not be computed, and why: {what: reason}, empty when
+    everything was. ``"sinedwell"``: the sine-dwell (beyond the simulation budget); its figure
+    (:data:`SINEDWELL_FIGURES`) is not drawn and its figures are "not computed"."""
+    reason = None if data.dwell is None else data.dwell.not_computed
+    return {} if reason is None else {"sinedwell": reason}
+
+
+def not_computed_notice(data):
+    """The one stderr line about what a variant lacks, or None: it names the variant, the
+    figures and why."""
+    missing = not_computed(data)
+    if not missing:
+        return None
+    return (f"variant {data.loaded.variant}: sine-dwell (figure "
+            f"{', '.join(SINEDWELL_FIGURES)}, sine-dwell bandwidths) not computed: "
+            f"{missing['sinedwell']}")
 
 
 def display_path(path):
@@ -511,7 +514,7 @@ def reference_rows(data):
     run = data.dwell.steps[k]
     step, fit = run.step, run.fit
     closed = data.analysis.closed_loop
-    dwell_bw = data.dwell.result.bandwidth_rad_s[k]
+    dwell_bw = sinedwell_bandwidth(data, k)
     ref_fit = reference.fit
 
     def ms(value):
@@ -565,9 +568,11 @@ def variant_results(data):
     """The variant's entry of ``results.json``.
 
     ``analyze``, ``simulate`` (smallest and largest step) and ``sinedwell`` are the JSON of
-    those commands; ``linear_steps`` the step figures of the Padé model; ``verify`` the
-    requirement verdicts (None: not evaluated); ``reference_comparison`` the table beside the
-    config's ``reference:`` figures (only when it declares one).
+    those commands (``sinedwell`` null when it was not computed, with the reason under
+    ``not_computed``, :func:`not_computed`); ``linear_steps`` the step figures of the Padé
+    model; ``verify`` the requirement verdicts (None: not evaluated);
+    ``reference_comparison`` the table beside the config's ``reference:`` figures (only when it
+    declares one).
     """
     import dataclasses as dc
 
@@ -583,13 +588,17 @@ def variant_results(data):
         "curve_range_rad_s": list(data.curve_range_rad_s),
         "analyze": to_dict(data.analysis),
         "simulate": [step_run_dict(steps[k]) for k in chosen],
-        "sinedwell": sinedwell_run_dict(data.dwell),
+        # null when not computed; "not_computed" then says why
+        "sinedwell": None if data.dwell.result is None else sinedwell_run_dict(data.dwell),
         "linear_steps": [
             {"pade_order": data.pade_order, **dc.asdict(figures)}
             for figures in data.linear_step_figures
         ],
         "verify": None if data.verdicts is None else [dict(v) for v in data.verdicts],
     }
+    missing = not_computed(data)
+    if missing:
+        result["not_computed"] = missing
     if data.reference is not None:
         result["reference_comparison"] = [
             {"figure": name, "unit": unit, "reference": value, "model": model}

@@ -28,6 +28,16 @@ figure { margin: 1em 0 2em 0; }
 figure svg { max-width: 100%; height: auto; }
 figcaption { font-style: italic; font-size: 90%; }
 nav ul { columns: 2; }
+@media print {
+  body { max-width: none; margin: 0; padding: 0; }
+  /* on paper a table cannot scroll: it takes the page's width, its columns share it and long
+     cells wrap, in smaller type, so that no column is cut off */
+  table { display: table; width: 100%; table-layout: fixed; overflow: visible; font-size: 7pt; }
+  th, td { padding: .1em .25em; overflow-wrap: anywhere; }
+  td:first-child { white-space: normal; }
+  tr, figure { break-inside: avoid; }
+  nav { display: none; }
+}
 """
 
 _PROLOG = re.compile(r"^\s*(<\?xml[^>]*\?>\s*)?(<!DOCTYPE[^>]*>\s*)?", re.DOTALL)

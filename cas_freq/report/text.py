@@ -166,7 +166,7 @@ def sinedwell_table(data):
         "  limits act from " + (f"{onset:g} deg" if onset is not None else "no amplitude given")
     )
     bench = data.get("report_bench")
-    wide = 3 if data.get("bandwidth_requirement_rad_s") is not None else 0
+    wide = 7 if data.get("bandwidth_requirement_rad_s") is not None else 0
     lines += [
         "  bandwidth three ways [rad/s]  (-3.01 dB; step fit = closed form of the "
         "second-order-plus-delay fit, docs/model.md §7)",
@@ -177,19 +177,27 @@ def sinedwell_table(data):
 
     def cell(row, name, width):
         text = _fmt(row[name])
+        bound = row.get("sinedwell_bound") if name == "sinedwell_rad_s" else None
+        if row[name] is None and bound is not None:
+            text = f"{bound['relation']} {bound['edge_rad_s']:.4g}"
         if required is not None:
-            text += " ok" if row["meets_requirement"][name] else " LOW"
+            meets = row["meets_requirement"][name]
+            text += " ok" if meets else " LOW" if meets is False else " undecided"
         return f"{text:>{width}}"
 
     for row in data["bandwidth_three_ways"]:
-        wide = 3 if required is not None else 0
+        wide = 7 if required is not None else 0
         lines.append(
             f"    {_fmt(row['amplitude_deg'], 'deg'):>10}{cell(row, 'linear_rad_s', 11 + wide)}"
             f"{cell(row, 'sinedwell_rad_s', 12 + wide)}{cell(row, 'step_fit_rad_s', 10 + wide)}"
         )
+    if any(row.get("sinedwell_bound") for row in data["bandwidth_three_ways"]):
+        lines.append("    (> w / < w: the -3.01 dB point lies above the grid's top / below its "
+                     "bottom w)")
     if required is not None:
         lines.append(f"    (ok / LOW: against the config's required bandwidth >= {required:g} "
-                     "rad/s)")
+                     "rad/s; undecided: no value, or a bound that cannot tell: widen "
+                     "--frequencies)")
     if bench is not None:
         lines.append(f"    {_reference_line(bench)}")
     return "\n".join(lines)

@@ -2,6 +2,7 @@
 
 import dataclasses
 import io
+import math
 
 import numpy as np
 
@@ -266,8 +267,10 @@ def command_run_dict(run):
     })
 
 
-#: Default sine-dwell frequencies [rad/s]: 30 log-spaced points over 100..5000 rad/s, around the
-#: closed-loop bandwidths of the shipped variants (about 300 to 1400 rad/s).
+#: Fixed sine-dwell frequencies of the many-actuator studies (``sweep --sinedwell``, Monte Carlo)
+#: [rad/s]: 30 log-spaced points over 100..5000 rad/s, around the closed-loop bandwidths of the
+#: shipped variants (about 300 to 1400 rad/s). One variant's sine-dwell follows its own
+#: bandwidth instead (:func:`cas_freq.simulation.sinedwell.dwell_frequencies`).
 DEFAULT_SINEDWELL_FREQUENCIES_RAD_S = tuple(np.geomspace(100.0, 5000.0, 30))
 
 
@@ -284,11 +287,12 @@ class SineDwellRun:
         Whether the velocity/acceleration feed-forward acted on the sine commands.
     controllers : str
         ``"continuous"`` or a description of the sampled controllers.
-    result : cas_freq.simulation.sinedwell.SineDwellResult
-        First-harmonic response per amplitude and frequency.
-    linear_response : numpy.ndarray
+    result : cas_freq.simulation.sinedwell.SineDwellResult or None
+        First-harmonic response per amplitude and frequency; None when it was not computed
+        (``not_computed`` says why).
+    linear_response : numpy.ndarray or None
         Exact-delay linear delta/delta_cmd at the same frequencies (with the same feed-forward
-        setting), complex, shape (n_f,).
+        setting), complex, shape (n_f,); None with ``result``.
     linear_bandwidth_rad_s : float or None
         docs/model.md's closed-loop bandwidth of T (no feed-forward), from ``analyze``.
     steps : tuple of StepRun
@@ -301,6 +305,11 @@ class SineDwellRun:
     reference : cas_freq.config.schema.Reference or None
         The config's ``reference:`` section (measured figures shown beside the model's), if
         it declares one.
+    frequencies_rad_s : tuple of float
+        The sine-dwell grid asked for [rad/s].
+    not_computed : str or None
+        Why the sine-dwell was not computed ("the sine-dwell grid ... needs ...; set ..."), or
+        None when it was.
     """
 
     config: str
@@ -317,6 +326,8 @@ class SineDwellRun:
     bandwidth_requirement_rad_s: float | None = None
     reference: object = None
     output: str = "output"
+    frequencies_rad_s: tuple = ()
+    not_computed: str | None = None
 
 
 def bandwidth_requirement(params):
@@ -332,8 +343,27 @@ def dwell_parameters(params, feedforward):
     return loop if feedforward else loop.without_feedforward()
 
 
+def over_budget_reason(error, frequencies_rad_s, option="--frequencies"):
+    """Why a sine-dwell beyond the simulation budget was not computed, and what changes it.
+
+    Parameters
+    ----------
+    error : cas_freq.simulation.simulator.BudgetError
+    frequencies_rad_s : sequence of float
+        The grid [rad/s].
+    option : str
+        Where the grid is set (named in the text).
+    """
+    from cas_freq.simulation.simulator import BUDGET_ENV
+
+    w = sorted(frequencies_rad_s)
+    return (f"the sine-dwell grid {w[0]:.4g}..{w[-1]:.4g} rad/s needs a {error.horizon_s:.3g} s "
+            "horizon (set by its lowest frequency), beyond the simulation budget; set "
+            f"{BUDGET_ENV}={math.ceil(error.factor_needed)} or raise the lowest of {option}")
+
+
 def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward=False,
-                  progress=None, analysis=None):
+                  progress=None, analysis=None, over_budget="raise"):
     """Sine-dwell the nonlinear loop of one variant, with the cross-checks beside it.
 
     Parameters
@@ -343,7 +373,8 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
     amplitudes_rad : sequence of float
         Command amplitudes at the fin [rad].
     frequencies_rad_s : sequence of float, optional
-        Dwell frequencies [rad/s]; default :data:`DEFAULT_SINEDWELL_FREQUENCIES_RAD_S`.
+        Dwell frequencies [rad/s]; default the variant's grid
+        (:func:`~cas_freq.simulation.sinedwell.dwell_frequencies`, around its linear ω_BW).
     feedforward : bool
         Let the feed-forward act on the sines (default False: docs/model.md's T, whose bandwidth is
         the requirement's, has no feed-forward).
@@ -352,6 +383,11 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
     analysis : cas_freq.analysis.Analysis, optional
         The variant's exact-delay analysis, if already computed: its stability verdict and
         linear bandwidth are used instead of being computed again.
+    over_budget : {"raise", "skip"}
+        A sine-dwell beyond the simulation budget raises
+        :class:`~cas_freq.simulation.simulator.BudgetError` (before any simulation), or is
+        skipped: the run then has ``result`` None and ``not_computed`` the reason (the steps
+        are still simulated).
 
     Returns
     -------
@@ -360,23 +396,41 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
     from cas_freq.analysis.closed_loop import closed_loop_summary
     from cas_freq.analysis.frequency import DEFAULT_RANGE_RAD_S, frequency_grid
     from cas_freq.model import ActuatorLoops
-    from cas_freq.simulation.sinedwell import limit_onset_amplitude, sine_dwell
+    from cas_freq.simulation.simulator import BudgetError
+    from cas_freq.simulation.sinedwell import (
+        dwell_frequencies,
+        limit_onset_amplitude,
+        sine_dwell,
+    )
 
+    if over_budget not in ("raise", "skip"):
+        raise ValueError(f"over_budget: 'raise' or 'skip', got {over_budget!r}")
     params = loaded.params
     if frequencies_rad_s is None:
-        frequencies_rad_s = DEFAULT_SINEDWELL_FREQUENCIES_RAD_S
+        if analysis is None:
+            from cas_freq.analysis import analyze
+
+            analysis = analyze(loaded)
+        frequencies_rad_s = dwell_frequencies(analysis)
     current_rate_hz, position_rate_hz = params.simulation.rates_hz
     rates = {"current_rate_hz": current_rate_hz, "position_rate_hz": position_rate_hz}
-    result = sine_dwell(
-        dwell_parameters(params, feedforward), amplitudes_rad, frequencies_rad_s,
-        progress=progress, **rates,
-    )
-    amplitudes = np.asarray(result.amplitudes_rad)
+    not_computed = None
+    try:  # the budget is checked before the batch starts
+        result = sine_dwell(
+            dwell_parameters(params, feedforward), amplitudes_rad, frequencies_rad_s,
+            progress=progress, **rates,
+        )
+    except BudgetError as error:
+        if over_budget == "raise":
+            raise
+        result, not_computed = None, over_budget_reason(error, frequencies_rad_s)
+    amplitudes = (np.asarray(result.amplitudes_rad) if result is not None
+                  else np.atleast_1d(np.asarray(amplitudes_rad, dtype=float)))
     known = {} if analysis is None else {id(loaded): analysis.stability.verdict}
     steps = step_batch([(loaded, float(amplitude)) for amplitude in amplitudes], known)
     loops = ActuatorLoops(params)
-    omega = np.asarray(result.frequencies_rad_s)
-    linear = loops.closed_loop(1j * omega, feedforward=feedforward)
+    linear = None if result is None else loops.closed_loop(
+        1j * np.asarray(result.frequencies_rad_s), feedforward=feedforward)
     linear_bandwidth = None  # an unstable loop has no frequency response to measure
     if analysis is not None and analysis.delay_model == "exact":
         if analysis.closed_loop is not None:
@@ -388,8 +442,11 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
         **_identity(loaded), feedforward=feedforward,
         controllers=_controllers(steps[0].result),
         result=result, linear_response=linear, linear_bandwidth_rad_s=linear_bandwidth,
-        steps=tuple(steps), limit_onset_rad=limit_onset_amplitude(result),
+        steps=tuple(steps),
+        limit_onset_rad=None if result is None else limit_onset_amplitude(result),
         bandwidth_requirement_rad_s=bandwidth_requirement(params), reference=params.reference,
+        frequencies_rad_s=tuple(float(w) for w in sorted(frequencies_rad_s)),
+        not_computed=not_computed,
     )
 
 
@@ -409,6 +466,21 @@ def _reference_fit(reference):
             "bandwidth_rad_s": fit.bandwidth_rad_s, "wn_rad_s": fit.wn, "zeta": fit.zeta}
 
 
+def _bound_dict(bound):
+    """JSON of a bandwidth known only as a bound: ``{"relation": ">", "edge_rad_s": 5000}``."""
+    return None if bound is None else {"relation": bound[0], "edge_rad_s": bound[1]}
+
+
+def _meets(value, bound, required):
+    """Whether a bandwidth (or its bound) meets ``>= required``: True, False, or None when a
+    bound cannot decide it (:func:`~cas_freq.simulation.sinedwell.bound_meets`)."""
+    from cas_freq.simulation.sinedwell import bound_meets
+
+    if value is not None and math.isfinite(value):
+        return value >= required
+    return None if bound is None else bound_meets(bound, minimum=required)
+
+
 def sinedwell_run_dict(run):
     """JSON-ready dict of a :class:`SineDwellRun` (non-finite numbers become None).
 
@@ -416,17 +488,28 @@ def sinedwell_run_dict(run):
     nonlinear step of the same size with its second-order fit); ``bandwidth_three_ways`` puts
     the linear, sine-dwell and step-fit bandwidths side by side; ``report_bench``, only where
     the config's ``reference:`` declares a fit with a bandwidth, is that reference fit.
+
+    A sine-dwell bandwidth outside the grid is ``bandwidth_rad_s: null`` with
+    ``bandwidth_bound: {"relation": ">", "edge_rad_s": w_max}`` (still above −3.01 dB at the
+    grid's top) or ``{"relation": "<", "edge_rad_s": w_min}`` (already below at its bottom);
+    ``bandwidth_bound`` is null when the grid holds the crossing (or nothing is known). With a
+    bandwidth requirement, ``meets_requirement`` is true / false where the value or the bound
+    decides it and null where a bound cannot ("not decided").
     """
     r = run.result
+    if r is None:
+        raise ValueError(f"sinedwell_run_dict: the sine-dwell was not computed: {run.not_computed}")
     amplitudes = []
     three_ways = []
     required = run.bandwidth_requirement_rad_s
+    bounds = r.bandwidth_bounds
     for index, amplitude in enumerate(r.amplitudes_rad):
         step = run.steps[index]
         amplitude_deg = float(np.degrees(amplitude))
         amplitudes.append({
             "amplitude_deg": amplitude_deg,
             "bandwidth_rad_s": r.bandwidth_rad_s[index],
+            "bandwidth_bound": _bound_dict(bounds[index]),
             "magnitude_db": r.magnitude_db[index].tolist(),
             "phase_deg": r.phase_deg[index].tolist(),
             "current_limited": r.current_limited[index].tolist(),
@@ -440,11 +523,14 @@ def sinedwell_run_dict(run):
             "linear_rad_s": run.linear_bandwidth_rad_s,
             "sinedwell_rad_s": r.bandwidth_rad_s[index],
             "step_fit_rad_s": step.fit.bandwidth_closed_form_rad_s,
+            "sinedwell_bound": _bound_dict(bounds[index]),
         })
         if required is not None:
-            three_ways[-1]["meets_requirement"] = {
-                name: value is not None and value >= required
-                for name, value in three_ways[-1].items() if name.endswith("_rad_s")
+            row = three_ways[-1]
+            row["meets_requirement"] = {
+                "linear_rad_s": _meets(row["linear_rad_s"], None, required),
+                "sinedwell_rad_s": _meets(row["sinedwell_rad_s"], bounds[index], required),
+                "step_fit_rad_s": _meets(row["step_fit_rad_s"], None, required),
             }
     onset = run.limit_onset_rad
     bench = _reference_fit(run.reference)

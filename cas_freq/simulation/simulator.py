@@ -223,24 +223,42 @@ def _gib(value):
     return f"{value / 2**30:.3g} GiB"
 
 
+class BudgetError(ConfigError):
+    """A batch beyond the work budget (:func:`check_budget`); a :class:`ConfigError`.
+
+    Attributes
+    ----------
+    horizon_s : float
+        The batch's first horizon [s].
+    factor_needed : float
+        The least ``CAS_FREQ_BUDGET`` that admits the batch.
+    """
+
+    def __init__(self, message, horizon_s, factor_needed):
+        super().__init__(message)
+        self.horizon_s = horizon_s
+        self.factor_needed = factor_needed
+
+
 def check_budget(n_runs, steps, dt, record_every=1, max_delay_s=0.0):
     """Refuse a batch whose estimated work exceeds the budget (module notes).
 
     Raises
     ------
-    ConfigError
+    BudgetError
         Naming the steps, the step, the horizon, the runs, the memory estimate and the budget.
     """
     factor = budget_factor()
     memory = memory_estimate(n_runs, steps, record_every, max_delay_s, dt)
-    if (steps <= MAX_STEPS * factor and steps * n_runs <= MAX_STEP_RUNS * factor
-            and memory <= MAX_MEMORY_BYTES * factor):
+    needed = max(steps / MAX_STEPS, steps * n_runs / MAX_STEP_RUNS, memory / MAX_MEMORY_BYTES)
+    if needed <= factor:
         return
-    raise ConfigError(
+    raise BudgetError(
         f"simulation too large: {steps:.3g} steps of {dt:.3g} s (horizon {steps * dt:.3g} s) x "
         f"{n_runs} run(s) = {steps * n_runs:.3g} step-runs, about {_gib(memory)}; the budget "
         f"is {MAX_STEPS * factor:.3g} steps, {MAX_STEP_RUNS * factor:.3g} step-runs and "
-        f"{_gib(MAX_MEMORY_BYTES * factor)} (set {BUDGET_ENV}=N for N times more)"
+        f"{_gib(MAX_MEMORY_BYTES * factor)} (set {BUDGET_ENV}=N for N times more)",
+        steps * dt, needed,
     )
 
 

@@ -70,6 +70,14 @@ DEFAULT_PERIODS_MEASURE = 2
 #: Default recorded samples per period of the fastest frequency (at least).
 DEFAULT_SAMPLES_PER_PERIOD = 64
 
+#: The sine-dwell grid derived from a loop (:func:`dwell_frequencies`, the default of
+#: ``cas-freq sinedwell``, ``report``, ``compare`` and of a sine-dwell requirement): this many
+#: log-spaced points over DWELL_SPAN x the linear bandwidth omega_BW of T.
+DWELL_POINTS = 16
+DWELL_SPAN = (0.1, 5.0)
+#: The grid of a loop with neither a bandwidth nor a position-loop crossover [rad/s].
+FALLBACK_FREQUENCIES_RAD_S = tuple(float(w) for w in np.geomspace(100.0, 5000.0, DWELL_POINTS))
+
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class SineDwellResult:
@@ -122,6 +130,14 @@ class SineDwellResult:
     def amplitudes_deg(self):
         """Amplitudes at the fin [deg]."""
         return np.degrees(self.amplitudes_rad)
+
+    @property
+    def bandwidth_bounds(self):
+        """Per amplitude, what the grid says of a bandwidth it does not hold
+        (:func:`bandwidth_bound`): None where ``bandwidth_rad_s`` has the value."""
+        return tuple(None if value is not None else
+                     bandwidth_bound(self.frequencies_rad_s, row)
+                     for value, row in zip(self.bandwidth_rad_s, self.magnitude_db, strict=True))
 
 
 def _single(params):
@@ -186,6 +202,90 @@ def crossing_bandwidth(frequencies_rad_s, magnitude_db, level_db=HALF_POWER_DB):
     x0, x1 = math.log(w[k - 1]), math.log(w[k])
     fraction = (level_db - m[k - 1]) / (m[k] - m[k - 1])
     return float(math.exp(x0 + fraction * (x1 - x0)))
+
+
+def bandwidth_bound(frequencies_rad_s, magnitude_db, level_db=HALF_POWER_DB):
+    """What a grid without a crossing of ``level_db`` proves about the bandwidth.
+
+    Returns
+    -------
+    (str, float) or None
+        ``(">", w_max)`` when no grid point is below the level (the response is still above it
+        at the grid's top, so the bandwidth lies above ``w_max`` [rad/s]); ``("<", w_min)``
+        when the first point is already below it (the crossing from T(0) = 1 lies below the
+        grid); None when the grid holds a crossing (:func:`crossing_bandwidth`) or has no
+        finite magnitude.
+    """
+    w = np.asarray(frequencies_rad_s, dtype=float)
+    m = np.asarray(magnitude_db, dtype=float)
+    if not np.isfinite(m).all():
+        return None
+    if not (m < level_db).any():
+        return (">", float(w[-1]))
+    if m[0] < level_db:
+        return ("<", float(w[0]))
+    return None
+
+
+def bandwidth_text(value, bound, unit=""):
+    """A bandwidth as text: the value to 4 significant digits, ``"> 5000"`` / ``"< 100"`` for a
+    bound (:func:`bandwidth_bound`), "—" for neither."""
+    suffix = f" {unit}" if unit else ""
+    if value is not None and math.isfinite(value):
+        return f"{value:.4g}{suffix}"
+    if bound is not None:
+        return f"{bound[0]} {bound[1]:.4g}{suffix}"
+    return "—"
+
+
+def bound_meets(bound, minimum=None, maximum=None):
+    """Whether a figure known only as a bound ``(relation, edge)`` meets ``minimum <= value <=
+    maximum``: True or False when the bound proves it, None when it cannot decide.
+
+    ``(">", 400)`` meets ``>= 300`` (every value above 400 does) and cannot decide ``>= 500``;
+    ``("<", 100)`` violates ``>= 300``.
+    """
+    relation, edge = bound
+    verdicts = []
+    for limit, lower in ((minimum, True), (maximum, False)):
+        if limit is None:
+            continue
+        if relation == ">":
+            verdicts.append(True if lower and edge >= limit else
+                            False if not lower and edge >= limit else None)
+        else:
+            verdicts.append(False if lower and edge <= limit else
+                            True if not lower and edge <= limit else None)
+    if False in verdicts:
+        return False
+    if None in verdicts:
+        return None
+    return True
+
+
+def dwell_frequencies(analysis):
+    """Default sine-dwell grid of a variant [rad/s]: DWELL_POINTS log-spaced over DWELL_SPAN x
+    the linear bandwidth of T (4 significant digits); around the position loop's gain
+    crossover when the loop has no bandwidth (unstable); FALLBACK_FREQUENCIES_RAD_S when it has
+    neither.
+
+    Parameters
+    ----------
+    analysis : cas_freq.analysis.Analysis
+        The variant's exact-delay analysis.
+
+    Returns
+    -------
+    tuple of float
+    """
+    cl = analysis.closed_loop
+    centre = None if cl is None else cl.bandwidth_rad_s
+    if centre is None:
+        centre = analysis.position_loop.crossover_rad_s
+    if centre is None or not math.isfinite(centre) or centre <= 0:
+        return FALLBACK_FREQUENCIES_RAD_S
+    grid = np.geomspace(DWELL_SPAN[0] * centre, DWELL_SPAN[1] * centre, DWELL_POINTS)
+    return tuple(float(f"{w:.4g}") for w in grid)
 
 
 def sine_dwell(

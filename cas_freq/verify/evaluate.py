@@ -32,7 +32,14 @@ class Verdict:
     condition : str
         What was run to measure the figure.
     message : str
-        One line saying why it passed or failed.
+        One line saying why it passed or failed; "not decided" when the data cannot tell (no
+        value, or a bound on both sides of the requirement's bounds): then a required
+        requirement fails and an advisory one is ADVISORY.
+    bound : str or None
+        ``">"`` or ``"<"`` when the figure is known only as a bound (a sine-dwell bandwidth
+        outside its grid; ``value`` None), else None.
+    bound_value : float or None
+        The bound's edge in ``unit`` (the grid's top or bottom frequency).
     """
 
     id: str
@@ -49,6 +56,8 @@ class Verdict:
     description: str
     condition: str
     message: str
+    bound: str | None = None
+    bound_value: float | None = None
 
 
 def bound_text(minimum, maximum, unit):
@@ -61,28 +70,49 @@ def bound_text(minimum, maximum, unit):
     return f"<= {maximum:g}{suffix}"
 
 
-def _verdict(requirement, variant, value, condition, stable=True):
+def _verdict(requirement, variant, value, condition, stable=True, bound=None):
     unit = UNIT_LABELS[requirement.unit]
+    suffix = f" {unit}" if unit else ""
     bounds = bound_text(requirement.min, requirement.max, unit)
+    known = value is not None and math.isfinite(value)
+    if known:
+        meets = requirement.passes(value)
+    elif bound is not None:
+        from cas_freq.simulation.sinedwell import bound_meets
+
+        meets = bound_meets(bound, requirement.min, requirement.max)
+    else:
+        meets = None
     # A figure of an unstable actuator is shown but never passes, and has no margin.
-    passed = requirement.passes(value) and stable
+    passed = bool(meets) and stable
     if passed:
         status = PASS
     else:
         status = FAIL if requirement.severity == "required" else ADVISORY
-    if value is None or not math.isfinite(value):
-        message = f"{requirement.metric} has no value ({condition}); needs {bounds}"
+    if known:
+        shown = f"{value:.4g}{suffix}"
+    elif bound is not None:
+        shown = f"{bound[0]} {bound[1]:.4g}{suffix}"
+    if not known and bound is None:
+        undecided = " not decided:" if requirement.kind == "sinedwell" else ""
+        message = f"{requirement.metric}{undecided} has no value ({condition}); needs {bounds}"
+    elif meets is None:
+        message = (f"{requirement.metric} {shown} not decided: the bound cannot tell whether it "
+                   f"is {bounds} ({condition}; widen the frequencies)")
     else:
-        shown = f"{value:.4g}{(' ' + unit) if unit else ''}"
-        relation = ("meets" if passed else "violates" if not requirement.passes(value)
+        relation = ("meets" if passed else "violates" if not meets
                     else "is within but cannot pass")
-        message = f"{requirement.metric} = {shown} {relation} {bounds} ({condition})"
-    margin = requirement.margin(value) if stable else None
+        equals = "= " if known else ""  # a bound reads "> 400 rad/s"
+        message = f"{requirement.metric} {equals}{shown} {relation} {bounds} ({condition})"
+    margin = requirement.margin(value) if stable and known else None
     return Verdict(
-        id=requirement.id, variant=variant, metric=requirement.metric, value=value, unit=unit,
+        id=requirement.id, variant=variant, metric=requirement.metric,
+        value=value if known else None, unit=unit,
         min=requirement.min, max=requirement.max, margin=margin,
         status=status, severity=requirement.severity, source=requirement.source,
         description=requirement.description, condition=condition, message=message,
+        bound=None if known or bound is None else bound[0],
+        bound_value=None if known or bound is None else bound[1],
     )
 
 
@@ -111,10 +141,10 @@ def verify_variants(variants, requirements=None, known=None):
     return {
         loaded.variant: [
             _verdict(requirement, loaded.variant, values[requirement.id],
-                     context[requirement.id], stable)
+                     context[requirement.id], stable, bounds.get(requirement.id))
             for requirement in requirements
         ]
-        for loaded, (values, context, stable) in zip(variants, measured, strict=True)
+        for loaded, (values, context, stable, bounds) in zip(variants, measured, strict=True)
     }
 
 
@@ -134,4 +164,7 @@ def verdict_dict(verdict):
     """JSON-ready dict of a verdict."""
     from cas_freq.fileio import json_ready
 
-    return json_ready(dataclasses.asdict(verdict))
+    data = dataclasses.asdict(verdict)
+    if verdict.bound is None:  # only a figure known as a bound carries the two keys
+        del data["bound"], data["bound_value"]
+    return json_ready(data)

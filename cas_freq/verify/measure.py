@@ -44,10 +44,12 @@ def measure(variants, requirements, known=None):
 
     Returns
     -------
-    list of (dict, dict, bool)
+    list of (dict, dict, bool, dict)
         Per variant, ``values``: requirement id -> figure (float, or None when it does not
         exist, e.g. no crossover in range), ``context``: requirement id -> a short text of
-        what was run, and whether the closed loop is stable (if not, no figure may pass).
+        what was run, whether the closed loop is stable (if not, no figure may pass), and
+        ``bounds``: requirement id -> ``(relation, edge)`` for a sine-dwell bandwidth outside
+        its grid (:func:`~cas_freq.simulation.sinedwell.bandwidth_bound`; value None).
     """
     from cas_freq.analysis import analyze
     from cas_freq.simulation.run import step_batch
@@ -73,7 +75,7 @@ def measure(variants, requirements, known=None):
         moves[condition] = dict(zip(stable, runs, strict=True))
     out = []
     for index, loaded in enumerate(variants):
-        values, context = {}, {}
+        values, context, bounds = {}, {}, {}
         dwells = {}
         for requirement in requirements:
             key = requirement.id
@@ -96,10 +98,10 @@ def measure(variants, requirements, known=None):
             else:
                 condition = (requirement.amplitude, requirement.frequencies)
                 if condition not in dwells:
-                    dwells[condition] = _sinedwell_bandwidth(loaded, *condition)
-                values[key] = dwells[condition]
-                context[key] = _dwell_text(*condition)
-        out.append((json_ready(values), context, index in stable))
+                    dwells[condition] = _sinedwell_bandwidth(loaded, analyses[index],
+                                                             *condition)
+                values[key], bounds[key], context[key] = dwells[condition]
+        out.append((json_ready(values), context, index in stable, bounds))
     return out
 
 
@@ -131,25 +133,31 @@ def _known_step(item, size):
     return None
 
 
-def _sinedwell_bandwidth(loaded, amplitude, frequencies):
-    """Sine-dwell bandwidth at one amplitude (as ``cas-freq sinedwell``, feed-forward off)."""
-    from cas_freq.simulation.run import (
-        DEFAULT_SINEDWELL_FREQUENCIES_RAD_S,
-        dwell_parameters,
-    )
-    from cas_freq.simulation.sinedwell import sine_dwell
+def _sinedwell_bandwidth(loaded, analysis, amplitude, frequencies):
+    """Sine-dwell bandwidth at one amplitude (as ``cas-freq sinedwell``, feed-forward off, on
+    the requirement's grid or the variant's default one).
 
+    Returns
+    -------
+    (float or None, (str, float) or None, str)
+        The bandwidth [rad/s], the bound the grid gives when it holds no crossing, and the text
+        of what was run (with why nothing was, when the sine-dwell exceeds the budget).
+    """
+    from cas_freq.simulation.run import dwell_parameters, over_budget_reason
+    from cas_freq.simulation.simulator import BudgetError
+    from cas_freq.simulation.sinedwell import dwell_frequencies, sine_dwell
+
+    grid = frequencies or dwell_frequencies(analysis)
+    text = (f"sine-dwell at {math.degrees(amplitude):g} deg, {len(grid)} frequencies "
+            f"{min(grid):.4g}..{max(grid):.4g} rad/s"
+            + ("" if frequencies else " (the variant's default grid)"))
     current_rate_hz, position_rate_hz = loaded.params.simulation.rates_hz
-    result = sine_dwell(
-        dwell_parameters(loaded.params, feedforward=False), [amplitude],
-        frequencies or DEFAULT_SINEDWELL_FREQUENCIES_RAD_S,
-        current_rate_hz=current_rate_hz, position_rate_hz=position_rate_hz,
-    )
-    return result.bandwidth_rad_s[0]
-
-
-def _dwell_text(amplitude, frequencies):
-    grid = "default grid" if frequencies is None else (
-        f"{len(frequencies)} frequencies {frequencies[0]:g}..{frequencies[-1]:g} rad/s"
-    )
-    return f"sine-dwell at {math.degrees(amplitude):g} deg, {grid}"
+    try:
+        result = sine_dwell(
+            dwell_parameters(loaded.params, feedforward=False), [amplitude], grid,
+            current_rate_hz=current_rate_hz, position_rate_hz=position_rate_hz,
+        )
+    except BudgetError as error:
+        reason = over_budget_reason(error, grid, "the requirement's frequencies")
+        return None, None, f"{text}: not computed: {reason}"
+    return result.bandwidth_rad_s[0], result.bandwidth_bounds[0], text
