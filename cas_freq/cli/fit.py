@@ -152,24 +152,16 @@ def run_file(args):
     if args.json:
         print_json(data)
         return EXIT_OK
-    s, f = data["step"], data["fit"]
+    from cas_freq.cli.fit_recordings import fit_lines, rms_line, step_lines
 
-    def ms(value, unit=" ms"):
-        """A time [s] in ms; one below 1e-9 s is 0 (a delay fitted at its bound of 0 s)."""
-        if value is None:
-            return "—"
-        return f"{0.0 if abs(value) < 1e-9 else value * 1e3:.4g}{unit}"
-
+    f = dict(data["fit"])
+    f["rms_residual_of_step"] = (None if f["rms_residual"] is None
+                                 else f["rms_residual"] / abs(step))
     print("\n".join([
         f"{args.csv}: step of {math.degrees(step):g} deg, {data['samples']} samples from t = 0",
-        f"  rise time 10-90 %   {ms(s['rise_time_s'])}",
-        f"  overshoot           {s['overshoot_pct']:.4g} %",
-        f"  settling ±2 % / ±5 % {ms(s['settling_time_s'])} / {ms(s['settling_time_5pct_s'])}",
+        *step_lines(data["step"]),
         "  second-order fit (report §7)",
-        f"    wn {f['wn_rad_s']:.4g} rad/s [{f['wn_ci_rad_s'][0]:.4g}, {f['wn_ci_rad_s'][1]:.4g}]",
-        f"    zeta {f['zeta']:.4g} [{f['zeta_ci'][0]:.4g}, {f['zeta_ci'][1]:.4g}]",
-        f"    td {ms(f['td_s'])} [{ms(f['td_ci_s'][0], '')}, {ms(f['td_ci_s'][1], '')}]",
-        f"    rms residual {100 * f['rms_residual'] / abs(step):.3g} % of the step",
-        f"    closed-form bandwidth {f['bandwidth_closed_form_rad_s']:.4g} rad/s",
+        *fit_lines(f),
+        rms_line(f, "rms_residual_of_step"),
     ]))
     return EXIT_OK
