@@ -3,7 +3,7 @@
 import dataclasses
 import math
 
-from cas_freq.cli.common import EXIT_OK, angle, print_json
+from cas_freq.cli.common import EXIT_OK, angle, output_path, print_json
 from cas_freq.exceptions import CasFreqError
 
 
@@ -70,7 +70,7 @@ def register(commands):
                         help="with --params: change a key of the variant before the fit (e.g. "
                         "to give a drivetrain the recordings may need); repeatable")
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    parser.add_argument("-o", "--output", metavar="DIR|FILE.yaml",
+    parser.add_argument("-o", "--output", metavar="DIR|FILE.yaml", type=output_path,
                         help="with --data: write fit.json and fit.svg (data vs fit, residuals; for "
                         "sweeps frf.json and frf.svg) "
                         "into DIR (replaced as a whole); with --params also config.yaml (the "
