@@ -9,8 +9,9 @@ exit 2, one line naming the option.
 import argparse
 
 import pytest
+from clirun import run_cli
 
-from cas_freq.cli import build_parser, main
+from cas_freq.cli import build_parser
 from cas_freq.cli.common import output_path
 
 #: The option strings that name an output file or folder.
@@ -49,11 +50,9 @@ def test_an_empty_output_is_refused_by_every_command(value):
         assert info.value.code == 2, (words, action.option_strings)
 
 
-def test_tune_with_an_empty_output_exits_2_naming_the_option(tmp_path, monkeypatch, capsys):
+def test_tune_with_an_empty_output_exits_2_naming_the_option(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    with pytest.raises(SystemExit) as info:  # argparse's usage error: exit 2, one line
-        main(["tune", "-o", ""])
-    assert info.value.code == 2
-    err = capsys.readouterr().err
-    assert "argument -o/--output: expected a file or folder name, got ''" in err
+    code, out, err = run_cli(["tune", "-o", ""])  # argparse's usage error: exit 2
+    assert code == 2 and out == ""
+    assert err.endswith("error: argument -o/--output: expected a file or folder name, got ''\n")
     assert list(tmp_path.iterdir()) == []
