@@ -209,13 +209,16 @@ def angle(text, option):
 
 
 class _Progress:
-    """A tqdm bar driven by ``(done, planned)`` calls (the plan may grow)."""
+    """A tqdm bar driven by ``(done, planned)`` calls (the plan may grow).
+
+    Counts are shown as the whole numbers they are ("23/300"), not scaled to three digits
+    (tqdm's ``unit_scale`` shows 11 as "11.0")."""
 
     def __init__(self, label, stream, unit):
         from tqdm import tqdm
 
-        self.bar = tqdm(total=1, desc=label, file=stream, unit=unit, unit_scale=True,
-                        leave=True, dynamic_ncols=True)
+        self.bar = tqdm(total=1, desc=label, file=stream, unit=unit, leave=True,
+                        dynamic_ncols=True)
 
     def __call__(self, done, planned):
         if planned != self.bar.total:
