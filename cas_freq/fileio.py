@@ -82,7 +82,7 @@ def read_input(path, what, limit=None, encoding="utf-8"):
         return ConfigError(f"{shown}: cannot read {what} ({reason})")
 
     def too_large():
-        return refused(f"larger than {limit} bytes, the limit for a {what}")
+        return refused(f"larger than {limit} bytes, the limit for {what}s")
 
     try:
         kind = _not_regular(os.stat(path).st_mode)

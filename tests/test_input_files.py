@@ -100,7 +100,7 @@ def test_a_data_file_over_the_size_limit(tmp_path):
         stream.write(HEADER.encode())
         stream.truncate(MAX_DATA_BYTES + 1)
     code, _, err = run_cli(["fit", "--data", str(path)])
-    assert code == 2 and f"larger than {MAX_DATA_BYTES} bytes, the limit for a recording" \
+    assert code == 2 and f"larger than {MAX_DATA_BYTES} bytes, the limit for recordings" \
         in err, err
     os.truncate(path, MAX_DATA_BYTES)
     code, _, err = run_cli(["fit", "--data", str(path)])
