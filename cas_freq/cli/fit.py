@@ -133,7 +133,7 @@ def run_file(args):
     from cas_freq.simulation.step_figures import step_figures
 
     step = angle(args.step, "--step")
-    t, delta = read_angle_series_csv(args.csv, negative_times=True)
+    t, delta = read_angle_series_csv(args.csv, negative_times=True, what="step response file")
     if t[0] > 0 or t[-1] <= 0:
         raise CasFreqError(f"{args.csv}: the times must span the step at t = 0 s, got "
                            f"{t[0]:g}..{t[-1]:g} s")

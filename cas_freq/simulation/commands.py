@@ -397,7 +397,7 @@ def read_command_csv(path):
     ConfigError
         (a ValueError) naming the file and row of the first bad value.
     """
-    time_s, angle_rad = read_angle_series_csv(path)
+    time_s, angle_rad = read_angle_series_csv(path, what="command file")
     return Table(time_s, angle_rad, source=str(path))
 
 
@@ -475,7 +475,7 @@ def _cut(row, limit=80):
     return text if len(text) <= limit else text[:limit - 5] + " ...]"
 
 
-def read_angle_series_csv(path, negative_times=False):
+def read_angle_series_csv(path, negative_times=False, what="CSV file"):
     """Read a fin-angle time series: a time column and a fin angle column.
 
     Either two columns, time [s] and fin angle [deg], with an optional header; or a header
@@ -490,6 +490,8 @@ def read_angle_series_csv(path, negative_times=False):
         CSV file (comma-separated; lines starting with ``#`` are skipped).
     negative_times : bool
         Accept times before 0 (a measured response with pre-trigger samples).
+    what : str
+        What the file is, for messages (:func:`cas_freq.fileio.read_input`).
 
     Returns
     -------
@@ -505,7 +507,7 @@ def read_angle_series_csv(path, negative_times=False):
     from cas_freq.fileio import csv_row, read_input
 
     path = Path(path)
-    text = read_input(path, "CSV file")
+    text = read_input(path, what)
     times, angles = [], []
     columns, width = ((0, 1.0), (1, math.pi / 180.0)), 2
     first = True
