@@ -20,3 +20,16 @@ class ConfigTypeError(CasFreqError, TypeError):
 
 class ModelError(CasFreqError, ValueError):
     """A model cannot be built from otherwise valid parameters (e.g. an improper controller)."""
+
+
+#: Most items an error message lists before it says how many more there are.
+MAX_LISTED = 10
+
+
+def listed(items, separator="; ", most=MAX_LISTED):
+    """``items`` (strings) joined for an error message, cut after ``most`` with a count:
+    ``"a; b; ... and 9,990 more"``, so a file with 10,000 problems gives one short line."""
+    items = list(items)
+    shown = separator.join(items[:most])
+    rest = len(items) - most
+    return shown if rest <= 0 else f"{shown}{separator}... and {rest:,} more"

@@ -1,4 +1,11 @@
-"""Atomic file output: write to a temporary file in the target's folder, then rename.
+"""Safe file input, and atomic file output.
+
+:func:`read_input` reads every file a user names (config, recording, command, EPOS4 parameter
+file): only a regular file (a symbolic link to one is fine), never more than a stated number of
+bytes, so a device (``/dev/zero``), a named pipe or a folder ends the run with one line (exit 2)
+instead of exhausting memory or waiting forever.
+
+Output: write to a temporary file in the target's folder, then rename.
 
 A run that fails half-way (or is interrupted) leaves the previous file intact, never half of a
 new one, and removes its temporary file.
@@ -12,10 +19,101 @@ it into a plain file or folder.
 """
 
 import os
+import stat
 import tempfile
 from pathlib import Path
 
-from cas_freq.exceptions import CasFreqError
+from cas_freq.exceptions import CasFreqError, ConfigError
+
+#: Largest data file read [bytes]: a recording or command CSV (about 500,000 rows: 50 s at
+#: 10 kHz; the shipped 1 s chirp is 0.2 MB), as for an EPOS4 parameter file.
+MAX_DATA_BYTES = 16 << 20
+
+#: What a file that is not regular is, by its ``stat`` mode.
+_FILE_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe (FIFO)"),
+               (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+               (stat.S_ISSOCK, "a socket"))
+
+
+def _not_regular(mode):
+    """What a file of ``mode`` is if not a regular file ('a folder', ...); None if regular."""
+    if stat.S_ISREG(mode):
+        return None
+    return next((kind for test, kind in _FILE_KINDS if test(mode)), "not a regular file")
+
+
+def read_input(path, what, limit=None, encoding="utf-8"):
+    """The contents of a file a user named, read safely.
+
+    The file (a symbolic link is followed) must be a regular file: its kind is checked with
+    ``os.stat`` before it is opened, so a named pipe is refused without waiting for a writer,
+    and again on the open descriptor (opened non-blocking), so a file swapped in between is
+    refused too. At most ``limit`` bytes are read.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    what : str
+        What the file is, for messages ("config file", "recording", ...).
+    limit : int, optional
+        Largest size accepted [bytes] (default :data:`MAX_DATA_BYTES`).
+    encoding : str or None
+        Decode the bytes as this text encoding; None returns the bytes.
+
+    Returns
+    -------
+    str or bytes
+
+    Raises
+    ------
+    ConfigError
+        One line naming the path and what is wrong: ``"<path>: <what> not found"``, or
+        ``"<path>: cannot read <what> (<reason>)"`` for a file that is not regular (a folder,
+        a device, a named pipe, ...), larger than ``limit``, unreadable, or not text in
+        ``encoding``.
+    """
+    from cas_freq.config.loader import one_line
+
+    shown = one_line(path)
+    limit = MAX_DATA_BYTES if limit is None else limit
+
+    def refused(reason):
+        return ConfigError(f"{shown}: cannot read {what} ({reason})")
+
+    def too_large():
+        return refused(f"larger than {limit} bytes, the limit for {what}s")
+
+    try:
+        kind = _not_regular(os.stat(path).st_mode)
+        if kind:
+            raise refused(f"{kind}, not a regular file")
+        handle = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0)
+                         | getattr(os, "O_CLOEXEC", 0))
+        with os.fdopen(handle, "rb") as stream:
+            status = os.fstat(stream.fileno())
+            kind = _not_regular(status.st_mode)
+            if kind:
+                raise refused(f"{kind}, not a regular file")
+            if status.st_size > limit:
+                raise too_large()
+            raw = stream.read(limit + 1)
+    except ConfigError:
+        raise
+    except FileNotFoundError:
+        raise ConfigError(f"{shown}: {what} not found") from None
+    except (OSError, ValueError) as exc:  # ValueError: a NUL byte in the path
+        reason = getattr(exc, "strerror", None) or one_line(exc)[:200]
+        raise refused(reason) from None
+    if len(raw) > limit:  # grew since fstat
+        raise too_large()
+    if encoding is None:
+        return raw
+    try:
+        return raw.decode(encoding)
+    except UnicodeDecodeError as exc:
+        raise refused(f"not {encoding.upper()} text: byte {exc.start} is "
+                      f"0x{raw[exc.start]:02x}") from None
 
 
 def _writable(path):
@@ -34,6 +132,30 @@ def _check_parent(path, option):
         raise CasFreqError(f"{option} {path}: {parent} is not a folder")
     if not _writable(parent):
         raise CasFreqError(f"{option} {path}: the folder {parent} is not writable")
+
+
+def csv_row(path, number, line):
+    """The cells of one CSV ``line`` (line ``number`` of the file ``path``).
+
+    Raises
+    ------
+    ConfigError
+        Naming the file and the line for what the csv module refuses, e.g. a field longer than
+        its limit (131,072 characters; the cells of a CSV of numbers are short).
+    """
+    import csv
+
+    try:
+        return next(csv.reader([line]), [])
+    except csv.Error as exc:
+        from cas_freq.config.loader import one_line
+
+        if "field limit" in str(exc):
+            reason = (f"a cell longer than {csv.field_size_limit():,} characters "
+                      f"(the line has {len(line):,}); cells are numbers")
+        else:
+            reason = f"not CSV ({one_line(exc)[:200]})"
+        raise ConfigError(f"{one_line(path)}: line {number}: {reason}") from None
 
 
 def check_output_file(path, option):

@@ -9,8 +9,12 @@ from cas_freq.cli import main
 
 
 def run_cli(argv):
-    """(exit status, stdout, stderr) of ``cas-freq argv``."""
+    """(exit status, stdout, stderr) of ``cas-freq argv``; argparse's usage errors (and
+    ``--help``) end in SystemExit, whose code is the exit status as from the command line."""
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(argv)
+        try:
+            code = main(argv)
+        except SystemExit as exc:
+            code = exc.code
     return code, out.getvalue(), err.getvalue()

@@ -78,7 +78,7 @@ def test_bad_files_exit_2(tmp_path, content, expect):
 
 def test_missing_file_exits_2(tmp_path):
     code, _, err = _run(["fit", str(tmp_path / "none.csv"), "--step", "10deg"])
-    assert code == 2 and "cannot read" in err
+    assert code == 2 and "none.csv: step response file not found" in err
 
 
 def test_td_interval_in_text_and_json(tmp_path):

@@ -121,3 +121,32 @@ def test_several_variants_share_one_cluster(monkeypatch):
     assert code == 0 and started == []
     code, remote, _ = run_cli([*argv, "--scheduler", "local:1"])
     assert code == 0 and remote == local and started == ["local:1"]
+
+
+def test_losing_every_worker_mid_study_says_the_cluster_was_lost(draw_of_40):
+    """Every worker of a local cluster killed (SIGKILL) once the first chunk is back: the
+    config scattered to them is lost with them, and so is every chunk still to run. The study
+    ends with one CasFreqError (exit 2 from the CLI) saying so, not dask's
+    FutureCancelledError traceback (exit 1). Losing one worker recovers (dask reschedules)."""
+    import os
+    import signal
+
+    import cas_freq.studies.distributed as module
+
+    params, values = draw_of_40
+    values = {key: np.tile(column, 16) for key, column in values.items()}  # 20 chunks of 32
+    killed = []
+
+    def kill_every_worker(done, total):
+        if not killed:
+            client = module._OPEN["local:2"]
+            for pid in client.run(os.getpid).values():
+                os.kill(pid, signal.SIGKILL)
+                killed.append(pid)
+
+    with module.session("local:2"), \
+            pytest.raises(CasFreqError, match=r"^--scheduler local:2: the dask cluster was "
+                          r"lost mid-study after [0-9,]+ of 640 samples: every worker") as info:
+        evaluate_figures_distributed(params, values, "local:2", chunk_samples=32,
+                                     progress=kill_every_worker)
+    assert len(killed) == 2 and "\n" not in str(info.value)

@@ -81,7 +81,7 @@ def test_reader_errors_name_file_and_line(tmp_path, text, expect):
 
 
 def test_unreadable_file(tmp_path):
-    with pytest.raises(ConfigError, match="none.csv: cannot read the file"):
+    with pytest.raises(ConfigError, match="none.csv: recording not found"):
         read_recording(tmp_path / "none.csv")
 
 

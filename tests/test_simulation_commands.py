@@ -132,7 +132,7 @@ def test_csv_errors_name_file_and_row(tmp_path, text, message):
 
 
 def test_csv_missing_file(tmp_path):
-    with pytest.raises(ConfigError, match="cannot read"):
+    with pytest.raises(ConfigError, match="none.csv: command file not found"):
         read_command_csv(tmp_path / "none.csv")
 
 

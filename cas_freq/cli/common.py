@@ -16,6 +16,16 @@ class Parser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
 
 
+def output_path(text):
+    """argparse ``type`` of every option that names an output (``-o``, ``--csv``, ``--junit``,
+    ``--report``, ``--compare``): a path, not an empty or blank word (``-o ""`` would otherwise
+    read as "no output" and write nothing, with exit 0). argparse reports the option by name
+    (exit 2): ``argument -o/--output: expected a file or folder name, got ''``."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"expected a file or folder name, got {text!r}")
+    return text
+
+
 def add_config_arguments(parser, all_by_default=False, several_configs=False):
     """CONFIG, ``--variant NAME`` (repeatable) / ``--all-variants`` and ``--set``, as every
     command takes them.
@@ -199,13 +209,16 @@ def angle(text, option):
 
 
 class _Progress:
-    """A tqdm bar driven by ``(done, planned)`` calls (the plan may grow)."""
+    """A tqdm bar driven by ``(done, planned)`` calls (the plan may grow).
+
+    Counts are shown as the whole numbers they are ("23/300"), not scaled to three digits
+    (tqdm's ``unit_scale`` shows 11 as "11.0")."""
 
     def __init__(self, label, stream, unit):
         from tqdm import tqdm
 
-        self.bar = tqdm(total=1, desc=label, file=stream, unit=unit, unit_scale=True,
-                        leave=True, dynamic_ncols=True)
+        self.bar = tqdm(total=1, desc=label, file=stream, unit=unit, leave=True,
+                        dynamic_ncols=True)
 
     def __call__(self, done, planned):
         if planned != self.bar.total:

@@ -2,7 +2,7 @@
 
 import shlex
 
-from cas_freq.cli.common import EXIT_OK, add_config_arguments, label_progress
+from cas_freq.cli.common import EXIT_OK, add_config_arguments, label_progress, output_path
 from cas_freq.cli.report import DEFAULT_AMPLITUDES, DEFAULT_FREQUENCIES, settings_from_args
 
 
@@ -20,7 +20,7 @@ def register(commands):
         help="the same as --variant A --variant B ... (comma-separated names)",
     )
     parser.add_argument(
-        "-o", "--output", default=None, metavar="DIR",
+        "-o", "--output", default=None, metavar="DIR", type=output_path,
         help="output folder (default: reports/compare-<config names>[-<variants>]/)",
     )
     parser.add_argument("--amplitudes", default=DEFAULT_AMPLITUDES, metavar="A,B,...",

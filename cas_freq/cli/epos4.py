@@ -19,6 +19,7 @@ from cas_freq.cli.common import (
     Parser,
     add_config_arguments,
     load_variants,
+    output_path,
     print_json,
     several_variants,
     wrote,
@@ -48,7 +49,7 @@ def register(commands):
                           help="config YAML (default: the shipped configs/qt_cas.yaml)")
     importer.add_argument("--variant", required=True, metavar="NAME",
                           help="name of the new variant")
-    importer.add_argument("-o", "--output", default=None, metavar="OUT.yaml",
+    importer.add_argument("-o", "--output", default=None, metavar="OUT.yaml", type=output_path,
                           help="write the config with the new variant here (default: stdout)")
     importer.add_argument("--force", action="store_true",
                           help="replace a variant of that name")
@@ -63,7 +64,7 @@ def register(commands):
         "EPOS4 parameter file that 'cas-freq epos4 import' reads back.",
     )
     add_config_arguments(exporter)
-    exporter.add_argument("-o", "--output", default=None, metavar="FILE",
+    exporter.add_argument("-o", "--output", default=None, metavar="FILE", type=output_path,
                           help="also write an EPOS4 parameter file (.dcf; one variant only)")
     exporter.add_argument("--json", action="store_true", help="print JSON instead of a table")
     exporter.set_defaults(handler=run_export)

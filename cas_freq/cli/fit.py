@@ -3,7 +3,7 @@
 import dataclasses
 import math
 
-from cas_freq.cli.common import EXIT_OK, angle, print_json
+from cas_freq.cli.common import EXIT_OK, angle, output_path, print_json
 from cas_freq.exceptions import CasFreqError
 
 
@@ -71,7 +71,7 @@ def register(commands):
                         help="with --params: change a key of the variant before the fit (e.g. "
                         "to give a drivetrain the recordings may need); repeatable")
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    parser.add_argument("-o", "--output", metavar="DIR|FILE.yaml",
+    parser.add_argument("-o", "--output", metavar="DIR|FILE.yaml", type=output_path,
                         help="with --data: write fit.json and fit.svg (data vs fit, residuals; for "
                         "sweeps frf.json and frf.svg) "
                         "into DIR (replaced as a whole); with --params also config.yaml (the "
@@ -134,7 +134,7 @@ def run_file(args):
     from cas_freq.simulation.step_figures import step_figures
 
     step = angle(args.step, "--step")
-    t, delta = read_angle_series_csv(args.csv, negative_times=True)
+    t, delta = read_angle_series_csv(args.csv, negative_times=True, what="step response file")
     if t[0] > 0 or t[-1] <= 0:
         raise CasFreqError(f"{args.csv}: the times must span the step at t = 0 s, got "
                            f"{t[0]:g}..{t[-1]:g} s")
@@ -153,24 +153,16 @@ def run_file(args):
     if args.json:
         print_json(data)
         return EXIT_OK
-    s, f = data["step"], data["fit"]
+    from cas_freq.cli.fit_recordings import fit_lines, rms_line, step_lines
 
-    def ms(value, unit=" ms"):
-        """A time [s] in ms; one below 1e-9 s is 0 (a delay fitted at its bound of 0 s)."""
-        if value is None:
-            return "—"
-        return f"{0.0 if abs(value) < 1e-9 else value * 1e3:.4g}{unit}"
-
+    f = dict(data["fit"])
+    f["rms_residual_of_step"] = (None if f["rms_residual"] is None
+                                 else f["rms_residual"] / abs(step))
     print("\n".join([
         f"{args.csv}: step of {math.degrees(step):g} deg, {data['samples']} samples from t = 0",
-        f"  rise time 10-90 %   {ms(s['rise_time_s'])}",
-        f"  overshoot           {s['overshoot_pct']:.4g} %",
-        f"  settling ±2 % / ±5 % {ms(s['settling_time_s'])} / {ms(s['settling_time_5pct_s'])}",
+        *step_lines(data["step"]),
         "  second-order-plus-delay fit (docs/model.md §7)",
-        f"    wn {f['wn_rad_s']:.4g} rad/s [{f['wn_ci_rad_s'][0]:.4g}, {f['wn_ci_rad_s'][1]:.4g}]",
-        f"    zeta {f['zeta']:.4g} [{f['zeta_ci'][0]:.4g}, {f['zeta_ci'][1]:.4g}]",
-        f"    td {ms(f['td_s'])} [{ms(f['td_ci_s'][0], '')}, {ms(f['td_ci_s'][1], '')}]",
-        f"    rms residual {100 * f['rms_residual'] / abs(step):.3g} % of the step",
-        f"    closed-form bandwidth {f['bandwidth_closed_form_rad_s']:.4g} rad/s",
+        *fit_lines(f),
+        rms_line(f, "rms_residual_of_step"),
     ]))
     return EXIT_OK

@@ -66,25 +66,62 @@ def _ms(value, unit=" ms"):
     return f"{0.0 if abs(value) < 1e-9 else value * 1e3:.4g}{unit}"
 
 
-def _fit_lines(f, indent="    "):
+def _g(value, unit="", spec=".4g"):
+    """A figure with its unit; None (absent in the JSON: NaN or unbounded) is '—'."""
+    return "—" if value is None else f"{value:{spec}}{unit}"
+
+
+def _interval(pair, show=_g):
+    """'[low, high]' of a 95 % interval; '[—]' when the JSON has none (unbounded)."""
+    low, high = pair
+    return "[—]" if low is None or high is None else f"[{show(low)}, {show(high)}]"
+
+
+def fit_notes(f):
+    """Why a fit's figures are absent or not to be trusted, from its JSON fields (each a
+    line); empty for a converged fit with bounded intervals."""
+    notes = []
+    if not f.get("success", True):
+        notes.append("not converged: the figures are the optimiser's last iterate")
+    if any(None in f[key] for key in ("wn_ci_rad_s", "zeta_ci", "td_ci_s")):
+        notes.append("intervals unbounded ([—]): the data do not determine wn, zeta and td "
+                     "apart (a singular or ill-conditioned fit)")
+    if any(f[key] is None for key in ("wn_rad_s", "zeta", "td_s",
+                                      "bandwidth_closed_form_rad_s")):
+        notes.append("a figure shown — is not a finite number (null in the JSON)")
+    return notes
+
+
+def fit_lines(f, indent="    "):
     """Text lines of a fit dict."""
     return [
-        f"{indent}wn {f['wn_rad_s']:.4g} rad/s [{f['wn_ci_rad_s'][0]:.4g}, "
-        f"{f['wn_ci_rad_s'][1]:.4g}]",
-        f"{indent}zeta {f['zeta']:.4g} [{f['zeta_ci'][0]:.4g}, {f['zeta_ci'][1]:.4g}]",
-        f"{indent}td {_ms(f['td_s'])} [{_ms(f['td_ci_s'][0], '')}, {_ms(f['td_ci_s'][1], '')}]",
-        f"{indent}closed-form bandwidth {f['bandwidth_closed_form_rad_s']:.4g} rad/s",
+        f"{indent}wn {_g(f['wn_rad_s'], ' rad/s')} {_interval(f['wn_ci_rad_s'])}",
+        f"{indent}zeta {_g(f['zeta'])} {_interval(f['zeta_ci'])}",
+        f"{indent}td {_ms(f['td_s'])} {_interval(f['td_ci_s'], lambda v: _ms(v, ''))}",
+        f"{indent}closed-form bandwidth {_g(f['bandwidth_closed_form_rad_s'], ' rad/s')}",
+        *(f"{indent}{note}" for note in fit_notes(f)),
     ]
 
 
-def _step_lines(s, indent="  "):
+def step_lines(s, indent="  "):
     """Text lines of step figures."""
     return [
         f"{indent}rise time 10-90 %   {_ms(s['rise_time_s'])}",
-        f"{indent}overshoot           {s['overshoot_pct']:.4g} %",
+        f"{indent}overshoot           {_g(s['overshoot_pct'], ' %')}",
         f"{indent}settling ±2 % / ±5 % {_ms(s['settling_time_s'])} / "
         f"{_ms(s['settling_time_5pct_s'])}",
     ]
+
+
+def rms_line(f, key, indent="    ", rad_key=None):
+    """'rms residual 1.2 % of the step (0.12 deg)'; '—' where the JSON has none."""
+    share = f[key]
+    text = f"{indent}rms residual {_g(None if share is None else 100 * share, ' %', '.3g')} " \
+        "of the step"
+    if rad_key is not None:
+        rad = f[rad_key]
+        text += f" ({_g(None if rad is None else math.degrees(rad), ' deg', '.3g')})"
+    return text
 
 
 def table(data):
@@ -98,34 +135,34 @@ def table(data):
             f"{rec['source']}: step of {rec['step_deg']:.4g} deg (from the "
             f"{'command column' if rec['step_from'] == 'command' else '--step option'}), "
             f"{rec['samples']} samples from the trigger{offset}",
-            *_step_lines(rec["step"]),
+            *step_lines(rec["step"]),
             "  second-order-plus-delay fit (docs/model.md §7)",
-            *_fit_lines(f),
-            f"    rms residual {100 * f['rms_residual_of_step']:.3g} % of the step "
-            f"({math.degrees(f['rms_residual_rad']):.3g} deg)",
+            *fit_lines(f),
+            rms_line(f, "rms_residual_of_step", rad_key="rms_residual_rad"),
         ]))
     if data["joint"] is not None:
         f, spread = data["joint"], data["spread"]
         lines = [f"joint fit of {len(data['recordings'])} recordings (one wn, zeta, td)",
-                 *_fit_lines(f, "  "),
-                 f"  rms residual {100 * f['rms_residual_of_step']:.3g} % of the step",
+                 *fit_lines(f, "  "),
+                 rms_line(f, "rms_residual_of_step", "  "),
                  "spread between the runs' own fits (standard deviation; min .. max)"]
         for key, label, scale, unit in (("wn_rad_s", "wn", 1.0, " rad/s"),
                                         ("zeta", "zeta", 1.0, ""),
                                         ("td_s", "td", 1e3, " ms"),
                                         ("bandwidth_closed_form_rad_s", "bandwidth", 1.0,
                                          " rad/s")):
-            s = spread[key]
-            lines.append(f"  {label} {s['std'] * scale:.3g}{unit}; {s['min'] * scale:.4g} .. "
-                         f"{s['max'] * scale:.4g}{unit}")
+            s = {name: None if value is None else value * scale
+                 for name, value in spread[key].items()}
+            lines.append(f"  {label} {_g(s['std'], unit, '.3g')}; {_g(s['min'])} .. "
+                         f"{_g(s['max'], unit)}")
         blocks.append("\n".join(lines))
     for model in data["config_simulated"]:
         blocks.append("\n".join([
             f"model {model['config']} / {model['variant']} ({model['config_path']}), simulated "
             f"step of {model['step']['amplitude_deg']:.4g} deg (nonlinear, with its limits)",
-            *_step_lines(model["step"]),
+            *step_lines(model["step"]),
             "  its own second-order fit",
-            *_fit_lines(model["fit"]),
+            *fit_lines(model["fit"]),
         ]))
     return "\n\n".join(blocks)
 

@@ -5,6 +5,7 @@ from cas_freq.cli.common import (
     add_config_arguments,
     angle,
     file_safe,
+    output_path,
     print_json,
     several_variants,
     variant_csv,
@@ -51,7 +52,7 @@ def register(commands):
         "worker processes) or a scheduler address such as tcp://10.0.0.5:8786 (needs "
         "pip install \"cas_freq[distributed]\"; same numbers as a local run)",
     )
-    parser.add_argument("-o", "--output", metavar="DIR",
+    parser.add_argument("-o", "--output", metavar="DIR", type=output_path,
                         help="report directory: montecarlo.json, samples.csv, histograms.svg")
     parser.set_defaults(handler=run)
 

@@ -1,6 +1,12 @@
 """``cas-freq report``: index.html, report.md, results.json and the figures of a config."""
 
-from cas_freq.cli.common import EXIT_OK, add_config_arguments, label_progress, load_variants
+from cas_freq.cli.common import (
+    EXIT_OK,
+    add_config_arguments,
+    label_progress,
+    load_variants,
+    output_path,
+)
 
 #: Amplitudes when none are given: small signal, two intermediate sizes, the report's 10 deg.
 DEFAULT_AMPLITUDES = "0.5deg,2deg,5deg,10deg"
@@ -18,7 +24,7 @@ def register(commands):
     )
     add_config_arguments(parser, all_by_default=True)
     parser.add_argument(
-        "-o", "--output", default=None, metavar="DIR",
+        "-o", "--output", default=None, metavar="DIR", type=output_path,
         help="report folder (default: reports/<config name>/); replaced as a whole",
     )
     parser.add_argument(

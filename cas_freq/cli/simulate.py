@@ -6,6 +6,7 @@ from cas_freq.cli.common import (
     add_config_arguments,
     angle,
     load_variants,
+    output_path,
     print_json,
     several_variants,
     terminal_progress,
@@ -43,9 +44,10 @@ def register(commands):
     parser.add_argument("--deceleration", metavar="D",
                         help="profile deceleration limit at the output (default: --acceleration)")
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    parser.add_argument("--csv", metavar="FILE", help="write the time series to FILE (for several "
-                        "variants: FILE's stem.<variant>.csv per variant, e.g. out.base.csv, "
-                        "each path said on stderr)")
+    parser.add_argument("--csv", metavar="FILE", type=output_path,
+                        help="write the time series to FILE (for several variants: FILE's "
+                        "stem.<variant>.csv per variant, e.g. out.base.csv, each path said on "
+                        "stderr)")
     parser.set_defaults(handler=run)
 
 

@@ -6,6 +6,7 @@ from cas_freq.cli.common import (
     angle,
     file_safe,
     load_variants,
+    output_path,
     print_json,
     several_variants,
     variant_csv,
@@ -46,15 +47,16 @@ def register(commands):
                         help="with --sinedwell: frequencies in rad/s (default: 100:5000:30)")
     output = parser.add_mutually_exclusive_group()
     output.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    output.add_argument("--csv", metavar="FILE", help="write one CSV row per grid point (and "
-                        "variant: a first column 'variant' when there are several)")
+    output.add_argument("--csv", metavar="FILE", type=output_path,
+                        help="write one CSV row per grid point (and variant: a first column "
+                        "'variant' when there are several)")
     parser.add_argument(
         "--scheduler", metavar="ADDRESS",
         help="evaluate the samples in chunks on a dask.distributed cluster: local:N (N local "
         "worker processes) or a scheduler address such as tcp://10.0.0.5:8786 (needs "
         "pip install \"cas_freq[distributed]\"; same numbers as a local run)",
     )
-    parser.add_argument("-o", "--output", metavar="DIR",
+    parser.add_argument("-o", "--output", metavar="DIR", type=output_path,
                         help="report directory: sweep.json, sweep.csv and sweep.svg")
     parser.set_defaults(handler=run)
 

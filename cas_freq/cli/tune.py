@@ -7,7 +7,14 @@ Exit 0 with a feasible tuning, 1 when no candidate in the bounds meets every hel
 import time
 from pathlib import Path
 
-from cas_freq.cli.common import EXIT_FAILED, EXIT_OK, add_config_arguments, print_json, wrote
+from cas_freq.cli.common import (
+    EXIT_FAILED,
+    EXIT_OK,
+    add_config_arguments,
+    output_path,
+    print_json,
+    wrote,
+)
 from cas_freq.exceptions import CasFreqError
 
 
@@ -66,12 +73,12 @@ def register(commands):
                         help="evaluate on a dask.distributed cluster: local:N or an address")
     parser.add_argument("--name", default="tuned", metavar="VARIANT",
                         help="the tuned variant's name in -o's config (default: tuned)")
-    parser.add_argument("-o", "--output", metavar="FILE.yaml",
+    parser.add_argument("-o", "--output", metavar="FILE.yaml", type=output_path,
                         help="write CONFIG with the tuned variant added (inputs never change)")
-    parser.add_argument("--compare", metavar="DIR",
+    parser.add_argument("--compare", metavar="DIR", type=output_path,
                         help="with -o: write the compare report of the variant before and "
                         "after into DIR")
-    parser.add_argument("--report", metavar="DIR",
+    parser.add_argument("--report", metavar="DIR", type=output_path,
                         help="write tune.json and trade-off.svg (every candidate's bandwidth "
                         "against phase margin, the Pareto front) into DIR (replaced as a whole)")
     parser.add_argument("--json", action="store_true", help="print JSON instead of text")
@@ -90,7 +97,7 @@ def _check_counts(args):
                            "one scenario)")
     if args.yield_pct is not None and not 0.0 < args.yield_pct <= 100.0:
         raise CasFreqError(f"--yield: a percentage in (0, 100], got {args.yield_pct:g}")
-    if args.compare and not args.output:
+    if args.compare is not None and args.output is None:
         raise CasFreqError("--compare needs -o FILE.yaml (the report compares its variants)")
 
 
@@ -103,7 +110,7 @@ def run(args):
     from cas_freq.tuning.summary import tune_dict, tune_text
 
     _check_counts(args)
-    output = check_output_file(args.output, "-o") if args.output else None
+    output = check_output_file(args.output, "-o") if args.output is not None else None
     if args.report is not None:
         from cas_freq.report.outdir import check_output_dir
 

@@ -8,6 +8,7 @@ from cas_freq.cli.common import (
     EXIT_OK,
     add_config_arguments,
     load_variants,
+    output_path,
     print_json,
 )
 from cas_freq.exceptions import CasFreqError
@@ -22,7 +23,8 @@ def register(commands):
         "1 when one fails, 2 on bad input.",
     )
     add_config_arguments(parser)
-    parser.add_argument("--junit", metavar="FILE", help="also write JUnit XML to FILE")
+    parser.add_argument("--junit", metavar="FILE", type=output_path,
+                        help="also write JUnit XML to FILE")
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.set_defaults(handler=run)
 

@@ -15,7 +15,7 @@ from pydantic import BaseModel, ValidationError
 from yaml.events import AliasEvent, CollectionEndEvent, CollectionStartEvent, ScalarEvent
 
 from cas_freq.config.schema import BASE_VARIANT, ActuatorConfig
-from cas_freq.exceptions import ConfigError, ConfigTypeError
+from cas_freq.exceptions import ConfigError, ConfigTypeError, listed
 
 #: Keys that give the same quantity another way: setting the key removes its alternative.
 _ALTERNATIVES = {"motor.mu_v": "motor.no_load", "motor.no_load": "motor.mu_v"}
@@ -160,22 +160,14 @@ def read_config_file(path):
     Raises
     ------
     ConfigError
-        If the file cannot be read, is not valid YAML, or is not a mapping.
+        If the file cannot be read (:func:`cas_freq.fileio.read_input`: not found, not a
+        regular file, larger than :data:`MAX_FILE_BYTES`, not UTF-8), is not valid YAML, or is
+        not a mapping.
     """
-    path = Path(path)
+    from cas_freq.fileio import read_input
+
     shown_path = one_line(path)
-    try:
-        with open(path, "rb") as file:
-            raw = file.read(MAX_FILE_BYTES + 1)
-        if len(raw) > MAX_FILE_BYTES:
-            raise ConfigError(f"{shown_path}: larger than {MAX_FILE_BYTES} bytes; a config file "
-                              "is a few kB")
-        text = raw.decode("utf-8")
-    except FileNotFoundError:
-        raise ConfigError(f"{shown_path}: config file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{shown_path}: cannot read config file "
-                          f"({one_line(exc)[:200]})") from None
+    text = read_input(path, "config file", MAX_FILE_BYTES)
     try:
         data = _load_yaml(text, shown_path)
     except yaml.YAMLError as exc:
@@ -302,6 +294,30 @@ def _message(error):
     return one_line(f"{loc}: {text}" if loc else text)
 
 
+def _messages(errors):
+    """One line per problem, in pydantic's order, except that several unknown keys of one
+    section share one line: their names (the first :data:`~cas_freq.exceptions.MAX_LISTED`,
+    then a count) and, once, what the section accepts."""
+    unknown = {}
+    for error in errors:
+        if error["type"] == "extra_forbidden":
+            unknown.setdefault(tuple(error["loc"][:-1]), []).append(error)
+    lines = []
+    for error in errors:
+        section = tuple(error["loc"][:-1])
+        group = unknown.get(section) if error["type"] == "extra_forbidden" else None
+        if group is None or len(group) == 1:
+            lines.append(_message(error))
+        elif error is group[0]:
+            names = (one_line(".".join(str(part) for part in e["loc"]))[:QUOTE_CHARS]
+                     for e in group)
+            accepted = _accepted_keys(error["loc"])
+            where = ".".join(str(part) for part in section) or "the top level"
+            lines.append(one_line(f"{len(group):,} unknown keys: {listed(names, ', ')}"
+                                  + (f"; {where} accepts {accepted}" if accepted else "")))
+    return lines
+
+
 def _is_type_error(error):
     return error["type"] == "cas_type" or error["type"].endswith("_type")
 
@@ -312,16 +328,17 @@ def validate(data, origin):
     Raises
     ------
     ConfigError, ConfigTypeError
-        One message listing every problem, each with its dotted key.
+        One message listing the problems, each with its dotted key (the first
+        :data:`~cas_freq.exceptions.MAX_LISTED`, then how many more).
     """
     try:
         return ActuatorConfig.model_validate(data)
     except ValidationError as exc:
         errors = exc.errors()
-        lines = [_message(error) for error in errors]
+        lines = _messages(errors)
         kind = ConfigTypeError if all(_is_type_error(e) for e in errors) else ConfigError
         head = f"{origin}: " if origin else ""
-        raise kind(head + "; ".join(lines)) from None
+        raise kind(head + listed(lines)) from None
 
 
 def load_variant(path=None, variant=BASE_VARIANT, overrides=()):

@@ -310,18 +310,11 @@ def read_export(path):
         INTEGER32, UNSIGNED16 or UNSIGNED32, a position I gain in a unit other than the default
         (0x30A1:09), or a missing gain object (every one is listed).
     """
+    from cas_freq.fileio import read_input
+
     path = Path(path)
     where = str(path)
-    try:
-        with open(path, "rb") as stream:
-            raw = stream.read(MAX_FILE_BYTES + 1)
-    except FileNotFoundError:
-        raise ConfigError(f"{where}: EPOS4 parameter file not found") from None
-    except OSError as exc:
-        raise ConfigError(f"{where}: cannot read the file ({exc.strerror or exc})") from None
-    if len(raw) > MAX_FILE_BYTES:
-        raise ConfigError(f"{where}: larger than {MAX_FILE_BYTES} bytes; an EPOS4 parameter "
-                          "file is a few hundred kB")
+    raw = read_input(path, "EPOS4 parameter file", MAX_FILE_BYTES, encoding=None)
     text = _decode(raw)
     parser = _parse_ini(text, where)
     key_lines, header_lines = _line_numbers(text)

@@ -210,6 +210,7 @@ def config_with_variant(config, name, entries, comment, expected, what, force=Fa
     from cas_freq.config import load_all_variants
     from cas_freq.config.loader import MAX_FILE_BYTES, read_config_file
     from cas_freq.exceptions import CasFreqError
+    from cas_freq.fileio import read_input
     from cas_freq.parameters import base_values
 
     config = Path(config)
@@ -217,7 +218,7 @@ def config_with_variant(config, name, entries, comment, expected, what, force=Fa
     if name in (read_config_file(config).get("variants") or {}) and not force:
         raise ConfigError(f"{config}: variant {name!r} exists; choose another name or give "
                           "--force to replace it")
-    text = config.read_bytes()[:MAX_FILE_BYTES].decode("utf-8")
+    text = read_input(config, "config file", MAX_FILE_BYTES)
     try:
         new_text = insert_variant(text, name, entries, comment, force=force)
     except ConfigError as exc:

@@ -12,6 +12,7 @@ ignored (``theta [rad]``, ``omega [rad/s]``, ... of ``cas-freq simulate --csv``)
 import dataclasses
 import re
 
+from cas_freq.exceptions import listed
 from cas_freq.units import to_si
 
 #: role -> (accepted names, SI unit, default unit of a column without one, required).
@@ -117,7 +118,7 @@ def find_columns(cells, explicit=None):
     if unknown:
         raise ValueError(f"unknown column role {unknown[0]!r}; the roles are "
                          f"{', '.join(ROLES)}")
-    shown = ", ".join(repr(cell.strip()) for cell in cells)
+    shown = listed((repr(cell.strip()[:40]) for cell in cells), ", ")
     found = {}
     for role, wanted in explicit.items():
         matches = [i for i, cell in enumerate(cells)

@@ -16,15 +16,14 @@ subtracted from each (without pre-trigger samples the offsets are 0). The step s
 command's median after the trigger less its offset.
 """
 
-import csv
 import dataclasses
 import math
 import statistics
-from pathlib import Path
 
 import numpy as np
 
 from cas_freq.exceptions import ConfigError
+from cas_freq.fileio import csv_row, read_input
 from cas_freq.identification.columns import find_columns
 
 #: Fewest samples from the trigger on (a fit of three parameters needs some more than three).
@@ -77,15 +76,14 @@ class Recording:
 
 
 def _cells(path):
-    """(line number, cells) of every non-comment, non-blank line of the CSV ``path``."""
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: cannot read the file ({exc})") from None
+    """(line number, cells) of every non-comment, non-blank line of the CSV ``path``
+    (:func:`cas_freq.fileio.read_input`: a regular file of at most
+    :data:`~cas_freq.fileio.MAX_DATA_BYTES`)."""
+    text = read_input(path, "recording")
     for number, line in enumerate(text.splitlines(), start=1):
         if not line.strip() or line.lstrip().startswith("#"):
             continue
-        yield number, next(csv.reader([line]))
+        yield number, csv_row(path, number, line)
 
 
 def _number(path, number, column, cell):

@@ -295,7 +295,7 @@ FIGURE_LABELS = {
     "max_voltage_v": ("largest voltage", "V", 1.0),
     "current_limited": ("current limit reached", "", 1.0),
     "voltage_limited": ("voltage limit reached", "", 1.0),
-    # second-order fit of a step (report §7)
+    # second-order-plus-delay fit of a step (docs/model.md §7)
     "wn_rad_s": ("natural frequency ωn", "rad/s", 1.0),
     "zeta": ("damping ratio ζ", "", 1.0),
     "td_s": ("delay td", "ms", 1e3),

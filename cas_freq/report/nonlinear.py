@@ -3,8 +3,8 @@
 The report compares a small step of the simulator with the linear model's (Padé delays). When no
 limit is hit the two differ only by the elements :func:`nonlinear_elements` names
 (docs/model.md §5, "Nonlinear simulation"): the direction-dependent gear efficiency, Coulomb
-friction, the constant load moment, backlash, and sampled controllers; with none of them, only the Padé
-approximation of the delays is left.
+friction, the constant load moment, backlash, and sampled controllers; with none of them, only
+the Padé approximation of the delays is left.
 """
 
 import math

@@ -10,7 +10,6 @@ feed-forward does nothing. Corners (start of a ramp, ends of table segments) lik
 contribute no impulse.
 """
 
-import csv
 import dataclasses
 import math
 import re
@@ -398,7 +397,7 @@ def read_command_csv(path):
     ConfigError
         (a ValueError) naming the file and row of the first bad value.
     """
-    time_s, angle_rad = read_angle_series_csv(path)
+    time_s, angle_rad = read_angle_series_csv(path, what="command file")
     return Table(time_s, angle_rad, source=str(path))
 
 
@@ -472,7 +471,13 @@ def _header_columns(path, row_number, cells):
                       f"got {shown}{', ...' if len(cells) > 12 else ''}")
 
 
-def read_angle_series_csv(path, negative_times=False):
+def _cut(row, limit=80):
+    """``repr`` of a row, cut to about ``limit`` characters for a message."""
+    text = repr(row)
+    return text if len(text) <= limit else text[:limit - 5] + " ...]"
+
+
+def read_angle_series_csv(path, negative_times=False, what="CSV file"):
     """Read an output-angle time series: a time column and an output angle column.
 
     Either two columns, time [s] and output angle [deg], with an optional header; or a header
@@ -488,6 +493,8 @@ def read_angle_series_csv(path, negative_times=False):
         CSV file (comma-separated; lines starting with ``#`` are skipped).
     negative_times : bool
         Accept times before 0 (a measured response with pre-trigger samples).
+    what : str
+        What the file is, for messages (:func:`cas_freq.fileio.read_input`).
 
     Returns
     -------
@@ -500,15 +507,15 @@ def read_angle_series_csv(path, negative_times=False):
         (a ValueError) naming the file and row of the first bad value, or what a header
         lacks.
     """
+    from cas_freq.fileio import csv_row, read_input
+
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: cannot read the file ({exc})") from None
+    text = read_input(path, what)
     times, angles = [], []
     columns, width = ((0, 1.0), (1, math.pi / 180.0)), 2
     first = True
-    for row_number, row in enumerate(csv.reader(text.splitlines()), start=1):
+    for row_number, line in enumerate(text.splitlines(), start=1):
+        row = csv_row(path, row_number, line)
         if not row or not "".join(row).strip() or row[0].lstrip().startswith("#"):
             continue
         if first:
@@ -526,9 +533,9 @@ def read_angle_series_csv(path, negative_times=False):
             time = float(row[time_index]) * time_scale
             angle = float(row[angle_index]) * angle_scale
         except ValueError:
-            raise ConfigError(f"{path}: row {row_number}: not numbers: {row!r}") from None
+            raise ConfigError(f"{path}: row {row_number}: not numbers: {_cut(row)}") from None
         if not (math.isfinite(time) and math.isfinite(angle)):
-            raise ConfigError(f"{path}: row {row_number}: values must be finite, got {row!r}")
+            raise ConfigError(f"{path}: row {row_number}: values must be finite, got {_cut(row)}")
         if times and time <= times[-1]:
             raise ConfigError(
                 f"{path}: row {row_number}: time {time:g} s does not increase "

@@ -10,7 +10,10 @@ workers as it does locally.
 
 Worker loss is dask's to handle: a chunk that was running on a lost worker is rescheduled on
 another (up to ``distributed.scheduler.allowed-failures`` times); a chunk that raised is
-retried :data:`RETRIES` times before the study fails with its error.
+retried :data:`RETRIES` times before the study fails with its error. Losing every worker at
+once loses the config scattered to them (and with it every chunk still to run), as losing the
+scheduler loses every chunk: the study then ends with one line saying the cluster was lost
+(:class:`~cas_freq.exceptions.CasFreqError`, exit 2), not with dask's ``FutureCancelledError``.
 
 ``ADDRESS`` is a scheduler address (``tcp://host:8786``, ``host:8786``) or ``local:N`` for a
 local cluster of N single-threaded worker processes, started and stopped with the study.
@@ -183,11 +186,31 @@ def evaluate_figures_distributed(params, changes, scheduler, *, progress=None,
         done = 0
         for future in distributed.as_completed(futures):
             position = index[future.key]
-            results[position] = future.result()  # re-raises a chunk's error after its retries
+            try:
+                results[position] = future.result()  # a chunk's error after its retries
+            except (distributed.client.FutureCancelledError, distributed.KilledWorker) as exc:
+                raise _cluster_lost(scheduler, exc, done, n) from None
             done += slices[position].stop - slices[position].start
             if progress:
                 progress(done, n)
     return _joined(results)
+
+
+def _cluster_lost(scheduler, exc, done, total):
+    """The one-line error of a study whose cluster lost the chunks still to run: every worker
+    gone (the config scattered to them with them), the scheduler gone, or a chunk's workers
+    dying more often than dask allows."""
+    import distributed
+
+    if isinstance(exc, distributed.KilledWorker):
+        why = ("a chunk's workers died more often than dask allows "
+               "(distributed.scheduler.allowed-failures; out of memory?)")
+    else:
+        why = (f"every worker (or the scheduler) left, taking the chunks still to run "
+               f"(dask: {getattr(exc, 'reason', None) or 'cancelled'})")
+    return CasFreqError(f"--scheduler {scheduler}: the dask cluster was lost mid-study after "
+                        f"{done:,} of {total:,} samples: {why}; start the workers again and "
+                        "rerun, or run without --scheduler")
 
 
 def _joined(results):

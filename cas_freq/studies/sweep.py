@@ -92,7 +92,8 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None
         ``cas-freq sinedwell`` runs it (feed-forward off): adds ``sinedwell.bandwidth_rad_s``
         (NaN without a crossing in the grid).
     progress : callable, optional
-        ``progress(done, total)``.
+        ``progress(done, total)`` in whole samples (ints): the work done so far, each stage
+        (analysis, steps, sine dwell) weighted by its rough cost, in samples' worth.
     scheduler : str, optional
         Evaluate the samples in chunks on a dask.distributed cluster: ``local:N`` or a
         scheduler address (:mod:`cas_freq.studies.distributed`; the same numbers as locally).
@@ -124,7 +125,9 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None
     def stage_progress(stage):
         def report(done, planned):
             if progress:
-                progress((offsets[stage] + weights[stage] * done / planned) * n, n)
+                # whole samples' worth of work (1e-6: the shares' rounding at the very end)
+                share = offsets[stage] + weights[stage] * done / planned
+                progress(min(n, int(share * n + 1e-6)), n)
         return report
 
     analysis = batch_analyze(loop, progress=stage_progress("analysis"))
