@@ -57,6 +57,26 @@ def add_config_arguments(parser, all_by_default=False, several_configs=False):
     return which
 
 
+def config_path(config):
+    """The config file to read: ``config``, or the shipped one when CONFIG was omitted."""
+    from pathlib import Path
+
+    from cas_freq.config import default_config_path
+
+    return Path(config) if config is not None else default_config_path()
+
+
+def say_shipped_config(config):
+    """When CONFIG was omitted (``config`` None), say on stderr which config is used (one
+    line; not with ``--quiet``), so a user's data is never compared with the QT-CAS silently.
+    Called once the config has loaded: an error in it names the file itself."""
+    import sys
+
+    if config is None and not _QUIET:
+        print(f"cas-freq: using the shipped config {config_path(None)} (give CONFIG to use "
+              "another)", file=sys.stderr, flush=True)
+
+
 def several_variants(args):
     """Whether the options ask for more than one variant (``--all-variants`` or two different
     ``--variant``): the JSON output is then an array, one object per variant."""
@@ -67,12 +87,14 @@ def selected_variants(config, names, overrides, all_by_default=False):
     """The LoadedVariants of ``config`` named in ``names``, in the file's order.
 
     Every variant of the file is loaded and validated (a typo in one is reported whichever is
-    selected), as :func:`cas_freq.config.load_variant` does.
+    selected), as :func:`cas_freq.config.load_variant` does; the overrides apply to the
+    selected variants and are validated there only.
 
     Parameters
     ----------
     config : str or Path or None
-        Config file (None: the shipped one, :func:`cas_freq.config.default_config_path`).
+        Config file (None: the shipped one, :func:`cas_freq.config.default_config_path`,
+        said on stderr by :func:`config_path`).
     names : sequence of str
         Variant names; empty selects every variant if ``all_by_default``, else ``base``.
     overrides : sequence of str
@@ -90,7 +112,8 @@ def selected_variants(config, names, overrides, all_by_default=False):
     from cas_freq.exceptions import ConfigError
 
     parsed = [parse_set_option(text) for text in overrides]
-    loaded = load_all_variants(config, parsed)
+    chosen = set(names) if names else None if all_by_default else {BASE_VARIANT}
+    loaded = load_all_variants(config_path(config), parsed, selected=chosen)
     known = [item.variant for item in loaded]
     unknown = [name for name in dict.fromkeys(names) if name not in known]
     if unknown:
@@ -98,6 +121,7 @@ def selected_variants(config, names, overrides, all_by_default=False):
         raise ConfigError(f"{one_line(loaded[0].source)}: unknown {what} "
                           f"{', '.join(shown(name) for name in unknown)}; the file has "
                           f"{', '.join(shown(name) for name in known)}")
+    say_shipped_config(config)
     if names:
         return [item for item in loaded if item.variant in names]
     return loaded if all_by_default else [item for item in loaded
