@@ -67,14 +67,26 @@ def config_path(config):
 
 
 def say_shipped_config(config):
-    """When CONFIG was omitted (``config`` None), say on stderr which config is used (one
-    line; not with ``--quiet``), so a user's data is never compared with the QT-CAS silently.
-    Called once the config has loaded: an error in it names the file itself."""
+    """Remember that the command uses the shipped config if CONFIG was omitted (``config``
+    None): :func:`shipped_config_note` says so when the command has run."""
+    global _SHIPPED
+    if config is None:
+        _SHIPPED = config_path(None)
+
+
+def shipped_config_note():
+    """Say on stderr which config the command used, if it was the shipped one because CONFIG
+    was omitted (one line; not with ``--quiet``), so a user's data is never compared with the
+    QT-CAS silently. Called by :func:`cas_freq.cli.main` once the command has run (its output
+    written, exit 0 or 1), so that a bad-input error stays one line (a config error names the
+    file itself)."""
     import sys
 
-    if config is None and not _QUIET:
-        print(f"cas-freq: using the shipped config {config_path(None)} (give CONFIG to use "
-              "another)", file=sys.stderr, flush=True)
+    global _SHIPPED
+    if _SHIPPED is not None and not _QUIET:
+        print(f"cas-freq: used the shipped config {_SHIPPED} (give CONFIG to use another)",
+              file=sys.stderr, flush=True)
+    _SHIPPED = None
 
 
 def several_variants(args):
@@ -276,12 +288,16 @@ class _PeriodicProgress:
 PROGRESS_INTERVAL_S = 10.0
 
 _QUIET = False
+#: The shipped config's path once a command has loaded it because CONFIG was omitted.
+_SHIPPED = None
 
 
 def set_quiet(quiet):
-    """Turn progress reports off (``--quiet``) or on."""
-    global _QUIET
+    """Turn progress reports off (``--quiet``) or on; forget a shipped config used before
+    (each call of :func:`cas_freq.cli.main` starts afresh)."""
+    global _QUIET, _SHIPPED
     _QUIET = bool(quiet)
+    _SHIPPED = None
 
 
 def label_progress(command, stream=None):
