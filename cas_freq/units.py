@@ -202,8 +202,9 @@ def to_si(value, unit):
         If ``value`` is neither a number nor a string.
     ValueError
         If the string is not one number and one unit (module docstring), its unit has another
-        dimension than ``unit``, it is a percentage where ``unit`` is not ``percent``, or the
-        value is not finite.
+        dimension than ``unit`` or another power of an angle (:func:`angle_problem`), it is a
+        ratio ``a:b`` or a percentage where ``unit`` is not ``percent``, or the value is not
+        finite.
     """
     if isinstance(value, bool) or not isinstance(value, (numbers.Real, str)):
         raise TypeError(

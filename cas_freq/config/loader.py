@@ -273,7 +273,8 @@ def variant_names(data):
 
 
 def parse_set_option(text):
-    """Parse one ``--set KEY=VALUE`` option; VALUE is read as a YAML scalar.
+    """Parse one ``--set KEY=VALUE`` option; VALUE is read as a YAML scalar, with the config
+    file's YAML 1.2 scalars (``20:1`` stays text, ``010`` is 10).
 
     Returns
     -------
