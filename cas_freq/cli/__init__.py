@@ -5,8 +5,9 @@ imports happen inside the handlers, so ``cas-freq verify`` never loads matplotli
 
 When CONFIG is omitted, a command that ran says on stderr that it used the shipped config
 (one line, not with ``-q``). Exit status: 0 success, 1 a failed requirement, 2 bad input or
-config (one line on stderr, no traceback), 130 interrupted (Ctrl-C: one line on stderr; outputs are written atomically, so the
-previous file or report is left as it was and no temporary file remains).
+config (one line on stderr, no traceback), 130 interrupted (Ctrl-C: one line on stderr;
+outputs are written atomically, so the previous file or report is left as it was and no
+temporary file remains).
 """
 
 import importlib

@@ -1,14 +1,17 @@
 """Read an actuator config file, apply a variant and ``--set`` overrides, validate.
 
 The file is YAML, read with a ``yaml.SafeLoader`` subclass only, and never modified. Plain
-scalars are resolved as YAML 1.2's core schema resolves them, not as YAML 1.1 (PyYAML's
-default), whose sexagesimal and octal integers turn typos into other numbers silently:
-``20:1`` stays the string ``"20:1"`` (a numeric key refuses it: "a ratio? write 20"), ``020``
-and ``010`` are the decimal 20 and 10 (YAML 1.2; never octal), ``yes``/``on`` stay strings,
-``1e-6`` is a float; a date stays a string. ``--set`` values are read the same way. A variant is a map of
-dotted keys to values (``motor.Km: 0.0075``) applied on top of the base; ``--set KEY=VALUE``
-overrides are applied after the variant. ``motor.mu_v`` and ``motor.no_load`` are two ways of
-giving one quantity: setting one removes the other.
+scalars are resolved as YAML 1.2's core schema resolves them (whatever ``%YAML`` directive the
+file has), not as YAML 1.1 (PyYAML's default), whose sexagesimal and octal integers turn typos
+into other numbers silently: ``20:1`` stays the string ``"20:1"`` (a numeric key refuses it:
+"a ratio a:b is not a number; write 20"), ``020`` and ``010`` are the decimal 20 and 10 (YAML
+1.2; never octal), ``yes``/``on`` and dates stay strings, ``1e-6`` is a float. ``--set`` values
+are read the same way.
+
+A variant is a map of dotted keys to values (``motor.Km: 0.0075``) applied on top of the base;
+``--set KEY=VALUE`` overrides are applied after the variant, to the selected variants only.
+``motor.mu_v`` and ``motor.no_load`` are two ways of giving one quantity: setting one removes
+the other.
 """
 
 import copy
