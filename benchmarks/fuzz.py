@@ -221,7 +221,10 @@ def extreme_config(rng, base):
         if rng.random() < 0.1 and ("delay" in key or key.endswith(("Ki", "Kd", "ff_v", "ff_a"))):
             put(data, path, 0)
         else:
-            put(data, path, si * 10.0 ** rng.uniform(-k, k))
+            value = si * 10.0 ** rng.uniform(-k, k)
+            # a key whose datasheets use another unit needs one (the no-load speed)
+            unit = PARAMETERS[key].unit if PARAMETERS[key].datasheet_unit else None
+            put(data, path, f"{value!r} {unit}" if unit else value)
     return data
 
 
@@ -327,6 +330,7 @@ def check_typos(typos):
 
 def requirement_typos(typos):
     """Typos of requirement bounds accepted with another value."""
+    from cas_freq.config import read_config_file
     from cas_freq.config.requirement import convert_bound
 
     wrong = []
@@ -334,7 +338,7 @@ def requirement_typos(typos):
         parts = dotted.split(".")
         if parts[0] != "requirements" or parts[-1] not in ("min", "max"):
             continue
-        base = yaml.safe_load(SHIPPED.read_text())["requirements"][int(parts[1])]["metric"]
+        base = read_config_file(SHIPPED)["requirements"][int(parts[1])]["metric"]
         try:
             value = convert_bound(typo_text, base)
         except (ValueError, TypeError):
@@ -366,7 +370,9 @@ def main(argv=None):
         SAVE_DIR = Path(args.save).resolve()
     rng = random.Random(args.seed)
     base_text = SHIPPED.read_text(encoding="utf-8")
-    base = yaml.safe_load(base_text)
+    from cas_freq.config import read_config_file
+
+    base = read_config_file(SHIPPED)  # as cas_freq reads it (YAML 1.2 scalars)
     cases, typos = [], []
     for _ in range(args.mutated):
         if rng.random() < 0.15:

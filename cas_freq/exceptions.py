@@ -1,13 +1,16 @@
 """Exceptions raised by cas_freq.
 
-Each is a subclass of the matching built-in, so callers can catch ``ValueError`` or
-``TypeError`` as usual. Messages name the dotted config key, the value and what is accepted,
-e.g. ``position_loop.Kd: must be >= 0, got -0.1 A*s/rad``.
+Each is a subclass of the matching built-in, as python-control's are, so callers can catch
+``ValueError`` or ``TypeError`` as usual: every error cas_freq raises on purpose is bad input
+(a value, a file, an option), so the base :class:`CasFreqError` is a ``ValueError`` and
+:class:`ConfigTypeError` is a ``TypeError`` as well. The CLI maps exactly these to exit 2;
+anything else is a bug (a traceback, exit 1). Messages name the dotted config key, the value
+and what is accepted, e.g. ``position_loop.Kd: must be >= 0, got -0.1 A*s/rad``.
 """
 
 
-class CasFreqError(Exception):
-    """Base class of every error cas_freq raises on purpose."""
+class CasFreqError(ValueError):
+    """Base class of every error cas_freq raises on purpose: bad input, a ``ValueError``."""
 
 
 class ConfigError(CasFreqError, ValueError):

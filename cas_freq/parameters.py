@@ -37,12 +37,13 @@ This module sits at the bottom of the package: it imports only :mod:`cas_freq.ex
 
 import dataclasses
 import math
+import numbers
 
 import numpy as np
 
 from cas_freq.exceptions import ConfigError, ConfigTypeError
 from cas_freq.formulas import viscous_friction_from_no_load as viscous_friction
-from cas_freq.units import to_si
+from cas_freq.units import split_quantity, to_si
 
 __all__ = [
     "PARAMETERS",
@@ -90,8 +91,22 @@ class Parameter:
         Lower bound in ``unit`` (None: any finite value).
     strict : bool
         True for ``> lower``, False for ``>= lower``.
+    upper : float or None
+        Upper bound in ``unit`` (None: any finite value).
     meaning : str
         One line saying what it is, ending with the unit in brackets.
+    smallest : float or None
+        Smallest accepted non-zero magnitude (None: the bounds alone).
+    datasheet_unit : str or None
+        For a key that datasheets give in another unit than SI (the no-load speed, in rpm):
+        that unit. A value must then carry a unit; a bare number, which would be read in
+        ``unit``, is refused with the hint ``'8520 rpm'?``.
+
+    Units: the value's unit must have ``unit``'s dimension, an angle counted as a dimension of
+    its own (:func:`cas_freq.units.angle_problem`): a key whose unit carries ``rad`` (a speed,
+    ``Ke``, a gain per radian) accepts rpm, rev/s or deg, never a bare 1/time such as ``Hz``
+    or ``min^-1``; a key in ``Hz`` refuses ``rad/s`` and ``rpm``. One rule for every key,
+    read from its unit here.
     """
 
     key: str
@@ -102,6 +117,7 @@ class Parameter:
     upper: float | None
     meaning: str
     smallest: float | None = None
+    datasheet_unit: str | None = None
 
     @property
     def rule(self):
@@ -152,6 +168,7 @@ class Parameter:
             outside the accepted range. The messages do not name the key (see
             :func:`parse_value`).
         """
+        self.check_has_unit(value)
         try:
             number = to_si(value, self.unit)
         except (OverflowError, ValueError) as exc:
@@ -165,6 +182,31 @@ class Parameter:
         if problem:
             raise ValueError(problem)
         return number
+
+    def check_has_unit(self, value):
+        """Raise ValueError if this key needs a unit (:attr:`datasheet_unit`) and the config
+        value ``value`` (a number, or a string) has none."""
+        if self.datasheet_unit is None:
+            return
+        if isinstance(value, str):
+            try:
+                number, unit = split_quantity(value)
+            except (TypeError, ValueError):
+                return  # not a quantity at all: to_si says why
+            if unit:
+                return
+        elif isinstance(value, numbers.Real) and not isinstance(value, bool):
+            try:
+                number = f"{float(value):g}"
+            except OverflowError:
+                return  # to_si says why
+        else:
+            return  # not a number: to_si says why
+        raise ValueError(
+            f"needs a unit, got {_shown(value, '').strip()}: '{number} {self.datasheet_unit}'? "
+            f"(a bare number would be read in {self.unit}; datasheets give it in "
+            f"{self.datasheet_unit})"
+        )
 
     def check(self, values, label=None, where="samples"):
         """Raise ConfigError unless every value of the array ``values`` is accepted.
@@ -186,7 +228,13 @@ MAX_DELAY_S = 0.1
 
 
 def _table(*rows):
-    return {row[0]: Parameter(*row) for row in rows}
+    """The table of ``rows``: each the positional fields of a Parameter, optionally followed by
+    a dict of its keyword fields (``{"datasheet_unit": "rpm"}``)."""
+    table = {}
+    for row in rows:
+        keywords = row[-1] if isinstance(row[-1], dict) else {}
+        table[row[0]] = Parameter(*row[:len(row) - bool(keywords)], **keywords)
+    return table
 
 
 #: Every numeric parameter of the config, by dotted key, in the config's order.
@@ -205,7 +253,8 @@ PARAMETERS = _table(
      "viscous friction mu_v, 0 or 1e-15..1e3, else derived from motor.no_load as Km*I0/w0 "
      "[N*m*s/rad]", 1e-15),
     ("motor.no_load.speed", None, "rad/s", 1e-3, False, 1e7,
-     "motor no-load speed w0, from which mu_v is derived, 1e-3..1e7 [rad/s]"),
+     "motor no-load speed w0, from which mu_v is derived, with a unit (datasheets: rpm), "
+     "1e-3..1e7 [rad/s]", None, {"datasheet_unit": "rpm"}),
     ("motor.no_load.current", None, "A", 0.0, False, 1e6,
      "motor no-load current I0, from which mu_v is derived, 0 or 1e-9..1e6 [A]", 1e-9),
     ("gear.ratio", "ratio", "dimensionless", 1e-3, False, 1e6,

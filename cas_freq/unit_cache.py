@@ -4,7 +4,7 @@ Importing pint and building its registry costs 0.2-0.3 s, a quarter of a short c
 ``cas-freq simulate`` or ``verify``; a config converts only a dozen distinct units. The factor
 pint gives for each (unit text, SI unit) pair is kept in a small JSON file in the user's cache
 folder (``platformdirs.user_cache_dir("cas_freq")``, e.g. ``~/.cache/cas_freq``), named by
-pint's version, and the next process multiplies by it without importing pint.
+pint's version and :data:`FORMAT`, and the next process multiplies by it without importing pint.
 
 Only what pint itself computed is stored, and only when it is exactly a factor: the conversion
 of 0 must give 0 (no offset unit such as degC) and pint's conversion of the magnitude at hand
@@ -18,6 +18,11 @@ import functools
 import json
 import math
 import os
+
+#: Version of the rules a stored factor passed (part of the file name): 2 since an angle must
+#: match (``min^-1`` is no longer read as ``rad/min``), so a factor stored under the old rules
+#: is never read.
+FORMAT = 2
 
 #: Environment variable: a folder to keep the cache in instead of the user's cache folder, or
 #: ``off`` to keep it in memory only.
@@ -39,7 +44,7 @@ def cache_file():
             folder = platformdirs.user_cache_dir("cas_freq")
     except Exception:  # noqa: BLE001 - no version or folder: no disk cache, never an error
         return None
-    return os.path.join(folder, f"unit-factors-pint-{version}.json")
+    return os.path.join(folder, f"unit-factors-{FORMAT}-pint-{version}.json")
 
 
 @functools.cache

@@ -6,8 +6,17 @@ conversion.
 
 A config value is either a plain number, taken as already in SI, or a string such as
 ``"0.071 mH"``, ``"16300 rpm"``, ``"5.54 g*cm^2"`` or ``"0.4 ms"``, converted to the SI unit the
-field expects. Radians are dimensionless in pint, so ``A/rad`` and ``A`` are the same dimension,
-as they are physically.
+field expects.
+
+Angles: radians are dimensionless in pint, so pint alone would read ``16300 min^-1`` (a speed in
+revolutions per minute, as datasheets write it) as 16300 rad/min, 2π too small, ``25000 rad/s``
+as 25000 Hz, and ``V/Hz`` as ``V*s/rad``. So the angle is checked as if it were a dimension of
+its own (:func:`angle_problem`): the unit given must carry the same power of an angle (``rad``,
+``deg``, ``rev``/``turn``, ``rpm``...) as the SI unit wanted. An angular rate (``rad/s``) accepts
+``rpm``, ``rev/s``, ``deg/s``, but not ``Hz``, ``s^-1`` or ``min^-1`` (the error asks "min^-1:
+rpm?"); a frequency (``Hz``) accepts ``kHz`` or ``1/s`` but not ``rad/s`` or ``rpm``; ``V*s/rad``
+accepts ``V/rpm`` but not ``V/Hz`` or ``V*s``; ``A/rad`` does not accept ``A``. ``rev`` is an
+alias of pint's ``revolution``.
 
 A value string is ONE number and ONE unit, nothing else, checked by a strict pattern before pint
 sees it (:func:`split_quantity`): the number is ``[+-]?(\\d+\\.?\\d*|\\.\\d+)([eE][+-]?\\d+)?``, the
@@ -44,6 +53,7 @@ _TOKEN = re.compile(
     r"\s*(?:(?P<name>(?:[^\W\d_]|[°Ωµμ%])(?:[^\W\d]|[°Ωµμ])*)"
     r"|(?P<exp>(?:\^|\*\*)\s*(?P<power>[+-]?\d+))|(?P<op>[*/·()]))"
 )
+_RATIO = re.compile(r"\s*(\d+\.?\d*|\.\d+)\s*:\s*(\d+\.?\d*|\.\d+)\s*")
 _PERCENT = re.compile(r"%|percent|ppm|permille|‰", re.IGNORECASE)
 
 ACCEPTED = "expected one number and one unit, e.g. '0.4 ms' or '5.54 g*cm^2' (or a number in SI)"
@@ -60,9 +70,11 @@ def registry():
     import pint  # here, not at the top: a start whose units are all cached never imports it
 
     try:
-        return pint.UnitRegistry(cache_folder=":auto:")
+        units = pint.UnitRegistry(cache_folder=":auto:")
     except Exception:  # noqa: BLE001 - no writable cache folder (or a stale cache): parse afresh
-        return pint.UnitRegistry()
+        units = pint.UnitRegistry()
+    units.define("@alias revolution = rev")  # rev/s, rev/min: the datasheets' spelling
+    return units
 
 
 def _shown(text, limit=60):
@@ -126,6 +138,11 @@ def split_quantity(text):
         fixed = f"{comma.group(1)}.{comma.group(2)}"
         fixed += f" {comma.group(3)}" if comma.group(3) else ""
         raise _refused(text, f"decimal comma? write {fixed!r}")
+    ratio = _RATIO.fullmatch(text)
+    if ratio:
+        value = float(ratio.group(1)) / float(ratio.group(2)) if float(ratio.group(2)) else None
+        write = f"write {value:.6g}" if value is not None else "write one number"
+        raise _refused(text, f"a ratio a:b is not a number; {write}")
     match = _QUANTITY.fullmatch(text)
     if match is None or "," in match.group(2):
         if "," in text:
@@ -185,8 +202,9 @@ def to_si(value, unit):
         If ``value`` is neither a number nor a string.
     ValueError
         If the string is not one number and one unit (module docstring), its unit has another
-        dimension than ``unit``, it is a percentage where ``unit`` is not ``percent``, or the
-        value is not finite.
+        dimension than ``unit`` or another power of an angle (:func:`angle_problem`), it is a
+        ratio ``a:b`` or a percentage where ``unit`` is not ``percent``, or the value is not
+        finite.
     """
     if isinstance(value, bool) or not isinstance(value, (numbers.Real, str)):
         raise TypeError(
@@ -224,6 +242,9 @@ def _pint_convert(value, magnitude, unit_text, unit):
             f"{_shown(value)} has dimension {source.dimensionality}, expected that of {unit} "
             f"({target.dimensionality})"
         )
+    problem = angle_problem(value, unit_text, unit)
+    if problem:
+        raise ValueError(problem)
     try:
         result = float(registry().Quantity(magnitude, source).to(target).magnitude)
         factor = float(registry().Quantity(1.0, source).to(target).magnitude)
@@ -233,3 +254,48 @@ def _pint_convert(value, magnitude, unit_text, unit):
     if offset == 0.0 and math.isfinite(factor) and factor != 0.0 and result == magnitude * factor:
         unit_cache.store_factor(unit_text, unit, factor)
     return result
+
+
+def _angle_power(unit):
+    """The power of an angle in the pint Unit ``unit`` (1 for rpm, 0 for Hz, -1 for V*s/rad):
+    pint keeps ``radian`` among its root units although it is dimensionless."""
+    return dict(registry().get_root_units(unit)[1]._units).get("radian", 0)
+
+
+def _rate_hint(number, source):
+    """The unit probably meant by a rate per time ``source`` (a pint Unit) where an angular
+    rate is wanted: ``min^-1: rpm? ('16300 rpm')``."""
+    per_second = float(registry().Quantity(1.0, source).to("1/s").magnitude)
+    if math.isclose(per_second, 1 / 60):
+        return f"rpm? ('{number} rpm')"
+    if math.isclose(per_second, 1.0):
+        return f"rev/s? ('{number} rev/s'), or rad/s"
+    return "write rpm, rev/s, deg/s or rad/s"
+
+
+def angle_problem(value, unit_text, unit):
+    """Why the value string ``value`` (unit part ``unit_text``, of ``unit``'s pint dimension)
+    cannot be read in ``unit`` because of its angle, or None.
+
+    The one rule of angles (module docstring): the power of an angle in ``unit_text`` must equal
+    that in ``unit``. Otherwise the value would be read 2π off, or a frequency as an angular
+    rate: refused, naming the unit probably meant.
+    """
+    source, target = parse_unit(unit_text, value), registry().Unit(unit)
+    given, wanted = _angle_power(source), _angle_power(target)
+    if given == wanted:
+        return None
+    head = f"cannot read {_shown(value)} as a value in {unit}: {unit_text}"
+    per_time = source.dimensionality == registry().Unit("1/s").dimensionality
+    if given == 0 and wanted == 1 and per_time:
+        number = split_quantity(value)[0]
+        return (f"{head} is a rate per time, not an angular rate (per revolution or per radian? "
+                f"2π apart); {unit_text}: {_rate_hint(number, source)}")
+    if given == 0:
+        return (f"{head} has no angle where {unit} has one (revolutions or radians? 2π apart); "
+                f"write the angle, e.g. {unit} or with rpm, rev or deg")
+    if unit == "Hz":
+        return (f"{head} is an angular rate, not a frequency (1 rev/s is 1 Hz, 1 rad/s is "
+                "1/(2π) Hz); write it in Hz or kHz")
+    return (f"{head} has an angle to the power {given} where {unit} has it to the power "
+            f"{wanted}; write it in {unit}")

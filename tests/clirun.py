@@ -6,6 +6,11 @@ import contextlib
 import io
 
 from cas_freq.cli import main
+from cas_freq.config import default_config_path
+
+#: What a command that ran says on stderr when CONFIG was omitted (issue 24).
+SHIPPED_NOTE = (f"cas-freq: used the shipped config {default_config_path()} (give CONFIG to use "
+                "another)\n")
 
 
 def run_cli(argv):

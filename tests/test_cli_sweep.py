@@ -64,7 +64,7 @@ def test_sweep_json_matches_analyze(capsys):
                  "--json"]) == 0
     data = _strict(capsys.readouterr().out)
     assert data["count"] == 2 and list(data["swept"]) == ["position_loop.Kp"]
-    assert data["overrides"] == ["motor.J=6e-7"]  # YAML reads 6e-7 as text
+    assert data["overrides"] == ["motor.J=6e-07"]  # YAML 1.2 reads 6e-7 as a number
     point = data["points"][1]
     assert point["position_loop.Kp"] == 8.0 and point["stability"] == "stable"
     assert main(["analyze", "--set", "position_loop.Kp=8", "--set", "motor.J=6e-7",

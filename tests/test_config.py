@@ -192,7 +192,8 @@ def test_nested_no_load_variant_replaces_mu_v(shipped_raw, write_config):
     shipped_raw["motor"].pop("no_load")
     shipped_raw["motor"]["mu_v"] = 1.2e-6
     shipped_raw.pop("load_envelope")  # it names the shipped variants replaced here
-    shipped_raw["variants"] = {"catalog": {"motor": {"no_load": {"speed": 1000, "current": 0.5}}}}
+    no_load = {"speed": "1000 rad/s", "current": 0.5}
+    shipped_raw["variants"] = {"catalog": {"motor": {"no_load": no_load}}}
     motor = load_variant(write_config(shipped_raw), "catalog").params.motor
     assert motor.mu_v is None
     assert motor.no_load.speed == 1000.0
@@ -263,7 +264,8 @@ def test_loading_never_modifies_the_file(shipped_config_path):
     before_mtime = shipped_config_path.stat().st_mtime_ns
     load_variant(
         shipped_config_path, "fitted",
-        overrides=[("position_loop.Kp", 5.0), ("motor.no_load", {"speed": 1, "current": 0})],
+        overrides=[("position_loop.Kp", 5.0),
+                   ("motor.no_load", {"speed": "1 rad/s", "current": 0})],
     )
     load_all_variants(shipped_config_path, [("current_loop.delay", "0.1 ms")])
     assert shipped_config_path.read_bytes() == before_bytes

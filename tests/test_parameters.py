@@ -138,6 +138,9 @@ def test_bound_enforced_identically_by_schema_parse_value_and_variants(key, ship
     bad = _outside(parameter)
     rule = "finite" if parameter.lower is None else parameter.rule
     expected = f"{key}: must be {rule}, got {bad!r} {parameter.unit}"
+    if parameter.datasheet_unit:  # a value with a unit (a bare number is refused)
+        bad = f"{bad!r} {parameter.unit}"
+        expected = f"{key}: must be {rule}, got {bad!r}"
 
     # parse_value (sweep --set, montecarlo --tolerance)
     with pytest.raises(ConfigError) as info:
@@ -152,8 +155,8 @@ def test_bound_enforced_identically_by_schema_parse_value_and_variants(key, ship
         validate(shipped_raw, "test")
     assert f"test: {expected}" in str(info.value)
 
-    # variant_parameters: same message, with the offending sample
-    if key in VARIABLE_KEYS:
+    # variant_parameters: same message, with the offending sample (its values are in SI)
+    if key in VARIABLE_KEYS and not parameter.datasheet_unit:
         params = load_variant().params
         good = _inside(parameter, base_values(params)[key])
         with pytest.raises(ConfigError) as info:
@@ -164,15 +167,19 @@ def test_bound_enforced_identically_by_schema_parse_value_and_variants(key, ship
 @pytest.mark.parametrize("key", list(PARAMETERS))
 def test_values_on_the_bound_or_inside_are_accepted(key):
     parameter = PARAMETERS[key]
+
+    def given(value):  # as a config writes it: with the SI unit where a unit is required
+        return f"{value} {parameter.unit}" if parameter.datasheet_unit else value
+
     if parameter.lower is not None and not parameter.strict:
-        assert parse_value(key, parameter.lower) == parameter.lower
+        assert parse_value(key, given(parameter.lower)) == parameter.lower
     if parameter.upper is not None:
-        assert parse_value(key, parameter.upper) == parameter.upper
-        assert parse_value(key, str(parameter.upper)) == parameter.upper
+        assert parse_value(key, given(parameter.upper)) == parameter.upper
+        assert parse_value(key, given(str(parameter.upper))) == parameter.upper
     inside = 1.0 if parameter.lower is None else parameter.lower + 1.0
     if parameter.upper is not None:
         inside = min(inside, parameter.upper)
-    assert parse_value(key, inside) == inside
+    assert parse_value(key, given(inside)) == inside
 
 
 def test_parse_value_converts_units_and_names_the_key():
@@ -225,7 +232,8 @@ def test_derived_rules_agree_between_schema_and_variants(shipped_raw):
     batch = variant_parameters(base, samples)
     for i in range(n):
         for key, values in samples.items():
-            _set(shipped_raw, key, float(values[i]))
+            value = float(values[i])
+            _set(shipped_raw, key, f"{value!r} rad/s" if key == "motor.no_load.speed" else value)
         params = validate(shipped_raw, "sample")
         # one function behind both: equal to the last bit
         assert batch.mu_v[i] == params.motor.viscous_friction

@@ -381,7 +381,7 @@ def test_verify_profile_advisory(tmp_path):
 @pytest.mark.parametrize("changes, says", [
     ({"profile": None}, "PR-1: profile.tracking_error_max_deg needs the test condition "
                         "'profile' (e.g. profile: {distance: 10 deg"),
-    ({"metric": "step.overshoot_pct", "step": "10 deg"},
+    ({"metric": "step.overshoot_pct", "step": "10 deg", "max": "15 %"},  # a bound in %
      "PR-1: 'profile' does not apply to step.overshoot_pct"),
     ({"profile": {**CONDITION, "velocity": "-2000 deg/s"}},
      "requirements.0.profile.velocity: must be > 0, got '-2000 deg/s'"),

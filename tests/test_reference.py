@@ -26,6 +26,8 @@ FAST = ReportSettings(
 
 def _raw(reference):
     data = load_variant(None, "base").params.model_dump(exclude={"reference"})
+    no_load = data["motor"]["no_load"]
+    no_load["speed"] = f"{no_load['speed']!r} rad/s"  # SI, with the unit the key requires
     data["requirements"] = ()
     data["variants"] = {}
     data.pop("load_envelope")  # it names the shipped variants removed here

@@ -65,7 +65,7 @@ def test_every_metric_has_a_unit():
         ({"id": "X", "metric": "closed_loop.bandwidth_rad_s", "min": "300 V"},
          "requirements.0.min: '300 V' has dimension"),
         ({"id": "X", "metric": "closed_loop.bandwidth_rad_s", "min": "48 Hz"},
-         "Hz is ambiguous"),
+         "Hz is a rate per time, not an angular rate"),
         ({"id": "X", "metric": "closed_loop.bandwidth_rad_s"}, "X: give min, max or both"),
         ({"id": "X", "metric": "step.overshoot_pct", "max": 15}, "needs the test condition 'step'"),
         ({"id": "X", "metric": "closed_loop.bandwidth_rad_s", "min": 1, "step": "10 deg"},

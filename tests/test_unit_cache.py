@@ -67,7 +67,7 @@ def test_failures_are_not_stored_and_still_name_the_dimension(cache_dir):
 def test_the_file_holds_what_pint_gave(cache_dir):
     to_si("0.4 ms", "s")
     (path,) = cache_dir.iterdir()
-    assert path.name.startswith("unit-factors-pint-")
+    assert path.name.startswith(f"unit-factors-{unit_cache.FORMAT}-pint-")
     assert ["ms", "s", 0.001] in json.loads(path.read_text())
 
 

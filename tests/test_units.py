@@ -38,10 +38,9 @@ def test_numbers_pass_through_as_si(value, unit):
         ("0.06 ms", "s", 6e-5),
         # Degrees to radians: 10 deg = 10*pi/180 rad (the report's 10 deg step).
         ("10 deg", "rad", math.radians(10)),
-        # Radians are dimensionless in pint (module docstring), so an angle is accepted where a
-        # pure number is asked for, and A and A/rad are the same dimension.
-        ("10 deg", "dimensionless", math.radians(10)),
-        ("6.3435 A", "A/rad", 6.3435),
+        # An angle in other units than rad: the same power of an angle (module docstring).
+        ("2 N*m/deg", "N*m/rad", 2 * 180 / math.pi),
+        ("1 mV/rpm", "V*s/rad", 1e-3 * 60 / (2 * math.pi)),
         # Surrounding blanks are ignored.
         ("  0.4 ms ", "s", 4e-4),
     ],

@@ -3,9 +3,11 @@
 Each command lives in its own module with ``register(commands)`` and a handler; the heavy
 imports happen inside the handlers, so ``cas-freq verify`` never loads matplotlib.
 
-Exit status: 0 success, 1 a failed requirement, 2 bad input or config (one line on stderr, no
-traceback), 130 interrupted (Ctrl-C: one line on stderr; outputs are written atomically, so the
-previous file or report is left as it was and no temporary file remains).
+When CONFIG is omitted, a command that ran says on stderr that it used the shipped config
+(one line, not with ``-q``). Exit status: 0 success, 1 a failed requirement, 2 bad input or
+config (one line on stderr, no traceback), 130 interrupted (Ctrl-C: one line on stderr;
+outputs are written atomically, so the previous file or report is left as it was and no
+temporary file remains).
 """
 
 import importlib
@@ -13,7 +15,14 @@ import re
 import sys
 
 from cas_freq import __version__
-from cas_freq.cli.common import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, Parser, set_quiet
+from cas_freq.cli.common import (
+    EXIT_BAD_INPUT,
+    EXIT_FAILED,
+    EXIT_OK,
+    Parser,
+    set_quiet,
+    shipped_config_note,
+)
 from cas_freq.exceptions import CasFreqError
 
 __all__ = [
@@ -70,7 +79,9 @@ def main(argv=None):
                                                       else list(argv)))
         command = f"cas-freq {args.command_name}"
         set_quiet(getattr(args, "quiet", False))
-        return args.handler(args)
+        status = args.handler(args)
+        shipped_config_note()
+        return status
     except CasFreqError as exc:
         print(f"{command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT

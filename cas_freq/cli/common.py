@@ -67,6 +67,38 @@ def add_config_arguments(parser, all_by_default=False, several_configs=False):
     return which
 
 
+def config_path(config):
+    """The config file to read: ``config``, or the shipped one when CONFIG was omitted."""
+    from pathlib import Path
+
+    from cas_freq.config import default_config_path
+
+    return Path(config) if config is not None else default_config_path()
+
+
+def say_shipped_config(config):
+    """Remember that the command uses the shipped config if CONFIG was omitted (``config``
+    None): :func:`shipped_config_note` says so when the command has run."""
+    global _SHIPPED
+    if config is None:
+        _SHIPPED = config_path(None)
+
+
+def shipped_config_note():
+    """Say on stderr which config the command used, if it was the shipped one because CONFIG
+    was omitted (one line; not with ``--quiet``), so a user's data is never compared with the
+    QT-CAS silently. Called by :func:`cas_freq.cli.main` once the command has run (its output
+    written, exit 0 or 1), so that a bad-input error stays one line (a config error names the
+    file itself)."""
+    import sys
+
+    global _SHIPPED
+    if _SHIPPED is not None and not _QUIET:
+        print(f"cas-freq: used the shipped config {_SHIPPED} (give CONFIG to use another)",
+              file=sys.stderr, flush=True)
+    _SHIPPED = None
+
+
 def several_variants(args):
     """Whether the options ask for more than one variant (``--all-variants`` or two different
     ``--variant``): the JSON output is then an array, one object per variant."""
@@ -77,12 +109,14 @@ def selected_variants(config, names, overrides, all_by_default=False):
     """The LoadedVariants of ``config`` named in ``names``, in the file's order.
 
     Every variant of the file is loaded and validated (a typo in one is reported whichever is
-    selected), as :func:`cas_freq.config.load_variant` does.
+    selected), as :func:`cas_freq.config.load_variant` does; the overrides apply to the
+    selected variants and are validated there only.
 
     Parameters
     ----------
     config : str or Path or None
-        Config file (None: the shipped one, :func:`cas_freq.config.default_config_path`).
+        Config file (None: the shipped one, :func:`cas_freq.config.default_config_path`,
+        said on stderr by :func:`config_path`).
     names : sequence of str
         Variant names; empty selects every variant if ``all_by_default``, else ``base``.
     overrides : sequence of str
@@ -100,7 +134,8 @@ def selected_variants(config, names, overrides, all_by_default=False):
     from cas_freq.exceptions import ConfigError
 
     parsed = [parse_set_option(text) for text in overrides]
-    loaded = load_all_variants(config, parsed)
+    chosen = set(names) if names else None if all_by_default else {BASE_VARIANT}
+    loaded = load_all_variants(config_path(config), parsed, selected=chosen)
     known = [item.variant for item in loaded]
     unknown = [name for name in dict.fromkeys(names) if name not in known]
     if unknown:
@@ -108,6 +143,7 @@ def selected_variants(config, names, overrides, all_by_default=False):
         raise ConfigError(f"{one_line(loaded[0].source)}: unknown {what} "
                           f"{', '.join(shown(name) for name in unknown)}; the file has "
                           f"{', '.join(shown(name) for name in known)}")
+    say_shipped_config(config)
     if names:
         return [item for item in loaded if item.variant in names]
     return loaded if all_by_default else [item for item in loaded
@@ -265,12 +301,16 @@ class _PeriodicProgress:
 PROGRESS_INTERVAL_S = 10.0
 
 _QUIET = False
+#: The shipped config's path once a command has loaded it because CONFIG was omitted.
+_SHIPPED = None
 
 
 def set_quiet(quiet):
-    """Turn progress reports off (``--quiet``) or on."""
-    global _QUIET
+    """Turn progress reports off (``--quiet``) or on; forget a shipped config used before
+    (each call of :func:`cas_freq.cli.main` starts afresh)."""
+    global _QUIET, _SHIPPED
     _QUIET = bool(quiet)
+    _SHIPPED = None
 
 
 def label_progress(command, stream=None):

@@ -18,9 +18,11 @@ from cas_freq.cli.common import (
     EXIT_OK,
     Parser,
     add_config_arguments,
+    config_path,
     load_variants,
     output_path,
     print_json,
+    say_shipped_config,
     several_variants,
     wrote,
 )
@@ -83,14 +85,13 @@ def _same_file(a, b):
 
 def run_import(args):
     """Read the export, add the variant to the config's text, check it loads, write it."""
-    from cas_freq.config import default_config_path
     from cas_freq.drive import epos4
     from cas_freq.drive.variant_text import config_with_variant
     from cas_freq.fileio import check_output_file, write_text_atomic
 
     if args.json and args.output is None:
         raise CasFreqError("--json: prints what was imported, so the config needs -o OUT.yaml")
-    config = Path(args.config) if args.config is not None else default_config_path()
+    config = config_path(args.config)
     output = check_output_file(args.output, "-o") if args.output is not None else None
     if output is not None and output.exists() and _same_file(output, config):
         raise CasFreqError(f"-o {output}: is the input config {config}; inputs are never "
@@ -103,6 +104,7 @@ def run_import(args):
     new_text, _ = config_with_variant(
         config, args.variant, epos4.variant_entries(export), comment,
         {key: si for key, (_, si) in values.items()}, "the imported values", force=args.force)
+    say_shipped_config(args.config)
     from cas_freq.parameters import unit_of
 
     if output is None:

@@ -1,13 +1,23 @@
 """Read an actuator config file, apply a variant and ``--set`` overrides, validate.
 
-The file is YAML, read with ``yaml.safe_load`` only, and never modified. A variant is a map of
-dotted keys to values (``motor.Km: 0.0075``) applied on top of the base; ``--set KEY=VALUE``
-overrides are applied after the variant. ``motor.mu_v`` and ``motor.no_load`` are two ways of
-giving one quantity: setting one removes the other.
+The file is YAML, read with a ``yaml.SafeLoader`` subclass only, and never modified. Plain
+scalars are resolved as YAML 1.2's core schema resolves them (whatever ``%YAML`` directive the
+file has), not as YAML 1.1 (PyYAML's default), whose sexagesimal and octal integers turn typos
+into other numbers silently: ``20:1`` stays the string ``"20:1"`` (a numeric key refuses it:
+"a ratio a:b is not a number; write 20"), ``020`` and ``010`` are the decimal 20 and 10 (YAML
+1.2; never octal), ``yes``/``on`` and dates stay strings, ``1e-6`` is a float. ``--set`` values
+are read the same way.
+
+A variant is a map of dotted keys to values (``motor.Km: 0.0075``) applied on top of the base;
+``--set KEY=VALUE`` overrides are applied after the variant, to the selected variants only.
+``motor.mu_v`` and ``motor.no_load`` are two ways of giving one quantity: setting one removes
+the other.
 """
 
 import copy
 import dataclasses
+import math
+import re
 from pathlib import Path
 
 import yaml
@@ -45,8 +55,57 @@ def one_line(text):
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
 
 
+#: YAML 1.2 core schema's plain scalars (https://yaml.org/spec/1.2.2/#1032-tag-resolution); the
+#: int and float forms are also what an explicit ``!!int`` / ``!!float`` must look like.
+_CORE_NULL = re.compile(r"~|null|Null|NULL|")
+_CORE_BOOL = re.compile(r"true|True|TRUE|false|False|FALSE")
+_CORE_INT = re.compile(r"[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+")
+_CORE_FLOAT = re.compile(r"[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
+                         r"|[-+]?\.(?:inf|Inf|INF)|\.nan|\.NaN|\.NAN")
+
+
 class _Loader(yaml.SafeLoader):
-    """yaml.SafeLoader that refuses duplicate keys, naming the key and both lines."""
+    """yaml.SafeLoader with YAML 1.2 core-schema scalars that refuses duplicate keys, naming
+    the key and both lines.
+
+    Only the core schema's plain scalars are implicitly typed (null, bool, decimal, ``0o``
+    octal and ``0x`` hex integers, floats); everything else is a string. A leading zero is
+    decimal (``020`` is 20), explicitly tagged ``!!int``/``!!float``/``!!bool`` values must
+    have the core form too (``!!int 1:30`` and ``!!bool yes`` are errors). YAML merge keys
+    (``<<: *anchor``) are kept.
+    """
+
+    # a class attribute of its own: SafeLoader's YAML 1.1 resolvers are not inherited
+    yaml_implicit_resolvers = {}
+
+    def construct_yaml_int(self, node):
+        """An integer of the core schema's form (decimal, ``0o``, ``0x``); never base 60 or 8."""
+        value = self.construct_scalar(node)
+        if not _CORE_INT.fullmatch(value):
+            raise ValueError(f"{shown(value)} is not an integer (YAML 1.2: digits, 0o or 0x)")
+        if value.startswith("0o"):
+            return int(value[2:], 8)
+        if value.startswith("0x"):
+            return int(value[2:], 16)
+        return int(value, 10)
+
+    def construct_yaml_float(self, node):
+        """A float of the core schema's form (``.inf``, ``.nan`` included); never base 60."""
+        value = self.construct_scalar(node)
+        if not _CORE_FLOAT.fullmatch(value):
+            raise ValueError(f"{shown(value)} is not a float (YAML 1.2 form, e.g. 1.5e-3)")
+        if value.lower().lstrip("+-") == ".inf":
+            return -math.inf if value.startswith("-") else math.inf
+        if value.lower() == ".nan":
+            return math.nan
+        return float(value)
+
+    def construct_yaml_bool(self, node):
+        """``true`` or ``false`` (three spellings each); never YAML 1.1's yes/no/on/off."""
+        value = self.construct_scalar(node)
+        if not _CORE_BOOL.fullmatch(value):
+            raise ValueError(f"{shown(value)} is not a boolean (YAML 1.2: true or false)")
+        return value.lower() == "true"
 
     def construct_mapping(self, node, deep=False):
         if isinstance(node, yaml.MappingNode):
@@ -64,6 +123,20 @@ class _Loader(yaml.SafeLoader):
                     raise ConfigError(f"duplicate key {shown(key)} at line {line} (first at line "
                                       f"{first}); each key may appear once per mapping")
         return super().construct_mapping(node, deep=deep)
+
+
+_Loader.add_constructor("tag:yaml.org,2002:int", _Loader.construct_yaml_int)
+_Loader.add_constructor("tag:yaml.org,2002:float", _Loader.construct_yaml_float)
+_Loader.add_constructor("tag:yaml.org,2002:bool", _Loader.construct_yaml_bool)
+for _tag, _pattern, _first in (
+    ("tag:yaml.org,2002:null", _CORE_NULL, ["~", "n", "N", ""]),
+    ("tag:yaml.org,2002:bool", _CORE_BOOL, list("tTfF")),
+    ("tag:yaml.org,2002:int", _CORE_INT, list("-+0123456789")),
+    ("tag:yaml.org,2002:float", _CORE_FLOAT, list("-+.0123456789")),
+    ("tag:yaml.org,2002:merge", re.compile(r"<<"), ["<"]),
+):
+    # resolvers match with .match(): anchor the end, as the core schema means the whole scalar
+    _Loader.add_implicit_resolver(_tag, re.compile(f"(?:{_pattern.pattern})$"), _first)
 
 
 def _check_shape(text, path):
@@ -195,7 +268,8 @@ def variant_names(data):
 
 
 def parse_set_option(text):
-    """Parse one ``--set KEY=VALUE`` option; VALUE is read as a YAML scalar.
+    """Parse one ``--set KEY=VALUE`` option; VALUE is read as a YAML scalar, with the config
+    file's YAML 1.2 scalars (``20:1`` stays text, ``010`` is 10).
 
     Returns
     -------
@@ -364,10 +438,11 @@ def load_variant(path=None, variant=BASE_VARIANT, overrides=()):
         raise ConfigError(f"{one_line(path)}: unknown variant {shown(variant)}; the file has "
                           f"{shown(names, 200)}")
     loaded = _load(data, path, variant, overrides)
-    # every variant of the file is checked, so a typo in one is reported whichever is used
+    # every variant of the file is checked as the file gives it (the overrides apply to the
+    # selected variant only), so a typo in one is reported whichever is used
     for other in names:
         if other != variant:
-            _load(data, path, other, overrides)
+            _load(data, path, other, ())
     return loaded
 
 
@@ -395,8 +470,28 @@ def _load(data, path, variant, overrides):
     return LoadedVariant(str(path), variant, params, tuple(overrides))
 
 
-def load_all_variants(path=None, overrides=()):
-    """Load the base and every variant of a config file, in file order."""
+def load_all_variants(path=None, overrides=(), selected=None):
+    """Load the base and every variant of a config file, in file order.
+
+    Parameters
+    ----------
+    path : str or Path, optional
+        The config file; defaults to the shipped ``configs/qt_cas.yaml``.
+    overrides : sequence of (str, object)
+        ``(dotted key, value)`` pairs (``--set``) applied after the variant, to the variants in
+        ``selected`` only, and validated there.
+    selected : collection of str, optional
+        The variants the overrides apply to (default: every variant). The others are loaded
+        and validated as the file gives them, so a typo in one is reported whichever is used,
+        and an override that needs a selected variant's values (``gear.backlash`` with the
+        ``loaded`` variant's gear stiffness) is not checked against a variant without them.
+
+    Returns
+    -------
+    list of LoadedVariant
+    """
     path = Path(path) if path is not None else default_config_path()
     data = read_config_file(path)
-    return [_load(data, path, name, overrides) for name in variant_names(data)]
+    return [_load(data, path, name,
+                  overrides if selected is None or name in selected else ())
+            for name in variant_names(data)]

@@ -83,8 +83,8 @@ def convert_bound(value, metric):
     Raises
     ------
     ValueError, TypeError
-        For text that does not parse, a unit of another dimension, or a frequency in Hz for
-        an angular frequency (ambiguous by 2 pi).
+        For text that does not parse, or a unit of another dimension, an angle counted as one
+        (:func:`cas_freq.units.angle_problem`: ``Hz`` for an angular frequency is 2π off).
     """
     unit = metric_unit(metric)
     if unit == "dB":
@@ -94,10 +94,6 @@ def convert_bound(value, metric):
                 raise ValueError(f"expected a number of dB such as '6 dB', got {value!r}")
             value = float(match.group(1))
         number = to_si(value, "dimensionless")
-    elif unit == "rad/s" and isinstance(value, str) and "hz" in value.lower():
-        raise ValueError(
-            f"{value!r}: Hz is ambiguous for an angular frequency; write rad/s (1 Hz = 2 pi rad/s)"
-        )
     else:
         number = to_si(value, unit or "dimensionless")
     if not math.isfinite(number):

@@ -25,7 +25,7 @@ import numpy as np
 
 from cas_freq.exceptions import ConfigError
 from cas_freq.fileio import json_ready
-from cas_freq.parameters import base_values, check_key, unit_of
+from cas_freq.parameters import PARAMETERS, base_values, check_key, unit_of
 from cas_freq.studies.sweep import evaluate_figures, figure_names
 from cas_freq.units import to_si
 
@@ -71,6 +71,7 @@ def parse_tolerance(text):
     # a width, not a value of the key: in the key's unit, but its bound is >= 0, not the key's
     unit = unit_of(key)
     try:
+        PARAMETERS[key].check_has_unit(value)
         absolute = to_si(value, unit)
     except (TypeError, ValueError, OverflowError) as exc:
         raise ConfigError(f"--tolerance {key}: cannot read {value!r} as a width in {unit} "
