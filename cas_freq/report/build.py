@@ -592,10 +592,10 @@ class FigureRenderer:
     this process has imported the figure code (once, not once per worker) and before it
     computes anything; they never import python-control, and they end with this process
     (:mod:`cas_freq.report.workers`): killed at once when the block ends with an exception
-    (an interrupt included), and by the kernel when this process dies. A variant can be sent twice: after
-    :func:`~cas_freq.report.data.gather_frequency` for the figures of the frequency responses
-    (``part="frequency"``), then complete for the others (``"time"``); or once (``"all"``).
-    Each submission is split into ``workers`` shares (alternate stems), one
+    (an interrupt included), and by the kernel when this process dies. A variant can be sent
+    twice: after :func:`~cas_freq.report.data.gather_frequency` for the figures of the
+    frequency responses (``part="frequency"``), then complete for the others (``"time"``); or
+    once (``"all"``). Each submission is split into ``workers`` shares (alternate stems), one
     task each, and the data are pickled to the task (the complete data ~10 MB, ~20 ms).
     :meth:`results` gathers the figures in the order of
     :data:`~cas_freq.plots.report.VARIANT_FIGURES`, so the output does not depend on which
@@ -613,12 +613,11 @@ class FigureRenderer:
     def __enter__(self):
         # fork only on Linux: macOS's system libraries are not fork-safe (Python spawns there)
         if self.workers > 1 and sys.platform.startswith("linux"):
-            from cas_freq.report.workers import fork_pool
-
             # the figure code is imported once, before the fork, not by each worker (~0.6 s);
             # python-control (~0.7 s) only here, after the fork, while the workers draw: it
             # is needed for the linear steps and the zeros of T, which are computed here
             import cas_freq.plots.report  # noqa: F401
+            from cas_freq.report.workers import fork_pool
 
             try:
                 # start the workers now: they import the figure code while the caller computes
