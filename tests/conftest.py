@@ -1,10 +1,8 @@
 """Shared fixtures: temporary config files, the shipped config's raw data, and headless Chromium
-(installed here when missing and possible)."""
+(found on PATH; never installed here: tests do not change the machine)."""
 
 import copy
-import os
 import shutil
-import subprocess
 from pathlib import Path
 
 import pytest
@@ -52,16 +50,9 @@ def write_config(tmp_path):
 
 # ---- headless Chromium, for the browser check of the HTML reports -------------------------------
 
-#: Chromium's executables, in the order looked for.
+#: Chromium's executables, in the order looked for (the names .ci/install_chromium.py installs
+#: and checks for).
 CHROMIUM_NAMES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
-
-#: Longest wait for one apt-get run [s] (installing Chromium on a fresh Debian machine took 14 s
-#: here; a slow mirror can take minutes).
-APT_TIMEOUT_S = 900
-
-#: The Debian package of the browser (its chromium-driver is not needed: the check drives the
-#: browser from its command line).
-CHROMIUM_PACKAGE = "chromium"
 
 
 def find_chromium():
@@ -69,60 +60,19 @@ def find_chromium():
     return next(filter(None, (shutil.which(name) for name in CHROMIUM_NAMES)), None)
 
 
-def _apt_get(apt, *args):
-    """Run ``apt-get ARGS`` non-interactively; (succeeded, last line of its output)."""
-    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
-    try:
-        done = subprocess.run([apt, "-o", "DPkg::Lock::Timeout=120", *args], env=env,
-                              capture_output=True, text=True, timeout=APT_TIMEOUT_S)
-    except subprocess.TimeoutExpired:
-        return False, f"apt-get {args[0]} timed out after {APT_TIMEOUT_S} s"
-    lines = (done.stderr.strip() or done.stdout.strip()).splitlines()
-    return done.returncode == 0, lines[-1] if lines else f"exit status {done.returncode}"
-
-
-def install_chromium():
-    """Install Chromium with apt-get where it is missing and this process can.
-
-    Runs ``apt-get install -y --no-install-recommends chromium`` as root, and, if that fails
-    (for example for lack of package lists on a fresh machine), ``apt-get update`` and the
-    install once more.
-
-    Returns
-    -------
-    tuple of (str or None, str)
-        The executable's path, or None and why it cannot be had: not root, no apt-get, or the
-        last line of apt-get's error.
-    """
-    found = find_chromium()
-    if found:
-        return found, ""
-    if not hasattr(os, "geteuid") or os.geteuid() != 0:
-        return None, "not root, so apt-get cannot install it"
-    apt = shutil.which("apt-get")
-    if apt is None:
-        return None, "no apt-get on this machine to install it"
-    install = ("install", "-y", "--no-install-recommends", CHROMIUM_PACKAGE)
-    ok, last = _apt_get(apt, *install)
-    if not ok:
-        updated, update_last = _apt_get(apt, "update")
-        if not updated:
-            return None, f"apt-get install failed ({last}); apt-get update failed: {update_last}"
-        ok, last = _apt_get(apt, *install)
-    if not ok:
-        return None, f"apt-get install {CHROMIUM_PACKAGE} failed: {last}"
-    found = find_chromium()
-    if found is None:
-        return None, (f"apt-get installed {CHROMIUM_PACKAGE} but none of "
-                      f"{', '.join(CHROMIUM_NAMES)} is on PATH")
-    return found, ""
+def chromium_or_skip():
+    """Path of Chromium, or skip the calling test saying why. Never installs it: tests do not
+    change the machine (``.ci/run`` installs it first, with .ci/install_chromium.py)."""
+    path = find_chromium()
+    if path is None:
+        pytest.skip(f"headless-browser check: Chromium is not installed (none of "
+                    f"{', '.join(CHROMIUM_NAMES)} on PATH); `python .ci/install_chromium.py` "
+                    "installs it (as root, with apt-get)")
+    return path
 
 
 @pytest.fixture(scope="session")
 def chromium():
-    """Path of headless-capable Chromium, installed by :func:`install_chromium` when missing;
-    the test is skipped, saying why, only when it cannot be installed."""
-    path, reason = install_chromium()
-    if path is None:
-        pytest.skip(f"headless-browser check: Chromium is not installed and cannot be: {reason}")
-    return path
+    """Path of headless-capable Chromium; the test is skipped, saying why, where it is
+    missing (:func:`chromium_or_skip`)."""
+    return chromium_or_skip()

@@ -1,6 +1,6 @@
 """``cas-freq report`` and ``cas-freq compare`` on the command line: files, exit codes, bad input,
-and that the HTML renders in headless Chromium (installed by conftest's ``chromium`` fixture where
-missing; skipped, saying why, only when it cannot be installed)."""
+and that the HTML renders in headless Chromium (conftest's ``chromium`` fixture; skipped, saying
+why, where it is not installed: .ci/run installs it)."""
 
 import html
 import json

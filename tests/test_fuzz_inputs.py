@@ -2,8 +2,10 @@
 
 The known cases of the issue as regression tests, then property-based tests (hypothesis) over
 the config schema and the CLI: a mutated config either loads or raises the package's
-CasFreqError, within bounded time; ``cas-freq analyze CONFIG --json`` either exits 0 with only
-finite numbers (or null) in its JSON, or exits 2 with exactly one line on stderr.
+CasFreqError; ``cas-freq analyze CONFIG --json`` either exits 0 with only finite numbers (or
+null) in its JSON, or exits 2 with exactly one line on stderr. How fast each case is refused or
+loaded (the time goals these tests asserted before issue 24) is measured by
+``benchmarks/input_speed.py``: the tests check behaviour, not speed.
 
 The suite runs the "ci" hypothesis profile (a few dozen examples per property, fast);
 ``HYPOTHESIS_PROFILE=long python -m pytest tests/test_fuzz_inputs.py`` runs thousands, and
@@ -17,7 +19,6 @@ import json
 import math
 import os
 import tempfile
-import time
 from pathlib import Path
 
 import pytest
@@ -43,9 +44,6 @@ settings.register_profile(
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
 )
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
-
-#: Longest a config may take to be refused or loaded [s] (the tool's budget for reading data).
-LOAD_BUDGET_S = 2.0
 
 SHIPPED_TEXT = default_config_path().read_text(encoding="utf-8")
 SHIPPED = yaml.safe_load(SHIPPED_TEXT)
@@ -101,9 +99,7 @@ SET_CASES = [
 
 @pytest.mark.parametrize(("option", "fragment"), SET_CASES, ids=[c[0][:40] for c in SET_CASES])
 def test_issue_set_cases_exit_2_with_one_line(option, fragment):
-    started = time.perf_counter()
     code, out, err = run_cli(["analyze", "--set", option, "--json"])
-    assert time.perf_counter() - started < 5.0
     _one_clean_line(code, err)
     assert out == ""
     assert fragment in err, err
@@ -125,11 +121,11 @@ def test_bare_numbers_in_strings_stay_si(text):
 
 
 def test_unit_expressions_are_never_evaluated():
+    # refused as written, before any power is computed (9**9**9 evaluated would not end; how
+    # fast the refusal is: benchmarks/input_speed.py)
     for text in ["9**9**9 ohm", "1 ohm**99999999", "1 (ohm^4)^4^4", "1 " + "(" * 50 + "ohm"]:
-        started = time.perf_counter()
         with pytest.raises(ValueError):
             to_si(text, "ohm")
-        assert time.perf_counter() - started < 0.01
 
 
 YAML_CASES = {
@@ -155,9 +151,7 @@ YAML_CASES = {
 @pytest.mark.parametrize("name", list(YAML_CASES))
 def test_issue_yaml_cases_exit_2_with_one_line(name):
     text, fragment = YAML_CASES[name]
-    started = time.perf_counter()
     code, out, err = _analyze_text(text)
-    assert time.perf_counter() - started < LOAD_BUDGET_S + 1.0
     _one_clean_line(code, err)
     assert fragment in err, err
 
@@ -178,7 +172,6 @@ CLI_CASES = [
 @pytest.mark.parametrize(("argv", "fragment"), CLI_CASES,
                          ids=[c[0][0] + c[0][1] for c in CLI_CASES])
 def test_issue_cli_cases_are_refused_before_work(argv, fragment):
-    started = time.perf_counter()
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         try:
@@ -186,7 +179,6 @@ def test_issue_cli_cases_are_refused_before_work(argv, fragment):
         except SystemExit as exc:  # argparse's refusal
             code = exc.code
     err = err.getvalue()
-    assert time.perf_counter() - started < 5.0
     _one_clean_line(code, err)
     assert fragment in err, err
 
@@ -262,12 +254,10 @@ def test_a_mutated_config_loads_or_raises_cas_freq_error(changes):
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "config.yaml"
         path.write_text(text, encoding="utf-8")
-        started = time.perf_counter()
         try:
             load_all_variants(path)
         except CasFreqError as exc:
             assert "\n" not in str(exc)
-        assert time.perf_counter() - started < LOAD_BUDGET_S
 
 
 @given(mutations)
@@ -295,8 +285,7 @@ def test_typos_of_a_value_string_are_never_read_as_a_number(key, exponent, typo)
 
 
 @given(st.one_of(strings, st.text(max_size=200)))
-def test_to_si_accepts_or_raises_value_error_quickly(text):
-    started = time.perf_counter()
+def test_to_si_accepts_or_raises_value_error(text):
     try:
         value = to_si(text, "s")
     except ValueError as exc:
@@ -304,7 +293,6 @@ def test_to_si_accepts_or_raises_value_error_quickly(text):
         assert len(str(exc)) < 400
     else:
         assert math.isfinite(value)
-    assert time.perf_counter() - started < 0.1
 
 
 @given(st.text(max_size=120))
@@ -345,14 +333,12 @@ def _csv_text(rows, separator, ordered):
 @given(csv_rows, separators, st.booleans())
 def test_a_fuzzed_csv_is_read_or_refused_with_one_line(rows, separator, ordered):
     """``cas-freq fit FILE --step 10deg`` on any CSV text: exit 0 with finite JSON, or exit 2
-    with one line naming the file; never a traceback, within the load budget."""
+    with one line naming the file; never a traceback."""
     text = _csv_text(rows, separator, ordered)
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "recording.csv"
         path.write_text(text, encoding="utf-8", errors="surrogateescape")
-        started = time.perf_counter()
         code, out, err = run_cli(["fit", str(path), "--step", "10deg", "--json"])
-        assert time.perf_counter() - started < 5 * LOAD_BUDGET_S
     if code == 0:
         assert _finite(json.loads(out))
     else:

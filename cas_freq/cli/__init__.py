@@ -1,28 +1,21 @@
 """Command-line interface: ``cas-freq <command> ...`` (also ``python -m cas_freq``).
 
 Each command lives in its own module with ``register(commands)`` and a handler; the heavy
-imports happen inside the handlers, so ``cas-freq verify`` never loads matplotlib.
+imports happen inside the handlers, so ``cas-freq verify`` never loads matplotlib. This module
+itself imports nothing at its top but ``sys`` and two small modules of the package, so that a
+Ctrl-C at any later point of the start, the imports included, is handled by :func:`main`.
 
 When CONFIG is omitted, a command that ran says on stderr that it used the shipped config
 (one line, not with ``-q``). Exit status: 0 success, 1 a failed requirement, 2 bad input or
 config (one line on stderr, no traceback), 130 interrupted (Ctrl-C: one line on stderr;
 outputs are written atomically, so the previous file or report is left as it was and no
-temporary file remains).
+temporary file remains), 143 terminated (SIGTERM; 129 for SIGHUP: handled as Ctrl-C,
+:mod:`cas_freq.cli.signals`).
 """
 
-import importlib
-import re
 import sys
 
 from cas_freq import __version__
-from cas_freq.cli.common import (
-    EXIT_BAD_INPUT,
-    EXIT_FAILED,
-    EXIT_OK,
-    Parser,
-    set_quiet,
-    shipped_config_note,
-)
 from cas_freq.exceptions import CasFreqError
 
 __all__ = [
@@ -30,7 +23,8 @@ __all__ = [
     "join_negative_values", "main",
 ]
 
-#: Exit status after Ctrl-C (128 + SIGINT, as shells report it).
+#: Exit status after Ctrl-C (128 + SIGINT, as shells report it); after SIGTERM or SIGHUP it is
+#: likewise 128 + the signal's number.
 EXIT_INTERRUPTED = 130
 
 #: Command modules of ``cas_freq.cli``, in the order ``--help`` lists them.
@@ -38,8 +32,21 @@ COMMANDS = ("analyze", "simulate", "sinedwell", "fit", "verify", "report", "comp
             "montecarlo", "tune", "epos4")
 
 
+def __getattr__(name):
+    # the exit codes of cas_freq.cli.common, imported on first use (not at this module's top)
+    if name in ("EXIT_BAD_INPUT", "EXIT_FAILED", "EXIT_OK"):
+        from cas_freq.cli import common
+
+        return getattr(common, name)
+    raise AttributeError(f"module 'cas_freq.cli' has no attribute {name!r}")
+
+
 def build_parser():
     """The argument parser of ``cas-freq``."""
+    import importlib
+
+    from cas_freq.cli.common import Parser
+
     parser = Parser(prog="cas-freq", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"cas-freq {__version__}")
     commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
@@ -74,36 +81,45 @@ def main(argv=None):
     limit_blas_threads()
     command = "cas-freq"
     try:
-        parser = build_parser()
-        args = parser.parse_args(join_negative_values(parser, sys.argv[1:] if argv is None
-                                                      else list(argv)))
-        command = f"cas-freq {args.command_name}"
-        set_quiet(getattr(args, "quiet", False))
-        status = args.handler(args)
-        shipped_config_note()
-        return status
-    except CasFreqError as exc:
-        print(f"{command}: error: {exc}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except BrokenPipeError:
-        return EXIT_OK
-    except KeyboardInterrupt:
-        _interrupted(command)
-        return EXIT_INTERRUPTED
+        from cas_freq.cli.common import (
+            EXIT_BAD_INPUT,
+            EXIT_OK,
+            set_quiet,
+            shipped_config_note,
+        )
+        from cas_freq.cli.signals import terminate_as_interrupt
+
+        with terminate_as_interrupt():
+            try:
+                parser = build_parser()
+                args = parser.parse_args(join_negative_values(
+                    parser, sys.argv[1:] if argv is None else list(argv)))
+                command = f"cas-freq {args.command_name}"
+                set_quiet(getattr(args, "quiet", False))
+                status = args.handler(args)
+                shipped_config_note()
+                return status
+            except CasFreqError as exc:
+                print(f"{command}: error: {exc}", file=sys.stderr)
+                return EXIT_BAD_INPUT
+            except BrokenPipeError:
+                return EXIT_OK
+            finally:
+                set_quiet(False)  # --quiet is per call (main may run more than once)
+    except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP
+        return _interrupted(command, exc)
     except Exception as exc:
         # a Ctrl-C while a C extension module initialises (matplotlib's, at import) surfaces
         # as "ImportError: initialization failed" raised from the KeyboardInterrupt
-        if not _raised_by_interrupt(exc):
+        interrupt = _raised_by_interrupt(exc)
+        if interrupt is None:
             raise
-        _interrupted(command)
-        return EXIT_INTERRUPTED
-    finally:
-        set_quiet(False)  # --quiet is per call (main may run more than once in a process)
+        return _interrupted(command, interrupt)
 
 
 #: An option argument that starts like a negative number: ``-5deg``, ``-0.1rad``, ``-1:2:3``,
 #: ``-.5``. No option of cas-freq starts with a dash and a digit, so it is never an option.
-NEGATIVE_VALUE = re.compile(r"-\.?[0-9]")
+NEGATIVE_VALUE = r"-\.?[0-9]"
 
 
 def join_negative_values(parser, argv):
@@ -126,6 +142,9 @@ def join_negative_values(parser, argv):
     -------
     list of str
     """
+    import re
+
+    negative_value = re.compile(NEGATIVE_VALUE)
     commands = next((action.choices for action in parser._actions
                      if isinstance(action.choices, dict)), {})
     position = next((i for i, token in enumerate(argv) if token in commands), None)
@@ -141,7 +160,7 @@ def join_negative_values(parser, argv):
         action = _option_action(options, token)
         if action is not None and action.nargs in (None, 1):
             value = next(rest, None)
-            if value is not None and NEGATIVE_VALUE.match(value):
+            if value is not None and negative_value.match(value):
                 out.append(f"{token}={value}")
                 continue
             out.append(token)
@@ -166,20 +185,29 @@ def _option_action(options, token):
 
 
 def _raised_by_interrupt(exc):
-    """True where a KeyboardInterrupt is in the chain of causes and contexts of ``exc``."""
+    """The KeyboardInterrupt in the chain of causes and contexts of ``exc``, or None."""
     seen = set()
     while exc is not None and id(exc) not in seen:
         if isinstance(exc, KeyboardInterrupt):
-            return True
+            return exc
         seen.add(id(exc))
         exc = exc.__cause__ or exc.__context__
-    return False
+    return None
 
 
-def _interrupted(command):
-    """One line on stderr after Ctrl-C."""
+def _interrupted(command, interrupt):
+    """One line on stderr after Ctrl-C (or SIGTERM, SIGHUP: ``interrupt`` is then a
+    :class:`cas_freq.cli.signals.Terminated`); returns the exit status."""
+    signum = getattr(interrupt, "signum", None)
+    if signum is None:
+        what = "interrupted"
+    else:
+        import signal
+
+        what = f"terminated ({signal.Signals(signum).name})"
     try:
-        print(f"\n{command}: interrupted" if sys.stderr.isatty() else f"{command}: interrupted",
+        print(f"\n{command}: {what}" if sys.stderr.isatty() else f"{command}: {what}",
               file=sys.stderr, flush=True)
     except (OSError, ValueError):
         pass
+    return EXIT_INTERRUPTED if signum is None else 128 + signum

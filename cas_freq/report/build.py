@@ -613,10 +613,12 @@ class FigureRenderer:
 
     The workers are forked (on Linux; elsewhere the figures are drawn here) on entry, after
     this process has imported the figure code (once, not once per worker) and before it
-    computes anything; they never import python-control. A variant can be sent twice: after
-    :func:`~cas_freq.report.data.gather_frequency` for the figures of the frequency responses
-    (``part="frequency"``), then complete for the others (``"time"``); or once (``"all"``).
-    Each submission is split into ``workers`` shares (alternate stems), one
+    computes anything; they never import python-control, and they end with this process
+    (:mod:`cas_freq.report.workers`): killed at once when the block ends with an exception
+    (an interrupt included), and by the kernel when this process dies. A variant can be sent
+    twice: after :func:`~cas_freq.report.data.gather_frequency` for the figures of the
+    frequency responses (``part="frequency"``), then complete for the others (``"time"``); or
+    once (``"all"``). Each submission is split into ``workers`` shares (alternate stems), one
     task each, and the data are pickled to the task (the complete data ~10 MB, ~20 ms).
     :meth:`results` gathers the figures in the order of
     :data:`~cas_freq.plots.report.VARIANT_FIGURES`, so the output does not depend on which
@@ -632,29 +634,28 @@ class FigureRenderer:
         self._variants = []  # per variant: [latest data, futures]
 
     def __enter__(self):
-        import multiprocessing
-
         # fork only on Linux: macOS's system libraries are not fork-safe (Python spawns there)
         if self.workers > 1 and sys.platform.startswith("linux"):
-            from concurrent.futures import ProcessPoolExecutor
-
             # the figure code is imported once, before the fork, not by each worker (~0.6 s);
             # python-control (~0.7 s) only here, after the fork, while the workers draw: it
             # is needed for the linear steps and the zeros of T, which are computed here
             import cas_freq.plots.report  # noqa: F401
+            from cas_freq.report.workers import fork_pool
 
             try:
-                self._pool = ProcessPoolExecutor(self.workers,
-                                                 mp_context=multiprocessing.get_context("fork"))
                 # start the workers now: they import the figure code while the caller computes
-                self._stems = [self._pool.submit(_figure_stems) for _ in range(self.workers)][0]
+                self._pool, stems = fork_pool(self.workers, _figure_stems)
+                self._stems = stems[0]
             except OSError:
                 self._pool = None
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, exc_type, *exc):
         if self._pool is not None:
-            self._pool.shutdown(wait=True, cancel_futures=True)
+            from cas_freq.report.workers import stop_pool
+
+            # interrupted (Ctrl-C, SIGTERM) or failed: the workers are killed, not waited for
+            stop_pool(self._pool, kill=exc_type is not None)
         return False
 
     def submit(self, index, data, part="all"):

@@ -1,0 +1,123 @@
+"""Worker processes that never outlive the report that forked them.
+
+The report's figures are drawn in forked processes (:class:`cas_freq.report.build.FigureRenderer`).
+A worker waits for work on a queue whose pipe it holds both ends of, so on its own it would
+never notice its parent's death: a report killed by ``timeout`` (SIGTERM) or SIGKILL would leave
+its workers running, re-parented to init, holding the caller's stdout and stderr open (a caller
+that captures the output then waits forever). Here each worker:
+
+- asks the kernel for SIGKILL when its parent dies (Linux ``prctl(PR_SET_PDEATHSIG)``), and
+  exits at once if the parent died before that took effect (``getppid()`` no longer the parent);
+- ignores SIGINT: a Ctrl-C reaches the whole foreground process group, and the parent, which
+  handles it, ends the workers (:func:`stop_pool`); a worker interrupted on its own would only
+  print a traceback;
+- takes SIGTERM and SIGHUP by their default action (the parent's handlers, inherited through
+  the fork, raise an exception meant for the parent's clean-up).
+
+The parent forks with these signals blocked (:func:`fork_pool`), so none lands in a worker
+before it has set them up; signals that arrive meanwhile are delivered to the parent when the
+fork is done. :func:`stop_pool` with ``kill=True`` (an interrupted or failed report) kills the
+workers at once instead of waiting for the figures they are drawing.
+
+Linux only: elsewhere the report draws in its own process and nothing is forked.
+"""
+
+import ctypes
+import multiprocessing
+import os
+import signal
+import threading
+import time
+from concurrent.futures import ProcessPoolExecutor
+
+#: ``prctl`` option that sets the signal a process gets when its parent dies (linux/prctl.h).
+PR_SET_PDEATHSIG = 1
+
+#: Signals blocked while the workers are forked and set up in each worker.
+WORKER_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+#: Longest wait for a killed worker to be reaped [s] (it is gone within milliseconds).
+KILL_WAIT_S = 2.0
+
+#: Period of the parent check where ``prctl`` is unavailable [s].
+PARENT_POLL_S = 0.2
+
+
+def fork_pool(workers, warm_up):
+    """A pool of ``workers`` forked processes that end with this one.
+
+    Parameters
+    ----------
+    workers : int
+        Number of processes (forked now).
+    warm_up : callable
+        A module-level function without arguments, submitted once per worker here (so the
+        processes are forked now; e.g. a first import).
+
+    Returns
+    -------
+    tuple of (concurrent.futures.ProcessPoolExecutor, list of concurrent.futures.Future)
+        The pool and the futures of the ``warm_up`` calls.
+    """
+    parent = os.getpid()
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, WORKER_SIGNALS)
+    pool = None
+    try:
+        pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
+                                   initializer=_start_worker, initargs=(parent, previous))
+        # the first submission forks every worker (the fork start method), here and now,
+        # from this thread, which lives as long as the process (PR_SET_PDEATHSIG fires when
+        # the forking thread ends)
+        futures = [pool.submit(warm_up) for _ in range(workers)]
+    except BaseException:
+        if pool is not None:
+            stop_pool(pool, kill=True)
+        raise
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+    return pool, futures
+
+
+def stop_pool(pool, kill=False):
+    """Shut ``pool`` down: after its work is done, or with ``kill`` at once (its workers
+    killed, queued and running work abandoned); returns when no worker is left."""
+    if not kill:
+        pool.shutdown(wait=True, cancel_futures=True)
+        return
+    processes = list(pool._processes.values())  # pid -> Process (not public before 3.14)
+    for process in processes:
+        process.kill()
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.join(KILL_WAIT_S)
+
+
+def _start_worker(parent, mask):
+    """Initializer of each worker: signals as described in the module, then end with
+    ``parent``; ``mask`` is the parent's signal mask before :func:`fork_pool` blocked
+    :data:`WORKER_SIGNALS`."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
+    _end_with_parent(parent)
+    signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+
+
+def _end_with_parent(parent):
+    """Have this process killed when ``parent`` (its parent's pid) dies."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        armed = libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0) == 0
+    except (OSError, AttributeError):  # no prctl: not Linux, or a libc without it
+        armed = False
+    if os.getppid() != parent:  # the parent died before the request took effect
+        os._exit(1)
+    if not armed:
+        threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
+
+
+def _watch_parent(parent):
+    """Exit this process once ``parent`` is no longer its parent (it died)."""
+    while os.getppid() == parent:
+        time.sleep(PARENT_POLL_S)
+    os._exit(1)
