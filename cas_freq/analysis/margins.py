@@ -3,10 +3,12 @@ r"""Stability margins of loops from their frequency responses, for many loops at
 Definitions (docs/model.md):
 
 - gain crossover: :math:`|L(j\omega_c)| = 1`; phase margin
-  :math:`PM = 180° + \angle L(j\omega_c)` with the *continuous* phase (unwrapped from the
-  low-frequency asymptote, -90° per integrator), so a crossover past a whole turn of delay
-  phase shows PM < -180° instead of a reassuring wrapped value; delay margin
-  :math:`PM[\mathrm{rad}] / \omega_c` (negative when PM is);
+  :math:`PM = 180° + \angle L(j\omega_c)` in (-180°, 180°]: the *continuous* phase
+  (unwrapped from the low-frequency asymptote, -90° per integrator) locates the crossover on
+  the phase curve, and the margin is taken modulo 360° (a loop whose phase starts on another
+  branch, e.g. with a negative DC gain, has the same margins); delay margin: the smallest
+  positive delay that puts L through -1 at :math:`\omega_c`,
+  :math:`(PM[\mathrm{rad}] + 2\pi k) / \omega_c` with k = 0 for PM >= 0 and 1 below;
 - phase crossover: :math:`L(j\omega_{180})` real and negative; gain margin
   :math:`GM = -20 \log_{10} |L(j\omega_{180})|` [dB]. Positive GM is an upper margin (gain may
   rise by that much), negative is a lower one (gain may fall by that much, as in the type-2
@@ -25,6 +27,12 @@ feature narrower than the grid, and the brackets are split at them:
   refined to the true extremum, which becomes a probe (a narrow peak that pokes above 0 dB, or
   a notch that dips below, between two samples; however low the samples beside it are, since a
   peak 30 times narrower than the grid spacing shows only its far flanks);
+- every other sample where ln |L| has a sharp corner (:data:`SHARP`) marks a feature the grid
+  does not resolve whose extremum is not the sample's: typically a notch next to a peak (a
+  lightly damped zero pair beside a pole pair, as a compliant gear puts into L_i), whose
+  samples show the peak's flank while the notch dips below 0 dB between them. The two grid
+  intervals beside it are subdivided, and again beside every sharp corner of the finer
+  samples, until none is left (:func:`subdivision_probes`); every sample taken is a probe;
 - the caller may add probes of its own, e.g. where the inner loop L_i passes close to -1, so
   that T_i and hence L_p have a resonance narrower than the grid
   (:func:`near_minus_one_probes`).
@@ -51,6 +59,10 @@ CANDIDATE_DB = 1.0
 #: below; an unresolved resonance gives ln 9 or more) and is refined.
 SHARP = 0.05
 
+#: Subdivisions of an unresolved feature's grid intervals, each into four: down to 4^-20 of
+#: the grid spacing (about 1e-14 relative at 200 points per decade), below rounding.
+MAX_SUBDIVISIONS = 20
+
 #: Figures of one loop, in the order and with the names of the JSON of ``analyze``.
 LOOP_FIGURES = (
     "crossover_rad_s", "phase_margin_deg", "delay_margin_s", "gain_margin_db",
@@ -65,11 +77,14 @@ EXTRA = ("_sensitivity_max", "_disk_distance_max", "_maximum_at_top")
 
 @dataclasses.dataclass(frozen=True)
 class GainCrossover:
-    """One frequency where |L| = 1."""
+    """One frequency where |L| = 1: its phase margin in (-180, 180] [deg], delay margin (> 0,
+    0 at PM = 0) [s] and the continuous phase of L there [deg] (which locates it on the phase
+    curve: ``phase_deg - phase_margin_deg`` is the -180° + k 360° line it is measured from)."""
 
     frequency_rad_s: float
     phase_margin_deg: float
     delay_margin_s: float
+    phase_deg: float
 
 
 @dataclasses.dataclass(frozen=True)
@@ -85,7 +100,8 @@ class LoopMargins:
     """Every margin of one loop. A figure that does not exist (no crossover) is None.
 
     ``crossover_rad_s``/``phase_margin_deg`` are those of the gain crossover with the smallest
-    phase margin; ``delay_margin_s`` is the smallest over all gain crossovers.
+    phase margin; ``delay_margin_s`` is the smallest over all gain crossovers, at
+    ``delay_margin_crossover_rad_s`` (not necessarily the same crossover).
     ``gain_margin_db`` is the smallest upper gain margin (> 0 dB) and ``gain_margin_low_db`` the
     lower margin closest to 0 dB (< 0 dB), each with its phase crossover frequency.
     """
@@ -93,6 +109,7 @@ class LoopMargins:
     crossover_rad_s: float | None
     phase_margin_deg: float | None
     delay_margin_s: float | None
+    delay_margin_crossover_rad_s: float | None
     gain_margin_db: float | None
     phase_crossover_rad_s: float | None
     gain_margin_low_db: float | None
@@ -343,7 +360,14 @@ def extremum_probes(evaluate, omega, response, squared=None):
     top = rising[all_runs, all_k - 1]  # rising before: a maximum
     level = squared[all_runs, all_k]
     log_w = np.log(omega)
-    found = Probes.none()
+    # a corner that is not a maximum under 0 dB or a minimum over it (those are refined
+    # below) is resolved by subdivision
+    inner = squared[:, 2:-2]
+    before, after = rising[:, 1:-2], rising[:, 2:-1]
+    maximum, minimum = before & ~after, ~before & after
+    refined = (maximum & (inner < 1.0)) | (minimum & (inner > 1.0))
+    runs, k = np.nonzero(_corners(log_w, squared) & ~refined)
+    found = subdivision_probes(evaluate, log_w, squared, runs, k + 2)
     for sign in (1.0, -1.0):
         chosen = (top & (level < 1.0)) if sign > 0 else (~top & (level > 1.0))
         runs, k = all_runs[chosen], all_k[chosen]
@@ -366,6 +390,85 @@ def extremum_probes(evaluate, omega, response, squared=None):
         )
         found = found + Probes(runs, x)
     return found
+
+
+def _corners(log_w, squared):
+    """Where ln |L|^2 has a corner at a grid sample (k = 2 .. m - 3, shape (n, m - 4)): its
+    second difference exceeds :data:`SHARP` in size and differs by more than that from the
+    mean of its neighbours' (a resolved resonance curves smoothly: the second differences
+    beside its top are alike; a feature narrower than the spacing bends the samples next to
+    it only, e.g. 0.05, -0.09, 0.04 beside a notch-and-peak pair).
+
+    The second differences are taken on the grid as it is, ((y2 - y1)/h2 - (y1 - y0)/h1)
+    (h1 + h2)/2, which is y0 - 2 y1 + y2 where it is uniform and, unlike it, zero for a
+    straight line where it is not (the log grid merged into a linear one for the delays).
+    """
+    h = np.diff(log_w)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slope = np.diff(np.log(squared), axis=1) / h
+        second = np.diff(slope, axis=1) * (0.5 * (h[:-1] + h[1:]))
+        bend = second[:, 1:-1] - 0.5 * (second[:, :-2] + second[:, 2:])
+    return (np.abs(second[:, 1:-1]) > SHARP) & (np.abs(bend) > SHARP)
+
+
+def _sharp(squared):
+    """Where the second difference of ln |L|^2 over consecutive samples exceeds :data:`SHARP`
+    in size, at the inner samples of each row (shape (n, m - 2)); False where not finite (the
+    subdivisions' samples are uniform in log frequency)."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        ratio = squared[:, :-2] * squared[:, 2:] / (squared[:, 1:-1] * squared[:, 1:-1])
+    bound = math.exp(SHARP)
+    return np.isfinite(ratio) & ((ratio > bound) | (ratio * bound < 1.0))
+
+
+def subdivision_probes(evaluate, log_w, squared, runs, k):
+    """Probes that resolve the features at the sharp corners (``runs``, ``k``) of |L|^2.
+
+    The two grid intervals beside each corner are cut into four; beside every sharp corner
+    among the new samples (second differences over the five samples of an interval, see
+    :func:`_sharp`) the quarters are cut again, and so on, at most :data:`MAX_SUBDIVISIONS`
+    times. A feature of width W stops showing corners once the spacing is below about W/5, so
+    its extrema and 0 dB crossings are then bracketed by the samples.
+
+    Parameters
+    ----------
+    evaluate : callable
+        ``evaluate(runs, omega) -> complex`` loop response.
+    log_w : numpy.ndarray
+        Grid [log(rad/s)], shape (m,).
+    squared : numpy.ndarray
+        |L|^2 on the grid, shape (n, m).
+    runs, k : numpy.ndarray of int
+        The sharp grid samples (0 < k < m - 1).
+
+    Returns
+    -------
+    Probes
+        Every sample taken.
+    """
+    m = log_w.size
+    interval = np.unique(np.concatenate([runs * m + k - 1, runs * m + k]))
+    runs, j = interval // m, interval % m
+    lo, hi = log_w[j], log_w[j + 1]
+    s_lo, s_hi = squared[runs, j], squared[runs, j + 1]
+    quarters = np.array([0.25, 0.5, 0.75])
+    taken = []
+    for _ in range(MAX_SUBDIVISIONS):
+        if runs.size == 0:
+            break
+        x = lo[:, None] + (hi - lo)[:, None] * quarters
+        value = evaluate(np.repeat(runs, 3), np.exp(x.ravel())).reshape(x.shape)
+        taken.append(Probes(np.repeat(runs, 3), x.ravel()))
+        xs = np.column_stack([lo, x, hi])
+        ss = np.column_stack([s_lo, value.real ** 2 + value.imag ** 2, s_hi])
+        sharp = _sharp(ss)  # at the three inner samples
+        cut = np.zeros((runs.size, 4), dtype=bool)  # the quarters beside a sharp sample
+        cut[:, :-1] |= sharp
+        cut[:, 1:] |= sharp
+        row, i = np.nonzero(cut)
+        runs, lo, hi = runs[row], xs[row, i], xs[row, i + 1]
+        s_lo, s_hi = ss[row, i], ss[row, i + 1]
+    return sum(taken, Probes.none())
 
 
 def _parabola_vertex(x, y):
@@ -495,15 +598,59 @@ def _phase_candidates(n, brackets):
     )
 
 
-def _phase_through(evaluate, run, x_start, x_end, phase_start, value_start, probe_x):
-    """Continuous phase at ``x_end`` by unwrapping along a path from a grid sample of known
-    continuous phase through the probes in between (used inside split intervals only)."""
-    inner = probe_x[(probe_x > x_start) & (probe_x < x_end)]
-    path = np.union1d(np.linspace(x_start, x_end, 17), inner)
-    values = evaluate(np.full(path.size, run), np.exp(path))
-    values[0] = value_start
-    steps = np.angle(values[1:] / values[:-1])
-    return phase_start + float(np.sum(steps)), values[-1]
+def _phases_through(evaluate, samples, runs, k, x_end, phase_start):
+    """Continuous phase [rad] at ``x_end`` of crossings inside split grid intervals, by
+    unwrapping along a path from the interval's lower grid sample (run ``runs``, interval
+    ``k``, continuous phase ``phase_start`` there) through 16 equal steps and every probe in
+    between; all crossings in one evaluation."""
+    log_w, probes = samples.log_w, samples.probes
+    m = log_w.size
+    # the probes of each crossing's interval below it
+    key = probes.runs * m + samples.interval
+    order = np.argsort(key, kind="stable")
+    key, probe_x = key[order], probes.log_w[order]
+    wanted = runs * m + k
+    first = np.searchsorted(key, wanted, side="left")
+    count = np.searchsorted(key, wanted, side="right") - first
+    owner = np.repeat(np.arange(runs.size), count)
+    position = np.arange(owner.size) - np.repeat(np.cumsum(count) - count, count)
+    x = probe_x[np.repeat(first, count) + position]
+    x_start = log_w[k]
+    below = x < x_end[owner]
+    steps = np.linspace(0.0, 1.0, 17)
+    owner = np.concatenate([np.repeat(np.arange(runs.size), steps.size), owner[below]])
+    x = np.concatenate([(x_start[:, None] + steps * (x_end - x_start)[:, None]).ravel(),
+                        x[below]])
+    order = np.lexsort((x, owner))
+    owner, x = owner[order], x[order]
+    values = evaluate(runs[owner], np.exp(x))
+    start = np.ones(owner.size, dtype=bool)
+    start[1:] = owner[1:] != owner[:-1]
+    values[start] = samples.response[runs, k]  # the grid sample itself, as on the grid
+    same = ~start[1:]
+    turn = np.angle(values[1:][same] / values[:-1][same])
+    return phase_start + np.bincount(owner[1:][same], weights=turn, minlength=runs.size)
+
+
+def phase_and_delay_margins(phase, omega):
+    """Phase margin [rad] in (-pi, pi] and delay margin [s] of gain crossovers.
+
+    Parameters
+    ----------
+    phase : numpy.ndarray
+        Phase of L at the crossovers [rad], on any branch (the continuous phase).
+    omega : numpy.ndarray
+        Crossover frequencies [rad/s].
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        PM = pi + phase modulo 2 pi, in (-pi, pi]; the delay margin, the smallest delay
+        tau >= 0 that turns L(j omega) onto -1: PM / omega for PM >= 0, else
+        (PM + 2 pi) / omega (a negative PM is a turn of 2 pi - |PM| away the way a delay turns).
+    """
+    pm = math.pi - np.mod(-phase, 2.0 * math.pi)  # pi + phase, in (-pi, pi]
+    return pm, np.where(pm >= 0.0, pm, pm + 2.0 * math.pi) / omega
 
 
 def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=False,
@@ -535,7 +682,8 @@ def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=Fal
     -------
     dict of str to numpy.ndarray
         :data:`LOOP_FIGURES` (and :data:`EXTRA`), each shape (n,); with ``crossings`` also
-        ``"_gain_crossings"`` (runs, frequency, PM [deg], delay margin [s]) and
+        ``"_gain_crossings"`` (runs, frequency, PM [deg], delay margin [s], continuous phase
+        [deg]) and
         ``"_phase_crossings"`` (runs, frequency, GM [dB]), sorted by run and frequency.
     """
     n = response.shape[0]
@@ -576,18 +724,17 @@ def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=Fal
     angle = anchor + np.angle(value / response[g, above])
     if gsplit.any():
         below = continuous_phase_at(response, omega, g[gsplit], gk[gsplit])
-        for i, j in enumerate(np.flatnonzero(gsplit)):
-            probe_x = samples.probes.log_w[samples.probes.runs == g[j]]
-            angle[j], _ = _phase_through(evaluate, g[j], log_w[gk[j]], math.log(w[j]),
-                                         below[i], response[g[j], gk[j]], probe_x)
-    pm = np.degrees(math.pi + angle)
-    dm = np.radians(pm) / w
+        angle[gsplit] = _phases_through(evaluate, samples, g[gsplit], gk[gsplit],
+                                        np.log(w[gsplit]), below)
+    pm_rad, dm = phase_and_delay_margins(angle, w)
+    pm = np.degrees(pm_rad)
     out["phase_margin_deg"], out["crossover_rad_s"] = _group_min(n, g, pm, w)
     out["delay_margin_s"], _ = _group_min(n, g, dm, dm)
     out["gain_crossover_count"] = np.bincount(g, minlength=n).astype(float)
     if crossings:
         order = np.lexsort((w, g))
-        out["_gain_crossings"] = (g[order], w[order], pm[order], dm[order])
+        out["_gain_crossings"] = (g[order], w[order], pm[order], dm[order],
+                                  np.degrees(angle[order]))
 
     w, value, r = w_all[~gain], value_all[~gain], runs[~gain]
     negative = value.real < 0
@@ -699,15 +846,18 @@ def _none(value):
 
 def margins_of_run(figures, run=0):
     """The :class:`LoopMargins` of one run from :func:`loop_figures` (with ``crossings``)."""
-    g_runs, g_w, g_pm, g_dm = figures["_gain_crossings"]
+    g_runs, g_w, g_pm, g_dm, g_phase = figures["_gain_crossings"]
     p_runs, p_w, p_gm = figures["_phase_crossings"]
     mine, theirs = g_runs == run, p_runs == run
     values = {name: _none(figures[name][run]) for name in LOOP_FIGURES
               if name != "gain_crossover_count"}
+    smallest = np.argmin(g_dm[mine]) if mine.any() else None
     return LoopMargins(
         **values,
-        gain_crossovers=tuple(GainCrossover(float(w), float(pm), float(dm)) for w, pm, dm in
-                              zip(g_w[mine], g_pm[mine], g_dm[mine], strict=True)),
+        delay_margin_crossover_rad_s=None if smallest is None else float(g_w[mine][smallest]),
+        gain_crossovers=tuple(
+            GainCrossover(float(w), float(pm), float(dm), float(phase)) for w, pm, dm, phase in
+            zip(g_w[mine], g_pm[mine], g_dm[mine], g_phase[mine], strict=True)),
         phase_crossovers=tuple(PhaseCrossover(float(w), float(gm)) for w, gm in
                                zip(p_w[theirs], p_gm[theirs], strict=True)),
     )
