@@ -84,7 +84,7 @@ def test_valid_config_past_the_hinge_keys_range(tmp_path):
 def test_text_gives_each_crossover_its_own_delay_margin():
     # The loaded variant's current loop crosses 0 dB three times (the hinge mode near 100 rad/s
     # and the roll-off near 8.4 krad/s); the smallest delay margin belongs to the roll-off, not
-    # to the headline crossover (smallest PM), and was printed under the headline as its own.
+    # to the headline crossover (smallest |PM|), and was printed under the headline as its own.
     code, out, _ = run_cli(["analyze", "--variant", "loaded", "--json"])
     current = json.loads(out)["current_loop"]
     crossovers = current["gain_crossovers"]
@@ -99,7 +99,7 @@ def test_text_gives_each_crossover_its_own_delay_margin():
 
     (headline,) = [c for c in crossovers if c["frequency_rad_s"] == current["crossover_rad_s"]]
     start = lines.index(f"    gain crossover     {number(headline['frequency_rad_s'], 4, 'rad/s')}"
-                        " (smallest phase margin of 3)")
+                        " (smallest |phase margin| of 3)")
     assert lines[start + 1] == f"    phase margin       {number(headline['phase_margin_deg'], 4, 'deg')}"
     assert lines[start + 2] == f"    delay margin       {ms(headline['delay_margin_s'])}"
     for c in crossovers:
@@ -113,3 +113,27 @@ def test_text_gives_each_crossover_its_own_delay_margin():
     assert current["delay_margin_crossover_rad_s"] == smallest["frequency_rad_s"]
     assert (f"    smallest delay margin {ms(smallest['delay_margin_s'])} "
             f"(at {number(smallest['frequency_rad_s'], 4, 'rad/s')})") in lines
+
+
+def test_headline_is_the_crossover_nearest_minus_one():
+    # The fitted variant under an opposing hinge of 20 N*m/rad: L_p crosses 0 dB three times;
+    # at 49.9 rad/s L_p is near +1 (phase +2.8°: PM -177.2° in (-180°, 180°], the farthest a
+    # crossover can be from -1). The headline is the crossover nearest -1, as python-control
+    # picks it: checked against |1 + L| = 2 sin(|PM|/2) computed here from the loop itself.
+    import numpy as np
+
+    from cas_freq.config.loader import load_variant
+    from cas_freq.model import ActuatorLoops
+
+    overrides = [("load.hinge_stiffness", 20.0)]
+    code, out, _ = run_cli(["analyze", "--variant", "fitted", "--set",
+                            "load.hinge_stiffness=20", "--json"])
+    p = json.loads(out)["position_loop"]
+    loop = ActuatorLoops(load_variant(variant="fitted", overrides=overrides).params).position_loop
+    w = np.array([c["frequency_rad_s"] for c in p["gain_crossovers"]])
+    distance = np.abs(1.0 + loop(1j * w))
+    pm = np.radians([c["phase_margin_deg"] for c in p["gain_crossovers"]])
+    np.testing.assert_allclose(distance, 2 * np.sin(np.abs(pm) / 2), rtol=1e-9)
+    assert len(w) == 3 and min(pm) < math.radians(-170)  # the crossover near +1
+    assert p["crossover_rad_s"] == w[np.argmin(distance)]
+    assert p["phase_margin_deg"] == pytest.approx(40.57, abs=0.01)

@@ -99,8 +99,10 @@ def test_narrow_inner_loop_resonance_of_the_issue(tmp_path):
     changes = dense[np.flatnonzero(above[1:] != above[:-1])]
     assert len(found) == len(changes) == 3
     np.testing.assert_allclose(found, changes, rtol=1e-5)  # the scan's spacing is 5.8e-6
-    # the worst phase margin is now at one of the narrow crossings, not at 67.5 rad/s
-    assert result.position_loop.crossover_rad_s > 18_000
+    # the smallest delay margin is at one of the narrow crossings, not at 67.5 rad/s (their
+    # phase margins, -138.9° and 143.3°, are farther from -1 than the 108° at 67.5 rad/s)
+    assert result.position_loop.delay_margin_crossover_rad_s > 18_000
+    assert result.position_loop.delay_margin_s < 2e-4
 
 
 @pytest.fixture(params=["reference", "compiled"])

@@ -99,8 +99,10 @@ class PhaseCrossover:
 class LoopMargins:
     """Every margin of one loop. A figure that does not exist (no crossover) is None.
 
-    ``crossover_rad_s``/``phase_margin_deg`` are those of the gain crossover with the smallest
-    phase margin; ``delay_margin_s`` is the smallest over all gain crossovers, at
+    ``crossover_rad_s``/``phase_margin_deg`` are those of the gain crossover nearest the
+    critical point, with the smallest absolute phase margin (as python-control's
+    ``stability_margins``);
+    ``delay_margin_s`` is the smallest over all gain crossovers, at
     ``delay_margin_crossover_rad_s`` (not necessarily the same crossover).
     ``gain_margin_db`` is the smallest upper gain margin (> 0 dB) and ``gain_margin_low_db`` the
     lower margin closest to 0 dB (< 0 dB), each with its phase crossover frequency.
@@ -728,7 +730,13 @@ def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=Fal
                                         np.log(w[gsplit]), below)
     pm_rad, dm = phase_and_delay_margins(angle, w)
     pm = np.degrees(pm_rad)
-    out["phase_margin_deg"], out["crossover_rad_s"] = _group_min(n, g, pm, w)
+    # the headline: the crossover nearest the critical point, i.e. with the smallest |PM| (a
+    # crossover at PM -177° has L near +1, the farthest from -1); of equal ones, the lower PM
+    _, nearest = _group_min(n, g, np.abs(pm) + 1e-9 * np.sign(pm), np.arange(g.size))
+    found = np.isfinite(nearest)
+    chosen = nearest[found].astype(int)
+    out["phase_margin_deg"], out["crossover_rad_s"] = np.full(n, np.nan), np.full(n, np.nan)
+    out["phase_margin_deg"][found], out["crossover_rad_s"][found] = pm[chosen], w[chosen]
     out["delay_margin_s"], _ = _group_min(n, g, dm, dm)
     out["gain_crossover_count"] = np.bincount(g, minlength=n).astype(float)
     if crossings:

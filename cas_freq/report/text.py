@@ -18,13 +18,13 @@ def _ms(seconds):
 
 
 def _crossover_lines(margins):
-    """The headline gain crossover (smallest phase margin) with its own phase and delay margin;
+    """The headline gain crossover (smallest |phase margin|) with its own phase and delay margin;
     with several crossovers, each other one with its margins, then the smallest delay margin
     with the crossover it belongs to (it need not be the headline one)."""
     crossovers = margins.gain_crossovers
     headline = [c for c in crossovers if c.frequency_rad_s == margins.crossover_rad_s]
     own = headline[0].delay_margin_s if headline else margins.delay_margin_s
-    count = f" (smallest phase margin of {len(crossovers)})" if len(crossovers) > 1 else ""
+    count = f" (smallest |phase margin| of {len(crossovers)})" if len(crossovers) > 1 else ""
     lines = [
         f"    gain crossover     {_fmt(margins.crossover_rad_s, 'rad/s')}{count}",
         f"    phase margin       {_fmt(margins.phase_margin_deg, 'deg')}",
