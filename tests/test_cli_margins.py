@@ -100,7 +100,8 @@ def test_text_gives_each_crossover_its_own_delay_margin():
     (headline,) = [c for c in crossovers if c["frequency_rad_s"] == current["crossover_rad_s"]]
     start = lines.index(f"    gain crossover     {number(headline['frequency_rad_s'], 4, 'rad/s')}"
                         " (smallest |phase margin| of 3)")
-    assert lines[start + 1] == f"    phase margin       {number(headline['phase_margin_deg'], 4, 'deg')}"
+    pm = number(headline["phase_margin_deg"], 4, "deg")
+    assert lines[start + 1] == f"    phase margin       {pm}"
     assert lines[start + 2] == f"    delay margin       {ms(headline['delay_margin_s'])}"
     for c in crossovers:
         if c is not headline:
