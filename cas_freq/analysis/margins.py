@@ -62,7 +62,8 @@ CANDIDATE_DB = 1.0
 
 #: Figures of one loop, in the order and with the names of the JSON of ``analyze``.
 LOOP_FIGURES = (
-    "crossover_rad_s", "phase_margin_deg", "delay_margin_s", "gain_margin_db",
+    "crossover_rad_s", "phase_margin_deg", "delay_margin_s", "delay_margin_crossover_rad_s",
+    "gain_margin_db",
     "phase_crossover_rad_s", "gain_margin_low_db", "phase_crossover_low_rad_s",
     "sensitivity_peak_db", "sensitivity_peak_rad_s", "disk_margin_alpha",
     "disk_margin_gain_db", "disk_margin_phase_deg", "gain_crossover_count",
@@ -475,7 +476,7 @@ def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=Fal
     chosen = nearest[found].astype(int)
     out["phase_margin_deg"], out["crossover_rad_s"] = np.full(n, np.nan), np.full(n, np.nan)
     out["phase_margin_deg"][found], out["crossover_rad_s"][found] = pm[chosen], w[chosen]
-    out["delay_margin_s"], _ = _group_min(n, g, dm, dm)
+    out["delay_margin_s"], out["delay_margin_crossover_rad_s"] = _group_min(n, g, dm, w)
     out["gain_crossover_count"] = np.bincount(g, minlength=n).astype(float)
     if crossings:
         order = np.lexsort((w, g))
@@ -597,10 +598,8 @@ def margins_of_run(figures, run=0):
     mine, theirs = g_runs == run, p_runs == run
     values = {name: _none(figures[name][run]) for name in LOOP_FIGURES
               if name != "gain_crossover_count"}
-    smallest = np.argmin(g_dm[mine]) if mine.any() else None
     return LoopMargins(
         **values,
-        delay_margin_crossover_rad_s=None if smallest is None else float(g_w[mine][smallest]),
         gain_crossovers=tuple(
             GainCrossover(float(w), float(pm), float(dm), float(phase)) for w, pm, dm, phase in
             zip(g_w[mine], g_pm[mine], g_dm[mine], g_phase[mine], strict=True)),
