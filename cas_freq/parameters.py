@@ -431,7 +431,11 @@ class LoopParameters:
 
     Every attribute is a read-only float array of shape (n_runs,), except
     ``derivative_on_measurement`` (bool array). Each float field carries one key of
-    :data:`PARAMETERS` and is checked against its bound (``Tf`` may be 0 where ``cp_Kd`` is 0).
+    :data:`PARAMETERS`. The keys' accepted ranges are checked where a value enters (the config
+    schema, :func:`variant_parameters`), not here: an internal scan (the stable range of the
+    hinge stiffness, :mod:`cas_freq.analysis.drivetrain`) may go past them, and a user must
+    never see an error about a key they did not set. Here every value must be finite, ``Tf``
+    > 0 where ``cp_Kd`` > 0, and the drivetrain fields consistent (:func:`drivetrain_problem`).
 
     Attributes
     ----------
@@ -509,13 +513,11 @@ class LoopParameters:
             array = np.array(array, dtype=dtype)
             array.setflags(write=False)
             object.__setattr__(self, name, array)
-        for parameter in _FIELD_PARAMETERS.values():
-            if parameter.field == "Tf":
-                # 0 (no filter) is allowed where there is no derivative term
-                parameter = dataclasses.replace(parameter, lower=0.0, strict=False,
-                                                smallest=parameter.lower)
-            label = f"simulation parameters: {parameter.field} ({parameter.key})"
-            parameter.check(getattr(self, parameter.field), label, where="runs")
+        for name in names:
+            bad = ~np.isfinite(getattr(self, name))
+            if bad.any():
+                raise ConfigError(f"simulation parameters: {name}: must be finite, got "
+                                  f"{float(getattr(self, name)[bad][0])} (runs {_indices(bad)})")
         bad = (self.cp_Kd > 0) & ~(self.Tf > 0)
         if bad.any():
             raise ConfigError(

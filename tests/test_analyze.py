@@ -134,7 +134,9 @@ def test_unstable_loop_is_a_result():
     assert result.closed_loop is None
     p = result.position_loop
     assert p.phase_margin_deg is not None and p.phase_margin_deg < 0
-    assert p.delay_margin_s < 0  # PM [rad] / crossover, negative with the PM
+    # the delay that turns L onto -1 at the crossover: 360° + PM the way a delay turns
+    assert p.delay_margin_s == pytest.approx(
+        math.radians(360 + p.phase_margin_deg) / p.crossover_rad_s, rel=1e-12)
     below = [c for c in p.phase_crossovers if c.frequency_rad_s < p.crossover_rad_s]
     assert len(below) == 1 and below[0].gain_margin_db < 0
     assert p.disk_margin_alpha is None and p.sensitivity_peak_db is None
@@ -147,8 +149,9 @@ def test_unstable_loop_is_a_result():
 def test_unstable_current_loop_is_reported():
     # A current-loop gain far above its ~9.7 dB margin (Kp x 10 = +20 dB) destabilises it.
     # Its crossover moves to ~87 krad/s, where the 0.06 ms delay alone turns the phase by
-    # -298°: the continuous phase there is about -388°, so PM = 180° - 388° = -208°. A wrapped
-    # phase (python-control's convention) would show +152° and hide the instability.
+    # -298°: the continuous phase there is about -385°, 180° - 385° = -205° from the -180°
+    # line, i.e. PM = +155° from the -540° line (a PM lies in (-180°, 180°], as
+    # python-control's does). The margins do not hide the instability: the verdict says it.
     result = analyze(load_variant(overrides=[("current_loop.Kp", 6.163)]))
     assert result.stability.current_loop_verdict == "unstable"
     current = result.current_loop
@@ -161,9 +164,11 @@ def test_unstable_current_loop_is_reported():
     expected = 180 - math.degrees(
         math.atan2(inductance * wc, resistance) + math.atan(ki / (kp * wc)) + wc * tau
     )
-    assert current.phase_margin_deg == pytest.approx(expected, abs=0.05)
-    assert current.phase_margin_deg < -180
-    assert current.delay_margin_s < 0
+    (headline,) = [c for c in current.gain_crossovers if c.frequency_rad_s == wc]
+    assert headline.phase_deg == pytest.approx(expected - 180, abs=0.05)
+    assert current.phase_margin_deg == pytest.approx(expected + 360, abs=0.05)
+    assert current.delay_margin_s == pytest.approx(
+        math.radians(current.phase_margin_deg) / wc, rel=1e-12)
     assert not result.stable
 
 

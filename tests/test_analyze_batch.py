@@ -6,7 +6,8 @@ loops again at and around the reported frequency (:class:`cas_freq.model.Actuato
 same responses) and on a dense grid around it (a second method for every maximum):
 
 - at a gain crossover |L| = 1 (to the 1e-12 root tolerance, 1e-9 allowed); the phase margin
-  is 180° + the phase there, modulo 360° (the engine reports the continuous phase);
+  is 180° + the phase there, in (-180°, 180°]; the smallest delay margin is at most the
+  headline crossover's own and is the one of its crossover (the delay that turns L onto -1);
 - at a phase crossover L is real and negative and the gain margin is -20 log10 |L|;
 - |T| at the bandwidth is 1/sqrt(2) of |T(0)|, and above that line at every point below it;
 - the peaks (|T|, |S|) are not exceeded anywhere on a grid 20 times denser than the engine's
@@ -64,9 +65,15 @@ def test_figures_meet_their_definitions_on_random_variants(variant, fixed):
             value = loop(1j * w)
             assert abs(value) == pytest.approx(1.0, rel=1e-9), loop_name
             pm = figure[f"{loop_name}.phase_margin_deg"]
+            assert -180 < pm <= 180
             assert _wrapped(pm) == pytest.approx(
                 _wrapped(180.0 + math.degrees(np.angle(value))), abs=1e-7)
-            assert figure[f"{loop_name}.delay_margin_s"] <= math.radians(pm) / w * (1 + 1e-12)
+            own = math.radians(pm if pm >= 0 else pm + 360) / w
+            delay = figure[f"{loop_name}.delay_margin_s"]
+            assert 0 <= delay <= own * (1 + 1e-12)
+            at = figure[f"{loop_name}.delay_margin_crossover_rad_s"]
+            turn = np.angle(loop(1j * at) * np.exp(-1j * at * delay))  # L e^(-j w tau) = -1
+            assert abs(abs(turn) - math.pi) < 1e-6, loop_name
             for key in ("", "_low"):
                 w = figure[f"{loop_name}.phase_crossover{key}_rad_s"]
                 if math.isnan(w):

@@ -99,5 +99,87 @@ def test_narrow_inner_loop_resonance_of_the_issue(tmp_path):
     changes = dense[np.flatnonzero(above[1:] != above[:-1])]
     assert len(found) == len(changes) == 3
     np.testing.assert_allclose(found, changes, rtol=1e-5)  # the scan's spacing is 5.8e-6
-    # the worst phase margin is now at one of the narrow crossings, not at 67.5 rad/s
-    assert result.position_loop.crossover_rad_s > 18_000
+    # the smallest delay margin is at one of the narrow crossings, not at 67.5 rad/s (their
+    # phase margins, -138.9° and 143.3°, are farther from -1 than the 108° at 67.5 rad/s)
+    assert result.position_loop.delay_margin_crossover_rad_s > 18_000
+    assert result.position_loop.delay_margin_s < 2e-4
+
+
+@pytest.fixture(params=["reference", "compiled"])
+def engine(request, monkeypatch):
+    """Both paths of the grid scans: numpy, and the numba kernels forced on small arrays."""
+    monkeypatch.setenv("CAS_FREQ_ENGINE", request.param)
+    if request.param == "compiled":
+        from cas_freq.jit import use_compiled
+
+        monkeypatch.setattr("cas_freq.jit.COMPILED_FROM", 0)
+        if not use_compiled():
+            pytest.skip("numba is not importable: the compiled path cannot run")
+    return request.param
+
+
+def _dense_crossings(loop, low, high, points=2_000_001):
+    """Brute force: sign changes of |L| - 1 on a uniform grid of ``points`` in [low, high]."""
+    w = np.linspace(low, high, points)
+    above = np.abs(loop(1j * w)) > 1.0
+    return w[np.flatnonzero(above[1:] != above[:-1])], w[1] - w[0]
+
+
+def test_notch_beside_a_peak_inside_one_grid_interval(engine):
+    # L = 3.4 wz/s (s^2 + 2 z wz s + wz^2)/(s^2 + 2 z wp s + wp^2), wp = wz (1 - 1e-4),
+    # z = 1e-6: a pole pair just below a zero pair, both inside one grid interval (as a
+    # lightly damped compliant gear puts into L_i). Away from them |L| = 3.4 wz/w; between
+    # them the zeros pull |L| below 0 dB over 0.06 rad/s. The samples show only the pole's
+    # flank: a sharp maximum above 0 dB, beside a minimum too shallow to be refined, so the
+    # pair was missed. Second method: a brute-force scan of the interval (2e6 points, 5e-6
+    # rad/s apart; the found crossings must agree to that spacing).
+    omega = frequency_grid(1.0, 1e5)
+    k = np.searchsorted(omega, 900.0)
+    wz = math.sqrt(omega[k] * omega[k + 1])
+    wp, zeta = wz * (1 - 1e-4), 1e-6
+    loop = lambda s: 3.4 * wz / s * (s**2 + 2 * zeta * wz * s + wz**2) / (  # noqa: E731
+        s**2 + 2 * zeta * wp * s + wp**2)
+    expected, step = _dense_crossings(loop, omega[k], omega[k + 1])
+    assert len(expected) == 2 and expected[1] - expected[0] < 0.1
+    found = [c.frequency_rad_s for c in loop_margins(loop, omega).gain_crossovers]
+    assert len(found) == 3  # the pair and the roll-off crossover at 3.4 wz
+    np.testing.assert_allclose(found[:2], expected, atol=step)
+    np.testing.assert_allclose(np.abs(loop(1j * np.array(found))), 1.0, rtol=1e-9)
+
+
+# A made-up servo (the motor and gains of configs/dc_servo.yaml) with a light, lightly damped
+# compliant load: its gear mode (resonance 900.90 rad/s, anti-resonance 900.00 rad/s, damping
+# ratio ~1e-5) puts a notch beside a peak into L_i, between two grid points.
+LIGHT_GEAR = """
+name: light_gear
+motor: {R: 2.5 ohm, L: 1.2 mH, Km: 0.05 N*m/A, Ke: 0.05 V*s/rad, J: 2e-5 kg*m^2,
+        mu_v: 2e-6 N*m*s/rad}
+gear: {ratio: 50, stiffness: 81 N*m/rad, damping: DAMPING N*m*s/rad}
+load: {inertia: 1e-4 kg*m^2}
+current_loop: {Kp: 3.6 V/A, Ki: 7500 V/(A*s), v_max: 24 V, delay: 0.05 ms}
+position_loop: {Kp: 6 A/rad, Ki: 30 A/(rad*s), Kd: 0.08 A*s/rad, i_max: 5 A, delay: 0.2 ms}
+"""
+
+
+@pytest.mark.parametrize("damping", ["1e-6", "1e-8"])
+def test_current_loop_notch_of_a_lightly_damped_gear(tmp_path, damping):
+    # 1e-6 N*m*s/rad: two crossovers 0.03 rad/s apart near 900.9 rad/s, missed before; 1e-8:
+    # found, but one at PM 184.06° (its phase is 4° past the -180° line: PM -175.94°).
+    # Second method: a brute-force scan of L_i, uniform in 800..1000 rad/s (1e-4 rad/s apart).
+    from cas_freq.model import ActuatorLoops
+
+    path = tmp_path / "light_gear.yaml"
+    path.write_text(LIGHT_GEAR.replace("DAMPING", damping))
+    loaded = load_variant(path)
+    result = analyze(loaded)
+    loop = ActuatorLoops(loaded.params).current_loop
+    expected, step = _dense_crossings(loop, 800.0, 1000.0)
+    assert len(expected) == 2 and expected[1] - expected[0] < 0.04
+    crossovers = [c for c in result.current_loop.gain_crossovers
+                  if 800 < c.frequency_rad_s < 1000]
+    np.testing.assert_allclose([c.frequency_rad_s for c in crossovers], expected, atol=step)
+    for crossover in crossovers:
+        angle = np.angle(loop(1j * crossover.frequency_rad_s), deg=True)
+        assert -180 < crossover.phase_margin_deg <= 180
+        assert crossover.phase_margin_deg == pytest.approx(
+            180.0 - (-angle) % 360.0, abs=1e-6)  # 180° + angle, wrapped

@@ -118,7 +118,11 @@ def test_several_gain_crossovers_are_all_reported():
     assert len(margins.gain_crossovers) == 3
     for crossover in margins.gain_crossovers:
         assert abs(loop(1j * crossover.frequency_rad_s)) == pytest.approx(1.0, rel=1e-9)
-    assert margins.phase_margin_deg == min(c.phase_margin_deg for c in margins.gain_crossovers)
+    # On the notch's flanks L is near 1 with its phase at -60° and +60°: PM 120° and -120°,
+    # both far from -1; the roll-off crossover (PM 90°) is the nearest, the headline.
+    pms = [c.phase_margin_deg for c in margins.gain_crossovers]
+    np.testing.assert_allclose(pms, [119.89, -120.12, 90.006], atol=0.01)
+    assert margins.phase_margin_deg == pms[2] and margins.crossover_rad_s > 999
     assert margins.delay_margin_s == min(c.delay_margin_s for c in margins.gain_crossovers)
 
 
@@ -129,3 +133,110 @@ def test_grid_resolves_delay_phase():
     assert np.max(np.diff(omega)) <= math.pi / (8 * tau) * 1.0001
     with pytest.raises(ValueError, match="0 < w_min < w_max"):
         frequency_grid(10.0, 1.0)
+
+
+# --- Phase margins in (-180°, 180°] whatever branch the phase starts on (issue 24) ---
+
+
+@pytest.fixture(params=["reference", "compiled"])
+def engine(request, monkeypatch):
+    """Both paths of the grid scans: numpy, and the numba kernels forced on small arrays."""
+    monkeypatch.setenv("CAS_FREQ_ENGINE", request.param)
+    if request.param == "compiled":
+        from cas_freq.jit import use_compiled
+
+        monkeypatch.setattr("cas_freq.jit.COMPILED_FROM", 0)
+        if not use_compiled():
+            pytest.skip("numba is not importable: the compiled path cannot run")
+    return request.param
+
+
+def test_aiding_plant_margin_is_on_the_branch_of_the_crossover(engine):
+    # An aiding spring makes the plant 1/(s^2 - 1): at s = j w its denominator -w^2 - 1 is
+    # negative real for every w, so L = K (1 + s Td)(1 + s/z) / ((s^2 - 1)(1 + s/p)) starts at
+    # -K (phase ±180°) and a little lag (1/p > Td + 1/z) puts its first samples at +179.5°.
+    # Its phase at the crossover is 180° + atan(w Td) + atan(w/z) - atan(w/p) (mod 360°), so
+    # PM = atan(w Td) + atan(w/z) - atan(w/p), in (-180°, 180°]; the old engine said 423°.
+    # w_c from |L| = 1, with u = w^2: K^2 (1 + u Td^2)(1 + u/z^2) = (1 + u)^2 (1 + u/p^2).
+    gain, td, p, z = 40.0, 1.0, 0.1, 2.0
+    loop = lambda s: gain * (1 + s * td) * (1 + s / z) / ((s * s - 1) * (1 + s / p))  # noqa: E731
+    # the closed loop is stable (its characteristic polynomial's roots), so the margin matters
+    numerator = gain * np.polymul([td, 1.0], [1 / z, 1.0])
+    denominator = np.polymul([1.0, 0.0, -1.0], [1 / p, 1.0])
+    assert np.roots(np.polyadd(denominator, numerator)).real.max() < 0
+    left = gain**2 * np.polymul([td**2, 1.0], [1 / z**2, 1.0])
+    right = np.polymul(np.polymul([1.0, 1.0], [1.0, 1.0]), [1 / p**2, 1.0])
+    u = np.roots(np.polysub(right, left))
+    (wc,) = np.sqrt(u[(abs(u.imag) < 1e-12) & (u.real > 0)].real)
+    pm = math.degrees(math.atan(wc * td) + math.atan(wc / z) - math.atan(wc / p))
+    omega = frequency_grid(1e-3, 1e4)
+    assert np.angle(loop(1j * omega[0]), deg=True) > 179  # the first sample: the +180° side
+    margins = loop_margins(loop, omega)
+    assert margins.crossover_rad_s == pytest.approx(wc, rel=RTOL)
+    assert margins.phase_margin_deg == pytest.approx(pm, rel=RTOL)
+    assert margins.delay_margin_s == pytest.approx(math.radians(pm) / wc, rel=RTOL)
+    # the continuous phase still locates it: +179.5° at the start, turned up to 180° + PM
+    assert margins.gain_crossovers[0].phase_deg == pytest.approx(180 + pm, rel=RTOL)
+
+
+def _pade_polynomials(tau, order):
+    """Numerator and denominator (highest power first) of the [order/order] Padé approximant
+    of exp(-s tau): coefficient of (s tau)^k is (2n - k)! n! / ((2n)! k! (n - k)!), with
+    (-1)^k in the numerator (e.g. Golub and Van Loan, Matrix Computations, §11.3)."""
+    n = order
+    c = [math.factorial(2 * n - k) * math.factorial(n)
+         / (math.factorial(2 * n) * math.factorial(k) * math.factorial(n - k)) * tau**k
+         for k in range(n + 1)]
+    return np.array([(-1) ** k * c[k] for k in range(n, -1, -1)]), np.array(c[::-1])
+
+
+def test_loop_on_another_branch_example21(engine):
+    # python-control's "example21" x 1000 (control/tests/margin_test.py, test_zmore_margin):
+    # open-loop unstable (a pole at +0.0005), negative DC gain (0.002 * 0.02*0.05*5*10 /
+    # (-0.0005 * 0.0001 * 0.01 * 0.2 * 1 * 100^2) < 0): the phase starts on the -180° side.
+    # python-control gives PM 22.5215° at 0.0630 rad/s. Here, a second method: the crossover
+    # by bisection on |L| = 1 on a fine grid, PM = 180° + angle(L) wrapped into (-180°, 180°],
+    # and the delay margin PM [rad] / w_c = 6.24 s, confirmed independently by the closed loop
+    # with a Padé-8 delay: stable at 6.0 s, unstable at 6.5 s (the old engine said 382.52° and
+    # 106 s).
+    num = 1000 * 0.002 * np.poly([-0.02, -0.05, -5.0, -10.0])
+    den = np.poly([0.0005, -0.0001, -0.01, -0.2, -1.0, -100.0, -100.0])
+    loop = lambda s: np.polyval(num, s) / np.polyval(den, s)  # noqa: E731
+    margins = loop_margins(loop, frequency_grid(1e-5, 1e4))
+    assert len(margins.gain_crossovers) == 1
+    w = np.geomspace(1e-5, 1e4, 900_001)
+    above = np.abs(loop(1j * w)) > 1.0
+    (k,) = np.flatnonzero(above[1:] != above[:-1])
+    lo, hi = w[k], w[k + 1]
+    for _ in range(60):
+        mid = math.sqrt(lo * hi)
+        lo, hi = (mid, hi) if (abs(loop(1j * mid)) > 1.0) == above[k] else (lo, mid)
+    wc = math.sqrt(lo * hi)
+    pm = 180.0 - (-np.angle(loop(1j * wc), deg=True)) % 360.0  # 180° + angle, wrapped
+    assert pm == pytest.approx(22.5215, abs=1e-3)  # python-control's value
+    assert margins.crossover_rad_s == pytest.approx(wc, rel=1e-9)
+    assert margins.phase_margin_deg == pytest.approx(pm, rel=1e-7)
+    delay = math.radians(pm) / wc
+    assert margins.delay_margin_s == pytest.approx(delay, rel=1e-7)
+    assert delay == pytest.approx(6.24, abs=0.01)
+
+    def stable_with_delay(tau):
+        pade_num, pade_den = _pade_polynomials(tau, 8)
+        characteristic = np.polyadd(np.polymul(den, pade_den), np.polymul(num, pade_num))
+        return np.roots(characteristic).real.max() < 0
+
+    assert stable_with_delay(0.0) and stable_with_delay(6.0)
+    assert not stable_with_delay(6.5)
+
+
+def test_delay_margin_of_a_negative_phase_margin_is_the_delay_to_the_next_turn():
+    # L = K e^(-s tau)/s with K tau = 2 rad (> pi/2): PM = 90° - 114.6° = -24.6° at w_c = K.
+    # A further delay t turns L(j K) by -K t; it reaches -180° - 360° (the next pass through
+    # -1) at K t = 2 pi + PM [rad], the smallest positive delay there: (2 pi + PM)/K.
+    gain, tau = 100.0, 0.02
+    margins = loop_margins(integrator_with_delay(gain, tau), frequency_grid(1.0, 1e5,
+                                                                            total_delay=tau))
+    pm = 90.0 - math.degrees(gain * tau)
+    assert margins.phase_margin_deg == pytest.approx(pm, rel=RTOL)
+    assert margins.delay_margin_s == pytest.approx((2 * math.pi + math.radians(pm)) / gain,
+                                                   rel=RTOL)

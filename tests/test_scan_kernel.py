@@ -1,6 +1,6 @@
 """The compiled grid scans against their numpy references, to the bit.
 
-:func:`cas_freq.analysis.margins.first_turned_jumps`, ``magnitudes``, ``_long_chords`` and
+:func:`cas_freq.analysis.margins.first_turned_jumps`, ``magnitudes``, ``probes._long_chords`` and
 :func:`cas_freq.analysis.closed_loop.first_fall_below_90` run their kernel
 (:mod:`cas_freq.analysis.scan_kernel`) on large arrays and numpy below
 :data:`cas_freq.jit.COMPILED_FROM`; ``CAS_FREQ_ENGINE=reference`` forces numpy. Both forms
@@ -21,12 +21,12 @@ from cas_freq.analysis.frequency import (
     frequency_grid,
 )
 from cas_freq.analysis.margins import (
-    _long_chords,
     continuous_phase_at,
     first_turned_jumps,
     magnitudes,
     quarter_turn,
 )
+from cas_freq.analysis.probes import _long_chords
 from cas_freq.config import load_variant
 from cas_freq.jit import use_compiled
 from cas_freq.model.loops import Selector, responses

@@ -34,10 +34,10 @@ from cas_freq.analysis.frequency import (
 from cas_freq.analysis.margins import (
     LOOP_FIGURES,
     LoopMargins,
-    Probes,
     loop_figures,
     margins_of_run,
 )
+from cas_freq.analysis.probes import Probes
 from cas_freq.analysis.stability import (
     Stability,
     closed_loop_poles,

@@ -3,10 +3,12 @@ r"""Stability margins of loops from their frequency responses, for many loops at
 Definitions (docs/model.md):
 
 - gain crossover: :math:`|L(j\omega_c)| = 1`; phase margin
-  :math:`PM = 180° + \angle L(j\omega_c)` with the *continuous* phase (unwrapped from the
-  low-frequency asymptote, -90° per integrator), so a crossover past a whole turn of delay
-  phase shows PM < -180° instead of a reassuring wrapped value; delay margin
-  :math:`PM[\mathrm{rad}] / \omega_c` (negative when PM is);
+  :math:`PM = 180° + \angle L(j\omega_c)` in (-180°, 180°]: the *continuous* phase
+  (unwrapped from the low-frequency asymptote, -90° per integrator) locates the crossover on
+  the phase curve, and the margin is taken modulo 360° (a loop whose phase starts on another
+  branch, e.g. with a negative DC gain, has the same margins); delay margin: the smallest
+  positive delay that puts L through -1 at :math:`\omega_c`,
+  :math:`(PM[\mathrm{rad}] + 2\pi k) / \omega_c` with k = 0 for PM >= 0 and 1 below;
 - phase crossover: :math:`L(j\omega_{180})` real and negative; gain margin
   :math:`GM = -20 \log_{10} |L(j\omega_{180})|` [dB]. Positive GM is an upper margin (gain may
   rise by that much), negative is a lower one (gain may fall by that much, as in the type-2
@@ -25,9 +27,16 @@ feature narrower than the grid, and the brackets are split at them:
   refined to the true extremum, which becomes a probe (a narrow peak that pokes above 0 dB, or
   a notch that dips below, between two samples; however low the samples beside it are, since a
   peak 30 times narrower than the grid spacing shows only its far flanks);
+- every other sample where ln |L| has a corner marks a feature the grid does not resolve whose
+  extremum is not the sample's: typically a notch next to a peak (a lightly damped zero pair
+  beside a pole pair, as a compliant gear puts into L_i), whose samples show the peak's flank
+  while the notch dips below 0 dB between them. The two grid intervals beside it are
+  subdivided, and again beside every sharp corner of the finer samples, until none is left;
+  every sample taken is a probe;
 - the caller may add probes of its own, e.g. where the inner loop L_i passes close to -1, so
-  that T_i and hence L_p have a resonance narrower than the grid
-  (:func:`near_minus_one_probes`).
+  that T_i and hence L_p have a resonance narrower than the grid.
+
+The probes are found in :mod:`cas_freq.analysis.probes`.
 
 Between consecutive samples the magnitude and phase of a resonance are monotone, so every
 crossing is bracketed. Phase crossovers: with exact delays a loop has dozens in range. Unless
@@ -40,20 +49,21 @@ import math
 
 import numpy as np
 
+from cas_freq.analysis.probes import (
+    Probes,
+    extremum_probes,
+    near_minus_one_probes,
+)
 from cas_freq.analysis.roots import refine_maxima, refine_roots
 from cas_freq.jit import compiled_for
 
 #: Phase crossings refined: those within this of the best grid estimate of their kind [dB].
 CANDIDATE_DB = 1.0
 
-#: A local extremum whose second difference of ln |L|^2 over three grid samples exceeds this is
-#: not resolved by the grid (a smooth function sampled 50 times per feature width stays far
-#: below; an unresolved resonance gives ln 9 or more) and is refined.
-SHARP = 0.05
-
 #: Figures of one loop, in the order and with the names of the JSON of ``analyze``.
 LOOP_FIGURES = (
-    "crossover_rad_s", "phase_margin_deg", "delay_margin_s", "gain_margin_db",
+    "crossover_rad_s", "phase_margin_deg", "delay_margin_s", "delay_margin_crossover_rad_s",
+    "gain_margin_db",
     "phase_crossover_rad_s", "gain_margin_low_db", "phase_crossover_low_rad_s",
     "sensitivity_peak_db", "sensitivity_peak_rad_s", "disk_margin_alpha",
     "disk_margin_gain_db", "disk_margin_phase_deg", "gain_crossover_count",
@@ -65,11 +75,14 @@ EXTRA = ("_sensitivity_max", "_disk_distance_max", "_maximum_at_top")
 
 @dataclasses.dataclass(frozen=True)
 class GainCrossover:
-    """One frequency where |L| = 1."""
+    """One frequency where |L| = 1: its phase margin in (-180, 180] [deg], delay margin (> 0,
+    0 at PM = 0) [s] and the continuous phase of L there [deg] (which locates it on the phase
+    curve: ``phase_deg - phase_margin_deg`` is the -180° + k 360° line it is measured from)."""
 
     frequency_rad_s: float
     phase_margin_deg: float
     delay_margin_s: float
+    phase_deg: float
 
 
 @dataclasses.dataclass(frozen=True)
@@ -84,8 +97,11 @@ class PhaseCrossover:
 class LoopMargins:
     """Every margin of one loop. A figure that does not exist (no crossover) is None.
 
-    ``crossover_rad_s``/``phase_margin_deg`` are those of the gain crossover with the smallest
-    phase margin; ``delay_margin_s`` is the smallest over all gain crossovers.
+    ``crossover_rad_s``/``phase_margin_deg`` are those of the gain crossover nearest the
+    critical point, with the smallest absolute phase margin (as python-control's
+    ``stability_margins``);
+    ``delay_margin_s`` is the smallest over all gain crossovers, at
+    ``delay_margin_crossover_rad_s`` (not necessarily the same crossover).
     ``gain_margin_db`` is the smallest upper gain margin (> 0 dB) and ``gain_margin_low_db`` the
     lower margin closest to 0 dB (< 0 dB), each with its phase crossover frequency.
     """
@@ -93,6 +109,7 @@ class LoopMargins:
     crossover_rad_s: float | None
     phase_margin_deg: float | None
     delay_margin_s: float | None
+    delay_margin_crossover_rad_s: float | None
     gain_margin_db: float | None
     phase_crossover_rad_s: float | None
     gain_margin_low_db: float | None
@@ -104,22 +121,6 @@ class LoopMargins:
     disk_margin_phase_deg: float | None
     gain_crossovers: tuple[GainCrossover, ...]
     phase_crossovers: tuple[PhaseCrossover, ...]
-
-
-@dataclasses.dataclass(frozen=True, eq=False)
-class Probes:
-    """Extra sample frequencies per run: ``runs`` (int) and ``log_w`` [log(rad/s)], same shape."""
-
-    runs: np.ndarray
-    log_w: np.ndarray
-
-    @classmethod
-    def none(cls):
-        return cls(np.zeros(0, dtype=int), np.zeros(0))
-
-    def __add__(self, other):
-        return Probes(np.concatenate([self.runs, other.runs]),
-                      np.concatenate([self.log_w, other.log_w]))
 
 
 def _group_min(n, runs, keys, payload):
@@ -303,99 +304,6 @@ def _brackets(samples, sign, positive=None):
     )
 
 
-def extremum_probes(evaluate, omega, response, squared=None):
-    """Probes at the local extrema of |L| that may cross 0 dB between two samples.
-
-    A local maximum of |L| on the grid below 0 dB (or a minimum above it) is refined when it
-    may reach 0 dB between samples:
-
-    - when it is not resolved by the grid: a peak narrower than the spacing shows as a sharp
-      corner in log |L| (its two flank samples differ from the top one by a factor of about 3
-      or more), so a second difference of log |L|^2 above :data:`SHARP` marks it, whatever
-      the height of the samples;
-    - when it is resolved: the parabola through the three samples of log |L|^2 predicts the
-      extremum; one predicted within 6 dB of 0 dB is refined.
-
-    Smooth ripples (e.g. of a delay, sampled many times per period) are neither, and are left.
-
-    Parameters
-    ----------
-    evaluate : callable
-        ``evaluate(runs, omega) -> complex`` loop response.
-    omega : numpy.ndarray
-        Grid [rad/s], shape (m,).
-    response : numpy.ndarray
-        Loop response on the grid, shape (n, m).
-    squared : numpy.ndarray, optional
-        |response|^2, if already computed.
-
-    Returns
-    -------
-    Probes
-    """
-    if omega.size < 3:
-        return Probes.none()
-    if squared is None:
-        squared = response.real ** 2 + response.imag ** 2
-    rising = squared[:, 1:] > squared[:, :-1]
-    all_runs, all_k = np.nonzero(rising[:, :-1] != rising[:, 1:])  # every local extremum
-    all_k = all_k + 1
-    top = rising[all_runs, all_k - 1]  # rising before: a maximum
-    level = squared[all_runs, all_k]
-    log_w = np.log(omega)
-    found = Probes.none()
-    for sign in (1.0, -1.0):
-        chosen = (top & (level < 1.0)) if sign > 0 else (~top & (level > 1.0))
-        runs, k = all_runs[chosen], all_k[chosen]
-        if runs.size == 0:
-            continue
-        with np.errstate(divide="ignore", invalid="ignore"):
-            y = np.log(np.stack([squared[runs, k - 1], squared[runs, k], squared[runs, k + 1]]))
-            x = np.stack([log_w[k - 1], log_w[k], log_w[k + 1]])
-            sharp = -sign * (y[0] - 2.0 * y[1] + y[2]) > SHARP
-            reach = sign * _parabola_vertex(x, y) > -math.log(4.0)
-        keep = (sharp | reach) & np.isfinite(y).all(axis=0)
-        runs, k = runs[keep], k[keep]
-        if runs.size == 0:
-            continue
-        x, _ = _refine_log_maxima(
-            lambda x, j, runs=runs, sign=sign: sign * np.abs(evaluate(runs[j], np.exp(x))),
-            log_w[k - 1], log_w[k + 1], log_w[k],
-            sign * np.sqrt(squared[runs, k - 1]), sign * np.sqrt(squared[runs, k]),
-            sign * np.sqrt(squared[runs, k + 1]),
-        )
-        found = found + Probes(runs, x)
-    return found
-
-
-def _parabola_vertex(x, y):
-    """Extreme value of the parabola through three points per column (x, y of shape (3, k));
-    the middle value where the points are collinear."""
-    x0, x2 = x[0] - x[1], x[2] - x[1]  # centred on the middle point: no cancellation
-    y0, y1, y2 = y
-    d01, d12 = (y1 - y0) / -x0, (y2 - y1) / x2
-    a = (d12 - d01) / (x2 - x0)
-    b = d01 - a * x0  # slope at the middle point
-    return np.where(a != 0, y1 - b * b / (4.0 * a), y1)
-
-
-def _long_chords(inner, distance2):
-    """(rows, k) of the grid intervals whose chord is longer than sqrt(3) times the distance
-    of its nearer end to -1 (``distance2``: |1 + L|^2), in row-major order; compiled on large
-    arrays (:mod:`cas_freq.analysis.scan_kernel`), this numpy form its reference."""
-    if compiled_for(inner.size):
-        from cas_freq.analysis.scan_kernel import long_chords
-
-        empty = np.empty(0, dtype=np.int64)
-        count = long_chords(inner, distance2, empty, empty)
-        rows, k = np.empty(count, dtype=np.int64), np.empty(count, dtype=np.int64)
-        long_chords(inner, distance2, rows, k)
-        return rows, k
-    chord = inner[:, 1:] - inner[:, :-1]
-    length2 = chord.real ** 2 + chord.imag ** 2
-    return np.nonzero(length2 > 3.0 * np.minimum(distance2[:, :-1], distance2[:, 1:]))
-
-
 def magnitudes(response):
     """|L|^2, |1 + L|^2 and the disk-margin ratio |1 - L|^2 / |1 + L|^2 on the grid (n, m);
     compiled in one pass on large arrays (:mod:`cas_freq.analysis.scan_kernel`, the same
@@ -410,70 +318,6 @@ def magnitudes(response):
     plus = (re + 1.0) ** 2 + im * im
     with np.errstate(divide="ignore", invalid="ignore"):
         return re * re + im * im, plus, ((re - 1.0) ** 2 + im * im) / plus
-
-
-def near_minus_one_probes(omega, inner, runs=None, distance2=None):
-    """Probes where an inner loop L_i passes close to -1 between two grid samples.
-
-    There |1 + L_i| has a sharp minimum, so T_i = L_i/(1 + L_i) and every loop containing it
-    have a resonance that the grid may step over. Over one grid interval L_i is nearly a
-    straight segment (its own poles and the delay turn it slowly); the point of the segment
-    closest to -1 at distance d, with L_i moving at speed v per unit log frequency, gives a
-    resonance centred there with half-width about d / v. Probes are placed at the centre and
-    at 0.5, 1, 2 and 4 half-widths on each side.
-
-    Parameters
-    ----------
-    omega : numpy.ndarray
-        Grid [rad/s], shape (m,).
-    inner : numpy.ndarray
-        L_i on the grid, shape (n, m) (or (1, m) shared by every run).
-    runs : numpy.ndarray, optional
-        Run numbers of the rows of ``inner`` (default 0..n-1).
-    distance2 : numpy.ndarray, optional
-        |1 + L_i|^2 on the grid, if already computed.
-
-    Returns
-    -------
-    Probes
-    """
-    log_w = np.log(omega)
-    # A segment passing -1 at d < e/2 with both ends at >= e from it is longer than
-    # 2 sqrt(e^2 - d^2) > sqrt(3) e: only such intervals are examined.
-    if distance2 is None:
-        plus = inner + 1.0
-        distance2 = plus.real ** 2 + plus.imag ** 2
-    ends2 = distance2
-    rows, k = _long_chords(inner, ends2)
-    if rows.size == 0:
-        return Probes.none()
-    a = inner[rows, k]
-    chord = inner[rows, k + 1] - a
-    length2 = chord.real ** 2 + chord.imag ** 2
-    to_point = -1.0 - a
-    t = (chord.real * to_point.real + chord.imag * to_point.imag) / length2
-    inside = (t > 0.0) & (t < 1.0)
-    distance = np.abs(a + np.where(inside, t, 0.0) * chord + 1.0)
-    ends = np.sqrt(np.minimum(ends2[rows, k], ends2[rows, k + 1]))
-    sharp = inside & (distance < 0.5 * ends)
-    rows, k, t, distance, length2 = rows[sharp], k[sharp], t[sharp], distance[sharp], \
-        length2[sharp]
-    if rows.size == 0:
-        return Probes.none()
-    step = log_w[k + 1] - log_w[k]
-    centre = log_w[k] + t * step
-    width = distance * step / np.sqrt(length2)
-    offsets = np.array([-4.0, -2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0, 4.0])
-    x = centre[:, None] + offsets[None, :] * width[:, None]
-    x = np.clip(x, log_w[k][:, None], log_w[k + 1][:, None])
-    owner = rows if runs is None else np.asarray(runs)[rows]
-    return Probes(np.repeat(owner, offsets.size), x.ravel())
-
-
-def _refine_log_maxima(func, lo, hi, mid, f_lo, f_mid, f_hi):
-    """:func:`refine_maxima` returning log frequencies."""
-    w, value = refine_maxima(func, lo, hi, f_lo, f_mid, f_hi, mid)
-    return np.log(w), value
 
 
 def _phase_candidates(n, brackets):
@@ -495,15 +339,59 @@ def _phase_candidates(n, brackets):
     )
 
 
-def _phase_through(evaluate, run, x_start, x_end, phase_start, value_start, probe_x):
-    """Continuous phase at ``x_end`` by unwrapping along a path from a grid sample of known
-    continuous phase through the probes in between (used inside split intervals only)."""
-    inner = probe_x[(probe_x > x_start) & (probe_x < x_end)]
-    path = np.union1d(np.linspace(x_start, x_end, 17), inner)
-    values = evaluate(np.full(path.size, run), np.exp(path))
-    values[0] = value_start
-    steps = np.angle(values[1:] / values[:-1])
-    return phase_start + float(np.sum(steps)), values[-1]
+def _phases_through(evaluate, samples, runs, k, x_end, phase_start):
+    """Continuous phase [rad] at ``x_end`` of crossings inside split grid intervals, by
+    unwrapping along a path from the interval's lower grid sample (run ``runs``, interval
+    ``k``, continuous phase ``phase_start`` there) through 16 equal steps and every probe in
+    between; all crossings in one evaluation."""
+    log_w, probes = samples.log_w, samples.probes
+    m = log_w.size
+    # the probes of each crossing's interval below it
+    key = probes.runs * m + samples.interval
+    order = np.argsort(key, kind="stable")
+    key, probe_x = key[order], probes.log_w[order]
+    wanted = runs * m + k
+    first = np.searchsorted(key, wanted, side="left")
+    count = np.searchsorted(key, wanted, side="right") - first
+    owner = np.repeat(np.arange(runs.size), count)
+    position = np.arange(owner.size) - np.repeat(np.cumsum(count) - count, count)
+    x = probe_x[np.repeat(first, count) + position]
+    x_start = log_w[k]
+    below = x < x_end[owner]
+    steps = np.linspace(0.0, 1.0, 17)
+    owner = np.concatenate([np.repeat(np.arange(runs.size), steps.size), owner[below]])
+    x = np.concatenate([(x_start[:, None] + steps * (x_end - x_start)[:, None]).ravel(),
+                        x[below]])
+    order = np.lexsort((x, owner))
+    owner, x = owner[order], x[order]
+    values = evaluate(runs[owner], np.exp(x))
+    start = np.ones(owner.size, dtype=bool)
+    start[1:] = owner[1:] != owner[:-1]
+    values[start] = samples.response[runs, k]  # the grid sample itself, as on the grid
+    same = ~start[1:]
+    turn = np.angle(values[1:][same] / values[:-1][same])
+    return phase_start + np.bincount(owner[1:][same], weights=turn, minlength=runs.size)
+
+
+def phase_and_delay_margins(phase, omega):
+    """Phase margin [rad] in (-pi, pi] and delay margin [s] of gain crossovers.
+
+    Parameters
+    ----------
+    phase : numpy.ndarray
+        Phase of L at the crossovers [rad], on any branch (the continuous phase).
+    omega : numpy.ndarray
+        Crossover frequencies [rad/s].
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        PM = pi + phase modulo 2 pi, in (-pi, pi]; the delay margin, the smallest delay
+        tau >= 0 that turns L(j omega) onto -1: PM / omega for PM >= 0, else
+        (PM + 2 pi) / omega (a negative PM is a turn of 2 pi - |PM| away the way a delay turns).
+    """
+    pm = math.pi - np.mod(-phase, 2.0 * math.pi)  # pi + phase, in (-pi, pi]
+    return pm, np.where(pm >= 0.0, pm, pm + 2.0 * math.pi) / omega
 
 
 def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=False,
@@ -535,7 +423,8 @@ def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=Fal
     -------
     dict of str to numpy.ndarray
         :data:`LOOP_FIGURES` (and :data:`EXTRA`), each shape (n,); with ``crossings`` also
-        ``"_gain_crossings"`` (runs, frequency, PM [deg], delay margin [s]) and
+        ``"_gain_crossings"`` (runs, frequency, PM [deg], delay margin [s], continuous phase
+        [deg]) and
         ``"_phase_crossings"`` (runs, frequency, GM [dB]), sorted by run and frequency.
     """
     n = response.shape[0]
@@ -576,18 +465,23 @@ def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=Fal
     angle = anchor + np.angle(value / response[g, above])
     if gsplit.any():
         below = continuous_phase_at(response, omega, g[gsplit], gk[gsplit])
-        for i, j in enumerate(np.flatnonzero(gsplit)):
-            probe_x = samples.probes.log_w[samples.probes.runs == g[j]]
-            angle[j], _ = _phase_through(evaluate, g[j], log_w[gk[j]], math.log(w[j]),
-                                         below[i], response[g[j], gk[j]], probe_x)
-    pm = np.degrees(math.pi + angle)
-    dm = np.radians(pm) / w
-    out["phase_margin_deg"], out["crossover_rad_s"] = _group_min(n, g, pm, w)
-    out["delay_margin_s"], _ = _group_min(n, g, dm, dm)
+        angle[gsplit] = _phases_through(evaluate, samples, g[gsplit], gk[gsplit],
+                                        np.log(w[gsplit]), below)
+    pm_rad, dm = phase_and_delay_margins(angle, w)
+    pm = np.degrees(pm_rad)
+    # the headline: the crossover nearest the critical point, i.e. with the smallest |PM| (a
+    # crossover at PM -177° has L near +1, the farthest from -1); of equal ones, the lower PM
+    _, nearest = _group_min(n, g, np.abs(pm) + 1e-9 * np.sign(pm), np.arange(g.size))
+    found = np.isfinite(nearest)
+    chosen = nearest[found].astype(int)
+    out["phase_margin_deg"], out["crossover_rad_s"] = np.full(n, np.nan), np.full(n, np.nan)
+    out["phase_margin_deg"][found], out["crossover_rad_s"][found] = pm[chosen], w[chosen]
+    out["delay_margin_s"], out["delay_margin_crossover_rad_s"] = _group_min(n, g, dm, w)
     out["gain_crossover_count"] = np.bincount(g, minlength=n).astype(float)
     if crossings:
         order = np.lexsort((w, g))
-        out["_gain_crossings"] = (g[order], w[order], pm[order], dm[order])
+        out["_gain_crossings"] = (g[order], w[order], pm[order], dm[order],
+                                  np.degrees(angle[order]))
 
     w, value, r = w_all[~gain], value_all[~gain], runs[~gain]
     negative = value.real < 0
@@ -699,15 +593,16 @@ def _none(value):
 
 def margins_of_run(figures, run=0):
     """The :class:`LoopMargins` of one run from :func:`loop_figures` (with ``crossings``)."""
-    g_runs, g_w, g_pm, g_dm = figures["_gain_crossings"]
+    g_runs, g_w, g_pm, g_dm, g_phase = figures["_gain_crossings"]
     p_runs, p_w, p_gm = figures["_phase_crossings"]
     mine, theirs = g_runs == run, p_runs == run
     values = {name: _none(figures[name][run]) for name in LOOP_FIGURES
               if name != "gain_crossover_count"}
     return LoopMargins(
         **values,
-        gain_crossovers=tuple(GainCrossover(float(w), float(pm), float(dm)) for w, pm, dm in
-                              zip(g_w[mine], g_pm[mine], g_dm[mine], strict=True)),
+        gain_crossovers=tuple(
+            GainCrossover(float(w), float(pm), float(dm), float(phase)) for w, pm, dm, phase in
+            zip(g_w[mine], g_pm[mine], g_dm[mine], g_phase[mine], strict=True)),
         phase_crossovers=tuple(PhaseCrossover(float(w), float(gm)) for w, gm in
                                zip(p_w[theirs], p_gm[theirs], strict=True)),
     )

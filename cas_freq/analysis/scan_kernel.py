@@ -4,12 +4,13 @@
 row; :func:`magnitudes` and :func:`long_chords` compute in one pass what numpy computes in
 several, with the same operations in the same order (so the same numbers, to the bit).
 
-The numpy forms in :mod:`cas_freq.analysis.margins` and :mod:`cas_freq.analysis.closed_loop`
-(the references, ``tests/test_scan_kernel.py``) test every grid point of every row and then
-take the first; these kernels walk each row only up to its first event, with the same tests
-(:func:`~cas_freq.analysis.margins.phase_jumps`: the sign of the cross product of
-neighbouring points where the imaginary part changes sign). On the batches of
-``benchmarks/run.py`` they replace about ten full passes over (256 x 1,601) arrays per loop.
+The numpy forms in :mod:`cas_freq.analysis.margins`, :mod:`cas_freq.analysis.probes` and
+:mod:`cas_freq.analysis.closed_loop` (the references, ``tests/test_scan_kernel.py``) test
+every grid point of every row and then take the first; these kernels walk each row only up
+to its first event, with the same tests (:func:`~cas_freq.analysis.margins.phase_jumps`: the
+sign of the cross product of neighbouring points where the imaginary part changes sign). On
+the batches of ``benchmarks/run.py`` they replace about ten full passes over (256 x 1,601)
+arrays per loop.
 """
 
 import math

@@ -111,8 +111,10 @@ def bode_loops(data):
                 continue
             x = cross.frequency_rad_s
             mag.plot([x], [0.0], "o", color=color, ms=5)
-            ph.plot([x], [-180.0 + cross.phase_margin_deg], "o", color=color, ms=5)
-            ph.vlines(x, -180.0, -180.0 + cross.phase_margin_deg, color=color, lw=2)
+            # the margin from the -180° + k 360° line below or above the continuous phase
+            ph.plot([x], [cross.phase_deg], "o", color=color, ms=5)
+            ph.vlines(x, cross.phase_deg - cross.phase_margin_deg, cross.phase_deg, color=color,
+                      lw=2)
         headline = {margins.phase_crossover_rad_s, margins.phase_crossover_low_rad_s}
         for cross in margins.phase_crossovers:
             if not _in_range(w, cross.frequency_rad_s):
@@ -339,7 +341,7 @@ def nichols(data, magnitude_range_db=(-40.0, 60.0)):
                 obstacles.append((x, y, None))  # the label reaches to the right
     for cross in data.analysis.position_loop.gain_crossovers:
         if _in_range(w, cross.frequency_rad_s):
-            ax.plot([-180.0 + cross.phase_margin_deg], [0.0], "o", color="C1", ms=5)
+            ax.plot([cross.phase_deg], [0.0], "o", color="C1", ms=5)
     _m_contours(ax, (low - 30.0, high + 30.0), magnitude_range_db)
     _n_contours(ax, (low - 30.0, high + 30.0), magnitude_range_db, obstacles)
     ax.set_xlim(low - 30.0, high + 30.0)

@@ -159,7 +159,7 @@ def margins_table(analysis):
     """Every margin figure of both loops."""
     ci, cp = analysis.current_loop, analysis.position_loop
     fields = (
-        ("gain crossover (smallest PM)", "rad/s", "crossover_rad_s", 1.0),
+        ("gain crossover (nearest −1)", "rad/s", "crossover_rad_s", 1.0),
         ("phase margin", "deg", "phase_margin_deg", 1.0),
         ("delay margin", "ms", "delay_margin_s", 1e3),
         ("gain margin (upper)", "dB", "gain_margin_db", 1.0),

@@ -268,6 +268,7 @@ FIGURE_LABELS = {
     "crossover_rad_s": ("gain crossover", "rad/s", 1.0),
     "phase_margin_deg": ("phase margin", "deg", 1.0),
     "delay_margin_s": ("delay margin", "ms", 1e3),
+    "delay_margin_crossover_rad_s": ("crossover of the smallest delay margin", "rad/s", 1.0),
     "gain_margin_db": ("gain margin", "dB", 1.0),
     "phase_crossover_rad_s": ("phase crossover", "rad/s", 1.0),
     "gain_margin_low_db": ("lower gain margin", "dB", 1.0),

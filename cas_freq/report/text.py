@@ -17,12 +17,37 @@ def _ms(seconds):
     return None if seconds is None else seconds * 1e3
 
 
+def _crossover_lines(margins):
+    """The headline gain crossover (smallest |phase margin|) with its own phase and delay margin;
+    with several crossovers, each other one with its margins, then the smallest delay margin
+    with the crossover it belongs to (it need not be the headline one)."""
+    crossovers = margins.gain_crossovers
+    headline = [c for c in crossovers if c.frequency_rad_s == margins.crossover_rad_s]
+    own = headline[0].delay_margin_s if headline else margins.delay_margin_s
+    count = f" (smallest |phase margin| of {len(crossovers)})" if len(crossovers) > 1 else ""
+    lines = [
+        f"    gain crossover     {_fmt(margins.crossover_rad_s, 'rad/s')}{count}",
+        f"    phase margin       {_fmt(margins.phase_margin_deg, 'deg')}",
+        f"    delay margin       {_fmt(_ms(own), 'ms')}",
+    ]
+    if len(crossovers) > 1:
+        label = "    other crossovers   "
+        for c in crossovers:
+            if c.frequency_rad_s == margins.crossover_rad_s:
+                continue
+            lines.append(f"{label}{_fmt(c.frequency_rad_s, 'rad/s')}: phase margin "
+                         f"{_fmt(c.phase_margin_deg, 'deg')}, delay margin "
+                         f"{_fmt(_ms(c.delay_margin_s), 'ms')}")
+            label = " " * len(label)
+        lines.append(f"    smallest delay margin {_fmt(_ms(margins.delay_margin_s), 'ms')} (at "
+                     f"{_fmt(margins.delay_margin_crossover_rad_s, 'rad/s')})")
+    return lines
+
+
 def _loop_lines(title, margins):
     lines = [
         f"  {title}",
-        f"    gain crossover     {_fmt(margins.crossover_rad_s, 'rad/s')}",
-        f"    phase margin       {_fmt(margins.phase_margin_deg, 'deg')}",
-        f"    delay margin       {_fmt(_ms(margins.delay_margin_s), 'ms')}",
+        *_crossover_lines(margins),
         f"    gain margin        {_fmt(margins.gain_margin_db, 'dB')} "
         f"at {_fmt(margins.phase_crossover_rad_s, 'rad/s')}",
     ]

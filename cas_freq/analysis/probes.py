@@ -1,0 +1,285 @@
+"""Where a loop's crossings may hide between two grid samples: the *probes* added to the grid.
+
+Used by :mod:`cas_freq.analysis.margins` (its module docstring gives the method): the refined
+local extrema of |L| (:func:`extremum_probes`), the subdivided intervals beside a corner of
+ln |L| (:func:`subdivision_probes`), and where an inner loop passes close to -1
+(:func:`near_minus_one_probes`).
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from cas_freq.analysis.roots import refine_maxima
+from cas_freq.jit import compiled_for
+
+#: A local extremum whose second difference of ln |L|^2 over three grid samples exceeds this is
+#: not resolved by the grid (a smooth function sampled 50 times per feature width stays far
+#: below; an unresolved resonance gives ln 9 or more) and is refined.
+SHARP = 0.05
+
+#: Subdivisions of an unresolved feature's grid intervals, each into four: down to 4^-20 of
+#: the grid spacing (about 1e-14 relative at 200 points per decade), below rounding.
+MAX_SUBDIVISIONS = 20
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+
+
+class Probes:
+    """Extra sample frequencies per run: ``runs`` (int) and ``log_w`` [log(rad/s)], same shape."""
+
+    runs: np.ndarray
+    log_w: np.ndarray
+
+    @classmethod
+    def none(cls):
+        return cls(np.zeros(0, dtype=int), np.zeros(0))
+
+    def __add__(self, other):
+        return Probes(np.concatenate([self.runs, other.runs]),
+                      np.concatenate([self.log_w, other.log_w]))
+
+
+def extremum_probes(evaluate, omega, response, squared=None):
+    """Probes at the local extrema of |L| that may cross 0 dB between two samples.
+
+    A local maximum of |L| on the grid below 0 dB (or a minimum above it) is refined when it
+    may reach 0 dB between samples:
+
+    - when it is not resolved by the grid: a peak narrower than the spacing shows as a sharp
+      corner in log |L| (its two flank samples differ from the top one by a factor of about 3
+      or more), so a second difference of log |L|^2 above :data:`SHARP` marks it, whatever
+      the height of the samples;
+    - when it is resolved: the parabola through the three samples of log |L|^2 predicts the
+      extremum; one predicted within 6 dB of 0 dB is refined.
+
+    Smooth ripples (e.g. of a delay, sampled many times per period) are neither, and are left.
+
+    Parameters
+    ----------
+    evaluate : callable
+        ``evaluate(runs, omega) -> complex`` loop response.
+    omega : numpy.ndarray
+        Grid [rad/s], shape (m,).
+    response : numpy.ndarray
+        Loop response on the grid, shape (n, m).
+    squared : numpy.ndarray, optional
+        |response|^2, if already computed.
+
+    Returns
+    -------
+    Probes
+    """
+    if omega.size < 3:
+        return Probes.none()
+    if squared is None:
+        squared = response.real ** 2 + response.imag ** 2
+    rising = squared[:, 1:] > squared[:, :-1]
+    all_runs, all_k = np.nonzero(rising[:, :-1] != rising[:, 1:])  # every local extremum
+    all_k = all_k + 1
+    top = rising[all_runs, all_k - 1]  # rising before: a maximum
+    level = squared[all_runs, all_k]
+    log_w = np.log(omega)
+    # a corner that is not a maximum under 0 dB or a minimum over it (those are refined
+    # below) is resolved by subdivision
+    inner = squared[:, 2:-2]
+    before, after = rising[:, 1:-2], rising[:, 2:-1]
+    maximum, minimum = before & ~after, ~before & after
+    refined = (maximum & (inner < 1.0)) | (minimum & (inner > 1.0))
+    runs, k = np.nonzero(_corners(log_w, squared) & ~refined)
+    found = subdivision_probes(evaluate, log_w, squared, runs, k + 2)
+    for sign in (1.0, -1.0):
+        chosen = (top & (level < 1.0)) if sign > 0 else (~top & (level > 1.0))
+        runs, k = all_runs[chosen], all_k[chosen]
+        if runs.size == 0:
+            continue
+        with np.errstate(divide="ignore", invalid="ignore"):
+            y = np.log(np.stack([squared[runs, k - 1], squared[runs, k], squared[runs, k + 1]]))
+            x = np.stack([log_w[k - 1], log_w[k], log_w[k + 1]])
+            sharp = -sign * (y[0] - 2.0 * y[1] + y[2]) > SHARP
+            reach = sign * _parabola_vertex(x, y) > -math.log(4.0)
+        keep = (sharp | reach) & np.isfinite(y).all(axis=0)
+        runs, k = runs[keep], k[keep]
+        if runs.size == 0:
+            continue
+        x, _ = _refine_log_maxima(
+            lambda x, j, runs=runs, sign=sign: sign * np.abs(evaluate(runs[j], np.exp(x))),
+            log_w[k - 1], log_w[k + 1], log_w[k],
+            sign * np.sqrt(squared[runs, k - 1]), sign * np.sqrt(squared[runs, k]),
+            sign * np.sqrt(squared[runs, k + 1]),
+        )
+        found = found + Probes(runs, x)
+    return found
+
+
+def _corners(log_w, squared):
+    """Where ln |L|^2 has a corner at a grid sample (k = 2 .. m - 3, shape (n, m - 4)): its
+    second difference exceeds :data:`SHARP` in size and differs by more than that from the
+    mean of its neighbours' (a resolved resonance curves smoothly: the second differences
+    beside its top are alike; a feature narrower than the spacing bends the samples next to
+    it only, e.g. 0.05, -0.09, 0.04 beside a notch-and-peak pair).
+
+    The second differences are taken on the grid as it is, ((y2 - y1)/h2 - (y1 - y0)/h1)
+    (h1 + h2)/2, which is y0 - 2 y1 + y2 where it is uniform and, unlike it, zero for a
+    straight line where it is not (the log grid merged into a linear one for the delays).
+    """
+    h = np.diff(log_w)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slope = np.diff(np.log(squared), axis=1) / h
+        second = np.diff(slope, axis=1) * (0.5 * (h[:-1] + h[1:]))
+        bend = second[:, 1:-1] - 0.5 * (second[:, :-2] + second[:, 2:])
+    return (np.abs(second[:, 1:-1]) > SHARP) & (np.abs(bend) > SHARP)
+
+
+def _sharp(squared):
+    """Where the second difference of ln |L|^2 over consecutive samples exceeds :data:`SHARP`
+    in size, at the inner samples of each row (shape (n, m - 2)); False where not finite (the
+    subdivisions' samples are uniform in log frequency)."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        ratio = squared[:, :-2] * squared[:, 2:] / (squared[:, 1:-1] * squared[:, 1:-1])
+    bound = math.exp(SHARP)
+    return np.isfinite(ratio) & ((ratio > bound) | (ratio * bound < 1.0))
+
+
+def subdivision_probes(evaluate, log_w, squared, runs, k):
+    """Probes that resolve the features at the sharp corners (``runs``, ``k``) of |L|^2.
+
+    The two grid intervals beside each corner are cut into four; beside every sharp corner
+    among the new samples (second differences over the five samples of an interval, see
+    :func:`_sharp`) the quarters are cut again, and so on, at most :data:`MAX_SUBDIVISIONS`
+    times. A feature of width W stops showing corners once the spacing is below about W/5, so
+    its extrema and 0 dB crossings are then bracketed by the samples.
+
+    Parameters
+    ----------
+    evaluate : callable
+        ``evaluate(runs, omega) -> complex`` loop response.
+    log_w : numpy.ndarray
+        Grid [log(rad/s)], shape (m,).
+    squared : numpy.ndarray
+        |L|^2 on the grid, shape (n, m).
+    runs, k : numpy.ndarray of int
+        The sharp grid samples (0 < k < m - 1).
+
+    Returns
+    -------
+    Probes
+        Every sample taken.
+    """
+    m = log_w.size
+    interval = np.unique(np.concatenate([runs * m + k - 1, runs * m + k]))
+    runs, j = interval // m, interval % m
+    lo, hi = log_w[j], log_w[j + 1]
+    s_lo, s_hi = squared[runs, j], squared[runs, j + 1]
+    quarters = np.array([0.25, 0.5, 0.75])
+    taken = []
+    for _ in range(MAX_SUBDIVISIONS):
+        if runs.size == 0:
+            break
+        x = lo[:, None] + (hi - lo)[:, None] * quarters
+        value = evaluate(np.repeat(runs, 3), np.exp(x.ravel())).reshape(x.shape)
+        taken.append(Probes(np.repeat(runs, 3), x.ravel()))
+        xs = np.column_stack([lo, x, hi])
+        ss = np.column_stack([s_lo, value.real ** 2 + value.imag ** 2, s_hi])
+        sharp = _sharp(ss)  # at the three inner samples
+        cut = np.zeros((runs.size, 4), dtype=bool)  # the quarters beside a sharp sample
+        cut[:, :-1] |= sharp
+        cut[:, 1:] |= sharp
+        row, i = np.nonzero(cut)
+        runs, lo, hi = runs[row], xs[row, i], xs[row, i + 1]
+        s_lo, s_hi = ss[row, i], ss[row, i + 1]
+    return sum(taken, Probes.none())
+
+
+def _parabola_vertex(x, y):
+    """Extreme value of the parabola through three points per column (x, y of shape (3, k));
+    the middle value where the points are collinear."""
+    x0, x2 = x[0] - x[1], x[2] - x[1]  # centred on the middle point: no cancellation
+    y0, y1, y2 = y
+    d01, d12 = (y1 - y0) / -x0, (y2 - y1) / x2
+    a = (d12 - d01) / (x2 - x0)
+    b = d01 - a * x0  # slope at the middle point
+    return np.where(a != 0, y1 - b * b / (4.0 * a), y1)
+
+
+def _long_chords(inner, distance2):
+    """(rows, k) of the grid intervals whose chord is longer than sqrt(3) times the distance
+    of its nearer end to -1 (``distance2``: |1 + L|^2), in row-major order; compiled on large
+    arrays (:mod:`cas_freq.analysis.scan_kernel`), this numpy form its reference."""
+    if compiled_for(inner.size):
+        from cas_freq.analysis.scan_kernel import long_chords
+
+        empty = np.empty(0, dtype=np.int64)
+        count = long_chords(inner, distance2, empty, empty)
+        rows, k = np.empty(count, dtype=np.int64), np.empty(count, dtype=np.int64)
+        long_chords(inner, distance2, rows, k)
+        return rows, k
+    chord = inner[:, 1:] - inner[:, :-1]
+    length2 = chord.real ** 2 + chord.imag ** 2
+    return np.nonzero(length2 > 3.0 * np.minimum(distance2[:, :-1], distance2[:, 1:]))
+
+
+def near_minus_one_probes(omega, inner, runs=None, distance2=None):
+    """Probes where an inner loop L_i passes close to -1 between two grid samples.
+
+    There |1 + L_i| has a sharp minimum, so T_i = L_i/(1 + L_i) and every loop containing it
+    have a resonance that the grid may step over. Over one grid interval L_i is nearly a
+    straight segment (its own poles and the delay turn it slowly); the point of the segment
+    closest to -1 at distance d, with L_i moving at speed v per unit log frequency, gives a
+    resonance centred there with half-width about d / v. Probes are placed at the centre and
+    at 0.5, 1, 2 and 4 half-widths on each side.
+
+    Parameters
+    ----------
+    omega : numpy.ndarray
+        Grid [rad/s], shape (m,).
+    inner : numpy.ndarray
+        L_i on the grid, shape (n, m) (or (1, m) shared by every run).
+    runs : numpy.ndarray, optional
+        Run numbers of the rows of ``inner`` (default 0..n-1).
+    distance2 : numpy.ndarray, optional
+        |1 + L_i|^2 on the grid, if already computed.
+
+    Returns
+    -------
+    Probes
+    """
+    log_w = np.log(omega)
+    # A segment passing -1 at d < e/2 with both ends at >= e from it is longer than
+    # 2 sqrt(e^2 - d^2) > sqrt(3) e: only such intervals are examined.
+    if distance2 is None:
+        plus = inner + 1.0
+        distance2 = plus.real ** 2 + plus.imag ** 2
+    ends2 = distance2
+    rows, k = _long_chords(inner, ends2)
+    if rows.size == 0:
+        return Probes.none()
+    a = inner[rows, k]
+    chord = inner[rows, k + 1] - a
+    length2 = chord.real ** 2 + chord.imag ** 2
+    to_point = -1.0 - a
+    t = (chord.real * to_point.real + chord.imag * to_point.imag) / length2
+    inside = (t > 0.0) & (t < 1.0)
+    distance = np.abs(a + np.where(inside, t, 0.0) * chord + 1.0)
+    ends = np.sqrt(np.minimum(ends2[rows, k], ends2[rows, k + 1]))
+    sharp = inside & (distance < 0.5 * ends)
+    rows, k, t, distance, length2 = rows[sharp], k[sharp], t[sharp], distance[sharp], \
+        length2[sharp]
+    if rows.size == 0:
+        return Probes.none()
+    step = log_w[k + 1] - log_w[k]
+    centre = log_w[k] + t * step
+    width = distance * step / np.sqrt(length2)
+    offsets = np.array([-4.0, -2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0, 4.0])
+    x = centre[:, None] + offsets[None, :] * width[:, None]
+    x = np.clip(x, log_w[k][:, None], log_w[k + 1][:, None])
+    owner = rows if runs is None else np.asarray(runs)[rows]
+    return Probes(np.repeat(owner, offsets.size), x.ravel())
+
+
+def _refine_log_maxima(func, lo, hi, mid, f_lo, f_mid, f_hi):
+    """:func:`refine_maxima` returning log frequencies."""
+    w, value = refine_maxima(func, lo, hi, f_lo, f_mid, f_hi, mid)
+    return np.log(w), value
