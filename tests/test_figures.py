@@ -156,5 +156,6 @@ def test_the_reports_tables_read_the_labels_of_the_tables():
     assert parameter_row_head("motor.L", "output") == ("motor terminal inductance L", "mH", 1e3)
     assert parameter_row_head("gear.backlash", "fin")[1:] == ("deg", pytest.approx(57.29577951))
     assert parameter_row_head("gear.ratio", "fin") == ("gear ratio N", "-", 1.0)
+    assert parameter_row_head("position_loop.i_max", "fin")[0] == "current-command limit ±i_max"
     for key in _PARAMETER_KEYS + _LOAD_KEYS:
-        assert parameter_row_head(key, "output")[0] == PARAMETERS[key].label
+        assert parameter_row_head(key, "output")[0] == PARAMETERS[key].label.replace("+/-", "±")

@@ -435,13 +435,15 @@ _SHOWN_KEY_UNITS = {"motor.coulomb_friction": ("mN·m", 1e3)}
 
 def parameter_row_head(key, output):
     """(label, shown unit, factor from SI) of a parameter: its label and unit from
-    :data:`~cas_freq.parameters.PARAMETERS`, "the output" named as the config names it."""
+    :data:`~cas_freq.parameters.PARAMETERS` (``+/-`` as ``±``), "the output" named as the config
+    names it."""
     from cas_freq.parameters import PARAMETERS
 
     parameter = PARAMETERS[key]
     unit, scale = _SHOWN_KEY_UNITS.get(key) or _SHOWN_UNITS.get(parameter.unit) or (
         parameter.unit.replace("*", "·").replace("^2", "²"), 1.0)
-    return parameter.label.replace("the output", f"the {output}"), unit, scale
+    label = parameter.label.replace("the output", f"the {output}").replace("+/-", "±")
+    return label, unit, scale
 
 
 def parameter_value(params, key):
