@@ -63,7 +63,8 @@ LOOPS = {
 
 #: How each unit (pint spelling, as :attr:`Figure.unit`) is shown.
 UNIT_LABELS = {"rad/s": "rad/s", "deg": "deg", "dB": "dB", "percent": "%", "s": "s", "A": "A",
-               "V": "V", "rad": "rad", "": ""}
+               "V": "V", "rad": "rad", "": "", "kg*m^2": "kg·m²", "N*m*s/rad": "N·m·s/rad",
+               "N*m/rad": "N·m/rad"}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -268,6 +269,27 @@ _OTHER_FIGURES = (
      "whether the ±i_max clamp acted", "", {"requirement": False}),
     ("profile.voltage_limited", "profile", "", "voltage limit reached", "", 1.0,
      "whether the ±v_max clamp acted", "", {"requirement": False}),
+    # the load and drivetrain of a loaded variant (docs/model.md §5; motor shaft unless named)
+    ("drivetrain.compliant", "analyze", "", "compliant gear (two masses)", "", 1.0,
+     "whether the gear has a torsional spring (gear.stiffness > 0)", "",
+     {"requirement": False}),
+    ("drivetrain.reflected_inertia_kg_m2", "analyze", "kg*m^2", "reflected inertia J_eff",
+     "kg·m²", 1.0, "J + J_L/(η N²) (docs/model.md §5), of the rigid model", "",
+     {"requirement": False}),
+    ("drivetrain.reflected_damping_n_m_s_rad", "analyze", "N*m*s/rad",
+     "reflected damping μ_eff", "N·m·s/rad", 1.0, "μv + b_L/(η N²), of the rigid model", "",
+     {"requirement": False}),
+    ("drivetrain.reflected_stiffness_n_m_rad", "analyze", "N*m/rad",
+     "reflected load spring k_eff", "N·m/rad", 1.0, "K_h/(η N²), of the rigid model", "",
+     {"requirement": False}),
+    ("drivetrain.plant_stable", "analyze", "", "open-loop plant stable", "", 1.0,
+     "whether the plant θ/i has no right-half-plane pole", "", {"requirement": False}),
+    ("drivetrain.plant_unstable_pole_rad_s", "analyze", "rad/s",
+     "unstable pole of the open-loop plant", "rad/s", 1.0,
+     "the largest real part of a mechanical pole, where positive", "the plant is stable",
+     {"requirement": False}),
+    ("drivetrain.hinge_stiffness_n_m_rad", "analyze", "N*m/rad", "load spring K_h", "N·m/rad",
+     1.0, "the config's load spring at the output", "", {"requirement": False}),
     # verdicts of the analysis (text)
     ("stable", "analyze", "", "stable", "", 1.0,
      "whether the closed loop is stable (poles of the Padé model)", "",

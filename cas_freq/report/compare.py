@@ -268,6 +268,7 @@ _GROUP_LABELS = {
     "analyze": "closed loop",
     **{f"analyze.{loop}": LOOPS[loop].name for loop in LOOPS},
     "analyze.closed_loop": "closed loop",
+    "analyze.drivetrain": "drivetrain",
     "sinedwell": "sine-dwell",
 }
 
