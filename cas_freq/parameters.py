@@ -120,6 +120,17 @@ class Parameter:
     datasheet_unit: str | None = None
 
     @property
+    def label(self):
+        """A short label: :attr:`meaning` up to its first ``, `` or ``: `` outside parentheses
+        (``"motor terminal resistance R"``, ``"gear ratio N"``)."""
+        depth = 0
+        for index, char in enumerate(self.meaning):
+            depth += {"(": 1, ")": -1}.get(char, 0)
+            if depth == 0 and self.meaning.startswith((", ", ": "), index):
+                return self.meaning[:index]
+        return self.meaning.rpartition(" [")[0] or self.meaning
+
+    @property
     def rule(self):
         """The accepted range as error messages state it: ``">= 1e-06 and <= 1e+06 ohm"``,
         ``"0 or 1e-09..1e+09 A/rad"``, ``"finite"``."""

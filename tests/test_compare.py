@@ -12,7 +12,6 @@ from cas_freq.config import load_variant
 from cas_freq.exceptions import CasFreqError
 from cas_freq.parameters import PARAMETERS, parse_value
 from cas_freq.report.compare import (
-    FIGURE_LABELS,
     SETTINGS,
     build_compare,
     compare_files,
@@ -23,6 +22,7 @@ from cas_freq.report.compare import (
     figure_display,
     flat_figures,
     parameter_differences,
+    table_figure,
     verdict_matrix,
 )
 from cas_freq.report.data import ReportSettings, gather_variant, variant_results
@@ -249,17 +249,20 @@ def test_parameter_table_of_two_configs(shipped_config_path):
 def test_every_figure_has_a_label_and_a_unit(pair):
     _, datas = pair
     keys = list(flat_figures(variant_results(datas[0])))
-    # the figure's name: the key's last part, without a trailing amplitude (" 10°")
-    names = {re.sub(r" [\d.]+°$", "", key).rpartition(".")[2] for key in keys}
-    assert names <= set(FIGURE_LABELS)  # no figure falls back to its raw name
+    # every figure of the table is one of the figure table's (cas_freq.figures): none falls
+    # back to its raw name
+    assert [key for key in keys if table_figure(re.sub(r" [\d.]+°$", "", key)) is None] == []
     labels = [figure_display(key)[0] for key in keys]
     assert len(set(labels)) == len(labels)
     assert figure_display("analyze.current_loop.delay_margin_s") == (
         "current loop: delay margin [ms]", "ms", 1e3)
     assert figure_display("sinedwell.bandwidth_rad_s 10°")[0] == (
-        "sine-dwell: bandwidth (−3 dB) at 10° [rad/s]")
+        "sine-dwell: bandwidth ω_BW (−3.01 dB) at 10° [rad/s]")
     assert figure_display("fit 0.5°.rms_residual")[:2] == (
         "fit to the 0.5° step: RMS residual [deg]", "deg")
+    # a linear step's figure is the step figure of the table, measured on the linear model
+    assert figure_display("linear step 10°.rise_time_s") == (
+        "linear step 10°: rise time 10–90 % [ms]", "ms", 1e3)
     assert figure_display("analyze.position_loop.new_figure_db") == (
         "position loop: new figure [dB]", "dB", 1.0)
 
@@ -298,6 +301,6 @@ def test_si_figures_are_shown_in_display_units_by_hand():
         "fit to the 10° step: RMS residual [deg]", "0.19734", "0.15716")
     # rad/s stay rad/s; 423.183 - 426.094 = -2.911, -0.683 %
     assert table["sinedwell.bandwidth_rad_s 10°"] == (
-        "sine-dwell: bandwidth (−3 dB) at 10° [rad/s]", "426.09", "423.18",
+        "sine-dwell: bandwidth ω_BW (−3.01 dB) at 10° [rad/s]", "426.09", "423.18",
         f"-2.911 (-0.683{NBSP}%)")
     assert table["sinedwell.limit_onset_amplitude_deg"][1:] == ("2", "2", "0")

@@ -134,7 +134,7 @@ def test_no_qt_cas_words_for_another_actuator(dc_outputs):
     assert "load spring K_h" in dc_outputs["analyze"]
     assert "second-order-plus-delay fit (docs/model.md §7)" in dc_outputs["simulate"]
     assert "second-order-plus-delay fits (docs/model.md §7)" in dc_outputs["report/report.md"]
-    assert "load spring K_h (output)" in dc_outputs["report/report.md"]
+    assert "load spring K_h at the output" in dc_outputs["report/report.md"]
 
 
 def test_the_shipped_config_names_its_output_fin():

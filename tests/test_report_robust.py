@@ -104,7 +104,7 @@ def test_report_is_written_whole_with_the_sinedwell_not_computed(slow_config, tm
     markdown = (out / "report.md").read_text()
     assert "Sine-dwell response per amplitude — qt_cas / slow: not computed: the sine-dwell " \
            "grid 0.3791..18.96 rad/s needs" in markdown
-    assert "| ω_BW sine-dwell at 1° | rad/s | not computed |" in markdown
+    assert "| sine-dwell bandwidth ω_BW (−3.01 dB) at 1° | rad/s | not computed |" in markdown
     assert "not computed" in (out / "index.html").read_text()
 
 

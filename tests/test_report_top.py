@@ -72,11 +72,12 @@ def test_parameter_table_has_units_and_values(data):
     table = parameter_table([data])
     assert isinstance(table, Table) and table.header == ("parameter", "unit", "base")
     rows = {row[0]: row[1:] for row in table.rows}
+    # labels and units from cas_freq.parameters (each parameter's meaning up to its range)
     assert rows["gear ratio N"] == ("-", "20")
-    assert rows["motor L"] == ("mH", "0.071")
-    assert rows["position loop delay"] == ("ms", "0.4")
-    assert rows["current limit ±i_max"] == ("A", "20")
-    assert rows["motor μv (viscous friction)"][0] == "N·m·s/rad"
+    assert rows["motor terminal inductance L"] == ("mH", "0.071")
+    assert rows["position-loop transport delay tau_p"] == ("ms", "0.4")
+    assert rows["current-command limit ±i_max"] == ("A", "20")
+    assert rows["viscous friction mu_v"][0] == "N·m·s/rad"
 
 
 def test_footer_has_version_path_and_hash_and_no_date(data, monkeypatch):

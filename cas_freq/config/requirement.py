@@ -5,10 +5,12 @@ A requirement names a figure by its dotted key in the JSON of ``analyze``
 ``sinedwell`` (``sinedwell.bandwidth_rad_s``) or ``simulate --profile``
 (``profile.tracking_error_max_deg``), bounds it with ``min`` and/or ``max``, and states the test
 condition the figure needs (``step`` for step and fit figures, ``amplitude`` for the sine-dwell,
-``profile`` -- distance, velocity, acceleration -- for a profile move). Bounds are stored in the
-figure's own unit, the one its key's suffix names (``_rad_s`` rad/s, ``_deg`` deg, ``_db`` dB,
-``_pct`` %, ``_s`` s, ``_a`` A, ``_v`` V); a bound may be a plain number in that unit or a
-string with any unit of the same dimension.
+``profile`` -- distance, velocity, acceleration -- for a profile move). The accepted figures, their
+units and the command that measures each are those of the figure table
+(:data:`cas_freq.figures.FIGURES`, ``requirement=True``). Bounds are stored in the figure's own
+unit, the one its key's suffix names (``_rad_s`` rad/s, ``_deg`` deg, ``_db`` dB, ``_pct`` %,
+``_s`` s, ``_a`` A, ``_v`` V); a bound may be a plain number in that unit or a string with any
+unit of the same dimension.
 """
 
 import math
@@ -20,61 +22,19 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 from pydantic_core import PydanticCustomError
 
 from cas_freq.config.units import has_unit, to_si
+from cas_freq.figures import FIGURES, METRICS, UNIT_LABELS
 
-_LOOP_FIGURES = (
-    "crossover_rad_s", "phase_margin_deg", "delay_margin_s", "gain_margin_db",
-    "phase_crossover_rad_s", "gain_margin_low_db", "phase_crossover_low_rad_s",
-    "sensitivity_peak_db", "sensitivity_peak_rad_s", "disk_margin_alpha", "disk_margin_gain_db",
-    "disk_margin_phase_deg",
-)
-_STEP_FIGURES = (
-    "rise_time_s", "overshoot_pct", "settling_time_s", "settling_time_5pct_s", "peak_time_s",
-    "max_current_a", "max_voltage_v",
-)
-_FIT_FIGURES = ("wn_rad_s", "zeta", "td_s", "bandwidth_closed_form_rad_s", "rms_residual")
-#: Figures of a profile move (:class:`~cas_freq.simulation.profile_figures.ProfileFigures`),
-#: measured with the config's feed-forward.
-_PROFILE_FIGURES = (
-    "tracking_error_max_deg", "tracking_error_rms_deg", "overshoot_pct", "settling_time_s",
-    "settling_time_5pct_s", "arrival_time_s", "arrival_time_5pct_s", "max_current_a",
-    "max_voltage_v",
-)
-
-#: Figure key -> the command whose JSON holds it: ``analyze``, ``step``, ``sinedwell`` or
-#: ``profile`` (``simulate --profile``).
-METRICS = {
-    **{f"{loop}.{name}": "analyze" for loop in ("current_loop", "position_loop")
-       for name in _LOOP_FIGURES},
-    **{f"closed_loop.{name}": "analyze" for name in (
-        "dc_gain_db", "bandwidth_rad_s", "peak_db", "peak_rad_s", "phase_90_rad_s")},
-    **{f"step.{name}": "step" for name in _STEP_FIGURES},
-    **{f"fit.{name}": "step" for name in _FIT_FIGURES},
-    "sinedwell.bandwidth_rad_s": "sinedwell",
-    **{f"profile.{name}": "profile" for name in _PROFILE_FIGURES},
-}
-
-#: Key suffix -> unit (as pint spells it; "dB" is handled without pint).
-_SUFFIX_UNITS = (
-    ("_rad_s", "rad/s"), ("_deg", "deg"), ("_db", "dB"), ("_pct", "percent"), ("_s", "s"),
-    ("_a", "A"), ("_v", "V"),
-)
-#: Figures without a unit suffix.
-_OTHER_UNITS = {"zeta": "", "disk_margin_alpha": "", "rms_residual": "rad"}
-
-#: How each unit is shown.
-UNIT_LABELS = {"rad/s": "rad/s", "deg": "deg", "dB": "dB", "percent": "%", "s": "s", "A": "A",
-               "V": "V", "rad": "rad", "": ""}
+__all__ = ["METRICS", "UNIT_LABELS", "ProfileCondition", "Requirement", "convert_bound",
+           "metric_unit", "parse_frequency_spec"]
 
 
 def metric_unit(metric):
-    """Unit of a figure, from its key's suffix (pint spelling; "" for dimensionless)."""
-    last = metric.rsplit(".", 1)[-1]
-    if last in _OTHER_UNITS:
-        return _OTHER_UNITS[last]
-    for suffix, unit in _SUFFIX_UNITS:
-        if last.endswith(suffix):
-            return unit
-    raise ValueError(f"no unit known for {metric!r}")
+    """Unit of a requirement's figure (:data:`cas_freq.figures.FIGURES`; pint spelling, "" for
+    dimensionless)."""
+    figure = FIGURES.get(metric)
+    if figure is None:
+        raise ValueError(f"no unit known for {metric!r}")
+    return figure.unit
 
 
 def convert_bound(value, metric):

@@ -17,6 +17,7 @@ import sys
 import time
 from pathlib import Path
 
+from cas_freq.figures import FIGURES, LOOPS
 from cas_freq.report.data import (
     ReportSettings,
     display_path,
@@ -101,41 +102,53 @@ def reference_blocks(datas):
                   f"(never used by the model); model steps of {'/'.join(sorted(steps))}")]
 
 
+def _shown(key, value):
+    """A figure's value [its JSON unit] in the unit the tables show it in (:data:`FIGURES`);
+    None and flags unchanged."""
+    if value is None or isinstance(value, bool):
+        return value
+    return value * FIGURES[key].scale
+
+
+def _figure_row(key, value, prefix=""):
+    """(label, shown unit, value) of a figure of the table (:data:`FIGURES`), the label after
+    ``prefix``."""
+    figure = FIGURES[key]
+    return f"{prefix}{figure.label}", figure.shown_unit, _shown(key, value)
+
+
+#: The summary's figures of each loop (keys of :data:`FIGURES` after the loop's name).
+_SUMMARY_LOOP_FIGURES = {
+    "current_loop": ("phase_margin_deg", "crossover_rad_s", "gain_margin_db"),
+    "position_loop": ("phase_margin_deg", "crossover_rad_s", "delay_margin_s", "gain_margin_db",
+                      "gain_margin_low_db", "sensitivity_peak_db", "disk_margin_gain_db",
+                      "disk_margin_phase_deg"),
+}
+
+
 def summary_rows(data):
     """Headline figures of one variant: (figure, unit, value)."""
     a = data.analysis
-    cl, ci, cp = a.closed_loop, a.current_loop, a.position_loop
-    rows = [
-        ("closed loop (Padé poles)", "", a.stability.verdict),
-        ("L_i phase margin", "deg", ci.phase_margin_deg),
-        ("L_i gain crossover", "rad/s", ci.crossover_rad_s),
-        ("L_i gain margin", "dB", ci.gain_margin_db),
-        ("L_p phase margin", "deg", cp.phase_margin_deg),
-        ("L_p gain crossover", "rad/s", cp.crossover_rad_s),
-        ("L_p delay margin", "ms", _ms(cp.delay_margin_s)),
-        ("L_p gain margin (upper)", "dB", cp.gain_margin_db),
-        ("L_p gain margin (lower)", "dB", cp.gain_margin_low_db),
-        ("L_p sensitivity peak Ms", "dB", cp.sensitivity_peak_db),
-        ("L_p disk margin (gain)", "±dB", cp.disk_margin_gain_db),
-        ("L_p disk margin (phase)", "±deg", cp.disk_margin_phase_deg),
-        ("ω_BW linear (−3 dB of T)", "rad/s", cl.bandwidth_rad_s if cl else None),
-        ("T resonance peak", "dB", cl.peak_db if cl else None),
-        ("T phase −90° at", "rad/s", cl.phase_90_rad_s if cl else None),
-    ]
+    cl = a.closed_loop
+    rows = [("closed loop (Padé poles)", "", a.stability.verdict)]
+    for loop, names in _SUMMARY_LOOP_FIGURES.items():
+        margins = getattr(a, loop)
+        rows += [_figure_row(f"{loop}.{name}", getattr(margins, name), f"{LOOPS[loop].symbol} ")
+                 for name in names]
+    rows += [_figure_row(f"closed_loop.{name}", getattr(cl, name) if cl else None, "T ")
+             for name in ("bandwidth_rad_s", "peak_db", "phase_90_rad_s")]
     for k, run in enumerate(data.dwell.steps):  # one step per sine-dwell amplitude
-        rows.append((f"ω_BW sine-dwell at {run.step.amplitude_deg:g}°", "rad/s",
+        label, unit, _ = _figure_row("sinedwell.bandwidth_rad_s", None, "sine-dwell ")
+        rows.append((f"{label} at {run.step.amplitude_deg:g}°", unit,
                      sinedwell_bandwidth(data, k)))
     for k in sorted({data.small_index, data.large_index}):
         step = data.dwell.steps[k]
-        a_deg = step.step.amplitude_deg
-        rows += [
-            (f"{a_deg:g}° step rise time", "ms", _ms(step.step.rise_time_s)),
-            (f"{a_deg:g}° step overshoot", "%", step.step.overshoot_pct),
-            (f"{a_deg:g}° step settling (2 %)", "ms", _ms(step.step.settling_time_s)),
-            (f"{a_deg:g}° step limits", "", _limits_text(step.step)),
-            (f"{a_deg:g}° step fit ω_BW (closed form)", "rad/s",
-             step.fit.bandwidth_closed_form_rad_s),
-        ]
+        prefix = f"{step.step.amplitude_deg:g}° step "
+        rows += [_figure_row(f"step.{name}", getattr(step.step, name), prefix)
+                 for name in ("rise_time_s", "overshoot_pct", "settling_time_s")]
+        rows += [(f"{prefix}limits", "", _limits_text(step.step)),
+                 _figure_row("fit.bandwidth_closed_form_rad_s",
+                             step.fit.bandwidth_closed_form_rad_s, f"{prefix}fit ")]
     return rows
 
 
@@ -156,30 +169,20 @@ def _limits_text(step):
 
 
 def margins_table(analysis):
-    """Every margin figure of both loops."""
+    """Every margin figure of both loops (labels and units of :data:`FIGURES`)."""
     ci, cp = analysis.current_loop, analysis.position_loop
-    fields = (
-        ("gain crossover (nearest −1)", "rad/s", "crossover_rad_s", 1.0),
-        ("phase margin", "deg", "phase_margin_deg", 1.0),
-        ("delay margin", "ms", "delay_margin_s", 1e3),
-        ("gain margin (upper)", "dB", "gain_margin_db", 1.0),
-        ("upper gain margin's phase crossover", "rad/s", "phase_crossover_rad_s", 1.0),
-        ("gain margin (lower)", "dB", "gain_margin_low_db", 1.0),
-        ("lower gain margin's phase crossover", "rad/s", "phase_crossover_low_rad_s", 1.0),
-        ("sensitivity peak Ms", "dB", "sensitivity_peak_db", 1.0),
-        ("sensitivity peak frequency", "rad/s", "sensitivity_peak_rad_s", 1.0),
-        ("disk margin α", "-", "disk_margin_alpha", 1.0),
-        ("disk margin (gain)", "±dB", "disk_margin_gain_db", 1.0),
-        ("disk margin (phase)", "±deg", "disk_margin_phase_deg", 1.0),
-    )
     rows = []
-    for label, unit, name, scale in fields:
-        values = [getattr(loop, name) for loop in (ci, cp)]
-        rows.append((label, unit, *(number(None if v is None else v * scale) for v in values)))
+    for figure in FIGURES.values():
+        if figure.loop != "current_loop" or not figure.requirement:
+            continue
+        name = figure.name
+        rows.append((figure.label, figure.shown_unit or "-",
+                     *(number(_shown(figure.key, getattr(loop, name))) for loop in (ci, cp))))
     rows.append(("crossings in range", "", f"{len(ci.gain_crossovers)} gain, "
                  f"{len(ci.phase_crossovers)} phase", f"{len(cp.gain_crossovers)} gain, "
                  f"{len(cp.phase_crossovers)} phase"))
-    return Table(("figure", "unit", "L_i (current loop)", "L_p (position loop)"), tuple(rows),
+    columns = tuple(f"{loop.symbol} ({loop.break_point})" for loop in LOOPS.values())
+    return Table(("figure", "unit", *columns), tuple(rows),
                  f"stability margins ({analysis.delay_model} delays)")
 
 
@@ -206,13 +209,10 @@ def closed_loop_table(analysis):
     cl = analysis.closed_loop
     if cl is None:
         return Paragraph("The closed loop is not stable: no closed-loop figures.")
-    rows = (
-        ("|T(0)|", "dB", number(cl.dc_gain_db)),
-        ("bandwidth ω_BW (−3.01 dB)", "rad/s", number(cl.bandwidth_rad_s)),
-        ("resonance peak", "dB", number(cl.peak_db)),
-        ("resonance peak frequency", "rad/s", number(cl.peak_rad_s)),
-        ("phase −90° at", "rad/s", number(cl.phase_90_rad_s)),
-    )
+    rows = tuple((figure.label, figure.shown_unit,
+                  number(_shown(figure.key, getattr(cl, figure.name))))
+                 for figure in FIGURES.values()
+                 if figure.key.startswith("closed_loop.") and figure.requirement)
     return Table(("figure", "unit", "T = δ/δ_cmd"), rows,
                  f"closed-loop figures ({analysis.delay_model} delays)")
 
@@ -240,19 +240,9 @@ def step_table(data):
         a_deg = run.step.amplitude_deg
         columns += [f"{a_deg:g}° nonlinear", f"{a_deg:g}° linear (Padé {data.pade_order})"]
         figures += [run.step, data.linear_step_figures[k]]
-    fields = (
-        ("rise time 10-90 %", "ms", lambda s: _ms(s.rise_time_s)),
-        ("overshoot", "%", lambda s: s.overshoot_pct),
-        ("settling time (2 %)", "ms", lambda s: _ms(s.settling_time_s)),
-        ("settling time (5 %)", "ms", lambda s: _ms(s.settling_time_5pct_s)),
-        ("peak time", "ms", lambda s: _ms(s.peak_time_s)),
-        ("largest |current|", "A", lambda s: s.max_current_a),
-        ("largest |voltage|", "V", lambda s: s.max_voltage_v),
-        ("current limit hit", "", lambda s: s.current_limited),
-        ("voltage limit hit", "", lambda s: s.voltage_limited),
-    )
-    rows = tuple((label, unit, *(number(get(f)) for f in figures))
-                 for label, unit, get in fields)
+    rows = tuple((figure.label, figure.shown_unit,
+                  *(number(_shown(figure.key, getattr(f, figure.name))) for f in figures))
+                 for figure in FIGURES.values() if figure.key.startswith("step."))
     return Table(("figure", "unit", *columns), rows,
                  "step figures (nonlinear: limits and exact delays; linear: no limits)")
 
@@ -266,7 +256,7 @@ def fit_table(data):
         rows.append((f"{run.step.amplitude_deg:g}° step (model)", number(fit.wn_rad_s),
                      number(fit.zeta, 3), number(_ms(fit.td_s), 3),
                      number(fit.bandwidth_closed_form_rad_s),
-                     number(math.degrees(fit.rms_residual), 3),
+                     number(_shown("fit.rms_residual", fit.rms_residual), 3),
                      "yes" if fit.success else "no"))
     reference = data.reference
     if reference is not None and reference.fit is not None:
@@ -275,8 +265,9 @@ def fit_table(data):
                 else f"{math.degrees(reference.step_amplitude):g}° ")
         rows.append((f"{size}step (reference)", number(fit.wn), number(fit.zeta),
                      number(_ms(fit.td)), number(fit.bandwidth_rad_s), "—", "—"))
-    return Table(("step", "ωn [rad/s]", "ζ [-]", "td [ms]", "ω_BW closed form [rad/s]",
-                  "RMS residual [deg]", "converged"), tuple(rows),
+    header = tuple(f"{f.label} [{f.shown_unit or '-'}]" if f.name != "success" else f.label
+                   for f in FIGURES.values() if f.key.startswith("fit."))
+    return Table(("step", *header), tuple(rows),
                  "second-order-plus-delay fits (docs/model.md §7)")
 
 
@@ -403,61 +394,83 @@ def overall_verdict(datas):
     return " ".join(parts)
 
 
-#: The parameter table's rows: (label, display unit, scale from SI, getter of a config).
-_PARAMETER_ROWS = (
-    ("motor R", "Ω", 1.0, lambda p: p.motor.R),
-    ("motor L", "mH", 1e3, lambda p: p.motor.L),
-    ("motor Km", "N·m/A", 1.0, lambda p: p.motor.Km),
-    ("motor Ke", "V·s/rad", 1.0, lambda p: p.motor.Ke),
-    ("motor J", "kg·m²", 1.0, lambda p: p.motor.J),
-    ("motor μv (viscous friction)", "N·m·s/rad", 1.0, lambda p: p.motor.viscous_friction),
-    ("gear ratio N", "-", 1.0, lambda p: p.gear.ratio),
-    ("current loop Kp", "V/A", 1.0, lambda p: p.current_loop.Kp),
-    ("current loop Ki", "V/(A·s)", 1.0, lambda p: p.current_loop.Ki),
-    ("current loop delay", "ms", 1e3, lambda p: p.current_loop.delay),
-    ("voltage limit ±v_max", "V", 1.0, lambda p: p.current_loop.v_max),
-    ("position loop Kp", "A/rad", 1.0, lambda p: p.position_loop.Kp),
-    ("position loop Ki", "A/(rad·s)", 1.0, lambda p: p.position_loop.Ki),
-    ("position loop Kd", "A·s/rad", 1.0, lambda p: p.position_loop.Kd),
-    ("derivative filter Tf", "ms", 1e3, lambda p: p.position_loop.filter_time_constant),
-    ("feed-forward ff_v", "A·s/rad", 1.0, lambda p: p.position_loop.ff_v),
-    ("feed-forward ff_a", "A·s²/rad", 1.0, lambda p: p.position_loop.ff_a),
-    ("position loop delay", "ms", 1e3, lambda p: p.position_loop.delay),
-    ("current limit ±i_max", "A", 1.0, lambda p: p.position_loop.i_max),
-    ("derivative on", "", None, lambda p: p.position_loop.derivative_on),
-    ("controllers (simulation)", "", None, lambda p: p.simulation.controllers),
+#: The parameter table's config keys (:data:`~cas_freq.parameters.PARAMETERS`, whose labels
+#: and units they are shown with), in the report's order.
+_PARAMETER_KEYS = (
+    "motor.R", "motor.L", "motor.Km", "motor.Ke", "motor.J", "motor.mu_v", "gear.ratio",
+    "current_loop.Kp", "current_loop.Ki", "current_loop.delay", "current_loop.v_max",
+    "position_loop.Kp", "position_loop.Ki", "position_loop.Kd", "position_loop.Tf",
+    "position_loop.ff_v", "position_loop.ff_a", "position_loop.delay", "position_loop.i_max",
 )
 
-#: Rows of the load and drivetrain (docs/model.md §5), shown when some variant is loaded; each
-#: getter's value is 0 (or the efficiency 1) where the key is absent. ``{output}`` in a label is
-#: the config's ``output_label``.
-_LOAD_ROWS = (
-    ("load inertia J_L ({output})", "kg·m²", 1.0, lambda p: p.load.inertia),
-    ("load damping b_L ({output})", "N·m·s/rad", 1.0, lambda p: p.load.damping),
-    ("load spring K_h ({output})", "N·m/rad", 1.0, lambda p: p.load.hinge_stiffness),
-    ("constant load moment τ_h ({output})", "N·m", 1.0, lambda p: p.load.hinge_bias),
-    ("gear efficiency η", "-", 1.0, lambda p: p.gear.efficiency),
-    ("gear backdrive efficiency η_b", "-", 1.0, lambda p: p.gear.backdrive),
-    ("gear stiffness K_g ({output}; 0 rigid)", "N·m/rad", 1.0, lambda p: p.gear.stiffness),
-    ("gear mesh damping c_g ({output})", "N·m·s/rad", 1.0, lambda p: p.gear.damping),
-    ("gear backlash ({output}, total)", "deg", 180.0 / math.pi, lambda p: p.gear.backlash),
-    ("motor Coulomb friction", "mN·m", 1e3, lambda p: p.motor.coulomb_friction),
+#: The settings shown after them (not numbers): (label, getter of a config).
+_SETTING_ROWS = (
+    ("derivative on", lambda p: p.position_loop.derivative_on),
+    ("controllers (simulation)", lambda p: p.simulation.controllers),
 )
+
+#: Keys of the load and drivetrain (docs/model.md §5), shown when some variant is loaded; each
+#: value is 0 (or the efficiency 1) where the key is absent.
+_LOAD_KEYS = (
+    "load.inertia", "load.damping", "load.hinge_stiffness", "load.hinge_bias",
+    "gear.efficiency", "gear.backdrive_efficiency", "gear.stiffness", "gear.damping",
+    "gear.backlash", "motor.coulomb_friction",
+)
+
+#: Effective values of keys a config may leave to a rule (derived, or a default of another key).
+_EFFECTIVE = {
+    "motor.mu_v": lambda p: p.motor.viscous_friction,
+    "position_loop.Tf": lambda p: p.position_loop.filter_time_constant,
+    "gear.backdrive_efficiency": lambda p: p.gear.backdrive,
+}
+
+#: How an SI unit of :data:`~cas_freq.parameters.PARAMETERS` is shown: (unit, factor from SI);
+#: a unit not listed is shown as pint spells it with ``·`` and ``²``.
+_SHOWN_UNITS = {"ohm": ("Ω", 1.0), "H": ("mH", 1e3), "s": ("ms", 1e3),
+                "rad": ("deg", 180.0 / math.pi), "dimensionless": ("-", 1.0)}
+
+#: Keys shown in another unit than their SI unit's (a friction of a few mN·m).
+_SHOWN_KEY_UNITS = {"motor.coulomb_friction": ("mN·m", 1e3)}
+
+
+def parameter_row_head(key, output):
+    """(label, shown unit, factor from SI) of a parameter: its label and unit from
+    :data:`~cas_freq.parameters.PARAMETERS` (``+/-`` as ``±``), "the output" named as the config
+    names it."""
+    from cas_freq.parameters import PARAMETERS
+
+    parameter = PARAMETERS[key]
+    unit, scale = _SHOWN_KEY_UNITS.get(key) or _SHOWN_UNITS.get(parameter.unit) or (
+        parameter.unit.replace("*", "·").replace("^2", "²"), 1.0)
+    label = parameter.label.replace("the output", f"the {output}").replace("+/-", "±")
+    return label, unit, scale
+
+
+def parameter_value(params, key):
+    """The effective value of a parameter key in a config [SI]."""
+    if key in _EFFECTIVE:
+        return _EFFECTIVE[key](params)
+    value = params
+    for part in key.split("."):
+        value = getattr(value, part)
+    return value
 
 
 def parameter_table(datas):
     """The parameters of every variant (motor, gear, gains, delays, limits) with units; motor
     angles, loops on the motor shaft (docs/model.md)."""
-    rows = []
     loaded = any(d.analysis.drivetrain is not None for d in datas)
     output = datas[0].loaded.params.output_label
-    for label, unit, scale, get in _PARAMETER_ROWS + (_LOAD_ROWS if loaded else ()):
-        label = label.replace("{output}", output)
-        values = []
-        for data in datas:
-            value = get(data.loaded.params)
-            values.append(value if scale is None else number(value * scale))
-        rows.append((label, unit, *values))
+    configs = [d.loaded.params for d in datas]
+
+    def numbers(keys):
+        for key in keys:
+            label, unit, scale = parameter_row_head(key, output)
+            yield (label, unit, *(number(parameter_value(p, key) * scale) for p in configs))
+
+    rows = [*numbers(_PARAMETER_KEYS),
+            *((label, "", *(get(p) for p in configs)) for label, get in _SETTING_ROWS),
+            *numbers(_LOAD_KEYS if loaded else ())]
     return Table(("parameter", "unit", *(d.loaded.variant for d in datas)), tuple(rows),
                  "parameters of each variant (gains on the motor angle; Tf derived as "
                  "Kd/(10·Kp) unless set; μv derived from the no-load point unless set)")

@@ -4,9 +4,10 @@ First the config parameters that differ between the variants (:func:`parameter_d
 in the units the config writes them), then overlaid Bode, step and bandwidth-versus-amplitude
 figures, the requirement verdict matrix, and a table of every numeric figure per variant with
 its difference to the first (the baseline), each row a readable label in engineering units
-(:data:`FIGURE_LABELS`); written as index.html, report.md and results.json (atomically, like
-``report``). results.json keeps the machine-readable keys in SI (``analyze.current_loop.
-delay_margin_s``); only the human tables carry labels and display units.
+(the figure table, :data:`cas_freq.figures.FIGURES`); written as index.html, report.md and
+results.json (atomically, like ``report``). results.json keeps the machine-readable keys in SI
+(``analyze.current_loop.delay_margin_s``); only the human tables carry labels and display
+units.
 
 A difference is that of the two figures as results.json writes them (6 significant digits,
 :mod:`cas_freq.report.numbers`); in the table it is 0 when below the table's 5 significant
@@ -19,6 +20,7 @@ from pathlib import Path
 
 from cas_freq.config import read_config_file
 from cas_freq.exceptions import CasFreqError
+from cas_freq.figures import FIGURES, LOOPS
 from cas_freq.parameters import PARAMETERS
 from cas_freq.report.build import REPORTS_DIR, results_json
 from cas_freq.report.data import (
@@ -256,75 +258,43 @@ def parameter_blocks(variants, labels):
 
 # ---- every figure ------------------------------------------------------------------------------
 
-#: The one table of the every-figure table's rows: per figure name (the last part of a
-#: :func:`flat_figures` key, as results.json writes it, in SI), its readable label, the unit it
-#: is shown in and the factor from its SI value to that unit. A figure missing here is shown by
-#: its name with the unit of its suffix (:data:`_SUFFIX_UNITS`).
-FIGURE_LABELS = {
-    # stability
-    "stable": ("stable", "", 1.0),
-    "stability": ("stability (Padé model)", "", 1.0),
-    # loop margins (analyze)
-    "crossover_rad_s": ("gain crossover", "rad/s", 1.0),
-    "phase_margin_deg": ("phase margin", "deg", 1.0),
-    "delay_margin_s": ("delay margin", "ms", 1e3),
-    "delay_margin_crossover_rad_s": ("crossover of the smallest delay margin", "rad/s", 1.0),
-    "gain_margin_db": ("gain margin", "dB", 1.0),
-    "phase_crossover_rad_s": ("phase crossover", "rad/s", 1.0),
-    "gain_margin_low_db": ("lower gain margin", "dB", 1.0),
-    "phase_crossover_low_rad_s": ("lower phase crossover", "rad/s", 1.0),
-    "sensitivity_peak_db": ("sensitivity peak Ms", "dB", 1.0),
-    "sensitivity_peak_rad_s": ("frequency of the sensitivity peak", "rad/s", 1.0),
-    "sensitivity_peak_at_range_edge": ("sensitivity peak at the range edge", "", 1.0),
-    "disk_margin_alpha": ("disk margin α", "", 1.0),
-    "disk_margin_gain_db": ("disk gain margin ±", "dB", 1.0),
-    "disk_margin_phase_deg": ("disk phase margin ±", "deg", 1.0),
-    # closed loop (analyze)
-    "dc_gain_db": ("DC gain", "dB", 1.0),
-    "bandwidth_rad_s": ("bandwidth (−3 dB)", "rad/s", 1.0),
-    "peak_db": ("resonance peak", "dB", 1.0),
-    "peak_rad_s": ("frequency of the resonance peak", "rad/s", 1.0),
-    "phase_90_rad_s": ("frequency of −90° phase", "rad/s", 1.0),
-    "peak_at_range_edge": ("resonance peak at the range edge", "", 1.0),
-    # steps (nonlinear and linear)
-    "rise_time_s": ("rise time 10–90 %", "ms", 1e3),
-    "overshoot_pct": ("overshoot", "%", 1.0),
-    "settling_time_s": ("settling time ±2 %", "ms", 1e3),
-    "settling_time_5pct_s": ("settling time ±5 %", "ms", 1e3),
-    "peak_time_s": ("peak time", "ms", 1e3),
-    "max_current_a": ("largest current", "A", 1.0),
-    "max_voltage_v": ("largest voltage", "V", 1.0),
-    "current_limited": ("current limit reached", "", 1.0),
-    "voltage_limited": ("voltage limit reached", "", 1.0),
-    # second-order-plus-delay fit of a step (docs/model.md §7)
-    "wn_rad_s": ("natural frequency ωn", "rad/s", 1.0),
-    "zeta": ("damping ratio ζ", "", 1.0),
-    "td_s": ("delay td", "ms", 1e3),
-    "rms_residual": ("RMS residual", "deg", math.degrees(1.0)),
-    "bandwidth_closed_form_rad_s": ("closed-form bandwidth", "rad/s", 1.0),
-    "success": ("fit converged", "", 1.0),
-    # sine-dwell
-    "limit_onset_amplitude_deg": ("smallest amplitude at which a limit acts", "deg", 1.0),
-}
-
-#: Unit and factor from SI of a figure missing from :data:`FIGURE_LABELS`, by its name's suffix.
+#: Unit and factor from SI of a figure missing from the figure table (:data:`FIGURES`; the
+#: drivetrain's figures), by its name's suffix.
 _SUFFIX_UNITS = (("_rad_s", "rad/s", 1.0), ("_deg", "deg", 1.0), ("_db", "dB", 1.0),
                  ("_pct", "%", 1.0), ("_s", "ms", 1e3), ("_a", "A", 1.0), ("_v", "V", 1.0))
 
 #: Readable name of each group of figures (the key before the figure's name).
 _GROUP_LABELS = {
     "analyze": "closed loop",
-    "analyze.current_loop": "current loop",
-    "analyze.position_loop": "position loop",
+    **{f"analyze.{loop}": LOOPS[loop].name for loop in LOOPS},
     "analyze.closed_loop": "closed loop",
+    "analyze.drivetrain": "drivetrain",
     "sinedwell": "sine-dwell",
 }
 
-#: Groups named after a step amplitude (``step 10°``, ``fit 10°``, ``linear step 10°``).
-_STEP_GROUPS = (("linear step ", "linear step {}"), ("step ", "nonlinear step {}"),
-                ("fit ", "fit to the {} step"))
+#: Groups named after a step amplitude (``step 10°``, ``fit 10°``, ``linear step 10°``): their
+#: start, their readable name and the group of their figures in :data:`FIGURES`.
+_STEP_GROUPS = (("linear step ", "linear step {}", "step"), ("step ", "nonlinear step {}", "step"),
+                ("fit ", "fit to the {} step", "fit"))
 
 _AMPLITUDE = re.compile(r"(?P<key>.*?) (?P<amplitude>[-+\d.e]+°)")
+
+
+def table_figure(key):
+    """The :data:`FIGURES` record of a :func:`flat_figures` key (its amplitude removed), None
+    for a figure the table lacks (the drivetrain's).
+
+    ``"analyze.position_loop.phase_margin_deg"`` is ``position_loop.phase_margin_deg``;
+    ``"linear step 10°.rise_time_s"`` and ``"step 10°.rise_time_s"`` are
+    ``step.rise_time_s``; ``"fit 10°.zeta"`` is ``fit.zeta``.
+    """
+    group, _, name = key.rpartition(".")
+    if group == "analyze" or group.startswith("analyze."):
+        group = group[len("analyze."):]
+    else:
+        group = next((table for start, _, table in _STEP_GROUPS if group.startswith(start)),
+                     group)
+    return FIGURES.get(f"{group}.{name}" if group else name)
 
 
 def figure_display(key):
@@ -332,7 +302,9 @@ def figure_display(key):
 
     ``"analyze.current_loop.delay_margin_s"`` gives ``("current loop: delay margin [ms]",
     "ms", 1000.0)``; ``"sinedwell.bandwidth_rad_s 10°"`` gives ``("sine-dwell: bandwidth
-    (−3 dB) at 10° [rad/s]", "rad/s", 1.0)``.
+    ω_BW (−3.01 dB) at 10° [rad/s]", "rad/s", 1.0)``. Labels, units and factors are the figure
+    table's (:data:`FIGURES`); a figure it lacks is shown by its name with the unit of its
+    suffix.
 
     Returns
     -------
@@ -343,19 +315,23 @@ def figure_display(key):
     if match:
         key, amplitude = match["key"], match["amplitude"]
     group, _, name = key.rpartition(".")
-    label, unit, scale = FIGURE_LABELS.get(name) or _unlisted(name)
+    figure = table_figure(key)
+    if figure is None:
+        label, unit, scale = _unlisted(name)
+    else:
+        label, unit, scale = figure.label, figure.shown_unit, figure.scale
     if amplitude:
         label += f" at {amplitude}"
     group_label = _GROUP_LABELS.get(group)
     if group_label is None:
-        group_label = next((form.format(group[len(start):]) for start, form in _STEP_GROUPS
+        group_label = next((form.format(group[len(start):]) for start, form, _ in _STEP_GROUPS
                             if group.startswith(start)), group)
     text = f"{group_label}: {label}" if group_label else label
     return (f"{text} [{unit}]" if unit else text), unit, scale
 
 
 def _unlisted(name):
-    """(label, unit, factor from SI) of a figure name missing from :data:`FIGURE_LABELS`."""
+    """(label, unit, factor from SI) of a figure name missing from :data:`FIGURES`."""
     for suffix, unit, scale in _SUFFIX_UNITS:
         if name.endswith(suffix):
             return name[: -len(suffix)].replace("_", " "), unit, scale

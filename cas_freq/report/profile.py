@@ -6,11 +6,8 @@ No matplotlib here but in :func:`profile_figure_svg`, which imports it when it d
 
 import math
 
+from cas_freq.figures import FIGURES
 from cas_freq.report.numbers import number
-
-
-def _ms(seconds):
-    return None if seconds is None or math.isnan(seconds) else seconds * 1e3
 
 
 def _trapezoid_text(move):
@@ -25,20 +22,20 @@ def _limit(flag):
     return "limit hit" if flag else "within limit"
 
 
-#: Rows of the figures table: (label, unit, figure name or a function of the figures).
-FIGURE_ROWS = (
-    ("largest tracking error during the move", "deg", "tracking_error_max_deg"),
-    ("  at (from the move's start)", "ms", lambda f: _ms(f.tracking_error_max_time_s)),
-    ("RMS tracking error during the move", "deg", "tracking_error_rms_deg"),
-    ("overshoot past the target", "%", "overshoot_pct"),
-    ("settling after the move's end, ±2 %", "ms", lambda f: _ms(f.settling_time_s)),
-    ("settling after the move's end, ±5 %", "ms", lambda f: _ms(f.settling_time_5pct_s)),
-    ("arrival from the move's start, ±2 %", "ms", lambda f: _ms(f.arrival_time_s)),
-    ("arrival from the move's start, ±5 %", "ms", lambda f: _ms(f.arrival_time_5pct_s)),
-    ("final error", "deg", "final_error_deg"),
-    ("largest current", "A", "max_current_a"),
-    ("largest voltage", "V", "max_voltage_v"),
+#: The figures of the table, by their name under ``profile.`` in the figure table
+#: (:data:`~cas_freq.figures.FIGURES`, which gives their labels and units), in order.
+_ROW_FIGURES = (
+    "tracking_error_max_deg", "tracking_error_max_time_s", "tracking_error_rms_deg",
+    "overshoot_pct", "settling_time_s", "settling_time_5pct_s", "arrival_time_s",
+    "arrival_time_5pct_s", "final_error_deg", "max_current_a", "max_voltage_v",
 )
+
+#: A figure shown as a sub-row of the one before it, with this label instead of the table's.
+_SUB_ROWS = {"tracking_error_max_time_s": "  at (from the move's start)"}
+
+#: Rows of the figures table: (label, shown unit, figure name).
+FIGURE_ROWS = tuple((_SUB_ROWS.get(name, FIGURES[f"profile.{name}"].label),
+                     FIGURES[f"profile.{name}"].shown_unit, name) for name in _ROW_FIGURES)
 
 
 def figure_rows(run):
@@ -48,8 +45,7 @@ def figure_rows(run):
     for label, unit, what in FIGURE_ROWS:
         cells = []
         for figures in (run.profile, run.without_feedforward):
-            value = what(figures) if callable(what) else getattr(figures, what)
-            text = number(value, 4)
+            text = number(getattr(figures, what) * FIGURES[f"profile.{what}"].scale, 4)
             if what == "max_current_a":
                 text += f" ({_limit(figures.current_limited)})"
             elif what == "max_voltage_v":

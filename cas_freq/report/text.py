@@ -6,6 +6,7 @@ numerically zero (a fitted delay of 3e-48 ms is 0 ms), "—" when absent.
 
 import math
 
+from cas_freq.figures import FIGURES
 from cas_freq.report.numbers import number
 
 
@@ -120,6 +121,14 @@ def _limit_text(t, active):
             f"{activity['first_s'] * 1e3:.3g} and {activity['last_s'] * 1e3:.3g} ms")
 
 
+def _figure_line(key, value, tail=""):
+    """``    label               value unit`` of a figure of the figure table
+    (:data:`~cas_freq.figures.FIGURES`: label, shown unit and factor), then ``tail``."""
+    figure = FIGURES[key]
+    shown = None if value is None else value * figure.scale
+    return f"    {figure.label:<19} {_fmt(shown, figure.shown_unit)}{tail}"
+
+
 def step_table(run):
     """Multi-line summary of a :class:`cas_freq.simulation.run.StepRun`."""
     step, fit, result = run.step, run.fit, run.result
@@ -137,15 +146,15 @@ def step_table(run):
         *warning,
         f"  nonlinear step of {step.amplitude_deg:g} deg at the {run.output}; "
         f"dt {result.dt_s * 1e6:g} us, {result.t_end_s * 1e3:g} ms ({settled}{extended})",
-        f"    rise time 10-90 %   {_fmt(_ms(step.rise_time_s), 'ms')}",
-        f"    overshoot           {_fmt(step.overshoot_pct, '%')}",
+        _figure_line("step.rise_time_s", step.rise_time_s),
+        _figure_line("step.overshoot_pct", step.overshoot_pct),
         f"    settling ±2 % / ±5 % {_fmt(_ms(step.settling_time_s), 'ms')} / "
         f"{_fmt(_ms(step.settling_time_5pct_s), 'ms')}",
-        f"    peak time           {_fmt(_ms(step.peak_time_s), 'ms')}",
-        f"    largest current     {_fmt(step.max_current_a, 'A')} "
-        f"({_limit_text(result.t, result.current_limited)})",
-        f"    largest voltage     {_fmt(step.max_voltage_v, 'V')} "
-        f"({_limit_text(result.t, result.voltage_limited)})",
+        _figure_line("step.peak_time_s", step.peak_time_s),
+        _figure_line("step.max_current_a", step.max_current_a,
+                     f" ({_limit_text(result.t, result.current_limited)})"),
+        _figure_line("step.max_voltage_v", step.max_voltage_v,
+                     f" ({_limit_text(result.t, result.voltage_limited)})"),
         "  second-order-plus-delay fit (docs/model.md §7)",
         f"    wn {_fmt(fit.wn_rad_s, 'rad/s')}, zeta {_fmt(fit.zeta)}, "
         f"td {_fmt(_ms(fit.td_s), 'ms')}"

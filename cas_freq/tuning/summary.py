@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from cas_freq.config.requirement import UNIT_LABELS
+from cas_freq.figures import UNIT_LABELS
 from cas_freq.tuning.evaluate import TRADE_OFF
 from cas_freq.tuning.options import OBJECTIVES
 from cas_freq.verify.evaluate import bound_text

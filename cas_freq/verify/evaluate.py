@@ -3,7 +3,7 @@
 import dataclasses
 import math
 
-from cas_freq.config.requirement import UNIT_LABELS
+from cas_freq.figures import UNIT_LABELS
 from cas_freq.verify.measure import measure
 
 PASS, FAIL, ADVISORY = "PASS", "FAIL", "ADVISORY"
