@@ -256,6 +256,17 @@ _UNIDENTIFIABLE = ("fit.wn_rad_s", "fit.zeta")
 #: kernel), so they are not shown, stored or plotted.
 RUN_FIGURES = ("closed_loop.", "step.", "fit.")
 
+#: The fit's parameters kept in :func:`envelope_dict` (beside its RMS residual, the minimum of
+#: the sum of squares, which is determined however flat the minimum is).
+FIT_PARAMETERS = ("fit.td_s", "fit.bandwidth_closed_form_rad_s")
+
+#: Damping ratio above which a fit is degenerate: its fast pole (4 zeta^2 times the slow one)
+#: is far beyond the data, and only the slow pole wn/(2 zeta) is fitted. The shipped
+#: envelopes' fits are either below 2 or above 3e6. There the closed-form bandwidth (that
+#: slow pole) still moved by 1.1e-4 under another BLAS kernel (loaded, 15 N*m/rad): the
+#: optimiser stops anywhere along the flat valley of (wn, zeta), so it is not stored either.
+DEGENERATE_ZETA = 1e3
+
 
 def not_shown(envelope):
     """Why each grid point's :data:`RUN_FIGURES` are not shown: None where they are.
@@ -268,9 +279,25 @@ def not_shown(envelope):
     return [None if str(v) == "stable" else f"closed loop {v}" for v in envelope.stability]
 
 
+def fit_not_shown(envelope):
+    """Why each grid point's :data:`FIT_PARAMETERS` are not shown (besides
+    :func:`not_shown`): None where they are.
+
+    Returns
+    -------
+    list of str or None
+        Per grid point: a degenerate fit (:data:`DEGENERATE_ZETA`).
+    """
+    zeta = envelope.figures.get("fit.zeta", np.full(envelope.hinge_stiffness.size, np.nan))
+    return [f"degenerate fit: overdamped beyond zeta {DEGENERATE_ZETA:g}, only its slow pole "
+            "is fitted and not to the written precision" if z > DEGENERATE_ZETA else None
+            for z in zeta]
+
+
 def shown_figure(envelope, key):
     """The figure ``key`` per grid point [its unit], NaN where it does not exist or is not
-    shown (:func:`not_shown` for the :data:`RUN_FIGURES`).
+    shown (:func:`not_shown` for the :data:`RUN_FIGURES`, :func:`fit_not_shown` for the
+    :data:`FIT_PARAMETERS`).
 
     Returns
     -------
@@ -280,13 +307,15 @@ def shown_figure(envelope, key):
                       dtype=float)
     if key.startswith(RUN_FIGURES):
         values[[reason is not None for reason in not_shown(envelope)]] = np.nan
+    if key in FIT_PARAMETERS:
+        values[[reason is not None for reason in fit_not_shown(envelope)]] = np.nan
     return values
 
 
 def envelope_dict(envelope):
     """JSON-ready dict of a :class:`LoadEnvelope` (floats as they are; NaN and the figures
-    :func:`shown_figure` does not show -> None, with the reason per grid point in
-    ``run_figures_not_shown``)."""
+    :func:`shown_figure` does not show -> None, with the reasons per grid point in
+    ``run_figures_not_shown`` and ``fit_parameters_not_shown``)."""
     def loss(item):
         return None if item is None else {"at_n_m_rad": item.at,
                                            "between_n_m_rad": list(item.between),
@@ -302,8 +331,10 @@ def envelope_dict(envelope):
         "stable_range_n_m_rad": list(envelope.stable_range),
         "step_deg": envelope.step_deg,
         "stability": [str(v) for v in envelope.stability],
-        # why the closed loop's, the step's and the fit's figures of a point are null
+        # why the closed loop's, the step's and the fit's figures of a point are null, and
+        # why the fit's parameters are
         "run_figures_not_shown": not_shown(envelope),
+        "fit_parameters_not_shown": fit_not_shown(envelope),
         "figures": {name: clean(shown_figure(envelope, name)) for name in envelope.figures
                     if not name.startswith("_") and name not in _UNIDENTIFIABLE},
         "requirements": [
