@@ -157,3 +157,19 @@ def test_figures_of_the_closed_loop_at_an_unstable_point_are_null_with_the_reaso
     assert isinstance(figures["fit.rms_residual"][2], float)
     assert isinstance(figures["position_loop.phase_margin_deg"][0], float)
     assert figures["position_loop.phase_margin_deg"][0] < 0  # why it is unstable
+
+
+def test_a_stable_point_whose_step_diverged_says_so():
+    # The shipped `fitted` variant at -15 N*m/rad: the linear closed loop is stable (its range
+    # starts at -18.6), but the 10 deg step saturates the voltage and the aiding spring runs
+    # away (overshoot 4.5e55 % at the 1 s horizon before: a number of the horizon, not of the
+    # loop). Its step and fit figures are null with the reason; its closed-loop figures stay.
+    loaded = load_variant(CONFIG, "fitted")
+    envelope = load_envelope(loaded, [-15.0], np.radians(10.0))
+    assert list(envelope.stability.astype(str)) == ["stable", "stable"]
+    data = envelope_dict(envelope)
+    assert data["run_figures_not_shown"][0].startswith("step diverged")
+    assert data["run_figures_not_shown"][1] is None
+    figures = data["figures"]
+    assert figures["step.overshoot_pct"][0] is None and figures["fit.rms_residual"][0] is None
+    assert isinstance(figures["closed_loop.bandwidth_rad_s"][0], float)

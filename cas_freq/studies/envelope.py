@@ -271,12 +271,24 @@ DEGENERATE_ZETA = 1e3
 def not_shown(envelope):
     """Why each grid point's :data:`RUN_FIGURES` are not shown: None where they are.
 
+    Where the closed loop is not stable, none of them is; where it is but the step diverged
+    (:func:`~cas_freq.simulation.step_figures.diverged`: the limits let the loop run away; its
+    step figures are NaN, the largest current among them), its step's and fit's are not.
+
     Returns
     -------
     list of str or None
         Per grid point, e.g. ``"closed loop unstable"``.
     """
-    return [None if str(v) == "stable" else f"closed loop {v}" for v in envelope.stability]
+    current = envelope.figures.get("step.max_current_a")
+    diverged = np.zeros(envelope.hinge_stiffness.size, dtype=bool) if current is None else \
+        np.isnan(current)
+    return [f"closed loop {v}" if str(v) != "stable" else
+            _DIVERGED if gone else None for v, gone in zip(envelope.stability, diverged)]
+
+
+#: :func:`not_shown`'s reason at a stable point whose step diverged.
+_DIVERGED = "step diverged (beyond 1e6 times the step): no step figures or fit"
 
 
 def fit_not_shown(envelope):
@@ -306,7 +318,9 @@ def shown_figure(envelope, key):
     values = np.array(envelope.figures.get(key, np.full(envelope.hinge_stiffness.size, np.nan)),
                       dtype=float)
     if key.startswith(RUN_FIGURES):
-        values[[reason is not None for reason in not_shown(envelope)]] = np.nan
+        loop = key.startswith("closed_loop.")  # shown at a stable point whose step diverged
+        values[[reason is not None and not (loop and reason == _DIVERGED)
+                for reason in not_shown(envelope)]] = np.nan
     if key in FIT_PARAMETERS:
         values[[reason is not None for reason in fit_not_shown(envelope)]] = np.nan
     return values
@@ -331,8 +345,8 @@ def envelope_dict(envelope):
         "stable_range_n_m_rad": list(envelope.stable_range),
         "step_deg": envelope.step_deg,
         "stability": [str(v) for v in envelope.stability],
-        # why the closed loop's, the step's and the fit's figures of a point are null, and
-        # why the fit's parameters are
+        # why the closed loop's, the step's and the fit's figures of a point are null (or the
+        # step's and the fit's alone, where the step diverged), and why the fit's parameters are
         "run_figures_not_shown": not_shown(envelope),
         "fit_parameters_not_shown": fit_not_shown(envelope),
         "figures": {name: clean(shown_figure(envelope, name)) for name in envelope.figures
