@@ -236,6 +236,8 @@ class Parameter:
 
 #: Longest accepted transport delay of either loop [s].
 MAX_DELAY_S = 0.1
+#: Lowest accepted forward gear efficiency [-] (the least efficient worm gears are ~0.2).
+MIN_EFFICIENCY = 0.01
 
 
 def _table(*rows):
@@ -298,8 +300,10 @@ PARAMETERS = _table(
     ("motor.coulomb_friction", "F_c", "N*m", 0.0, False, 1e3,
      "Coulomb (dry) friction torque on the motor shaft, nonlinear simulation only, 0 or "
      "1e-12..1e3 [N*m]", 1e-12),
-    ("gear.efficiency", "eta", "dimensionless", 0.0, True, 1.0,
-     "forward gear efficiency eta (motor drives the output), (0, 1], default 1 [dimensionless]"),
+    ("gear.efficiency", "eta", "dimensionless", MIN_EFFICIENCY, False, 1.0,
+     f"forward gear efficiency eta (motor drives the output), {MIN_EFFICIENCY:g}..1, default 1: "
+     "below 1 % a gear takes 100 times the load's power to drive it, no drive, and the "
+     "reflected load 1/eta overflows the plant's arithmetic near 0 [dimensionless]"),
     ("gear.backdrive_efficiency", "eta_b", "dimensionless", 0.0, False, 1.0,
      "backdrive efficiency eta_b (the output drives the motor; 0: self-locking), nonlinear "
      "simulation only, 0..1, default eta [dimensionless]"),

@@ -126,3 +126,51 @@ def test_report_envelope_of_every_variant_is_on_the_reports_grid():
     own = type(loaded)(loaded.source, loaded.variant, params, loaded.overrides)
     envelope = compute_envelope(own, report_spec)
     np.testing.assert_array_equal(envelope.hinge_stiffness, [-10.0, 0.0, 10.0])
+
+
+def test_figures_of_the_closed_loop_at_an_unstable_point_are_null_with_the_reason():
+    # The shipped `loaded` variant is unstable at K_h = -20 N*m/rad (its stable range starts
+    # at about -12.9). Its 10 deg step there is a run the limits hold in a limit cycle, and its
+    # fit's RMS residual moved by 3.6e-4 relative on another x86-64 machine (and under
+    # OPENBLAS_CORETYPE=Sandybridge): results.json must not store the step's, the fit's or the
+    # closed loop's figures of such a point, but say why; the open-loop margins (how far the
+    # loop is from stability) and every figure of the stable own point (2 N*m/rad) are kept.
+    # At 15 N*m/rad the step creeps in on the integral term and its fit is degenerate
+    # (zeta ~1e8: only the slow pole wn/(2 zeta) is fitted, and its closed-form bandwidth moved
+    # by 1.1e-4 under OPENBLAS_CORETYPE=Prescott): the fit's parameters are null with the
+    # reason, its RMS residual (the minimum, determined) is kept.
+    loaded = load_variant(CONFIG, "loaded")
+    envelope = load_envelope(loaded, [-20.0, 15.0], np.radians(10.0))
+    assert list(envelope.stability.astype(str)) == ["unstable", "stable", "stable"]
+    assert np.isfinite(envelope.figures["fit.rms_residual"][0])  # computed, but not shown
+    assert envelope.figures["fit.zeta"][2] > 1e6 and envelope.figures["fit.zeta"][1] < 2
+    data = json.loads(json.dumps(envelope_dict(envelope), allow_nan=False))
+    assert data["run_figures_not_shown"] == ["closed loop unstable", None, None]
+    fit_reasons = data["fit_parameters_not_shown"]
+    assert fit_reasons[1] is None and fit_reasons[2].startswith("degenerate fit")
+    figures = data["figures"]
+    for name in ("fit.rms_residual", "fit.td_s", "fit.bandwidth_closed_form_rad_s",
+                 "step.overshoot_pct", "step.rise_time_s", "step.max_current_a",
+                 "closed_loop.bandwidth_rad_s"):
+        assert figures[name][0] is None, name
+        assert isinstance(figures[name][1], float), name
+    assert figures["fit.td_s"][2] is None and figures["fit.bandwidth_closed_form_rad_s"][2] is None
+    assert isinstance(figures["fit.rms_residual"][2], float)
+    assert isinstance(figures["position_loop.phase_margin_deg"][0], float)
+    assert figures["position_loop.phase_margin_deg"][0] < 0  # why it is unstable
+
+
+def test_a_stable_point_whose_step_diverged_says_so():
+    # The shipped `fitted` variant at -15 N*m/rad: the linear closed loop is stable (its range
+    # starts at -18.6), but the 10 deg step saturates the voltage and the aiding spring runs
+    # away (overshoot 4.5e55 % at the 1 s horizon before: a number of the horizon, not of the
+    # loop). Its step and fit figures are null with the reason; its closed-loop figures stay.
+    loaded = load_variant(CONFIG, "fitted")
+    envelope = load_envelope(loaded, [-15.0], np.radians(10.0))
+    assert list(envelope.stability.astype(str)) == ["stable", "stable"]
+    data = envelope_dict(envelope)
+    assert data["run_figures_not_shown"][0].startswith("step diverged")
+    assert data["run_figures_not_shown"][1] is None
+    figures = data["figures"]
+    assert figures["step.overshoot_pct"][0] is None and figures["fit.rms_residual"][0] is None
+    assert isinstance(figures["closed_loop.bandwidth_rad_s"][0], float)

@@ -254,7 +254,8 @@ def test_stable_hinge_range_brackets_the_stability_boundary():
     (["gear.stiffness=300"], "a compliant gear needs load.inertia > 0"),
     (["gear.backlash=0.01"], "needs gear.stiffness > 0"),
     (["gear.damping=0.01"], "gear.damping: the mesh damping acts in parallel"),
-    (["gear.efficiency=0"], "gear.efficiency: must be > 0 and <= 1"),
+    (["gear.efficiency=0"], "gear.efficiency: must be >= 0.01 and <= 1"),
+    (["gear.efficiency=1e-300"], "gear.efficiency: must be >= 0.01 and <= 1"),
     (["gear.backdrive_efficiency=1.5"], "gear.backdrive_efficiency: must be >= 0 and <= 1"),
 ])
 def test_bad_drivetrain_values_exit_2_naming_the_key(sets, words):

@@ -65,11 +65,9 @@ def envelope_figure(envelope, config_name):
 def _trusted(envelope, key):
     """The figure per grid point, NaN where it is not trusted: closed-loop and step figures of
     a loop that is not stable, and the overshoot of a step that did not settle."""
-    values = np.array(envelope.figures.get(key, np.full(envelope.hinge_stiffness.size, np.nan)),
-                      dtype=float)
-    stable = envelope.stability.astype(str) == "stable"
-    if key.startswith(("closed_loop.", "step.")):
-        values = np.where(stable, values, np.nan)
+    from cas_freq.studies.envelope import shown_figure
+
+    values = shown_figure(envelope, key)
     if key == "step.overshoot_pct" and "step.settling_time_s" in envelope.figures:
         values = np.where(np.isfinite(envelope.figures["step.settling_time_s"]), values, np.nan)
     return values

@@ -300,10 +300,15 @@ def small_signal_sentence(data):
     """Whether the smallest step stays clear of the limits, and what else (if anything) sets
     the nonlinear simulation apart from the linear model (:func:`nonlinear_elements`)."""
     from cas_freq.report.nonlinear import nonlinear_elements
+    from cas_freq.simulation.run import diverged_at
 
     run = data.dwell.steps[data.small_index]
     step = run.step
     params = data.loaded.params
+    diverged = diverged_at(run)
+    if diverged is not None:
+        return (f"The {step.amplitude_deg:g}° step diverged (beyond 10⁶ times the step at t = "
+                f"{number(diverged * 1e3)} ms), so it has no figures and no fit.")
     head = (f"The {step.amplitude_deg:g}° step reaches {number(step.max_current_a)} A of the "
             f"±{params.position_loop.i_max:g} A current limit and {number(step.max_voltage_v)} V "
             f"of the ±{params.current_loop.v_max:g} V voltage limit: ")

@@ -81,7 +81,10 @@ def table_rows(envelope):
     picks = np.unique(np.round(np.linspace(0, grid.size - 1, min(TABLE_ROWS, grid.size))))
     nominal = int(np.flatnonzero(grid == envelope.nominal_n_m_rad)[0])
     picks = sorted({*picks.astype(int).tolist(), nominal})
+    from cas_freq.studies.envelope import shown_figure
+
     columns = [c for c in _COLUMNS if c[2] in envelope.figures]
+    shown = {key: shown_figure(envelope, key) for _, _, key in columns}
     settling = envelope.figures.get("step.settling_time_s", np.full(grid.size, np.nan))
     rows = []
     for j in picks:
@@ -90,14 +93,13 @@ def table_rows(envelope):
         stable = str(envelope.stability[j]) == "stable"
         settled = math.isfinite(float(settling[j]))
         for _, unit, key in columns:
-            value = float(envelope.figures[key][j])
             if key == "step.overshoot_pct" and stable and not settled:
                 cells.append("not settled")  # a run the limits let diverge, or still moving
                 continue
             # closed-loop and step figures of a loop that is not stable are not shown (verify
             # does not trust them); the open-loop margins say how far it is from stability
-            trusted = stable or not key.startswith(("closed_loop.", "step."))
-            value = value if math.isfinite(value) and trusted else None
+            value = float(shown[key][j])
+            value = value if math.isfinite(value) else None
             cells.append(number(value * 1e3 if unit == "ms" and value is not None else value, 4))
         label = number(float(grid[j]), 4) + (" (own)" if j == nominal else "")
         rows.append((label, str(envelope.stability[j]), *cells, ", ".join(failing) or "—"))

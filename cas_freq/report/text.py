@@ -136,10 +136,18 @@ def step_table(run):
     if run.overrides:
         head += " with " + ", ".join(run.overrides)
     settled = "settled" if result.settled else "NOT settled"
+    from cas_freq.simulation.run import diverged_at
+
     warning = []
+    diverged = diverged_at(run)
+    if diverged is not None:
+        warning = [f"  WARNING: the run DIVERGED: beyond 1e6 times the step (or overflowed) at "
+                   f"t = {_fmt(diverged * 1e3, 'ms')}; no step figure or fit exists"]
     if run.linear_stability != "stable":
-        warning = [f"  WARNING: the linear closed loop is {run.linear_stability.upper()} (Padé "
-                   "poles); these figures describe a loop only the limits keep bounded"]
+        warning.insert(0, f"  WARNING: the linear closed loop is "
+                       f"{run.linear_stability.upper()} (Padé poles)" + (
+                           "" if diverged is not None else
+                           "; these figures describe a loop only the limits keep bounded"))
     extended = ", horizon extended" if result.extended else ""
     return "\n".join([
         head,
@@ -186,15 +194,23 @@ def sinedwell_table(data):
             f"{_fmt(a['amplitude_deg'], 'deg'):>18}" for a in amplitudes
         ) + f"{'linear':>18}",
     ]
+    missing = False
     for j, omega in enumerate(data["frequencies_rad_s"]):
         cells = []
-        for a in amplitudes:
-            mark = "*" if a["current_limited"][j] or a["voltage_limited"][j] else " "
-            cells.append(f"{a['magnitude_db'][j]:7.2f} dB{a['phase_deg'][j]:6.0f}°{mark}")
-        linear = data["linear"]
-        cells.append(f"{linear['magnitude_db'][j]:7.2f} dB{linear['phase_deg'][j]:6.0f}° ")
+        for a in [*amplitudes, data["linear"]]:
+            mark = "*" if a.get("current_limited", [False] * (j + 1))[j] or a.get(
+                "voltage_limited", [False] * (j + 1))[j] else " "
+            magnitude, phase = a["magnitude_db"][j], a["phase_deg"][j]
+            if magnitude is None or phase is None:  # a run that diverged (or no response)
+                missing = True
+                cells.append(f"{'—':>17}{mark}")
+            else:
+                cells.append(f"{magnitude:7.2f} dB{phase:6.0f}°{mark}")
         lines.append("  " + f"{omega:10.1f}" + "".join(cells))
     lines.append("  (* a current or voltage limit acts during the measured periods)")
+    if missing:
+        lines.append("  (— no first harmonic: the run diverged until its state overflowed, or "
+                     "no linear response exists)")
     onset = data["limit_onset_amplitude_deg"]
     lines.append(
         "  limits act from " + (f"{onset:g} deg" if onset is not None else "no amplitude given")

@@ -114,8 +114,8 @@ _Q_COMPLIANT, _Q_K_G, _Q_HALF, _Q_TAU_H = (mech.COMPLIANT, mech.K_G, mech.HALF_P
                                            mech.TAU_H)
 _Q_J_L, _Q_B_L, _Q_K_H, _Q_F_C = mech.J_LOAD, mech.B_LOAD, mech.K_HINGE, mech.F_COULOMB
 _Q_E_FORWARD, _Q_E_BACK, _Q_LOADED = mech.E_FORWARD, mech.E_BACK, mech.LOADED
-_Q_C_G = mech.C_G
-_FORWARD, _BACKDRIVE, _GAP = mech.FORWARD, mech.BACKDRIVE, mech.GAP
+_Q_C_G, _Q_RATIO = mech.C_G, mech.RATIO
+_FORWARD, _BACKDRIVE, _GAP, _HELD = mech.FORWARD, mech.BACKDRIVE, mech.GAP, mech.HELD
 
 # Rows of the float recordings (the bool ones are current_limited, voltage_limited).
 FLOAT_SIGNALS = SIGNALS[:7]
@@ -183,6 +183,43 @@ def _sign(x):
 @_jit()
 def _clamp(u, limit):
     return min(max(u, -limit), limit)
+
+
+@_jit(inline="always")
+def _acceleration(q, r, mode, i, w, th, w_l, d_l, tau_m, tau_l):
+    """The motor's acceleration [rad/s^2] in ``mode`` (mechanics.Drivetrain._acceleration)."""
+    a1, b1 = mode * _PER_MODE + _M_A1, mode * _PER_MODE + _M_B1
+    return (q[r, a1] * i + q[r, a1 + 1] * w + q[r, a1 + 2] * th + q[r, a1 + 3] * w_l
+            + q[r, a1 + 4] * d_l + q[r, b1] * tau_m + q[r, b1 + 1] * tau_l)
+
+
+@_jit(inline="always")
+def _from_rest(q, r, mode, i, w, th, w_l, d_l, dz, c, tau_l, dt):
+    """The mode of a shaft at rest, ``mode`` elsewhere (mechanics.Drivetrain._from_rest)."""
+    ratio = q[r, _Q_RATIO]
+    compliant = q[r, _Q_COMPLIANT] != 0.0
+    k_g, c_g = q[r, _Q_K_G], q[r, _Q_C_G]
+    j_l, b_l, k_h, tau_h = q[r, _Q_J_L], q[r, _Q_B_L], q[r, _Q_K_H], q[r, _Q_TAU_H]
+    delta = th / ratio
+    acc = _acceleration(q, r, _FORWARD, i, w, th, w_l, d_l, -(q[r, _Q_E_FORWARD] * c) / ratio,
+                        tau_l)
+    if not abs(w) <= abs(acc) * dt:
+        return mode
+    rate = acc * dt / ratio
+    if compliant:
+        power = (k_g * dz + c_g * (rate - w_l)) * rate
+    else:
+        power = (j_l * acc / ratio + b_l * rate + k_h * delta - tau_h) * rate
+    if power >= 0.0:
+        return _FORWARD
+    acc = _acceleration(q, r, _BACKDRIVE, i, w, th, w_l, d_l, -(q[r, _Q_E_BACK] * c) / ratio,
+                        tau_l)
+    rate = acc * dt / ratio
+    if compliant:
+        power = (k_g * dz + c_g * (rate - w_l)) * rate
+    else:
+        power = (j_l * acc / ratio + b_l * rate + k_h * delta - tau_h) * rate
+    return _BACKDRIVE if power < 0.0 else _HELD
 
 
 @_jit(inline="always")
@@ -577,12 +614,15 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
                 mode = _BACKDRIVE
             else:
                 mode = _FORWARD
-            e = e_back if mode == _BACKDRIVE else e_forward
             c = offset if compliant else 0.0
             tau_l = tau_h + c
+            if mode != _GAP:
+                mode = _from_rest(q, r, mode, i, w, th, w_l, d_l, dz, c, tau_l, dt)
+            held = mode == _HELD
+            e = e_back if mode == _BACKDRIVE else e_forward
             tau_m = -(e * c) / ratio
             base = mode * _PER_MODE
-            if coulomb > 0.0:
+            if coulomb > 0.0 and not held:
                 b_m = q[r, base + _M_B1]
                 a1 = base + _M_A1
                 acc = (q[r, a1] * i + q[r, a1 + 1] * w + q[r, a1 + 2] * th + q[r, a1 + 3] * w_l
@@ -594,6 +634,10 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
                     tau_f = min(max(stop, -coulomb), coulomb)
                 tau_m = tau_m - tau_f
             w_before = w
+            if held:  # the gear stops the shaft (and a rigid gear's fin) at once
+                w = 0.0
+                if not compliant:
+                    w_l = 0.0
             # x <- Phi x + G_a V_a + G_b V_b + H (tau_m, tau_L), as the reference's sums
             at, ga, gb, h = base + _M_PHI, base + _M_GA, base + _M_GB, base + _M_H
             x0 = (q[r, at] * i + q[r, at + 1] * w + q[r, at + 2] * th

@@ -22,7 +22,7 @@ for the mode m, from the exponential of the augmented matrix
 & Workman, *Digital Control of Dynamic Systems*, 3rd ed., §6.3.2), one exponential per distinct
 plant and mode.
 
-Modes (:data:`FORWARD`, :data:`BACKDRIVE`, :data:`GAP`):
+Modes (:data:`FORWARD`, :data:`BACKDRIVE`, :data:`GAP`, :data:`HELD`):
 
 - **Forward / backdrive.** The gear's reaction on the motor is scaled by
   :math:`e = 1/\eta` while the motor drives the fin and by :math:`e = \eta_b` while the fin
@@ -37,7 +37,20 @@ Modes (:data:`FORWARD`, :data:`BACKDRIVE`, :data:`GAP`):
   - compliant gear: :math:`P = (K_g\, dz(\theta_k/N - \delta_k) + c_g (\omega_k/N -
     \omega_{L,k}))\, \omega_k/N` (the gear's spring and mesh damping).
 
-  :math:`P = 0` (at rest, or inside the play) is forward.
+  :math:`P = 0` (inside the play) is forward.
+- **Held** (the gear's friction holding the shaft at rest). A shaft at rest, within one step's
+  change of the forward mode's speed of it (:math:`|\omega_k| \le |\dot\omega_F|\,dt`, the
+  motor's acceleration of the forward mode at :math:`t_k`), takes the mode of a step from rest:
+  forward if the forward mode's step (fin rate :math:`\dot\omega_F\,dt/N`, the acceleration
+  term :math:`J_L \dot\omega_F/N` in P for a rigid gear) has :math:`P \ge 0` (the motor drives
+  the fin); else backdrive if the backdrive mode's step has :math:`P < 0` (the load drives the
+  motor); else neither can move it and the gear holds it: the motor's speed (and a rigid
+  gear's fin speed) is set to 0 and stays 0 over the step (the forward plant with those rows
+  of A and B zero), and no Coulomb friction acts. A self-locking worm (:math:`\eta_b = 0`)
+  under a hinge bias and no motor torque is held for good (before this mode, the first step
+  from rest was taken as motor-driven and the bias moved the shaft by a step's worth each time
+  it stopped: ~0.012 deg/s of creep); a gear with :math:`\eta < 1` is held while the motor's
+  torque lies between the backdrive and the forward value of the load's.
 - **Backlash** (compliant gear only), total play b at the fin:
   :math:`dz(x) = x - b/2` for :math:`x > b/2`, :math:`x + b/2` for :math:`x < -b/2`, else 0,
   with :math:`x = \theta/N - \delta`. Inside the play (:data:`GAP`) the spring carries no torque
@@ -65,13 +78,9 @@ Modes (:data:`FORWARD`, :data:`BACKDRIVE`, :data:`GAP`):
   the torque within one step), and a sliding shaft feels the full :math:`F_c` against its
   motion.
 
-Where the motion should stop (a shaft held by the gear's friction: the motor torque between
-the backdrive and the forward value, e.g. a self-locking gear holding an aiding load; or by
-Coulomb friction) the explicit rule alternates from step to step (omega changes sign every step
-or two). That is the discrete form of the sticking motion: the speed of the alternation is
-O(dt) (measured: halving dt halves it, 0.013, 0.006, 0.003 rad/s at dt = 5, 2.5, 1.25 us for a
-self-locking gear holding a 0.1 N*m bias) and the position, current and torques converge to
-those of the stuck shaft.
+Where Coulomb friction should stop the motion, the explicit rule may alternate from step to
+step (omega changes sign every step or two): the discrete form of the sticking motion, whose
+speed is O(dt) while the position, current and torques converge to those of the stuck shaft.
 
 A contact change inside a step is seen at the next step: the spring then starts from a
 penetration of about the impact speed times dt, an energy error of order
@@ -79,9 +88,9 @@ penetration of about the impact speed times dt, an energy error of order
 (1e-3 for K_g = 1e3 N*m/rad, J_L = 2e-5 kg*m^2 at dt = 5 us); a gear whose contact frequency
 approaches 1/dt needs a smaller step.
 
-The order per step: contact and spring offset; power and mode; torques; friction; the exact
-step. Both engines (:class:`Drivetrain` vectorised for the numpy reference, the kernel's
-scalar code) perform these operations in this order.
+The order per step: contact and spring offset; power and mode; the mode from rest (held);
+torques; friction; the exact step. Both engines (:class:`Drivetrain` vectorised for the numpy
+reference, the kernel's scalar code) perform these operations in this order.
 """
 
 
@@ -90,9 +99,10 @@ from scipy.linalg import expm
 
 from cas_freq.model.parts import plant_matrices
 
-#: Mode indices: engaged with the motor driving, engaged with the fin driving, inside the play.
-FORWARD, BACKDRIVE, GAP = 0, 1, 2
-MODES = 3
+#: Mode indices: engaged with the motor driving, engaged with the fin driving, inside the play,
+#: the motor's shaft held at rest by the gear.
+FORWARD, BACKDRIVE, GAP, HELD = 0, 1, 2, 3
+MODES = 4
 #: States of a loaded run: i, omega, theta, omega_L, delta.
 NX = 5
 
@@ -143,9 +153,9 @@ def step_matrices(params, dt):
     Returns
     -------
     tuple of numpy.ndarray
-        :math:`\\Phi` (n, 3, 5, 5), :math:`G_a`, :math:`G_b` (n, 3, 5), H (n, 3, 5, 2) for
-        (tau_m, tau_L) [per N*m], and the continuous omega rows A[1] (n, 3, 5) and
-        B[1, 1:] (n, 3, 2), modes in the order FORWARD, BACKDRIVE, GAP.
+        :math:`\\Phi` (n, 4, 5, 5), :math:`G_a`, :math:`G_b` (n, 4, 5), H (n, 4, 5, 2) for
+        (tau_m, tau_L) [per N*m], and the continuous omega rows A[1] (n, 4, 5) and
+        B[1, 1:] (n, 4, 2), modes in the order FORWARD, BACKDRIVE, GAP, HELD.
     """
     n = params.n_runs
     a, b = _plants(params)
@@ -167,8 +177,15 @@ _MODE_OPTIONS = ({}, {"backdrive": True}, {"engaged": False})
 
 
 def _plants(params):
-    """A (n, 3, 5, 5) and B (n, 3, 5, 3) of every run in the modes FORWARD, BACKDRIVE, GAP."""
+    """A (n, 4, 5, 5) and B (n, 4, 5, 3) of every run in the modes FORWARD, BACKDRIVE, GAP,
+    HELD (the forward plant with the motor's speed, and a rigid gear's fin speed, constant:
+    started at 0 they stay 0)."""
     modes = [plant_matrices(params, states=NX, **options) for options in _MODE_OPTIONS]
+    a, b = (m.copy() for m in modes[FORWARD])
+    a[:, 1] = b[:, 1] = 0.0  # the motor's speed
+    rigid = np.broadcast_to(np.asarray(params.K_g) <= 0, (a.shape[0],))
+    a[rigid, 3] = b[rigid, 3] = 0.0  # a rigid gear's fin speed, which follows it
+    modes.append((a, b))
     return (np.stack([m[0] for m in modes], axis=1), np.stack([m[1] for m in modes], axis=1))
 
 
@@ -215,7 +232,7 @@ class Drivetrain:
         self.half = 0.5 * p.backlash
         self.k_g, self.c_g, self.tau_h, self.ratio = p.K_g, p.c_g, p.tau_h, p.ratio
         self.j_l, self.b_l, self.k_h, self.f_c = p.J_L, p.b_L, p.K_h, p.F_c
-        self.e = np.stack([1.0 / p.eta, p.eta_b, 1.0 / p.eta], axis=1)  # per mode
+        self.e = np.stack([1.0 / p.eta, p.eta_b, 1.0 / p.eta, 1.0 / p.eta], axis=1)  # per mode
         self.friction = bool(np.any(p.F_c > 0))
         self.rows = np.arange(p.n_runs)
 
@@ -242,26 +259,61 @@ class Drivetrain:
         power_compliant = (self.k_g * dz + self.c_g * (rate - x[:, 3])) * rate
         power = np.where(self.compliant, power_compliant, power_rigid)
         mode = np.where(gap, GAP, np.where(power < 0.0, BACKDRIVE, FORWARD))
-        e = self.e[self.rows, mode]
         c = np.where(self.compliant, offset, 0.0)
         tau_l = self.tau_h + c
+        mode = self._from_rest(x, dz, delta, c, tau_l, mode)
+        held = mode == HELD
+        e = self.e[self.rows, mode]
         tau_m = -(e * c) / ratio
         if self.friction:
             a1, b1 = self.a1[self.rows, mode], self.b1[self.rows, mode]
-            b_m = b1[:, 0]
+            b_m = np.where(held, 1.0, b1[:, 0])  # a held shaft: no friction acts
             acc = (a1[:, 0] * x[:, 0] + a1[:, 1] * w + a1[:, 2] * th + a1[:, 3] * x[:, 3]
                    + a1[:, 4] * x[:, 4] + b_m * tau_m + b1[:, 1] * tau_l)
             f_c = self.f_c
             stop = (acc + w / dt) / b_m  # tau_net + J_m omega / dt
             sliding = np.abs(w) > f_c * dt * b_m
             tau_f = np.where(sliding, f_c * np.sign(w), np.minimum(np.maximum(stop, -f_c), f_c))
-            tau_m = tau_m - tau_f
+            tau_m = tau_m - np.where(held, 0.0, tau_f)
         return mode, tau_m, tau_l
+
+    def _from_rest(self, x, dz, delta, c, tau_l, mode):
+        """The mode of a shaft at rest (the module docstring's rule; ``mode`` elsewhere), (n,).
+
+        At rest: within one step's change of the forward mode's speed of it. There the mode is
+        that of a step from rest: forward where the forward mode's step has the gear deliver
+        power to the fin (>= 0), else backdrive where the backdrive mode's step has the fin
+        deliver it (< 0: the load back-drives the shaft), else held.
+        """
+        dt, ratio, w = self.dt, self.ratio, x[:, 1]
+        power = []
+        for m in (FORWARD, BACKDRIVE):
+            acc = self._acceleration(m, x, -(self.e[:, m] * c) / ratio, tau_l)
+            if m == FORWARD:
+                at_rest = np.abs(w) <= np.abs(acc) * dt
+            rate = acc * dt / ratio  # the fin's rate after a step from rest [rad/s]
+            power.append(np.where(
+                self.compliant, (self.k_g * dz + self.c_g * (rate - x[:, 3])) * rate,
+                (self.j_l * acc / ratio + self.b_l * rate + self.k_h * delta - self.tau_h) * rate))
+        rest = np.where(power[0] >= 0.0, FORWARD, np.where(power[1] < 0.0, BACKDRIVE, HELD))
+        return np.where(at_rest & (mode != GAP), rest, mode)
+
+    def _acceleration(self, mode, x, tau_m, tau_l):
+        """The motor's acceleration [rad/s^2] at state ``x`` in ``mode`` under the torques
+        (tau_m, tau_L) [N*m], from the mode's continuous omega row (A x + B_tau tau)."""
+        a1, b1 = self.a1[:, mode], self.b1[:, mode]
+        return (a1[:, 0] * x[:, 0] + a1[:, 1] * x[:, 1] + a1[:, 2] * x[:, 2] + a1[:, 3] * x[:, 3]
+                + a1[:, 4] * x[:, 4] + b1[:, 0] * tau_m + b1[:, 1] * tau_l)
 
     def step(self, x, omega_before, v_a, v_b):
         """The state after one step from ``x`` (n, 5) with the voltage from v_a to v_b [V]."""
         mode, tau_m, tau_l = self.inputs(x, omega_before)
         rows = self.rows
+        held = mode == HELD
+        if held.any():  # the gear stops the shaft (and a rigid gear's fin) at once
+            x = x.copy()
+            x[held, 1] = 0.0
+            x[held & ~self.compliant, 3] = 0.0
         phi, g_a, g_b, h = (m[rows, mode] for m in (self.phi, self.g_a, self.g_b, self.h))
         out = np.einsum("rij,rj->ri", phi, x)
         out += g_a * v_a[:, None]

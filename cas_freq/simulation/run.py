@@ -156,6 +156,14 @@ def limit_activity(t, active):
             "last_s": float(flagged[-1])}
 
 
+def diverged_at(run):
+    """The first time [s] at which a :class:`StepRun`'s fin angle diverged
+    (:func:`~cas_freq.simulation.step_figures.diverged`), or None."""
+    from cas_freq.simulation.step_figures import diverged
+
+    return diverged(run.result.t, run.result.delta, run.step.amplitude_deg * np.pi / 180)
+
+
 def step_run_dict(run):
     """JSON-ready dict of a :class:`StepRun` (non-finite numbers become None)."""
     result = run.result
@@ -177,6 +185,7 @@ def step_run_dict(run):
             "t_end_s": result.t_end_s,
             "extended": result.extended,
             "settled": result.settled,
+            "diverged_at_s": diverged_at(run),
         },
     })
 

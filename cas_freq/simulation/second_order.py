@@ -30,6 +30,7 @@ import numpy as np
 
 from cas_freq.formulas import second_order_bandwidth
 from cas_freq.jit import use_compiled
+from cas_freq.simulation.step_figures import diverged
 
 # scipy.optimize (the cross-check only) and scipy.special are imported inside the functions that
 # use them: importing scipy.optimize costs 0.4-0.7 s, which every CLI start paid through
@@ -558,7 +559,14 @@ def fit_second_order_batch(times, responses, steps, max_points=MAX_FIT_POINTS,
 
 
 def _fit_block(runs, steps, max_iterations, initials=None):
-    """fit_second_order_batch of one block of (t, unit response) runs (optional starts)."""
+    """fit_second_order_batch of one block of (t, unit response) runs (optional starts).
+
+    A response that diverged (:func:`~cas_freq.simulation.step_figures.diverged`) has no fit
+    (NaN, ``success`` False); a flat zero response stands in for it in the iteration.
+    """
+    lost = [diverged(t, unit, 1.0) is not None for t, unit in runs]
+    runs = [(t, np.zeros_like(unit) if gone else unit)
+            for (t, unit), gone in zip(runs, lost, strict=True)]
     k = len(runs)
     sizes = np.array([t.size for t, _ in runs])
     t_pad, unit_pad = np.zeros((k, sizes.max())), np.zeros((k, sizes.max()))
@@ -568,7 +576,12 @@ def _fit_block(runs, steps, max_iterations, initials=None):
         t_pad[i, :t.size], unit_pad[i, :t.size] = t, unit
         x0[i], scale[i], upper[i] = _start(t, unit, initial)
     p, converged = _levenberg_marquardt(t_pad, unit_pad, x0, scale, upper, max_iterations)
-    return _summaries(t_pad, unit_pad, p, scale, upper, steps, converged, sizes)
+    fits = _summaries(t_pad, unit_pad, p, scale, upper, steps, converged, sizes)
+    nan = math.nan
+    return [SecondOrderFit(
+        wn_rad_s=nan, zeta=nan, td_s=nan, wn_ci_rad_s=(nan, nan), zeta_ci=(nan, nan),
+        td_ci_s=(nan, nan), rms_residual=nan, bandwidth_closed_form_rad_s=nan, success=False)
+        if gone else fit for fit, gone in zip(fits, lost, strict=True)]
 
 
 def _refine(t, unit, p, scale, upper, iterations=4):
@@ -628,6 +641,9 @@ def _refine(t, unit, p, scale, upper, iterations=4):
         free = ~(at_lower | at_upper)
         system = np.where(free[:, :, None] & free[:, None, :], hessian, 0.0)
         system = system + (~free)[:, :, None] * eye
+        # a run whose data or fit is not finite (a diverging simulation) keeps its start
+        usable &= np.isfinite(system).all(axis=(1, 2))
+        system = np.where(usable[:, None, None], system, eye)
         usable &= np.linalg.eigvalsh(system)[:, 0] > 0
         system = np.where(usable[:, None, None], system, eye)
         delta = np.linalg.solve(system, -np.where(free, gradient, 0.0)[:, :, None])[:, :, 0]

@@ -11,13 +11,37 @@ Of the fin angle delta in response to a step of delta_cmd:
 - the largest |current| and |voltage|, and whether either limit was hit.
 
 The final value is the step size by default: with integral action the loop settles on the
-command exactly (docs/model.md's T(0) = 1).
+command exactly (docs/model.md's T(0) = 1). A response that diverged (:func:`diverged`) has
+none of these figures (NaN).
 """
 
 import dataclasses
 import math
 
 import numpy as np
+
+#: A step response beyond this many times its final value has diverged (a loop that is not
+#: stable, or one the limits let run away): no response of a loop that holds comes near it.
+DIVERGED = 1e6
+
+
+def diverged(t, response, final):
+    """The first time [s] at which ``response`` is not finite or beyond :data:`DIVERGED` times
+    ``final`` in magnitude, or None where it never is.
+
+    Parameters
+    ----------
+    t : array_like
+        Sample times [s].
+    response : array_like
+        The response (the unit of ``final``).
+    final : float
+        Its final value, nonzero.
+    """
+    y = np.asarray(response, dtype=float)
+    with np.errstate(invalid="ignore"):
+        out = np.flatnonzero(~(np.abs(y) <= DIVERGED * abs(final)))
+    return float(np.asarray(t, dtype=float)[out[0]]) if out.size else None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -123,6 +147,16 @@ def step_figures(
     if final == 0 or not math.isfinite(final):
         raise ValueError(f"step figures: final value must be finite and nonzero, got {final!r}")
     y = np.asarray(response, dtype=float) / final
+    if diverged(t, y, 1.0) is not None:  # no figures of a run that diverged
+        nan = math.nan
+        return StepFigures(
+            amplitude_deg=math.degrees(step), rise_time_s=nan, overshoot_pct=nan,
+            settling_time_s=nan, settling_time_5pct_s=nan, peak_time_s=nan,
+            max_current_a=None if current is None else nan,
+            max_voltage_v=None if voltage is None else nan,
+            current_limited=None if current_limited is None else bool(np.any(current_limited)),
+            voltage_limited=None if voltage_limited is None else bool(np.any(voltage_limited)),
+        )
     peak_time, peak = _peak(t, y)
     return StepFigures(
         amplitude_deg=math.degrees(step),

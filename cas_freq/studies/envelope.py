@@ -248,9 +248,89 @@ def _refined(params, results, step_rad, fit):
 #: their confidence intervals.
 _UNIDENTIFIABLE = ("fit.wn_rad_s", "fit.zeta")
 
+#: Figures of the closed loop's own response: the linear closed loop's, the nonlinear step's
+#: and its fit's. At a grid point where the closed loop is not stable they are no figures of
+#: the loop (verify never passes them): the step there is a run the limits hold in a limit
+#: cycle or let diverge, whose figures hang on the last bits of the arithmetic (the fit's RMS
+#: residual of the shipped ``loaded`` variant at -20 N*m/rad moved by 3e-4 under another BLAS
+#: kernel), so they are not shown, stored or plotted.
+RUN_FIGURES = ("closed_loop.", "step.", "fit.")
+
+#: The fit's parameters kept in :func:`envelope_dict` (beside its RMS residual, the minimum of
+#: the sum of squares, which is determined however flat the minimum is).
+FIT_PARAMETERS = ("fit.td_s", "fit.bandwidth_closed_form_rad_s")
+
+#: Damping ratio above which a fit is degenerate: its fast pole (4 zeta^2 times the slow one)
+#: is far beyond the data, and only the slow pole wn/(2 zeta) is fitted. The shipped
+#: envelopes' fits are either below 2 or above 3e6. There the closed-form bandwidth (that
+#: slow pole) still moved by 1.1e-4 under another BLAS kernel (loaded, 15 N*m/rad): the
+#: optimiser stops anywhere along the flat valley of (wn, zeta), so it is not stored either.
+DEGENERATE_ZETA = 1e3
+
+
+def not_shown(envelope):
+    """Why each grid point's :data:`RUN_FIGURES` are not shown: None where they are.
+
+    Where the closed loop is not stable, none of them is; where it is but the step diverged
+    (:func:`~cas_freq.simulation.step_figures.diverged`: the limits let the loop run away; its
+    step figures are NaN, the largest current among them), its step's and fit's are not.
+
+    Returns
+    -------
+    list of str or None
+        Per grid point, e.g. ``"closed loop unstable"``.
+    """
+    current = envelope.figures.get("step.max_current_a")
+    diverged = np.zeros(envelope.hinge_stiffness.size, dtype=bool) if current is None else \
+        np.isnan(current)
+    return [f"closed loop {v}" if str(v) != "stable" else
+            _DIVERGED if gone else None
+            for v, gone in zip(envelope.stability, diverged, strict=True)]
+
+
+#: :func:`not_shown`'s reason at a stable point whose step diverged.
+_DIVERGED = "step diverged (beyond 1e6 times the step): no step figures or fit"
+
+
+def fit_not_shown(envelope):
+    """Why each grid point's :data:`FIT_PARAMETERS` are not shown (besides
+    :func:`not_shown`): None where they are.
+
+    Returns
+    -------
+    list of str or None
+        Per grid point: a degenerate fit (:data:`DEGENERATE_ZETA`).
+    """
+    zeta = envelope.figures.get("fit.zeta", np.full(envelope.hinge_stiffness.size, np.nan))
+    return [f"degenerate fit: overdamped beyond zeta {DEGENERATE_ZETA:g}, only its slow pole "
+            "is fitted and not to the written precision" if z > DEGENERATE_ZETA else None
+            for z in zeta]
+
+
+def shown_figure(envelope, key):
+    """The figure ``key`` per grid point [its unit], NaN where it does not exist or is not
+    shown (:func:`not_shown` for the :data:`RUN_FIGURES`, :func:`fit_not_shown` for the
+    :data:`FIT_PARAMETERS`).
+
+    Returns
+    -------
+    numpy.ndarray
+    """
+    values = np.array(envelope.figures.get(key, np.full(envelope.hinge_stiffness.size, np.nan)),
+                      dtype=float)
+    if key.startswith(RUN_FIGURES):
+        loop = key.startswith("closed_loop.")  # shown at a stable point whose step diverged
+        values[[reason is not None and not (loop and reason == _DIVERGED)
+                for reason in not_shown(envelope)]] = np.nan
+    if key in FIT_PARAMETERS:
+        values[[reason is not None for reason in fit_not_shown(envelope)]] = np.nan
+    return values
+
 
 def envelope_dict(envelope):
-    """JSON-ready dict of a :class:`LoadEnvelope` (floats as they are; NaN -> None)."""
+    """JSON-ready dict of a :class:`LoadEnvelope` (floats as they are; NaN and the figures
+    :func:`shown_figure` does not show -> None, with the reasons per grid point in
+    ``run_figures_not_shown`` and ``fit_parameters_not_shown``)."""
     def loss(item):
         return None if item is None else {"at_n_m_rad": item.at,
                                            "between_n_m_rad": list(item.between),
@@ -266,7 +346,11 @@ def envelope_dict(envelope):
         "stable_range_n_m_rad": list(envelope.stable_range),
         "step_deg": envelope.step_deg,
         "stability": [str(v) for v in envelope.stability],
-        "figures": {name: clean(values) for name, values in envelope.figures.items()
+        # why the closed loop's, the step's and the fit's figures of a point are null (or the
+        # step's and the fit's alone, where the step diverged), and why the fit's parameters are
+        "run_figures_not_shown": not_shown(envelope),
+        "fit_parameters_not_shown": fit_not_shown(envelope),
+        "figures": {name: clean(shown_figure(envelope, name)) for name in envelope.figures
                     if not name.startswith("_") and name not in _UNIDENTIFIABLE},
         "requirements": [
             {"id": r.id, "metric": r.metric, "severity": r.severity, "min": r.min,
