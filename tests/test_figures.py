@@ -161,5 +161,14 @@ def test_the_reports_tables_read_the_labels_of_the_tables():
     assert parameter_row_head("gear.backlash", "fin")[1:] == ("deg", pytest.approx(57.29577951))
     assert parameter_row_head("gear.ratio", "fin") == ("gear ratio N", "-", 1.0)
     assert parameter_row_head("position_loop.i_max", "fin")[0] == "current-command limit ±i_max"
+    # the table's ASCII symbols as a reader writes them, whole words only
+    assert parameter_row_head("motor.mu_v", "fin")[0] == "viscous friction μv"
+    assert parameter_row_head("current_loop.delay", "fin")[0] == (
+        "current-loop transport delay τc")
+    greek = {"μv": "mu_v", "η_b": "eta_b", "η": "eta", "τc": "tau_c", "τp": "tau_p",
+             "τ_h": "tau_h", "δ": "delta"}
     for key in _PARAMETER_KEYS + _LOAD_KEYS:
-        assert parameter_row_head(key, "output")[0] == PARAMETERS[key].label.replace("+/-", "±")
+        label = parameter_row_head(key, "output")[0]
+        for symbol, ascii_name in greek.items():
+            label = label.replace(symbol, ascii_name)
+        assert label == PARAMETERS[key].label.replace("+/-", "±")

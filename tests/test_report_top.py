@@ -75,9 +75,9 @@ def test_parameter_table_has_units_and_values(data):
     # labels and units from cas_freq.parameters (each parameter's meaning up to its range)
     assert rows["gear ratio N"] == ("-", "20")
     assert rows["motor terminal inductance L"] == ("mH", "0.071")
-    assert rows["position-loop transport delay tau_p"] == ("ms", "0.4")
+    assert rows["position-loop transport delay τp"] == ("ms", "0.4")
     assert rows["current-command limit ±i_max"] == ("A", "20")
-    assert rows["viscous friction mu_v"][0] == "N·m·s/rad"
+    assert rows["viscous friction μv"][0] == "N·m·s/rad"
 
 
 def test_footer_has_version_path_and_hash_and_no_date(data, monkeypatch):

@@ -13,6 +13,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import sys
 import time
 from pathlib import Path
@@ -437,6 +438,10 @@ _SHOWN_UNITS = {"ohm": ("Ω", 1.0), "H": ("mH", 1e3), "s": ("ms", 1e3),
 #: Keys shown in another unit than their SI unit's (a friction of a few mN·m).
 _SHOWN_KEY_UNITS = {"motor.coulomb_friction": ("mN·m", 1e3)}
 
+#: The parameter table's ASCII symbols as a reader writes them (whole words only).
+_SYMBOLS = {"mu_v": "μv", "eta": "η", "eta_b": "η_b", "tau_c": "τc", "tau_p": "τp",
+            "tau_h": "τ_h", "delta": "δ"}
+
 
 def parameter_row_head(key, output):
     """(label, shown unit, factor from SI) of a parameter: its label and unit from
@@ -448,6 +453,7 @@ def parameter_row_head(key, output):
     unit, scale = _SHOWN_KEY_UNITS.get(key) or _SHOWN_UNITS.get(parameter.unit) or (
         parameter.unit.replace("*", "·").replace("^2", "²"), 1.0)
     label = parameter.label.replace("the output", f"the {output}").replace("+/-", "±")
+    label = re.sub(r"\b(" + "|".join(_SYMBOLS) + r")\b", lambda m: _SYMBOLS[m.group(1)], label)
     return label, unit, scale
 
 
