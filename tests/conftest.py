@@ -30,6 +30,19 @@ def shipped_raw(_shipped_raw_once):
     return copy.deepcopy(_shipped_raw_once)
 
 
+@pytest.fixture(params=["reference", "compiled"])
+def engine(request, monkeypatch):
+    """Both paths of the grid scans (margins and crossings tests): numpy, and the numba kernels forced on small arrays."""
+    monkeypatch.setenv("CAS_FREQ_ENGINE", request.param)
+    if request.param == "compiled":
+        from cas_freq.jit import use_compiled
+
+        monkeypatch.setattr("cas_freq.jit.COMPILED_FROM", 0)
+        if not use_compiled():
+            pytest.skip("numba is not importable: the compiled path cannot run")
+    return request.param
+
+
 @pytest.fixture
 def write_config(tmp_path):
     """``write_config(text_or_dict, name="config.yaml") -> Path``: a config file in tmp_path.

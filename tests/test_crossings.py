@@ -105,19 +105,6 @@ def test_narrow_inner_loop_resonance_of_the_issue(tmp_path):
     assert result.position_loop.delay_margin_s < 2e-4
 
 
-@pytest.fixture(params=["reference", "compiled"])
-def engine(request, monkeypatch):
-    """Both paths of the grid scans: numpy, and the numba kernels forced on small arrays."""
-    monkeypatch.setenv("CAS_FREQ_ENGINE", request.param)
-    if request.param == "compiled":
-        from cas_freq.jit import use_compiled
-
-        monkeypatch.setattr("cas_freq.jit.COMPILED_FROM", 0)
-        if not use_compiled():
-            pytest.skip("numba is not importable: the compiled path cannot run")
-    return request.param
-
-
 def _dense_crossings(loop, low, high, points=2_000_001):
     """Brute force: sign changes of |L| - 1 on a uniform grid of ``points`` in [low, high]."""
     w = np.linspace(low, high, points)

@@ -138,19 +138,6 @@ def test_grid_resolves_delay_phase():
 # --- Phase margins in (-180°, 180°] whatever branch the phase starts on (issue 24) ---
 
 
-@pytest.fixture(params=["reference", "compiled"])
-def engine(request, monkeypatch):
-    """Both paths of the grid scans: numpy, and the numba kernels forced on small arrays."""
-    monkeypatch.setenv("CAS_FREQ_ENGINE", request.param)
-    if request.param == "compiled":
-        from cas_freq.jit import use_compiled
-
-        monkeypatch.setattr("cas_freq.jit.COMPILED_FROM", 0)
-        if not use_compiled():
-            pytest.skip("numba is not importable: the compiled path cannot run")
-    return request.param
-
-
 def test_aiding_plant_margin_is_on_the_branch_of_the_crossover(engine):
     # An aiding spring makes the plant 1/(s^2 - 1): at s = j w its denominator -w^2 - 1 is
     # negative real for every w, so L = K (1 + s Td)(1 + s/z) / ((s^2 - 1)(1 + s/p)) starts at
