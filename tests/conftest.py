@@ -32,7 +32,8 @@ def shipped_raw(_shipped_raw_once):
 
 @pytest.fixture(params=["reference", "compiled"])
 def engine(request, monkeypatch):
-    """Both paths of the grid scans (margins and crossings tests): numpy, and the numba kernels forced on small arrays."""
+    """Both paths of the grid scans (margins and crossings tests): numpy, and the numba
+    kernels forced on small arrays."""
     monkeypatch.setenv("CAS_FREQ_ENGINE", request.param)
     if request.param == "compiled":
         from cas_freq.jit import use_compiled
