@@ -2,13 +2,15 @@
 installed offline into a fresh virtual environment, it runs ``cas-freq report`` and
 ``cas_freq.load()`` from another folder, on the shipped config it carries as package data.
 
-The install test is slow (the installed package compiles its numba kernels afresh, ~30-60 s of
-CPU): it is marked ``slow`` (deselected by pyproject's addopts) and .ci/run runs it explicitly.
+The install test is slow (the installed package compiles its numba kernels afresh: 18-32 s,
+~18 s of CPU here): it is marked ``slow`` (deselected by pyproject's addopts) and .ci/run
+runs it explicitly.
 It changes nothing outside pytest's tmp_path: the wheel is built from a copy of the source
-tree (a build writes build/ and *.egg-info next to pyproject.toml), without build isolation or
-network; the environment has no pip of its own and no system site-packages: the test's own
-site-packages (numpy, numba, ...) are on its path through a .pth file, after its own
-site-packages, so ``cas_freq`` can only come from the wheel.
+tree (a build writes build/ and *.egg-info next to pyproject.toml), without build isolation,
+network or pip's cache; the environment has no pip of its own and no system site-packages: the
+test's own site-packages (numpy, numba, ...) are on its path through a .pth file, after its
+own site-packages, so ``cas_freq`` can only come from the wheel; its numba cache lands in the
+environment, the unit and matplotlib caches in tmp_path.
 """
 
 import importlib.util
@@ -54,11 +56,15 @@ def _copy_sources(target):
             shutil.copy2(source, target / name)
 
 
-def _child_environment():
+def _child_environment(tmp_path):
     environment = {key: value for key, value in os.environ.items()
                    if key not in ("PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV")}
+    environment["CAS_FREQ_UNIT_CACHE"] = str(tmp_path / "unit-cache")  # not the user's cache
+    environment["MPLCONFIGDIR"] = str(tmp_path / "matplotlib")
+    environment["MPLBACKEND"] = "Agg"
     environment["PIP_NO_INDEX"] = "1"  # never the network
     environment["PIP_DISABLE_PIP_VERSION_CHECK"] = "1"
+    environment["PIP_NO_CACHE_DIR"] = "1"
     return environment
 
 
@@ -75,7 +81,7 @@ def test_the_wheel_installed_offline_runs_report_and_load_from_another_folder(tm
         if importlib.util.find_spec(module) is None:
             pytest.skip(f"{module} is not importable: the wheel cannot be built offline "
                         f"without build isolation (pip install '.[test]' installs it)")
-    environment = _child_environment()
+    environment = _child_environment(tmp_path)
     source, wheels, work = tmp_path / "source", tmp_path / "wheels", tmp_path / "work"
     for folder in (source, wheels, work):
         folder.mkdir()
