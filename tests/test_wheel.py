@@ -13,6 +13,7 @@ own site-packages, so ``cas_freq`` can only come from the wheel; its numba cache
 environment, the unit and matplotlib caches in tmp_path.
 """
 
+import importlib.resources
 import importlib.util
 import os
 import site
@@ -24,6 +25,8 @@ import venv
 from pathlib import Path
 
 import pytest
+
+from cas_freq.config import loader
 
 ROOT = Path(__file__).resolve().parents[1]
 #: What a build reads: the package, the configs it maps in, the metadata's files.
@@ -41,6 +44,18 @@ def test_pyproject_lists_every_package_and_maps_the_configs():
     assert settings["setuptools"]["package-data"] == {"cas_freq.configs": ["*.yaml"]}
     assert {p.name for p in (ROOT / "configs").glob("*.yaml")} == {"qt_cas.yaml",
                                                                     "dc_servo.yaml"}
+
+
+def test_the_shipped_configs_are_package_data_when_installed_else_the_repositorys(
+        tmp_path, monkeypatch):
+    # a source checkout (this one): the repository's configs/, which reports name from its root
+    assert loader.default_config_path() == ROOT / "configs" / "qt_cas.yaml"
+    # an installed package: its package data cas_freq/configs/ (what the wheel maps there)
+    installed = tmp_path / "site-packages" / "cas_freq"
+    (installed / "configs").mkdir(parents=True)
+    monkeypatch.setattr(importlib.resources, "files",
+                        lambda package: installed if package == "cas_freq" else None)
+    assert loader.default_config_path() == installed / "configs" / "qt_cas.yaml"
 
 
 def _copy_sources(target):
