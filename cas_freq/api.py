@@ -23,6 +23,7 @@ import numpy as np
 from cas_freq.analysis.frequency import DEFAULT_RANGE_RAD_S
 from cas_freq.config.loader import load_variant, read_config_file, variant_names
 from cas_freq.model import DelayModel
+from cas_freq.threads import one_blas_thread
 
 
 def _delay(delay):
@@ -98,6 +99,7 @@ class Actuator:
         """Names of the config file's variants, ``"base"`` first (list of str)."""
         return variant_names(read_config_file(self.loaded.source))
 
+    @one_blas_thread()
     def analyze(self, delay="exact", frequency_range=None):
         """Every frequency-domain figure: margins of both loops, closed loop, stability.
 
@@ -119,6 +121,7 @@ class Actuator:
 
         return analyze(self.loaded, _delay(delay), frequency_range or DEFAULT_RANGE_RAD_S)
 
+    @one_blas_thread()
     def frequency_response(self, omega, delay="exact"):
         """The loops' complex frequency responses.
 
@@ -141,6 +144,7 @@ class Actuator:
         return FrequencyResponse(omega, loops.delay.label,
                                  **{name: getattr(loops, name)(s) for name in _LOOPS})
 
+    @one_blas_thread()
     def simulate(self, step="10 deg"):
         """Nonlinear step of the output, as ``cas-freq simulate --step``.
 
@@ -158,6 +162,7 @@ class Actuator:
 
         return StepResponse.of(step_run(self.loaded, angle(str(step), "step")))
 
+    @one_blas_thread()
     def simulate_profile(self, distance="10 deg", velocity="2000 deg/s",
                          acceleration="1e5 deg/s^2", deceleration=None):
         """A profile move of the output, with and without feed-forward, as ``cas-freq simulate
@@ -185,6 +190,7 @@ class Actuator:
                                    "deceleration": "deceleration"})
         return ProfileResponse.of(profile_run(self.loaded, move))
 
+    @one_blas_thread()
     def load_envelope(self, hinge_stiffness, step=None):
         """Every figure and requirement verdict against the load spring K_h (the report's load
         envelope, :mod:`cas_freq.studies.envelope`).
@@ -210,6 +216,7 @@ class Actuator:
         step_rad = None if step is None else angle(str(step), "step")
         return load_envelope(self.loaded, np.asarray(hinge_stiffness, dtype=float), step_rad)
 
+    @one_blas_thread()
     def tune(self, free=None, objective="max-bandwidth", robust=None, tolerances=(),
              bounds=None, yield_pct=99.0, margin_pct=2.0, required_only=False, seed=0,
              load_cases=False, scheduler=None, candidates=None, rounds=None):
@@ -274,6 +281,7 @@ class Actuator:
         changes = {key: np.asarray(values, dtype=float) for key, values in changes.items()}
         return ActuatorSet(self, changes, variant_parameters(self.params, changes))
 
+    @one_blas_thread()
     def to_control(self, pade=6):
         """The loops as python-control state-space systems, both delays Padé of order ``pade``.
 
@@ -459,6 +467,7 @@ class ActuatorSet:
     def __len__(self):
         return self.loop_parameters.n_runs
 
+    @one_blas_thread()
     def analyze(self, delay="exact", frequency_range=None):
         """The figures of :meth:`Actuator.analyze` for every sample, as numpy arrays.
 

@@ -16,6 +16,7 @@ the other.
 
 import copy
 import dataclasses
+import importlib.resources
 import math
 import re
 from pathlib import Path
@@ -190,9 +191,24 @@ def _load_yaml(text, path):
                           f"{shown(str(exc))}); remove the !!tag or fix the value") from None
 
 
+def shipped_configs_dir():
+    """Folder of the shipped configs (``qt_cas.yaml``, ``dc_servo.yaml``).
+
+    In an installed package, the package data ``cas_freq/configs/`` (read with
+    :mod:`importlib.resources`; the wheel maps the repository's ``configs/`` there, see
+    pyproject.toml); in a source checkout (``PYTHONPATH``, or an editable install), the
+    repository's ``configs/`` itself, so that a report run from the repository root names
+    ``configs/qt_cas.yaml``.
+    """
+    packaged = importlib.resources.files("cas_freq") / "configs"
+    if isinstance(packaged, Path) and packaged.is_dir():
+        return packaged
+    return Path(__file__).resolve().parents[2] / "configs"
+
+
 def default_config_path():
-    """Path of the shipped QT-CAS config (``configs/qt_cas.yaml`` of the source tree)."""
-    return Path(__file__).resolve().parents[2] / "configs" / "qt_cas.yaml"
+    """Path of the shipped QT-CAS config, ``qt_cas.yaml`` of :func:`shipped_configs_dir`."""
+    return shipped_configs_dir() / "qt_cas.yaml"
 
 
 @dataclasses.dataclass(frozen=True)

@@ -276,13 +276,16 @@ def unit_step_response(system, n_steps, dt):
     """
     from scipy.linalg import expm
 
+    from cas_freq.threads import one_blas_thread
+
     a, b, c, d = (np.asarray(m, dtype=float) for m in (system.A, system.B, system.C, system.D))
     n = a.shape[0]
     if n == 0:
         return np.full(n_steps, float(d[0, 0]))
     block = np.zeros((n + 1, n + 1))
     block[:n, :n], block[:n, n] = a * dt, b[:, 0] * dt
-    exponential = expm(block)
+    with one_blas_thread():
+        exponential = expm(block)
     power, offset = exponential[:n, :n], exponential[:n, n].copy()
     states = np.zeros((n, n_steps))
     m = 1

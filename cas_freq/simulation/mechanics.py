@@ -98,6 +98,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from cas_freq.model.parts import plant_matrices
+from cas_freq.threads import one_blas_thread
 
 #: Mode indices: engaged with the motor driving, engaged with the fin driving, inside the play,
 #: the motor's shaft held at rest by the gear.
@@ -132,12 +133,15 @@ def distinct_exponentials(matrices):
 
     A sine-dwell batch repeats one plant over hundreds of runs; scipy's expm works matrix by
     matrix, so the result is the same to the bit, and each exponential costs several BLAS
-    calls, slow when BLAS threads are contended.
+    calls, slow when BLAS threads are contended: they run on one BLAS thread
+    (:func:`cas_freq.threads.one_blas_thread`).
     """
     shape = matrices.shape
     size = shape[-1]
     unique, inverse = np.unique(matrices.reshape(-1, size * size), axis=0, return_inverse=True)
-    return expm(unique.reshape(-1, size, size))[inverse.reshape(-1)].reshape(shape)
+    with one_blas_thread():
+        exponentials = expm(unique.reshape(-1, size, size))
+    return exponentials[inverse.reshape(-1)].reshape(shape)
 
 
 def step_matrices(params, dt):

@@ -1,0 +1,35 @@
+"""One BLAS thread around the toolbox's small dense linear algebra, the caller's setting kept.
+
+The toolbox's linear algebra is many small matrices (5 x 5 exponentials, eigenvalues of loop
+matrices, 3 x 3 solves), where BLAS's threads only contend: on a loaded machine a 5 x 5
+``expm`` took 2.8-6.8 ms with the default threads against 0.021 ms with one. The CLI sets the
+``*_NUM_THREADS`` variables before numpy loads (:func:`cas_freq.cli.limit_blas_threads`); the
+Python API cannot (numpy is loaded already), so its entry points and the simulator's
+exponentials run inside :func:`one_blas_thread`, which limits every loaded BLAS library with
+threadpoolctl and restores the caller's thread counts on exit.
+"""
+
+import contextlib
+
+_CONTROLLER = None
+
+
+def _controller():
+    """threadpoolctl's controller of the BLAS libraries numpy and scipy.linalg load, made once
+    (making one scans the process's libraries, ~3 ms; entering its limit costs ~10 us)."""
+    global _CONTROLLER
+    if _CONTROLLER is None:
+        import numpy  # noqa: F401 - the BLAS libraries the toolbox calls, loaded first
+        import scipy.linalg  # noqa: F401
+        from threadpoolctl import ThreadpoolController
+
+        _CONTROLLER = ThreadpoolController()
+    return _CONTROLLER
+
+
+@contextlib.contextmanager
+def one_blas_thread():
+    """Context manager (and function decorator): every BLAS library of numpy and scipy limited
+    to one thread inside, the previous thread counts restored on exit."""
+    with _controller().limit(limits=1, user_api="blas"):
+        yield
