@@ -465,6 +465,8 @@ def _load(data, path, variant, overrides):
     for key, value in overrides:
         _apply(resolved, key, value, "--set")
     if overrides:
+        if variant == BASE_VARIANT:  # --set applies per variant: say which one it failed in
+            origin += f" (variant {shown(variant)})"
         origin += " with --set " + ", ".join(one_line(f"{k}={v}")[:80] for k, v in overrides)
     params = validate(resolved, origin)
     return LoadedVariant(str(path), variant, params, tuple(overrides))
