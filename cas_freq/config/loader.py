@@ -389,7 +389,18 @@ def _messages(errors):
             where = ".".join(str(part) for part in section) or "the top level"
             lines.append(one_line(f"{len(group):,} unknown keys: {listed(names, ', ')}"
                                   + (f"; {where} accepts {accepted}" if accepted else "")))
-    return lines
+    return _accepted_once(lines)
+
+
+def _accepted_once(lines):
+    """``lines`` with a repeated "; accepted: ..." list (the ~100 figure keys after each
+    unknown requirement metric) given once, then "as above"."""
+    seen, out = set(), []
+    for line in lines:
+        head, separator, accepted = line.partition("; accepted: ")
+        out.append(f"{head}; accepted: as above" if separator and accepted in seen else line)
+        seen.add(accepted)
+    return out
 
 
 def _is_type_error(error):
