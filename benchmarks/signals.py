@@ -13,7 +13,9 @@ variant's computation), and sends
 - SIGKILL to the report alone; measured until no process of the group is alive (goal: 2 s;
   the workers get SIGKILL from the kernel at their parent's death).
 
-A process killed but not yet reaped by init (a zombie) counts as ended. Printed: per signal,
+With ``--local-cluster`` the process is ``montecarlo --scheduler local:2`` (two dask worker
+processes; the same goals). A process killed but not yet reaped by init (a zombie) counts as
+ended. Printed: per signal,
 the median and the slowest time over the runs; exit status 1 when a median misses its goal.
 """
 
@@ -57,18 +59,24 @@ def _default_sigint():
     signal.signal(signal.SIGINT, signal.SIG_DFL)  # also when started as a background job
 
 
-def one_run(number, to_group, until, delay, folder):
-    """Seconds from the signal to the report's exit (``until="exit"``) or to no process of it
+#: The study ``--local-cluster`` signals: its two workers simulate a step per sample.
+LOCAL_CLUSTER = ("montecarlo", "-q", "--samples", "4000", "--tolerance", "motor.Km=5%",
+                 "--scheduler", "local:2")
+
+
+def one_run(number, to_group, until, delay, folder, local_cluster=False):
+    """Seconds from the signal to the process's exit (``until="exit"``) or to no process of it
     alive (``"gone"``)."""
+    command = LOCAL_CLUSTER if local_cluster else ("report", "-q", "-o", str(folder / "report"))
     process = subprocess.Popen(
-        [sys.executable, "-m", "cas_freq", "report", "-q", "-o", str(folder / "report")],
+        [sys.executable, "-m", "cas_freq", *command],
         cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True,
         preexec_fn=_default_sigint)
     try:
         deadline = time.monotonic() + START_S
         while len(live_group(process.pid)) < 3:
             if process.poll() is not None or time.monotonic() > deadline:
-                raise RuntimeError(f"the report's workers did not start: "
+                raise RuntimeError(f"the workers did not start: "
                                    f"{process.communicate()[1][-400:]!r}")
             time.sleep(0.01)
         time.sleep(delay)
@@ -92,6 +100,8 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--delay", type=float, action="append",
                         help="seconds after the workers start (repeatable; default 1, 3, 6)")
+    parser.add_argument("--local-cluster", action="store_true",
+                        help="signal a Monte Carlo study on a local dask cluster instead")
     args = parser.parse_args(argv)
     delays = args.delay or [1.0, 3.0, 6.0]
     missed = False
@@ -99,7 +109,8 @@ def main(argv=None):
     print(f"|{'-' * 40}|------|--------|---------|------|------|")
     with tempfile.TemporaryDirectory() as folder:
         for name, number, to_group, until, goal in CASES:
-            times = [one_run(number, to_group, until, delay, Path(folder)) for delay in delays]
+            times = [one_run(number, to_group, until, delay, Path(folder), args.local_cluster)
+                     for delay in delays]
             median = statistics.median(times)
             missed |= median > goal
             print(f"| {name:<38} | {len(times):>4} | {median:>4.2f} s | {max(times):>5.2f} s "

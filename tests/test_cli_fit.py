@@ -67,6 +67,10 @@ def test_table(tmp_path):
         ("t,delta\n0.01,1\n0.02,2\n", "span the step at t = 0"),
         ("0,0\n0.001,x\n", "not numbers"),
         ("0,0,1\n", "expected 2 columns"),
+        # three samples from t = 0: the error named an internal function and its arguments
+        # ("fit_second_order: t and response must be 1-D of the same length (>= 4)")
+        ("-0.001,0\n0,0\n0.001,5\n0.002,9\n", "bad.csv: 3 samples from t = 0 s on; the fit "
+                                                  "needs at least 4"),
     ],
 )
 def test_bad_files_exit_2(tmp_path, content, expect):

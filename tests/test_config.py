@@ -473,6 +473,17 @@ def test_override_error_names_the_override(shipped_config_path):
     assert "position_loop.Kd: must be 0 or within 1e-09..1e+09 A*s/rad, got -0.1 A*s/rad" in message
 
 
+def test_override_error_names_the_base_variant_too(shipped_config_path):
+    # --set applies to each selected variant; with --all-variants the README's backlash
+    # override fails in base (no gear stiffness) and the error named no variant, as if the
+    # loaded variant the README pairs it with were at fault.
+    from cas_freq.config import load_all_variants
+
+    with pytest.raises(ConfigError) as info:
+        load_all_variants(shipped_config_path, [("gear.backlash", "0.1 deg")])
+    assert "(variant 'base') with --set gear.backlash=0.1 deg: gear.backlash:" in str(info.value)
+
+
 def test_override_unknown_key(shipped_config_path):
     with pytest.raises(ConfigError, match=r"motor\.Rr: unknown key \(value 0\.4\)"):
         load_variant(shipped_config_path, overrides=[("motor.Rr", 0.4)])

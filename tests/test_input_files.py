@@ -139,6 +139,21 @@ def test_ten_thousand_unknown_keys(tmp_path, where):
     assert "accepts" in err  # what the section takes, said once
 
 
+def test_many_unknown_requirement_metrics_list_the_accepted_figures_once(tmp_path):
+    # 2,000 requirements on unknown figures: the error is cut after 10 problems, but each of
+    # the 10 repeated the ~100 accepted figure keys (16 KB on one line); now said once.
+    text = default_config_path().read_text(encoding="utf-8")
+    bad = "".join(f"\n  - {{id: X{i}, metric: no.figure{i}, min: 1, severity: required, "
+                  "source: test}" for i in range(2000))
+    text = text.replace("\nrequirements:", "\nrequirements:" + bad, 1)
+    path = tmp_path / "requirements.yaml"
+    path.write_text(text, encoding="utf-8")
+    code, _, err = run_cli(["analyze", str(path)])
+    assert code == 2 and err.count("\n") == 1 and "... and 1,990 more" in err
+    assert err.count("closed_loop.bandwidth_rad_s") == 1 and err.count("accepted: as above") == 9
+    assert len(err) < 4000, len(err)
+
+
 def test_a_header_of_ten_thousand_cells_is_cut(tmp_path):
     path = tmp_path / "wide.csv"
     path.write_text(",".join(f"x{i}" for i in range(10_000)) + "\n")

@@ -139,6 +139,9 @@ def run_file(args):
         raise CasFreqError(f"{args.csv}: the times must span the step at t = 0 s, got "
                            f"{t[0]:g}..{t[-1]:g} s")
     after = t >= 0
+    if np.count_nonzero(after) < 4:  # three parameters and a residual
+        raise CasFreqError(f"{args.csv}: {np.count_nonzero(after)} samples from t = 0 s on; "
+                           "the fit needs at least 4")
     try:
         figures = step_figures(t[after], delta[after], step)
         fit = fit_second_order(t[after], delta[after], step)

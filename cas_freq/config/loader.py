@@ -405,7 +405,18 @@ def _messages(errors):
             where = ".".join(str(part) for part in section) or "the top level"
             lines.append(one_line(f"{len(group):,} unknown keys: {listed(names, ', ')}"
                                   + (f"; {where} accepts {accepted}" if accepted else "")))
-    return lines
+    return _accepted_once(lines)
+
+
+def _accepted_once(lines):
+    """``lines`` with a repeated "; accepted: ..." list (the ~100 figure keys after each
+    unknown requirement metric) given once, then "as above"."""
+    seen, out = set(), []
+    for line in lines:
+        head, separator, accepted = line.partition("; accepted: ")
+        out.append(f"{head}; accepted: as above" if separator and accepted in seen else line)
+        seen.add(accepted)
+    return out
 
 
 def _is_type_error(error):
@@ -481,6 +492,8 @@ def _load(data, path, variant, overrides):
     for key, value in overrides:
         _apply(resolved, key, value, "--set")
     if overrides:
+        if variant == BASE_VARIANT:  # --set applies per variant: say which one it failed in
+            origin += f" (variant {shown(variant)})"
         origin += " with --set " + ", ".join(one_line(f"{k}={v}")[:80] for k, v in overrides)
     params = validate(resolved, origin)
     return LoadedVariant(str(path), variant, params, tuple(overrides))

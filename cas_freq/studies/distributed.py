@@ -114,7 +114,11 @@ def _new_client(scheduler):
         with distributed.LocalCluster(n_workers=value, threads_per_worker=1, processes=True,
                                       dashboard_address=None) as cluster, \
                 distributed.Client(cluster) as client:
-            yield client
+            try:
+                yield client
+            except KeyboardInterrupt:  # Ctrl-C, SIGTERM: end at once, not in 4 s per worker
+                _kill_local_workers(cluster)
+                raise
         return
     try:
         client = distributed.Client(value, timeout=f"{CONNECT_TIMEOUT_S}s")
@@ -123,6 +127,29 @@ def _new_client(scheduler):
                            f"({type(exc).__name__}: {exc})") from None
     with client:
         yield client
+
+
+def _kill_local_workers(cluster):
+    """Kill a local cluster's worker processes (SIGKILL) and quieten dask's logs, so that an
+    interrupted study ends within the second its Ctrl-C promises: closed as usual, each busy
+    worker is given 4 s to finish its chunk (the nanny's grace) and dask logs two warnings per
+    worker. Each nanny is first marked as closing, so that it does not restart its worker."""
+    import logging
+    import os
+    import signal
+
+    from distributed.core import Status
+
+    logging.getLogger("distributed").setLevel(logging.CRITICAL)
+    for nanny in list(cluster.workers.values()):
+        pid = getattr(nanny, "pid", None)
+        if pid is None:
+            continue
+        nanny.status = Status.closing_gracefully
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
 
 
 def chunk_slices(n_samples, size=CHUNK_SAMPLES):

@@ -121,6 +121,9 @@ class Evaluation:
     nominal : dict of str to numpy.ndarray
         Figure -> (n,) values in the nominal scenario (the trade-off figures and every
         constraint's).
+    stable : numpy.ndarray of bool
+        (n,) the closed loop of the nominal scenario is stable (else every constraint fails
+        there, not assessed, whatever its figure).
     """
 
     values: dict
@@ -130,6 +133,7 @@ class Evaluation:
     feasible: np.ndarray
     violation: np.ndarray
     nominal: dict
+    stable: np.ndarray
 
 
 def _quantile_shortfall(constraint, values, counted, target):
@@ -226,7 +230,8 @@ def evaluate(params, keys, unit, scenario_set, held, objective, scheduler=None, 
         values=values, objective=score,
         passed=np.column_stack(passed) if held else np.zeros(shape),
         yield_all=yield_all, feasible=feasible,
-        violation=np.column_stack(violation) if held else np.zeros(shape), nominal=nominal)
+        violation=np.column_stack(violation) if held else np.zeros(shape), nominal=nominal,
+        stable=stable[:, 0])
 
 
 def joined(evaluations, rows=slice(None)):

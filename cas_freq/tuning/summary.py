@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from cas_freq.figures import UNIT_LABELS
-from cas_freq.tuning.evaluate import TRADE_OFF
+from cas_freq.tuning.evaluate import MISSING_VIOLATION, TRADE_OFF
 from cas_freq.tuning.options import OBJECTIVES
 from cas_freq.verify.evaluate import bound_text
 
@@ -24,9 +24,17 @@ def _bound_text(constraint):
 
 
 def _requirements(result, index, e):
-    """Per held requirement: the nominal value, yield, shortfall, binding or not."""
+    """Per held requirement: the nominal value, yield, shortfall, binding or not, and why it
+    was not assessed (``not_assessed``: the nominal closed loop is unstable, or the figure has
+    no value; its shortfall is then :data:`MISSING_VIOLATION`, a rank, not a distance)."""
     rows = []
     for j, c in enumerate(result.held):
+        not_assessed = None
+        if not e.stable[index]:
+            not_assessed = "the closed loop is unstable"
+        elif e.violation[index, j] == MISSING_VIOLATION:
+            not_assessed = "the figure has no value"
+
         value = float(e.nominal[c.metric][index])
         bounds = [b for b in (c.low, c.high) if b is not None]
         distance = min((abs(value - b) / max(abs(b), 1e-12) for b in bounds),
@@ -40,6 +48,7 @@ def _requirements(result, index, e):
             "binding": bool(distance is not None and distance <= BINDING
                             and e.violation[index, j] == 0.0),
             "simulated": not np.isnan(e.violation[index, j]),
+            "not_assessed": not_assessed,
         })
     return rows
 
@@ -69,6 +78,7 @@ def _candidate(result, index, e=None):
     return {
         "values": {key: float(v[index]) for key, v in e.values.items()},
         "feasible": bool(e.feasible[index]),
+        "stable": bool(e.stable[index]),
         "yield_pct": 100.0 * float(e.yield_all[index]),
         "objective": None if not math.isfinite(e.objective[index]) else float(e.objective[index]),
         "requirements": _requirements(result, index, e),
@@ -142,7 +152,9 @@ def tune_text(data):
     lines.append(f"  {'requirement':<40} {'before':>10} {'tuned':>10}  bound (tightened)")
     for b, t in zip(before["requirements"], tuned["requirements"], strict=True):
         note = "  binding" if t["binding"] else ""
-        if t["shortfall"] is None:
+        if t["not_assessed"]:
+            note = f"  not assessed: {t['not_assessed']}"
+        elif t["shortfall"] is None:
             note = "  not simulated: the linear requirements already fail"
         elif t["shortfall"] > 0:
             note = f"  short by {100 * t['shortfall']:.3g} %"
@@ -152,8 +164,11 @@ def tune_text(data):
                         else "") + note)
     if not data["feasible"]:
         failing = [t for t in tuned["requirements"] if t["shortfall"]]
-        lines.append("  the closest candidate misses: " + ", ".join(
-            f"{t['id']} (by {100 * t['shortfall']:.3g} % of its bound)" for t in failing))
+        lines.append("  the closest candidate misses: " + (
+            "every requirement (its closed loop is unstable)" if not tuned["stable"] else
+            ", ".join(f"{t['id']} (no value)" if t["not_assessed"] else
+                      f"{t['id']} (by {100 * t['shortfall']:.3g} % of its bound)"
+                      for t in failing)))
         lines.append("  best value of each over every candidate: " + ", ".join(
             f"{key} {_number(value)}" for key, value in data["best_reachable"].items()))
     if data["pareto"]:
