@@ -113,7 +113,7 @@ def _data_loop(data, delay):
             raise ValueError(f"loop: a {data.noutputs}x{data.ninputs} FrequencyResponseData; "
                              "accepted: a SISO loop")
         omega = np.asarray(data.omega, dtype=float)
-        response = np.asarray(data.fresp, dtype=complex).reshape(-1)
+        response = np.asarray(data.frdata, dtype=complex).reshape(-1)
     else:
         omega, response = data
         omega = np.asarray(omega, dtype=float)
