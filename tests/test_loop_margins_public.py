@@ -1,8 +1,12 @@
 """cf.loop_margins and cf.closed_loop_figures: margins of any loop, checked against
 python-control's own test systems and MATLAB's allmargin documentation."""
 
+import contextlib
+import io
 import json
 import math
+import re
+from pathlib import Path
 
 import control
 import numpy as np
@@ -229,3 +233,14 @@ def test_bad_input_is_named():
         cf.loop_margins("25/(s+1)")
     with pytest.raises(ValueError, match="increasing"):
         cf.loop_margins((np.array([1.0, 3.0, 2.0]), np.ones(3)))
+
+
+def test_readme_example_runs_as_written():
+    # the "Margins of any loop" blocks of the README's Python API section and their output
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    section = text.split("\n### Margins of any loop\n", 1)[1].split("\n## ", 1)[0]
+    code, shown = re.findall(r"```(?:python|text)\n(.*?)```", section, flags=re.S)[:2]
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        exec(compile(code, "README.md", "exec"), {})
+    assert out.getvalue() == shown
