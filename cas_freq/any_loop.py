@@ -210,6 +210,26 @@ def _none(value):
     return None if value is None or not np.isfinite(value) else float(value)
 
 
+def _static_phase_crossover(prepared, values):
+    """The phase crossover at w = 0 of an LTI loop whose static gain L(0) is finite and
+    negative (as python-control and MATLAB list it), added to the crossings and the headline
+    gain margins when nearer 0 dB; {} otherwise. (Not found for callables and data, which
+    are known only inside their range.)"""
+    if prepared.system is None:
+        return {}
+    with np.errstate(all="ignore"):
+        dc = complex(np.asarray(prepared.system.dcgain()).reshape(-1)[0])
+    if not (np.isfinite(dc) and dc.real < 0 and dc.imag == 0):
+        return {}
+    gm = -20.0 * math.log10(-dc.real)
+    out = {"phase_crossovers": (PhaseCrossover(0.0, gm), *values["phase_crossovers"])}
+    if gm >= 0 and (values["gain_margin_db"] is None or gm < values["gain_margin_db"]):
+        out.update(gain_margin_db=gm, phase_crossover_rad_s=0.0)
+    if gm < 0 and (values["gain_margin_low_db"] is None or gm > values["gain_margin_low_db"]):
+        out.update(gain_margin_low_db=gm, phase_crossover_low_rad_s=0.0)
+    return out
+
+
 @dataclasses.dataclass(frozen=True)
 class LoopMarginResult:
     """Every margin of one loop (:func:`loop_margins`); a figure that does not exist is None.
@@ -221,7 +241,7 @@ class LoopMarginResult:
         margin [s], continuous phase [deg].
     phase_crossovers : tuple of PhaseCrossover
         Every L real and negative in range: frequency [rad/s], gain margin [dB] (> 0 upper,
-        < 0 lower).
+        < 0 lower); for an LTI loop with a negative static gain also w = 0 (first).
     phase_margin_deg, crossover_rad_s
         The gain crossover nearest the critical point (smallest |PM|) [deg], [rad/s].
     gain_margin_db, phase_crossover_rad_s
@@ -345,6 +365,7 @@ def loop_margins(loop, *, delay=0.0, omega_range=None, stable=None, points_per_d
     margins = margins_of_run(figures)
     values = {f.name: getattr(margins, f.name) for f in dataclasses.fields(LoopMarginResult)
               if hasattr(margins, f.name)}
+    values.update(_static_phase_crossover(prepared, values))
     return LoopMarginResult(
         **values, closed_loop_stable=is_stable, stability_basis=basis,
         omega_range_rad_s=(float(prepared.omega[0]), float(prepared.omega[-1])),

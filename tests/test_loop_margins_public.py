@@ -48,6 +48,27 @@ def _db(ratio):
     return 20.0 * math.log10(ratio)
 
 
+def _same_crossings_as_python_control(result, system):
+    """Every crossing against python-control's polynomial method (stability_margins with
+    returnall, which solves |L| = 1 and Im L = 0 as polynomial roots): an independent method;
+    both refine to machine precision, so 1e-7 relative is ample (1e-6 deg / dB absolute)."""
+    gm, pm, _, wpc, wgc, _ = control.stability_margins(system, returnall=True)
+    # python-control also lists w = 0 when L(0) < 0, as we do, and when L(0) = 0 (a zero at
+    # s = 0, gm inf): that is L starting at the origin, not a crossing of the negative axis
+    touch = (np.asarray(wpc) == 0) & np.isinf(gm)
+    gm, wpc = np.asarray(gm)[~touch], np.asarray(wpc)[~touch]
+    order = np.argsort(wpc)
+    np.testing.assert_allclose([c.frequency_rad_s for c in result.phase_crossovers],
+                               np.asarray(wpc)[order], rtol=1e-7)
+    np.testing.assert_allclose([c.gain_margin_db for c in result.phase_crossovers],
+                               20 * np.log10(np.asarray(gm)[order]), atol=1e-6)
+    order = np.argsort(wgc)
+    np.testing.assert_allclose([c.frequency_rad_s for c in result.gain_crossovers],
+                               np.asarray(wgc)[order], rtol=1e-7)
+    np.testing.assert_allclose([c.phase_margin_deg for c in result.gain_crossovers],
+                               np.asarray(pm)[order], atol=1e-6)
+
+
 @pytest.mark.parametrize("number", range(len(MARGIN_TEST_SYSTEMS)))
 def test_python_control_margin_test_systems(number):
     system, published = MARGIN_TEST_SYSTEMS[number]
@@ -55,18 +76,7 @@ def test_python_control_margin_test_systems(number):
     # 1. Every crossing against python-control's polynomial method (stability_margins with
     # returnall, which solves |L| = 1 and Im L = 0 as polynomial roots): an independent
     # method; both refine to machine precision, so 1e-7 relative is ample.
-    gm, pm, _, wpc, wgc, _ = control.stability_margins(system, returnall=True)
-    positive = np.asarray(wpc) > 0  # python-control also lists w = 0 when L(0) < 0
-    np.testing.assert_allclose([c.frequency_rad_s for c in result.phase_crossovers],
-                               np.sort(np.asarray(wpc)[positive]), rtol=1e-7)
-    order = np.argsort(np.asarray(wpc)[positive])
-    np.testing.assert_allclose([c.gain_margin_db for c in result.phase_crossovers],
-                               20 * np.log10(np.asarray(gm)[positive][order]), atol=1e-6)
-    order = np.argsort(wgc)
-    np.testing.assert_allclose([c.frequency_rad_s for c in result.gain_crossovers],
-                               np.asarray(wgc)[order], rtol=1e-7)
-    np.testing.assert_allclose([c.phase_margin_deg for c in result.gain_crossovers],
-                               np.asarray(pm)[order], atol=1e-6)
+    _same_crossings_as_python_control(result, system)
     # 2. The headline figures against the values margin_test.py publishes, with the
     # tolerance it checks python-control's own stability_margins against them (atol 1.5e-2:
     # they are 4-decimal values, some from an older computation, e.g. PM 97.5941 where
@@ -92,6 +102,66 @@ def test_python_control_margin_test_systems(number):
         assert result.sensitivity_peak_rad_s == pytest.approx(w_ms, abs=1.5e-2)
     if not stable:
         assert result.sensitivity_peak_db is None and result.disk_margin_alpha is None
+
+
+# The "cornucopia of tricky systems" of margin_test.py (fixture tsys_zmoresystems), and the
+# margin() results its test_zmore_margin publishes: (sysname, K, (gm, pm [deg], wpc, wgc), atol).
+ZMORE = {
+    "typem1": s / (s + 1),
+    "type0": 1 / (s + 1) ** 3,
+    "type1": (s + 0.1) / s / (s + 1),
+    "type2": (s + 0.1) / s**2 / (s + 1),
+    "type3": (s + 0.1) * (s + 0.1) / s**3 / (s + 1),
+    "example21": EXAMPLE21,
+    "example23": ((s + 0.1) ** 2 + 1) * (s - 0.1) / (((s + 0.1) ** 2 + 4) * (s + 1)),
+    "example25a": s / (s**2 + 2 * s + 2) ** 4,
+    "example26a": ((s - 0.1) ** 2 + 1) / ((s + 0.1) * ((s - 0.2) ** 2 + 4)),
+    "example26b": ((s - 0.1) ** 2 + 1) / ((s - 0.3) * ((s - 0.2) ** 2 + 4)),
+}
+ZMORE["example24"] = EXAMPLE21 * 20000
+ZMORE["example25b"] = ZMORE["example25a"] * 100
+ZMORE["example22"] = EXAMPLE21 * (s**2 - 2 * s + 401)
+ZMORE_MARGIN = [
+    ("typem1", 2.0, (math.inf, -120.0007, math.nan, 0.5774), 1.5e-3),
+    ("type0", 0.8, (10.0014, math.inf, 1.7322, math.nan), 1.5e-3),
+    ("type0", 2.0, (4.000, 67.6058, 1.7322, 0.7663), 1e-2),
+    ("type1", 1.0, (math.inf, 144.9032, math.nan, 0.3162), 1e-4),
+    ("type2", 1.0, (math.inf, 44.4594, math.nan, 0.7907), 1e-4),
+    ("type3", 1.0, (0.0626, 37.1748, 0.1119, 0.7951), 1.5e-3),
+    ("example21", 1.0, (0.0100, -14.5640, 0, 0.0022), 1e-2),
+    ("example21", 1000.0, (0.1793, 22.5215, 0.0243, 0.0630), 1e-2),
+    ("example21", 5000.0, (4.5596, 21.2101, 0.4385, 0.1868), 1.5e-3),
+]
+
+
+@pytest.mark.parametrize("name", sorted(ZMORE))
+def test_python_control_tricky_systems_every_crossing(name):
+    # every one of the tricky systems, at three gains, crossing by crossing
+    for gain in (0.8, 1.0, 2.0):
+        _same_crossings_as_python_control(cf.loop_margins(ZMORE[name] * gain),
+                                          ZMORE[name] * gain)
+
+
+@pytest.mark.parametrize(("name", "gain", "published", "atol"), ZMORE_MARGIN)
+def test_python_control_tricky_systems_headline(name, gain, published, atol):
+    # margin()'s headline with margin_test.py's own tolerance. Its gm is the phase crossover
+    # nearest the critical point, > 1 an upper margin (our gain_margin_db), < 1 a lower one
+    # (gain_margin_low_db); its pm the gain crossover with the smallest |PM|, as ours.
+    result = cf.loop_margins(ZMORE[name] * gain)
+    gm, pm, wpc, wgc = published
+    if math.isinf(gm):
+        assert result.gain_margin_db is None and result.gain_margin_low_db is None
+    elif gm > 1:
+        assert 10 ** (result.gain_margin_db / 20) == pytest.approx(gm, abs=atol)
+        assert result.phase_crossover_rad_s == pytest.approx(wpc, abs=atol)
+    else:
+        assert 10 ** (result.gain_margin_low_db / 20) == pytest.approx(gm, abs=atol)
+        assert result.phase_crossover_low_rad_s == pytest.approx(wpc, abs=atol)
+    if math.isinf(pm):
+        assert result.phase_margin_deg is None
+    else:
+        assert result.phase_margin_deg == pytest.approx(pm, abs=atol)
+        assert result.crossover_rad_s == pytest.approx(wgc, abs=atol)
 
 
 def test_example21_times_1000():
