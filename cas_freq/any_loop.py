@@ -188,6 +188,9 @@ def _closed_loop_stability(prepared, stable, closed):
     """(stable or None, how it was decided). ``closed``: the system is T itself (its own poles
     decide), else L (the poles of feedback(L, 1))."""
     if stable is not None:
+        if not isinstance(stable, (bool, np.bool_)):
+            raise ValueError(f"stable: {stable!r} is not accepted; accepted: True, False or "
+                             "None (not known)")
         return bool(stable), "given by the caller (stable=)"
     if prepared.system is None:
         return None, "unknown: pass stable=True/False for a callable or frequency data"

@@ -301,6 +301,8 @@ def test_bad_input_is_named():
         cf.loop_margins(control.tf([[[1], [1]]], [[[1, 1], [1, 2]]]))
     with pytest.raises(TypeError, match="accepted"):
         cf.loop_margins("25/(s+1)")
+    with pytest.raises(ValueError, match="stable: 'yes'"):
+        cf.loop_margins(MATLAB_L, stable="yes")
     with pytest.raises(ValueError, match="increasing"):
         cf.loop_margins((np.array([1.0, 3.0, 2.0]), np.ones(3)))
 
