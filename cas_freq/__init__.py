@@ -21,7 +21,10 @@ __version__ = "0.1.0"
 #: Names exported from :mod:`cas_freq.api`, imported on first access.
 _API = ("load", "Actuator", "ActuatorSet")
 
-__all__ = [*_API, "__version__"]
+#: Names exported from :mod:`cas_freq.any_loop` (margins of any loop), imported on first access.
+_ANY_LOOP = ("loop_margins", "closed_loop_figures")
+
+__all__ = [*_API, *_ANY_LOOP, "__version__"]
 
 
 def __getattr__(name):
@@ -29,8 +32,12 @@ def __getattr__(name):
         from cas_freq import api
 
         return getattr(api, name)
+    if name in _ANY_LOOP:
+        from cas_freq import any_loop
+
+        return getattr(any_loop, name)
     raise AttributeError(f"module 'cas_freq' has no attribute {name!r}")
 
 
 def __dir__():
-    return sorted([*globals(), *_API])
+    return sorted([*globals(), *_API, *_ANY_LOOP])
