@@ -54,7 +54,7 @@ def load(path=None, variant="base", set=None):  # ``set=`` mirrors ``--set``
     cas_freq.exceptions.ConfigError
         Naming the key and the value, for an unknown variant or key or a bad value.
     """
-    return Actuator(load_variant(path, variant, tuple((set or {}).items())))
+    return Actuator(load_variant(path, variant, tuple((set or {}).items()), overrides_name="set="))
 
 
 @dataclasses.dataclass(frozen=True)

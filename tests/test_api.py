@@ -49,6 +49,25 @@ def test_to_dict_is_the_cli_json():
     assert json.loads(json.dumps(res.to_dict())) == json.loads(out)
 
 
+@pytest.mark.parametrize("overrides, words", [
+    ({"motor.Km": -1}, ["with set= motor.Km=-1", "motor.Km: must be >= 1e-09"]),
+    ({"motor..Km": 1}, ["set=: 'motor..Km' is not a dotted key"]),
+], ids=["bad-value", "bad-key"])
+def test_set_errors_name_the_api_argument_not_the_cli_option(overrides, words):
+    """Issue 24 review: errors of ``load(set=...)`` said "with --set", an option the API has
+    not; they name ``set=``, and the CLI keeps "--set"."""
+    from cas_freq.exceptions import ConfigError
+
+    with pytest.raises(ConfigError) as caught:
+        cf.load(set=overrides)
+    message = str(caught.value)
+    assert "--set" not in message
+    for word in words:
+        assert word in message, (word, message)
+    code, _, err = run_cli(["analyze", "--set", "motor.Km=-1"])
+    assert code == 2 and "with --set motor.Km=-1" in err
+
+
 def test_load_defaults_to_the_shipped_base_variant():
     act = cf.load()
     assert act.variant == "base"

@@ -144,3 +144,34 @@ def test_several_variants_json_text_csv_and_report(tmp_path, capsys):
         ".cas-freq-output", "sweep.base.svg", "sweep.csv", "sweep.fitted.svg", "sweep.json",
         "sweep.loaded.svg", "sweep.relaxed.svg"]
     assert len(_strict((report / "sweep.json").read_text())) == 4
+
+
+def test_step_and_fit_figures_of_an_unstable_point_are_not_shown(tmp_path, capsys):
+    """Issue 24 review: at a sweep point whose closed loop is unstable (the shipped loaded
+    variant with K_h = -20 N·m/rad; analyze says unstable) the step's overshoot and the fit's
+    bandwidth were shown beside "unstable"; they are runs the limits hold in a limit cycle.
+    As the load envelope does (one rule, cas_freq.studies.shown), they are "-" / null / empty
+    with the reason, while the stable point keeps them; the margins of both points stay."""
+    argv = ["sweep", "--variant", "loaded", "--set", "load.hinge_stiffness=-20,0",
+            "--step", "2deg"]
+    csv_path, out_dir = tmp_path / "s.csv", tmp_path / "report"
+    assert main([*argv, "--csv", str(csv_path)]) == 0
+    text = capsys.readouterr().out
+    unstable_row = next(line for line in text.splitlines() if "unstable" in line and "-20" in line)
+    assert unstable_row.split()[-2:] == ["-", "-"]  # OS [%], BW fit [rad/s]
+    assert "(- not shown: closed loop unstable" in text
+    assert main([*argv, "--json", "-o", str(out_dir)]) == 0
+    unstable, stable = _strict(capsys.readouterr().out)["points"]
+    assert unstable["stability"] == "unstable" and stable["stability"] == "stable"
+    assert unstable["run_figures_not_shown"] == "closed loop unstable"
+    assert stable["run_figures_not_shown"] is None
+    for key in ("step.overshoot_pct", "fit.bandwidth_closed_form_rad_s", "fit.rms_residual"):
+        assert unstable[key] is None and stable[key] is not None
+    assert unstable["position_loop.phase_margin_deg"] < 0  # the margins exist: shown
+    saved = json.loads((out_dir / "sweep.json").read_text())["points"][0]
+    assert saved["step.overshoot_pct"] is None
+    for path in (csv_path, out_dir / "sweep.csv"):
+        rows = list(csv.DictReader(path.open()))
+        assert rows[0]["step.overshoot_pct"] == "" and rows[1]["step.overshoot_pct"] != ""
+        assert rows[0]["run_figures_not_shown"] == "closed loop unstable"
+        assert rows[1]["run_figures_not_shown"] == ""

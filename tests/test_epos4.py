@@ -239,7 +239,7 @@ def test_malformed_files_exit_2_naming_line_section_value_and_what_is_accepted(
     path = _dcf(tmp_path, body)
     code, stdout, err = run_cli(["epos4", "import", str(path), "--variant", "x"])
     assert code == 2 and stdout == ""
-    assert err.startswith("cas-freq epos4: error: ") and err.count("\n") == 1
+    assert err.startswith("cas-freq epos4 import: error: ") and err.count("\n") == 1
     assert str(path) in err
     for word in words:
         assert word in err, (word, err)
@@ -272,6 +272,8 @@ def test_cli_refusals(tmp_path):
     assert code == 2 and "unknown variant 'nope'" in err and "'relaxed'" in err
     code, _, err = run_cli(["epos4", "export", "--set", "position_loop.ff_v=-0.01"])
     assert code == 2 and "position_loop.ff_v" in err and "0..4294967295 uA*s/rad" in err
+    # errors name the command as typed (issue 24 review: they began "cas-freq epos4:")
+    assert err.startswith("cas-freq epos4 export: error: ")
     code, _, err = run_cli(["epos4", "export", "--set", "position_loop.Ki=5000"])
     assert code == 2 and "position_loop.Ki = 5000 A/(rad*s)" in err and "4294.97" in err
     code, _, err = run_cli(["epos4", "export", "--all-variants", "-o", str(tmp_path / "a.dcf")])

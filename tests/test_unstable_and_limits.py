@@ -111,3 +111,41 @@ def test_verify_shows_the_margins_of_an_unstable_loop_and_never_passes_them():
     # no requirement passes on an unstable actuator, not even the current loop's (stable alone)
     assert pm_i["status"] != "PASS" and "current loop alone: stable" in pm_i["condition"]
     assert verdicts["BW-1"]["value"] is None and verdicts["BW-1"]["status"] == "FAIL"
+
+
+#: The shipped loaded variant with a negative hinge spring K_h = -20 N·m/rad: its linear closed
+#: loop is unstable (analyze), and its position loop's gain crossover is a few rad/s, so the
+#: default sine-dwell grid would need a horizon beyond the simulation budget.
+UNSTABLE_HINGE = ["--variant", "loaded", "--set", "load.hinge_stiffness=-20"]
+
+
+def test_sinedwell_of_an_unstable_loop_is_a_result_not_a_budget_error():
+    """Issue 24 review: the default sine-dwell of an unstable variant exited 2 with the
+    simulation-budget refusal (its grid centred on the position loop's crossover). It is a
+    result: the loop is unstable, no sine-dwell bandwidth exists (null with the reason), and
+    the nonlinear step of each amplitude is still given."""
+    code, out, err = run_cli(["sinedwell", *UNSTABLE_HINGE, "--amplitudes", "1deg", "--json"])
+    assert code == 0, err
+    data = json.loads(out)
+    assert data["linear_closed_loop"] == "unstable"
+    assert "linear closed loop is unstable" in data["not_computed"]["sinedwell"]
+    assert "CAS_FREQ_BUDGET" not in data["not_computed"]["sinedwell"]
+    assert data["frequencies_rad_s"] == [] and data["linear"]["bandwidth_rad_s"] is None
+    (entry,) = data["amplitudes"]
+    assert entry["bandwidth_rad_s"] is None and entry["step"]["amplitude_deg"] == 1.0
+    assert data["bandwidth_three_ways"][0]["sinedwell_rad_s"] is None
+    code, out, err = run_cli(["sinedwell", *UNSTABLE_HINGE, "--amplitudes", "1deg"])
+    assert code == 0, err
+    assert "the linear closed loop is UNSTABLE" in out
+    assert "no sine-dwell bandwidth exists" in out and "sine-dwell not computed" in out
+
+
+def test_report_data_of_an_unstable_loop_says_why_its_sinedwell_is_missing():
+    """The report's default grid follows the same rule: the sine-dwell of an unstable variant is
+    not computed because the loop is unstable (before: because of the simulation budget)."""
+    from cas_freq.report.data import ReportSettings, gather_variant, not_computed_notice
+
+    loaded = load_variant(None, "loaded", [("load.hinge_stiffness", "-20")])
+    data = gather_variant(loaded, ReportSettings(amplitudes_rad=(math.radians(1.0),)))
+    assert data.dwell.result is None and data.dwell.steps
+    assert "linear closed loop is unstable" in not_computed_notice(data)

@@ -57,7 +57,7 @@ def register(commands):
                           help="replace a variant of that name")
     importer.add_argument("--json", action="store_true",
                           help="print what was imported as JSON (needs -o)")
-    importer.set_defaults(handler=run_import)
+    importer.set_defaults(handler=run_import, command_name="epos4 import")  # errors name it
 
     exporter = actions.add_parser(
         "export", help="a variant's gains in the drive's units and object indices",
@@ -69,7 +69,7 @@ def register(commands):
     exporter.add_argument("-o", "--output", default=None, metavar="FILE", type=output_path,
                           help="also write an EPOS4 parameter file (.dcf; one variant only)")
     exporter.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    exporter.set_defaults(handler=run_export)
+    exporter.set_defaults(handler=run_export, command_name="epos4 export")
     for sub in (importer, exporter):
         # SUPPRESS: `cas-freq epos4 -q export` keeps the -q given before the action
         sub.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS,

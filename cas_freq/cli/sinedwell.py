@@ -73,13 +73,13 @@ def run(args):
     for loaded in load_variants(args):
         progress = terminal_progress(f"sine-dwell {loaded.variant}")
         analysis = analyze(loaded)
-        grid = frequencies or dwell_frequencies(analysis)  # the report's rule by default
-        try:
+        try:  # by default the report's grid; none for a loop that is not stable
             result = sinedwell_run(
-                loaded, amplitudes, grid, feedforward=args.feedforward, progress=progress,
-                analysis=analysis,
+                loaded, amplitudes, frequencies, feedforward=args.feedforward,
+                progress=progress, analysis=analysis,
             )
         except BudgetError as error:  # refused before anything was simulated
+            grid = frequencies or dwell_frequencies(analysis)
             raise CasFreqError(f"variant {loaded.variant}: {over_budget_reason(error, grid)}"
                                ) from None
         if progress:

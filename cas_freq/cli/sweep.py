@@ -82,8 +82,13 @@ def split_settings(settings):
 
 
 def table(sweep):
-    """Text table: swept keys, stability and the headline figures per grid point."""
+    """Text table: swept keys, stability and the headline figures per grid point ("-" where a
+    figure does not exist or is not shown, with the reason below the table)."""
+    from cas_freq.studies.shown import DIVERGED
+    from cas_freq.studies.sweep import not_shown, shown_figures
+
     keys = list(sweep.points)
+    figures, reasons = shown_figures(sweep), not_shown(sweep)
     shown = [(name, label) for name, label in TABLE_FIGURES if name in sweep.figures]
     header = [*keys, "stability", *(label for _, label in shown)]
     rows = []
@@ -91,14 +96,17 @@ def table(sweep):
         row = [f"{sweep.points[k][index]:.6g}" for k in keys]
         row.append(str(sweep.stability[index]))
         for name, _ in shown:
-            value = sweep.figures[name][index]
+            value = figures[name][index]
             row.append(f"{value:.4g}" if value == value else "-")
         rows.append(row)
     widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(header)]
     lines = ["  ".join(h.rjust(w) for h, w in zip(header, widths, strict=True))]
     lines += ["  ".join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
     title = f"{sweep.config} ({sweep.variant}): sweep of {len(rows)} points"
-    return "\n".join([title, *lines])
+    notes = [f"(- not shown: {reason}" + ("" if reason == DIVERGED else
+                                         ": its closed-loop, step and fit figures") + ")"
+             for reason in dict.fromkeys(r for r in reasons if r is not None)]
+    return "\n".join([title, *lines, *notes])
 
 
 def run(args):
@@ -153,11 +161,12 @@ def run(args):
         write_text_atomic(args.csv, csv_text)
     if args.output:
         from cas_freq.plots.studies import svg_text, sweep_figure
+        from cas_freq.studies.sweep import shown_figures
 
         files = {"sweep.json": json_text(data), "sweep.csv": csv_text}
         for result in results:
             name = f"sweep.{file_safe(result.variant)}.svg" if several else "sweep.svg"
-            files[name] = svg_text(sweep_figure(result.points, result.figures,
+            files[name] = svg_text(sweep_figure(result.points, shown_figures(result),
                                                 list(result.points)))
         write_report(args.output, files)
     if args.json:

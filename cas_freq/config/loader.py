@@ -442,7 +442,7 @@ def validate(data, origin):
         raise kind(head + listed(lines)) from None
 
 
-def load_variant(path=None, variant=BASE_VARIANT, overrides=()):
+def load_variant(path=None, variant=BASE_VARIANT, overrides=(), overrides_name="--set"):
     """Load one variant of a config file.
 
     Parameters
@@ -453,6 +453,9 @@ def load_variant(path=None, variant=BASE_VARIANT, overrides=()):
         ``"base"``, or the name of an entry of the file's ``variants``.
     overrides : sequence of (str, object)
         ``(dotted key, value)`` pairs applied after the variant (the CLI's ``--set``).
+    overrides_name : str
+        What the errors call the overrides: ``"--set"`` (the CLI's option), or as the caller
+        takes them (the Python API: ``"set="``).
 
     Returns
     -------
@@ -464,7 +467,7 @@ def load_variant(path=None, variant=BASE_VARIANT, overrides=()):
     if variant not in names:
         raise ConfigError(f"{one_line(path)}: unknown variant {shown(variant)}; the file has "
                           f"{shown(names, 200)}")
-    loaded = _load(data, path, variant, overrides)
+    loaded = _load(data, path, variant, overrides, overrides_name)
     # every variant of the file is checked as the file gives it (the overrides apply to the
     # selected variant only), so a typo in one is reported whichever is used
     for other in names:
@@ -473,8 +476,9 @@ def load_variant(path=None, variant=BASE_VARIANT, overrides=()):
     return loaded
 
 
-def _load(data, path, variant, overrides):
-    """One variant of the raw config ``data`` of ``path``, with ``overrides``, validated."""
+def _load(data, path, variant, overrides, overrides_name="--set"):
+    """One variant of the raw config ``data`` of ``path``, with ``overrides`` (called
+    ``overrides_name`` in errors), validated."""
     resolved = copy.deepcopy(data)
     shown_path = one_line(path)
     origin = shown_path
@@ -490,11 +494,12 @@ def _load(data, path, variant, overrides):
             _apply(resolved, key, value, f"{shown_path}: variants.{name}")
         origin = f"{shown_path} (variant {shown(variant)})"
     for key, value in overrides:
-        _apply(resolved, key, value, "--set")
+        _apply(resolved, key, value, overrides_name)
     if overrides:
         if variant == BASE_VARIANT:  # --set applies per variant: say which one it failed in
             origin += f" (variant {shown(variant)})"
-        origin += " with --set " + ", ".join(one_line(f"{k}={v}")[:80] for k, v in overrides)
+        origin += f" with {overrides_name} " + ", ".join(
+            one_line(f"{k}={v}")[:80] for k, v in overrides)
     params = validate(resolved, origin)
     return LoadedVariant(str(path), variant, params, tuple(overrides))
 

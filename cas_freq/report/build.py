@@ -283,7 +283,6 @@ def bandwidth_table(data):
                      number(run.fit.bandwidth_closed_form_rad_s), hit))
     onset = data.dwell.limit_onset_rad
     w = data.dwell.frequencies_rad_s
-    grid = f"sine-dwell grid {len(w)} points over {w[0]:.4g}..{w[-1]:.4g} rad/s"
     if result is None:
         caption = ("bandwidth three ways; the sine-dwell was not computed: "
                    f"{data.dwell.not_computed}")
@@ -291,7 +290,8 @@ def bandwidth_table(data):
         caption = ("bandwidth three ways; a limit first acts at "
                    f"{math.degrees(onset):g}°" if onset is not None else
                    "bandwidth three ways; no limit acts at any amplitude")
-        caption += f"; {grid}; > / <: the −3.01 dB point lies beyond the grid's top / bottom"
+        caption += (f"; sine-dwell grid {len(w)} points over {w[0]:.4g}..{w[-1]:.4g} rad/s"
+                    "; > / <: the −3.01 dB point lies beyond the grid's top / bottom")
     return Table(("amplitude [deg]", "linear −3 dB of T [rad/s]", "sine-dwell −3 dB [rad/s]",
                   "step fit closed form [rad/s]", "limit acts in the dwell"), tuple(rows),
                  caption)

@@ -420,10 +420,10 @@ def gather_time(data, settings=ReportSettings(), verdicts=None, progress=None):
     from cas_freq.simulation.step_figures import step_figures
 
     loaded, analysis = data.loaded, data.analysis
-    frequencies = settings.frequencies_rad_s or dwell_frequencies(analysis)
     # a sine-dwell beyond the simulation budget is refused before it starts and left out
-    # (dwell.result None, dwell.not_computed the reason); the steps are still simulated
-    dwell = sinedwell_run(loaded, settings.amplitudes_rad, frequencies,
+    # (dwell.result None, dwell.not_computed the reason), as is the default one of a loop that
+    # is not stable (no grid: no first harmonic to measure); the steps are still simulated
+    dwell = sinedwell_run(loaded, settings.amplitudes_rad, settings.frequencies_rad_s,
                           progress=progress, analysis=analysis, over_budget="skip")
     amplitudes = [math.radians(run.step.amplitude_deg) for run in dwell.steps]
     linear = linear_steps(loaded.params, [run.result.t for run in dwell.steps], amplitudes,

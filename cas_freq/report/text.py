@@ -172,6 +172,28 @@ def step_table(run):
     ])
 
 
+def _sinedwell_not_computed_table(head, data):
+    """:func:`sinedwell_table` of a variant whose sine-dwell was not computed: why, and the
+    nonlinear steps with their fits (or when they diverged)."""
+    reason = data["not_computed"]["sinedwell"]
+    lines = [head]
+    if data.get("linear_closed_loop", "stable") != "stable":
+        lines.append(f"  the linear closed loop is {data['linear_closed_loop'].upper()} "
+                     "(Padé poles): no sine-dwell bandwidth exists")
+    lines += [f"  sine-dwell not computed: {reason}",
+              "  nonlinear steps (second-order fit, docs/model.md §7)",
+              f"    {'amplitude':>10}{'overshoot [%]':>15}{'step fit [rad/s]':>18}"]
+    for entry in data["amplitudes"]:
+        diverged = entry.get("diverged_at_s")
+        if diverged is not None:
+            cells = f"{'diverged at t = ' + f'{diverged * 1e3:.4g} ms':>33}"
+        else:
+            cells = (f"{_fmt(entry['step'].get('overshoot_pct')):>15}"
+                     f"{_fmt(entry['fit'].get('bandwidth_closed_form_rad_s')):>18}")
+        lines.append(f"    {_fmt(entry['amplitude_deg'], 'deg'):>10}{cells}")
+    return "\n".join(lines)
+
+
 def sinedwell_table(data):
     """Multi-line summary of a sine-dwell run, from its dict (``sinedwell_run_dict``)."""
     head = f"{data['config']} / {data['variant']}"
@@ -184,6 +206,8 @@ def sinedwell_table(data):
         warning = [f"  WARNING: the linear closed loop is {data['linear_closed_loop'].upper()} "
                    "(Padé poles): no linear response or bandwidth exists, and the nonlinear "
                    "figures describe a loop only the limits keep bounded"]
+    if data.get("not_computed"):
+        return _sinedwell_not_computed_table(head, data)
     lines = [
         head,
         *warning,

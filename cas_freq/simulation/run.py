@@ -317,8 +317,8 @@ class SineDwellRun:
     frequencies_rad_s : tuple of float
         The sine-dwell grid asked for [rad/s].
     not_computed : str or None
-        Why the sine-dwell was not computed ("the sine-dwell grid ... needs ...; set ..."), or
-        None when it was.
+        Why the sine-dwell was not computed (:func:`unstable_reason`, "the linear closed loop
+        is unstable ..."; or "the sine-dwell grid ... needs ...; set ..."), or None when it was.
     """
 
     config: str
@@ -371,6 +371,14 @@ def over_budget_reason(error, frequencies_rad_s, option="--frequencies"):
             f"{BUDGET_ENV}={math.ceil(error.factor_needed)} or raise the lowest of {option}")
 
 
+def unstable_reason(verdict):
+    """Why the default sine-dwell of a loop whose linear closed loop is ``verdict`` (not
+    "stable") is not computed: a diverging run has no first harmonic to measure."""
+    return (f"the linear closed loop is {verdict} (Padé poles): its runs diverge or only the "
+            "limits bound them, so they have no first harmonic and no sine-dwell bandwidth "
+            "exists (give --frequencies to dwell anyway)")
+
+
 def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward=False,
                   progress=None, analysis=None, over_budget="raise"):
     """Sine-dwell the nonlinear loop of one variant, with the cross-checks beside it.
@@ -384,6 +392,9 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
     frequencies_rad_s : sequence of float, optional
         Dwell frequencies [rad/s]; default the variant's grid
         (:func:`~cas_freq.simulation.sinedwell.dwell_frequencies`, around its linear ω_BW).
+        By default a variant whose linear closed loop is not stable is not dwelt (``result``
+        None, ``not_computed`` says why, :func:`unstable_reason`); its steps are still
+        simulated. Given frequencies are dwelt whatever the loop.
     feedforward : bool
         Let the feed-forward act on the sines (default False: docs/model.md's T, whose bandwidth is
         the requirement's, has no feed-forward).
@@ -415,24 +426,29 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
     if over_budget not in ("raise", "skip"):
         raise ValueError(f"over_budget: 'raise' or 'skip', got {over_budget!r}")
     params = loaded.params
+    not_computed = None
     if frequencies_rad_s is None:
         if analysis is None:
             from cas_freq.analysis import analyze
 
             analysis = analyze(loaded)
-        frequencies_rad_s = dwell_frequencies(analysis)
+        if analysis.stability.verdict != "stable":
+            not_computed, frequencies_rad_s = unstable_reason(analysis.stability.verdict), ()
+        else:
+            frequencies_rad_s = dwell_frequencies(analysis)
     current_rate_hz, position_rate_hz = params.simulation.rates_hz
     rates = {"current_rate_hz": current_rate_hz, "position_rate_hz": position_rate_hz}
-    not_computed = None
+    result = None
     try:  # the budget is checked before the batch starts
-        result = sine_dwell(
-            dwell_parameters(params, feedforward), amplitudes_rad, frequencies_rad_s,
-            progress=progress, **rates,
-        )
+        if not_computed is None:
+            result = sine_dwell(
+                dwell_parameters(params, feedforward), amplitudes_rad, frequencies_rad_s,
+                progress=progress, **rates,
+            )
     except BudgetError as error:
         if over_budget == "raise":
             raise
-        result, not_computed = None, over_budget_reason(error, frequencies_rad_s)
+        not_computed = over_budget_reason(error, frequencies_rad_s)
     amplitudes = (np.asarray(result.amplitudes_rad) if result is not None
                   else np.atleast_1d(np.asarray(amplitudes_rad, dtype=float)))
     known = {} if analysis is None else {id(loaded): analysis.stability.verdict}
@@ -490,6 +506,45 @@ def _meets(value, bound, required):
     return None if bound is None else bound_meets(bound, minimum=required)
 
 
+def _not_computed_dict(run):
+    """:func:`sinedwell_run_dict` of a run whose sine-dwell was not computed (unstable loop, or
+    beyond the simulation budget): the steps and their fits, null sine-dwell figures and why."""
+    required = run.bandwidth_requirement_rad_s
+    amplitudes, three_ways = [], []
+    for step in run.steps:
+        amplitudes.append({
+            "amplitude_deg": step.step.amplitude_deg, "bandwidth_rad_s": None,
+            "bandwidth_bound": None, "magnitude_db": [], "phase_deg": [],
+            "current_limited": [], "voltage_limited": [], "limit_hit": None,
+            "step": dataclasses.asdict(step.step), "fit": dataclasses.asdict(step.fit),
+            "diverged_at_s": diverged_at(step),
+        })
+        row = {"amplitude_deg": step.step.amplitude_deg,
+               "linear_rad_s": run.linear_bandwidth_rad_s, "sinedwell_rad_s": None,
+               "step_fit_rad_s": step.fit.bandwidth_closed_form_rad_s, "sinedwell_bound": None}
+        if required is not None:
+            row["meets_requirement"] = {
+                "linear_rad_s": _meets(row["linear_rad_s"], None, required),
+                "sinedwell_rad_s": None,
+                "step_fit_rad_s": _meets(row["step_fit_rad_s"], None, required),
+            }
+        three_ways.append(row)
+    bench = _reference_fit(run.reference)
+    return json_ready({
+        "config": run.config, "config_path": run.config_path, "variant": run.variant,
+        "overrides": list(run.overrides), "feedforward": run.feedforward,
+        "linear_closed_loop": run.steps[0].linear_stability,
+        "not_computed": {"sinedwell": run.not_computed},
+        "frequencies_rad_s": [],
+        "linear": {"bandwidth_rad_s": run.linear_bandwidth_rad_s, "magnitude_db": [],
+                   "phase_deg": []},
+        "amplitudes": amplitudes, "limit_onset_amplitude_deg": None,
+        "bandwidth_three_ways": three_ways, "bandwidth_requirement_rad_s": required,
+        **({} if bench is None else {"report_bench": bench}),
+        "simulation": {"controllers": run.controllers},
+    })
+
+
 def sinedwell_run_dict(run):
     """JSON-ready dict of a :class:`SineDwellRun` (non-finite numbers become None).
 
@@ -504,10 +559,14 @@ def sinedwell_run_dict(run):
     ``bandwidth_bound`` is null when the grid holds the crossing (or nothing is known). With a
     bandwidth requirement, ``meets_requirement`` is true / false where the value or the bound
     decides it and null where a bound cannot ("not decided").
+
+    A sine-dwell that was not computed (``run.result`` None) gives the same keys with empty
+    responses and null sine-dwell bandwidths, ``not_computed: {"sinedwell": reason}``, and
+    each step's ``diverged_at_s`` (:func:`_not_computed_dict`).
     """
     r = run.result
     if r is None:
-        raise ValueError(f"sinedwell_run_dict: the sine-dwell was not computed: {run.not_computed}")
+        return _not_computed_dict(run)
     amplitudes = []
     three_ways = []
     required = run.bandwidth_requirement_rad_s

@@ -24,6 +24,7 @@ import numpy as np
 from cas_freq.analysis.drivetrain import stable_hinge_range
 from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.simulator import RecordingBuffers
+from cas_freq.studies.shown import run_figures_not_shown, shown_run_figure
 from cas_freq.studies.sweep import evaluate_figures
 
 KEY = "load.hinge_stiffness"
@@ -248,14 +249,6 @@ def _refined(params, results, step_rad, fit):
 #: their confidence intervals.
 _UNIDENTIFIABLE = ("fit.wn_rad_s", "fit.zeta")
 
-#: Figures of the closed loop's own response: the linear closed loop's, the nonlinear step's
-#: and its fit's. At a grid point where the closed loop is not stable they are no figures of
-#: the loop (verify never passes them): the step there is a run the limits hold in a limit
-#: cycle or let diverge, whose figures hang on the last bits of the arithmetic (the fit's RMS
-#: residual of the shipped ``loaded`` variant at -20 N*m/rad moved by 3e-4 under another BLAS
-#: kernel), so they are not shown, stored or plotted.
-RUN_FIGURES = ("closed_loop.", "step.", "fit.")
-
 #: The fit's parameters kept in :func:`envelope_dict` (beside its RMS residual, the minimum of
 #: the sum of squares, which is determined however flat the minimum is).
 FIT_PARAMETERS = ("fit.td_s", "fit.bandwidth_closed_form_rad_s")
@@ -269,27 +262,9 @@ DEGENERATE_ZETA = 1e3
 
 
 def not_shown(envelope):
-    """Why each grid point's :data:`RUN_FIGURES` are not shown: None where they are.
-
-    Where the closed loop is not stable, none of them is; where it is but the step diverged
-    (:func:`~cas_freq.simulation.step_figures.diverged`: the limits let the loop run away; its
-    step figures are NaN, the largest current among them), its step's and fit's are not.
-
-    Returns
-    -------
-    list of str or None
-        Per grid point, e.g. ``"closed loop unstable"``.
-    """
-    current = envelope.figures.get("step.max_current_a")
-    diverged = np.zeros(envelope.hinge_stiffness.size, dtype=bool) if current is None else \
-        np.isnan(current)
-    return [f"closed loop {v}" if str(v) != "stable" else
-            _DIVERGED if gone else None
-            for v, gone in zip(envelope.stability, diverged, strict=True)]
-
-
-#: :func:`not_shown`'s reason at a stable point whose step diverged.
-_DIVERGED = "step diverged (beyond 1e6 times the step): no step figures or fit"
+    """Why each grid point's :data:`~cas_freq.studies.shown.RUN_FIGURES` are not shown (None
+    where they are): :func:`~cas_freq.studies.shown.run_figures_not_shown`, the sweep's rule."""
+    return run_figures_not_shown(envelope.figures, envelope.stability)
 
 
 def fit_not_shown(envelope):
@@ -309,19 +284,16 @@ def fit_not_shown(envelope):
 
 def shown_figure(envelope, key):
     """The figure ``key`` per grid point [its unit], NaN where it does not exist or is not
-    shown (:func:`not_shown` for the :data:`RUN_FIGURES`, :func:`fit_not_shown` for the
+    shown (:func:`not_shown` for the run figures, :func:`fit_not_shown` for the
     :data:`FIT_PARAMETERS`).
 
     Returns
     -------
     numpy.ndarray
     """
-    values = np.array(envelope.figures.get(key, np.full(envelope.hinge_stiffness.size, np.nan)),
-                      dtype=float)
-    if key.startswith(RUN_FIGURES):
-        loop = key.startswith("closed_loop.")  # shown at a stable point whose step diverged
-        values[[reason is not None and not (loop and reason == _DIVERGED)
-                for reason in not_shown(envelope)]] = np.nan
+    values = shown_run_figure(
+        envelope.figures.get(key, np.full(envelope.hinge_stiffness.size, np.nan)), key,
+        not_shown(envelope))
     if key in FIT_PARAMETERS:
         values[[reason is not None for reason in fit_not_shown(envelope)]] = np.nan
     return values

@@ -214,15 +214,35 @@ def figure_names(figures):
     ]
 
 
+def not_shown(sweep):
+    """Why each grid point's closed-loop, step and fit figures are not shown (None where they
+    are): :func:`~cas_freq.studies.shown.run_figures_not_shown`, the load envelope's rule."""
+    from cas_freq.studies.shown import run_figures_not_shown
+
+    return run_figures_not_shown(sweep.figures, sweep.stability)
+
+
+def shown_figures(sweep):
+    """Every figure per grid point as the sweep shows it (text, JSON, CSV, plot): NaN where it
+    does not exist or is not shown (:func:`not_shown`)."""
+    from cas_freq.studies.shown import shown_run_figure
+
+    reasons = not_shown(sweep)
+    return {name: shown_run_figure(values, name, reasons) for name, values in sweep.figures.items()}
+
+
 def sweep_dict(sweep):
-    """JSON-ready dict: one record per grid point (swept keys, stability, every figure)."""
+    """JSON-ready dict: one record per grid point (swept keys, stability, every figure; null
+    where it does not exist or is not shown, ``run_figures_not_shown`` then says why)."""
     names = figure_names(sweep.figures)
+    figures, reasons = shown_figures(sweep), not_shown(sweep)
     records = []
     for index in range(len(sweep.stability)):
         record = {key: float(values[index]) for key, values in sweep.points.items()}
         record["stability"] = str(sweep.stability[index])
+        record["run_figures_not_shown"] = reasons[index]
         for name in names:
-            value = float(sweep.figures[name][index])
+            value = float(figures[name][index])
             record[name] = bool(value) if name in _FLAGS and math.isfinite(value) else value
         records.append(record)
     return json_ready({
@@ -243,16 +263,20 @@ _FLAGS = {"stable", "step.current_limited", "step.voltage_limited"}
 
 
 def sweep_csv(sweep):
-    """CSV text: swept keys, stability, then every figure (empty where it does not exist)."""
+    """CSV text: swept keys, stability, then every figure (empty where it does not exist or is
+    not shown), then why the run figures are not shown (empty where they are)."""
     names = figure_names(sweep.figures)
+    figures, reasons = shown_figures(sweep), not_shown(sweep)
     keys = list(sweep.points)
     out = io.StringIO()
-    out.write(",".join([*(f"{k} [{unit_of(k)}]" for k in keys), "stability", *names]) + "\n")
+    out.write(",".join([*(f"{k} [{unit_of(k)}]" for k in keys), "stability", *names,
+                        "run_figures_not_shown"]) + "\n")
     for index in range(len(sweep.stability)):
         cells = [f"{sweep.points[k][index]:.10g}" for k in keys]
         cells.append(str(sweep.stability[index]))
         for name in names:
-            value = sweep.figures[name][index]
+            value = figures[name][index]
             cells.append(f"{value:.10g}" if math.isfinite(value) else "")
+        cells.append(reasons[index] or "")
         out.write(",".join(cells) + "\n")
     return out.getvalue()
