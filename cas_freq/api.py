@@ -441,7 +441,7 @@ class ProfileResponse:
         -------
         matplotlib.figure.Figure
         """
-        from cas_freq.plots.profile import profile_figure
+        from cas_freq.plots.api import profile_figure
 
         return profile_figure(self.run)
 
