@@ -23,7 +23,15 @@ import numpy as np
 from cas_freq.analysis.frequency import DEFAULT_RANGE_RAD_S
 from cas_freq.config.loader import load_variant, read_config_file, variant_names
 from cas_freq.model import DelayModel
+from cas_freq.summary import Summary, row, spread
 from cas_freq.threads import one_blas_thread
+
+
+#: Default Padé order of :meth:`Actuator.to_control`. python-control's ``stability_margins``
+#: works on the loop's polynomials: with the QT-CAS and DC-servo configs their evaluation
+#: overflows (a RuntimeWarning) at orders 3, 5 and 6 and fails at 8; at 4 it is clean and its
+#: PM and crossover match the exact-delay analysis to 1e-6 (tests/test_notebook.py).
+TO_CONTROL_PADE_ORDER = 4
 
 
 def _delay(delay):
@@ -282,14 +290,22 @@ class Actuator:
         return ActuatorSet(self, changes, variant_parameters(self.params, changes))
 
     @one_blas_thread()
-    def to_control(self, pade=6):
+    def to_control(self, pade=TO_CONTROL_PADE_ORDER):
         """The loops as python-control state-space systems, both delays Padé of order ``pade``.
+
+        Parameters
+        ----------
+        pade : int
+            Padé order of both delays; the default (:data:`TO_CONTROL_PADE_ORDER`) is one that
+            python-control's ``stability_margins`` and ``step_info`` handle.
 
         Returns
         -------
         cas_freq.model.systems.LinearModel
             ``current_loop`` (L_i), ``current_closed_loop`` (T_i), ``position_loop`` (L_p),
-            ``sensitivity`` (S), ``closed_loop`` (T), ``plant``, as :class:`control.StateSpace`.
+            ``sensitivity`` (S), ``closed_loop`` (T), ``plant``, as :class:`control.StateSpace`
+            named so (``sys.name == "L_p"``, signals as
+            :data:`cas_freq.model.systems.LOOP_NAMES`).
         """
         from cas_freq.model.systems import linear_model
 
@@ -300,8 +316,8 @@ class Actuator:
 _LOOPS = ("current_loop", "current_closed_loop", "position_loop", "sensitivity", "closed_loop")
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
-class FrequencyResponse:
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class FrequencyResponse(Summary):
     """Complex frequency responses of one variant (each an array like ``omega_rad_s``).
 
     Attributes
@@ -324,6 +340,14 @@ class FrequencyResponse:
     sensitivity: np.ndarray
     closed_loop: np.ndarray
 
+    def _summary(self):
+        w = self.omega_rad_s
+        return (f"L_i, T_i, L_p, S, T at {w.size} frequencies ({self.delay_model} delays)",
+                [("lowest frequency", float(w.min()) if w.size else None, "rad/s"),
+                 ("highest frequency", float(w.max()) if w.size else None, "rad/s"),
+                 ("largest |T|", float(np.abs(self.closed_loop).max()) if w.size else None,
+                  "")])
+
     def plot(self):
         """Bode plot of L_i, L_p and T (magnitude [dB] and phase [deg] axes).
 
@@ -336,8 +360,8 @@ class FrequencyResponse:
         return bode_figure(self)
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
-class StepResponse:
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class StepResponse(Summary):
     """A simulated nonlinear output step.
 
     Attributes
@@ -373,6 +397,15 @@ class StepResponse:
         return cls(r.t, np.degrees(r.delta), np.degrees(r.command), r.i, r.V, run.step, run.fit,
                    run)
 
+    def _summary(self):
+        step, fit = self.step, self.fit
+        rows = [(f"step.{name}", getattr(step, name))
+                for name in ("rise_time_s", "overshoot_pct", "settling_time_s",
+                             "max_current_a", "max_voltage_v", "current_limited")]
+        rows += [(f"fit.{name}", getattr(fit, name))
+                 for name in ("wn_rad_s", "zeta", "td_s", "bandwidth_closed_form_rad_s")]
+        return f"{step.amplitude_deg:g}° step of the {self.run.output} (nonlinear)", rows
+
     def to_dict(self):
         """JSON-ready dict: the JSON of ``cas-freq simulate --step ... --json``."""
         from cas_freq.simulation.run import step_run_dict
@@ -391,8 +424,8 @@ class StepResponse:
         return step_figure(self)
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
-class ProfileResponse:
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class ProfileResponse(Summary):
     """A simulated profile move of the output (the config's feed-forward acting).
 
     Attributes
@@ -427,6 +460,16 @@ class ProfileResponse:
         return cls(r.t, np.degrees(r.delta), np.degrees(r.command), r.i, r.V, run.profile,
                    run.without_feedforward, run)
 
+    def _summary(self):
+        names = ("tracking_error_max_deg", "tracking_error_rms_deg", "overshoot_pct",
+                 "settling_time_s", "max_current_a", "max_voltage_v")
+        rows = [(f"profile.{name}", getattr(self.profile, name)) for name in names]
+        rows += [(f"{label} (without feed-forward)", value, unit) for label, value, unit in
+                 (row((f"profile.{name}", getattr(self.without_feedforward, name)))
+                  for name in names[:3])]
+        return (f"{self.profile.distance_deg:g}° move at {self.profile.peak_rate_deg_s:g}°/s "
+                "peak rate (with the config's feed-forward)", rows)
+
     def to_dict(self):
         """JSON-ready dict: the JSON of ``cas-freq simulate --profile ... --json``."""
         from cas_freq.simulation.profile_run import profile_run_dict
@@ -446,8 +489,8 @@ class ProfileResponse:
         return profile_figure(self.run)
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
-class ActuatorSet:
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class ActuatorSet(Summary):
     """Many variants of one actuator (from :meth:`Actuator.vary`).
 
     Attributes
@@ -467,6 +510,15 @@ class ActuatorSet:
     def __len__(self):
         return self.loop_parameters.n_runs
 
+    def _summary(self):
+        from cas_freq.parameters import PARAMETERS
+
+        rows = [(key, f"{np.min(values):.4g} .. {np.max(values):.4g}"
+                 if np.size(values) else "—", PARAMETERS[key].unit if key in PARAMETERS else "")
+                for key, values in self.changes.items()]
+        return (f"{len(self)} variants of {self.base.params.name} / {self.base.variant}, "
+                "changed:", rows)
+
     @one_blas_thread()
     def analyze(self, delay="exact", frequency_range=None):
         """The figures of :meth:`Actuator.analyze` for every sample, as numpy arrays.
@@ -480,7 +532,7 @@ class ActuatorSet:
 
         Returns
         -------
-        types.SimpleNamespace
+        SetAnalysis
             ``current_loop``, ``position_loop``, ``closed_loop`` namespaces of float arrays (n,)
             named as the single analysis' figures (plus ``gain_crossover_count``), NaN where a
             figure does not exist or the loop is not stable; ``stable`` (bool array);
@@ -498,7 +550,7 @@ class ActuatorSet:
             group, _, figure = name.rpartition(".")
             if group:
                 groups.setdefault(group, {})[figure] = values
-        return types.SimpleNamespace(
+        return SetAnalysis(
             **{group: types.SimpleNamespace(**values) for group, values in groups.items()},
             stable=batch.figures["stable"] == 1.0,
             stability=types.SimpleNamespace(
@@ -506,3 +558,19 @@ class ActuatorSet:
                 pade_order=batch.pade_order),
             figures=batch.figures,
         )
+
+
+class SetAnalysis(Summary, types.SimpleNamespace):
+    """The figures of :meth:`ActuatorSet.analyze`: a namespace of arrays (n,) whose repr and
+    HTML table give each headline figure's range over the variants, not the arrays."""
+
+    #: The figures its summary spans.
+    HEADLINE = ("current_loop.phase_margin_deg", "position_loop.phase_margin_deg",
+                "position_loop.gain_margin_db", "position_loop.delay_margin_s",
+                "closed_loop.bandwidth_rad_s", "closed_loop.peak_db")
+
+    def _summary(self):
+        stable = np.asarray(self.stable)
+        rows = [("stable", f"{int(stable.sum())} of {stable.size}", "")]
+        rows += [spread(key, self.figures[key]) for key in self.HEADLINE if key in self.figures]
+        return f"{stable.size} variants", rows

@@ -60,8 +60,7 @@ class Summary:
         for label, value, unit in map(row, rows[:REPR_ROWS]):
             lines.append(f"  {label}: {value}" + (f" {unit}" if unit and value != "—" else ""))
         if len(rows) > REPR_ROWS:
-            lines.append(f"  ... {len(rows) - REPR_ROWS} more (to_dict(), or display it in a "
-                         "notebook)")
+            lines.append(f"  ... {len(rows) - REPR_ROWS} more (every row in its notebook table)")
         return "\n".join(lines)
 
     def _repr_html_(self):
@@ -75,3 +74,19 @@ class Summary:
                 f"</b>: {html.escape(title)}</caption>"
                 "<tr><th>figure</th><th>value</th><th>unit</th></tr>"
                 f"{body}</table>")
+
+
+def spread(key, values):
+    """A summary row ``(label, text, unit)`` of a figure over many variants: its smallest and
+    largest value and the count where it does not exist (NaN), in the figure's display unit."""
+    import numpy as np
+
+    figure = FIGURES[key]
+    values = np.asarray(values, dtype=float) * figure.scale
+    finite = values[np.isfinite(values)]
+    text = f"{finite.min():.4g} .. {finite.max():.4g}" if finite.size else "—"
+    missing = values.size - finite.size
+    if missing:
+        text += f" ({missing} without)"
+    loop = f"{figure.loop.replace('_', ' ')}: " if figure.loop else ""
+    return loop + figure.label, text, figure.shown_unit
