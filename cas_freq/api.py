@@ -26,7 +26,6 @@ from cas_freq.model import DelayModel
 from cas_freq.summary import Summary, row, spread
 from cas_freq.threads import one_blas_thread
 
-
 #: Default Padé order of :meth:`Actuator.to_control`. python-control's ``stability_margins``
 #: works on the loop's polynomials: with the QT-CAS and DC-servo configs their evaluation
 #: overflows (a RuntimeWarning) at orders 3, 5 and 6 and fails at 8; at 4 it is clean and its
