@@ -3,6 +3,7 @@
 >>> import cas_freq as cf
 >>> act = cf.load("configs/qt_cas.yaml", variant="fitted", set={"position_loop.Kp": "5 A/rad"})
 >>> act.analyze().closed_loop.bandwidth_rad_s        # every figure of ``analyze --json``
+>>> act.analyze().plot()                             # Bode of L_i, L_p and T, margins marked
 >>> act.frequency_response(omega).plot()             # Bode of L_i, L_p and T
 >>> act.simulate(step="10 deg").plot()               # nonlinear step: output angle and current
 >>> act.simulate_profile("10 deg", "2000 deg/s", "1e5 deg/s^2").profile  # a profile move
@@ -12,7 +13,12 @@ Nothing is computed here: each method calls the engine the CLI uses (:mod:`cas_f
 :mod:`cas_freq.analysis`, :mod:`cas_freq.simulation`, :mod:`cas_freq.model`), so every figure
 is the one the matching command prints. The figures are defined in docs/model.md. matplotlib
 and python-control are imported only by :meth:`FrequencyResponse.plot`,
-:meth:`StepResponse.plot`, :meth:`ProfileResponse.plot` and :meth:`Actuator.to_control`.
+:meth:`StepResponse.plot`, :meth:`ProfileResponse.plot`, ``Analysis.plot`` and
+:meth:`Actuator.to_control`.
+
+In a notebook every result shows a table of its headline figures (``_repr_html_``, from
+:mod:`cas_freq.summary`) and every ``plot()`` figure displays itself (a PNG, no
+``%matplotlib``); ``repr()`` is a few lines of the same figures.
 """
 
 import dataclasses
