@@ -8,6 +8,8 @@ output from ``.plot()`` with no magic.
 """
 
 import os
+import subprocess
+import sys
 import warnings
 from pathlib import Path
 
@@ -87,14 +89,19 @@ def test_plot_figures_give_ipython_a_png_themselves(act, analysis):
         assert fig._repr_png_().startswith(PNG_SIGNATURE)
 
 
-def test_plot_does_not_switch_the_matplotlib_backend(analysis):
+def test_plot_does_not_switch_the_matplotlib_backend():
     # plots/common used to call matplotlib.use("Agg") on import: in a notebook that turned the
-    # inline backend off for the user's own pyplot figures.
-    import matplotlib
-
-    before = matplotlib.rcParams._get_backend_or_none()
-    analysis.plot()
-    assert matplotlib.rcParams._get_backend_or_none() == before
+    # inline backend off for the user's own pyplot figures. A fresh process (the modules are
+    # imported once per process), a backend other than Agg chosen first.
+    code = ("import matplotlib; matplotlib.use('svg'); "
+            "import cas_freq.plots.api, cas_freq.plots.report; "
+            "print(matplotlib.rcParams['backend'])")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    env.pop("MPLBACKEND", None)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=env, check=True, cwd=ROOT)
+    assert out.stdout.strip() == "svg"
 
 
 def test_to_control_systems_are_named(act):
