@@ -362,7 +362,8 @@ class Analysis(Summary):
                  ("closed_loop.peak_db", closed and closed.peak_db),
                  ("position_loop.delay_margin_s", self.position_loop.delay_margin_s),
                  ("position_loop.sensitivity_peak_db", self.position_loop.sensitivity_peak_db)]
-        return f"{self.config} / {self.variant} ({self.delay_model} delays)", rows
+        changed = f" with {', '.join(self.overrides)}" if self.overrides else ""
+        return f"{self.config} / {self.variant}{changed} ({self.delay_model} delays)", rows
 
     def plot(self):
         """Bode of L_i, L_p and T: every crossover marked, the margins as bars and in the

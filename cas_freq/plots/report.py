@@ -153,8 +153,8 @@ def bode_loops(data, with_closed_loop=False, figure_class=None):
     legend = fig.legend(handles, labels, loc="lower center", ncols=1, fontsize=7.5)
     legend_room_below(fig, layout, [legend])
     _log_axes([mag, ph], w)
-    loops = "L_i and L_p and the closed loop T" if with_closed_loop else "L_i and L_p"
-    fig.suptitle(f"{data.label}: open loops {loops} ({EXACT}); margins in the legend")
+    loops = "L_i, L_p and closed loop T" if with_closed_loop else "open loops L_i and L_p"
+    fig.suptitle(f"{data.label}: {loops} ({EXACT}); margins in the legend")
     return fig
 
 
