@@ -38,7 +38,7 @@ def row(entry):
         return label, _text(value), unit
     key, value = entry
     figure = FIGURES[key]
-    if isinstance(value, float | int) and not isinstance(value, bool) and value is not None:
+    if isinstance(value, float | int) and not isinstance(value, bool):
         value = value * figure.scale
     loop = f"{figure.loop.replace('_', ' ')}: " if figure.loop else ""
     return loop + figure.label, _text(value), figure.shown_unit
