@@ -3,6 +3,7 @@
 >>> import cas_freq as cf
 >>> act = cf.load("configs/qt_cas.yaml", variant="fitted", set={"position_loop.Kp": "5 A/rad"})
 >>> act.analyze().closed_loop.bandwidth_rad_s        # every figure of ``analyze --json``
+>>> act.analyze().plot()                             # Bode of L_i, L_p and T, margins marked
 >>> act.frequency_response(omega).plot()             # Bode of L_i, L_p and T
 >>> act.simulate(step="10 deg").plot()               # nonlinear step: output angle and current
 >>> act.simulate_profile("10 deg", "2000 deg/s", "1e5 deg/s^2").profile  # a profile move
@@ -12,7 +13,12 @@ Nothing is computed here: each method calls the engine the CLI uses (:mod:`cas_f
 :mod:`cas_freq.analysis`, :mod:`cas_freq.simulation`, :mod:`cas_freq.model`), so every figure
 is the one the matching command prints. The figures are defined in docs/model.md. matplotlib
 and python-control are imported only by :meth:`FrequencyResponse.plot`,
-:meth:`StepResponse.plot`, :meth:`ProfileResponse.plot` and :meth:`Actuator.to_control`.
+:meth:`StepResponse.plot`, :meth:`ProfileResponse.plot`, ``Analysis.plot`` and
+:meth:`Actuator.to_control`.
+
+In a notebook every result shows a table of its headline figures (``_repr_html_``, from
+:mod:`cas_freq.summary`) and every ``plot()`` figure displays itself (a PNG, no
+``%matplotlib``); ``repr()`` is a few lines of the same figures.
 """
 
 import dataclasses
@@ -23,7 +29,16 @@ import numpy as np
 from cas_freq.analysis.frequency import DEFAULT_RANGE_RAD_S
 from cas_freq.config.loader import load_variant, read_config_file, variant_names
 from cas_freq.model import DelayModel
+from cas_freq.summary import Summary, row, spread
 from cas_freq.threads import one_blas_thread
+
+#: Default Padé order of :meth:`Actuator.to_control`. python-control's ``stability_margins``
+#: works on the loop's polynomials, whose degree grows with the order: at 6 it fails on the
+#: loaded QT-CAS variant (LinAlgError) and its root test overflows (RuntimeWarnings) on every
+#: shipped variant; at 4 it works on all of them, PM and crossover within 1e-9 of the
+#: exact-delay analysis (a few overflow warnings remain on two variants: fitted, loaded).
+#: tests/test_notebook.py checks every shipped variant.
+TO_CONTROL_PADE_ORDER = 4
 
 
 def _delay(delay):
@@ -282,14 +297,22 @@ class Actuator:
         return ActuatorSet(self, changes, variant_parameters(self.params, changes))
 
     @one_blas_thread()
-    def to_control(self, pade=6):
+    def to_control(self, pade=TO_CONTROL_PADE_ORDER):
         """The loops as python-control state-space systems, both delays Padé of order ``pade``.
+
+        Parameters
+        ----------
+        pade : int
+            Padé order of both delays; the default (:data:`TO_CONTROL_PADE_ORDER`) is one that
+            python-control's ``stability_margins`` and ``step_info`` handle.
 
         Returns
         -------
         cas_freq.model.systems.LinearModel
             ``current_loop`` (L_i), ``current_closed_loop`` (T_i), ``position_loop`` (L_p),
-            ``sensitivity`` (S), ``closed_loop`` (T), ``plant``, as :class:`control.StateSpace`.
+            ``sensitivity`` (S), ``closed_loop`` (T), ``plant``, as :class:`control.StateSpace`
+            named so (``sys.name == "L_p"``, signals as
+            :data:`cas_freq.model.systems.LOOP_NAMES`).
         """
         from cas_freq.model.systems import linear_model
 
@@ -300,8 +323,8 @@ class Actuator:
 _LOOPS = ("current_loop", "current_closed_loop", "position_loop", "sensitivity", "closed_loop")
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
-class FrequencyResponse:
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class FrequencyResponse(Summary):
     """Complex frequency responses of one variant (each an array like ``omega_rad_s``).
 
     Attributes
@@ -324,6 +347,14 @@ class FrequencyResponse:
     sensitivity: np.ndarray
     closed_loop: np.ndarray
 
+    def _summary(self):
+        w = self.omega_rad_s
+        return (f"L_i, T_i, L_p, S, T at {w.size} frequencies ({self.delay_model} delays)",
+                [("lowest frequency", float(w.min()) if w.size else None, "rad/s"),
+                 ("highest frequency", float(w.max()) if w.size else None, "rad/s"),
+                 ("largest |T|", float(np.abs(self.closed_loop).max()) if w.size else None,
+                  "")])
+
     def plot(self):
         """Bode plot of L_i, L_p and T (magnitude [dB] and phase [deg] axes).
 
@@ -336,8 +367,8 @@ class FrequencyResponse:
         return bode_figure(self)
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
-class StepResponse:
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class StepResponse(Summary):
     """A simulated nonlinear output step.
 
     Attributes
@@ -373,6 +404,15 @@ class StepResponse:
         return cls(r.t, np.degrees(r.delta), np.degrees(r.command), r.i, r.V, run.step, run.fit,
                    run)
 
+    def _summary(self):
+        step, fit = self.step, self.fit
+        rows = [(f"step.{name}", getattr(step, name))
+                for name in ("rise_time_s", "overshoot_pct", "settling_time_s",
+                             "max_current_a", "max_voltage_v", "current_limited")]
+        rows += [(f"fit.{name}", getattr(fit, name))
+                 for name in ("wn_rad_s", "zeta", "td_s", "bandwidth_closed_form_rad_s")]
+        return f"{step.amplitude_deg:g}° step of the {self.run.output} (nonlinear)", rows
+
     def to_dict(self):
         """JSON-ready dict: the JSON of ``cas-freq simulate --step ... --json``."""
         from cas_freq.simulation.run import step_run_dict
@@ -391,8 +431,8 @@ class StepResponse:
         return step_figure(self)
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
-class ProfileResponse:
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class ProfileResponse(Summary):
     """A simulated profile move of the output (the config's feed-forward acting).
 
     Attributes
@@ -427,6 +467,16 @@ class ProfileResponse:
         return cls(r.t, np.degrees(r.delta), np.degrees(r.command), r.i, r.V, run.profile,
                    run.without_feedforward, run)
 
+    def _summary(self):
+        names = ("tracking_error_max_deg", "tracking_error_rms_deg", "overshoot_pct",
+                 "settling_time_s", "max_current_a", "max_voltage_v")
+        rows = [(f"profile.{name}", getattr(self.profile, name)) for name in names]
+        rows += [(f"{label} (without feed-forward)", value, unit) for label, value, unit in
+                 (row((f"profile.{name}", getattr(self.without_feedforward, name)))
+                  for name in names[:3])]
+        return (f"{self.profile.distance_deg:g}° move at {self.profile.peak_rate_deg_s:g}°/s "
+                "peak rate (with the config's feed-forward)", rows)
+
     def to_dict(self):
         """JSON-ready dict: the JSON of ``cas-freq simulate --profile ... --json``."""
         from cas_freq.simulation.profile_run import profile_run_dict
@@ -441,13 +491,13 @@ class ProfileResponse:
         -------
         matplotlib.figure.Figure
         """
-        from cas_freq.plots.profile import profile_figure
+        from cas_freq.plots.api import profile_figure
 
         return profile_figure(self.run)
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
-class ActuatorSet:
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class ActuatorSet(Summary):
     """Many variants of one actuator (from :meth:`Actuator.vary`).
 
     Attributes
@@ -467,6 +517,15 @@ class ActuatorSet:
     def __len__(self):
         return self.loop_parameters.n_runs
 
+    def _summary(self):
+        from cas_freq.parameters import PARAMETERS
+
+        rows = [(key, f"{np.min(values):.4g} .. {np.max(values):.4g}"
+                 if np.size(values) else "—", PARAMETERS[key].unit if key in PARAMETERS else "")
+                for key, values in self.changes.items()]
+        return (f"{len(self)} variants of {self.base.params.name} / {self.base.variant}, "
+                "changed:", rows)
+
     @one_blas_thread()
     def analyze(self, delay="exact", frequency_range=None):
         """The figures of :meth:`Actuator.analyze` for every sample, as numpy arrays.
@@ -480,7 +539,7 @@ class ActuatorSet:
 
         Returns
         -------
-        types.SimpleNamespace
+        SetAnalysis
             ``current_loop``, ``position_loop``, ``closed_loop`` namespaces of float arrays (n,)
             named as the single analysis' figures (plus ``gain_crossover_count``), NaN where a
             figure does not exist or the loop is not stable; ``stable`` (bool array);
@@ -498,7 +557,7 @@ class ActuatorSet:
             group, _, figure = name.rpartition(".")
             if group:
                 groups.setdefault(group, {})[figure] = values
-        return types.SimpleNamespace(
+        return SetAnalysis(
             **{group: types.SimpleNamespace(**values) for group, values in groups.items()},
             stable=batch.figures["stable"] == 1.0,
             stability=types.SimpleNamespace(
@@ -506,3 +565,19 @@ class ActuatorSet:
                 pade_order=batch.pade_order),
             figures=batch.figures,
         )
+
+
+class SetAnalysis(Summary, types.SimpleNamespace):
+    """The figures of :meth:`ActuatorSet.analyze`: a namespace of arrays (n,) whose repr and
+    HTML table give each headline figure's range over the variants, not the arrays."""
+
+    #: The figures its summary spans.
+    HEADLINE = ("current_loop.phase_margin_deg", "position_loop.phase_margin_deg",
+                "position_loop.gain_margin_db", "position_loop.delay_margin_s",
+                "closed_loop.bandwidth_rad_s", "closed_loop.peak_db")
+
+    def _summary(self):
+        stable = np.asarray(self.stable)
+        rows = [("stable", f"{int(stable.sum())} of {stable.size}", "")]
+        rows += [spread(key, self.figures[key]) for key in self.HEADLINE if key in self.figures]
+        return f"{stable.size} variants", rows

@@ -47,6 +47,7 @@ from cas_freq.fileio import json_ready
 from cas_freq.jit import compiled_for
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, EXACT, DelayModel
 from cas_freq.model.loops import Selector, current_loop, responses
+from cas_freq.summary import Summary
 
 #: Variants per chunk: the grid responses take about 26 kB per variant and response.
 DEFAULT_CHUNK = 256
@@ -314,12 +315,13 @@ class PadeComparison:
     closed_loop_max_error: float
 
 
-@dataclasses.dataclass(frozen=True)
-class Analysis:
+@dataclasses.dataclass(frozen=True, repr=False)
+class Analysis(Summary):
     """Every figure of one variant under one delay model (definitions: docs/model.md).
 
     Closed-loop figures are None when the closed loop is not stable: a frequency response of
-    an unstable loop has no steady state to measure.
+    an unstable loop has no steady state to measure. Its repr (and, in a notebook, its HTML
+    table) shows the headline figures; :meth:`plot` draws the Bode of L_i, L_p and T.
     """
 
     config: str
@@ -341,10 +343,44 @@ class Analysis:
     range_edges: tuple = ()
     #: The load and drivetrain figures (:mod:`cas_freq.analysis.drivetrain`); None unloaded.
     drivetrain: object = None
+    #: The analysed variant (:class:`cas_freq.config.LoadedVariant`), which :meth:`plot`
+    #: evaluates the loops of; not part of the JSON.
+    loaded: object = dataclasses.field(default=None, compare=False)
 
     def to_dict(self):
         """JSON-ready dict, the JSON of ``cas-freq analyze`` (non-finite numbers become None)."""
         return to_dict(self)
+
+    def _summary(self):
+        closed = self.closed_loop
+        rows = [("stability", self.stability.verdict, "")]
+        for loop in ("current_loop", "position_loop"):
+            margins = getattr(self, loop)
+            rows += [(f"{loop}.{name}", getattr(margins, name))
+                     for name in ("phase_margin_deg", "crossover_rad_s", "gain_margin_db")]
+        rows += [("closed_loop.bandwidth_rad_s", closed and closed.bandwidth_rad_s),
+                 ("closed_loop.peak_db", closed and closed.peak_db),
+                 ("position_loop.delay_margin_s", self.position_loop.delay_margin_s),
+                 ("position_loop.sensitivity_peak_db", self.position_loop.sensitivity_peak_db)]
+        changed = f" with {', '.join(self.overrides)}" if self.overrides else ""
+        return f"{self.config} / {self.variant}{changed} ({self.delay_model} delays)", rows
+
+    def plot(self):
+        """Bode of L_i, L_p and T: every crossover marked, the margins as bars and in the
+        legend, the bandwidth on T (the report's open-loop figure with T added).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            Magnitude [dB] and phase [deg] axes against frequency [rad/s]; in a notebook it
+            displays itself.
+        """
+        if self.loaded is None:
+            raise ValueError("this analysis holds no variant to plot (loaded=None); "
+                             "analyze it with cas_freq.load(...).analyze()")
+        from cas_freq.plots.api import analysis_figure
+
+        return analysis_figure(self)
 
 
 def _value(number):
@@ -483,6 +519,7 @@ def analyze(
         notes=tuple(notes),
         range_edges=edges,
         drivetrain=load,
+        loaded=loaded,
     )
 
 
@@ -510,7 +547,8 @@ def _range_edges(figures, omega, stable):
 
 def to_dict(analysis):
     """JSON-ready dict of an :class:`Analysis` (non-finite numbers become None)."""
-    data = dataclasses.asdict(analysis)
+    data = dataclasses.asdict(dataclasses.replace(analysis, loaded=None))
+    del data["loaded"]
     edges = data.pop("range_edges")
     if data["drivetrain"] is None:
         del data["drivetrain"]

@@ -44,9 +44,23 @@ def _ss(numerator, denominator):
     return control.ss(control.tf(num if num.size else [0.0], den))
 
 
+#: Each loop's system name and (input, output) signal names, as python-control shows them:
+#: the symbols of docs/model.md. L_i runs from the current error to the measured current and
+#: L_p from the position error to the measured angle (each loop broken at its error, which for
+#: a unity-feedback loop is the same L as broken at the controller output).
+LOOP_NAMES = {
+    "current_loop": ("L_i", "e_i", "i"),
+    "current_closed_loop": ("T_i", "i_cmd", "i"),
+    "position_loop": ("L_p", "e", "theta"),
+    "sensitivity": ("S", "theta_cmd", "e"),
+    "closed_loop": ("T", "delta_cmd", "delta"),
+}
+
+
 @dataclasses.dataclass(frozen=True)
 class LinearModel:
-    """The actuator's loops as python-control state-space systems (Padé delays).
+    """The actuator's loops as python-control state-space systems (Padé delays), named as
+    :data:`LOOP_NAMES` (``model.position_loop.name == "L_p"``).
 
     Attributes
     ----------
@@ -55,9 +69,9 @@ class LinearModel:
     plant : control.StateSpace
         V -> (i, omega, theta).
     current_loop, current_closed_loop : control.StateSpace
-        L_i and T_i.
+        L_i (e_i -> i) and T_i (i_cmd -> i).
     position_loop, sensitivity, closed_loop : control.StateSpace
-        L_p, S = 1/(1+L_p) and T = theta/theta_cmd.
+        L_p (e -> theta), S = 1/(1+L_p) (theta_cmd -> e) and T = δ/δ_cmd (delta_cmd -> delta).
     """
 
     pade_order: int
@@ -115,7 +129,12 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
     sensitivity = control.feedback(control.ss([], [], [], [[1.0]]), l_p)
     # T: the loop closed on theta, read at the fin (N delta) where the gear is compliant
     closed = _position_closed_loop(p, c_p, seen if plant.nstates == 3 else seen_both, l_p)
-    return LinearModel(pade_order, plant, l_i, t_i, l_p, sensitivity, closed)
+    loops = {"current_loop": l_i, "current_closed_loop": t_i, "position_loop": l_p,
+             "sensitivity": sensitivity, "closed_loop": closed}
+    named = {key: control.ss(system, name=name, inputs=signal_in, outputs=signal_out)
+             for key, system in loops.items()
+             for name, signal_in, signal_out in [LOOP_NAMES[key]]}
+    return LinearModel(pade_order, plant, **named)
 
 
 def _position_closed_loop(p, c_p, seen, l_p):

@@ -1,14 +1,17 @@
 """Figures of the Python API's ``plot()`` methods (:mod:`cas_freq.api`).
 
-Each function returns a new :class:`matplotlib.figure.Figure` built with the object-oriented
-API: no pyplot state, no backend switch, no change to the global rcParams. In a notebook the
-returned figure displays itself; elsewhere call ``fig.savefig(...)``.
+Each function returns a new :class:`~cas_freq.plots.common.NotebookFigure` (a
+:class:`matplotlib.figure.Figure`) built with the object-oriented API: no pyplot state, no
+backend switch, no change to the global rcParams. In a notebook the returned figure displays
+itself as a cell's value (no ``%matplotlib`` needed); elsewhere call ``fig.savefig(...)``.
 """
 
+import types
+
 import numpy as np
-from matplotlib.figure import Figure
 
 from cas_freq.analysis.frequency import continuous_phase
+from cas_freq.plots.common import NotebookFigure as Figure
 
 #: The loops of the Bode figure: (attribute of FrequencyResponse, legend label).
 BODE_LOOPS = (
@@ -77,3 +80,40 @@ def step_figure(response):
     for ax in (angle, current):
         ax.grid(True, alpha=0.35)
     return fig
+
+
+def analysis_figure(analysis):
+    """Bode of L_i, L_p and T of an analysed variant, margins marked (the report's open-loop
+    figure, :func:`cas_freq.plots.report.bode_loops`, with T added).
+
+    Parameters
+    ----------
+    analysis : cas_freq.analysis.Analysis
+        With its ``loaded`` variant, whose loops are evaluated (exact delays) on the report's
+        plotting range around the analysis' crossovers [rad/s].
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from cas_freq.plots.report import bode_loops
+    from cas_freq.report.data import (
+        ReportSettings,
+        curves,
+        loop_frequency_range,
+        variant_label,
+    )
+
+    loaded = analysis.loaded
+    data = types.SimpleNamespace(
+        label=variant_label(loaded), analysis=analysis,
+        curves=curves(loaded.params, loop_frequency_range(analysis),
+                      ReportSettings().curve_points_per_decade))
+    return bode_loops(data, with_closed_loop=True, figure_class=Figure)
+
+
+def profile_figure(run):
+    """:func:`cas_freq.plots.profile.profile_figure` as a figure that displays itself."""
+    from cas_freq.plots import profile
+
+    return profile.profile_figure(run, figure_class=Figure)

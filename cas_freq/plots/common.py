@@ -14,16 +14,15 @@ import hashlib
 import io
 import re
 
-import matplotlib
 import numpy as np
 
-matplotlib.use("Agg")
+# No matplotlib.use(): the figures are built without pyplot and drawn by savefig's canvas for
+# the format, so no backend is needed, and a notebook's backend (inline) is left as it is.
+from matplotlib import rc_context
+from matplotlib.figure import Figure
+from matplotlib.ticker import Locator, LogFormatterSciNotation
 
-from matplotlib import rc_context  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.ticker import Locator, LogFormatterSciNotation  # noqa: E402
-
-from cas_freq.report.numbers import round_array  # noqa: E402
+from cas_freq.report.numbers import round_array
 
 #: Style of every figure (and of the SVG writer): fixed, so output does not depend on a user's
 #: matplotlibrc.
@@ -74,15 +73,31 @@ class Margins:
     wgap: float = 0.8
 
 
-def figure(rows, cols, size, sharex=False, margins=None, **kwargs):
+def figure(rows, cols, size, sharex=False, margins=None, figure_class=Figure, **kwargs):
     """A figure in :data:`STYLE` with a (rows, cols) array of axes: laid out with ``margins``
-    (:class:`Margins`, fixed) or, without, by matplotlib's constrained layout."""
+    (:class:`Margins`, fixed) or, without, by matplotlib's constrained layout; an instance of
+    ``figure_class`` (a :class:`matplotlib.figure.Figure` subclass, e.g.
+    :class:`NotebookFigure`)."""
     with rc_context(STYLE):
-        fig = Figure(figsize=size, layout=None if margins is not None else "constrained")
+        fig = figure_class(figsize=size, layout=None if margins is not None else "constrained")
         axes = fig.subplots(rows, cols, sharex=sharex, squeeze=False, **kwargs)
     if margins is not None:
         place(fig, margins)
     return fig, axes
+
+
+class NotebookFigure(Figure):
+    """A :class:`matplotlib.figure.Figure` that displays itself in a notebook.
+
+    The API's ``plot()`` figures are built without pyplot (no global figure registry, no backend
+    switch), so IPython's matplotlib integration, which shows pyplot's figures and is set up only
+    by ``%matplotlib inline`` or by importing pyplot, does not know them. As a cell's last value
+    this one gives IPython a PNG itself (``_repr_png_``); everything else is matplotlib's Figure
+    (``savefig``, ``axes``).
+    """
+
+    def _repr_png_(self):
+        return png_bytes(self)
 
 
 def place(fig, margins):

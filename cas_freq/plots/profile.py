@@ -11,13 +11,15 @@ _RUNS = (
 )
 
 
-def profile_figure(run):
+def profile_figure(run, figure_class=Figure):
     """Output angle against its profile command, and the tracking error, against time.
 
     Parameters
     ----------
     run : cas_freq.simulation.profile_run.ProfileRun
         The move, simulated with and without feed-forward.
+    figure_class : type
+        The :class:`matplotlib.figure.Figure` (sub)class to build.
 
     Returns
     -------
@@ -30,7 +32,7 @@ def profile_figure(run):
     arrivals = [f.arrival_time_s for f in (run.profile, run.without_feedforward)]
     view_end = run.move.start_s + 1.5 * max([run.move.move_time_s, *(
         a for a in arrivals if np.isfinite(a))])
-    fig = Figure(figsize=(8, 6), layout="constrained")
+    fig = figure_class(figsize=(8, 6), layout="constrained")
     angle, error = fig.subplots(2, 1, sharex=True)
     first = run.result
     keep = first.t <= view_end

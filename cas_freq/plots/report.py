@@ -90,13 +90,18 @@ def _margin_words(margins):
     return "; ".join(words) if words else "no crossover in range"
 
 
-def bode_loops(data):
+def bode_loops(data, with_closed_loop=False, figure_class=None):
     """Bode of L_i and L_p: every gain ● and phase □ crossover in range marked, the headline
-    margins drawn as bars and stated in the legend (never as text on the axes)."""
+    margins drawn as bars and stated in the legend (never as text on the axes).
+
+    ``with_closed_loop`` adds T = δ/δ_cmd with its bandwidth ▽ (the API's
+    :meth:`cas_freq.analysis.Analysis.plot`); ``figure_class`` is the Figure subclass to build
+    (default :class:`matplotlib.figure.Figure`)."""
     c = data.curves
     w = _r(c.omega_rad_s)
     layout = Margins(hgap=0.25)
-    fig, axes = _figure(2, 1, (9, 7.2), sharex=True, margins=layout)
+    fig, axes = _figure(2, 1, (9, 7.2), sharex=True, margins=layout,
+                        **({"figure_class": figure_class} if figure_class else {}))
     mag, ph = axes[:, 0]
     loops = (("L_i (current loop, broken at V)", c.current_loop, data.analysis.current_loop, "C0"),
              ("L_p (position loop, broken at i_cmd)", c.position_loop,
@@ -129,6 +134,8 @@ def bode_loops(data):
         for x in (margins.crossover_rad_s,):
             if _in_range(w, x):
                 lowest_phase = min(lowest_phase, _at(w, p, x))
+    if with_closed_loop:
+        _closed_loop_curve(mag, ph, w, c, data.analysis.closed_loop)
     mag.axhline(0.0, color="k", lw=0.8)
     ph.axhline(-180.0, color="k", lw=0.8)
     mag.set_ylabel("magnitude [dB]")
@@ -146,8 +153,23 @@ def bode_loops(data):
     legend = fig.legend(handles, labels, loc="lower center", ncols=1, fontsize=7.5)
     legend_room_below(fig, layout, [legend])
     _log_axes([mag, ph], w)
-    fig.suptitle(f"{data.label}: open loops L_i and L_p ({EXACT}); margins in the legend")
+    loops = "L_i, L_p and closed loop T" if with_closed_loop else "open loops L_i and L_p"
+    fig.suptitle(f"{data.label}: {loops} ({EXACT}); margins in the legend")
     return fig
+
+
+def _closed_loop_curve(mag, ph, w, c, figures):
+    """T = δ/δ_cmd on the open loops' axes, its bandwidth ▽ at |T(0)| − 3.01 dB in the legend
+    (none when the closed loop is not stable: ``figures`` None)."""
+    words = "not stable: no closed-loop figures"
+    if figures is not None:
+        words = (f"ω_BW {figures.bandwidth_rad_s:.4g} rad/s, peak {figures.peak_db:.2f} dB"
+                 if figures.bandwidth_rad_s is not None else f"peak {figures.peak_db:.2f} dB")
+    mag.plot(w, _db(c.closed_loop), color="C2", label=f"T = δ/δ_cmd (closed loop): {words}")
+    ph.plot(w, _phase_deg(c.closed_loop, c.omega_rad_s), color="C2")
+    if figures is not None and _in_range(w, figures.bandwidth_rad_s):
+        mag.plot([figures.bandwidth_rad_s], [figures.dc_gain_db + HALF_POWER_DB], "v",
+                 color="C2", ms=6)
 
 
 def closed_loop(data):

@@ -26,6 +26,7 @@ from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.simulator import RecordingBuffers
 from cas_freq.studies.shown import run_figures_not_shown, shown_run_figure
 from cas_freq.studies.sweep import evaluate_figures
+from cas_freq.summary import Summary
 
 KEY = "load.hinge_stiffness"
 #: Bisection steps refining a loss between two grid points (a 5 N*m/rad step to 0.005).
@@ -90,8 +91,8 @@ class RequirementEnvelope:
     reason: str = ""
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
-class LoadEnvelope:
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class LoadEnvelope(Summary):
     """Figures and verdicts of one variant against hinge stiffness.
 
     Attributes
@@ -119,6 +120,24 @@ class LoadEnvelope:
     stable_range: tuple
     step_deg: float | None
     requirements: tuple
+
+    def _summary(self):
+        k = self.hinge_stiffness
+        low, high = self.stable_range
+        rows = [("nominal load spring K_h", self.nominal_n_m_rad, "N·m/rad"),
+                ("stable from", low, "N·m/rad"), ("stable to", high, "N·m/rad")]
+        for requirement in self.requirements:
+            if not requirement.evaluated:
+                text = f"not evaluated: {requirement.reason}"
+            else:
+                held = "holds" if requirement.at_nominal else "fails"
+                lost = [f"lost {side} at {loss.at:.4g} N·m/rad ({loss.how})"
+                        for side, loss in (("below", requirement.lost_below),
+                                           ("above", requirement.lost_above)) if loss]
+                text = "; ".join([f"{held} at the nominal", *lost])
+            rows.append((f"{requirement.id} ({requirement.metric})", text, ""))
+        return (f"{self.variant}: {k.size} load springs K_h {k.min():.4g} .. {k.max():.4g} "
+                "N·m/rad", rows)
 
 
 def load_envelope(loaded, hinge_stiffness, step_rad=None, progress=None, stable_range=None):

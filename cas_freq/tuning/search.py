@@ -20,6 +20,7 @@ import dataclasses
 
 import numpy as np
 
+from cas_freq.summary import Summary
 from cas_freq.tuning.evaluate import TRADE_OFF, evaluate, joined
 from cas_freq.tuning.options import GLOBAL_COUNT, OBJECTIVES, ROUND_COUNT, ROUNDS
 from cas_freq.tuning.space import sobol
@@ -28,8 +29,8 @@ from cas_freq.tuning.space import sobol
 CENTRES = 3
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
-class TuneResult:
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class TuneResult(Summary):
     """What a tune found.
 
     Attributes
@@ -65,6 +66,13 @@ class TuneResult:
     feasible: bool
     pareto: np.ndarray
     seed: int
+
+    def _summary(self):
+        units = {key.key: key.unit for key in self.keys}
+        rows = [("feasible", self.feasible, "")]
+        rows += [(key, value, units.get(key, "")) for key, value in self.values().items()]
+        rows.append(("candidates evaluated", len(self.evaluation.objective), ""))
+        return f"{self.objective}, candidate {self.best} of seed {self.seed}", rows
 
     def values(self, index=None):
         """Key -> value [SI] of a candidate (default: the best)."""
