@@ -89,10 +89,11 @@ def _numba_installed():
 CACHE_ENV = "NUMBA_CACHE_DIR"
 #: The package's folders holding compiled kernels (numba caches in their ``__pycache__``).
 KERNEL_DIRS = ("simulation", "analysis")
-#: Compilation time of each kernel module's functions on a loaded 2-core machine [s], by the
-#: module's last name (benchmarks/first_run.py), quoted in the first-run message for the
-#: module compiled first; :data:`DEFAULT_ESTIMATE_S` for another.
-COMPILE_ESTIMATE_S = {"kernel": 45, "fit_kernel": 3}
+#: Compilation time of the kernels a command uses on a loaded 2-core machine [s], by the
+#: module compiled first (``kernel``: a first ``cas-freq report``, 12-25 s,
+#: benchmarks/first_run.py; ``fit_kernel``: ``cas-freq fit FILE --step``, 2 s), quoted in
+#: the first-run message; :data:`DEFAULT_ESTIMATE_S` for another.
+COMPILE_ESTIMATE_S = {"kernel": 25, "fit_kernel": 3}
 DEFAULT_ESTIMATE_S = 20
 
 _PACKAGE = pathlib.Path(__file__).resolve().parent
@@ -113,10 +114,13 @@ def cache_candidates(environ=None):
     (default ``~/.cache``), then ``cas_freq-numba-<user id>`` in the temporary folder (for a
     user without a writable home)."""
     environ = os.environ if environ is None else environ
-    base = environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    base = environ.get("XDG_CACHE_HOME", "")
+    if not os.path.isabs(base):  # unset, or relative (which the XDG specification ignores)
+        base = os.path.join(os.path.expanduser("~"), ".cache")
     user = os.getuid() if hasattr(os, "getuid") else os.environ.get("USERNAME", "user")
-    return [pathlib.Path(base) / "cas_freq" / "numba",
-            pathlib.Path(tempfile.gettempdir()) / f"cas_freq-numba-{user}"]
+    temporary = pathlib.Path(tempfile.gettempdir()) / f"cas_freq-numba-{user}"
+    # no home at all: expanduser leaves "~" (never a folder relative to the working one)
+    return [pathlib.Path(base) / "cas_freq" / "numba"] * os.path.isabs(base) + [temporary]
 
 
 def _private_folder(path):
@@ -219,19 +223,26 @@ def _listen_to_compilations():
         return
     from numba.core import event
 
+    def module(event_):  # the compiled function's module; numba holds its compiler lock
+        return getattr(event_.data["dispatcher"].py_func, "__module__", None) or ""
+
     class _Listener(event.Listener):
         def on_start(self, event_):
+            if not module(event_).startswith("cas_freq."):  # the user's own numba code
+                return
             if _COMPILING["depth"] == 0:
                 self.started = time.perf_counter()
                 if not _COMPILING["told"] and os.getpid() == _COMPILING["pid"]:
                     _COMPILING["told"] = True
-                    module = event_.data["dispatcher"].py_func.__module__.rsplit(".", 1)[-1]
-                    seconds = COMPILE_ESTIMATE_S.get(module, DEFAULT_ESTIMATE_S)
+                    seconds = COMPILE_ESTIMATE_S.get(module(event_).rsplit(".", 1)[-1],
+                                                     DEFAULT_ESTIMATE_S)
                     _tell(f"cas-freq: compiling the numerical kernels once (about {seconds} s) "
                           "...")
             _COMPILING["depth"] += 1
 
-        def on_end(self, _event):
+        def on_end(self, event_):
+            if not module(event_).startswith("cas_freq."):
+                return
             _COMPILING["depth"] -= 1
             if _COMPILING["depth"] == 0:
                 _COMPILING["seconds"] += time.perf_counter() - self.started

@@ -121,3 +121,20 @@ def test_the_api_tells_only_a_configured_logger(tmp_path):
     logged = _run(None, tmp_path / "logged",
                   code="import logging; logging.basicConfig(level=logging.INFO); " + fit)
     assert NOTE in logged
+
+
+def test_without_a_home_nothing_is_created_in_the_working_folder(monkeypatch, tmp_path):
+    # HOME unset and no password entry: expanduser("~") stays "~", which must not become a
+    # folder "~/.cache" below the working folder
+    monkeypatch.setattr(os.path, "expanduser", lambda path: path)
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    assert jit.cache_candidates({"XDG_CACHE_HOME": "relative"}) == [
+        tmp_path / f"cas_freq-numba-{os.getuid()}"]
+
+
+def test_the_users_own_numba_functions_are_not_announced(tmp_path):
+    # the listener is process-wide: a compilation of the user's code is not cas_freq's
+    code = ("import logging; logging.basicConfig(level=logging.INFO); import cas_freq.jit; "
+            "from cas_freq.simulation import fit_kernel; import numba; "
+            "numba.njit(lambda x: x + 1)(1)")
+    assert NOTE not in _run(None, tmp_path / "cache", code=code)
