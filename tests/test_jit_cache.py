@@ -138,3 +138,36 @@ def test_the_users_own_numba_functions_are_not_announced(tmp_path):
             "from cas_freq.simulation import fit_kernel; import numba; "
             "numba.njit(lambda x: x + 1)(1)")
     assert NOTE not in _run(None, tmp_path / "cache", code=code)
+
+
+def _signatures():
+    """The argument types each simulation and fit kernel has machine code for in this
+    process (compiled, or loaded from numba's cache)."""
+    from numba.core.registry import CPUDispatcher
+
+    from cas_freq.simulation import fit_kernel, kernel
+
+    return {(module.__name__, name, signature)
+            for module in (kernel, fit_kernel)
+            for name, function in vars(module).items() if isinstance(function, CPUDispatcher)
+            for signature in function.overloads}
+
+
+def test_the_report_has_the_envelope_workers_kernels_before_it_forks():
+    # a first report compiled the simulation kernels twice at once, in its process and in the
+    # figure worker computing the load envelope (~25 s of CPU each: 70 s against 19 s warm);
+    # build_report now gets them first (compiled or from the cache) and the forked worker
+    # inherits them: the envelope (2 of its hinge stiffnesses) then needs no other signature
+    from cas_freq.config.loader import load_variant
+    from cas_freq.report.build import _simulation_kernels_here
+    from cas_freq.studies.envelope import load_envelope
+
+    if not jit.use_compiled():
+        pytest.skip("numba is not importable: nothing compiles")
+    loaded = load_variant()
+    _simulation_kernels_here(loaded.params)
+    before = _signatures()
+    load_envelope(loaded, [0.0, 10.0], loaded.params.load_envelope.step)
+    assert _signatures() - before == set()
+    assert {name for _, name, _ in before} >= {"advance_parallel", "start_batch",
+                                               "normal_equations"}
