@@ -54,10 +54,11 @@ def main():
     goal = 2.5 * median + 10.0
     print(f"load average before: {load_before[0]:.2f} {load_before[1]:.2f} {load_before[2]:.2f},"
           f" after: {load_after[0]:.2f} {load_after[1]:.2f} {load_after[2]:.2f}")
-    print(f"| case                                   |     time |")
-    print(f"|----------------------------------------|----------|")
+    print("| case                                   |     time |")
+    print("|----------------------------------------|----------|")
     print(f"| first report (empty NUMBA_CACHE_DIR)   | {cold:6.1f} s |")
-    print(f"|   of which compiling (its own message) | {compiled.group(1) if compiled else '-':>6} s |")
+    seconds = compiled.group(1) if compiled else "-"
+    print(f"|   of which compiling (its own message) | {seconds:>6} s |")
     print(f"| warm report, median of {len(warm)}               | {median:6.1f} s |")
     print(f"|   (each: {', '.join(f'{w:.1f}' for w in warm)} s)")
     print(f"| goal: 2.5 x warm + 10 s                | {goal:6.1f} s |")

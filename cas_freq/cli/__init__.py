@@ -81,13 +81,13 @@ def main(argv=None):
     limit_blas_threads()
     command = "cas-freq"
     try:
+        from cas_freq import jit
         from cas_freq.cli.common import (
             EXIT_BAD_INPUT,
             EXIT_OK,
             set_quiet,
             shipped_config_note,
         )
-        from cas_freq import jit
         from cas_freq.cli.signals import terminate_as_interrupt
 
         with terminate_as_interrupt():
