@@ -156,16 +156,17 @@ def _signatures():
 def test_the_report_has_the_envelope_workers_kernels_before_it_forks():
     # a first report compiled the simulation kernels twice at once, in its process and in the
     # figure worker computing the load envelope (~25 s of CPU each: 70 s against 19 s warm);
-    # build_report now gets them first (compiled or from the cache) and the forked worker
-    # inherits them: the envelope (2 of its hinge stiffnesses) then needs no other signature
+    # build_report now gets them first (prepare_kernels: compiled or from the cache) and the
+    # forked worker inherits them: the envelope (2 of its hinge stiffnesses) then needs no
+    # other signature
     from cas_freq.config.loader import load_variant
-    from cas_freq.report.build import _simulation_kernels_here
+    from cas_freq.simulation.simulator import prepare_kernels
     from cas_freq.studies.envelope import load_envelope
 
     if not jit.use_compiled():
         pytest.skip("numba is not importable: nothing compiles")
     loaded = load_variant()
-    _simulation_kernels_here(loaded.params)
+    prepare_kernels(loaded.params)
     before = _signatures()
     load_envelope(loaded, [0.0, 10.0], loaded.params.load_envelope.step)
     assert _signatures() - before == set()

@@ -631,36 +631,6 @@ class _Later:
         return self.function(*self.args)
 
 
-def _simulation_kernels_here(params):
-    """Have the simulation kernels in this process before the figure workers fork: batches of
-    ``params`` without a load and with a load spring, a few steps each, and a step fit.
-
-    A worker computes the load envelope while this process simulates the first variant; on a
-    first run (no kernel in numba's cache) both compiled the same kernels at once, ~25 s of
-    CPU each (issue 28: the first report took 74 s against ~15 s warm). Compiled here once,
-    the forked workers inherit them; in later runs this loads them from the cache, as this
-    process would anyway.
-    """
-    import dataclasses
-
-    import numpy as np
-
-    from cas_freq.jit import use_compiled
-    from cas_freq.parameters import LoopParameters
-    from cas_freq.simulation import Step, fit_second_order, simulate_batch
-
-    if not use_compiled():
-        return
-    runs = LoopParameters.from_configs([params]).take([0, 0])
-    unloaded = dict(F_c=0.0, eta=1.0, eta_b=1.0, K_g=0.0, c_g=0.0, backlash=0.0, J_L=0.0,
-                    b_L=0.0, K_h=0.0, tau_h=0.0)  # LoopParameters.loaded is then False
-    for load in (unloaded, {"K_h": 1.0}):  # the kernels' two signatures (table q or None)
-        batch = dataclasses.replace(runs, **{key: np.full(2, value) for key, value in load.items()})
-        simulate_batch(batch, Step(1e-3), t_end=1e-4, extend=False)
-    t = np.linspace(0.0, 0.1, 101)
-    fit_second_order(t, 1.0 - np.exp(-50.0 * t), 1.0)
-
-
 class FigureRenderer:
     """Draws each variant's figures while the caller computes: in ``workers`` processes, or in
     this process (at :meth:`results`) when ``workers`` is 1 or no process can be forked.
@@ -868,7 +838,11 @@ def build_report(variants, out_dir=None, *, settings=None, verdicts=None, png=Fa
     enveloped = envelope_variants(params)
     datas, envelopes = [], {}
     if workers > 1 and params.load_envelope is not None:
-        _simulation_kernels_here(params)
+        from cas_freq.simulation.simulator import prepare_kernels
+
+        # compiled (first run) or loaded here once, then inherited by the forked workers:
+        # on a first run the load envelope's worker compiled them too, at the same time
+        prepare_kernels(params)
     with FigureRenderer(workers, png) as renderer:
         if renderer.parallel:
             # a worker computes and draws the load envelopes first, while this process
