@@ -7,10 +7,22 @@ the analysis' grid responses and scans (:mod:`cas_freq.analysis.response_kernel`
 :mod:`cas_freq.analysis.scan_kernel`). ``CAS_FREQ_ENGINE=reference`` (or ``engine="reference"``
 where a function takes it) runs the references instead, as does a machine without numba; numba
 is imported only by the kernels' modules.
+
+numba caches the machine code next to the kernels' modules (``__pycache__``). Where the
+package folder is not writable (a read-only site-packages) and ``NUMBA_CACHE_DIR`` is unset,
+:func:`configure_cache` points numba at a per-user folder (:func:`cache_candidates`) on
+import of this module, so that the kernels compile once per user, not in every process; a
+user's ``NUMBA_CACHE_DIR`` is always respected. The first compilation of a process is told
+once (:func:`compile_messages`): the CLI prints it on stderr, the API logs it on the
+``cas_freq`` logger (silent unless a handler is configured).
 """
 
 import functools
+import logging
 import os
+import pathlib
+import tempfile
+import time
 
 from cas_freq.exceptions import ConfigError
 
@@ -73,18 +85,188 @@ def _numba_installed():
     return True
 
 
+#: numba's variable for its cache folder (read when numba is imported).
+CACHE_ENV = "NUMBA_CACHE_DIR"
+#: The package's folders holding compiled kernels (numba caches in their ``__pycache__``).
+KERNEL_DIRS = ("simulation", "analysis")
+#: Compilation time of the kernels a command uses on a loaded 2-core machine [s], by the
+#: module compiled first (``kernel``: a first ``cas-freq report``, 12-25 s,
+#: benchmarks/first_run.py; ``fit_kernel``: ``cas-freq fit FILE --step``, 2 s), quoted in
+#: the first-run message; :data:`DEFAULT_ESTIMATE_S` for another.
+COMPILE_ESTIMATE_S = {"kernel": 25, "fit_kernel": 3}
+DEFAULT_ESTIMATE_S = 20
+
+_PACKAGE = pathlib.Path(__file__).resolve().parent
+_LOG = logging.getLogger("cas_freq")
+
+
+def writable(path):
+    """True if a file can be created in folder ``path``, or in its nearest existing parent
+    where the folder does not exist yet (numba creates it)."""
+    path = pathlib.Path(path)
+    while not path.exists() and path.parent != path:
+        path = path.parent
+    return path.is_dir() and os.access(path, os.W_OK | os.X_OK)
+
+
+def cache_candidates(environ=None):
+    """Per-user cache folders, in order of preference: ``$XDG_CACHE_HOME/cas_freq/numba``
+    (default ``~/.cache``), then ``cas_freq-numba-<user id>`` in the temporary folder (for a
+    user without a writable home)."""
+    environ = os.environ if environ is None else environ
+    base = environ.get("XDG_CACHE_HOME", "")
+    if not os.path.isabs(base):  # unset, or relative (which the XDG specification ignores)
+        base = os.path.join(os.path.expanduser("~"), ".cache")
+    user = os.getuid() if hasattr(os, "getuid") else os.environ.get("USERNAME", "user")
+    temporary = pathlib.Path(tempfile.gettempdir()) / f"cas_freq-numba-{user}"
+    # no home at all: expanduser leaves "~" (never a folder relative to the working one)
+    return [pathlib.Path(base) / "cas_freq" / "numba"] * os.path.isabs(base) + [temporary]
+
+
+def _private_folder(path):
+    """Create ``path`` (mode 700) if needed; True if it is then a folder of this user that
+    only this user can write (machine code is loaded from it: another user's folder in the
+    temporary folder must not be trusted)."""
+    try:
+        path.mkdir(mode=0o700, parents=True, exist_ok=True)
+        info = path.stat()
+    except OSError:
+        return False
+    own = not hasattr(os, "getuid") or info.st_uid == os.getuid()
+    return own and not info.st_mode & 0o022 and writable(path)
+
+
+def choose_cache_dir(environ=None, package_writable=None):
+    """The folder numba should cache the kernels in, or None to leave numba's choice.
+
+    None where the user set ``NUMBA_CACHE_DIR`` (respected) or where the package's kernel
+    folders are writable (numba's ``__pycache__`` next to them); else the first usable of
+    :func:`cache_candidates`, or None if there is none (the kernels then compile in each
+    process, :func:`cached_jit`).
+
+    Parameters
+    ----------
+    environ : mapping, optional
+        The environment (default ``os.environ``).
+    package_writable : callable, optional
+        ``path -> bool`` for the kernel folders (default :func:`writable`; a test's stand-in,
+        since root writes anywhere).
+    """
+    environ = os.environ if environ is None else environ
+    package_writable = writable if package_writable is None else package_writable
+    if environ.get(CACHE_ENV):
+        return None
+    if all(package_writable(_PACKAGE / name / "__pycache__") for name in KERNEL_DIRS):
+        return None
+    return next((str(path) for path in cache_candidates(environ) if _private_folder(path)), None)
+
+
+def configure_cache(environ=None, package_writable=None):
+    """Set ``NUMBA_CACHE_DIR`` to :func:`choose_cache_dir`'s folder if it gives one (and
+    numba's setting too if numba is already imported); returns that folder or None."""
+    import sys
+
+    environ = os.environ if environ is None else environ
+    folder = choose_cache_dir(environ, package_writable)
+    if folder is not None:
+        environ[CACHE_ENV] = folder
+        numba = sys.modules.get("numba")
+        if numba is not None:
+            numba.config.CACHE_DIR = folder
+    return folder
+
+
+configure_cache()
+
+#: Where the first-compilation messages go: a callable taking a line (the CLI's stderr), or
+#: None for the ``cas_freq`` logger (:func:`compile_messages`).
+_SAY = None
+#: Seconds spent compiling in this process, whether a compilation is running, whether the
+#: first-run message was given, whether some kernel could not be cached, and the process
+#: that tells (not the report's forked workers, which may compile too).
+_COMPILING = {"seconds": 0.0, "depth": 0, "told": False, "uncached": False, "listener": None,
+              "pid": os.getpid()}
+
+
+def compile_messages(say=None):
+    """Send the first-compilation messages to ``say`` (a callable taking one line, e.g. the
+    CLI's stderr printer), or to the ``cas_freq`` logger at INFO level with None (the
+    default)."""
+    global _SAY
+    _SAY = say
+    _COMPILING["pid"] = os.getpid()
+
+
+def _tell(text):
+    if _SAY is not None:
+        _SAY(text)
+    else:
+        _LOG.info(text)
+
+
+def compile_summary():
+    """The line telling how long kernels compiled since the first-run message (or the last
+    summary), or None if they did not; the next compilation is then told again."""
+    if not _COMPILING["told"]:
+        return None
+    where = ("no writable cache folder: they compile again in the next run"
+             if _COMPILING["uncached"] else "later runs load them from the cache")
+    seconds, _COMPILING["seconds"], _COMPILING["told"] = _COMPILING["seconds"], 0.0, False
+    return f"cas-freq: compiled the numerical kernels in {seconds:.0f} s ({where})"
+
+
+def _listen_to_compilations():
+    """Register (once per process) a numba listener that tells the first compilation and
+    times them all: numba fires ``numba:compile`` only where the cache has no machine code
+    for the function and its argument types (a cache miss)."""
+    if _COMPILING["listener"] is not None:
+        return
+    from numba.core import event
+
+    def module(event_):  # the compiled function's module; numba holds its compiler lock
+        return getattr(event_.data["dispatcher"].py_func, "__module__", None) or ""
+
+    class _Listener(event.Listener):
+        def on_start(self, event_):
+            if not module(event_).startswith("cas_freq."):  # the user's own numba code
+                return
+            if _COMPILING["depth"] == 0:
+                self.started = time.perf_counter()
+                if not _COMPILING["told"] and os.getpid() == _COMPILING["pid"]:
+                    _COMPILING["told"] = True
+                    seconds = COMPILE_ESTIMATE_S.get(module(event_).rsplit(".", 1)[-1],
+                                                     DEFAULT_ESTIMATE_S)
+                    _tell(f"cas-freq: compiling the numerical kernels once (about {seconds} s) "
+                          "...")
+            _COMPILING["depth"] += 1
+
+        def on_end(self, event_):
+            if not module(event_).startswith("cas_freq."):
+                return
+            _COMPILING["depth"] -= 1
+            if _COMPILING["depth"] == 0:
+                _COMPILING["seconds"] += time.perf_counter() - self.started
+
+    _COMPILING["listener"] = _Listener()
+    event.register("numba:compile", _COMPILING["listener"])
+
+
 def cached_jit(**options):
     """``numba.njit`` with ``cache=True``; without a cache if no cache directory is usable.
 
     ``error_model="numpy"``: a division by zero gives inf or nan, as in the numpy code each
-    kernel mirrors, instead of raising.
+    kernel mirrors, instead of raising. The first compilation in a process is told
+    (:func:`compile_messages`).
     """
     from numba import njit
+
+    _listen_to_compilations()
 
     def decorate(function):
         try:
             return njit(cache=True, error_model="numpy", **options)(function)
         except RuntimeError:  # numba: "cannot cache function ...: no locator available"
+            _COMPILING["uncached"] = True
             return njit(cache=False, error_model="numpy", **options)(function)
 
     return decorate

@@ -11,6 +11,17 @@ import yaml
 from cas_freq.config import default_config_path, read_config_file
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _no_compile_messages_in_process():
+    """The CLI's first-compilation lines (cas_freq.jit) silenced for commands run in this
+    process: whether a test's command compiles depends on the order the tests ran in and on
+    numba's cache, and many tests check stderr exactly. tests/test_jit_cache.py checks the
+    messages in processes of their own."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr("cas_freq.cli._say", lambda text: None)
+        yield
+
+
 @pytest.fixture(scope="session")
 def shipped_config_path():
     """Path of the shipped ``configs/qt_cas.yaml``."""

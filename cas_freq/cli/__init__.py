@@ -81,6 +81,7 @@ def main(argv=None):
     limit_blas_threads()
     command = "cas-freq"
     try:
+        from cas_freq import jit
         from cas_freq.cli.common import (
             EXIT_BAD_INPUT,
             EXIT_OK,
@@ -96,6 +97,8 @@ def main(argv=None):
                     parser, sys.argv[1:] if argv is None else list(argv)))
                 command = f"cas-freq {args.command_name}"
                 set_quiet(getattr(args, "quiet", False))
+                if not getattr(args, "quiet", False):
+                    jit.compile_messages(_say)
                 status = args.handler(args)
                 shipped_config_note()
                 return status
@@ -105,6 +108,7 @@ def main(argv=None):
             except BrokenPipeError:
                 return EXIT_OK
             finally:
+                _compile_summary()
                 set_quiet(False)  # --quiet is per call (main may run more than once)
     except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP
         return _interrupted(command, exc)
@@ -115,6 +119,22 @@ def main(argv=None):
         if interrupt is None:
             raise
         return _interrupted(command, interrupt)
+
+
+def _say(text):
+    """One line on stderr (the first-compilation messages of :mod:`cas_freq.jit`)."""
+    print(text, file=sys.stderr, flush=True)
+
+
+def _compile_summary():
+    """Say how long the kernels compiled, if they did while the messages went to stderr (not
+    with ``--quiet``), and send later messages to the logger again."""
+    from cas_freq import jit
+
+    summary = jit.compile_summary()
+    if summary is not None and jit._SAY is _say:
+        _say(summary)
+    jit.compile_messages(None)
 
 
 #: An option argument that starts like a negative number: ``-5deg``, ``-0.1rad``, ``-1:2:3``,

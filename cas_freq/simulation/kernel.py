@@ -34,8 +34,9 @@ advance a batch by any number of steps, check settling, extend the horizon and r
 as with the reference engine. Functions are compiled with ``cache=True``: the first call in a
 fresh environment compiles them (10 to 30 s on a 2-core machine); later processes load the
 machine code from numba's cache (about 0.2 s, plus 0.2 s to import numba). The cache sits next
-to this file, or in ``NUMBA_CACHE_DIR`` or the user's cache directory if this directory is not
-writable; where no place is writable, the functions are compiled in each process. The
+to this file, or in ``NUMBA_CACHE_DIR``, or, if this directory is not writable, in a per-user
+folder (:func:`cas_freq.jit.configure_cache`); where no place is writable, the functions are
+compiled in each process. The
 functions that advance a batch release the GIL (``nogil``): another thread of the process (the
 second-order fits of :func:`~cas_freq.studies.steps.batch_steps`) runs while they do.
 """

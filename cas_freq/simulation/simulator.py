@@ -645,3 +645,31 @@ def simulate(params, command, **options):
     if p.n_runs != 1:
         raise ConfigError(f"simulate: one run expected, got {p.n_runs}; use simulate_batch")
     return simulate_batch(p, command, **options).run(0)
+
+
+def prepare_kernels(params):
+    """Have the compiled simulation kernels in this process: batches of ``params`` (an
+    ActuatorConfig) without a load and with a load spring, a few steps each, and a step fit
+    (the kernels' signatures of steps and fits, loaded and not); nothing with the reference
+    engine.
+
+    For a process about to fork workers that simulate (``cas-freq report``'s load envelope):
+    on a first run (no kernel in numba's cache) the report's process and the worker compiled
+    the same kernels at once, ~25 s of CPU each (issue 28: the first report took 74 s against
+    ~15 s warm); compiled here once, the forked workers inherit them. In later runs this
+    loads them from the cache (~0.4 s), as the process would anyway.
+    """
+    from cas_freq.jit import use_compiled
+    from cas_freq.simulation.commands import Step
+    from cas_freq.simulation.second_order import fit_second_order
+
+    if not use_compiled():
+        return
+    runs = LoopParameters.from_configs([params]).take([0, 0])
+    unloaded = dict(F_c=0.0, eta=1.0, eta_b=1.0, K_g=0.0, c_g=0.0, backlash=0.0, J_L=0.0,
+                    b_L=0.0, K_h=0.0, tau_h=0.0)  # LoopParameters.loaded is then False
+    for load in (unloaded, {"K_h": 1.0}):  # the kernels' two signatures (table q or None)
+        batch = dataclasses.replace(runs, **{key: np.full(2, value) for key, value in load.items()})
+        simulate_batch(batch, Step(1e-3), t_end=1e-4, extend=False)
+    t = np.linspace(0.0, 0.1, 101)
+    fit_second_order(t, 1.0 - np.exp(-50.0 * t), 1.0)

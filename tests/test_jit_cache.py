@@ -1,0 +1,174 @@
+"""Where the compiled kernels are cached, and the first run's compilation message (issue 28,
+"First run and read-only installs").
+
+numba caches next to the kernels' modules; with a read-only package folder and no writable
+home it found no cache folder and compiled in every process (5.8-6.6 s each). The tests run
+as root, which writes anywhere, so the package folder's writability is a stand-in function
+(``package_writable``); the real read-only case runs only for another user.
+"""
+
+import os
+import shutil
+import stat
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cas_freq import jit
+
+ROOT = Path(__file__).resolve().parents[1]
+NOTE = "cas-freq: compiling the numerical kernels once"
+SUMMARY = "cas-freq: compiled the numerical kernels in"
+
+
+def read_only(_path):
+    return False
+
+
+def test_read_only_package_caches_in_the_users_cache_folder(tmp_path):
+    environ = {"XDG_CACHE_HOME": str(tmp_path / "xdg")}
+    folder = jit.configure_cache(environ, package_writable=read_only)
+    expected = tmp_path / "xdg" / "cas_freq" / "numba"
+    assert folder == str(expected)
+    assert environ[jit.CACHE_ENV] == str(expected)
+    assert expected.is_dir() and stat.S_IMODE(expected.stat().st_mode) == 0o700
+
+
+def test_a_users_numba_cache_dir_is_respected(tmp_path):
+    environ = {jit.CACHE_ENV: str(tmp_path / "mine"), "XDG_CACHE_HOME": str(tmp_path / "xdg")}
+    assert jit.configure_cache(environ, package_writable=read_only) is None
+    assert environ[jit.CACHE_ENV] == str(tmp_path / "mine")
+    assert not (tmp_path / "xdg").exists()
+
+
+def test_a_writable_package_keeps_numbas_own_cache(tmp_path):
+    environ = {"XDG_CACHE_HOME": str(tmp_path / "xdg")}
+    assert jit.configure_cache(environ, package_writable=lambda path: True) is None
+    assert jit.CACHE_ENV not in environ
+
+
+def test_without_a_writable_home_the_cache_is_a_private_temporary_folder(tmp_path, monkeypatch):
+    # a cache home below a regular file cannot be created, even by root (ENOTDIR)
+    (tmp_path / "file").write_text("")
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "tmp"))
+    (tmp_path / "tmp").mkdir()
+    environ = {"XDG_CACHE_HOME": str(tmp_path / "file" / "cache")}
+    folder = jit.configure_cache(environ, package_writable=read_only)
+    assert folder == str(tmp_path / "tmp" / f"cas_freq-numba-{os.getuid()}")
+
+
+def test_a_temporary_folder_others_can_write_is_not_trusted(tmp_path, monkeypatch):
+    # machine code is loaded from the cache: a folder in /tmp that another user could have
+    # made (or can write) must not be used; the kernels then compile in the process
+    (tmp_path / "file").write_text("")
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    shared = tmp_path / f"cas_freq-numba-{os.getuid()}"
+    shared.mkdir()
+    shared.chmod(0o777)
+    environ = {"XDG_CACHE_HOME": str(tmp_path / "file" / "cache")}
+    assert jit.configure_cache(environ, package_writable=read_only) is None
+    assert jit.CACHE_ENV not in environ
+
+
+@pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0,
+                    reason="root writes into a read-only folder: the stand-in tests cover it")
+def test_a_really_read_only_copy_of_the_package(tmp_path):
+    shutil.copytree(ROOT / "cas_freq", tmp_path / "site" / "cas_freq",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    for path in (tmp_path / "site").rglob("*"):
+        path.chmod(path.stat().st_mode & ~0o222)
+    env = {key: value for key, value in os.environ.items()
+           if key not in (jit.CACHE_ENV, "XDG_CACHE_HOME")}
+    env.update(PYTHONPATH=str(tmp_path / "site"), HOME=str(tmp_path / "home"))
+    out = subprocess.run([sys.executable, "-c", "import os, cas_freq.jit; "
+                          f"print(os.environ['{jit.CACHE_ENV}'])"],
+                         env=env, capture_output=True, text=True, check=True).stdout
+    assert out.strip() == str(tmp_path / "home" / ".cache" / "cas_freq" / "numba")
+
+
+def _run(args, cache, *, code=None):
+    env = dict(os.environ, PYTHONPATH=str(ROOT), **{jit.CACHE_ENV: str(cache)})
+    env.pop("CAS_FREQ_ENGINE", None)
+    command = [sys.executable, "-c", code] if code else [sys.executable, "-m", "cas_freq", *args]
+    return subprocess.run(command, env=env, capture_output=True, text=True, check=True).stderr
+
+
+def test_the_first_run_says_once_that_it_compiles_and_how_long_it_took(tmp_path):
+    # the smallest command with a compiled kernel: a step fit (fit_kernel, ~2 s to compile)
+    t = np.linspace(0.0, 0.2, 201)
+    response = 10.0 * (1.0 - np.exp(-60.0 * t))
+    np.savetxt(tmp_path / "step.csv", np.c_[t, response], delimiter=",",
+               header="t [s],delta [deg]", comments="")
+    args = ["fit", str(tmp_path / "step.csv"), "--step", "10deg"]
+    first = _run(args, tmp_path / "cache")
+    assert first.count(NOTE) == 1 and first.count(SUMMARY) == 1
+    assert first.index(NOTE) < first.index(SUMMARY)
+    second = _run(args, tmp_path / "cache")  # the kernels now come from the cache
+    assert NOTE not in second and SUMMARY not in second
+    quiet = _run([*args, "-q"], tmp_path / "quiet")  # compiles again, silently
+    assert NOTE not in quiet and SUMMARY not in quiet
+    assert list((tmp_path / "quiet").rglob("*.nbi"))  # (it did compile)
+
+
+def test_the_api_tells_only_a_configured_logger(tmp_path):
+    fit = ("import numpy as np; from cas_freq.simulation import fit_second_order; "
+           "t = np.linspace(0, 0.2, 201); fit_second_order(t, 1 - np.exp(-60 * t), 1.0)")
+    assert NOTE not in _run(None, tmp_path / "silent", code=fit)
+    logged = _run(None, tmp_path / "logged",
+                  code="import logging; logging.basicConfig(level=logging.INFO); " + fit)
+    assert NOTE in logged
+
+
+def test_without_a_home_nothing_is_created_in_the_working_folder(monkeypatch, tmp_path):
+    # HOME unset and no password entry: expanduser("~") stays "~", which must not become a
+    # folder "~/.cache" below the working folder
+    monkeypatch.setattr(os.path, "expanduser", lambda path: path)
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    assert jit.cache_candidates({"XDG_CACHE_HOME": "relative"}) == [
+        tmp_path / f"cas_freq-numba-{os.getuid()}"]
+
+
+def test_the_users_own_numba_functions_are_not_announced(tmp_path):
+    # the listener is process-wide: a compilation of the user's code is not cas_freq's
+    code = ("import logging; logging.basicConfig(level=logging.INFO); import cas_freq.jit; "
+            "from cas_freq.simulation import fit_kernel; import numba; "
+            "numba.njit(lambda x: x + 1)(1)")
+    assert NOTE not in _run(None, tmp_path / "cache", code=code)
+
+
+def _signatures():
+    """The argument types each simulation and fit kernel has machine code for in this
+    process (compiled, or loaded from numba's cache)."""
+    from numba.core.registry import CPUDispatcher
+
+    from cas_freq.simulation import fit_kernel, kernel
+
+    return {(module.__name__, name, signature)
+            for module in (kernel, fit_kernel)
+            for name, function in vars(module).items() if isinstance(function, CPUDispatcher)
+            for signature in function.overloads}
+
+
+def test_the_report_has_the_envelope_workers_kernels_before_it_forks():
+    # a first report compiled the simulation kernels twice at once, in its process and in the
+    # figure worker computing the load envelope (~25 s of CPU each: 70 s against 19 s warm);
+    # build_report now gets them first (prepare_kernels: compiled or from the cache) and the
+    # forked worker inherits them: the envelope (2 of its hinge stiffnesses) then needs no
+    # other signature
+    from cas_freq.config.loader import load_variant
+    from cas_freq.simulation.simulator import prepare_kernels
+    from cas_freq.studies.envelope import load_envelope
+
+    if not jit.use_compiled():
+        pytest.skip("numba is not importable: nothing compiles")
+    loaded = load_variant()
+    prepare_kernels(loaded.params)
+    before = _signatures()
+    load_envelope(loaded, [0.0, 10.0], loaded.params.load_envelope.step)
+    assert _signatures() - before == set()
+    assert {name for _, name, _ in before} >= {"advance_parallel", "start_batch",
+                                               "normal_equations"}
