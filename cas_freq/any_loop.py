@@ -288,11 +288,9 @@ class LoopMarginResult:
 
     def to_dict(self):
         """The figures as a JSON-ready dict (lists of dicts for the crossovers)."""
-        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
-               if not f.name.startswith("_")}
+        out = _public_fields(self)
         out["gain_crossovers"] = [dataclasses.asdict(c) for c in self.gain_crossovers]
         out["phase_crossovers"] = [dataclasses.asdict(c) for c in self.phase_crossovers]
-        out["omega_range_rad_s"] = list(self.omega_range_rad_s)
         return out
 
     def plot(self, points=2000):
@@ -307,14 +305,7 @@ class LoopMarginResult:
         -------
         matplotlib.figure.Figure
         """
-        from matplotlib.figure import Figure
-
-        w = np.geomspace(*self.omega_range_rad_s, points)
-        response = self._evaluate(w)
-        fig = Figure(figsize=(8, 6), layout="constrained")
-        magnitude, phase = fig.subplots(2, 1, sharex=True)
-        magnitude.semilogx(w, 20.0 * np.log10(np.abs(response)), label="L")
-        phase.semilogx(w, np.degrees(continuous_phase(response, w)), label="L")
+        fig, magnitude, phase = _bode(self, "L", points)
         magnitude.axhline(0.0, color="grey", lw=0.8)
         for c in self.gain_crossovers:
             magnitude.plot(c.frequency_rad_s, 0.0, "o", color="C1")
@@ -408,10 +399,7 @@ class ClosedLoopResult:
 
     def to_dict(self):
         """The figures as a JSON-ready dict."""
-        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
-               if not f.name.startswith("_")}
-        out["omega_range_rad_s"] = list(self.omega_range_rad_s)
-        return out
+        return _public_fields(self)
 
     def plot(self, points=2000):
         """Bode plot of T with the bandwidth, peak and -90° frequency marked.
@@ -420,14 +408,7 @@ class ClosedLoopResult:
         -------
         matplotlib.figure.Figure
         """
-        from matplotlib.figure import Figure
-
-        w = np.geomspace(*self.omega_range_rad_s, points)
-        response = self._evaluate(w)
-        fig = Figure(figsize=(8, 6), layout="constrained")
-        magnitude, phase = fig.subplots(2, 1, sharex=True)
-        magnitude.semilogx(w, 20.0 * np.log10(np.abs(response)), label="T")
-        phase.semilogx(w, np.degrees(continuous_phase(response, w)), label="T")
+        fig, magnitude, phase = _bode(self, "T", points)
         dc = self.dc_gain_db if self.dc_gain_db is not None else 0.0
         if self.bandwidth_rad_s is not None:
             magnitude.plot(self.bandwidth_rad_s, dc - 20 * math.log10(math.sqrt(2)), "o",
@@ -484,3 +465,27 @@ def closed_loop_figures(closed_loop, *, delay=0.0, omega_range=None, stable=None
         stable=is_stable, stability_basis=basis,
         omega_range_rad_s=(float(prepared.omega[0]), float(prepared.omega[-1])),
         _evaluate=prepared.evaluate)
+
+
+def _public_fields(result):
+    """A result's dataclass fields (not those starting with ``_``) as a dict, its frequency range
+    as a list (JSON-ready)."""
+    out = {f.name: getattr(result, f.name) for f in dataclasses.fields(result)
+           if not f.name.startswith("_")}
+    out["omega_range_rad_s"] = list(result.omega_range_rad_s)
+    return out
+
+
+def _bode(result, label, points):
+    """A two-panel Bode figure (|.| [dB], continuous phase [deg]) of a result's response over its
+    frequency range; returns (figure, magnitude axes, phase axes). The figure displays itself in
+    a notebook (:class:`~cas_freq.plots.common.NotebookFigure`)."""
+    from cas_freq.plots.common import NotebookFigure
+
+    w = np.geomspace(*result.omega_range_rad_s, points)
+    response = result._evaluate(w)
+    fig = NotebookFigure(figsize=(8, 6), layout="constrained")
+    magnitude, phase = fig.subplots(2, 1, sharex=True)
+    magnitude.semilogx(w, 20.0 * np.log10(np.abs(response)), label=label)
+    phase.semilogx(w, np.degrees(continuous_phase(response, w)), label=label)
+    return fig, magnitude, phase

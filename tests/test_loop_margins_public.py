@@ -284,10 +284,12 @@ def test_closed_loop_figures():
 
 
 def test_plots_return_figures():
+    # figures that a notebook shows without %matplotlib (a PNG of their own, as every API plot)
     fig = cf.loop_margins(MATLAB_L, delay=0.05).plot()
     assert len(fig.axes) == 2 and "PM" in fig.axes[0].get_title()
+    assert fig._repr_png_().startswith(b"\x89PNG")
     fig = cf.closed_loop_figures(control.feedback(MATLAB_L, 1)).plot()
-    assert len(fig.axes) == 2
+    assert len(fig.axes) == 2 and fig._repr_png_().startswith(b"\x89PNG")
 
 
 def test_bad_input_is_named():
