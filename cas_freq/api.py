@@ -284,7 +284,7 @@ class Actuator:
         Parameters
         ----------
         changes : dict of str to array_like
-            Dotted key -> values in SI [the key's unit, see the README's config table],
+            Dotted key -> values in SI [the key's unit, see the key table of docs/config.md],
             scalars or arrays of one common length n.
 
         Returns

@@ -11,6 +11,7 @@ import sys
 import numpy as np
 import pytest
 from clirun import run_cli
+from docs_pages import doc_section
 
 import cas_freq as cf
 from cas_freq.config import default_config_path
@@ -25,9 +26,9 @@ def act():
 
 
 def _readme_example():
-    """The code block of the README's "Python API" section and the output shown after it."""
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
-    section = text.split("\n## Python API\n", 1)[1].split("\n## ", 1)[0]
+    """The first code block of docs/api.md ("Python API", moved there from the README) and the
+    output shown after it."""
+    section = doc_section("docs/api.md", "Python API")
     code, output = re.findall(r"```(?:python|text)\n(.*?)```", section, flags=re.S)[:2]
     return code, output
 
@@ -37,7 +38,7 @@ def test_readme_example_runs_as_written_and_prints_what_the_readme_shows(monkeyp
     monkeypatch.chdir(ROOT)  # the example names configs/qt_cas.yaml relative to the repository
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
-        exec(compile(code, "README.md", "exec"), {})
+        exec(compile(code, "docs/api.md", "exec"), {})
     assert out.getvalue() == shown
 
 

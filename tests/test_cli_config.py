@@ -26,7 +26,7 @@ RECORDING = Path(__file__).resolve().parents[1] / "examples" / "recordings" / "s
 
 
 def test_the_readmes_backlash_override_on_the_loaded_variant_runs():
-    # README: --set "gear.backlash=0.1 deg" with --variant loaded. base has no gear stiffness,
+    # docs/cli.md: --set "gear.backlash=0.1 deg" with --variant loaded. base has no gear stiffness,
     # so the override used to be refused there although base was not selected (exit 2).
     code, out, err = run_cli(["analyze", "--variant", "loaded", "--set", "gear.backlash=0.1 deg",
                               "--json"])

@@ -474,9 +474,9 @@ def test_override_error_names_the_override(shipped_config_path):
 
 
 def test_override_error_names_the_base_variant_too(shipped_config_path):
-    # --set applies to each selected variant; with --all-variants the README's backlash
+    # --set applies to each selected variant; with --all-variants docs/cli.md's backlash
     # override fails in base (no gear stiffness) and the error named no variant, as if the
-    # loaded variant the README pairs it with were at fault.
+    # loaded variant docs/cli.md pairs it with were at fault.
     from cas_freq.config import load_all_variants
 
     with pytest.raises(ConfigError) as info:

@@ -164,7 +164,7 @@ def test_model_comparison_prefers_the_friction_that_is_there():
     # F_c/Km is the friction in amperes, 2e-3/0.0075 = 0.267 A. Within 5 %, not within the
     # printed interval: the pre-trigger offset removed from each run is uncertain by
     # 0.02 deg/sqrt(50) = 0.003 deg, which the intervals do not model and which a friction
-    # dead band can absorb (README, "what the intervals leave out").
+    # dead band can absorb (docs/identification.md, "what the intervals leave out").
     assert fc / km == pytest.approx(2e-3 / KM, rel=0.05)
 
 
@@ -250,11 +250,11 @@ def test_profile_recording_from_simulate_is_replayed_with_its_feedforward(tmp_pa
 
 
 def test_the_reports_workflow_on_its_second_order_step():
-    """README, "Table 4": the catalog model's Km, J and mu_v fitted to the synthetic recording
-    of the report's own second-order step (462 rad/s, 0.54, 2 ms). The data fix Km/J only,
-    at about 11,500 1/(A*s^2) (Table 4: 0.0075/7.19e-7 = 10,431; catalog 18,953), and the fit
-    cannot follow them (an RMS of ~0.79 deg against 0.03 deg of noise): reported as a
-    MISFIT."""
+    """docs/identification.md, "Table 4": the catalog model's Km, J and mu_v fitted to the
+    synthetic recording of the report's own second-order step (462 rad/s, 0.54, 2 ms). The data
+    fix Km/J only, at about 11,500 1/(A*s^2) (Table 4: 0.0075/7.19e-7 = 10,431; catalog 18,953),
+    and the fit cannot follow them (an RMS of ~0.79 deg against 0.03 deg of noise): reported as
+    a MISFIT."""
     result = _cli("fit", "--data", *sorted(glob.glob(str(ROOT / "examples/recordings/"
                                                               "step_run*.csv"))),
                   "--params", "motor.Km,motor.J,motor.mu_v", "--json")

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from clirun import run_cli
+from docs_pages import doc_section
 
 from cas_freq.exceptions import ConfigError
 from cas_freq.identification import fit_recordings, read_recording
@@ -348,10 +349,11 @@ def test_figure_structure():
 
 
 def test_readme_quotes_the_example_fit():
-    """The README's "Bench recordings" section quotes the joint fit of the example recordings
-    as ``cas-freq fit --data examples/recordings/step_run*.csv`` prints it."""
+    """The "Bench recordings" page (docs/identification.md, moved there from the README) quotes
+    the joint fit of the example recordings as ``cas-freq fit --data
+    examples/recordings/step_run*.csv`` prints it."""
     joint = fit_recordings(_examples()).joint
-    text = " ".join((EXAMPLES.parents[1] / "README.md").read_text(encoding="utf-8").split())
+    text = " ".join(doc_section("docs/identification.md", "Bench recordings").split())
     wn, zeta, td = joint.wn_ci_rad_s, joint.zeta_ci, joint.td_ci_s
     quoted = (f"ωn {joint.wn_rad_s:.4g} rad/s [{wn[0]:.4g}, {wn[1]:.4g}], ζ {joint.zeta:.4g} "
               f"[{zeta[0]:.4g}, {zeta[1]:.4g}], td {joint.td_s * 1e3:.4g} ms "

@@ -30,7 +30,8 @@ def _pint(value, unit):
     return float(quantity.to(registry().Unit(unit)).magnitude)
 
 
-#: Unit strings of the shipped configs and the README, with the SI unit each is read in.
+#: Unit strings of the shipped configs and the docs pages (docs/config.md, docs/cli.md), with
+#: the SI unit each is read in.
 CASES = [("0.071 mH", "H"), ("16300 rpm", "rad/s"), ("5.54e-7 kg*m^2", "kg*m^2"),
          ("0.4 ms", "s"), ("25 kHz", "Hz"), ("2835.3 V/(A*s)", "V/(A*s)"), ("10 deg", "rad"),
          ("1e5 deg/s^2", "rad/s^2"), ("5.54 g*cm^2", "kg*m^2"), ("2 mN*m", "N*m"),

@@ -17,7 +17,7 @@ def register(commands):
         "With --data: of each bench step recording (a CSV whose header names time, command, "
         "position and optionally current and voltage columns with their units, e.g. "
         "'time_s,command_deg,position_deg'; the trigger and step size from the command, the "
-        "pre-trigger mean removed; README 'Bench recordings') and, for several, of all at once, "
+        "pre-trigger mean removed; docs/identification.md) and, for several, of all at once, "
         "beside CONFIG's own simulated step (the base variant, or --variant). Sweep "
         "recordings (chirp or stepped sine) give the empirical frequency response and "
         "coherence against the variant's T (and T_i with a current_command column). "

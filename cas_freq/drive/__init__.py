@@ -2,7 +2,7 @@
 
 - :mod:`cas_freq.drive.epos4`: maxon EPOS4, read and written as the INI-style (CiA 306 DCF)
   parameter file EPOS Studio exports (the object table, its sources and what could not be
-  confirmed are in that module and in the README, "EPOS4 parameters").
+  confirmed are in that module and in docs/epos4.md).
 - :mod:`cas_freq.drive.variant_text`: a new variant inserted into a config file's text,
   keeping every comment and line of the rest.
 

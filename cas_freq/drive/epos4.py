@@ -24,7 +24,7 @@ edition November 2018), section 6.2 "Object dictionary": §6.2.53 Motor data (0x
 §6.2.61 Current control parameter set (0x30A0), §6.2.62 Position control parameter set
 (0x30A1). Only that document's table of contents could be read here; the indices, subindices,
 names and units above were checked against public EPOS4 code that cites those sections (the
-README's "EPOS4 parameters" lists what was confirmed where, and what was not).
+page docs/epos4.md lists what was confirmed where, and what was not).
 
 The drive stores every one of these objects as a whole number (UNSIGNED32) in its unit, so a
 variant's gains are rounded to 1 unit of the drive on export, and the rounding is reported.
@@ -144,11 +144,11 @@ OBJECTS = (
 
 #: 0x30A1:09 "SI unit position controller I gain": the unit of 0x30A1:02, selectable in later
 #: firmware. Only its default (µA/(rad*s)) is read; another value is refused rather than
-#: guessed (README, "EPOS4 parameters").
+#: guessed (docs/epos4.md).
 I_GAIN_UNIT = (0x30A1, 9)
 I_GAIN_UNIT_DEFAULT = 0xFA040300
 
-#: What a variant has that no object of :data:`OBJECTS` carries (README, "EPOS4 parameters").
+#: What a variant has that no object of :data:`OBJECTS` carries (docs/epos4.md).
 NOT_WRITTEN = ("position_loop.Tf (no EPOS4 object for the derivative filter was confirmed), "
                "current_loop.v_max (the supply voltage), the delays")
 
