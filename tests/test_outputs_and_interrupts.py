@@ -465,7 +465,7 @@ def test_an_interrupted_renderer_kills_its_workers_instead_of_waiting(tmp_path):
     # a SIGINT at 6 s into a report; the load envelope's job computes for many seconds)
     from concurrent.futures import BrokenExecutor, CancelledError
 
-    from cas_freq.report.build import FigureRenderer
+    from cas_freq.report.rendering import FigureRenderer
 
     marker = tmp_path / "started"
     with pytest.raises(KeyboardInterrupt):

@@ -1,6 +1,7 @@
 """Worker processes that never outlive the report that forked them.
 
-The report's figures are drawn in forked processes (:class:`cas_freq.report.build.FigureRenderer`).
+The report's figures are drawn in forked processes
+(:class:`cas_freq.report.rendering.FigureRenderer`).
 A worker waits for work on a queue whose pipe it holds both ends of, so on its own it would
 never notice its parent's death: a report killed by ``timeout`` (SIGTERM) or SIGKILL would leave
 its workers running, re-parented to init, holding the caller's stdout and stderr open (a caller
