@@ -10,6 +10,7 @@ import subprocess
 import pytest
 from clirun import run_cli
 
+from cas_freq.plots import overlays
 from cas_freq.plots import report as plots
 
 FAST = ["--amplitudes", "0.5deg,10deg", "--frequencies", "600,1200", "--pade-order", "6"]
@@ -157,7 +158,7 @@ def test_html_renders_in_headless_chromium(which, report_dir, compare_dir, chrom
     folder = report_dir if which == "report" else compare_dir
     files = sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*.svg"))
     expected = (len(plots.VARIANT_FIGURES) if which == "report"
-                else len(plots.COMPARE_FIGURES))
+                else len(overlays.COMPARE_FIGURES))
     assert len(files) == expected
     page, linked = _check_page(folder)
     assert linked == files  # every figure file is linked from the page

@@ -17,6 +17,7 @@ import pytest
 from cas_freq.analysis import analyze, to_dict
 from cas_freq.config import load_variant
 from cas_freq.exceptions import CasFreqError
+from cas_freq.plots import overlays
 from cas_freq.plots import report as plots
 from cas_freq.report import html
 from cas_freq.report.build import build_report, report_files
@@ -245,9 +246,9 @@ def test_svg_is_reproducible_and_inlines(data):
     assert inline.startswith("<svg") and "<?xml" not in inline and "DOCTYPE" not in inline
 
 
-@pytest.mark.parametrize("stem", list(plots.COMPARE_FIGURES))
+@pytest.mark.parametrize("stem", list(overlays.COMPARE_FIGURES))
 def test_overlay_figures(data, stem):
-    draw, _ = plots.COMPARE_FIGURES[stem]
+    draw, _ = overlays.COMPARE_FIGURES[stem]
     fig = draw([data, data], ["one", "two"])
     legends = [*fig.legends, *(ax.get_legend() for ax in fig.axes if ax.get_legend())]
     texts = [t.get_text() for legend in legends for t in legend.get_texts()]

@@ -299,26 +299,27 @@ def _legends(fig):
 
 
 def test_overlays_have_bounded_axes_and_readable_legends(datas):
+    from cas_freq.plots import overlays
     from cas_freq.plots import report as plots
     from cas_freq.plots.ranges import time_window
 
     labels = ["qt_cas/base", "qt_cas/slow"]
-    bode = plots.bode_overlay(datas, labels)
+    bode = overlays.bode_overlay(datas, labels)
     phase_axis = bode.axes[1]
     low, high = phase_axis.get_ylim()
     assert low >= -720.0 and high <= 180.0
     assert len([t for t in phase_axis.get_yticks() if low <= t <= high]) <= 9
-    steps = plots.step_overlay(datas, labels)
+    steps = overlays.step_overlay(datas, labels)
     runs = [d.dwell.steps[d.small_index] for d in datas]
     settle = [r.step.settling_time_s for r in runs]
     expected, _ = time_window(settle, [plots._step_window_s(r) for r in runs])
     assert steps.axes[0].get_xlim()[1] == pytest.approx(1e3 * expected)
-    for fig in (bode, steps, plots.bandwidth_overlay(datas, labels)):
+    for fig in (bode, steps, overlays.bandwidth_overlay(datas, labels)):
         legends = _legends(fig)
         assert legends and all(legend in fig.legends for legend in legends)  # outside the axes
         assert min(text.get_fontsize() for legend in legends
                    for text in legend.get_texts()) >= 8.0
-    caption = plots.step_overlay_caption(datas, labels)
+    caption = overlays.step_overlay_caption(datas, labels)
     assert "2.5× the median settling time" in caption
 
 

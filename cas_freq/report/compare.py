@@ -524,10 +524,11 @@ def _reference_sentences(datas):
 def compare_files(datas, labels, settings, *, png=False, command=None):
     """Every file of the comparison folder as (relative path, content), figures first."""
     from cas_freq.plots import report as plots
+    from cas_freq.plots.overlays import COMPARE_FIGURES
     from cas_freq.report import html, markdown
 
     figure_blocks = {}
-    for stem, (draw, caption) in plots.COMPARE_FIGURES.items():
+    for stem, (draw, caption) in COMPARE_FIGURES.items():
         fig = draw(datas, labels)
         svg = plots.svg_text(fig)
         path = f"figures/{stem}.svg"

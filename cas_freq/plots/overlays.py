@@ -1,0 +1,179 @@
+"""The compare report's overlays: several variants' L_p, T, steps and bandwidths in one figure
+each (:data:`COMPARE_FIGURES`), drawn with the report's figure helpers
+(:mod:`cas_freq.plots.report`).
+"""
+
+import numpy as np
+from matplotlib.lines import Line2D
+from matplotlib.ticker import MultipleLocator
+
+from cas_freq.plots.common import EXACT, Margins, legend_below
+from cas_freq.plots.common import figure as _figure
+from cas_freq.plots.common import rounded as _r
+from cas_freq.plots.ranges import (
+    LEGEND_FONT_PT,
+    PAST_CROSSOVER,
+    SETTLING_FACTOR,
+    legend_columns,
+    phase_window,
+    time_window,
+)
+from cas_freq.plots.report import (
+    HALF_POWER_DB,
+    _amplitude_axis,
+    _bandwidth_series,
+    _db,
+    _in_range,
+    _limit_words,
+    _log_axes,
+    _phase_deg,
+    _reference_point,
+    _step_window_s,
+    _thin,
+)
+
+
+def _colors(datas):
+    return [f"C{k % 10}" for k in range(len(datas))]
+
+
+def _overlay_legend(fig, layout, handles, labels):
+    """One legend below the axes of an overlay, in 8 pt type, in columns of at most
+    :data:`~cas_freq.plots.ranges.LEGEND_ROWS` entries (:func:`legend_below`)."""
+    return legend_below(fig, layout, handles, labels, LEGEND_FONT_PT,
+                        legend_columns(len(labels)))
+
+
+def bode_overlay(datas, labels):
+    """|L_p|, ∠L_p and |T| of several variants overlaid; the phase axis covers what the curves
+    take up to a little past the highest gain crossover (:func:`~cas_freq.plots.ranges.
+    phase_window`), where the margins are read."""
+    layout = Margins(hgap=0.25)
+    fig, axes = _figure(3, 1, (8, 8.5), sharex=True, margins=layout)
+    mag, ph, cl = axes[:, 0]
+    phases, crossovers = [], []
+    for data, label, color in zip(datas, labels, _colors(datas), strict=True):
+        c = data.curves
+        w = _r(c.omega_rad_s)
+        phase = _phase_deg(c.position_loop, c.omega_rad_s)
+        mag.plot(w, _db(c.position_loop), color=color, label=label)
+        ph.plot(w, phase, color=color)
+        cl.plot(w, _db(c.closed_loop), color=color)
+        bw = data.analysis.closed_loop.bandwidth_rad_s if data.analysis.closed_loop else None
+        if _in_range(w, bw):
+            cl.plot([bw], [HALF_POWER_DB], "o", color=color)
+        phases.append((w, phase))
+        crossovers += [x.frequency_rad_s for x in data.analysis.position_loop.gain_crossovers
+                       if _in_range(w, x.frequency_rad_s)]
+    mag.axhline(0.0, color="k", lw=0.8)
+    ph.axhline(-180.0, color="k", lw=0.8)
+    cl.axhline(HALF_POWER_DB, color="k", ls="--", lw=0.9, label="−3.01 dB")
+    mag.set_ylim(max(mag.get_ylim()[0], -80.0), mag.get_ylim()[1])
+    cl.set_ylim(max(cl.get_ylim()[0], -60.0), cl.get_ylim()[1])
+    low, high, step = phase_window(phases, crossovers)
+    ph.set_ylim(low, high)
+    ph.yaxis.set_major_locator(MultipleLocator(step))
+    mag.set_ylabel("|L_p| [dB]")
+    ph.set_ylabel("∠L_p [deg]")
+    cl.set_ylabel("|T| [dB] (● ω_BW)")
+    handles, names = mag.get_legend_handles_labels()
+    more, more_names = cl.get_legend_handles_labels()
+    _overlay_legend(fig, layout, handles + more, names + more_names)
+    _log_axes([mag, ph, cl], [min(d.curves.omega_rad_s[0] for d in datas),
+                              max(d.curves.omega_rad_s[-1] for d in datas)])
+    fig.suptitle(f"L_p and T of {len(datas)} variants ({EXACT}); phase shown up to "
+                 f"{PAST_CROSSOVER:g}× the highest crossover")
+    return fig
+
+
+def _step_overlay_window(datas, which):
+    """(window [s], labels' indices off the panel) of the step ``which`` of every variant."""
+    runs = [d.dwell.steps[getattr(d, which)] for d in datas]
+    return time_window([run.step.settling_time_s for run in runs],
+                       [_step_window_s(run) for run in runs])
+
+
+def step_overlay(datas, labels):
+    """Smallest and largest nonlinear steps of several variants, normalised by the amplitude,
+    over :data:`~cas_freq.plots.ranges.SETTLING_FACTOR` × the median settling time (slower
+    variants run off the panel; :func:`step_overlay_caption` names them)."""
+    layout = Margins(top=0.65, wgap=0.7)
+    fig, axes = _figure(1, 2, (10, 4.8), margins=layout)
+    for col, which in enumerate(("small_index", "large_index")):
+        ax = axes[0, col]
+        amplitudes = []
+        window_s, _ = _step_overlay_window(datas, which)
+        for data, color in zip(datas, _colors(datas), strict=True):
+            k = getattr(data, which)
+            run = data.dwell.steps[k]
+            a = run.step.amplitude_deg
+            amplitudes.append(a)
+            keep = _thin(run.result.t, window_s)
+            t_ms = _r(1e3 * np.asarray(run.result.t)[keep])
+            ax.plot(t_ms, _r(np.degrees(run.result.delta[keep]) / a), color=color)
+            ax.plot(t_ms, _r(np.degrees(data.linear_steps[k][keep]) / a), color=color, ls=":",
+                    lw=1)
+        ax.set_xlim(0.0, 1e3 * window_s)
+        ax.set_xlabel("time [ms]")
+        ax.set_ylabel("δ / step size [-]")
+        size = "/".join(sorted({f"{a:g}°" for a in amplitudes}))
+        ax.set_title(f"{'smallest' if col == 0 else 'largest'} step ({size})")
+    handles = [Line2D([], [], color=color) for color in _colors(datas)]
+    names = [f"{label}: {_limit_words(d.dwell.steps[d.small_index].step)} (smallest), "
+             f"{_limit_words(d.dwell.steps[d.large_index].step)} (largest)"
+             for d, label in zip(datas, labels, strict=True)]
+    handles.append(Line2D([], [], color="k", ls=":", lw=1))
+    names.append(f"linear T (Padé {datas[0].pade_order}), dotted")
+    _overlay_legend(fig, layout, handles, names)
+    fig.suptitle("nonlinear output steps (limits, exact delays) vs linear (dotted)")
+    return fig
+
+
+def step_overlay_caption(datas, labels):
+    """The step overlay's caption: its time axes, and the variants that run off them."""
+    parts = []
+    for which, name in (("small_index", "smallest"), ("large_index", "largest")):
+        window_s, off = _step_overlay_window(datas, which)
+        text = f"{name} steps over {1e3 * window_s:.3g} ms ({SETTLING_FACTOR:g}× the median " \
+               "settling time)"
+        if off:
+            text += f"; {', '.join(labels[k] for k in off)} settle later and run off the panel"
+        parts.append(text)
+    return "Steps overlaid: " + "; ".join(parts)
+
+
+def bandwidth_overlay(datas, labels):
+    """Bandwidth versus amplitude of several variants."""
+    layout = Margins()
+    fig, axes = _figure(1, 1, (10, 5), margins=layout)
+    ax = axes[0, 0]
+    for data, color in zip(datas, _colors(datas), strict=True):
+        _bandwidth_series(ax, data, color)
+    _reference_point(ax, datas)
+    _amplitude_axis(ax, datas)
+    ax.set_ylabel("bandwidth ω_BW [rad/s]")
+    ax.set_ylim(0.0, ax.get_ylim()[1] * 1.05)
+    # colour: the variant; line and marker: the estimate (one entry each, not one per pair)
+    handles = [Line2D([], [], color=color, lw=2) for color in _colors(datas)]
+    names = [label + ("" if d.dwell.result is not None else " (sine-dwell not computed)")
+             for d, label in zip(datas, labels, strict=True)]
+    handles += [Line2D([], [], color="k", marker="o", ls="-"),
+                Line2D([], [], color="k", marker="s", mfc="none", ls=":"),
+                Line2D([], [], color="k", ls="--", lw=1)]
+    names += ["sine-dwell −3 dB", "second-order fit to the step", "linear −3 dB of T"]
+    for handle, name in zip(*ax.get_legend_handles_labels(), strict=True):
+        if name.startswith("reference"):
+            handles.append(handle)
+            names.append(name)
+    _overlay_legend(fig, layout, handles, names)
+    fig.suptitle("bandwidth vs amplitude (sine-dwell of the nonlinear loop; linear T dashed)")
+    return fig
+
+
+#: The overlay figures of a comparison: file stem -> (function, caption); a caption is a string
+#: or a function of (datas, labels) that returns one.
+COMPARE_FIGURES = {
+    "bode_overlay": (bode_overlay, "L_p and T overlaid"),
+    "step_overlay": (step_overlay, step_overlay_caption),
+    "bandwidth_overlay": (bandwidth_overlay, "Bandwidth versus amplitude overlaid"),
+}
