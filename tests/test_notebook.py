@@ -158,14 +158,19 @@ def test_to_control_default_works_with_python_controls_margins_and_step_info(con
     assert info["RiseTime"] == pytest.approx(figures.rise_time_s, rel=2e-2)
 
 
-def _executed(monkeypatch):
+def _executed(monkeypatch, tmp_path):
     """The notebook executed in a fresh kernel of this Python (jupyter_client runs a kernel
-    spec's ``python`` as ``sys.executable``), from the repository root."""
+    spec's ``python`` as ``sys.executable``), from the repository root; the kernel's connection
+    files, IPython's profile and history and matplotlib's cache go to ``tmp_path``, not the
+    user's home (tests change nothing on the machine)."""
     import nbclient  # the test extra installs nbclient, nbformat and ipykernel
     import nbformat
     # the kernel imports this worktree's cas_freq (CI installs it editable as well)
     monkeypatch.setenv("PYTHONPATH", os.pathsep.join(
         [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])]))
+    for name, folder in (("JUPYTER_RUNTIME_DIR", "runtime"), ("JUPYTER_DATA_DIR", "data"),
+                         ("IPYTHONDIR", "ipython"), ("MPLCONFIGDIR", "matplotlib")):
+        monkeypatch.setenv(name, str(tmp_path / folder))
     notebook = nbformat.read(NOTEBOOK, as_version=4)
     client = nbclient.NotebookClient(notebook, timeout=600, kernel_name="python3",
                                      resources={"metadata": {"path": str(ROOT)}})
@@ -173,8 +178,9 @@ def _executed(monkeypatch):
     return notebook
 
 
-def test_first_steps_notebook_shows_the_table_and_the_plot_without_magics(monkeypatch):
-    notebook = _executed(monkeypatch)
+def test_first_steps_notebook_shows_the_table_and_the_plot_without_magics(monkeypatch,
+                                                                         tmp_path):
+    notebook = _executed(monkeypatch, tmp_path)
     code = "\n".join(cell.source for cell in notebook.cells if cell.cell_type == "code")
     assert "%matplotlib" not in code and "matplotlib" not in code
     cells = {cell.source.strip().splitlines()[-1]: cell for cell in notebook.cells

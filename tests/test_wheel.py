@@ -76,6 +76,7 @@ def _child_environment(tmp_path):
                    if key not in ("PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV")}
     environment["CAS_FREQ_UNIT_CACHE"] = str(tmp_path / "unit-cache")  # not the user's cache
     environment["MPLCONFIGDIR"] = str(tmp_path / "matplotlib")
+    environment["NUMBA_CACHE_DIR"] = str(tmp_path / "numba")  # not the user's cache either
     environment["MPLBACKEND"] = "Agg"
     environment["PIP_NO_INDEX"] = "1"  # never the network
     environment["PIP_DISABLE_PIP_VERSION_CHECK"] = "1"
