@@ -1,23 +1,20 @@
-r"""L_i, L_p and T of a batch on a frequency grid in one compiled pass (numba).
+r"""Every loop and T of a batch on a frequency grid in one compiled pass (numba).
 
-:func:`grid_responses` is :func:`cas_freq.model.loops.responses` on the imaginary axis for
-the large grids of :func:`~cas_freq.analysis.analyze.batch_analyze`: the same ratios of the
-same polynomials (:mod:`cas_freq.model.parts`), evaluated point by point instead of as a dozen
-numpy temporaries of (runs x frequencies). Where ``responses`` documents the ratios, this is
-their scalar form:
+:func:`grid_responses` is :func:`cas_freq.model.loops.responses` on the imaginary axis for the
+large grids of :func:`~cas_freq.analysis.analyze.batch_analyze`: the same recurrence over the
+same stages (:func:`cas_freq.model.structure.stages`, whatever loops the structure declares),
+evaluated point by point instead of as numpy temporaries of (runs x frequencies):
 
-- each polynomial, padded with leading zeros to a fixed degree (D to 4, n_theta to 2, n_out to
-  1: the padding adds exact zeros), is summed in real arithmetic at :math:`j\omega`;
+- each stage's polynomials, padded with leading zeros to one width per role (the padding adds
+  exact zeros), are summed in real arithmetic at :math:`j\omega` (:func:`_at`);
 - each complex division is one real division (:func:`_divide`; the values stay far from
-  overflow: about 1e60 at most for a compliant drivetrain at 1e7 rad/s);
+  overflow);
 - the delays come in as their responses on the grid from :meth:`DelayModel.response`, so exact
   and Padé delays take the same path.
 
-It agrees with the numpy reference to ~1e-15 relative (rounding order only);
+It agrees with the numpy reference to ~1e-14 relative (rounding order only);
 ``tests/test_response_kernel.py`` compares them. The kernel runs without the GIL, so
-:func:`~cas_freq.analysis.analyze.batch_analyze`'s threads overlap on it. On the 6-key batch
-of ``benchmarks/run.py`` (256 runs x 1,601 frequencies) it takes ~3-5 ms against ~17-24 ms
-for numpy.
+:func:`~cas_freq.analysis.analyze.batch_analyze`'s threads overlap on it.
 """
 
 import numpy as np
@@ -25,6 +22,7 @@ import numpy as np
 from cas_freq.jit import cached_jit
 from cas_freq.model import parts
 from cas_freq.model.loops import LoopResponses
+from cas_freq.model.structure import build, stages
 
 
 @cached_jit(inline="always")
@@ -36,74 +34,122 @@ def _divide(a, b):
 
 
 @cached_jit(inline="always")
-def _linear(c, w):
-    """c[0] s + c[1] at s = j w."""
-    return complex(c[1], c[0] * w)
+def _evaluate(c, w, w2, real, imaginary, out):
+    """out[j] = the polynomial c (highest power first) at s = j w[j] (w2 = -w^2): the even
+    powers give the real part, the odd ones the imaginary part, each by Horner's rule in w2
+    (one pass over the grid per coefficient; ``real``, ``imaginary``: work arrays)."""
+    size = c.size
+    m = w.size
+    real[:] = 0.0
+    imaginary[:] = 0.0
+    for index in range((size + 1) % 2, size, 2):
+        coefficient = c[index]
+        for j in range(m):
+            real[j] = real[j] * w2[j] + coefficient
+    for index in range(size % 2, size - 1, 2):
+        coefficient = c[index]
+        for j in range(m):
+            imaginary[j] = imaginary[j] * w2[j] + coefficient
+    for j in range(m):
+        out[j] = complex(real[j], imaginary[j] * w[j])
 
 
 @cached_jit(inline="always")
-def _quadratic(c, w, w2):
-    """c[0] s^2 + c[1] s + c[2] at s = j w (w2 = -w^2)."""
-    return complex(c[0] * w2 + c[2], c[1] * w)
-
-
-@cached_jit(inline="always")
-def _quartic(c, w, w2):
-    """c[0] s^4 + ... + c[4] at s = j w (w2 = -w^2)."""
-    return complex((c[0] * w2 + c[2]) * w2 + c[4], (c[1] * w2 + c[3]) * w)
+def _polynomial(coefficients, values, k, i, w, w2, real, imaginary, out):
+    """Polynomial k of run i on the grid: its precomputed values where every run shares it
+    (``values`` has a row), else evaluated into ``out``."""
+    if values.shape[1] == 1:
+        return values[k, 0]
+    _evaluate(coefficients[k, _row(coefficients, i)], w, w2, real, imaginary, out)
+    return out
 
 
 @cached_jit(inline="always")
 def _row(array, i):
-    """Row i of a per-run array, or its only row where every run shares it."""
-    return i if array.shape[0] > 1 else 0
+    """Row i of a per-run stack (axis 1), or its only row where every run shares it."""
+    return i if array.shape[1] > 1 else 0
 
 
 @cached_jit(nogil=True)
-def _responses(w, ci, ze, d, n_theta, n_out, coupling, km, n_cp, filter_, reference_path,
-               on_measurement, feedforward, delay_c, delay_p, factored, li, lp, t):
-    """Fill li, lp and t (rows: runs; t may have no rows, li one row for a shared current
-    loop). The arguments are those of :func:`grid_responses`, each with one row per run or
-    one row for all."""
-    with_ff = feedforward.shape[1] > 0
-    for i in range(lp.shape[0]):
-        c_ci, c_ze, c_d = ci[_row(ci, i)], ze[_row(ze, i)], d[_row(d, i)]
-        c_theta, c_out = n_theta[_row(n_theta, i)], n_out[_row(n_out, i)]
-        c_cp, c_f = n_cp[_row(n_cp, i)], filter_[_row(filter_, i)]
-        c_ref, c_ff = reference_path[_row(reference_path, i)], feedforward[_row(feedforward, i)]
-        r_c, r_p = _row(delay_c, i), _row(delay_p, i)
-        k_e_m, k_m = coupling[_row(coupling, i)], km[_row(km, i)]
-        measured = on_measurement[_row(on_measurement, i)]
-        for j in range(w.size):
-            wj = w[j]
-            w2 = -wj * wj
-            s = complex(0.0, wj)
-            d_value = _quartic(c_d, wj, w2)
-            theta = _quadratic(c_theta, wj, w2)
-            drive = _linear(c_ci, wj) * delay_c[r_c, j]
-            a = drive * d_value
-            back = k_e_m * theta
-            if not factored:
-                back = back * s
-            b = (_linear(c_ze, wj) * d_value + back) * s
-            if i < li.shape[0]:
-                li[i, j] = _divide(a, b)
-            cp_value = _quadratic(c_cp, wj, w2)
-            forward = (k_m * delay_p[r_p, j]) * drive
-            filter_value = _linear(c_f, wj)
-            denominator = (filter_value * (s * s if factored else s)) * (a + b)
-            forward_out = forward * _linear(c_out, wj)
-            numerator = cp_value * (forward * theta)
-            lp[i, j] = _divide(numerator, denominator)
-            if t.shape[0]:
-                if measured:
-                    reference = _linear(c_ref, wj) * filter_value * forward_out
+def _responses(w, plant, output, a, b, g, f, reference, values, has_reference, delays,
+               fill, loops, aat, t):
+    """Fill ``loops`` (k, run, frequency), ``aat`` (the same with every other loop closed; no
+    runs where not asked) and ``t`` (no runs where not asked). Stacks (loop, run or 1, width)
+    as built by :func:`grid_responses`, ``values`` their precomputed values where shared
+    (:func:`_shared_values`); ``fill[k]``: how many runs of loop k to write (1 where
+    every run shares its cascade response). Each run is evaluated a stage at a time over the
+    whole grid (loops over the grid that the compiler vectorises)."""
+    count = a.shape[0]
+    m = w.size
+    with_t = t.shape[0] > 0
+    with_aat = aat.shape[1] > 0
+    w2 = -w * w
+    e = np.empty(m, dtype=np.complex128)
+    gain = np.empty(m, dtype=np.complex128)
+    sensed = np.empty(m, dtype=np.complex128)
+    command = np.empty(m, dtype=np.complex128)
+    work = np.empty((5, m), dtype=np.complex128)
+    real = np.empty(m)
+    imaginary = np.empty(m)
+    v_plant, v_output, v_a, v_b, v_g, v_f, v_reference = values
+    inner = np.empty((count, m), dtype=np.complex128)
+    terms = np.empty((count, m), dtype=np.complex128)
+    betas = np.empty((count, m), dtype=np.complex128)
+    for i in range(loops.shape[1]):
+        e[:] = _polynomial(plant, v_plant, 0, i, w, w2, real, imaginary, work[0])
+        for j in range(m):
+            gain[j] = 1.0
+            sensed[j] = 1.0
+            command[j] = 0.0
+        for k in range(count):
+            d = delays[k, _row(delays, i)]
+            bk = _polynomial(b, v_b, k, i, w, w2, real, imaginary, work[1])
+            fk = _polynomial(f, v_f, k, i, w, w2, real, imaginary, work[2])
+            if with_t:
+                if has_reference[k]:
+                    value = _polynomial(reference, v_reference, k, i, w, w2, real, imaginary,
+                                        work[3])
+                    for j in range(m):
+                        command[j] = command[j] * bk[j] + gain[j] * value[j] * d[j]
                 else:
-                    reference = cp_value * forward_out
-                if with_ff:
-                    rate = (c_ff[0] * s + c_ff[1]) * s
-                    reference = reference + rate * s * filter_value * forward_out
-                t[i, j] = _divide(reference, denominator + numerator)
+                    for j in range(m):
+                        command[j] = command[j] * bk[j]
+            value = _polynomial(a, v_a, k, i, w, w2, real, imaginary, work[3])
+            for j in range(m):
+                gain[j] = gain[j] * value[j] * d[j]
+            value = _polynomial(g, v_g, k, i, w, w2, real, imaginary, work[4])
+            write = i < fill[k]
+            for j in range(m):
+                c = gain[j] * value[j] * sensed[j]
+                beta = bk[j] * fk[j]
+                if write:
+                    loops[k, i, j] = _divide(c, beta * e[j])
+                inner[k, j] = e[j]
+                terms[k, j] = c
+                betas[k, j] = beta
+                e[j] = beta * e[j] + c
+                sensed[j] = sensed[j] * fk[j]
+        if with_t:
+            value = _polynomial(output, v_output, 0, i, w, w2, real, imaginary, work[3])
+            for j in range(m):
+                t[i, j] = _divide(command[j] * sensed[j] * value[j], e[j])
+        if with_aat:
+            for j in range(m):
+                upper = complex(0.0, 0.0)
+                above = complex(1.0, 0.0)
+                for k in range(count - 1, -1, -1):
+                    upper += terms[k, j] * above
+                    above = above * betas[k, j]
+                    aat[k, i, j] = _divide(upper, above * inner[k, j])
+
+
+def _shared_values(stack, omega):
+    """A stack's values on the grid, (loops, 1, m), where every run shares it; else an empty
+    (loops, 0, m) array (each run evaluates its own)."""
+    if stack.shape[1] > 1:
+        return np.empty((stack.shape[0], 0, omega.size), dtype=complex)
+    s = 1j * omega
+    return np.stack([parts.polyval(tuple(row[0]), s) * np.ones_like(s) for row in stack])[:, None]
 
 
 def _shared(value):
@@ -124,19 +170,25 @@ def _rows(coefficients, n, size):
                           for c in coefficients], n)
 
 
-def _vector(value, dtype=float):
-    """Per-run values (n,), or one value for all (1,)."""
-    value = np.asarray(value, dtype=dtype).reshape(-1)
-    return value if value.size > 1 else value[:1].copy()
+def _stack(polynomials, n):
+    """Polynomials of every loop as one (loops, rows, width) array (rows 1 where all share)."""
+    size = max(len(polynomial) for polynomial in polynomials)
+    rows = [_rows(polynomial, n, size) for polynomial in polynomials]
+    height = max(r.shape[0] for r in rows)
+    return np.ascontiguousarray(np.stack([np.broadcast_to(r, (height, size)) for r in rows]))
 
 
-def _delay_rows(delay, omega, tau):
-    """The delays' responses on the grid: (1, m) if shared, else (n, m)."""
-    return np.ascontiguousarray(np.atleast_2d(delay.response(1j * omega, tau)), dtype=complex)
+def _delays(delay, omega, taus, n):
+    """The delays' responses on the grid, (loops, 1 or n, m)."""
+    values = [np.atleast_2d(delay.response(1j * omega, tau)) for tau in taus]
+    height = max(v.shape[0] for v in values)
+    return np.ascontiguousarray(
+        np.stack([np.broadcast_to(v, (height, omega.size)) for v in values]), dtype=complex)
 
 
-def grid_responses(p, omega, n, delay, closed=True, feedforward=False):
-    """L_i, L_p and T (if ``closed``) of ``n`` runs on the grid ``omega``.
+def grid_responses(p, omega, n, delay, closed=True, feedforward=False, loop_at_a_time=False):
+    """Every loop, T (if ``closed``) and the loop-at-a-time responses (if asked) of ``n`` runs
+    on the grid ``omega``.
 
     Parameters
     ----------
@@ -153,31 +205,46 @@ def grid_responses(p, omega, n, delay, closed=True, feedforward=False):
         Also compute T.
     feedforward : bool
         Let the feed-forward act on the command in T.
+    loop_at_a_time : bool
+        Also compute every loop with all the others closed.
 
     Returns
     -------
     cas_freq.model.loops.LoopResponses
-        L_p and T of shape (n, m); L_i of shape (m,) where every run has the same current
-        loop (as :func:`~cas_freq.model.loops.responses` broadcasts it), else (n, m).
+        Responses of shape (n, m); a loop that every run shares with all its inner loops
+        (typically the current loop) of shape (m,), as :func:`~cas_freq.model.loops.responses`
+        broadcasts it.
     """
     omega = np.ascontiguousarray(omega, dtype=float)
-    d, n_theta, n_out = parts.mechanics(p)
-    factored = not np.any(d[-1])
-    if factored:  # D/s, as the numpy reference
-        d = d[:-1]
-    ci, ze = _rows(parts.current_controller(p), n, 2), _rows(parts.electrical(p), n, 2)
-    d, n_theta = _rows(d, n, 5), _rows(n_theta, n, 3)
-    coupling, delay_c = _vector(parts.back_emf_coupling(p)), _delay_rows(delay, omega, p.tau_c)
-    shared_current = all(a.shape[0] == 1 for a in (ci, ze, d, n_theta, coupling, delay_c))
-    m = omega.size
-    li = np.empty((1 if shared_current else n, m), dtype=complex)
-    lp = np.empty((n, m), dtype=complex)
+    structure = build(p)
+    steps = stages(structure, feedforward)
+    count, m = len(steps), omega.size
+    a = _stack([s.a for s in steps], n)
+    b = _stack([s.b for s in steps], n)
+    g = _stack([s.g for s in steps], n)
+    f = _stack([s.f for s in steps], n)
+    has_reference = np.array([s.reference is not None for s in steps])
+    reference = _stack([s.reference if s.reference is not None else (0.0,) for s in steps], n)
+    delays = _delays(delay, omega, [s.tau for s in steps], n)
+    plant = _stack([structure.plant.denominator], n)
+    output = _stack([structure.plant.signals[structure.output]], n)
+    # a loop whose stages (and those inside it) are the same in every run is computed once
+    fill = np.full(count, n)
+    shared = plant.shape[1] == 1
+    for k in range(count):
+        shared = shared and all(all(_shared(c) for c in polynomial) for polynomial in
+                                (steps[k].a, steps[k].b, steps[k].g, steps[k].f))
+        shared = shared and _shared(steps[k].tau)
+        if shared:
+            fill[k] = 1
+    loops = np.empty((count, n, m), dtype=complex)
+    aat = np.empty((count, n if loop_at_a_time else 0, m), dtype=complex)
     t = np.empty((n if closed else 0, m), dtype=complex)
-    _responses(
-        omega, ci, ze, d, n_theta, _rows(n_out, n, 2), coupling, _vector(p.Km),
-        _rows(parts.position_controller(p), n, 3), _rows(parts.position_filter(p), n, 2),
-        _rows(parts.reference_path(p), n, 2), _vector(p.derivative_on_measurement, bool),
-        _rows((p.ff_a, p.ff_v), n, 2) if feedforward else np.zeros((1, 0)),
-        delay_c, _delay_rows(delay, omega, p.tau_p), bool(factored), li, lp, t,
-    )
-    return LoopResponses(li[0] if shared_current else li, lp, t if closed else None)
+    values = tuple(_shared_values(stack, omega) for stack in (plant, output, a, b, g, f, reference))
+    _responses(omega, plant, output, a, b, g, f, reference, values, has_reference, delays, fill,
+               loops, aat, t)
+    names = structure.names
+    cascade = {name: loops[k, 0] if fill[k] == 1 else loops[k] for k, name in enumerate(names)}
+    return LoopResponses(
+        cascade, t if closed else None,
+        {name: aat[k] for k, name in enumerate(names)} if loop_at_a_time else None)

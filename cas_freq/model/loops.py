@@ -1,7 +1,8 @@
 r"""Frequency responses of the actuator loops, for any number of variants at once (numpy only).
 
-The loops of docs/model.md, built from :mod:`cas_freq.model.parts`, with every parameter an
-array that broadcasts against the complex frequencies:
+The loops are those the declared structure (:mod:`cas_freq.model.structure`) gives, evaluated
+by its recurrence with every parameter an array that broadcasts against the complex
+frequencies. For the report's EPOS4 drive:
 
 .. math::
     L_i = C_i e^{-s\tau_c} Y, \quad T_i = \frac{L_i}{1 + L_i}, \quad
@@ -24,13 +25,21 @@ import numpy as np
 
 from cas_freq.model import parts
 from cas_freq.model.delay import EXACT
+from cas_freq.model.structure import build, stages
 
-#: LoopParameters fields the frequency responses use.
+#: LoopParameters fields the frequency responses use (where the parameters have them).
 RESPONSE_FIELDS = (
     "R", "L", "Km", "Ke", "J", "mu_v", "ci_Kp", "ci_Ki", "tau_c",
     "cp_Kp", "cp_Ki", "cp_Kd", "Tf", "tau_p", "ff_v", "ff_a", "derivative_on_measurement",
     "ratio", "eta", "K_g", "c_g", "J_L", "b_L", "K_h",
+    "cv_Kp", "cv_Ki", "tau_v", "tau_vf",
 )
+
+#: Fields the whole batch shares (the architecture), passed on as they are.
+STATIC_FIELDS = ("cascade", "feedback_output")
+
+#: Per-run numbers of a filter (cas_freq.parameters.Filter).
+FILTER_NUMBERS = ("frequency", "damping", "width", "depth_db")
 
 
 class Selector:
@@ -45,50 +54,70 @@ class Selector:
     def __init__(self, params):
         self.n = params.n_runs
         self.arrays = {}
-        self.scalars = {}
+        self.scalars = {name: getattr(params, name) for name in STATIC_FIELDS
+                        if hasattr(params, name)}
         for name in RESPONSE_FIELDS:
+            if not hasattr(params, name):
+                continue
             array = getattr(params, name)
             if array.size and np.all(array == array[0]):
                 self.scalars[name] = array[0].item()
             else:
                 self.arrays[name] = array
+        self.filters = tuple(getattr(params, "filters", ()))
 
     def __call__(self, index=None, column=False):
         """Parameters of runs ``index`` (default all), shaped (k, 1) if ``column``."""
         values = dict(self.scalars)
         for name, array in self.arrays.items():
-            array = array if index is None else array[index]
-            values[name] = array[:, None] if column else array
+            values[name] = _rows_of(array, index, column)
+        values["filters"] = tuple(
+            dataclasses.replace(item, **{name: _rows_of(getattr(item, name), index, column)
+                                         for name in FILTER_NUMBERS})
+            for item in self.filters)
         return types.SimpleNamespace(**values)
+
+
+def _rows_of(array, index, column):
+    array = np.asarray(array)
+    if array.size and np.all(array == array.reshape(-1)[0]):
+        return array.reshape(-1)[0].item()
+    array = array if index is None else array[index]
+    return array[:, None] if column else array
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class LoopResponses:
     """Complex responses of a batch; each array has the broadcast shape of params and s.
 
-    ``closed_loop`` is None unless asked for.
+    ``loops`` maps each loop's name (innermost first) to its response broken at its
+    controller's output with the loops inside closed (the cascade view);
+    ``loop_at_a_time`` the same with every other loop closed (None unless asked for);
+    ``closed_loop`` is T (None unless asked for).
     """
 
-    current_loop: np.ndarray
-    position_loop: np.ndarray
+    loops: dict
     closed_loop: np.ndarray | None
+    loop_at_a_time: dict | None = None
+
+    @property
+    def current_loop(self):
+        """L_i [-]."""
+        return self.loops["current_loop"]
+
+    @property
+    def position_loop(self):
+        """L_p [-]."""
+        return self.loops["position_loop"]
 
 
-def responses(p, s, closed=True, delay=EXACT, feedforward=False):
-    r"""L_i, L_p and (optionally) T of the runs ``p`` at complex frequencies ``s``.
+def responses(p, s, closed=True, delay=EXACT, feedforward=False, loop_at_a_time=False,
+              output=None):
+    r"""Every loop's response and (optionally) T of the runs ``p`` at complex frequencies ``s``.
 
-    Evaluated as ratios with few complex divisions (the costly operation): with
-    :math:`C_i = n_{ci}/s` and :math:`Y = D_m/(Z_e D_m + K_e K_m s n_\theta)`,
-    :math:`L_i = A/B` with :math:`A = n_{ci} e^{-s\tau_c} D_m` and
-    :math:`B = s (Z_e D_m + K_e K_m s n_\theta)` (:math:`D_m, n_\theta, n_{out}` the drivetrain of
-    :func:`cas_freq.model.parts.mechanics`);
-    :math:`T_i M = K_m n_{ci} e^{-s\tau_c} n_\theta / (A + B)` (the factor :math:`D_m` cancels);
-    :math:`C_p = n_{cp} / (s (T_f s + 1))`, so :math:`L_p = N/D` with
-    :math:`N = n_{cp} K_m n_{ci} e^{-s\tau_c} e^{-s\tau_p} n_\theta` and
-    :math:`D = s (T_f s + 1) (A + B)`, and :math:`T = N_r/(D + N)` with :math:`N_r` as N with
-    :math:`n_{out}` in place of :math:`n_\theta` (the fin, :math:`N\delta/\theta_{cmd}`) for
-    the derivative on the error, or the reference path :math:`(K_p s + K_i)(T_f s + 1)` in
-    place of :math:`n_{cp}` on the measurement, plus :math:`F s (T_f s + 1)` with feed-forward.
+    The recurrence of :mod:`cas_freq.model.structure` on the loops :func:`build` declares, one
+    complex division per figure: :math:`L_k = c_k/(b_k f_k E_{k-1})`,
+    :math:`T = \tilde F\, g_{out} \sum_k A_{k-1}\varphi_k \prod_{m>k} b_m / E_{top}`.
 
     Parameters
     ----------
@@ -102,70 +131,62 @@ def responses(p, s, closed=True, delay=EXACT, feedforward=False):
         Exact (default) or Padé delays.
     feedforward : bool
         Let the feed-forward act on the command in T.
+    loop_at_a_time : bool
+        Also compute every loop broken with all the others closed.
+    output : str, optional
+        The plant signal T reads (default the structure's output: N delta; ``"current"`` gives
+        i per motor-angle command).
 
     Returns
     -------
     LoopResponses
     """
-    d, n_theta, n_out, factored = _mechanics(p, s)
-    drive = parts.polyval(parts.current_controller(p), s) * delay.response(s, p.tau_c)
-    a = drive * d
-    # with D = s D_1 (no hinge stiffness) d is D_1: A and B are divided by s, D is not
-    coupling = parts.back_emf_coupling(p)
-    if n_theta is not None:
-        coupling = coupling * n_theta
-    b = (parts.polyval(parts.electrical(p), s) * d + (coupling if factored else coupling * s)) * s
-    li = a / b
-    n_cp = parts.polyval(parts.position_controller(p), s)
-    forward = (p.Km * delay.response(s, p.tau_p)) * drive
-    numerator = n_cp * forward
-    filter_ = parts.polyval(parts.position_filter(p), s)
-    denominator = (filter_ * (s * s if factored else s)) * (a + b)
-    if n_theta is not None:  # the fin (T) sees n_out/n_theta of the motor angle
-        forward_out = forward * n_out
-        forward = forward * n_theta
-        numerator = n_cp * forward
-    else:
-        forward_out = forward
-    lp = numerator / denominator
+    structure = build(p)
+    e = parts.polyval(structure.plant.denominator, s)
+    gain = sensed = 1.0  # A_(k-1), F~_(k-1)
+    command = 0.0
+    cascade, inner, terms, betas = {}, [], [], []
+    for loop, stage in zip(structure.loops, stages(structure, feedforward), strict=True):
+        d = delay.response(s, stage.tau)
+        b = parts.polyval(stage.b, s)
+        f = parts.polyval(stage.f, s) if len(stage.f) > 1 else stage.f[0]
+        beta = b * f
+        if closed:
+            command = command * b
+            if stage.reference is not None:
+                command = command + gain * parts.polyval(stage.reference, s) * d
+        gain = gain * parts.polyval(stage.a, s) * d
+        c = gain * parts.polyval(stage.g, s) * sensed
+        cascade[loop.name] = c / (beta * e)
+        inner.append(e)
+        terms.append(c)
+        betas.append(beta)
+        e = beta * e + c
+        sensed = sensed * f
     t = None
     if closed:
-        closed_den = denominator + numerator
-        reference = n_cp * forward_out
-        on_measurement = p.derivative_on_measurement
-        if np.any(on_measurement):
-            measured = parts.polyval(parts.reference_path(p), s) * filter_ * forward_out
-            reference = np.where(on_measurement, measured, reference)
-        if feedforward:
-            rate = (p.ff_a * s + p.ff_v) * s
-            reference = reference + rate * s * filter_ * forward_out
-        t = reference / closed_den
-    return LoopResponses(li, lp, t)
-
-
-def _mechanics(p, s):
-    """The drivetrain of :func:`cas_freq.model.parts.mechanics` at ``s``: (D or D/s, n_theta,
-    n_out, factored). ``factored``: D's constant term (the hinge stiffness) is 0 in every run,
-    and the first value is D/s (the unloaded loop's J s + mu_v, evaluated as the report's
-    model always was: fewer operations, the same numbers). n_theta and n_out are None where
-    they are 1 (a rigid gear: the fin follows the motor)."""
-    d, n_theta, n_out = parts.mechanics(p)
-    factored = not np.any(d[-1])
-    d = parts.polyval(d[:-1] if factored else d, s)
-    if len(n_theta) == 1:
-        return d, None, None, factored
-    return d, parts.polyval(n_theta, s), parts.polyval(n_out, s), factored
+        seen = structure.plant.signals[output or structure.output]
+        t = command * sensed * parts.polyval(seen, s) / e
+    aat = None
+    if loop_at_a_time:
+        aat = {}
+        upper = 0.0
+        above = 1.0
+        for k in range(len(terms) - 1, -1, -1):
+            upper = upper + terms[k] * above
+            above = above * betas[k]
+            aat[structure.loops[k].name] = upper / (above * inner[k])
+        aat = dict(reversed(aat.items()))
+    return LoopResponses(cascade, t, aat)
 
 
 def current_loop(p, s, delay=EXACT):
     """L_i(s) alone (cheaper than :func:`responses`)."""
-    d, n_theta, _, factored = _mechanics(p, s)
-    coupling = parts.back_emf_coupling(p)
-    if n_theta is not None:
-        coupling = coupling * n_theta
-    return (parts.polyval(parts.current_controller(p), s) * delay.response(s, p.tau_c)
-            * d / ((parts.polyval(parts.electrical(p), s) * d
-                    + (coupling if factored else coupling * s)) * s))
+    structure = build(p)
+    stage = stages(structure)[0]
+    f = parts.polyval(stage.f, s) if len(stage.f) > 1 else stage.f[0]
+    return (parts.polyval(stage.a, s) * delay.response(s, stage.tau) * parts.polyval(stage.g, s)
+            / (parts.polyval(stage.b, s) * f * parts.polyval(structure.plant.denominator, s)))
 
 
 class ActuatorLoops:
@@ -215,25 +236,16 @@ class ActuatorLoops:
         return self._responses(s, feedforward=feedforward).closed_loop
 
     def current_response(self, s):
-        r"""i/delta_cmd [A/rad]: the motor current per fin command, without feed-forward.
+        r"""i/delta_cmd [A/rad]: the motor current per output command, without feed-forward.
 
-        The current command is the position controller's output :math:`C_r \theta_{cmd} -
-        C_p \theta` delayed by tau_p, so
-        :math:`i/\delta_{cmd} = N e^{-s\tau_p} T_i C_r/(1 + L_p)`, with :math:`C_r = C_p` for
-        the derivative on the error and the reference path
-        :math:`(K_p s + K_i)/s` for the derivative on the measurement.
+        The closed loop read at the current instead of the output:
+        :math:`i/\delta_{cmd} = N\, i/\theta_{cmd}`.
         """
-        p = self._p
         s = np.asarray(s, dtype=complex)
-        if np.any(p.derivative_on_measurement):
-            reference = parts.polyval(parts.reference_path(p), s) / s
-        else:
-            reference = (parts.polyval(parts.position_controller(p), s)
-                         / (s * parts.polyval(parts.position_filter(p), s)))
-        return (p.ratio * self.delay.response(s, p.tau_p) * self.current_closed_loop(s)
-                * reference * self.sensitivity(s))
+        return self._p.ratio * responses(self._p, s, delay=self.delay,
+                                         output="current").closed_loop
 
     @property
     def total_delay(self):
-        """Sum of both transport delays [s] (sets how finely a grid must sample the phase)."""
-        return float(self._p.tau_c + self._p.tau_p)
+        """Sum of the transport delays [s] (sets how finely a grid must sample the phase)."""
+        return float(sum(np.max(loop.delay) for loop in build(self._p).loops))

@@ -1,0 +1,403 @@
+r"""The loop structure of an actuator, declared once: its blocks and how they connect.
+
+Every linear representation of the loops is derived from the :class:`Structure` that
+:func:`build` declares for a batch of runs: the vectorised frequency responses
+(:func:`cas_freq.model.loops.responses` and the compiled
+:mod:`cas_freq.analysis.response_kernel`), the Padé characteristic polynomials of the stability
+verdicts (:func:`cas_freq.analysis.stability.characteristic_polynomials`) and the python-control
+systems (:mod:`cas_freq.model.systems`). None of them composes the loops by hand: they all
+evaluate the cascade below, loop by loop, from the inside out.
+
+**The cascade.** The plant has one input, the motor voltage V, and the signals the loops measure
+are rational functions of it over a common denominator :math:`\Delta` (the parts of
+:mod:`cas_freq.model.parts`):
+
+.. math::
+    \frac{i}{V} = \frac{D}{\Delta}, \quad \frac{\theta}{V} = \frac{K_m n_\theta}{\Delta}, \quad
+    \frac{\omega}{V} = \frac{s K_m n_\theta}{\Delta}, \quad
+    \frac{N\delta}{V} = \frac{K_m n_{out}}{\Delta}, \qquad
+    \Delta = Z_e D + K_e K_m s\, n_\theta
+
+Loops are numbered from the inside (0: the current loop). Loop k's forward path
+:math:`F_k = a_k e^{-s\tau_k}/b_k` (its controller, the filters after it and its delay) runs from
+its error to the command of loop k − 1 (the voltage for k = 0); it measures
+:math:`G_k = g_k/(f_k \Delta)` (a plant signal through the sensor filters :math:`g_k/f_k`
+[numerators/denominators]). With :math:`A_k = \prod_{j \le k} a_j e^{-s\tau_j}` and
+:math:`\tilde F_k = \prod_{j \le k} f_j`, the sums :math:`1 + \sum_{j \le k} \prod_{m \le j} F_m
+G_j = E_k / (B_k \tilde F_k \Delta)` follow the recurrence
+
+.. math::
+    E_{-1} = \Delta, \qquad E_k = b_k f_k E_{k-1} + c_k, \qquad
+    c_k = A_k g_k \tilde F_{k-1}
+
+and every figure is a ratio of these terms:
+
+- loop k broken at its controller's output, the loops inside closed and those outside open
+  (the cascade design view, ``X_loop.*``): :math:`L_k = c_k / (b_k f_k E_{k-1})`;
+- the same with every other loop closed (loop-at-a-time, ``X_loop.loop_at_a_time.*``):
+  :math:`L_k^{aat} = U_k / (E_{k-1} \prod_{m \ge k} b_m f_m)` with
+  :math:`U_k = \sum_{j \ge k} c_j \prod_{j < m} b_m f_m` (the outermost loop's two views agree);
+- the closed loop :math:`T = N\delta/\theta_{cmd}`: the command enters at the outermost
+  controller (its reference path :math:`\rho` over the same denominator, which differs from
+  the feedback path for the derivative on the measurement) and, with feed-forward, at any
+  controller's output (:math:`\Phi_k`, per unit command):
+  :math:`T = \tilde F_{top} K_m n_{out} \sum_k A_{k-1} \varphi_k \prod_{m > k} b_m / E_{top}`
+  with :math:`\varphi_k = (\rho_k + \Phi_k\, b^c_k)\, a^{path}_k e^{-s\tau_k}` (:math:`b^c_k` the
+  controller's denominator, :math:`a^{path}_k` the filters' numerators);
+- the characteristic polynomial of the whole loop is :math:`E_{top}` with Padé delays, and
+  :math:`E_k` that of loops 0..k alone.
+
+A block is added by declaring it here (:func:`build`) with its equations: the evaluators need no
+change.
+"""
+
+import dataclasses
+
+import numpy as np
+
+from cas_freq.model import parts
+
+#: The plant signals a loop can measure: name -> meaning [unit per volt].
+SIGNALS = {
+    "current": "motor current i [A]",
+    "motor_velocity": "motor speed omega [rad/s]",
+    "motor_angle": "motor angle theta [rad]",
+    "output_angle": "output angle on the motor's scale N*delta [rad]",
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class Block:
+    """A rational transfer function numerator/denominator (polynomials as in
+    :mod:`cas_freq.model.parts`: tuples of coefficients, highest power first, each a float or
+    an array broadcasting over runs).
+
+    ``minimal`` gives the same function with exact common factors cancelled (an integrator
+    whose gain is 0, a derivative filter without a derivative): called, it returns
+    (numerator, denominator) stacks of shape (n, width); None where the block has none.
+    Characteristic polynomials use it, so no spurious pole appears.
+    """
+
+    name: str
+    numerator: tuple
+    denominator: tuple = (1.0,)
+    minimal: object = None
+
+
+@dataclasses.dataclass(frozen=True)
+class Loop:
+    """One feedback loop of the cascade.
+
+    Attributes
+    ----------
+    name : str
+        Figure prefix (``"current_loop"``).
+    symbol : str
+        Its loop transfer function's symbol (``"L_i"``).
+    breaks_at : str
+        Where its loop is broken (the controller's output), in words.
+    controller : Block
+        Acts on the error (command − measurement).
+    path : tuple of Block
+        Filters in series after the controller.
+    delay : float or numpy.ndarray
+        Transport delay after the path [s].
+    feedback : str
+        The plant signal it measures (:data:`SIGNALS`).
+    sensor : tuple of Block
+        Filters on the measurement.
+    reference : tuple or None
+        Numerator over the controller's denominator of what acts on the command, where it
+        differs from the controller's numerator (the derivative on the measurement).
+    feedforward : tuple or None
+        Polynomial :math:`\\Phi(s)` of the outermost command added to this controller's output
+        (feed-forward of the command's rate and acceleration), None for none.
+    signals : (str, str)
+        Names of its error and its measured signal (python-control systems).
+    """
+
+    name: str
+    symbol: str
+    breaks_at: str
+    controller: Block
+    path: tuple
+    delay: object
+    feedback: str
+    sensor: tuple = ()
+    reference: tuple | None = None
+    feedforward: tuple | None = None
+    signals: tuple = ("e", "y")
+
+
+@dataclasses.dataclass(frozen=True)
+class Plant:
+    """The plant as seen by the loops: each measured signal per voltage over one denominator.
+
+    Attributes
+    ----------
+    denominator : tuple
+        :math:`\\Delta` [polynomial].
+    signals : dict of str to tuple
+        :data:`SIGNALS` name -> numerator polynomial.
+    """
+
+    denominator: tuple
+    signals: dict
+
+
+@dataclasses.dataclass(frozen=True)
+class Structure:
+    """The loops of a batch of runs, innermost first, around their plant.
+
+    ``output`` is the plant signal the closed loop T reads (the output angle).
+    """
+
+    plant: Plant
+    loops: tuple
+    output: str = "output_angle"
+
+    @property
+    def names(self):
+        """The loops' figure prefixes, innermost first."""
+        return tuple(loop.name for loop in self.loops)
+
+    def loop(self, name):
+        """The loop called ``name``."""
+        for loop in self.loops:
+            if loop.name == name:
+                return loop
+        raise KeyError(name)
+
+
+def polymul(a, b):
+    """Product of two polynomials (tuples of broadcastable coefficients)."""
+    out = [0.0] * (len(a) + len(b) - 1)
+    for i, x in enumerate(a):
+        for j, y in enumerate(b):
+            out[i + j] = out[i + j] + x * y
+    return tuple(out)
+
+
+def polyadd(a, b):
+    """Sum of two polynomials of possibly different degrees."""
+    width = max(len(a), len(b))
+    a = (0.0,) * (width - len(a)) + tuple(a)
+    b = (0.0,) * (width - len(b)) + tuple(b)
+    return tuple(x + y for x, y in zip(a, b, strict=True))
+
+
+def product(polynomials):
+    """Product of any number of polynomials ((1.0,) for none)."""
+    out = (1.0,)
+    for polynomial in polynomials:
+        out = polymul(out, polynomial)
+    return out
+
+
+def _rows(polynomial, n):
+    return parts.stacked(polynomial, n)
+
+
+def _where(condition, yes, no):
+    """Per-run choice between two coefficient stacks (padded to one width)."""
+    width = max(yes.shape[1], no.shape[1])
+    yes = np.pad(yes, ((0, 0), (width - yes.shape[1], 0)))
+    no = np.pad(no, ((0, 0), (width - no.shape[1], 0)))
+    return np.where(np.asarray(condition)[:, None], yes, no)
+
+
+# --- the blocks ------------------------------------------------------------------------------
+
+def pi_controller(name, kp, ki, n):
+    """C = Kp + Ki/s = (Kp s + Ki)/s; without the integrator where Ki = 0."""
+    def minimal():
+        ki_on = np.broadcast_to(np.asarray(ki) != 0, (n,))
+        return (_where(ki_on, _rows((kp, ki), n), _rows((kp,), n)),
+                _where(ki_on, _rows((1.0, 0.0), n), _rows((1.0,), n)))
+
+    return Block(name, (kp, ki), (1.0, 0.0), minimal)
+
+
+def pid_controller(p, n):
+    """C_p = Kp + Ki/s + Kd s/(Tf s + 1) over s (Tf s + 1) (docs/model.md), without the
+    integrator where Ki = 0 and the filter where Kd = 0."""
+    kp, ki, kd, tf = p.cp_Kp, p.cp_Ki, p.cp_Kd, p.Tf
+
+    def minimal():
+        has_i = np.broadcast_to(np.asarray(ki) > 0, (n,))
+        has_d = np.broadcast_to(np.asarray(kd) > 0, (n,))
+        numerator = _where(has_i, _where(has_d, _rows((kp * tf + kd, kp + ki * tf, ki), n),
+                                         _rows((kp, ki), n)),
+                           _where(has_d, _rows((kp * tf + kd, kp), n), _rows((kp,), n)))
+        denominator = _where(has_i,
+                             _where(has_d, _rows((tf, 1.0, 0.0), n), _rows((1.0, 0.0), n)),
+                             _where(has_d, _rows((tf, 1.0), n), _rows((1.0,), n)))
+        return numerator, denominator
+
+    return Block("position PID", parts.position_controller(p),
+                 polymul(parts.position_filter(p), (1.0, 0.0)), minimal)
+
+
+def filter_block(item):
+    """A filter of the config's ``filters:`` list (docs/model.md, "Filters"), in the form
+    1 at s = 0: lowpass1 1/(s/w0 + 1), lowpass2 1/(s^2/w0^2 + 2 z s/w0 + 1), notch
+    (s^2/w0^2 + 2 d z s/w0 + 1)/(s^2/w0^2 + 2 z s/w0 + 1) with z = width/(2 w0),
+    d = 10^(depth/20)."""
+    w0 = item.frequency
+    if item.kind == "lowpass1":
+        return Block("low-pass", (1.0,), (1.0 / w0, 1.0))
+    if item.kind == "lowpass2":
+        return Block("low-pass", (1.0,), (1.0 / (w0 * w0), 2.0 * item.damping / w0, 1.0))
+    if item.kind == "notch":
+        zeta = item.width / (2.0 * w0)
+        depth = 10.0 ** (item.depth_db / 20.0)
+        return Block("notch", (1.0 / (w0 * w0), 2.0 * depth * zeta / w0, 1.0),
+                     (1.0 / (w0 * w0), 2.0 * zeta / w0, 1.0))
+    raise ValueError(f"unknown filter type {item.kind!r}")  # pragma: no cover (config checks)
+
+
+def _filters(p, at):
+    return tuple(filter_block(item) for item in getattr(p, "filters", ()) if item.at == at)
+
+
+def plant(p):
+    """The plant's signals per voltage over :math:`\\Delta` (see the module docstring)."""
+    d, n_theta, n_out = parts.mechanics(p)
+    delta = polyadd(polymul(parts.electrical(p), d),
+                    polymul((parts.back_emf_coupling(p), 0.0), n_theta))
+    angle = tuple(p.Km * c for c in n_theta)
+    return Plant(delta, {
+        "current": d,
+        "motor_velocity": (*angle, 0.0),
+        "motor_angle": angle,
+        "output_angle": tuple(p.Km * c for c in n_out),
+    })
+
+
+def build(p):
+    """The loop structure of the runs ``p``.
+
+    The report's EPOS4 drive (docs/model.md): a PID position loop around a PI current loop.
+    With a velocity loop (``p.cascade``): a P/PI position loop commanding the motor speed,
+    a PI velocity loop commanding the current, a PI current loop. Filters at the current
+    command sit after the controller that commands the current; those on the velocity
+    feedback (and the first-order feedback filter) on the velocity loop's measurement. The
+    position loop measures the motor angle, or the output angle on the motor's scale with
+    ``p.feedback_output``.
+
+    Parameters
+    ----------
+    p : cas_freq.parameters.LoopParameters or types.SimpleNamespace
+        Parameters broadcasting over runs (arrays (n,), columns (n, 1) or scalars).
+
+    Returns
+    -------
+    Structure
+    """
+    n = _runs(p)
+    current = Loop(
+        "current_loop", "L_i", "the voltage",
+        pi_controller("current PI", p.ci_Kp, p.ci_Ki, n), (), p.tau_c, "current",
+        signals=("e_i", "i"),
+    )
+    at_current_command = _filters(p, "current_command")
+    position_feedback = ("output_angle" if getattr(p, "feedback_output", False)
+                         else "motor_angle")
+    if not getattr(p, "cascade", False):
+        reference = None
+        if np.any(p.derivative_on_measurement):
+            # the command sees Kp + Ki/s: (Kp s + Ki)(Tf s + 1) over s (Tf s + 1)
+            measured = polymul(parts.reference_path(p), parts.position_filter(p))
+            reference = tuple(np.where(p.derivative_on_measurement, m, c) for m, c in zip(
+                measured, parts.position_controller(p), strict=True))
+        position = Loop(
+            "position_loop", "L_p", "the current command", pid_controller(p, n),
+            at_current_command, p.tau_p, position_feedback, reference=reference,
+            feedforward=(p.ff_a, p.ff_v, 0.0), signals=("e", "theta"),
+        )
+        return Structure(plant(p), (current, position))
+    sensor = _filters(p, "velocity_feedback")
+    tau_vf = np.asarray(p.tau_vf)
+    if np.any(tau_vf > 0):
+        sensor = (Block("velocity filter", (1.0,), (p.tau_vf, 1.0)), *sensor)
+    velocity = Loop(
+        "velocity_loop", "L_v", "the current command",
+        pi_controller("velocity PI", p.cv_Kp, p.cv_Ki, n), at_current_command, p.tau_v,
+        "motor_velocity", sensor, feedforward=(p.ff_a, 0.0, 0.0), signals=("e_v", "omega"),
+    )
+    position = Loop(
+        "position_loop", "L_p", "the velocity command",
+        pi_controller("position PI", p.cp_Kp, p.cp_Ki, n), (), p.tau_p, position_feedback,
+        feedforward=(p.ff_v, 0.0), signals=("e", "theta"),
+    )
+    return Structure(plant(p), (current, velocity, position))
+
+
+def _runs(p):
+    n = getattr(p, "n_runs", None)
+    if n is not None:
+        return n
+    shapes = [np.shape(getattr(p, name)) for name in ("R", "ci_Kp", "cp_Kp", "J", "Km")]
+    return max((shape[0] for shape in shapes if shape), default=1)
+
+
+@dataclasses.dataclass(frozen=True)
+class Stage:
+    """One loop multiplied out for evaluation: polynomials (tuples) and its delay.
+
+    ``a``: controller and path numerators; ``b``: their denominators; ``g``: the measured
+    signal's numerator through the sensor's numerators; ``f``: the sensor's denominators;
+    ``reference``: the command's numerator at this controller's output over ``b`` before the
+    delay (None: no command enters here); ``tau``: the delay [s].
+    """
+
+    a: tuple
+    b: tuple
+    g: tuple
+    f: tuple
+    reference: tuple | None
+    tau: object
+
+
+def stages(structure, feedforward=False, minimal=False):
+    """The loops of ``structure`` multiplied out, innermost first (see the module docstring).
+
+    Parameters
+    ----------
+    structure : Structure
+    feedforward : bool
+        Let the feed-forward act (the command enters every controller with one).
+    minimal : bool
+        Use the blocks' minimal forms (coefficient stacks; for characteristic polynomials:
+        no command enters, ``reference`` is None).
+
+    Returns
+    -------
+    list of Stage
+    """
+    out = []
+    top = len(structure.loops) - 1
+    for k, loop in enumerate(structure.loops):
+        controller = loop.controller
+        if minimal and controller.minimal is not None:
+            c_num, c_den = (tuple(stack.T) for stack in controller.minimal())
+        else:
+            c_num, c_den = controller.numerator, controller.denominator
+        path_num = product(block.numerator for block in loop.path)
+        path_den = product(block.denominator for block in loop.path)
+        reference = None
+        if k == top and not minimal:
+            reference = loop.reference if loop.reference is not None else c_num
+        if feedforward and loop.feedforward is not None and not minimal:
+            injected = polymul(loop.feedforward, c_den)
+            reference = injected if reference is None else polyadd(reference, injected)
+        out.append(Stage(
+            a=polymul(c_num, path_num),
+            b=polymul(c_den, path_den),
+            g=polymul(structure.plant.signals[loop.feedback],
+                      product(block.numerator for block in loop.sensor)),
+            f=product(block.denominator for block in loop.sensor),
+            reference=None if reference is None else polymul(reference, path_num),
+            tau=loop.delay,
+        ))
+    return out
