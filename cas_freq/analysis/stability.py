@@ -4,7 +4,10 @@ The position closed loop contains the current closed loop, so its poles decide b
 whose real part is within a relative 1e-9 of zero is called marginal: the loop neither grows nor
 decays there, and no frequency-domain figure of it is trustworthy.
 
-Verdicts (all variants at once). The poles of the Padé model of order n are the roots of
+Verdicts (all variants at once). The poles of the Padé model of order n of loops 0..k closed
+are the roots of :math:`E_k`, the recurrence of :mod:`cas_freq.model.structure` in polynomial
+arithmetic (:func:`loop_polynomials`) with the Padé approximant
+:math:`e^{-x} \approx D(-x)/D(x)`. For the report's drive:
 
 .. math::
     Q_c(s) = s\,D(s\tau_c)\,(Z_e P_m + K_e K_m) + n_{ci}(s)\,D(-s\tau_c)\,P_m
@@ -12,24 +15,23 @@ Verdicts (all variants at once). The poles of the Padé model of order n are the
     Q(s) = s (T_f s + 1)\,D(s\tau_p)\,s\,Q_c(s)
            + K_m\,n_{cp}(s)\,D(-s\tau_p)\,n_{ci}(s)\,D(-s\tau_c)
 
-with the parts of :mod:`cas_freq.model.parts` and the Padé approximant
-:math:`e^{-x} \approx D(-x)/D(x)`. :math:`Q_c` decides the current loop alone, :math:`Q` the
-whole actuator (either derivative placement: the feedback path is :math:`C_p` in both). The
-verdict is read from the Routh array of the scaled polynomial (no root finding). Where the
-array is ambiguous (a first-column entry within :data:`ROUTH_TOLERANCE` of zero, or a root near
-s = 0) the poles are computed and judged by :func:`pole_verdict`.
+:math:`Q_c` decides the current loop alone, :math:`Q` the whole actuator (either derivative
+placement: the feedback path is :math:`C_p` in both). The verdict is read from the Routh array
+of the scaled polynomial (no root finding). Where the array is ambiguous (a first-column entry
+within :data:`ROUTH_TOLERANCE` of zero, or a root near s = 0) the poles are computed and judged
+by :func:`pole_verdict`.
 
-Poles (:func:`closed_loop_poles`, :func:`current_loop_poles`): the eigenvalues of the
-closed-loop state matrix, assembled from the same blocks as python-control's model
-(:func:`cas_freq.model.systems.linear_model`): the plant states (i, omega, theta) of
-:func:`cas_freq.model.parts.plant_matrices`, the PI integrator of C_i, the two Padé cascades of
-:func:`cas_freq.model.delay.pade_realization` and the two states of C_p (integrator and
-derivative filter). Eigenvalues of the block matrix are preferred to polynomial roots: the
-polynomial mixes poles from ~10 rad/s to ~1e5 rad/s, so its coefficients span tens of decades,
-while the block matrix holds the physical coefficients themselves and LAPACK balances it.
+Poles (:func:`closed_loop_poles`): the eigenvalues of the closed-loop state matrix that
+:func:`loop_system` assembles from the declared structure: the plant states (i, omega, theta)
+of :func:`cas_freq.model.parts.plant_matrices`, each controller in its minimal form, the
+filters and the Padé cascades of :func:`cas_freq.model.delay.pade_realization`. Eigenvalues of
+the block matrix are preferred to polynomial roots: the polynomial mixes poles from ~10 rad/s
+to ~1e5 rad/s, so its coefficients span tens of decades, while the block matrix holds the
+physical coefficients themselves and LAPACK balances it. The current loop alone
+(:func:`current_loop_poles`) drops the modes the current does not see.
 
 Exact common factors are cancelled before realising, so no spurious pole appears: ``Ki = 0``
-in either controller drops its integrator, ``Kd = 0`` drops the derivative filter (even with
+in a controller drops its integrator, ``Kd = 0`` drops the derivative filter (even with
 ``Tf`` set), and with ``mu_v = 0`` the current loop's integrator pole cancels the zero of Y at
 s = 0 (the frictionless shaft drifts at constant speed with i = 0, a mode unobservable from i):
 the current-loop verdict then uses ``C_i Y = J (K_p s + K_i) / D``. The whole loop observes
@@ -42,6 +44,7 @@ import numpy as np
 
 from cas_freq.model import parts
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, pade_denominator, pade_realization
+from cas_freq.model.structure import SIGNALS, build, stages
 
 #: |Re p| <= MARGINAL_TOLERANCE * max(1, |p|) counts as on the imaginary axis.
 MARGINAL_TOLERANCE = 1e-9
@@ -83,54 +86,81 @@ def pade_polynomials(tau, order):
     return d * scale, d * scale * (-1.0) ** powers
 
 
-def characteristic_polynomials(p, order=DEFAULT_PADE_ORDER):
-    """(Q_c, Q): current-loop and whole-loop characteristic polynomials of each run.
+def loop_polynomials(p, order=DEFAULT_PADE_ORDER):
+    """Characteristic polynomials of loops 0..k closed, for every k, of each run.
+
+    The recurrence :math:`E_k = b_k f_k E_{k-1} + c_k` of :mod:`cas_freq.model.structure` in
+    polynomial arithmetic, with each delay its Padé approximant :math:`D(-s\tau)/D(s\tau)`
+    and each controller in its minimal form. An inner loop's polynomial (k below the top) is
+    divided by its factors s: those are modes its loops do not see (the shaft's position,
+    unless a hinge stiffness acts on it) or exact cancellations (the frictionless shaft's zero
+    of Y at 0 against the current integrator), never closed-loop poles of those loops.
 
     Parameters
     ----------
     p : cas_freq.parameters.LoopParameters
         The runs.
     order : int
-        Padé order of both delays.
+        Padé order of every delay.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        Loop name (innermost first) -> stack of coefficients (highest power first; leading
+        zeros where a delay or Tf is 0): that loop closed with every loop inside it.
+    """
+    n = p.n_runs
+    structure = build(p)
+    e = parts.stacked(structure.plant.denominator, n)
+    gain = sensed = np.ones((n, 1))
+    out = {}
+    steps = stages(structure, minimal=True)
+    for k, (loop, stage) in enumerate(zip(structure.loops, steps, strict=True)):
+        tau = np.broadcast_to(np.asarray(stage.tau, dtype=float), (n,))
+        delay_den, delay_num = pade_polynomials(tau, order)
+        gain = polymul(polymul(gain, _stacked(stage.a, n)), delay_num)
+        b = polymul(_stacked(stage.b, n), delay_den)
+        f = _stacked(stage.f, n)
+        e = polyadd(polymul(polymul(b, f), e),
+                    polymul(polymul(gain, _stacked(stage.g, n)), sensed))
+        sensed = polymul(sensed, f)
+        out[loop.name] = e if k == len(steps) - 1 else _without_roots_at_zero(e)
+    return out
+
+
+def characteristic_polynomials(p, order=DEFAULT_PADE_ORDER):
+    """(Q_c, Q): current-loop and whole-loop characteristic polynomials of each run
+    (the first and last of :func:`loop_polynomials`).
+
+    Parameters
+    ----------
+    p : cas_freq.parameters.LoopParameters
+        The runs.
+    order : int
+        Padé order of every delay.
 
     Returns
     -------
     (numpy.ndarray, numpy.ndarray)
         Stacks of coefficients (highest power first); leading zeros where a delay or Tf is 0.
     """
-    n = p.n_runs
-    d, n_theta, _ = parts.mechanics(p)
-    mech, n_th = parts.stacked(d, n), parts.stacked(n_theta, n)
-    dc, nc = pade_polynomials(p.tau_c, order)
-    dp, np_ = pade_polynomials(p.tau_p, order)
-    zero = np.zeros(p.n_runs)
-    one = np.ones(p.n_runs)
-    s = _stack(one, zero)
-    plant = polyadd(polymul(parts.stacked(parts.electrical(p), n), mech),
-                    polymul(s, n_th) * parts.back_emf_coupling(p)[:, None])
-    # C_i = n_ci / d_ci; Ki = 0 drops the integrator (exact cancellation)
-    integral = p.ci_Ki > 0
-    n_ci = np.where(integral[:, None], _stack(p.ci_Kp, p.ci_Ki), _stack(zero, p.ci_Kp))
-    d_ci = np.where(integral[:, None], s, _stack(zero, one))
-    qc = polyadd(polymul(polymul(d_ci, dc), plant), polymul(polymul(n_ci, nc), mech))
-    # C_p = n_cp / d_cp, without the integrator where Ki = 0 and the filter where Kd = 0
-    kp, ki, kd, tf = p.cp_Kp, p.cp_Ki, p.cp_Kd, p.Tf
-    has_i, has_d = (ki > 0)[:, None], (kd > 0)[:, None]
-    n_cp = np.where(has_i, np.where(has_d, _stack(kp * tf + kd, kp + ki * tf, ki),
-                                    _stack(zero, kp, ki)),
-                    np.where(has_d, _stack(zero, kp * tf + kd, kp), _stack(zero, zero, kp)))
-    d_cp = np.where(has_i, np.where(has_d, _stack(tf, one, zero), _stack(zero, one, zero)),
-                    np.where(has_d, _stack(zero, tf, one), _stack(zero, zero, one)))
-    q = polyadd(
-        polymul(polymul(d_cp, dp), qc),
-        polymul(polymul(polymul(polymul(n_cp, np_), n_ci), nc), n_th) * p.Km[:, None],
-    )
-    # The current loop alone: where D(0) = 0 (no hinge stiffness) the shaft's position is not
-    # seen from i, a factor s common to both terms; with mu_v = 0 as well (and an integrator)
-    # the pole at 0 of C_i cancels the zero of Y at 0 (C_i Y = J (Kp s + Ki) / P, unloaded).
-    qc = _deflated(qc, mech[:, -1] == 0)
-    qc = _deflated(qc, (mech[:, -1] == 0) & (mech[:, -2] == 0) & integral)
-    return qc, q
+    polynomials = list(loop_polynomials(p, order).values())
+    return polynomials[0], polynomials[-1]
+
+
+def _stacked(polynomial, n):
+    return polynomial if isinstance(polynomial, np.ndarray) else parts.stacked(polynomial, n)
+
+
+def _without_roots_at_zero(polynomials):
+    """The polynomials with every factor s divided out (trailing zero coefficients)."""
+    out = polynomials.copy()
+    for _ in range(polynomials.shape[1] - 1):
+        rows = (out[:, -1] == 0) & np.any(out != 0, axis=1)
+        if not rows.any():
+            break
+        out = _deflated(out, rows)
+    return out
 
 
 def _deflated(polynomials, rows):
@@ -224,6 +254,37 @@ def verdicts(polynomials, fallback):
     return out
 
 
+def loop_verdicts(p, order=DEFAULT_PADE_ORDER):
+    """Verdicts of every loop closed with the loops inside it, for every run of ``p``.
+
+    Parameters
+    ----------
+    p : cas_freq.parameters.LoopParameters
+        The runs.
+    order : int
+        Padé order of every delay.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        Loop name (innermost first) -> ``"stable"``, ``"marginal"`` or ``"unstable"`` per run
+        (object arrays); the last is the whole actuator's.
+    """
+    polynomials = loop_polynomials(p, order)
+    names = list(polynomials)
+
+    def fallback(name):
+        if name == names[-1]:
+            return lambda rows: [pole_verdict(closed_loop_poles(p.run(r), order)) for r in rows]
+        if name == names[0]:
+            return lambda rows: [pole_verdict(current_loop_poles(p.run(r), order)) for r in rows]
+        return lambda rows: [pole_verdict(np.roots(np.trim_zeros(polynomials[name][r], "f")))
+                             for r in rows]
+
+    return {name: verdicts(polynomial, fallback(name))
+            for name, polynomial in polynomials.items()}
+
+
 def stability_verdicts(p, order=DEFAULT_PADE_ORDER):
     """(whole-loop verdicts, current-loop verdicts) of every run of ``p`` (Padé order n).
 
@@ -232,22 +293,15 @@ def stability_verdicts(p, order=DEFAULT_PADE_ORDER):
     p : cas_freq.parameters.LoopParameters
         The runs.
     order : int
-        Padé order of both delays.
+        Padé order of every delay.
 
     Returns
     -------
     (numpy.ndarray, numpy.ndarray)
         ``"stable"``, ``"marginal"`` or ``"unstable"`` per run (object arrays).
     """
-    qc, q = characteristic_polynomials(p, order)
-
-    def whole(rows):
-        return [pole_verdict(closed_loop_poles(p.run(r), order)) for r in rows]
-
-    def current(rows):
-        return [pole_verdict(current_loop_poles(p.run(r), order)) for r in rows]
-
-    return verdicts(q, whole), verdicts(qc, current)
+    every = list(loop_verdicts(p, order).values())
+    return every[-1], every[0]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -328,36 +382,112 @@ def _scalars(p):
 def closed_loop_poles(params, pade_order):
     """Poles [rad/s] of T = theta/theta_cmd with Padé delays, sorted by real part, largest first.
 
+    The eigenvalues of the closed-loop state matrix of :func:`loop_system`.
+
     Parameters
     ----------
     params : cas_freq.parameters.LoopParameters or cas_freq.config.ActuatorConfig
         One variant.
     pade_order : int
-        Padé order n >= 1 of both delays.
+        Padé order n >= 1 of every delay.
 
     Returns
     -------
     numpy.ndarray
-        Complex poles [rad/s]; 2n + 6 of them unless a controller term is zero.
+        Complex poles [rad/s]; 2n + 6 of them for the report's drive unless a controller
+        term is zero.
     """
-    params = parts.one_variant(params)
-    v = _scalars(params)
-    # i_cmd -> (i, theta): PI, current delay, plant (states i, omega, theta[, omega_L, delta])
-    states = parts.plant_matrices(params)[0].shape[1]
-    output = np.zeros((2, states))
-    output[0, 0] = output[1, 2] = 1.0
-    plant = _plant(params, output, states=states)
-    forward = _series(
-        _series(_current_controller(v), pade_realization(v["tau_c"], pade_order)),
-        plant,
-    )
-    inner = _close_loop(forward, feedback_row=0, output_row=1)
-    # position controller -> position delay -> inner loop, closed on theta
-    loop = _series(
-        _series(_position_controller(v), pade_realization(v["tau_p"], pade_order)),
-        inner,
-    )
-    return _sorted(np.linalg.eigvals(_close_loop(loop, 0, 0)[0]))
+    return _sorted(np.linalg.eigvals(loop_system(params, pade_order)[0]))
+
+
+def loop_system(params, pade_order, loops=None):
+    """The actuator with its loops closed as a state-space system, from the declared structure.
+
+    Inside out: the plant of :func:`cas_freq.model.parts.plant_matrices` (input V, outputs the
+    signals of :data:`cas_freq.model.structure.SIGNALS`); each loop puts its forward path
+    (controller in its minimal form, path filters, Padé delay) in front and closes through its
+    sensor on the signal it measures. The result has the outermost loop's command as input and
+    the four signals as outputs.
+
+    Parameters
+    ----------
+    params : cas_freq.parameters.LoopParameters or cas_freq.config.ActuatorConfig
+        One variant.
+    pade_order : int
+        Padé order n >= 1 of every delay.
+    loops : int, optional
+        Close only this many loops, from the inside (default all).
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        (A, B, C, D); outputs in the order of :data:`cas_freq.model.structure.SIGNALS`.
+    """
+    p = parts.one_variant(params)
+    structure = build(p)
+    a, b = parts.plant_matrices(p)
+    states = a.shape[1]
+    rows = np.zeros((4, states))
+    rows[0, 0] = rows[1, 1] = rows[2, 2] = 1.0
+    rows[3] = parts.fin_output(states, float(p.ratio[0]))
+    system = (a[0], b[0, :, :1], rows, np.zeros((4, 1)))
+    signals = list(SIGNALS)
+    for loop in structure.loops[:loops]:
+        numerator, denominator = (loop.controller.minimal() if loop.controller.minimal
+                                  else (parts.stacked(loop.controller.numerator, 1),
+                                        parts.stacked(loop.controller.denominator, 1)))
+        forward = _realize(numerator[0], denominator[0])
+        for block in loop.path:
+            forward = _series(forward, _realize_block(block))
+        forward = _series(forward, pade_realization(float(np.squeeze(loop.delay)), pade_order))
+        sensor = None
+        for block in loop.sensor:
+            sensor = _realize_block(block) if sensor is None else _series(
+                sensor, _realize_block(block))
+        system = _feedback(_series(forward, system), signals.index(loop.feedback), sensor)
+    return system
+
+
+def _realize_block(block):
+    return _realize(parts.stacked(block.numerator, 1)[0], parts.stacked(block.denominator, 1)[0])
+
+
+def _realize(numerator, denominator):
+    """(A, B, C, D) of a proper rational function (coefficients, highest power first) in
+    observable companion form, normalised by the leading denominator coefficient."""
+    denominator = np.trim_zeros(np.asarray(denominator, dtype=float), "f")
+    numerator = np.trim_zeros(np.asarray(numerator, dtype=float), "f")
+    order = denominator.size - 1
+    numerator = np.concatenate([np.zeros(order + 1 - numerator.size), numerator]) / denominator[0]
+    denominator = denominator / denominator[0]
+    d = numerator[0]
+    a = np.zeros((order, order))
+    if order:
+        a[:, 0] = -denominator[1:]
+        a[:-1, 1:] = np.eye(order - 1)
+    b = (numerator[1:] - d * denominator[1:]).reshape(order, 1)
+    c = np.zeros((1, order))
+    if order:
+        c[0, 0] = 1.0
+    return a, b, c, np.array([[d]])
+
+
+def _feedback(system, row, sensor=None):
+    """Negative feedback of output ``row`` (through ``sensor``, if any) to the input; every
+    output kept. The fed-back output has no direct term, as every measured signal here."""
+    a, b, c, d = system
+    measured = c[row:row + 1]
+    if sensor is None:
+        return a - b @ measured, b, c - d @ measured, d
+    a_s, b_s, c_s, d_s = sensor
+    m, q = a.shape[0], a_s.shape[0]
+    a_new = np.zeros((m + q, m + q))
+    a_new[:m, :m] = a - b @ d_s @ measured
+    a_new[:m, m:] = -b @ c_s
+    a_new[m:, :m] = b_s @ measured
+    a_new[m:, m:] = a_s
+    c_new = np.hstack([c - d @ d_s @ measured, -d @ c_s])
+    return a_new, np.vstack([b, np.zeros((q, 1))]), c_new, d
 
 
 def current_loop_poles(params, pade_order):
@@ -412,29 +542,6 @@ def _current_controller(v):
     if ki == 0:
         return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[kp]])
     return np.zeros((1, 1)), np.ones((1, 1)), np.array([[ki]]), np.array([[kp]])
-
-
-def _position_controller(v):
-    """C_p = Kp + Ki/s + Kd s/(Tf s + 1) [A/rad]: integrator (if Ki > 0), filter (if Kd > 0).
-
-    The derivative term is (Kd/Tf) (1 - 1/(Tf s + 1)): a filter state x' = (e - x)/Tf.
-    """
-    diagonal, b, c = [], [], []
-    d = v["cp_Kp"]
-    if v["cp_Ki"] > 0:
-        diagonal.append(0.0)
-        b.append(1.0)
-        c.append(v["cp_Ki"])
-    if v["cp_Kd"] > 0:
-        tf = v["Tf"]
-        diagonal.append(-1.0 / tf)
-        b.append(1.0 / tf)
-        c.append(-v["cp_Kd"] / tf)
-        d += v["cp_Kd"] / tf
-    m = len(diagonal)
-    return (np.diag(np.asarray(diagonal, dtype=float)).reshape(m, m),
-            np.asarray(b, dtype=float).reshape(m, 1), np.asarray(c, dtype=float).reshape(1, m),
-            np.array([[d]]))
 
 
 def _series(first, second):
