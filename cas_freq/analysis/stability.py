@@ -431,21 +431,67 @@ def loop_system(params, pade_order, loops=None):
     rows[0, 0] = rows[1, 1] = rows[2, 2] = 1.0
     rows[3] = parts.fin_output(states, float(p.ratio[0]))
     system = (a[0], b[0, :, :1], rows, np.zeros((4, 1)))
-    signals = list(SIGNALS)
-    for loop in structure.loops[:loops]:
-        numerator, denominator = (loop.controller.minimal() if loop.controller.minimal
-                                  else (parts.stacked(loop.controller.numerator, 1),
-                                        parts.stacked(loop.controller.denominator, 1)))
-        forward = _realize(numerator[0], denominator[0])
-        for block in loop.path:
-            forward = _series(forward, _realize_block(block))
-        forward = _series(forward, pade_realization(float(np.squeeze(loop.delay)), pade_order))
-        sensor = None
-        for block in loop.sensor:
-            sensor = _realize_block(block) if sensor is None else _series(
-                sensor, _realize_block(block))
-        system = _feedback(_series(forward, system), signals.index(loop.feedback), sensor)
+    chosen = structure.loops[:loops]
+    for k, loop in enumerate(chosen):
+        forward = loop_forward(loop, pade_order, reference=k == len(chosen) - 1)
+        system = _feedback(series(forward, system), SIGNAL_ROWS[loop.feedback],
+                           loop_sensor(loop))
     return system
+
+
+#: Output row of each measured signal in :func:`loop_system`.
+SIGNAL_ROWS = {name: row for row, name in enumerate(SIGNALS)}
+
+
+def loop_forward(loop, pade_order, reference=False):
+    """A loop's forward path (controller, path filters, Padé delay) in state space with two
+    input columns: the error, and the command (the same column unless ``reference`` and the
+    controller's command path differs: the derivative on the measurement). Realised in its
+    minimal form (exact common factors cancelled)."""
+    controller = loop.controller
+    if reference and loop.reference is not None:
+        numerators, denominator = _cancel_zero_roots(
+            [parts.stacked(controller.numerator, 1)[0], parts.stacked(loop.reference, 1)[0]],
+            parts.stacked(controller.denominator, 1)[0])
+        first = _realize(numerators[0], denominator)
+        command = _realize(numerators[1], denominator)
+        first = (first[0], np.hstack([first[1], command[1]]), first[2],
+                 np.hstack([first[3], command[3]]))
+    else:
+        numerator, denominator = (controller.minimal() if controller.minimal else
+                                  (parts.stacked(controller.numerator, 1),
+                                   parts.stacked(controller.denominator, 1)))
+        first = _realize(numerator[0], denominator[0])
+        first = (first[0], np.hstack([first[1]] * 2), first[2], np.hstack([first[3]] * 2))
+    return series(first, _delay_free(loop, pade_order))
+
+
+def _delay_free(loop, pade_order):
+    """The path filters and the Padé delay of a loop, in series."""
+    rest = (np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.ones((1, 1)))
+    for block in loop.path:
+        rest = series(rest, _realize_block(block))
+    return series(rest, pade_realization(float(np.squeeze(loop.delay)), pade_order))
+
+
+def loop_sensor(loop):
+    """A loop's sensor filters in state space, None for a plain measurement."""
+    sensor = None
+    for block in loop.sensor:
+        sensor = _realize_block(block) if sensor is None else series(
+            sensor, _realize_block(block))
+    return sensor
+
+
+def _cancel_zero_roots(numerators, denominator):
+    """Divide out every factor s common to all numerators and the denominator."""
+    numerators = [np.trim_zeros(np.asarray(n, dtype=float), "f") for n in numerators]
+    denominator = np.trim_zeros(np.asarray(denominator, dtype=float), "f")
+    while denominator.size > 1 and denominator[-1] == 0 and all(
+            n.size > 1 and n[-1] == 0 for n in numerators):
+        numerators = [n[:-1] for n in numerators]
+        denominator = denominator[:-1]
+    return numerators, denominator
 
 
 def _realize_block(block):
@@ -473,21 +519,23 @@ def _realize(numerator, denominator):
 
 
 def _feedback(system, row, sensor=None):
-    """Negative feedback of output ``row`` (through ``sensor``, if any) to the input; every
-    output kept. The fed-back output has no direct term, as every measured signal here."""
+    """Negative feedback of output ``row`` (through ``sensor``, if any) to the first input;
+    the second input (the command) stays, every output kept. The fed-back output has no
+    direct term, as every measured signal here."""
     a, b, c, d = system
+    b_error, b_command, d_error, d_command = b[:, :1], b[:, 1:], d[:, :1], d[:, 1:]
     measured = c[row:row + 1]
     if sensor is None:
-        return a - b @ measured, b, c - d @ measured, d
+        return a - b_error @ measured, b_command, c - d_error @ measured, d_command
     a_s, b_s, c_s, d_s = sensor
     m, q = a.shape[0], a_s.shape[0]
     a_new = np.zeros((m + q, m + q))
-    a_new[:m, :m] = a - b @ d_s @ measured
-    a_new[:m, m:] = -b @ c_s
+    a_new[:m, :m] = a - b_error @ d_s @ measured
+    a_new[:m, m:] = -b_error @ c_s
     a_new[m:, :m] = b_s @ measured
     a_new[m:, m:] = a_s
-    c_new = np.hstack([c - d @ d_s @ measured, -d @ c_s])
-    return a_new, np.vstack([b, np.zeros((q, 1))]), c_new, d
+    c_new = np.hstack([c - d_error @ d_s @ measured, -d_error @ c_s])
+    return a_new, np.vstack([b_command, np.zeros((q, 1))]), c_new, d_command
 
 
 def current_loop_poles(params, pade_order):
@@ -515,12 +563,11 @@ def current_loop_poles(params, pade_order):
         # this transfer.
         j_eff = v["J"] + v["J_L"] / (v["eta"] * v["ratio"] ** 2)
         output = np.array([[v["ci_Kp"], j_eff * v["ci_Ki"] / v["Km"]]])
-        forward = _series(delay, _plant(params, output, states=2))
+        forward = series(delay, _plant(params, output, states=2))
     else:
-        forward = _series(
-            _series(_current_controller(v), delay),
-            (*parts.current_plant_matrices(params), np.zeros((1, 1))),
-        )
+        a, b, c, d = loop_forward(build(params).loops[0], pade_order)
+        forward = series((a, b[:, :1], c, d[:, :1]),
+                         (*parts.current_plant_matrices(params), np.zeros((1, 1))))
     return _sorted(np.linalg.eigvals(_close_loop(forward, 0, 0)[0]))
 
 
@@ -536,15 +583,7 @@ def _plant(params, output, states=3):
             np.zeros((output.shape[0], 1)))
 
 
-def _current_controller(v):
-    """C_i = Kp + Ki/s [V/A]; no state when Ki = 0."""
-    kp, ki = v["ci_Kp"], v["ci_Ki"]
-    if ki == 0:
-        return np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.array([[kp]])
-    return np.zeros((1, 1)), np.ones((1, 1)), np.array([[ki]]), np.array([[kp]])
-
-
-def _series(first, second):
+def series(first, second):
     """``first`` then ``second`` (single input; ``first`` single output)."""
     a1, b1, c1, d1 = first
     a2, b2, c2, d2 = second

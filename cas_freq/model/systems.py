@@ -5,9 +5,11 @@ frequency-domain figures come from :mod:`cas_freq.model.loops`, which this modul
 :class:`control.FrequencyResponseData` for exact delays. The plant and the controllers are those
 of :mod:`cas_freq.model.parts`.
 
-The Padé delays are cascades of low-order sections (:func:`cas_freq.model.delay.pade_system`)
-and every composition is done on state-space objects, so orders 8 and 10 of sub-millisecond
-delays still give finite, accurate models.
+The systems are those of the declared loop structure (:mod:`cas_freq.model.structure`),
+composed in state space by :mod:`cas_freq.analysis.stability` (the same matrices whose
+eigenvalues are the closed-loop poles). The Padé delays are cascades of low-order sections
+(:func:`cas_freq.model.delay.pade_realization`), so orders 8 and 10 of sub-millisecond delays
+still give finite, accurate models.
 """
 
 import dataclasses
@@ -16,7 +18,8 @@ import control
 import numpy as np
 
 from cas_freq.model import parts
-from cas_freq.model.delay import DEFAULT_PADE_ORDER, pade_system
+from cas_freq.model.delay import DEFAULT_PADE_ORDER
+from cas_freq.model.structure import build
 
 
 def plant_system(params):
@@ -38,19 +41,14 @@ def plant_system(params):
     )
 
 
-def _ss(numerator, denominator):
-    num = np.trim_zeros(np.asarray([float(np.squeeze(c)) for c in numerator]), "f")
-    den = np.trim_zeros(np.asarray([float(np.squeeze(c)) for c in denominator]), "f")
-    return control.ss(control.tf(num if num.size else [0.0], den))
-
-
 #: Each loop's system name and (input, output) signal names, as python-control shows them:
-#: the symbols of docs/model.md. L_i runs from the current error to the measured current and
-#: L_p from the position error to the measured angle (each loop broken at its error, which for
-#: a unity-feedback loop is the same L as broken at the controller output).
+#: the symbols of docs/model.md. Each loop runs from its error to its measurement (broken at
+#: its error, which for a unity-feedback loop is the same L as broken at the controller
+#: output).
 LOOP_NAMES = {
     "current_loop": ("L_i", "e_i", "i"),
     "current_closed_loop": ("T_i", "i_cmd", "i"),
+    "velocity_loop": ("L_v", "e_v", "omega"),
     "position_loop": ("L_p", "e", "theta"),
     "sensitivity": ("S", "theta_cmd", "e"),
     "closed_loop": ("T", "delta_cmd", "delta"),
@@ -65,13 +63,15 @@ class LinearModel:
     Attributes
     ----------
     pade_order : int
-        Padé order of both delays.
+        Padé order of every delay.
     plant : control.StateSpace
         V -> (i, omega, theta).
     current_loop, current_closed_loop : control.StateSpace
         L_i (e_i -> i) and T_i (i_cmd -> i).
     position_loop, sensitivity, closed_loop : control.StateSpace
         L_p (e -> theta), S = 1/(1+L_p) (theta_cmd -> e) and T = δ/δ_cmd (delta_cmd -> delta).
+    velocity_loop : control.StateSpace or None
+        L_v (e_v -> omega) of a drive with a velocity loop, else None.
     """
 
     pade_order: int
@@ -81,85 +81,59 @@ class LinearModel:
     position_loop: control.StateSpace
     sensitivity: control.StateSpace
     closed_loop: control.StateSpace
+    velocity_loop: control.StateSpace | None = None
 
 
 def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
-    """Build every loop of docs/model.md as a python-control system with Padé delays.
+    """Build every loop of the declared structure as a python-control system with Padé delays.
+
+    Each loop k, broken at its error, is its forward path (:func:`~cas_freq.analysis.stability.
+    loop_forward`) in front of the loops inside it closed
+    (:func:`~cas_freq.analysis.stability.loop_system`), read at its measurement through its
+    sensor; the current loop sees the plant without the modes the current does not see (the
+    shaft's position, unless a hinge stiffness acts on it), which would add spurious poles at
+    0. T is the whole structure closed, read at the output.
 
     Parameters
     ----------
     params : cas_freq.config.ActuatorConfig or cas_freq.parameters.LoopParameters
         One variant (SI).
     pade_order : int
-        Padé order n >= 1 of both delays.
+        Padé order n >= 1 of every delay.
 
     Returns
     -------
     LinearModel
     """
+    from cas_freq.analysis import stability
+
     p = parts.one_variant(params)
-    plant = plant_system(p)
-    delay_c = pade_system(float(p.tau_c[0]), pade_order)
-    delay_p = pade_system(float(p.tau_p[0]), pade_order)
-    c_i = _ss(parts.current_controller(p), (1.0, 0.0))
-    filter_ = parts.position_filter(p)
-    c_p = _ss(parts.position_controller(p),
-              (float(np.squeeze(filter_[0])), float(filter_[1]), 0.0))
-
-    # Current loop, broken at the voltage: without the modes i does not see (the shaft's
-    # position, unless a hinge stiffness acts on it), which would add spurious poles at 0.
-    y = control.ss(*parts.current_plant_matrices(p), [[0.0]])
-    l_i = control.series(c_i, delay_c, y)
-    t_i = control.feedback(l_i, 1)
-
-    # Current loop closed around the full plant: i_cmd -> theta.
-    current_pi = control.ss(c_i, inputs="e_i", outputs="v_c", name="current_pi")
-    delay = control.ss(delay_c, inputs="v_c", outputs="V", name="current_delay")
-    error = control.summing_junction(inputs=["i_cmd", "-i"], output="e_i", name="current_error")
-    to_theta = control.interconnect(
-        [current_pi, delay, plant, error], inputs="i_cmd", outputs=["theta", "output"],
-        check_unused=False,
-    )
-    # (theta, fin) per controller output, then the three position-loop systems.
-    seen_both = control.series(
-        delay_p, control.ss(to_theta.A, to_theta.B, to_theta.C, to_theta.D)
-    )
-    seen = control.ss(seen_both.A, seen_both.B, seen_both.C[:1], seen_both.D[:1])
-    l_p = control.series(c_p, seen)
-    sensitivity = control.feedback(control.ss([], [], [], [[1.0]]), l_p)
-    # T: the loop closed on theta, read at the fin (N delta) where the gear is compliant
-    closed = _position_closed_loop(p, c_p, seen if plant.nstates == 3 else seen_both, l_p)
-    loops = {"current_loop": l_i, "current_closed_loop": t_i, "position_loop": l_p,
-             "sensitivity": sensitivity, "closed_loop": closed}
+    structure = build(p)
+    loops = {}
+    for k, loop in enumerate(structure.loops):
+        if k == 0:
+            inner = (*parts.current_plant_matrices(p), np.zeros((1, 1)))
+            row = 0
+        else:
+            inner = stability.loop_system(p, pade_order, loops=k)
+            row = stability.SIGNAL_ROWS[loop.feedback]
+        a, b, c, d = stability.loop_forward(loop, pade_order)
+        a, b, c, d = stability.series((a, b[:, :1], c, d[:, :1]), inner)
+        measured = (a, b, c[row:row + 1], d[row:row + 1])
+        sensor = stability.loop_sensor(loop)
+        if sensor is not None:
+            measured = stability.series(measured, sensor)
+        loops[loop.name] = control.ss(*measured)
+    top = loops[structure.loops[-1].name]
+    loops["current_closed_loop"] = control.feedback(loops["current_loop"], 1)
+    loops["sensitivity"] = control.feedback(control.ss([], [], [], [[1.0]]), top)
+    a, b, c, d = stability.loop_system(p, pade_order)
+    output = stability.SIGNAL_ROWS[structure.output]
+    loops["closed_loop"] = control.ss(a, b, c[output:output + 1], d[output:output + 1])
     named = {key: control.ss(system, name=name, inputs=signal_in, outputs=signal_out)
              for key, system in loops.items()
              for name, signal_in, signal_out in [LOOP_NAMES[key]]}
-    return LinearModel(pade_order, plant, **named)
-
-
-def _position_closed_loop(p, c_p, seen, l_p):
-    """T = N delta/theta_cmd (theta/theta_cmd for a rigid gear), a minimal realisation for
-    either derivative placement; ``seen`` gives (theta, N delta) per controller output."""
-    if seen.noutputs == 1 and not p.derivative_on_measurement[0]:
-        return control.feedback(l_p, 1)  # the fin follows theta: T = L_p/(1 + L_p)
-    plant = control.ss(seen, inputs="u", outputs=["theta", "output"][:seen.noutputs],
-                       name="seen")
-    if not p.derivative_on_measurement[0]:
-        blocks = [control.ss(c_p, inputs="e", outputs="u", name="c_p"), plant]
-    else:
-        # u = (Kp + Ki/s)(r - theta) - Kd s/(Tf s + 1) theta: one PI state, one filter state.
-        pi = control.ss(_ss(parts.reference_path(p), (1.0, 0.0)), inputs="e", outputs="u_pi",
-                        name="pi")
-        tf, kd = float(p.Tf[0]), float(p.cp_Kd[0])
-        derivative = control.ss(
-            control.tf([kd, 0.0], [tf, 1.0]) if kd > 0 else control.tf([0.0], [1.0]),
-            inputs="theta", outputs="u_d", name="derivative",
-        )
-        blocks = [pi, derivative, plant,
-                  control.summing_junction(inputs=["u_pi", "-u_d"], output="u", name="u_sum")]
-    error = control.summing_junction(inputs=["r", "-theta"], output="e", name="e_sum")
-    return control.interconnect([*blocks, error], inputs="r",
-                                outputs="output" if seen.noutputs == 2 else "theta")
+    return LinearModel(pade_order, plant_system(p), **named)
 
 
 def closed_loop_zeros(params, pade_order):
