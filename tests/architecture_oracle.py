@@ -123,6 +123,10 @@ class Drive:
         if self.structure == "pid" and (self.tau_vf or any(
                 f.at == "velocity_feedback" for f in filters)):
             raise ValueError("velocity feedback filter without a velocity loop")
+        if self.structure == "pid" and (self.cv_Kp or self.cv_Ki or self.tau_v):
+            raise ValueError("cv_Kp, cv_Ki, tau_v: velocity-loop values without a velocity loop")
+        if self.structure == "cascade" and (self.cp_Kd or self.Tf is not None):
+            raise ValueError("cp_Kd, Tf: the cascade's position controller is P or PI")
         object.__setattr__(self, "filters", filters)
 
     @classmethod
@@ -565,6 +569,7 @@ class LoopFigures:
     phase_crossover_rad_s: float | None
     gain_margin_low_db: float | None    # lower margin closest to 0 dB
     phase_crossover_low_rad_s: float | None
+    delay_margin_s: float | None        # the smallest over the gain crossovers
 
 
 def _refine(fun, w, values):
@@ -606,7 +611,8 @@ def loop_figures(fun, w):
         float(gms[up]) if up is not None else None,
         float(crossings[up]) if up is not None else None,
         float(gms[low]) if low is not None else None,
-        float(crossings[low]) if low is not None else None)
+        float(crossings[low]) if low is not None else None,
+        float(np.min(delays)) if gains else None)
 
 
 @dataclass(frozen=True)
@@ -615,8 +621,8 @@ class ClosedLoopFigures:
 
     dc_gain: float
     bandwidth_rad_s: float | None
-    peak_db: float
-    peak_rad_s: float | None
+    peak_db: float                      # max |T|/|T(0)| on the range (0 dB: none above)
+    peak_rad_s: float | None            # None: the largest value is at the range's edge
 
 
 def closed_loop_figures(d, w, delay="exact"):
@@ -639,8 +645,7 @@ def closed_loop_figures(d, w, delay="exact"):
         peak_w, peak = math.exp(best.x), -best.fun
     else:
         peak_w, peak = None, rel[k]
-    return ClosedLoopFigures(t0, bandwidth, 20.0 * math.log10(max(peak, 1.0)) if peak_w
-                             else 0.0, peak_w)
+    return ClosedLoopFigures(t0, bandwidth, 20.0 * math.log10(peak), peak_w)
 
 
 def figures(d, w_min=1e-2, w_max=1e6, per_decade=2000, delay="exact"):

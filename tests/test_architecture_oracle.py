@@ -77,11 +77,14 @@ def test_pid_on_pi_figures_equal_cas_freq(variant):
     assert 20 * math.log10(cl.dc_gain) == pytest.approx(ref["closed_loop"]["dc_gain_db"],
                                                          abs=1e-9)
     assert cl.peak_db == pytest.approx(ref["closed_loop"]["peak_db"], rel=1e-6)
+    # a maximum's location is only determined to ~sqrt(rounding): 1e-6 relative
+    assert cl.peak_rad_s == pytest.approx(ref["closed_loop"]["peak_rad_s"], rel=1e-6)
     for loop, key in (("current", "current_loop"), ("position", "position_loop")):
         mine, theirs = ours["loops"][loop]["L"], ref[key]
         assert mine.crossover_rad_s == pytest.approx(theirs["crossover_rad_s"], rel=1e-6)
         assert mine.phase_margin_deg == pytest.approx(theirs["phase_margin_deg"], rel=1e-6)
         assert mine.gain_margin_db == pytest.approx(theirs["gain_margin_db"], rel=1e-6)
+        assert mine.delay_margin_s == pytest.approx(theirs["delay_margin_s"], rel=1e-6)
         assert mine.phase_crossover_rad_s == pytest.approx(theirs["phase_crossover_rad_s"],
                                                            rel=1e-6)
         if theirs["gain_margin_low_db"] is None:
@@ -292,3 +295,5 @@ def test_bad_input_is_refused():
         example_cascade(filters=(Filter("voltage", "lowpass1", 100.0),))
     with pytest.raises(ValueError, match="velocity"):
         replace(qt_cas_drive("base"), tau_vf=1e-3)
+    with pytest.raises(ValueError, match="cv_Kp"):
+        replace(qt_cas_drive("base"), cv_Kp=0.1)
