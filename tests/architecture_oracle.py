@@ -532,10 +532,13 @@ def _wrap_pm(phase_deg):
 
 
 def _feature_points(d):
-    """Extra grid points around the lightly damped plant modes (poles of the plant, roots of
-    the output shaft held by the spring) and the filters' w0, so that narrow resonances and
+    """Extra grid points around the lightly damped plant modes (poles of the plant with the
+    voltage and with the current as input, roots of the output shaft held by the spring) and
+    the filters' w0, so that narrow resonances and
     notches cannot hide between grid points."""
-    roots = list(np.linalg.eigvals(np.asarray(plant_ss(d).A)))
+    a = np.asarray(plant_ss(d).A)
+    roots = list(np.linalg.eigvals(a))                 # driven by the voltage
+    roots += list(np.linalg.eigvals(a[1:, 1:]))        # driven by the current: zeros of i/V
     if d.K_g:
         roots += list(np.roots([d.J_L, d.b_L + d.c_g, d.K_h + d.K_g]))
     centres = [(abs(p), -p.real / abs(p)) for p in roots if abs(p) > 0 and p.imag > 0]
@@ -596,7 +599,9 @@ def loop_figures(fun, w):
         gains if gains else np.zeros(0))
     candidates = _refine(scalar(lambda v: v.imag), w, lw.imag)
     values = fun(np.array(candidates)) if candidates else np.zeros(0, complex)
-    keep = values.real < 0
+    # L real and negative; Im L also changes sign where L passes through 0 (an undamped zero on
+    # the j w axis), which is no phase crossover: the angle there is not 180 deg
+    keep = (values.real < 0) & (np.abs(values.imag) <= 1e-6 * np.abs(values))
     crossings = np.array(candidates)[keep] if candidates else np.zeros(0)
     gms = -20.0 * np.log10(np.abs(values[keep]))
     best = int(np.argmin(np.abs(pms))) if gains else None
