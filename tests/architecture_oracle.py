@@ -1,9 +1,8 @@
 """An independent reference for the loop figures of every drive architecture (issue 25).
 
-Written from the model definition (../shared/MODEL.md: "Current loop", "Position loop", "Load and
-drivetrain", "Delays", "Definitions of the figures", "Drive architectures") and from Newton's
-equations, WITHOUT importing cas_freq: only numpy, scipy and python-control. Tests compare
-cas_freq against it; tests/test_architecture_oracle.py checks the oracle itself.
+Written from the model definition (docs/model.md §3-§7 and §13, "Drive architectures") and
+from Newton's equations, WITHOUT importing cas_freq: only numpy, scipy and python-control.
+Tests compare cas_freq against it; tests/test_architecture_oracle.py checks the oracle itself.
 
 Three computations, each a different method:
 
@@ -44,7 +43,7 @@ FILTER_TYPES = ("lowpass1", "lowpass2", "notch")
 class Filter:
     """One filter in series at ``at``: lowpass1 1/(s/w0 + 1); lowpass2 w0^2/(s^2 + 2 z w0 s +
     w0^2); notch (s^2 + 2 d z w0 s + w0^2)/(s^2 + 2 z w0 s + w0^2), z = width/(2 w0),
-    d = 10^(depth_db/20) (MODEL.md, "Drive architectures")."""
+    d = 10^(depth_db/20) (docs/model.md §13)."""
 
     at: str
     type: str
@@ -118,8 +117,12 @@ class Drive:
             if f.at not in FILTER_POINTS:
                 raise ValueError(f"filter at: {f.at!r} is not one of {FILTER_POINTS}")
             f.polynomials()
+            if not f.frequency > 0:
+                raise ValueError(f"filter frequency: must be > 0 rad/s, got {f.frequency}")
             if f.type == "notch" and not f.depth_db < 0:
                 raise ValueError(f"notch depth_db: must be < 0, got {f.depth_db}")
+            if f.type == "notch" and not f.width > 0:
+                raise ValueError(f"notch width: must be > 0 rad/s, got {f.width}")
         if self.structure == "pid" and (self.tau_vf or any(
                 f.at == "velocity_feedback" for f in filters)):
             raise ValueError("velocity feedback filter without a velocity loop")
@@ -429,7 +432,7 @@ def responses_by_formula(d, omega):
 
 def _pade_ss(tau, order, name_in, name_out):
     """exp(-s tau) as Padé [n/n], realised for tau = 1 and time-scaled (A/tau, B/tau), which
-    keeps a sub-millisecond delay's model well conditioned (MODEL.md, "Delays")."""
+    keeps a sub-millisecond delay's model well conditioned (docs/model.md §6)."""
     if tau == 0.0:
         return control.ss([], [], [], [[1.0]], inputs=name_in, outputs=name_out)
     num, den = control.pade(1.0, order)
@@ -559,7 +562,7 @@ def grid(d, w_min=1e-2, w_max=1e6, per_decade=2000):
 
 @dataclass(frozen=True)
 class LoopFigures:
-    """Margins of one loop: every crossover and the headlines (MODEL.md, "Definitions")."""
+    """Margins of one loop: every crossover and the headlines (docs/model.md §7)."""
 
     gain_crossovers_rad_s: tuple
     phase_margins_deg: tuple
@@ -622,7 +625,7 @@ def loop_figures(fun, w):
 
 @dataclass(frozen=True)
 class ClosedLoopFigures:
-    """Bandwidth and resonance peak of T (MODEL.md, "Definitions of the figures")."""
+    """Bandwidth and resonance peak of T (docs/model.md §7)."""
 
     dc_gain: float
     bandwidth_rad_s: float | None
@@ -653,15 +656,16 @@ def closed_loop_figures(d, w, delay="exact"):
     return ClosedLoopFigures(t0, bandwidth, 20.0 * math.log10(peak), peak_w)
 
 
-def figures(d, w_min=1e-2, w_max=1e6, per_decade=2000, delay="exact"):
-    """Every loop's figures in both views, the closed loop's, and the Padé-6 verdict."""
+def figures(d, w_min=1e-2, w_max=1e6, per_decade=2000, delay="exact", views=("L", "L_aat")):
+    """Every loop's figures in ``views`` ('L' cascade, 'L_aat' loop at a time) on the range
+    [w_min, w_max] [rad/s], the closed loop's figures, and the Padé-6 verdict."""
     w = grid(d, w_min, w_max, per_decade)
-    res = responses(d, w, delay)
     out = {"loops": {}, "stable": is_stable(d)}
     for loop in d.loops:
-        out["loops"][loop] = {view: loop_figures(
-            _cached(loop_function(d, loop, view, delay), w, res[view][loop]), w)
-            for view in ("L", "L_aat")}
+        out["loops"][loop] = {}
+        for view in views:
+            fun = loop_function(d, loop, view, delay)
+            out["loops"][loop][view] = loop_figures(_cached(fun, w, fun(w)), w)
     out["closed_loop"] = closed_loop_figures(d, w, delay)
     return out
 
@@ -710,7 +714,7 @@ def qt_cas_drive(variant="base", path=None):
     km = get("motor.Km")
     if "motor.mu_v" in flat:
         mu_v = get("motor.mu_v")
-    else:               # mu_v = Km I0 / n0 (MODEL.md, n0 in rpm)
+    else:               # mu_v = Km I0 / n0 (docs/model.md §1: n0 in rpm)
         no_load = raw["motor"]["no_load"]
         mu_v = km * _si(no_load["current"]) / _si(no_load["speed"])
     return Drive(

@@ -61,9 +61,9 @@ def _drives():
 
 # ------------------------------------------------------- (a) against cas_freq on the PID-on-PI
 
-@pytest.mark.parametrize("variant, undamped", [("base", False), ("loaded", False),
-                                               ("loaded", True)])
-def test_pid_on_pi_figures_equal_cas_freq(variant, undamped):
+@pytest.mark.parametrize("variant, case", [("base", None), ("loaded", None),
+                                           ("loaded", "undamped"), ("fitted", "d_on_meas")])
+def test_pid_on_pi_figures_equal_cas_freq(variant, case):
     """The oracle's figures of configs/qt_cas.yaml (read with yaml.safe_load and the oracle's
     own unit table) equal `cas_freq.analyze` (cascade view, the only one cas_freq has today).
     Both refine crossings by root finding on exact-delay responses, so they agree to ~1e-11;
@@ -71,12 +71,17 @@ def test_pid_on_pi_figures_equal_cas_freq(variant, undamped):
     modelling difference (a wrong sign, efficiency or damping moves them by > 1e-4). The
     undamped gear (gear.damping = 0: the two-mass mode's damping ratio ~3e-5, an undamped zero
     of L_p at sqrt((K_g + K_h)/J_L) = 8061 rad/s) checks that no narrow feature is missed:
-    L_i crosses 1 five times, two of them within 2 % near the gear's resonance."""
+    L_i crosses 1 five times, two of them within 2 % near the gear's resonance. The derivative
+    on the measurement changes T only (its bandwidth and peak), not the loops."""
     cf = pytest.importorskip("cas_freq")
-    changes = {"gear.damping": 0.0} if undamped else None
+    changes, ours = {
+        None: (None, {}),
+        "undamped": ({"gear.damping": 0.0}, {"c_g": 0.0}),
+        "d_on_meas": ({"position_loop.derivative_on": "measurement"},
+                      {"derivative_on": "measurement"}),
+    }[case]
     ref = cf.load("configs/qt_cas.yaml", variant=variant, set=changes).analyze().to_dict()
-    drive = qt_cas_drive(variant)
-    ours = figures(replace(drive, c_g=0.0) if undamped else drive)
+    ours = figures(replace(qt_cas_drive(variant), **ours), views=("L",))
     assert ours["stable"] and ref["stable"] and ref["stability"] == "stable"
     cl = ours["closed_loop"]
     assert cl.bandwidth_rad_s == pytest.approx(ref["closed_loop"]["bandwidth_rad_s"], rel=1e-6)
