@@ -631,13 +631,25 @@ class ClosedLoopFigures:
     bandwidth_rad_s: float | None
     peak_db: float                      # max |T|/|T(0)| on the range (0 dB: none above)
     peak_rad_s: float | None            # None: the largest value is at the range's edge
+    phase_90_rad_s: float | None        # lowest w where the phase of T reaches -90 deg
 
 
 def closed_loop_figures(d, w, delay="exact"):
     """T(0) from the signal equations at s = 0, the first -3.0103 dB point and the peak."""
     t0 = abs(closed_loop(d, np.array([0j]), delay)["T"][0])
-    mag = lambda x: abs(closed_loop(d, np.array([x]), delay)["T"][0]) / t0  # noqa: E731
-    rel = np.abs(closed_loop(d, w, delay)["T"]) / t0
+    at = lambda x: closed_loop(d, np.array([x]), delay)["T"][0]  # noqa: E731
+    mag = lambda x: abs(at(x)) / t0  # noqa: E731
+    tw = closed_loop(d, w, delay)["T"]
+    rel = np.abs(tw) / t0
+    # -90 deg: the phase unwrapped along the grid from DC, refined inside its grid interval
+    phase = np.degrees(np.unwrap(np.angle(tw)))
+    after = np.flatnonzero(phase <= -90.0)
+    phase_90 = None
+    if after.size and after[0] > 0:
+        k = after[0]
+        local = lambda x: phase[k - 1] + np.degrees(np.angle(at(x) / tw[k - 1])) + 90.0  # noqa
+        phase_90 = math.exp(brentq(lambda u: local(math.exp(u)), math.log(w[k - 1]),
+                                   math.log(w[k]), xtol=1e-15, rtol=8.9e-16))
     below = np.flatnonzero(rel < 1.0 / math.sqrt(2.0))
     bandwidth = None
     if below.size and below[0] > 0:
@@ -653,7 +665,7 @@ def closed_loop_figures(d, w, delay="exact"):
         peak_w, peak = math.exp(best.x), -best.fun
     else:
         peak_w, peak = None, rel[k]
-    return ClosedLoopFigures(t0, bandwidth, 20.0 * math.log10(peak), peak_w)
+    return ClosedLoopFigures(t0, bandwidth, 20.0 * math.log10(peak), peak_w, phase_90)
 
 
 def figures(d, w_min=1e-2, w_max=1e6, per_decade=2000, delay="exact", views=("L", "L_aat")):
@@ -667,6 +679,25 @@ def figures(d, w_min=1e-2, w_max=1e6, per_decade=2000, delay="exact", views=("L"
             fun = loop_function(d, loop, view, delay)
             out["loops"][loop][view] = loop_figures(_cached(fun, w, fun(w)), w)
     out["closed_loop"] = closed_loop_figures(d, w, delay)
+    return out
+
+
+def as_analyze_keys(result):
+    """The figures of ``figures(...)`` under the JSON keys of ``cas-freq analyze``:
+    ``<loop>_loop.<key>`` for the cascade view, ``<loop>_loop.loop_at_a_time.<key>`` for the
+    loop-at-a-time view (docs/model.md §13), ``closed_loop.<key>``. A flat dict."""
+    keys = ("crossover_rad_s", "phase_margin_deg", "delay_margin_s", "gain_margin_db",
+            "phase_crossover_rad_s", "gain_margin_low_db", "phase_crossover_low_rad_s")
+    out = {}
+    for loop, views in result["loops"].items():
+        for view, figs in views.items():
+            prefix = f"{loop}_loop." + ("loop_at_a_time." if view == "L_aat" else "")
+            out.update({prefix + key: getattr(figs, key) for key in keys})
+    cl = result["closed_loop"]
+    out.update({"closed_loop.dc_gain_db": 20.0 * math.log10(cl.dc_gain),
+                "closed_loop.bandwidth_rad_s": cl.bandwidth_rad_s,
+                "closed_loop.peak_db": cl.peak_db, "closed_loop.peak_rad_s": cl.peak_rad_s,
+                "closed_loop.phase_90_rad_s": cl.phase_90_rad_s})
     return out
 
 
@@ -756,7 +787,8 @@ def loaded_qt_cas_loop_at_a_time():
     return out
 
 
-__all__ = ["Drive", "Filter", "responses", "responses_by_formula", "formula_parts", "plant_tf",
+__all__ = ["Drive", "Filter", "loop_response", "loop_function", "closed_loop", "responses",
+           "responses_by_formula", "formula_parts", "plant_tf",
            "plant_ss", "pade_closed_loop", "closed_loop_poles", "is_stable", "grid",
            "loop_figures", "closed_loop_figures", "figures", "qt_cas_drive",
-           "loaded_qt_cas_loop_at_a_time", "example_cascade", "replace"]
+           "loaded_qt_cas_loop_at_a_time", "example_cascade", "as_analyze_keys", "replace"]
