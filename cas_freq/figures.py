@@ -55,11 +55,16 @@ class Loop:
         return f"{self.name}, broken at {self.broken_at}"
 
 
-#: The loops with margins, by the group name of their figures in the JSON (docs/model.md §3-4).
+#: The loops with margins, by the group name of their figures in the JSON (docs/model.md §3-4
+#: and §13): each broken at its controller's output with the loops inside it closed and those
+#: outside open, and (``<loop>.loop_at_a_time``) with every other loop closed.
 LOOPS = {
     "current_loop": Loop("current loop", "L_i", "the voltage"),
     "position_loop": Loop("position loop", "L_p", "the current command"),
 }
+LOOPS.update({f"{key}.loop_at_a_time": Loop(loop.name, loop.symbol,
+                                            f"{loop.broken_at}, every other loop closed")
+              for key, loop in list(LOOPS.items())})
 
 #: How each unit (pint spelling, as :attr:`Figure.unit`) is shown.
 UNIT_LABELS = {"rad/s": "rad/s", "deg": "deg", "dB": "dB", "percent": "%", "s": "s", "A": "A",

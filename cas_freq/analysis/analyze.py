@@ -41,24 +41,36 @@ from cas_freq.analysis.probes import Probes
 from cas_freq.analysis.stability import (
     Stability,
     closed_loop_poles,
-    stability_verdicts,
+    loop_verdicts,
 )
 from cas_freq.fileio import json_ready
 from cas_freq.jit import compiled_for
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, EXACT, DelayModel
 from cas_freq.model.loops import Selector, current_loop, responses
+from cas_freq.model.structure import build
 from cas_freq.summary import Summary
 
 #: Variants per chunk: the grid responses take about 26 kB per variant and response.
 DEFAULT_CHUNK = 256
 
-#: Every figure name of a batch analysis, in output order (``stable`` is 1.0 or 0.0).
-FIGURES = (
-    "stable",
-    *(f"current_loop.{name}" for name in LOOP_FIGURES),
-    *(f"position_loop.{name}" for name in LOOP_FIGURES),
-    *(f"closed_loop.{name}" for name in CLOSED_LOOP_FIGURES),
-)
+#: The view of each loop with every other loop closed (MIL-F-9490D's break-point margins).
+AT_A_TIME = "loop_at_a_time"
+
+
+def figure_names(loops=("current_loop", "position_loop")):
+    """Every figure name of a batch analysis of drives with these loops (innermost first), in
+    output order (``stable`` is 1.0 or 0.0): each loop's figures, then the same with every
+    other loop closed (``<loop>.loop_at_a_time.<figure>``), then the closed loop's."""
+    return (
+        "stable",
+        *(f"{loop}.{name}" for loop in loops for name in LOOP_FIGURES),
+        *(f"{loop}.{AT_A_TIME}.{name}" for loop in loops for name in LOOP_FIGURES),
+        *(f"closed_loop.{name}" for name in CLOSED_LOOP_FIGURES),
+    )
+
+
+#: Every figure name of a batch analysis of the report's drive (PID-on-PI).
+FIGURES = figure_names()
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -68,8 +80,9 @@ class BatchAnalysis:
     Attributes
     ----------
     figures : dict of str to numpy.ndarray
-        :data:`FIGURES` -> float array (n,), NaN where a figure does not exist (or is not
-        reported because the loop is not stable, as in :func:`analyze`).
+        :func:`figure_names` of the drive's loops -> float array (n,), NaN where a figure
+        does not exist (or is not reported because the loop is not stable, as in
+        :func:`analyze`).
     stability : numpy.ndarray of str
         ``"stable"``, ``"marginal"`` or ``"unstable"`` per variant (Padé model of
         ``pade_order``).
@@ -88,82 +101,102 @@ class BatchAnalysis:
         return self.stability.shape[0]
 
 
-def _figures_on(p, omega, verdict, current_verdict, columns=None, delay=EXACT,
-                crossings=False):
+def _figures_on(p, omega, verdicts, columns=None, delay=EXACT, crossings=False):
     """Figures of the runs ``p`` on grid ``omega`` (only its first ``columns`` points if
-    given), with the raw values :func:`_needs_full_grid` checks."""
+    given), with the raw values :func:`_needs_full_grid` checks.
+
+    ``verdicts``: each loop's verdict closed with the loops inside it
+    (:func:`~cas_freq.analysis.stability.loop_verdicts`). Each loop's figures are taken where
+    that verdict is stable; those with every other loop closed where the whole loop is stable.
+    Where a loop passes close to −1 between samples, the loops around it have a narrow
+    resonance there: they are probed at those frequencies.
+    """
     selector = Selector(p)
+    names = tuple(verdicts)
+    top = names[-1]
     grid = _grid_responses(selector(column=True), omega, p.n_runs, delay)
-    stable = verdict == "stable"
-    current_stable = current_verdict == "stable"
+    whole = verdicts[top] == "stable"
     n = p.n_runs
     low = omega[:columns]
     m = low.size
 
-    def evaluator(kind):
+    def evaluator(kind, view=None):
         def evaluate(runs, w):
-            if kind == "current_loop":
+            if kind == names[0] and view is None:
                 return current_loop(selector(runs), 1j * w, delay)
             values = responses(selector(runs), 1j * w, closed=kind == "closed_loop",
-                               delay=delay)
-            return getattr(values, kind)
+                               delay=delay, loop_at_a_time=view is not None)
+            if kind == "closed_loop":
+                return values.closed_loop
+            return (values.loops if view is None else values.loop_at_a_time)[kind]
         return evaluate
 
-    figures = {"stable": stable.astype(float)}
-    current = grid.current_loop
-    if current.ndim == 1:  # every run has the same current loop: its figures once
-        values = loop_figures(evaluator("current_loop"), low, current[None, :m],
-                              current_stable[:1], crossings=crossings, inner=True)
-        probes = values.pop("_inner_probes")
-        if probes.runs.size:  # the same probes for every run
-            count = probes.runs.size
-            probes = Probes(np.repeat(np.arange(n), count), np.tile(probes.log_w, n))
-        values = {key: value if key.startswith("_") and isinstance(value, tuple) else
-                  np.broadcast_to(value, (n,)) for key, value in values.items()}
-    else:
-        values = loop_figures(evaluator("current_loop"), low, current[:, :m], current_stable,
-                              crossings=crossings, inner=True)
-        probes = values.pop("_inner_probes")
-    figures.update({f"current_loop.{key}": value for key, value in values.items()})
-    # where L_i passes close to -1 between samples, T_i (in L_p) has a narrow resonance:
-    # the position loop is probed there
-    position = np.broadcast_to(grid.position_loop, (n, omega.size))
-    values = loop_figures(evaluator("position_loop"), low, position[:, :m], stable,
-                          probes=probes, crossings=crossings)
-    figures.update({f"position_loop.{key}": value for key, value in values.items()})
+    figures = {"stable": whole.astype(float)}
+    tops = {}
+    probes = None
+    for k, name in enumerate(names):
+        response = grid.loops[name]
+        inner = k < len(names) - 1
+        values, found = _loop_figures_of(evaluator(name), low, response[..., :m], n,
+                                         verdicts[name] == "stable", probes, crossings, inner)
+        figures.update({f"{name}.{key}": value for key, value in values.items()})
+        tops[name] = np.broadcast_to(np.abs(response[..., m - 1:]), (n, omega.size - m + 1))
+        if inner:
+            aat = np.broadcast_to(grid.loop_at_a_time[name], (n, omega.size))
+            values, _ = _loop_figures_of(evaluator(name, AT_A_TIME), low, aat[:, :m], n, whole,
+                                         probes, crossings, False)
+            tops[f"{name}.{AT_A_TIME}"] = np.abs(aat[:, m - 1:])
+        # (the outermost loop's two views are one)
+        figures.update({f"{name}.{AT_A_TIME}.{key}": value for key, value in values.items()})
+        probes = found if probes is None else probes + found
     closed_grid = np.broadcast_to(grid.closed_loop, (n, omega.size))
-    values = closed_loop_figures(evaluator("closed_loop"), low, closed_grid[:, :m], stable)
+    values = closed_loop_figures(evaluator("closed_loop"), low, closed_grid[:, :m], whole)
     figures.update({f"closed_loop.{key}": value for key, value in values.items()})
-    tops = {
-        "current_loop": np.broadcast_to(np.abs(current[..., m - 1 :]), (n, omega.size - m + 1)),
-        "position_loop": np.abs(position[:, m - 1 :]),
-        "closed_loop": np.abs(closed_grid[:, m - 1 :]),
-    }
+    tops["closed_loop"] = np.abs(closed_grid[:, m - 1:])
     return figures, tops
 
 
+def _loop_figures_of(evaluate, low, response, n, stable, probes, crossings, inner):
+    """:func:`~cas_freq.analysis.margins.loop_figures` of one loop of every run, and the probes
+    it found (where ``inner``); a response every run shares (shape (m,)) is analysed once."""
+    if response.ndim == 1:
+        values = loop_figures(evaluate, np.asarray(low), response[None, :], stable[:1],
+                              crossings=crossings, inner=inner)
+        found = values.pop("_inner_probes", Probes.none())
+        if found.runs.size:  # the same probes for every run
+            count = found.runs.size
+            found = Probes(np.repeat(np.arange(n), count), np.tile(found.log_w, n))
+        values = {key: value if key.startswith("_") and isinstance(value, tuple) else
+                  np.broadcast_to(value, (n,)) for key, value in values.items()}
+        return values, found
+    values = loop_figures(evaluate, low, response, stable, probes=probes, crossings=crossings,
+                          inner=inner)
+    return values, values.pop("_inner_probes", Probes.none())
+
+
 def _grid_responses(p, omega, n, delay):
-    """L_i, L_p and T on the grid: compiled (:mod:`cas_freq.analysis.response_kernel`) where
-    :func:`cas_freq.jit.compiled_for` says so, else numpy (:func:`cas_freq.model.loops.responses`,
-    the reference)."""
+    """Every loop (both views) and T on the grid: compiled
+    (:mod:`cas_freq.analysis.response_kernel`) where :func:`cas_freq.jit.compiled_for` says
+    so, else numpy (:func:`cas_freq.model.loops.responses`, the reference)."""
     if compiled_for(n * omega.size):
         from cas_freq.analysis.response_kernel import grid_responses
 
-        return grid_responses(p, omega, n, delay)
-    return responses(p, 1j * omega, delay=delay)
+        return grid_responses(p, omega, n, delay, loop_at_a_time=True)
+    return responses(p, 1j * omega, delay=delay, loop_at_a_time=True)
 
 
 def _needs_full_grid(figures, tops, stable):
     """Runs whose figures might lie above the split (so the low grid alone cannot be trusted).
 
-    ``tops``: |L_i|, |L_p| and |T| on the log-grid points from the split's last point up. On
+    ``tops``: |L| of every loop (both views) and |T| on the log-grid points from the split's
+    last point up. On
     a 200-per-decade log grid the magnitude varies by far less than 2x between points (the
     delay ripple of |T_i| has ~9 points per period at 1e6 rad/s), so twice the sampled
     maximum bounds the magnitude anywhere above: a crossing or peak up there is ruled out when
     that bound cannot produce it.
     """
     need = np.zeros(stable.shape, dtype=bool)
-    for loop in ("current_loop", "position_loop"):
+    for loop in (name for name in tops if name != "closed_loop"):
         bound = 2.0 * np.max(tops[loop], axis=1)
         gm = figures[f"{loop}.gain_margin_db"]
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -203,30 +236,34 @@ def _chunk_figures(p, frequency_range, points_per_decade, pade_order, delay=EXAC
     below that frequency are exactly the single path's; only runs for which something could
     lie above (:func:`_needs_full_grid`) are analysed again on the full grid. The figures are
     the same either way; the split saves the ~40 % of points that only matter in rare cases.
-    With ``crossings`` (every crossing listed) the full grid is used.
+    With ``crossings`` (every crossing listed) the full grid is used. Returns the figures and
+    every loop's verdicts.
     """
-    total_delay = float(np.max(p.tau_c + p.tau_p))
-    full = frequency_grid(*frequency_range, points_per_decade, total_delay)
+    full = frequency_grid(*frequency_range, points_per_decade, total_delay(p))
     if verdicts is None:
-        verdicts = stability_verdicts(p, pade_order)
-    verdict, current_verdict = verdicts
+        verdicts = loop_verdicts(p, pade_order)
     coarse = frequency_grid(*frequency_range, points_per_decade, 0.0)
     split = _split_index(full, coarse)
     if crossings or split >= coarse.size - 1 or split < 3:
-        figures, _ = _figures_on(p, full, verdict, current_verdict, delay=delay,
-                                 crossings=crossings)
-        return figures, verdict, current_verdict
-    figures, tops = _figures_on(p, coarse, verdict, current_verdict, columns=split,
-                                delay=delay)
-    need = _needs_full_grid(figures, tops, verdict == "stable")
+        figures, _ = _figures_on(p, full, verdicts, delay=delay, crossings=crossings)
+        return figures, verdicts
+    figures, tops = _figures_on(p, coarse, verdicts, columns=split, delay=delay)
+    need = _needs_full_grid(figures, tops, verdicts[list(verdicts)[-1]] == "stable")
     if need.any():
         rows = np.flatnonzero(need)
-        again, _ = _figures_on(p.take(rows), full, verdict[rows], current_verdict[rows],
+        again, _ = _figures_on(p.take(rows), full,
+                               {name: verdict[rows] for name, verdict in verdicts.items()},
                                delay=delay)
         for name, value in again.items():
             figures[name] = np.array(figures[name], copy=True)
             figures[name][rows] = value
-    return figures, verdict, current_verdict
+    return figures, verdicts
+
+
+def total_delay(p):
+    """The largest sum of the loops' delays over the runs [s] (sets how finely the grid must
+    sample the phase)."""
+    return float(np.max(sum(np.asarray(loop.delay, dtype=float) for loop in build(p).loops)))
 
 
 def batch_analyze(
@@ -266,9 +303,9 @@ def batch_analyze(
     BatchAnalysis
     """
     n = params.n_runs
-    figures = {name: np.empty(n) for name in FIGURES}
-    verdict = np.empty(n, dtype=object)
-    current = np.empty(n, dtype=object)
+    names = figure_names(build(params).names)
+    figures = {name: np.empty(n) for name in names}
+    verdicts = {}
     starts = range(0, n, chunk_size)
 
     def work(start):
@@ -277,14 +314,16 @@ def batch_analyze(
 
     # numpy releases the GIL inside its array loops, so chunks overlap on several cores
     with concurrent.futures.ThreadPoolExecutor(max_workers=_workers(workers, len(starts))) as pool:
-        for start, (values, v, c) in zip(starts, pool.map(work, starts), strict=True):
+        for start, (values, chunk_verdicts) in zip(starts, pool.map(work, starts), strict=True):
             stop = min(start + chunk_size, n)
-            for name in FIGURES:
+            for name in names:
                 figures[name][start:stop] = values[name]
-            verdict[start:stop], current[start:stop] = v, c
+            for name, verdict in chunk_verdicts.items():
+                verdicts.setdefault(name, np.empty(n, dtype=object))[start:stop] = verdict
             if progress:
                 progress(stop, n)
-    return BatchAnalysis(figures, verdict, current, pade_order)
+    every = list(verdicts.values())
+    return BatchAnalysis(figures, every[-1], every[0], pade_order)
 
 
 def _workers(requested, chunks):
@@ -343,6 +382,8 @@ class Analysis(Summary):
     range_edges: tuple = ()
     #: The load and drivetrain figures (:mod:`cas_freq.analysis.drivetrain`); None unloaded.
     drivetrain: object = None
+    #: The velocity loop's margins, for a drive with one (None otherwise).
+    velocity_loop: LoopMargins | None = None
     #: The analysed variant (:class:`cas_freq.config.LoadedVariant`), which :meth:`plot`
     #: evaluates the loops of; not part of the JSON.
     loaded: object = dataclasses.field(default=None, compare=False)
@@ -387,6 +428,13 @@ def _value(number):
     return None if not np.isfinite(number) else float(number)
 
 
+def _margins(figures, loop):
+    """A loop's :class:`LoopMargins` with its loop-at-a-time margins."""
+    return dataclasses.replace(
+        margins_of_run(_loop(figures, loop)),
+        loop_at_a_time=margins_of_run(_loop(figures, f"{loop}.{AT_A_TIME}")))
+
+
 def _loop(figures, prefix):
     return {key[len(prefix) + 1:]: value for key, value in figures.items()
             if key.startswith(prefix + ".")}
@@ -409,13 +457,13 @@ def pade_study(params, max_order, omega):
     tuple of PadeComparison
         One row per order, the exact row last.
     """
-    stable = np.array(["stable"], dtype=object)
+    stable = {name: np.array(["stable"], dtype=object) for name in build(params).names}
     p = Selector(params)()
     reference = responses(p, 1j * omega).closed_loop
     rows = []
     for order in [*range(1, max_order + 1), None]:
         delay = DelayModel(order)
-        figures, _ = _figures_on(params, omega, stable, stable, delay=delay)
+        figures, _ = _figures_on(params, omega, stable, delay=delay)
         current = _loop(figures, "current_loop")
         position = _loop(figures, "position_loop")
         closed = _loop(figures, "closed_loop")
@@ -466,18 +514,18 @@ def analyze(
     from cas_freq.parameters import LoopParameters
 
     params = LoopParameters.from_config(loaded.params)
-    omega = frequency_grid(*frequency_range, points_per_decade,
-                           float(params.tau_c[0] + params.tau_p[0]))
+    omega = frequency_grid(*frequency_range, points_per_decade, total_delay(params))
     order = delay.order or DEFAULT_PADE_ORDER
-    verdicts = stability_verdicts(params, order)
+    verdicts = loop_verdicts(params, order)
+    every = list(verdicts.values())
     poles = closed_loop_poles(params, order)
     stability = Stability(
-        verdict=str(verdicts[0][0]), pade_order=order,
-        current_loop_verdict=str(verdicts[1][0]),
+        verdict=str(every[-1][0]), pade_order=order,
+        current_loop_verdict=str(every[0][0]),
         poles=tuple((float(p.real), float(p.imag)) for p in poles),
     )
-    figures, _, _ = _chunk_figures(params, frequency_range, points_per_decade, order, delay,
-                                   crossings=True, verdicts=verdicts)
+    figures, _ = _chunk_figures(params, frequency_range, points_per_decade, order, delay,
+                                crossings=True, verdicts=verdicts)
     notes = []
     if delay.exact:
         notes.append(
@@ -501,7 +549,7 @@ def analyze(
     edges = _range_edges(figures, omega, stability.stable)
     for section, figure, at_edge in edges:
         if at_edge:
-            notes.append(f"{_EDGE_WORDS[(section, figure)]} at an end of the analysed range "
+            notes.append(f"{_edge_words(section, figure)} at an end of the analysed range "
                          f"({omega[0]:.4g}..{omega[-1]:.4g} rad/s): not a peak; widen --range")
     return Analysis(
         config=loaded.params.name,
@@ -512,8 +560,10 @@ def analyze(
         frequency_range_rad_s=(float(omega[0]), float(omega[-1])),
         stable=stability.stable,
         stability=stability,
-        current_loop=margins_of_run(_loop(figures, "current_loop")),
-        position_loop=margins_of_run(_loop(figures, "position_loop")),
+        current_loop=_margins(figures, "current_loop"),
+        position_loop=_margins(figures, "position_loop"),
+        velocity_loop=(_margins(figures, "velocity_loop") if "velocity_loop" in verdicts
+                       else None),
         closed_loop=figures_of_run(_loop(figures, "closed_loop")),
         pade_vs_exact=rows,
         notes=tuple(notes),
@@ -523,23 +573,28 @@ def analyze(
     )
 
 
-_EDGE_WORDS = {
-    ("current_loop", "sensitivity_peak"): "current-loop sensitivity peak / disk margin",
-    ("position_loop", "sensitivity_peak"): "position-loop sensitivity peak / disk margin",
-    ("closed_loop", "peak"): "closed-loop resonance peak",
-}
+def _edge_words(section, figure):
+    """What a maximum at the range's edge is, in words."""
+    if section == "closed_loop":
+        return "closed-loop resonance peak"
+    loop, _, view = section.partition(".")
+    words = f"{loop.replace('_loop', '')}-loop sensitivity peak / disk margin"
+    return words + (" (every other loop closed)" if view else "")
 
 
 def _range_edges(figures, omega, stable):
     """(section, figure, bool) for each maximum the engine searched: True when it lies at the
     top end of the grid (``_maximum_at_top``) or, for the sensitivity peak, at the bottom end;
-    None for a loop that is not stable (no peak is reported then)."""
+    None for a loop that is not stable (no peak is reported then). A section is a loop, a
+    loop's ``loop_at_a_time`` view (``current_loop.loop_at_a_time``) or the closed loop."""
     edges = []
-    for loop in ("current_loop", "position_loop"):
-        at_top = bool(np.asarray(figures[f"{loop}._maximum_at_top"])[0])
-        peak_w = np.asarray(figures[f"{loop}.sensitivity_peak_rad_s"])[0]
+    sections = [key[:-len("._maximum_at_top")] for key in figures
+                if key.endswith("._maximum_at_top") and key != "closed_loop._maximum_at_top"]
+    for section in sections:
+        at_top = bool(np.asarray(figures[f"{section}._maximum_at_top"])[0])
+        peak_w = np.asarray(figures[f"{section}.sensitivity_peak_rad_s"])[0]
         at_bottom = bool(np.isfinite(peak_w) and peak_w == omega[0])
-        edges.append((loop, "sensitivity_peak", (at_top or at_bottom) if stable else None))
+        edges.append((section, "sensitivity_peak", (at_top or at_bottom) if stable else None))
     closed_top = bool(np.asarray(figures["closed_loop._maximum_at_top"])[0])
     edges.append(("closed_loop", "peak", closed_top if stable else None))
     return tuple(edges)
@@ -552,6 +607,8 @@ def to_dict(analysis):
     edges = data.pop("range_edges")
     if data["drivetrain"] is None:
         del data["drivetrain"]
+    if data["velocity_loop"] is None:
+        del data["velocity_loop"]
     stability = data.pop("stability")
     data["stability"] = stability["verdict"]
     data["stability_pade_order"] = stability["pade_order"]
@@ -562,5 +619,8 @@ def to_dict(analysis):
             field.name: None for field in dataclasses.fields(ClosedLoopFigures)
         }
     for section, figure, at_edge in edges:
-        data[section][f"{figure}_at_range_edge"] = None if at_edge is None else bool(at_edge)
+        place = data
+        for part in section.split("."):
+            place = place[part]
+        place[f"{figure}_at_range_edge"] = None if at_edge is None else bool(at_edge)
     return json_ready(data)

@@ -121,6 +121,9 @@ class LoopMargins:
     disk_margin_phase_deg: float | None
     gain_crossovers: tuple[GainCrossover, ...]
     phase_crossovers: tuple[PhaseCrossover, ...]
+    #: The same figures with every other loop closed (MIL-F-9490D's break-point margins), None
+    #: where not computed; the outermost loop's are its own.
+    loop_at_a_time: "LoopMargins | None" = None
 
 
 def _group_min(n, runs, keys, payload):

@@ -69,6 +69,20 @@ def _loop_lines(title, margins):
     return lines
 
 
+def _at_a_time_lines(margins):
+    """The headline margins of a loop broken with every other loop closed."""
+    more = len(margins.gain_crossovers) - 1
+    others = f" (smallest |phase margin| of {more + 1})" if more > 0 else ""
+    return [
+        "    every other loop closed (loop at a time):",
+        f"      gain crossover   {_fmt(margins.crossover_rad_s, 'rad/s')}{others}",
+        f"      phase margin     {_fmt(margins.phase_margin_deg, 'deg')}",
+        f"      delay margin     {_fmt(_ms(margins.delay_margin_s), 'ms')}",
+        f"      gain margin      {_fmt(margins.gain_margin_db, 'dB')} "
+        f"at {_fmt(margins.phase_crossover_rad_s, 'rad/s')}",
+    ]
+
+
 def analysis_table(analysis):
     """Multi-line summary of one :class:`cas_freq.analysis.Analysis`."""
     low, high = analysis.frequency_range_rad_s
@@ -80,10 +94,19 @@ def analysis_table(analysis):
         f"  delays {analysis.delay_model}; range {low:g}..{high:g} rad/s; closed loop "
         f"{analysis.stability.verdict.upper()} (Padé {analysis.stability.pade_order} poles)",
     ]
-    lines += _loop_lines("current loop L_i (broken at the voltage)", analysis.current_loop)
-    lines += _loop_lines(
-        "position loop L_p (broken at the current command)", analysis.position_loop
-    )
+    loops = [("current loop L_i (broken at the voltage)", analysis.current_loop)]
+    if analysis.velocity_loop is not None:
+        loops.append(("velocity loop L_v (broken at the current command)",
+                      analysis.velocity_loop))
+        loops.append(("position loop L_p (broken at the velocity command)",
+                      analysis.position_loop))
+    else:
+        loops.append(("position loop L_p (broken at the current command)",
+                      analysis.position_loop))
+    for k, (title, margins) in enumerate(loops):
+        lines += _loop_lines(title, margins)
+        if k < len(loops) - 1 and margins.loop_at_a_time is not None:
+            lines += _at_a_time_lines(margins.loop_at_a_time)
     closed = analysis.closed_loop
     lines.append("  closed loop T = delta/delta_cmd")
     if closed is None:
