@@ -541,7 +541,9 @@ class ActuatorSet(Summary):
         -------
         SetAnalysis
             ``current_loop``, ``position_loop``, ``closed_loop`` namespaces of float arrays (n,)
-            named as the single analysis' figures (plus ``gain_crossover_count``), NaN where a
+            named as the single analysis' figures (plus ``gain_crossover_count``; each loop's
+            ``loop_at_a_time`` a namespace of its own, and ``velocity_loop`` for a drive with
+            one), NaN where a
             figure does not exist or the loop is not stable; ``stable`` (bool array);
             ``stability.verdict`` and ``stability.current_loop_verdict`` (str arrays),
             ``stability.pade_order``; ``figures``, the same arrays keyed as
@@ -554,17 +556,27 @@ class ActuatorSet(Summary):
                               delay=delay, **({"pade_order": delay.order} if delay.order else {}))
         groups = {}
         for name, values in batch.figures.items():
-            group, _, figure = name.rpartition(".")
-            if group:
-                groups.setdefault(group, {})[figure] = values
+            *path, figure = name.split(".")
+            if not path:
+                continue
+            place = groups
+            for part in path:
+                place = place.setdefault(part, {})
+            place[figure] = values
         return SetAnalysis(
-            **{group: types.SimpleNamespace(**values) for group, values in groups.items()},
+            **{group: _namespace(values) for group, values in groups.items()},
             stable=batch.figures["stable"] == 1.0,
             stability=types.SimpleNamespace(
                 verdict=batch.stability, current_loop_verdict=batch.current_loop_stability,
                 pade_order=batch.pade_order),
             figures=batch.figures,
         )
+
+
+def _namespace(values):
+    """Nested dicts as nested namespaces (``current_loop.loop_at_a_time.phase_margin_deg``)."""
+    return types.SimpleNamespace(**{key: _namespace(value) if isinstance(value, dict) else value
+                                    for key, value in values.items()})
 
 
 class SetAnalysis(Summary, types.SimpleNamespace):

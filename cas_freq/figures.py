@@ -57,9 +57,12 @@ class Loop:
 
 #: The loops with margins, by the group name of their figures in the JSON (docs/model.md §3-4
 #: and §13): each broken at its controller's output with the loops inside it closed and those
-#: outside open, and (``<loop>.loop_at_a_time``) with every other loop closed.
+#: outside open, and (``<loop>.loop_at_a_time``) with every other loop closed. The velocity
+#: loop's figures exist only for a drive with one (the position loop is then broken at the
+#: velocity command).
 LOOPS = {
     "current_loop": Loop("current loop", "L_i", "the voltage"),
+    "velocity_loop": Loop("velocity loop", "L_v", "the current command"),
     "position_loop": Loop("position loop", "L_p", "the current command"),
 }
 LOOPS.update({f"{key}.loop_at_a_time": Loop(loop.name, loop.symbol,

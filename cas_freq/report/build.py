@@ -121,6 +121,9 @@ def _figure_row(key, value, prefix=""):
 #: The summary's figures of each loop (keys of :data:`FIGURES` after the loop's name).
 _SUMMARY_LOOP_FIGURES = {
     "current_loop": ("phase_margin_deg", "crossover_rad_s", "gain_margin_db"),
+    "current_loop.loop_at_a_time": ("phase_margin_deg", "crossover_rad_s", "gain_margin_db"),
+    "velocity_loop": ("phase_margin_deg", "crossover_rad_s", "gain_margin_db"),
+    "velocity_loop.loop_at_a_time": ("phase_margin_deg", "crossover_rad_s", "gain_margin_db"),
     "position_loop": ("phase_margin_deg", "crossover_rad_s", "delay_margin_s", "gain_margin_db",
                       "gain_margin_low_db", "sensitivity_peak_db", "disk_margin_gain_db",
                       "disk_margin_phase_deg"),
@@ -133,8 +136,13 @@ def summary_rows(data):
     cl = a.closed_loop
     rows = [("closed loop (Padé poles)", "", a.stability.verdict)]
     for loop, names in _SUMMARY_LOOP_FIGURES.items():
-        margins = getattr(a, loop)
-        rows += [_figure_row(f"{loop}.{name}", getattr(margins, name), f"{LOOPS[loop].symbol} ")
+        margins = a
+        for part in loop.split("."):
+            margins = margins and getattr(margins, part)
+        if margins is None:  # a drive without that loop
+            continue
+        symbol = LOOPS[loop].symbol + (" (others closed)" if "." in loop else "")
+        rows += [_figure_row(f"{loop}.{name}", getattr(margins, name), f"{symbol} ")
                  for name in names]
     rows += [_figure_row(f"closed_loop.{name}", getattr(cl, name) if cl else None, "T ")
              for name in ("bandwidth_rad_s", "peak_db", "phase_90_rad_s")]
@@ -169,20 +177,39 @@ def _limits_text(step):
     return "none hit" if not hit else " and ".join(hit) + " limit hit"
 
 
+def analysis_loops(analysis):
+    """(key of :data:`LOOPS`, symbol, break point, margins) of every loop of an analysis,
+    innermost first, then each inner loop with every other loop closed."""
+    cascade = analysis.velocity_loop is not None
+    keys = ["current_loop", *(["velocity_loop"] if cascade else []), "position_loop"]
+    views = [(key, getattr(analysis, key)) for key in keys]
+    views += [(f"{key}.loop_at_a_time", getattr(analysis, key).loop_at_a_time)
+              for key in keys[:-1] if getattr(analysis, key).loop_at_a_time is not None]
+    out = []
+    for key, margins in views:
+        loop = LOOPS[key]
+        broken_at = loop.broken_at
+        if cascade and key.startswith("position_loop"):
+            broken_at = broken_at.replace("the current command", "the velocity command")
+        out.append((key, loop.symbol, f"{loop.name}, broken at {broken_at}", margins))
+    return out
+
+
 def margins_table(analysis):
-    """Every margin figure of both loops (labels and units of :data:`FIGURES`)."""
-    ci, cp = analysis.current_loop, analysis.position_loop
+    """Every margin figure of every loop, and of each inner loop with every other loop closed
+    (labels and units of :data:`FIGURES`)."""
+    loops = analysis_loops(analysis)
     rows = []
     for figure in FIGURES.values():
         if figure.loop != "current_loop" or not figure.requirement:
             continue
-        name = figure.name
         rows.append((figure.label, figure.shown_unit or "-",
-                     *(number(_shown(figure.key, getattr(loop, name))) for loop in (ci, cp))))
-    rows.append(("crossings in range", "", f"{len(ci.gain_crossovers)} gain, "
-                 f"{len(ci.phase_crossovers)} phase", f"{len(cp.gain_crossovers)} gain, "
-                 f"{len(cp.phase_crossovers)} phase"))
-    columns = tuple(f"{loop.symbol} ({loop.break_point})" for loop in LOOPS.values())
+                     *(number(_shown(figure.key, getattr(margins, figure.name)))
+                       for *_, margins in loops)))
+    rows.append(("crossings in range", "",
+                 *(f"{len(margins.gain_crossovers)} gain, {len(margins.phase_crossovers)} phase"
+                   for *_, margins in loops)))
+    columns = tuple(f"{symbol} ({where})" for _, symbol, where, _ in loops)
     return Table(("figure", "unit", *columns), tuple(rows),
                  f"stability margins ({analysis.delay_model} delays)")
 
@@ -191,7 +218,8 @@ def crossings_table(analysis, frequency_range):
     """Every gain and phase crossover of both loops inside the plotted range."""
     low, high = frequency_range
     rows = []
-    for name, loop in (("L_i", analysis.current_loop), ("L_p", analysis.position_loop)):
+    for key, symbol, _, loop in analysis_loops(analysis):
+        name = symbol if "." not in key else f"{symbol} (every other loop closed)"
         for c in loop.gain_crossovers:
             if low <= c.frequency_rad_s <= high:
                 rows.append((name, "gain crossover", number(c.frequency_rad_s),

@@ -266,7 +266,8 @@ _SUFFIX_UNITS = (("_rad_s", "rad/s", 1.0), ("_deg", "deg", 1.0), ("_db", "dB", 1
 #: Readable name of each group of figures (the key before the figure's name).
 _GROUP_LABELS = {
     "analyze": "closed loop",
-    **{f"analyze.{loop}": LOOPS[loop].name for loop in LOOPS},
+    **{f"analyze.{key}": loop.name + (", every other loop closed" if "." in key else "")
+       for key, loop in LOOPS.items()},
     "analyze.closed_loop": "closed loop",
     "analyze.drivetrain": "drivetrain",
     "sinedwell": "sine-dwell",
