@@ -253,7 +253,9 @@ def test_nonlinear_elements_of_the_shipped_loaded_variant(tmp_path):
     assert len(found) == 3
     assert "η = 0.7 " in found[0] and "η_b = 0 " in found[0]
     assert found[1].startswith("Coulomb friction of 1 mN·m")
-    assert found[2] == "a constant load moment of 0.1 N·m on the output"
+    # the shipped config names its output (output_name: fin): the text says so
+    assert "while the motor drives the fin, η_b = 0 while the fin drives" in found[0]
+    assert found[2] == "a constant load moment of 0.1 N·m on the fin"
     assert nonlinear_elements(load_variant(None, "base").params, loaded=False) == []
     # backlash and sampled controllers when set
     config = tmp_path / "play.yaml"

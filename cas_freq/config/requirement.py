@@ -181,9 +181,9 @@ class Requirement(BaseModel):
     source : str
         Where the requirement comes from (free text).
     step : float or None
-        Fin step [rad] the step and fit figures are measured on.
+        Output step [rad] the step and fit figures are measured on.
     amplitude : float or None
-        Fin sine amplitude [rad] the sine-dwell bandwidth is measured at.
+        Output sine amplitude [rad] the sine-dwell bandwidth is measured at.
     frequencies : tuple of float or None
         Sine-dwell frequencies [rad/s] (``MIN:MAX:N`` log-spaced or a list in the config);
         None for the ``sinedwell`` command's default grid.

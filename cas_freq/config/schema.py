@@ -337,8 +337,11 @@ class ActuatorConfig(_Section):
 
     @property
     def output_label(self):
-        """What labels and text call the output: ``output_name``, else ``"output"``."""
-        return self.output_name or "output"
+        """What labels and text call the output: ``output_name``, else ``"output"``
+        (:mod:`cas_freq.config.wording`)."""
+        from cas_freq.config.wording import OUTPUT
+
+        return self.output_name or OUTPUT
 
     @model_validator(mode="after")
     def _envelope_variants(self):

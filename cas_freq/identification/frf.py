@@ -1,7 +1,7 @@
 r"""Empirical frequency responses of sweep recordings and their comparison with the model.
 
 The estimate is Welch's H1 (:func:`scipy.signal.csd`, :func:`scipy.signal.welch`):
-:math:`H_1(\omega) = P_{xy}/P_{xx}` with x the input (the fin command, or the current command)
+:math:`H_1(\omega) = P_{xy}/P_{xx}` with x the input (the output command, or the current command)
 and y the output, and the magnitude-squared coherence
 :math:`\gamma^2 = |P_{xy}|^2/(P_{xx} P_{yy})` (:func:`scipy.signal.coherence`): Hann windows
 of ``nperseg`` samples overlapping by half, by default as long as lets :data:`AVERAGES`
@@ -11,9 +11,9 @@ Noise on the output biases neither H1 nor its phase; it lowers the coherence, so
 use the frequencies with :math:`\gamma^2 \ge` :data:`COHERENT`.
 
 The model (:func:`model_responses`) is the package's own loops
-(:class:`cas_freq.model.loops.ActuatorLoops`, exact delays): T (fin angle / fin command, without
-the feed-forward, docs/model.md), :math:`T_i` (current / current command at the current
-controller) and the current per fin command,
+(:class:`cas_freq.model.loops.ActuatorLoops`, exact delays): T (output angle / output command,
+without the feed-forward, docs/model.md), :math:`T_i` (current / current command at the current
+controller) and the current per output command,
 :math:`i/\delta_{cmd} = N e^{-s\tau_p} T_i C_r/(1 + L_p)` (the position controller's output
 :math:`C_r \theta_{cmd} - C_p \theta` delayed by :math:`\tau_p` is the current command).
 """

@@ -1,6 +1,6 @@
 r"""Least-squares fit of config keys to step recordings through the nonlinear simulator.
 
-The residuals are data less model at every sample from the trigger on, in blocks: the fin
+The residuals are data less model at every sample from the trigger on, in blocks: the output
 angle of each recording and, where used, its motor current. Each block b has its own noise
 level :math:`\sigma_b`, estimated from the data as the block's RMS residual, so the fit
 maximises the Gaussian likelihood with the variances concentrated out,

@@ -1,7 +1,7 @@
 """Read a bench step recording: a CSV whose header names the columns and their units.
 
-The columns (:mod:`cas_freq.identification.columns`): time (required), the commanded fin angle
-(optional), the measured fin angle (required), motor current and voltage (optional); others are
+The columns (:mod:`cas_freq.identification.columns`): time (required), the commanded output angle
+(optional), the measured output angle (required), motor current and voltage (optional); others are
 ignored, so what ``cas-freq simulate --step 10deg --csv FILE`` writes is a recording. Lines
 starting with ``#`` are comments. Sampling may be irregular.
 
@@ -39,9 +39,9 @@ class Recording:
     time_s : numpy.ndarray
         Times [s] from the trigger (negative before it), strictly increasing.
     command_rad : numpy.ndarray or None
-        Commanded fin angle [rad] less its pre-trigger mean; None without a command column.
+        Commanded output angle [rad] less its pre-trigger mean; None without a command column.
     position_rad : numpy.ndarray
-        Measured fin angle [rad] less its pre-trigger mean.
+        Measured output angle [rad] less its pre-trigger mean.
     current_a, voltage_v : numpy.ndarray or None
         Motor current [A] and voltage [V] as recorded, if there are such columns.
     step_rad : float or None

@@ -5,7 +5,7 @@ limits and controller sampling. The command is a :class:`Step` of the recording'
 the trigger when the recorded command steps and holds (fitted from the trigger on); else the
 recorded command as a :class:`Recorded` spline, whose derivatives feed the feed-forward,
 simulated from the recording's first sample and fitted from where the command starts to move.
-The simulated fin angle and motor current are read at the recording's own sample times
+The simulated output angle and motor current are read at the recording's own sample times
 (linear interpolation between the simulator's samples, kept at most a quarter of the
 recording's shortest interval apart). Every parameter set of a call, times every recording, is
 one batch of :func:`cas_freq.simulation.simulate_batch`.
@@ -48,7 +48,7 @@ class Replay:
     Attributes
     ----------
     position : list of numpy.ndarray
-        Per recording, (n_sets, n_samples) fin angle [rad] from the trigger on.
+        Per recording, (n_sets, n_samples) output angle [rad] from the trigger on.
     current : list of numpy.ndarray
         Per recording, (n_sets, n_samples) motor current [A].
     current_limited, voltage_limited : numpy.ndarray of bool

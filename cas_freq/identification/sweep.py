@@ -1,8 +1,8 @@
 """Read a frequency-sweep recording (chirp or stepped sine) and tell sweeps from steps.
 
 A sweep recording is a CSV as a step recording is (:mod:`cas_freq.identification.recordings`,
-the same header and unit rules of :mod:`cas_freq.identification.columns`): time, the fin command
-and the fin angle (required here), the motor current and the current command (optional). Its
+the same header and unit rules of :mod:`cas_freq.identification.columns`): time, the output command
+and the output angle (required here), the motor current and the current command (optional). Its
 command oscillates: :func:`is_sweep` counts how often it crosses its median, outside a dead band
 of a tenth of its range; a step's command (one or two levels, with noise) crosses it at most
 once. Irregular sampling is resampled (:func:`numpy.interp`) to a uniform grid at the median
@@ -37,7 +37,7 @@ class SweepRecording:
     time_s : numpy.ndarray
         Uniform times [s] (the file's own, from its first sample).
     command_rad, position_rad : numpy.ndarray
-        Fin command and fin angle [rad].
+        Output command and output angle [rad].
     current_a, current_command_a : numpy.ndarray or None
         Motor current and current command [A], if the file has such columns.
     interval_s : float

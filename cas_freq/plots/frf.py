@@ -4,8 +4,8 @@ phase [deg] and coherence over frequency [rad/s] (log).
 It only draws, from the dict :func:`cas_freq.cli.fit_sweep.results` makes (values already
 rounded to 6 significant digits, so the SVG regenerates byte-identically). Data points are
 drawn filled where the coherence is >= the threshold and hollow, pale, below it; the model is a
-line: T for the fin angle per fin command, and T_i where the current per current command was
-measured (the current per fin command is left to frf.json: its unit differs).
+line: T for the output angle per output command, and T_i where the current per current command was
+measured (the current per output command is left to frf.json: its unit differs).
 """
 
 import numpy as np

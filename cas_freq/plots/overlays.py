@@ -7,6 +7,7 @@ import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.ticker import MultipleLocator
 
+from cas_freq.config.wording import common_output_label
 from cas_freq.plots.common import EXACT, Margins, legend_below
 from cas_freq.plots.common import figure as _figure
 from cas_freq.plots.common import rounded as _r
@@ -125,7 +126,8 @@ def step_overlay(datas, labels):
     handles.append(Line2D([], [], color="k", ls=":", lw=1))
     names.append(f"linear T (Padé {datas[0].pade_order}), dotted")
     _overlay_legend(fig, layout, handles, names)
-    fig.suptitle("nonlinear output steps (limits, exact delays) vs linear (dotted)")
+    output = common_output_label(d.loaded.params for d in datas)
+    fig.suptitle(f"nonlinear {output} steps (limits, exact delays) vs linear (dotted)")
     return fig
 
 

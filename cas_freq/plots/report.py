@@ -21,6 +21,7 @@ import numpy as np
 from matplotlib.ticker import MultipleLocator
 
 from cas_freq.analysis.frequency import continuous_phase
+from cas_freq.config.wording import common_output_label
 from cas_freq.plots import loci
 from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_svg re-exported)
     EXACT,
@@ -571,8 +572,8 @@ def _amplitude_axis(ax, datas):
     ax.set_xscale("log")
     ax.set_xticks(amplitudes, [f"{a:g}" for a in amplitudes])
     ax.minorticks_off()
-    names = {d.loaded.params.output_label for d in datas}
-    ax.set_xlabel(f"{names.pop() if len(names) == 1 else 'output'} amplitude [deg]")
+    output = common_output_label(d.loaded.params for d in datas)
+    ax.set_xlabel(f"{output} amplitude [deg]")
 
 
 def _reference_points(datas):

@@ -17,6 +17,7 @@ import re
 import time
 from pathlib import Path
 
+from cas_freq.config.wording import name_the_output
 from cas_freq.figures import FIGURES, LOOPS
 from cas_freq.report.data import (
     ReportSettings,
@@ -480,7 +481,7 @@ def parameter_row_head(key, output):
     parameter = PARAMETERS[key]
     unit, scale = _SHOWN_KEY_UNITS.get(key) or _SHOWN_UNITS.get(parameter.unit) or (
         parameter.unit.replace("*", "·").replace("^2", "²"), 1.0)
-    label = parameter.label.replace("the output", f"the {output}").replace("+/-", "±")
+    label = name_the_output(parameter.label, output).replace("+/-", "±")
     label = re.sub(r"\b(" + "|".join(_SYMBOLS) + r")\b", lambda m: _SYMBOLS[m.group(1)], label)
     return label, unit, scale
 

@@ -19,6 +19,7 @@ import re
 from pathlib import Path
 
 from cas_freq.config import read_config_file
+from cas_freq.config.wording import common_output_label, name_the_output
 from cas_freq.exceptions import CasFreqError
 from cas_freq.figures import FIGURES, LOOPS
 from cas_freq.parameters import PARAMETERS
@@ -218,12 +219,15 @@ def parameter_differences(variants):
     Returns
     -------
     rows : list of tuple of str
-        Per differing key (in :func:`config_keys` order): the key, its meaning, then each
-        variant's value in the unit the config writes it (:func:`display_unit`), with the unit.
+        Per differing key (in :func:`config_keys` order): the key, its meaning (the output named
+        as the variants' configs name it, :func:`~cas_freq.config.wording.common_output_label`),
+        then each variant's value in the unit the config writes it (:func:`display_unit`), with
+        the unit.
     equal : int
         How many of the :func:`config_keys` are equal in every variant.
     """
     units = [written_units(loaded) for loaded in variants]
+    output = common_output_label(loaded.params for loaded in variants)
     rows, equal = [], 0
     for key in config_keys():
         values = [effective_value(loaded.params, key) for loaded in variants]
@@ -231,7 +235,7 @@ def parameter_differences(variants):
             equal += 1
             continue
         unit = "" if key in SETTINGS else display_unit(key, units)
-        rows.append((key, short_meaning(key),
+        rows.append((key, name_the_output(short_meaning(key), output),
                      *(_parameter_cell(value, derived, key, unit) for value, derived in values)))
     return rows, equal
 
@@ -452,6 +456,7 @@ def verdict_matrix(datas, labels):
 def compare_blocks(datas, labels, figure_blocks, settings, command=None):
     """Every block of the comparison, in order."""
     amplitudes = ", ".join(f"{math.degrees(a):g}°" for a in settings.amplitudes_rad)
+    output = common_output_label(d.loaded.params for d in datas)
     blocks = [Heading(1, "cas_freq compare: " + ", ".join(labels))]
     blocks += parameter_blocks([d.loaded for d in datas], labels)
     facts = [f"{label}: {display_path(d.loaded.source)}"
@@ -462,7 +467,7 @@ def compare_blocks(datas, labels, figure_blocks, settings, command=None):
         f"baseline (the differences are to it): {labels[0]}",
         "frequency responses: exact delays; linear steps: Padé order "
         f"{settings.pade_order}; nonlinear steps and sine-dwell: limits and exact delays",
-        f"amplitudes at the output: {amplitudes}; sine-dwell frequencies: "
+        f"amplitudes at the {output}: {amplitudes}; sine-dwell frequencies: "
         f"{settings.frequencies_text}",
     ]
     if command:

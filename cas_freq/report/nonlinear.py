@@ -25,20 +25,23 @@ def nonlinear_elements(params, loaded):
     list of str
         E.g. ``"the gear efficiency by the direction of power (η = 0.75 while the motor drives
         the output, η_b = 0.75 while the output drives the motor; the linear model divides the
-        reflected load by η both ways)"``; empty when the simulation has none.
+        reflected load by η both ways)"``, the output named by the config's ``output_label``;
+        empty when the simulation has none.
     """
     gear, motor, load = params.gear, params.motor, params.load
+    output = params.output_label
     found = []
     efficiency, backdrive = gear.efficiency, gear.backdrive
     if loaded and (efficiency != 1.0 or backdrive != 1.0):
         found.append(f"the gear efficiency by the direction of power (η = {efficiency:g} while "
-                     f"the motor drives the output, η_b = {backdrive:g} while the output drives "
-                     "the motor; the linear model divides the reflected load by η both ways)")
+                     f"the motor drives the {output}, η_b = {backdrive:g} while the {output} "
+                     "drives the motor; the linear model divides the reflected load by η both "
+                     "ways)")
     if motor.coulomb_friction:
         found.append(f"Coulomb friction of {1e3 * motor.coulomb_friction:g} mN·m on the motor "
                      "shaft")
     if load.hinge_bias:
-        found.append(f"a constant load moment of {load.hinge_bias:g} N·m on the output")
+        found.append(f"a constant load moment of {load.hinge_bias:g} N·m on the {output}")
     if gear.backlash:
         found.append(f"a gear backlash of {math.degrees(gear.backlash):.3g}°")
     if params.simulation.controllers == "sampled":

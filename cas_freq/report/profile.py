@@ -131,7 +131,7 @@ def profile_section(datas, png=False):
     """Simulate the moves of the config's ``profile.*`` requirements on every stable variant.
 
     A generator: yields (path, content) of the section's figures (one per variant and move:
-    command vs fin angle and tracking error, with and without feed-forward) and returns a
+    command vs output angle and tracking error, with and without feed-forward) and returns a
     :class:`ProfileSection`.
 
     Parameters

@@ -4,7 +4,7 @@
   engine; cached on disk after the first compile), and :mod:`~cas_freq.simulation.engine`, the
   same loop in numpy, kept as the reference the kernel is tested against
   (``simulate_batch(..., engine="reference")`` or ``CAS_FREQ_ENGINE=reference``);
-- :mod:`~cas_freq.simulation.commands`: fin-angle commands (step, ramp, sine, chirp, CSV table,
+- :mod:`~cas_freq.simulation.commands`: output-angle commands (step, ramp, sine, chirp, CSV table,
   trapezoidal profile move);
 - :class:`LoopParameters` (of :mod:`cas_freq.parameters`, re-exported): loop parameters of a
   batch of runs;

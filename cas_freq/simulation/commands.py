@@ -1,6 +1,6 @@
-r"""Command signals at the fin, with the rate and acceleration the feed-forward needs.
+r"""Command signals at the output, with the rate and acceleration the feed-forward needs.
 
-Each command gives the fin angle :math:`\delta_{cmd}(t)` [rad] and its first two derivatives;
+Each command gives the output angle :math:`\delta_{cmd}(t)` [rad] and its first two derivatives;
 the loops are closed on the motor shaft, so the simulator uses
 :math:`\theta_{cmd} = N \delta_{cmd}` (:func:`motor_command`, docs/model.md). Amplitudes and
 frequencies may be arrays of shape (n_runs,): ``Step(np.radians([1, 5, 10]))`` is three runs.
@@ -41,7 +41,7 @@ def fin_limits(command, t):
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class Step:
-    """Step of ``amplitude_rad`` [rad] at the fin at ``start_s`` [s]."""
+    """Step of ``amplitude_rad`` [rad] at the output at ``start_s`` [s]."""
 
     amplitude_rad: float | np.ndarray
     start_s: float = 0.0
@@ -276,7 +276,7 @@ class Recorded:
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class Profile:
-    r"""Trapezoidal move of ``distance_rad`` [rad] at the fin from ``start_s`` [s], as a drive's
+    r"""Trapezoidal move of ``distance_rad`` [rad] at the output from ``start_s`` [s], as a drive's
     profile position mode moves (the EPOS4's, with profile velocity, acceleration and
     deceleration; docs/model.md, "Profile moves").
 
@@ -380,7 +380,7 @@ ight),\quad
 
 
 def read_command_csv(path):
-    """Read a user command: time [s] >= 0 and fin angle [deg], as :func:`read_angle_series_csv`.
+    """Read a user command: time [s] >= 0 and output angle [deg], as :func:`read_angle_series_csv`.
 
     Parameters
     ----------
@@ -448,7 +448,7 @@ def _find_column(path, row_number, cells, column, accepted):
 def _header_columns(path, row_number, cells):
     """Columns and scales ``((time index, to s), (angle index, to rad))`` of a header row.
 
-    A header naming both a time and a fin-angle column (:data:`TIME_COLUMN`,
+    A header naming both a time and an output-angle column (:data:`TIME_COLUMN`,
     :data:`ANGLE_COLUMN`) selects them, whatever else it holds. A two-column header is time
     and angle whatever it names: a column it names is read in the unit it gives, the other is
     the remaining column (time [s] first, angle [deg] second when it names neither).
@@ -556,7 +556,7 @@ def motor_command(command, ratio, t, left=False):
     Parameters
     ----------
     command : Step, Ramp, Sine, Chirp, Table or Profile
-        Fin command.
+        Output command.
     ratio : float or numpy.ndarray
         Gear ratio N [-].
     t : numpy.ndarray

@@ -1,6 +1,6 @@
 """Figures of a simulated profile move (docs/model.md, "Profile moves").
 
-Of the fin angle delta following a :class:`~cas_freq.simulation.commands.Profile` of distance D
+Of the output angle delta following a :class:`~cas_freq.simulation.commands.Profile` of distance D
 that starts at t0 and ends at t0 + T:
 
 - tracking error: delta_cmd - delta over the move (t0 <= t <= t0 + T): its largest magnitude
@@ -31,9 +31,9 @@ class ProfileFigures:
     Attributes
     ----------
     distance_deg : float
-        The move at the fin [deg] (signed).
+        The move at the output [deg] (signed).
     peak_rate_deg_s : float
-        The command's largest speed at the fin [deg/s] (the velocity limit, or less for a
+        The command's largest speed at the output [deg/s] (the velocity limit, or less for a
         triangular move).
     move_time_s : float
         How long the command moves [s].

@@ -2,10 +2,11 @@
 
 :func:`sine_dwell` runs the nonlinear simulator (:func:`~cas_freq.simulation.simulate_batch`)
 in **one batch** over every (amplitude, frequency) pair, each run a :class:`Sine` command at the
-fin, and identifies the first harmonic of the fin angle and of the command over whole periods of
-the steady state. The ratio is the describing-function-like response delta/delta_cmd at that
-amplitude: at small amplitude it is the linear closed loop T(jw) (with the feed-forward the
-simulator applies, see below); once the current or voltage clamp is reached it falls below it.
+output, and identifies the first harmonic of the output angle and of the command over whole
+periods of the steady state. The ratio is the describing-function-like response
+delta/delta_cmd at that amplitude: at small amplitude it is the linear closed loop T(jw) (with
+the feed-forward the simulator applies, see below); once the current or voltage clamp is reached
+it falls below it.
 
 Feed-forward
 ------------
@@ -86,7 +87,7 @@ class SineDwellResult:
     Attributes
     ----------
     amplitudes_rad : numpy.ndarray
-        Command amplitudes at the fin [rad], shape (n_a,).
+        Command amplitudes at the output [rad], shape (n_a,).
     frequencies_rad_s : numpy.ndarray
         Frequencies [rad/s], shape (n_f,), increasing.
     magnitude_db : numpy.ndarray
@@ -128,7 +129,7 @@ class SineDwellResult:
 
     @property
     def amplitudes_deg(self):
-        """Amplitudes at the fin [deg]."""
+        """Amplitudes at the output [deg]."""
         return np.degrees(self.amplitudes_rad)
 
     @property
@@ -309,7 +310,7 @@ def sine_dwell(
     params : ActuatorConfig or LoopParameters
         One actuator (LoopParameters with n_runs = 1).
     amplitudes_rad : array_like
-        Command amplitudes at the fin [rad], > 0.
+        Command amplitudes at the output [rad], > 0.
     frequencies_rad_s : array_like
         Frequencies [rad/s], > 0 (sorted increasing in the result).
     periods_settle : float
@@ -449,7 +450,7 @@ def sine_dwell_bandwidths(params, amplitude_rad, frequencies_rad_s, *, chunk_siz
     params : LoopParameters
         The actuators (n_runs of them).
     amplitude_rad : float
-        Command amplitude at the fin [rad], > 0.
+        Command amplitude at the output [rad], > 0.
     frequencies_rad_s : array_like
         Frequencies [rad/s].
     chunk_size : int

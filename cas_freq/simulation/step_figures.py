@@ -1,6 +1,6 @@
 """Step figures of a sampled step response (docs/model.md, "Definitions of the figures").
 
-Of the fin angle delta in response to a step of delta_cmd:
+Of the output angle delta in response to a step of delta_cmd:
 
 - rise time: from the first time the response reaches 10 % of the final value to the first time
   it reaches 90 % (both interpolated linearly between samples);
@@ -51,7 +51,7 @@ class StepFigures:
     Attributes
     ----------
     amplitude_deg : float
-        Step size at the fin [deg].
+        Step size at the output [deg].
     rise_time_s : float
         10 % -> 90 % rise time [s] (nan if the response never reaches 90 %).
     overshoot_pct : float
@@ -128,7 +128,7 @@ def step_figures(
     t : array_like
         Sample times [s], increasing (the step at 0).
     response : array_like
-        Fin angle [rad] (any unit, as long as ``step`` and ``final_value`` use it too).
+        Output angle [rad] (any unit, as long as ``step`` and ``final_value`` use it too).
     step : float
         Step size [rad], nonzero.
     final_value : float, optional
@@ -180,7 +180,7 @@ def simulation_step_figures(result, step=None):
     result : SimulationResult
         A run whose command is a step at t = 0.
     step : float, optional
-        Step size at the fin [rad]; default the command's final value.
+        Step size at the output [rad]; default the command's final value.
 
     Returns
     -------

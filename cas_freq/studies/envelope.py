@@ -1,8 +1,8 @@
 """The load envelope: every figure and requirement verdict of a variant against hinge stiffness.
 
-An engineer sizing a fin actuator asks how much bandwidth and margin is left at the hinge moment
+An engineer sizing an actuator asks how much bandwidth and margin is left at the hinge moment
 of the worst flight condition, and at what hinge stiffness a requirement fails. This module
-sweeps ``load.hinge_stiffness`` (at the fin, N*m/rad; > 0 opposes deflection, < 0 aids it) over
+sweeps ``load.hinge_stiffness`` (at the output, N*m/rad; > 0 opposes deflection, < 0 aids it) over
 a grid for one variant, with the batch engine of ``cas-freq sweep`` (linear figures, and the
 nonlinear step and its second-order fit where a requirement needs them), checks each
 requirement at every point as ``cas-freq verify`` does (a figure of a loop that is not stable
@@ -108,7 +108,7 @@ class LoadEnvelope(Summary):
     stable_range : (float or None, float or None)
         Hinge stiffness between which the closed loop is stable [N*m/rad].
     step_deg : float or None
-        Fin step of the step figures [deg].
+        Output step of the step figures [deg].
     requirements : tuple of RequirementEnvelope
     """
 
@@ -148,9 +148,9 @@ def load_envelope(loaded, hinge_stiffness, step_rad=None, progress=None, stable_
     loaded : cas_freq.config.LoadedVariant
         The variant (its other load and drivetrain keys stay as they are).
     hinge_stiffness : array_like
-        Grid [N*m/rad at the fin]; the variant's own value is added to it.
+        Grid [N*m/rad at the output]; the variant's own value is added to it.
     step_rad : float, optional
-        Fin step [rad] for the step and fit figures; default the first step requirement's, or
+        Output step [rad] for the step and fit figures; default the first step requirement's, or
         no step if no requirement needs one.
     progress : callable, optional
         ``progress(done, total)``.

@@ -1,4 +1,4 @@
-"""Nonlinear fin steps of many variants, with the figures and fit of ``simulate`` for each.
+"""Nonlinear output steps of many variants, with the figures and fit of ``simulate`` for each.
 
 The runs go through :func:`cas_freq.simulation.simulate_batch` in chunks. The batch extends its
 horizon until every run of the chunk has settled; :meth:`BatchResult.run` cuts each run at the
@@ -40,7 +40,7 @@ def batch_steps(params, amplitude_rad, *, fit=True, rates_hz=(None, None),
     params : cas_freq.simulation.LoopParameters
         The runs.
     amplitude_rad : float
-        Fin step [rad].
+        Output step [rad].
     fit : bool
         Also fit the second-order model to each response, all runs of a chunk at once
         (:func:`~cas_freq.simulation.second_order.fit_second_order_batch`: the estimates of
@@ -69,7 +69,7 @@ def batch_steps(params, amplitude_rad, *, fit=True, rates_hz=(None, None),
     current_rate, position_rate = rates_hz
     done = 0
     # Every chunk records into the same memory; its figures are taken before the next starts,
-    # and its fits get the fin angle and times, arrays of their own (BatchResult.delta, .t).
+    # and its fits get the output angle and times, arrays of their own (BatchResult.delta, .t).
     buffers = RecordingBuffers() if buffers is None else buffers
     # The fits of a chunk (numpy, which releases the GIL in its array loops) run in a
     # background thread while the next chunk is simulated; the results do not depend on it.

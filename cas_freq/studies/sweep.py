@@ -84,7 +84,7 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None
     changes : dict of str to numpy.ndarray
         Dotted key -> values [SI] per sample.
     step_rad : float, optional
-        Fin step [rad] to simulate for each sample.
+        Output step [rad] to simulate for each sample.
     fit : bool
         Fit the second-order model to each step.
     sinedwell : (float, sequence of float), optional
@@ -170,7 +170,7 @@ class Sweep:
     stability : numpy.ndarray of str
         Verdict per point.
     step_deg : float or None
-        Simulated fin step [deg].
+        Simulated output step [deg].
     sinedwell_deg : float or None
         Sine-dwell amplitude [deg].
     """
