@@ -28,7 +28,7 @@ import dataclasses
 import math
 
 __all__ = ["CONDITIONS", "FIGURES", "LOOPS", "METRICS", "UNIT_LABELS", "Figure", "Loop",
-           "json_values"]
+           "accepted_metrics", "json_values"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -339,6 +339,16 @@ FIGURES = _table()
 
 #: The figures a requirement may bound: key -> the command whose JSON holds it.
 METRICS = {key: figure.command for key, figure in FIGURES.items() if figure.requirement}
+
+def accepted_metrics():
+    """The figures a requirement may name, in a few lines' worth of words: each loop's figures
+    once for every loop and view, then the others."""
+    loops = [key for key in LOOPS if "." not in key]
+    names = [name for name, *_ in _LOOP_FIGURES]
+    others = sorted(key for key in METRICS if FIGURES[key].loop is None)
+    return (f"LOOP.FIGURE or LOOP.loop_at_a_time.FIGURE with LOOP one of {', '.join(loops)} "
+            f"and FIGURE one of {', '.join(names)}; or one of {', '.join(others)}")
+
 
 #: Numbers the commands' JSON carries beside the figures that are test conditions, not figures
 #: (the step's amplitude, the move): key as :attr:`Figure.json_key` would spell it.

@@ -44,7 +44,7 @@ from cas_freq.analysis.stability import (
     loop_verdicts,
 )
 from cas_freq.fileio import json_ready
-from cas_freq.jit import compiled_for
+from cas_freq.jit import compiled_for, use_compiled
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, EXACT, DelayModel
 from cas_freq.model.loops import Selector, current_loop, responses
 from cas_freq.model.structure import build
@@ -101,7 +101,8 @@ class BatchAnalysis:
         return self.stability.shape[0]
 
 
-def _figures_on(p, omega, verdicts, columns=None, delay=EXACT, crossings=False):
+def _figures_on(p, omega, verdicts, columns=None, delay=EXACT, crossings=False,
+                compiled=None):
     """Figures of the runs ``p`` on grid ``omega`` (only its first ``columns`` points if
     given), with the raw values :func:`_needs_full_grid` checks.
 
@@ -114,7 +115,7 @@ def _figures_on(p, omega, verdicts, columns=None, delay=EXACT, crossings=False):
     selector = Selector(p)
     names = tuple(verdicts)
     top = names[-1]
-    grid = _grid_responses(selector(column=True), omega, p.n_runs, delay)
+    grid = _grid_responses(selector(column=True), omega, p.n_runs, delay, compiled)
     whole = verdicts[top] == "stable"
     n = p.n_runs
     low = omega[:columns]
@@ -174,11 +175,14 @@ def _loop_figures_of(evaluate, low, response, n, stable, probes, crossings, inne
     return values, values.pop("_inner_probes", Probes.none())
 
 
-def _grid_responses(p, omega, n, delay):
+def _grid_responses(p, omega, n, delay, compiled=None):
     """Every loop (both views) and T on the grid: compiled
-    (:mod:`cas_freq.analysis.response_kernel`) where :func:`cas_freq.jit.compiled_for` says
-    so, else numpy (:func:`cas_freq.model.loops.responses`, the reference)."""
-    if compiled_for(n * omega.size):
+    (:mod:`cas_freq.analysis.response_kernel`) where ``compiled`` (default: where
+    :func:`cas_freq.jit.compiled_for` says so), else numpy
+    (:func:`cas_freq.model.loops.responses`, the reference). The two agree to ~1e-14 relative,
+    not to the last bit: a batch chooses once for all its chunks, so a run's figures do not
+    depend on the chunk it falls in."""
+    if compiled_for(n * omega.size) if compiled is None else compiled:
         from cas_freq.analysis.response_kernel import grid_responses
 
         return grid_responses(p, omega, n, delay, loop_at_a_time=True)
@@ -227,7 +231,7 @@ def _split_index(full, coarse):
 
 
 def _chunk_figures(p, frequency_range, points_per_decade, pade_order, delay=EXACT,
-                   crossings=False, verdicts=None):
+                   crossings=False, verdicts=None, compiled=None):
     """Figures of one chunk.
 
     The grid of the single path is a log grid, densified with linear steps above the
@@ -245,15 +249,17 @@ def _chunk_figures(p, frequency_range, points_per_decade, pade_order, delay=EXAC
     coarse = frequency_grid(*frequency_range, points_per_decade, 0.0)
     split = _split_index(full, coarse)
     if crossings or split >= coarse.size - 1 or split < 3:
-        figures, _ = _figures_on(p, full, verdicts, delay=delay, crossings=crossings)
+        figures, _ = _figures_on(p, full, verdicts, delay=delay, crossings=crossings,
+                                 compiled=compiled)
         return figures, verdicts
-    figures, tops = _figures_on(p, coarse, verdicts, columns=split, delay=delay)
+    figures, tops = _figures_on(p, coarse, verdicts, columns=split, delay=delay,
+                                compiled=compiled)
     need = _needs_full_grid(figures, tops, verdicts[list(verdicts)[-1]] == "stable")
     if need.any():
         rows = np.flatnonzero(need)
         again, _ = _figures_on(p.take(rows), full,
                                {name: verdict[rows] for name, verdict in verdicts.items()},
-                               delay=delay)
+                               delay=delay, compiled=compiled)
         for name, value in again.items():
             figures[name] = np.array(figures[name], copy=True)
             figures[name][rows] = value
@@ -304,13 +310,15 @@ def batch_analyze(
     """
     n = params.n_runs
     names = figure_names(build(params).names)
+    compiled = use_compiled()  # every chunk alike, whatever its size
     figures = {name: np.empty(n) for name in names}
     verdicts = {}
     starts = range(0, n, chunk_size)
 
     def work(start):
         chunk = params.take(slice(start, min(start + chunk_size, n)))
-        return _chunk_figures(chunk, frequency_range, points_per_decade, pade_order, delay)
+        return _chunk_figures(chunk, frequency_range, points_per_decade, pade_order, delay,
+                              compiled=compiled)
 
     # numpy releases the GIL inside its array loops, so chunks overlap on several cores
     with concurrent.futures.ThreadPoolExecutor(max_workers=_workers(workers, len(starts))) as pool:
@@ -609,6 +617,9 @@ def to_dict(analysis):
         del data["drivetrain"]
     if data["velocity_loop"] is None:
         del data["velocity_loop"]
+    for loop in ("current_loop", "velocity_loop", "position_loop"):
+        if loop in data and data[loop]["loop_at_a_time"] is not None:
+            del data[loop]["loop_at_a_time"]["loop_at_a_time"]
     stability = data.pop("stability")
     data["stability"] = stability["verdict"]
     data["stability_pade_order"] = stability["pade_order"]

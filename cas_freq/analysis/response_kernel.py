@@ -144,12 +144,24 @@ def _responses(w, plant, output, a, b, g, f, reference, values, has_reference, d
 
 
 def _shared_values(stack, omega):
-    """A stack's values on the grid, (loops, 1, m), where every run shares it; else an empty
+    """A stack's values on the grid, (loops, 1, m), where every run shares it (by the kernel's
+    own arithmetic, so a run's figures do not depend on the runs beside it); else an empty
     (loops, 0, m) array (each run evaluates its own)."""
     if stack.shape[1] > 1:
         return np.empty((stack.shape[0], 0, omega.size), dtype=complex)
-    s = 1j * omega
-    return np.stack([parts.polyval(tuple(row[0]), s) * np.ones_like(s) for row in stack])[:, None]
+    out = np.empty((stack.shape[0], 1, omega.size), dtype=complex)
+    _evaluate_all(stack, omega, out)
+    return out
+
+
+@cached_jit(nogil=True)
+def _evaluate_all(stack, w, out):
+    """out[k, 0] = polynomial k of a one-row stack on the grid (:func:`_evaluate`)."""
+    w2 = -w * w
+    real = np.empty(w.size)
+    imaginary = np.empty(w.size)
+    for k in range(stack.shape[0]):
+        _evaluate(stack[k, 0], w, w2, real, imaginary, out[k, 0])
 
 
 def _shared(value):

@@ -22,7 +22,7 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 from pydantic_core import PydanticCustomError
 
 from cas_freq.config.units import has_unit, to_si
-from cas_freq.figures import FIGURES, METRICS, UNIT_LABELS
+from cas_freq.figures import FIGURES, METRICS, UNIT_LABELS, accepted_metrics
 
 __all__ = ["METRICS", "UNIT_LABELS", "ProfileCondition", "Requirement", "convert_bound",
            "metric_unit", "parse_frequency_spec"]
@@ -214,7 +214,7 @@ class Requirement(BaseModel):
         if value not in METRICS:
             raise PydanticCustomError(
                 "cas_value",
-                f"unknown figure {value!r}; accepted: {', '.join(sorted(METRICS))}",
+                f"unknown figure {value!r}; accepted: {accepted_metrics()}",
             )
         return value
 
