@@ -57,14 +57,16 @@ DEFAULT_CHUNK = 256
 AT_A_TIME = "loop_at_a_time"
 
 
-def figure_names(loops=("current_loop", "position_loop")):
+def figure_names(loops=("current_loop", "position_loop"), loop_at_a_time=True):
     """Every figure name of a batch analysis of drives with these loops (innermost first), in
-    output order (``stable`` is 1.0 or 0.0): each loop's figures, then the same with every
-    other loop closed (``<loop>.loop_at_a_time.<figure>``), then the closed loop's."""
+    output order (``stable`` is 1.0 or 0.0): each loop's figures, then (``loop_at_a_time``)
+    the same with every other loop closed (``<loop>.loop_at_a_time.<figure>``), then the
+    closed loop's."""
+    views = loops if loop_at_a_time else ()
     return (
         "stable",
         *(f"{loop}.{name}" for loop in loops for name in LOOP_FIGURES),
-        *(f"{loop}.{AT_A_TIME}.{name}" for loop in loops for name in LOOP_FIGURES),
+        *(f"{loop}.{AT_A_TIME}.{name}" for loop in views for name in LOOP_FIGURES),
         *(f"closed_loop.{name}" for name in CLOSED_LOOP_FIGURES),
     )
 
@@ -102,7 +104,7 @@ class BatchAnalysis:
 
 
 def _figures_on(p, omega, verdicts, columns=None, delay=EXACT, crossings=False,
-                compiled=None):
+                compiled=None, at_a_time=True):
     """Figures of the runs ``p`` on grid ``omega`` (only its first ``columns`` points if
     given), with the raw values :func:`_needs_full_grid` checks.
 
@@ -115,7 +117,7 @@ def _figures_on(p, omega, verdicts, columns=None, delay=EXACT, crossings=False,
     selector = Selector(p)
     names = tuple(verdicts)
     top = names[-1]
-    grid = _grid_responses(selector(column=True), omega, p.n_runs, delay, compiled)
+    grid = _grid_responses(selector(column=True), omega, p.n_runs, delay, compiled, at_a_time)
     whole = verdicts[top] == "stable"
     n = p.n_runs
     low = omega[:columns]
@@ -142,13 +144,13 @@ def _figures_on(p, omega, verdicts, columns=None, delay=EXACT, crossings=False,
                                          verdicts[name] == "stable", probes, crossings, inner)
         figures.update({f"{name}.{key}": value for key, value in values.items()})
         tops[name] = np.broadcast_to(np.abs(response[..., m - 1:]), (n, omega.size - m + 1))
-        if inner:
+        if at_a_time and inner:
             aat = np.broadcast_to(grid.loop_at_a_time[name], (n, omega.size))
             values, _ = _loop_figures_of(evaluator(name, AT_A_TIME), low, aat[:, :m], n, whole,
                                          probes, crossings, False)
             tops[f"{name}.{AT_A_TIME}"] = np.abs(aat[:, m - 1:])
-        # (the outermost loop's two views are one)
-        figures.update({f"{name}.{AT_A_TIME}.{key}": value for key, value in values.items()})
+        if at_a_time:  # (the outermost loop's two views are one)
+            figures.update({f"{name}.{AT_A_TIME}.{key}": value for key, value in values.items()})
         probes = found if probes is None else probes + found
     closed_grid = np.broadcast_to(grid.closed_loop, (n, omega.size))
     values = closed_loop_figures(evaluator("closed_loop"), low, closed_grid[:, :m], whole)
@@ -175,7 +177,7 @@ def _loop_figures_of(evaluate, low, response, n, stable, probes, crossings, inne
     return values, values.pop("_inner_probes", Probes.none())
 
 
-def _grid_responses(p, omega, n, delay, compiled=None):
+def _grid_responses(p, omega, n, delay, compiled=None, at_a_time=True):
     """Every loop (both views) and T on the grid: compiled
     (:mod:`cas_freq.analysis.response_kernel`) where ``compiled`` (default: where
     :func:`cas_freq.jit.compiled_for` says so), else numpy
@@ -185,8 +187,8 @@ def _grid_responses(p, omega, n, delay, compiled=None):
     if compiled_for(n * omega.size) if compiled is None else compiled:
         from cas_freq.analysis.response_kernel import grid_responses
 
-        return grid_responses(p, omega, n, delay, loop_at_a_time=True)
-    return responses(p, 1j * omega, delay=delay, loop_at_a_time=True)
+        return grid_responses(p, omega, n, delay, loop_at_a_time=at_a_time)
+    return responses(p, 1j * omega, delay=delay, loop_at_a_time=at_a_time)
 
 
 def _needs_full_grid(figures, tops, stable):
@@ -231,7 +233,7 @@ def _split_index(full, coarse):
 
 
 def _chunk_figures(p, frequency_range, points_per_decade, pade_order, delay=EXACT,
-                   crossings=False, verdicts=None, compiled=None):
+                   crossings=False, verdicts=None, compiled=None, at_a_time=True):
     """Figures of one chunk.
 
     The grid of the single path is a log grid, densified with linear steps above the
@@ -250,16 +252,16 @@ def _chunk_figures(p, frequency_range, points_per_decade, pade_order, delay=EXAC
     split = _split_index(full, coarse)
     if crossings or split >= coarse.size - 1 or split < 3:
         figures, _ = _figures_on(p, full, verdicts, delay=delay, crossings=crossings,
-                                 compiled=compiled)
+                                 compiled=compiled, at_a_time=at_a_time)
         return figures, verdicts
     figures, tops = _figures_on(p, coarse, verdicts, columns=split, delay=delay,
-                                compiled=compiled)
+                                compiled=compiled, at_a_time=at_a_time)
     need = _needs_full_grid(figures, tops, verdicts[list(verdicts)[-1]] == "stable")
     if need.any():
         rows = np.flatnonzero(need)
         again, _ = _figures_on(p.take(rows), full,
                                {name: verdict[rows] for name, verdict in verdicts.items()},
-                               delay=delay, compiled=compiled)
+                               delay=delay, compiled=compiled, at_a_time=at_a_time)
         for name, value in again.items():
             figures[name] = np.array(figures[name], copy=True)
             figures[name][rows] = value
@@ -281,6 +283,7 @@ def batch_analyze(
     progress=None,
     workers=None,
     delay=EXACT,
+    loop_at_a_time=True,
 ):
     """Analyse every variant of a batch (stability from Padé-model poles).
 
@@ -303,13 +306,17 @@ def batch_analyze(
         depend on it: each chunk is computed alone and put in its place.
     delay : DelayModel
         Exact delays (default) or Padé of some order in every frequency response.
+    loop_at_a_time : bool
+        Also the inner loops' figures with every other loop closed (as many margin searches
+        again for each inner loop whose response differs between runs: off where no figure of
+        them is wanted).
 
     Returns
     -------
     BatchAnalysis
     """
     n = params.n_runs
-    names = figure_names(build(params).names)
+    names = figure_names(build(params).names, loop_at_a_time)
     compiled = use_compiled()  # every chunk alike, whatever its size
     figures = {name: np.empty(n) for name in names}
     verdicts = {}
@@ -318,7 +325,7 @@ def batch_analyze(
     def work(start):
         chunk = params.take(slice(start, min(start + chunk_size, n)))
         return _chunk_figures(chunk, frequency_range, points_per_decade, pade_order, delay,
-                              compiled=compiled)
+                              compiled=compiled, at_a_time=loop_at_a_time)
 
     # numpy releases the GIL inside its array loops, so chunks overlap on several cores
     with concurrent.futures.ThreadPoolExecutor(max_workers=_workers(workers, len(starts))) as pool:

@@ -130,7 +130,8 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None
                 progress(min(n, int(share * n + 1e-6)), n)
         return report
 
-    analysis = batch_analyze(loop, progress=stage_progress("analysis"))
+    analysis = batch_analyze(loop, progress=stage_progress("analysis"),
+                             loop_at_a_time=wants_loop_at_a_time(params))
     figures = dict(analysis.figures)
     if step_rad is not None:
         from cas_freq.studies.steps import batch_steps
@@ -149,6 +150,13 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None
         )
         figures["sinedwell.bandwidth_rad_s"] = bandwidth
     return figures, analysis.stability
+
+
+def wants_loop_at_a_time(params):
+    """Whether a study of ``params`` computes the loop-at-a-time figures: where a requirement
+    of the config bounds one (they cost as many margin searches again per inner loop)."""
+    return any(".loop_at_a_time." in requirement.metric
+               for requirement in getattr(params, "requirements", ()) or ())
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
