@@ -72,6 +72,7 @@ __all__ = [
     "drivetrain_problem",
     "filter_time_constant",
     "is_cascade",
+    "loop_values",
     "parameter",
     "parse_value",
     "unit_of",
@@ -517,6 +518,20 @@ def check_key(key, config=None):
         kind = filters[index].type
         raise ConfigError(f"{key}: a {kind} filter has no {name}; it takes "
                           f"{', '.join(FILTER_NUMBERS[kind])}")
+
+
+def loop_values(loop, key, config=None):
+    """The per-run values [SI] of variable ``key`` in LoopParameters ``loop`` (built from
+    ``config``): its field, or a filter's number; None for a key no field carries (the no-load
+    point)."""
+    match = _FILTER_KEY.fullmatch(key)
+    if match:
+        index, name = int(match.group(1)), match.group(2)
+        if index >= len(loop.filters) or name not in _FILTER_FIELDS:
+            return None
+        return getattr(loop.filters[index], _FILTER_FIELDS[name])
+    field = parameter(key, config).field
+    return None if field is None else getattr(loop, field)
 
 
 def unit_of(key, config=None):

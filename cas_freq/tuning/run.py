@@ -40,7 +40,7 @@ def tune_variant(loaded, free=None, bounds=(), objective="max-bandwidth", robust
         config without a load envelope.
     """
     params = loaded.params
-    keys = parse_free(free if free is not None else ",".join(DEFAULT_FREE))
+    keys = parse_free(free if free is not None else ",".join(DEFAULT_FREE), params)
     held, skipped = constraints(params.requirements, margin_pct / 100.0,
                                 advisory=not required_only)
     if not held:
@@ -51,9 +51,9 @@ def tune_variant(loaded, free=None, bounds=(), objective="max-bandwidth", robust
         if params.load_envelope is None:
             raise ConfigError(f"--load-cases: {loaded.source} declares no load_envelope")
         cases = list(params.load_envelope.hinge_stiffness)
-    scenario_set = scenarios(params, robust, [parse_tolerance(t) for t in tolerances],
+    scenario_set = scenarios(params, robust, [parse_tolerance(t, params) for t in tolerances],
                              yield_pct, seed, cases, distribution)
-    return search.tune(params, tune_keys(params, keys, parse_bounds(bounds, keys)),
+    return search.tune(params, tune_keys(params, keys, parse_bounds(bounds, keys, params)),
                        scenario_set, held, skipped, objective, seed=seed,
                        global_count=candidates, rounds=rounds, scheduler=scheduler,
                        progress=progress)
