@@ -323,23 +323,6 @@ PARAMETERS = _table(
      "current-command limit +/-i_max, 1e-6..1e6 [A]"),
     ("position_loop.delay", "tau_p", "s", 0.0, False, MAX_DELAY_S,
      f"position-loop transport delay tau_p, 0 or 1e-9..{MAX_DELAY_S:g} [s]", 1e-9),
-    ("position_loop.omega_max", "omega_max", "rad/s", 0.0, True, 1e9,
-     "velocity-command limit +/-omega_max of a velocity loop (motor side), default none, "
-     "> 0..1e9 [rad/s]"),
-    ("velocity_loop.Kp", "cv_Kp", "A*s/rad", 0.0, False, 1e9,
-     "velocity-loop proportional gain, 0 or 1e-9..1e9 [A*s/rad]", 1e-9),
-    ("velocity_loop.Ki", "cv_Ki", "A/rad", 0.0, False, 1e9,
-     "velocity-loop integral gain, 0 or 1e-9..1e9 [A/rad]", 1e-9),
-    ("velocity_loop.i_max", "i_max", "A", 1e-6, False, 1e6,
-     "current-command limit +/-i_max of the velocity loop, 1e-6..1e6 [A]"),
-    ("velocity_loop.delay", "tau_v", "s", 0.0, False, MAX_DELAY_S,
-     f"velocity-loop transport delay tau_v, 0 or 1e-9..{MAX_DELAY_S:g} [s]", 1e-9),
-    ("velocity_loop.feedback_filter", "tau_vf", "s", 0.0, False, 1.0,
-     "time constant tau_vf of the first-order low-pass on the measured velocity (0: none), 0 "
-     "or 1e-9..1 [s]", 1e-9),
-    ("velocity_loop.ff_a", "ff_a", "A*s^2/rad", -1e9, False, 1e9,
-     "feed-forward of the motor-angle command acceleration into the current command, 0 or "
-     "|ff_a| 1e-12..1e9 [A*s^2/rad]", 1e-12),
     ("motor.coulomb_friction", "F_c", "N*m", 0.0, False, 1e3,
      "Coulomb (dry) friction torque on the motor shaft, nonlinear simulation only, 0 or "
      "1e-12..1e3 [N*m]", 1e-12),
@@ -369,6 +352,24 @@ PARAMETERS = _table(
     ("load.hinge_bias", "tau_h", "N*m", -1e9, False, 1e9,
      "constant load moment at the output, nonlinear simulation only, 0 or |value| "
      "1e-12..1e9 [N*m]", 1e-12),
+    # the velocity loop of a cascade (../shared/MODEL.md, "Drive architectures")
+    ("position_loop.omega_max", "omega_max", "rad/s", 0.0, True, 1e9,
+     "velocity-command limit +/-omega_max of a velocity loop (motor side), default none, "
+     "> 0..1e9 [rad/s]"),
+    ("velocity_loop.Kp", "cv_Kp", "A*s/rad", 0.0, False, 1e9,
+     "velocity-loop proportional gain, 0 or 1e-9..1e9 [A*s/rad]", 1e-9),
+    ("velocity_loop.Ki", "cv_Ki", "A/rad", 0.0, False, 1e9,
+     "velocity-loop integral gain, 0 or 1e-9..1e9 [A/rad]", 1e-9),
+    ("velocity_loop.i_max", "i_max", "A", 1e-6, False, 1e6,
+     "current-command limit +/-i_max of the velocity loop, 1e-6..1e6 [A]"),
+    ("velocity_loop.delay", "tau_v", "s", 0.0, False, MAX_DELAY_S,
+     f"velocity-loop transport delay tau_v, 0 or 1e-9..{MAX_DELAY_S:g} [s]", 1e-9),
+    ("velocity_loop.feedback_filter", "tau_vf", "s", 0.0, False, 1.0,
+     "time constant tau_vf of the first-order low-pass on the measured velocity (0: none), 0 "
+     "or 1e-9..1 [s]", 1e-9),
+    ("velocity_loop.ff_a", "ff_a", "A*s^2/rad", -1e9, False, 1e9,
+     "feed-forward of the motor-angle command acceleration into the current command, 0 or "
+     "|ff_a| 1e-12..1e9 [A*s^2/rad]", 1e-12),
     ("simulation.current_loop_rate", None, "Hz", 1.0, False, 1e9,
      "current-controller sample rate with controllers: sampled, 1..1e9 [Hz]"),
     ("simulation.position_loop_rate", None, "Hz", 1.0, False, 1e9,
@@ -680,12 +681,12 @@ class LoopParameters:
         Load at the fin: inertia [kg*m^2], damping [N*m*s/rad], hinge stiffness [N*m/rad]
         and constant hinge moment [N*m] (nonlinear simulation only). All the load and
         drivetrain fields default to "absent" (0, efficiencies 1).
+    omega_max : numpy.ndarray
+        Limit of a cascade's velocity command [rad/s, motor] (+inf: none).
     cv_Kp, cv_Ki, tau_v, tau_vf : numpy.ndarray
         Velocity loop of a cascade: PI gains [A*s/rad], [A/rad], transport delay between the
         velocity controller and the current loop [s], time constant of the first-order
         low-pass on the measured velocity [s] (0: none). All 0 without a velocity loop.
-    omega_max : numpy.ndarray
-        Limit of a cascade's velocity command [rad/s, motor] (+inf: none).
     cascade : bool
         Static: True for a cascade (a velocity loop between the position and current loops).
     feedback_output : bool
@@ -726,11 +727,11 @@ class LoopParameters:
     b_L: np.ndarray = 0.0
     K_h: np.ndarray = 0.0
     tau_h: np.ndarray = 0.0
+    omega_max: np.ndarray = math.inf
     cv_Kp: np.ndarray = 0.0
     cv_Ki: np.ndarray = 0.0
     tau_v: np.ndarray = 0.0
     tau_vf: np.ndarray = 0.0
-    omega_max: np.ndarray = math.inf
     cascade: bool = False
     feedback_output: bool = False
     filters: tuple = ()
@@ -751,7 +752,9 @@ class LoopParameters:
             object.__setattr__(self, name, array)
         for name in names:
             values = getattr(self, name)
-            bad = ~np.isfinite(values) & ~((values == math.inf) if name == "omega_max" else False)
+            bad = ~np.isfinite(values)
+            if name == "omega_max":  # +inf: no limit
+                bad &= values != math.inf
             if bad.any():
                 raise ConfigError(f"simulation parameters: {name}: must be finite, got "
                                   f"{float(getattr(self, name)[bad][0])} (runs {_indices(bad)})")
