@@ -431,8 +431,8 @@ FILTER_PARAMETERS = {
                   "[dimensionless]"),
         Parameter("filters.N.width", None, "rad/s", 0.0, True, 1e9,
                   "width of a notch filter, > 0..1e9 [rad/s]"),
-        Parameter("filters.N.depth", None, "dB", -300.0, False, 0.0,
-                  "depth of a notch filter at its frequency, below 0 dB, -300..0 [dB]"),
+        Parameter("filters.N.depth", None, "dB", -300.0, False, None,
+                  "depth of a notch filter at its frequency, below 0 dB, >= -300 [dB]"),
     )
 }
 _FILTER_KEY = re.compile(r"filters\.(\d{1,4})\.(\w+)")
