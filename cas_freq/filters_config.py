@@ -1,4 +1,4 @@
-"""The loop filters of a config (``filters:``, ../shared/MODEL.md "Drive architectures").
+"""The loop filters of a config (``filters:``, docs/config.md).
 
 Each filter sits in series at one point of the loop, ``at``:
 

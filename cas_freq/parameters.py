@@ -31,7 +31,7 @@ config file: ``Tf`` is derived per sample unless the base config sets ``position
 tolerance on Km moves mu_v with it, as the report's formula does), and stays fixed when the
 base config gives ``motor.mu_v`` (e.g. the fitted variant) unless ``motor.mu_v`` is varied.
 
-Drive architectures (../shared/MODEL.md): with a ``velocity_loop:`` section (a cascade) the
+Drive architectures (docs/config.md): with a ``velocity_loop:`` section (a cascade) the
 position controller commands a velocity, so ``position_loop.Kp``, ``Ki`` and ``ff_v`` have
 other units; :data:`CASCADE_PARAMETERS` holds their records and :func:`parameter` (hence
 :func:`unit_of`, :func:`parse_value`, sweeps, tolerances and free keys given the config) picks
@@ -352,7 +352,7 @@ PARAMETERS = _table(
     ("load.hinge_bias", "tau_h", "N*m", -1e9, False, 1e9,
      "constant load moment at the output, nonlinear simulation only, 0 or |value| "
      "1e-12..1e9 [N*m]", 1e-12),
-    # the velocity loop of a cascade (../shared/MODEL.md, "Drive architectures")
+    # the velocity loop of a cascade (docs/config.md)
     ("position_loop.omega_max", "omega_max", "rad/s", 0.0, True, 1e9,
      "velocity-command limit +/-omega_max of a velocity loop (motor side), default none, "
      "> 0..1e9 [rad/s]"),

@@ -226,7 +226,7 @@ class PositionLoop(_Section):
 
 class CascadePositionLoop(_Section):
     """P or PI position controller of a cascade: its output is the velocity command
-    [rad/s, motor] of the velocity loop (../shared/MODEL.md, "Drive architectures")."""
+    [rad/s, motor] of the velocity loop (docs/config.md)."""
 
     Kp: cascade_param("position_loop.Kp")
     Ki: cascade_param("position_loop.Ki") = 0.0
