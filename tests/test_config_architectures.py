@@ -1,4 +1,4 @@
-"""Config keys of the drive architectures (../shared/MODEL.md, "Drive architectures"): the
+"""Config keys of the drive architectures (docs/config.md): the
 velocity loop (a cascade), the filters and the output-side position feedback, as far as the
 config and LoopParameters carry them (the model does not use them yet: the loader refuses such
 a config, :func:`cas_freq.parameters.unsupported_architecture`).
@@ -383,3 +383,18 @@ def test_sweep_tolerance_and_tune_read_the_cascade_units(shipped_raw):
     keys = tune_keys(config, free, parse_bounds(["filters.0.frequency=500:1500"], free, config))
     assert [(k.key, k.start, k.unit) for k in keys] == [
         ("velocity_loop.Kp", 0.02, "A*s/rad"), ("filters.0.frequency", 900.0, "rad/s")]
+
+
+def test_an_unknown_key_lists_what_the_architecture_accepts(shipped_raw):
+    shipped_raw["position_loop"]["bogus"] = 1
+    with pytest.raises(ConfigError) as info:
+        validate(shipped_raw, "test")
+    assert str(info.value) == (
+        "test: position_loop.bogus: unknown key (value 1); position_loop accepts Kp, Ki, Kd, "
+        "Tf, ff_v, ff_a, i_max, delay, derivative_on, feedback")
+    raw = as_cascade(shipped_raw)
+    with pytest.raises(ConfigError) as info:
+        validate(raw, "test")
+    assert str(info.value) == (
+        "test: position_loop.bogus: unknown key (value 1); position_loop accepts Kp, Ki, ff_v, "
+        "omega_max, delay, feedback")

@@ -25,7 +25,7 @@ import yaml
 from pydantic import BaseModel, ValidationError
 from yaml.events import AliasEvent, CollectionEndEvent, CollectionStartEvent, ScalarEvent
 
-from cas_freq.config.schema import BASE_VARIANT, ActuatorConfig
+from cas_freq.config.schema import BASE_VARIANT, ActuatorConfig, CascadePositionLoop
 from cas_freq.exceptions import ConfigError, ConfigTypeError, listed
 from cas_freq.parameters import unsupported_architecture
 
@@ -361,8 +361,9 @@ def _item(items, part, where, dotted, origin):
     return item
 
 
-def _accepted_keys(loc):
-    """Keys accepted by the section holding the unknown key at ``loc``."""
+def _accepted_keys(loc, cascade=False):
+    """Keys accepted by the section holding the unknown key at ``loc`` (of a config with a
+    velocity loop if ``cascade``), without the keys the section refuses."""
     model = ActuatorConfig
     for part in loc[:-1]:
         if isinstance(part, int):  # an item of a list of sections (filters.0)
@@ -371,14 +372,15 @@ def _accepted_keys(loc):
         if field is None:
             return None
         candidates = [field.annotation, *getattr(field.annotation, "__args__", ())]
-        model = next((c for c in candidates if isinstance(c, type) and
-                      issubclass(c, BaseModel)), None)
-        if model is None:
+        models = [c for c in candidates if isinstance(c, type) and issubclass(c, BaseModel)]
+        if not models:
             return None
-    return ", ".join(model.model_fields)
+        model = next((m for m in models if (m is CascadePositionLoop) == cascade), models[0])
+    return ", ".join(name for name, field in model.model_fields.items()
+                     if not (field.json_schema_extra or {}).get("refused"))
 
 
-def _message(error):
+def _message(error, cascade=False):
     """One line for one pydantic error: ``dotted.key: what is wrong``."""
     loc = ".".join(str(part) for part in error["loc"])
     kind = error["type"]
@@ -388,7 +390,7 @@ def _message(error):
     elif kind == "missing":
         text = "required key is missing"
     elif kind == "extra_forbidden":
-        accepted = _accepted_keys(error["loc"])
+        accepted = _accepted_keys(error["loc"], cascade)
         text = f"unknown key (value {shown(value)})"
         if accepted:
             section = ".".join(str(part) for part in error["loc"][:-1]) or "the top level"
@@ -406,7 +408,7 @@ def _message(error):
     return one_line(f"{loc}: {text}" if loc else text)
 
 
-def _messages(errors):
+def _messages(errors, cascade=False):
     """One line per problem, in pydantic's order, except that several unknown keys of one
     section share one line: their names (the first :data:`~cas_freq.exceptions.MAX_LISTED`,
     then a count) and, once, what the section accepts."""
@@ -419,11 +421,11 @@ def _messages(errors):
         section = tuple(error["loc"][:-1])
         group = unknown.get(section) if error["type"] == "extra_forbidden" else None
         if group is None or len(group) == 1:
-            lines.append(_message(error))
+            lines.append(_message(error, cascade))
         elif error is group[0]:
             names = (one_line(".".join(str(part) for part in e["loc"]))[:QUOTE_CHARS]
                      for e in group)
-            accepted = _accepted_keys(error["loc"])
+            accepted = _accepted_keys(error["loc"], cascade)
             where = ".".join(str(part) for part in section) or "the top level"
             lines.append(one_line(f"{len(group):,} unknown keys: {listed(names, ', ')}"
                                   + (f"; {where} accepts {accepted}" if accepted else "")))
@@ -458,7 +460,8 @@ def validate(data, origin):
         return ActuatorConfig.model_validate(data)
     except ValidationError as exc:
         errors = exc.errors()
-        lines = _messages(errors)
+        lines = _messages(errors, isinstance(data, dict)
+                          and data.get("velocity_loop") is not None)
         kind = ConfigTypeError if all(_is_type_error(e) for e in errors) else ConfigError
         head = f"{origin}: " if origin else ""
         raise kind(head + listed(lines)) from None

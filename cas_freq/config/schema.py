@@ -69,7 +69,7 @@ def refused(why):
     def refuse(value):
         raise PydanticCustomError("cas_value", why)
 
-    return Annotated[Any, BeforeValidator(refuse)]
+    return Annotated[Any, BeforeValidator(refuse), Field(json_schema_extra={"refused": why})]
 
 
 def _feedback(value):
