@@ -12,9 +12,11 @@ and is one of three kinds, ``type`` (ω0 = ``frequency`` [rad/s]):
 - ``notch`` (``width`` Δω [rad/s], ``depth`` [dB] < 0): (s² + 2dζω0 s + ω0²)/(s² + 2ζω0 s + ω0²)
   with ζ = Δω/(2ω0), d = 10^(depth/20).
 
-:class:`Filter` carries one filter of a batch of runs: its point and kind are the same for the
-whole batch (they shape the loop), its numbers are per run. This module imports only
-:mod:`cas_freq.exceptions`.
+:data:`FILTER_PARAMETERS` holds the records of a filter's numbers (unit, bounds, meaning), as
+:data:`cas_freq.parameters.PARAMETERS` does for the other keys. :class:`Filter` carries one
+filter of a batch of runs: its point and kind are the same for the whole batch (they shape the
+loop), its numbers are per run. This module imports only :mod:`cas_freq.exceptions` and
+:mod:`cas_freq.parameter_record`.
 """
 
 import dataclasses
@@ -22,9 +24,10 @@ import dataclasses
 import numpy as np
 
 from cas_freq.exceptions import ConfigError
+from cas_freq.parameter_record import Parameter
 
-__all__ = ["DEFAULT_DAMPING", "FILTER_NUMBERS", "FILTER_POINTS", "FILTER_TYPES", "Filter",
-           "depth_problem", "point_problem", "type_problem"]
+__all__ = ["DEFAULT_DAMPING", "FILTER_NUMBERS", "FILTER_PARAMETERS", "FILTER_POINTS",
+           "FILTER_TYPES", "Filter", "depth_problem", "point_problem", "type_problem"]
 
 #: Where a filter may sit.
 FILTER_POINTS = ("current_command", "velocity_feedback")
@@ -37,6 +40,22 @@ FILTER_NUMBERS = {
 FILTER_TYPES = tuple(FILTER_NUMBERS)
 #: Damping of a ``lowpass2`` without ``damping`` (1/√2: Butterworth) [-].
 DEFAULT_DAMPING = 0.7071
+
+#: The numbers of a filter of ``filters:`` (:mod:`cas_freq.filters_config`), by item key;
+#: the dotted key of filter i's number is ``filters.<i>.<name>``.
+FILTER_PARAMETERS = {
+    p.key.rpartition(".")[2]: p for p in (
+        Parameter("filters.N.frequency", None, "rad/s", 0.0, True, 1e9,
+                  "filter frequency w0, > 0..1e9 [rad/s]"),
+        Parameter("filters.N.damping", None, "dimensionless", 0.0, True, 100.0,
+                  f"damping of a lowpass2 filter, default {DEFAULT_DAMPING:g}, > 0..100 "
+                  "[dimensionless]"),
+        Parameter("filters.N.width", None, "rad/s", 0.0, True, 1e9,
+                  "width of a notch filter, > 0..1e9 [rad/s]"),
+        Parameter("filters.N.depth", None, "dB", -300.0, False, None,
+                  "depth of a notch filter at its frequency, below 0 dB, >= -300 [dB]"),
+    )
+}
 
 
 def point_problem(at):
