@@ -398,3 +398,13 @@ def test_an_unknown_key_lists_what_the_architecture_accepts(shipped_raw):
     assert str(info.value) == (
         "test: position_loop.bogus: unknown key (value 1); position_loop accepts Kp, Ki, ff_v, "
         "omega_max, delay, feedback")
+
+
+def test_tune_frees_the_cascade_gains_by_default(shipped_raw):
+    from cas_freq.tuning.space import default_free, parse_free
+
+    assert default_free(load_variant().params) == (
+        "position_loop.Kp", "position_loop.Ki", "position_loop.Kd")
+    config = validate(as_cascade(shipped_raw), "test")
+    assert default_free(config) == ("position_loop.Kp", "velocity_loop.Kp", "velocity_loop.Ki")
+    assert parse_free(",".join(default_free(config)), config) == default_free(config)

@@ -16,13 +16,14 @@ import numpy as np
 from cas_freq.exceptions import ConfigError
 from cas_freq.parameters import (
     check_key,
+    is_cascade,
     loop_values,
     parameter,
     parse_value,
     unit_of,
     variant_parameters,
 )
-from cas_freq.tuning.options import DEFAULT_FACTOR, DEFAULT_FREE
+from cas_freq.tuning.options import CASCADE_DEFAULT_FREE, DEFAULT_FACTOR, DEFAULT_FREE
 
 
 @dataclasses.dataclass(frozen=True)
@@ -68,6 +69,12 @@ class TuneKey:
             low, high = math.log(self.lower), math.log(self.upper)
             return (math.log(value) - low) / (high - low)
         return (value - self.lower) / (self.upper - self.lower)
+
+
+def default_free(config):
+    """The keys freed without ``--free``: the PID gains, or with a velocity loop the position
+    P gain and the velocity PI gains."""
+    return CASCADE_DEFAULT_FREE if is_cascade(config) else DEFAULT_FREE
 
 
 def parse_free(text, config=None):
@@ -135,5 +142,5 @@ def sobol(count, dimensions, seed):
     return sampler.random_base2(power)[:count]
 
 
-__all__ = ["DEFAULT_FACTOR", "DEFAULT_FREE", "TuneKey", "parse_bounds", "parse_free", "sobol",
-           "tune_keys"]
+__all__ = ["DEFAULT_FACTOR", "DEFAULT_FREE", "TuneKey", "default_free", "parse_bounds",
+           "parse_free", "sobol", "tune_keys"]
