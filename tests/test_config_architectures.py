@@ -408,3 +408,13 @@ def test_tune_frees_the_cascade_gains_by_default(shipped_raw):
     config = validate(as_cascade(shipped_raw), "test")
     assert default_free(config) == ("position_loop.Kp", "velocity_loop.Kp", "velocity_loop.Ki")
     assert parse_free(",".join(default_free(config)), config) == default_free(config)
+
+
+def test_fit_params_refuse_a_velocity_loop_key_without_a_velocity_loop():
+    from cas_freq.identification.free_keys import free_keys, parse_model_spec
+
+    config = load_variant().params
+    spec = parse_model_spec("velocity_loop.Kp", 1)
+    with pytest.raises(ConfigError, match="--params: velocity_loop.Kp: the config has no "
+                                          "velocity_loop section"):
+        free_keys(spec, variant_parameters(config, {}), "base", config)

@@ -146,19 +146,26 @@ def _bounds(parameter, start, log, scale):
     return low / scale, high / scale
 
 
-def free_keys(spec, loop, variant="base"):
+def free_keys(spec, loop, variant="base", config=None):
     """The :class:`FreeKey` of each key of ``spec``, started from ``loop`` (one run's
-    :class:`~cas_freq.parameters.LoopParameters`, derived values resolved) or the spec's start.
+    :class:`~cas_freq.parameters.LoopParameters`, derived values resolved) or the spec's start;
+    ``config`` (the validated config of ``loop``), when given, refuses a key its architecture
+    does not have.
 
     Raises
     ------
     ConfigError
-        For a key the simulator does not read, or a key that starts at 0 (or absent) where a
-        fit in ratios needs a start above 0.
+        For a key the simulator does not read or the config's architecture does not have, or a
+        key that starts at 0 (or absent) where a fit in ratios needs a start above 0.
     """
     free = []
     for key in spec.keys:
-        record = parameter(key)
+        if config is not None:  # a key of the config's architecture (no Kd with a velocity loop)
+            try:
+                check_key(key, config)
+            except ConfigError as exc:
+                raise ConfigError(f"--params: {exc}") from None
+        record = parameter(key, config)
         if record.field is None:
             accepted = ", ".join(k for k in VARIABLE_KEYS if PARAMETERS[k].field)
             raise ConfigError(f"--params: {key} is not a parameter of the simulated loops; "
