@@ -418,3 +418,11 @@ def test_fit_params_refuse_a_velocity_loop_key_without_a_velocity_loop():
     with pytest.raises(ConfigError, match="--params: velocity_loop.Kp: the config has no "
                                           "velocity_loop section"):
         free_keys(spec, variant_parameters(config, {}), "base", config)
+
+
+def test_an_empty_velocity_loop_section_is_refused(shipped_raw):
+    raw = as_cascade(shipped_raw)
+    raw["velocity_loop"] = None
+    with pytest.raises(ConfigError, match="test: velocity_loop: must be a mapping .*got an "
+                                          "empty section"):
+        validate(raw, "test")

@@ -483,9 +483,16 @@ class ActuatorConfig(_Section):
         """Validate ``obj``; a ``velocity_loop`` section makes ``position_loop`` a
         :class:`CascadePositionLoop` (its gains in the cascade's units)."""
         context = dict(kwargs.pop("context", None) or {})
-        context.setdefault("cascade", isinstance(obj, dict)
-                           and obj.get("velocity_loop") is not None)
+        context.setdefault("cascade", isinstance(obj, dict) and "velocity_loop" in obj)
         return super().model_validate(obj, context=context, **kwargs)
+
+    @field_validator("velocity_loop", mode="before")
+    @classmethod
+    def _velocity_loop_given(cls, value):
+        if value is None:  # an empty section: refused rather than read as no velocity loop
+            raise PydanticCustomError(
+                "cas_value", "must be a mapping (Kp, Ki, i_max, ...), got an empty section")
+        return value
 
     @field_validator("position_loop", mode="wrap")
     @classmethod
