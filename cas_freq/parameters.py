@@ -235,7 +235,7 @@ CASCADE_ONLY = {
     for key in PARAMETERS if key.startswith("velocity_loop.") or key == "position_loop.omega_max"
 }
 
-_FILTER_KEY = re.compile(r"filters\.(\d{1,4})\.(\w+)")
+_FILTER_KEY = re.compile(r"filters\.(0|[1-9]\d{0,3})\.(\w+)")
 #: Filter-number key -> Filter attribute.
 _FILTER_FIELDS = {"frequency": "frequency", "damping": "damping", "width": "width",
                   "depth": "depth_db"}

@@ -460,7 +460,8 @@ def validate(data, origin):
         return ActuatorConfig.model_validate(data)
     except ValidationError as exc:
         errors = exc.errors()
-        lines = _messages(errors, isinstance(data, dict) and "velocity_loop" in data)
+        lines = _messages(errors, isinstance(data, dict)
+                          and data.get("velocity_loop") is not None)
         kind = ConfigTypeError if all(_is_type_error(e) for e in errors) else ConfigError
         head = f"{origin}: " if origin else ""
         raise kind(head + listed(lines)) from None

@@ -64,9 +64,12 @@ def cascade_param(key):
 
 
 def refused(why):
-    """Type of a key that this section refuses with the message ``why`` whenever given."""
+    """Type of a key that this section refuses with the message ``why`` whenever given (null
+    is taken as absent)."""
 
     def refuse(value):
+        if value is None:  # absent (a dumped config writes it so)
+            return None
         raise PydanticCustomError("cas_value", why)
 
     return Annotated[Any, BeforeValidator(refuse), Field(json_schema_extra={"refused": why})]
@@ -483,16 +486,9 @@ class ActuatorConfig(_Section):
         """Validate ``obj``; a ``velocity_loop`` section makes ``position_loop`` a
         :class:`CascadePositionLoop` (its gains in the cascade's units)."""
         context = dict(kwargs.pop("context", None) or {})
-        context.setdefault("cascade", isinstance(obj, dict) and "velocity_loop" in obj)
+        context.setdefault("cascade", isinstance(obj, dict)
+                           and obj.get("velocity_loop") is not None)
         return super().model_validate(obj, context=context, **kwargs)
-
-    @field_validator("velocity_loop", mode="before")
-    @classmethod
-    def _velocity_loop_given(cls, value):
-        if value is None:  # an empty section: refused rather than read as no velocity loop
-            raise PydanticCustomError(
-                "cas_value", "must be a mapping (Kp, Ki, i_max, ...), got an empty section")
-        return value
 
     @field_validator("position_loop", mode="wrap")
     @classmethod
