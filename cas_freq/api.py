@@ -518,10 +518,10 @@ class ActuatorSet(Summary):
         return self.loop_parameters.n_runs
 
     def _summary(self):
-        from cas_freq.parameters import PARAMETERS
+        from cas_freq.parameters import unit_of
 
         rows = [(key, f"{np.min(values):.4g} .. {np.max(values):.4g}"
-                 if np.size(values) else "—", PARAMETERS[key].unit if key in PARAMETERS else "")
+                 if np.size(values) else "—", unit_of(key, self.base.params))
                 for key, values in self.changes.items()]
         return (f"{len(self)} variants of {self.base.params.name} / {self.base.variant}, "
                 "changed:", rows)

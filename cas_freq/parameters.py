@@ -31,22 +31,40 @@ config file: ``Tf`` is derived per sample unless the base config sets ``position
 tolerance on Km moves mu_v with it, as the report's formula does), and stays fixed when the
 base config gives ``motor.mu_v`` (e.g. the fitted variant) unless ``motor.mu_v`` is varied.
 
+Drive architectures (docs/config.md): with a ``velocity_loop:`` section (a cascade) the
+position controller commands a velocity, so ``position_loop.Kp``, ``Ki`` and ``ff_v`` have
+other units; :data:`CASCADE_PARAMETERS` holds their records and :func:`parameter` (hence
+:func:`unit_of`, :func:`parse_value`, sweeps, tolerances and free keys given the config) picks
+the record of the config's architecture. :data:`CASCADE_REFUSED` and :data:`CASCADE_ONLY` say
+which keys each architecture refuses and why; the filters' numbers are the keys
+``filters.<i>.<name>`` (:data:`FILTER_PARAMETERS`).
+
 This module sits at the bottom of the package: it imports only :mod:`cas_freq.exceptions`,
-:mod:`cas_freq.units` and :mod:`cas_freq.formulas`, which import nothing from cas_freq.
+:mod:`cas_freq.formulas`, :mod:`cas_freq.parameter_record` (the :class:`Parameter` record) and
+:mod:`cas_freq.filters_config`, which import nothing else from cas_freq but
+:mod:`cas_freq.units`.
 """
 
 import dataclasses
 import math
-import numbers
+import re
 
 import numpy as np
 
 from cas_freq.exceptions import ConfigError, ConfigTypeError
+from cas_freq.filters_config import FILTER_NUMBERS, FILTER_PARAMETERS, Filter, depth_problem
 from cas_freq.formulas import viscous_friction_from_no_load as viscous_friction
-from cas_freq.units import split_quantity, to_si
+from cas_freq.parameter_record import Parameter
+from cas_freq.parameter_record import indices as _indices
+from cas_freq.parameter_record import table as _table
 
 __all__ = [
+    "CASCADE_ONLY",
+    "CASCADE_PARAMETERS",
+    "CASCADE_REFUSED",
+    "FILTER_PARAMETERS",
     "PARAMETERS",
+    "STATIC_FIELDS",
     "VARIABLE_KEYS",
     "LoopParameters",
     "Parameter",
@@ -55,199 +73,22 @@ __all__ = [
     "derived_problem",
     "drivetrain_problem",
     "filter_time_constant",
+    "is_cascade",
+    "loop_values",
+    "parameter",
     "parse_value",
     "unit_of",
+    "unsupported_architecture",
+    "variable_keys",
     "variant_parameters",
     "viscous_friction",
 ]
-
-
-def _shown(value, unit):
-    """A config value as an error message quotes it: strings quoted, numbers with the unit."""
-    if isinstance(value, str):
-        shown = repr(value)
-        return shown if len(shown) <= 60 else shown[:56] + "...'"
-    if isinstance(value, np.generic):
-        value = value.item()
-    shown = repr(value)
-    return f"{shown if len(shown) <= 40 else shown[:36] + '...'} {unit}"
-
-
-@dataclasses.dataclass(frozen=True)
-class Parameter:
-    """One numeric parameter of the actuator config.
-
-    Attributes
-    ----------
-    key : str
-        Dotted config key (``"position_loop.Kp"``).
-    field : str or None
-        Field of :class:`LoopParameters` that carries it (``"cp_Kp"``), None for a key the
-        loop parameters do not hold (the no-load point, which only derives ``mu_v``; the
-        simulation's sample rates).
-    unit : str
-        SI unit the value is stored in, as pint spells it.
-    lower : float or None
-        Lower bound in ``unit`` (None: any finite value).
-    strict : bool
-        True for ``> lower``, False for ``>= lower``.
-    upper : float or None
-        Upper bound in ``unit`` (None: any finite value).
-    meaning : str
-        One line saying what it is, ending with the unit in brackets.
-    smallest : float or None
-        Smallest accepted non-zero magnitude (None: the bounds alone).
-    datasheet_unit : str or None
-        For a key that datasheets give in another unit than SI (the no-load speed, in rpm):
-        that unit. A value must then carry a unit; a bare number, which would be read in
-        ``unit``, is refused with the hint ``'8520 rpm'?``.
-
-    Units: the value's unit must have ``unit``'s dimension, an angle counted as a dimension of
-    its own (:func:`cas_freq.units.angle_problem`): a key whose unit carries ``rad`` (a speed,
-    ``Ke``, a gain per radian) accepts rpm, rev/s or deg, never a bare 1/time such as ``Hz``
-    or ``min^-1``; a key in ``Hz`` refuses ``rad/s`` and ``rpm``. One rule for every key,
-    read from its unit here.
-    """
-
-    key: str
-    field: str | None
-    unit: str
-    lower: float | None
-    strict: bool
-    upper: float | None
-    meaning: str
-    smallest: float | None = None
-    datasheet_unit: str | None = None
-
-    @property
-    def label(self):
-        """A short label: :attr:`meaning` up to its first ``, `` or ``: `` outside parentheses
-        (``"motor terminal resistance R"``, ``"gear ratio N"``)."""
-        depth = 0
-        for index, char in enumerate(self.meaning):
-            depth += {"(": 1, ")": -1}.get(char, 0)
-            if depth == 0 and self.meaning.startswith((", ", ": "), index):
-                return self.meaning[:index]
-        return self.meaning.rpartition(" [")[0] or self.meaning
-
-    @property
-    def rule(self):
-        """The accepted range as error messages state it: ``">= 1e-06 and <= 1e+06 ohm"``,
-        ``"0 or 1e-09..1e+09 A/rad"``, ``"finite"``."""
-        if self.smallest is not None:
-            size = "|value| " if self.lower is not None and self.lower < 0 else ""
-            return f"0 or {size}within {self.smallest:g}..{self.upper:g} {self.unit}"
-        parts = []
-        if self.lower is not None:
-            parts.append(f"{'>' if self.strict else '>='} {self.lower:g}")
-        if self.upper is not None:
-            parts.append(f"<= {self.upper:g}")
-        if not parts:
-            return "finite"
-        return f"{' and '.join(parts)} {self.unit}"
-
-    def accepts(self, values):
-        """Bool (array): finite and within the bounds."""
-        values = np.asarray(values, dtype=float)
-        good = np.isfinite(values)
-        with np.errstate(invalid="ignore"):
-            if self.lower is not None:
-                good &= values > self.lower if self.strict else values >= self.lower
-            if self.upper is not None:
-                good &= values <= self.upper
-            if self.smallest is not None:
-                good &= (values == 0) | (np.abs(values) >= self.smallest)
-        return good
-
-    def problem(self, value, given=None):
-        """What is wrong with one SI ``value`` (``given``: as written), or None if accepted."""
-        if self.accepts(value):
-            return None
-        shown = _shown(value if given is None else given, self.unit)
-        rule = "finite" if not math.isfinite(value) else self.rule
-        return f"must be {rule}, got {shown}"
-
-    def convert(self, value):
-        """One config value (a number in SI, or a string with a unit) as a float in SI.
-
-        Raises
-        ------
-        TypeError
-            For a value that is neither a number nor a string.
-        ValueError
-            For a string that does not read as a quantity of this unit's dimension, or a value
-            outside the accepted range. The messages do not name the key (see
-            :func:`parse_value`).
-        """
-        self.check_has_unit(value)
-        try:
-            number = to_si(value, self.unit)
-        except (OverflowError, ValueError) as exc:
-            if not isinstance(value, str):
-                raise ValueError(str(exc)) from None
-            text = str(exc)
-            if not text.startswith("cannot read"):
-                text = f"cannot read {_shown(value, self.unit)} as a value in {self.unit}: {text}"
-            raise ValueError(f"{text} (accepted: {self.rule})") from None
-        problem = self.problem(number, value)
-        if problem:
-            raise ValueError(problem)
-        return number
-
-    def check_has_unit(self, value):
-        """Raise ValueError if this key needs a unit (:attr:`datasheet_unit`) and the config
-        value ``value`` (a number, or a string) has none."""
-        if self.datasheet_unit is None:
-            return
-        if isinstance(value, str):
-            try:
-                number, unit = split_quantity(value)
-            except (TypeError, ValueError):
-                return  # not a quantity at all: to_si says why
-            if unit:
-                return
-        elif isinstance(value, numbers.Real) and not isinstance(value, bool):
-            try:
-                number = f"{float(value):g}"
-            except OverflowError:
-                return  # to_si says why
-        else:
-            return  # not a number: to_si says why
-        raise ValueError(
-            f"needs a unit, got {_shown(value, '').strip()}: '{number} {self.datasheet_unit}'? "
-            f"(a bare number would be read in {self.unit}; datasheets give it in "
-            f"{self.datasheet_unit})"
-        )
-
-    def check(self, values, label=None, where="samples"):
-        """Raise ConfigError unless every value of the array ``values`` is accepted.
-
-        The message names ``label`` (default the key), the range, the first bad value and the
-        indices of up to 10 bad ``where`` (samples, runs).
-        """
-        values = np.asarray(values, dtype=float)
-        bad = ~self.accepts(values)
-        if bad.any():
-            first = float(values[bad][0])
-            raise ConfigError(
-                f"{label or self.key}: {self.problem(first)} ({where} {_indices(bad)})"
-            )
 
 
 #: Longest accepted transport delay of either loop [s].
 MAX_DELAY_S = 0.1
 #: Lowest accepted forward gear efficiency [-] (the least efficient worm gears are ~0.2).
 MIN_EFFICIENCY = 0.01
-
-
-def _table(*rows):
-    """The table of ``rows``: each the positional fields of a Parameter, optionally followed by
-    a dict of its keyword fields (``{"datasheet_unit": "rpm"}``)."""
-    table = {}
-    for row in rows:
-        keywords = row[-1] if isinstance(row[-1], dict) else {}
-        table[row[0]] = Parameter(*row[:len(row) - bool(keywords)], **keywords)
-    return table
 
 
 #: Every numeric parameter of the config, by dotted key, in the config's order.
@@ -326,6 +167,24 @@ PARAMETERS = _table(
     ("load.hinge_bias", "tau_h", "N*m", -1e9, False, 1e9,
      "constant load moment at the output, nonlinear simulation only, 0 or |value| "
      "1e-12..1e9 [N*m]", 1e-12),
+    # the velocity loop of a cascade (docs/config.md)
+    ("position_loop.omega_max", "omega_max", "rad/s", 0.0, True, 1e9,
+     "velocity-command limit +/-omega_max of a velocity loop (motor side), default none, "
+     "> 0..1e9 [rad/s]"),
+    ("velocity_loop.Kp", "cv_Kp", "A*s/rad", 0.0, False, 1e9,
+     "velocity-loop proportional gain, 0 or 1e-9..1e9 [A*s/rad]", 1e-9),
+    ("velocity_loop.Ki", "cv_Ki", "A/rad", 0.0, False, 1e9,
+     "velocity-loop integral gain, 0 or 1e-9..1e9 [A/rad]", 1e-9),
+    ("velocity_loop.i_max", "i_max", "A", 1e-6, False, 1e6,
+     "current-command limit +/-i_max of the velocity loop, 1e-6..1e6 [A]"),
+    ("velocity_loop.delay", "tau_v", "s", 0.0, False, MAX_DELAY_S,
+     f"velocity-loop transport delay tau_v, 0 or 1e-9..{MAX_DELAY_S:g} [s]", 1e-9),
+    ("velocity_loop.feedback_filter", "tau_vf", "s", 0.0, False, 1.0,
+     "time constant tau_vf of the first-order low-pass on the measured velocity (0: none), 0 "
+     "or 1e-9..1 [s]", 1e-9),
+    ("velocity_loop.ff_a", "ff_a", "A*s^2/rad", -1e9, False, 1e9,
+     "feed-forward of the motor-angle command acceleration into the current command, 0 or "
+     "|ff_a| 1e-12..1e9 [A*s^2/rad]", 1e-12),
     ("simulation.current_loop_rate", None, "Hz", 1.0, False, 1e9,
      "current-controller sample rate with controllers: sampled, 1..1e9 [Hz]"),
     ("simulation.position_loop_rate", None, "Hz", 1.0, False, 1e9,
@@ -333,35 +192,156 @@ PARAMETERS = _table(
 )
 
 #: Keys a sweep or a Monte Carlo run can change per sample: every key that reaches the loop
-#: parameters (the simulation's sample rates are settings of a whole run, not of a sample).
+#: parameters (the simulation's sample rates are settings of a whole run, not of a sample), and
+#: the numbers of the config's filters (``filters.0.frequency``, :func:`variable_keys`).
 VARIABLE_KEYS = tuple(key for key in PARAMETERS if not key.startswith("simulation."))
 
+_CASCADE_HINT = ("with a velocity_loop the position controller's output is a velocity command: "
+                 "{key} is in {unit} (e.g. {example})")
 
-def _indices(mask):
-    return np.flatnonzero(mask)[:10].tolist()
+#: The keys whose unit and meaning change with a velocity loop (``velocity_loop:`` present):
+#: the position controller then commands a velocity, not a current. :func:`parameter` reads
+#: these records for a cascade config, :data:`PARAMETERS`' otherwise.
+CASCADE_PARAMETERS = _table(
+    ("position_loop.Kp", "cp_Kp", "1/s", 0.0, False, 1e9,
+     "position-loop proportional gain of a cascade (velocity command per position error), 0 "
+     "or 1e-9..1e9 [1/s]", 1e-9,
+     {"hint": _CASCADE_HINT.format(key="position_loop.Kp", unit="1/s", example="'30 s^-1'")}),
+    ("position_loop.Ki", "cp_Ki", "1/s^2", 0.0, False, 1e9,
+     "position-loop integral gain of a cascade, 0 or 1e-9..1e9 [1/s^2]", 1e-9,
+     {"hint": _CASCADE_HINT.format(key="position_loop.Ki", unit="1/s^2", example="'5 s^-2'")}),
+    ("position_loop.ff_v", "ff_v", "dimensionless", -1e3, False, 1e3,
+     "feed-forward of the motor-angle command rate into the velocity command of a cascade, 0 "
+     "or |ff_v| 1e-12..1e3 [dimensionless]", 1e-12,
+     {"hint": _CASCADE_HINT.format(key="position_loop.ff_v", unit="[-]", example="1")}),
+)
+
+#: Keys of the PID-on-PI position loop that a cascade refuses, and why.
+CASCADE_REFUSED = {
+    "position_loop.Kd": "not used with a velocity loop (the position controller is P or PI)",
+    "position_loop.Tf": "not used with a velocity loop (the position controller is P or PI)",
+    "position_loop.derivative_on": "not used with a velocity loop (the position controller is P "
+                                   "or PI)",
+    "position_loop.i_max": "not used with a velocity loop: the current command's limit is "
+                           "velocity_loop.i_max",
+    "position_loop.ff_a": "not used with a velocity loop: the acceleration feed-forward is "
+                          "velocity_loop.ff_a",
+}
+#: Keys that exist only with a velocity loop, and why a config without one refuses them.
+CASCADE_ONLY = {
+    key: ("clamps the velocity command of a velocity loop, and the config has no velocity_loop "
+          "section" if key == "position_loop.omega_max" else
+          "the config has no velocity_loop section (a velocity loop is declared by it)")
+    for key in PARAMETERS if key.startswith("velocity_loop.") or key == "position_loop.omega_max"
+}
+
+_FILTER_KEY = re.compile(r"filters\.(0|[1-9]\d{0,3})\.(\w+)")
+#: Filter-number key -> Filter attribute.
+_FILTER_FIELDS = {"frequency": "frequency", "damping": "damping", "width": "width",
+                  "depth": "depth_db"}
 
 
-def check_key(key):
-    """Raise ConfigError unless ``key`` is a numeric dotted key that can be varied."""
-    if key not in VARIABLE_KEYS:
+def is_cascade(config):
+    """True when validated ``config`` (an ActuatorConfig, or None) has a velocity loop."""
+    return getattr(config, "velocity_loop", None) is not None
+
+
+def parameter(key, config=None):
+    """The :class:`Parameter` of dotted ``key`` as ``config``'s architecture reads it.
+
+    Parameters
+    ----------
+    key : str
+        A key of :data:`PARAMETERS`, or a filter's number ``filters.<i>.<name>``.
+    config : cas_freq.config.ActuatorConfig, optional
+        With a velocity loop, the keys of :data:`CASCADE_PARAMETERS` have the cascade's unit
+        and range; without (or None), the PID-on-PI's.
+
+    Raises
+    ------
+    ConfigError
+        For an unknown key.
+    """
+    if is_cascade(config) and key in CASCADE_PARAMETERS:
+        return CASCADE_PARAMETERS[key]
+    if key in PARAMETERS:
+        return PARAMETERS[key]
+    match = _FILTER_KEY.fullmatch(key)
+    if match and match.group(2) in FILTER_PARAMETERS:
+        return dataclasses.replace(FILTER_PARAMETERS[match.group(2)], key=key)
+    raise ConfigError(f"{key}: not a numeric parameter; known keys: {', '.join(PARAMETERS)}, "
+                      f"filters.<i>.{{{', '.join(FILTER_PARAMETERS)}}}")
+
+
+def _filter_keys(config):
+    """The variable keys of ``config``'s filters, ``filters.<i>.<name>``, in order."""
+    return tuple(f"filters.{i}.{name}" for i, item in enumerate(getattr(config, "filters", ()))
+                 for name in FILTER_NUMBERS[item.type])
+
+
+def variable_keys(config=None):
+    """The keys a sweep can vary in ``config``: those of its architecture among
+    :data:`VARIABLE_KEYS`, then its filters' numbers (every VARIABLE_KEYS key without a
+    config)."""
+    if config is None:
+        return VARIABLE_KEYS
+    refused = CASCADE_REFUSED if is_cascade(config) else CASCADE_ONLY
+    return (*(key for key in VARIABLE_KEYS if key not in refused), *_filter_keys(config))
+
+
+def check_key(key, config=None):
+    """Raise ConfigError unless ``key`` is a numeric dotted key that can be varied (in
+    ``config``'s architecture and filters, when given)."""
+    if key not in VARIABLE_KEYS and not _FILTER_KEY.fullmatch(key):
         raise ConfigError(
             f"{key}: cannot be varied (not a numeric loop parameter); accepted keys: "
-            f"{', '.join(VARIABLE_KEYS)}"
+            f"{', '.join(variable_keys(config))}"
         )
+    if config is None:
+        if key not in VARIABLE_KEYS:
+            parameter(key)  # an unknown filter number
+        return
+    refused = CASCADE_REFUSED if is_cascade(config) else CASCADE_ONLY
+    if key in refused:
+        raise ConfigError(f"{key}: {refused[key]}")
+    match = _FILTER_KEY.fullmatch(key)
+    if match and key not in _filter_keys(config):
+        index, name = int(match.group(1)), match.group(2)
+        filters = getattr(config, "filters", ())
+        if index >= len(filters):
+            raise ConfigError(f"{key}: the config has {len(filters)} filter(s) "
+                              f"(filters.0 to filters.{len(filters) - 1})" if filters else
+                              f"{key}: the config has no filters")
+        kind = filters[index].type
+        raise ConfigError(f"{key}: a {kind} filter has no {name}; it takes "
+                          f"{', '.join(FILTER_NUMBERS[kind])}")
 
 
-def unit_of(key):
-    """SI unit [str] in which values of ``key`` are stored."""
-    if key not in PARAMETERS:
-        raise ConfigError(f"{key}: not a numeric parameter; known keys: {', '.join(PARAMETERS)}")
-    return PARAMETERS[key].unit
+def loop_values(loop, key, config=None):
+    """The per-run values [SI] of variable ``key`` in LoopParameters ``loop`` (built from
+    ``config``): its field, or a filter's number; None for a key no field carries (the no-load
+    point)."""
+    match = _FILTER_KEY.fullmatch(key)
+    if match:
+        index, name = int(match.group(1)), match.group(2)
+        if index >= len(loop.filters) or name not in _FILTER_FIELDS:
+            return None
+        return getattr(loop.filters[index], _FILTER_FIELDS[name])
+    field = parameter(key, config).field
+    return None if field is None else getattr(loop, field)
 
 
-def parse_value(key, value):
+def unit_of(key, config=None):
+    """SI unit [str] in which values of ``key`` are stored (in ``config``'s architecture)."""
+    return parameter(key, config).unit
+
+
+def parse_value(key, value, config=None):
     """One value of ``key`` (a number in SI, or a string with a unit) as a float in SI.
 
     The one string-to-SI path of the package: the config schema converts every numeric field
-    with it too, so the unit, the bound and the message are the same everywhere.
+    with it too, so the unit, the bound and the message are the same everywhere. ``config``
+    selects the unit of a key whose unit depends on the architecture (:func:`parameter`).
 
     Raises
     ------
@@ -371,13 +351,17 @@ def parse_value(key, value):
         For an unknown key, an unreadable value or one outside the accepted range, e.g.
         ``position_loop.Kd: must be >= 0 A*s/rad, got -0.1 A*s/rad``.
     """
-    unit_of(key)
+    record = parameter(key, config)
     try:
-        return PARAMETERS[key].convert(value)
+        number = record.convert(value)
     except TypeError as exc:
         raise ConfigTypeError(f"{key}: {exc}") from None
     except ValueError as exc:
         raise ConfigError(f"{key}: {exc}") from None
+    problem = depth_problem(number) if key.endswith(".depth") else None
+    if problem:
+        raise ConfigError(f"{key}: {problem}")
+    return number
 
 
 def filter_time_constant(kp, kd, tf=None):
@@ -431,13 +415,17 @@ def _value_at(config, key):
     """The value of dotted ``key`` in a validated config (None where a section is absent)."""
     node = config
     for part in key.split("."):
-        node = getattr(node, part, None) if node is not None else None
+        if isinstance(node, (tuple, list)):  # filters.0.frequency
+            node = node[int(part)] if part.isdigit() and int(part) < len(node) else None
+        else:
+            node = getattr(node, part, None) if node is not None else None
     return node
 
 
 def base_values(params):
-    """Every variable key of a validated config, in SI (``Tf``/``mu_v`` None when derived)."""
-    return {key: _value_at(params, key) for key in VARIABLE_KEYS}
+    """Every variable key of a validated config, in SI (``Tf``/``mu_v`` None when derived;
+    the keys of the other architecture None), then its filters' numbers."""
+    return {key: _value_at(params, key) for key in (*VARIABLE_KEYS, *_filter_keys(params))}
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -445,12 +433,16 @@ class LoopParameters:
     """Parameters of ``n_runs`` actuators, in SI, motor-shaft coordinates (docs/model.md).
 
     Every attribute is a read-only float array of shape (n_runs,), except
-    ``derivative_on_measurement`` (bool array). Each float field carries one key of
-    :data:`PARAMETERS`. The keys' accepted ranges are checked where a value enters (the config
-    schema, :func:`variant_parameters`), not here: an internal scan (the stable range of the
-    hinge stiffness, :mod:`cas_freq.analysis.drivetrain`) may go past them, and a user must
-    never see an error about a key they did not set. Here every value must be finite, ``Tf``
-    > 0 where ``cp_Kd`` > 0, and the drivetrain fields consistent (:func:`drivetrain_problem`).
+    ``derivative_on_measurement`` (bool array) and the static fields ``cascade``,
+    ``feedback_output`` and ``filters`` (:data:`STATIC_FIELDS`), which are the same for every run
+    of a batch: they choose the loop's structure. Each float field carries one key of
+    :data:`PARAMETERS` (or of :data:`CASCADE_PARAMETERS`). The keys' accepted ranges are
+    checked where a value enters (the config schema, :func:`variant_parameters`), not here: an
+    internal scan (the stable range of the hinge stiffness, :mod:`cas_freq.analysis.drivetrain`)
+    may go past them, and a user must never see an error about a key they did not set. Here
+    every value must be finite (``omega_max`` may be +inf), ``Tf`` > 0 where ``cp_Kd`` > 0,
+    ``cp_Kd`` = 0 in a cascade, and the drivetrain fields consistent
+    (:func:`drivetrain_problem`).
 
     Attributes
     ----------
@@ -463,11 +455,15 @@ class LoopParameters:
         Current loop: PI gains [V/A], [V/(A*s)], output limit [V], transport delay [s].
     cp_Kp, cp_Ki, cp_Kd, Tf : numpy.ndarray
         Position loop: PID gains [A/rad], [A/(rad*s)], [A*s/rad] and derivative filter time
-        constant [s] (0 only where ``cp_Kd`` is 0).
+        constant [s] (0 only where ``cp_Kd`` is 0). In a cascade P or PI gains [1/s], [1/s^2]
+        (velocity command per position error), ``cp_Kd`` = ``Tf`` = 0.
     ff_v, ff_a : numpy.ndarray
-        Feed-forward of the motor-angle command rate [A*s/rad] and acceleration [A*s^2/rad].
+        Feed-forward of the motor-angle command rate [A*s/rad] into the current command (in a
+        cascade [-], into the velocity command) and of its acceleration [A*s^2/rad] into the
+        current command (a cascade's ``velocity_loop.ff_a``).
     i_max, tau_p : numpy.ndarray
-        Current-command limit [A] and position-loop transport delay [s].
+        Current-command limit [A] (a cascade's ``velocity_loop.i_max``) and position-loop
+        transport delay [s].
     derivative_on_measurement : numpy.ndarray of bool
         True where the derivative acts on -theta instead of on the error.
     F_c : numpy.ndarray
@@ -481,6 +477,20 @@ class LoopParameters:
         Load at the fin: inertia [kg*m^2], damping [N*m*s/rad], hinge stiffness [N*m/rad]
         and constant hinge moment [N*m] (nonlinear simulation only). All the load and
         drivetrain fields default to "absent" (0, efficiencies 1).
+    omega_max : numpy.ndarray
+        Limit of a cascade's velocity command [rad/s, motor] (+inf: none).
+    cv_Kp, cv_Ki, tau_v, tau_vf : numpy.ndarray
+        Velocity loop of a cascade: PI gains [A*s/rad], [A/rad], transport delay between the
+        velocity controller and the current loop [s], time constant of the first-order
+        low-pass on the measured velocity [s] (0: none). All 0 without a velocity loop.
+    cascade : bool
+        Static: True for a cascade (a velocity loop between the position and current loops).
+    feedback_output : bool
+        Static: True when the position loop measures the output angle (reflected to the motor,
+        N*delta) instead of the motor angle.
+    filters : tuple of cas_freq.filters_config.Filter
+        Static points and kinds of the loop's filters (their numbers per run), in series in the
+        config's order; empty by default.
     """
 
     R: np.ndarray
@@ -513,9 +523,17 @@ class LoopParameters:
     b_L: np.ndarray = 0.0
     K_h: np.ndarray = 0.0
     tau_h: np.ndarray = 0.0
+    omega_max: np.ndarray = math.inf
+    cv_Kp: np.ndarray = 0.0
+    cv_Ki: np.ndarray = 0.0
+    tau_v: np.ndarray = 0.0
+    tau_vf: np.ndarray = 0.0
+    cascade: bool = False
+    feedback_output: bool = False
+    filters: tuple = ()
 
     def __post_init__(self):
-        names = [f.name for f in dataclasses.fields(self)]
+        names = _array_fields(self)
         try:
             arrays = np.broadcast_arrays(*(np.atleast_1d(getattr(self, n)) for n in names))
         except ValueError:
@@ -529,7 +547,10 @@ class LoopParameters:
             array.setflags(write=False)
             object.__setattr__(self, name, array)
         for name in names:
-            bad = ~np.isfinite(getattr(self, name))
+            values = getattr(self, name)
+            bad = ~np.isfinite(values)
+            if name == "omega_max":  # +inf: no limit
+                bad &= values != math.inf
             if bad.any():
                 raise ConfigError(f"simulation parameters: {name}: must be finite, got "
                                   f"{float(getattr(self, name)[bad][0])} (runs {_indices(bad)})")
@@ -541,6 +562,31 @@ class LoopParameters:
         problem = drivetrain_problem(self.K_g, self.J_L, self.backlash, self.c_g, where="runs")
         if problem:
             raise ConfigError(f"simulation parameters: {problem}")
+        self._check_static()
+
+    def _check_static(self):
+        """Check the static fields and broadcast the filters' numbers to n_runs."""
+        for name in ("cascade", "feedback_output"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise ConfigError(f"simulation parameters: {name}: must be one bool for the "
+                                  f"batch (static), got {getattr(self, name)!r}")
+            object.__setattr__(self, name, bool(getattr(self, name)))
+        bad = self.cp_Kd != 0 if self.cascade else np.zeros(self.n_runs, bool)
+        if bad.any():
+            raise ConfigError("simulation parameters: cp_Kd: must be 0 in a cascade (the "
+                              f"position controller is P or PI) (runs {_indices(bad)})")
+        filters = tuple(self.filters)
+        if not all(isinstance(f, Filter) for f in filters):
+            raise ConfigError("simulation parameters: filters: must be a tuple of Filter")
+        if not self.cascade and any(f.at == "velocity_feedback" for f in filters):
+            raise ConfigError("simulation parameters: filters: a velocity_feedback filter "
+                              "needs a velocity loop (cascade)")
+        try:
+            filters = tuple(f.broadcast(self.n_runs) for f in filters)
+        except ValueError:
+            raise ConfigError(f"simulation parameters: filters: the numbers' lengths do not "
+                              f"match n_runs = {self.n_runs}") from None
+        object.__setattr__(self, "filters", filters)
 
     @property
     def compliant(self):
@@ -565,8 +611,16 @@ class LoopParameters:
         configs = list(configs)
         if not configs:
             raise ConfigError("simulation parameters: need at least one config")
+        structure = _structure(configs[0])
+        if any(_structure(config) != structure for config in configs[1:]):
+            raise ConfigError("simulation parameters: the configs of one batch must share their "
+                              "loop structure (velocity loop, position feedback, filters' points "
+                              "and types)")
         rows = [_row(config) for config in configs]
-        return cls(**{key: np.array([row[key] for row in rows]) for key in rows[0]})
+        filters = tuple(Filter.stacked(group)
+                        for group in zip(*(_filters(config) for config in configs), strict=True))
+        return cls(**{key: np.array([row[key] for row in rows]) for key in rows[0]},
+                   cascade=structure[0], feedback_output=structure[1], filters=filters)
 
     @classmethod
     def from_config(cls, config):
@@ -574,7 +628,8 @@ class LoopParameters:
         return cls.from_configs([config])
 
     def replace(self, **changes):
-        """A copy with some parameters changed; every array is broadcast to a common length."""
+        """A copy with some parameters changed; every array is broadcast to a common length
+        (the static fields are replaced for the whole batch)."""
         unknown = set(changes) - {f.name for f in dataclasses.fields(self)}
         if unknown:
             raise ConfigError(f"simulation parameters: unknown names {sorted(unknown)}")
@@ -587,16 +642,27 @@ class LoopParameters:
 
     def take(self, rows):
         """The runs ``rows`` (a slice, or an array of run indices, repeats allowed)."""
-        names = [f.name for f in dataclasses.fields(self)]
-        return dataclasses.replace(self, **{name: getattr(self, name)[rows] for name in names})
+        taken = {name: getattr(self, name)[rows] for name in _array_fields(self)}
+        return dataclasses.replace(self, **taken,
+                                   filters=tuple(f.take(rows) for f in self.filters))
 
     def run(self, index):
         """The parameters of run ``index`` alone (n_runs = 1)."""
         return self.take(slice(index, index + 1))
 
 
-#: LoopParameters field -> its parameter.
-_FIELD_PARAMETERS = {p.field: p for p in PARAMETERS.values() if p.field is not None}
+#: LoopParameters fields that are the same for the whole batch (not arrays).
+STATIC_FIELDS = ("cascade", "feedback_output", "filters")
+
+
+def _array_fields(params):
+    """Names of the per-run array fields of LoopParameters ``params``."""
+    return [f.name for f in dataclasses.fields(params) if f.name not in STATIC_FIELDS]
+
+
+#: Values of fields a config's architecture leaves out: no velocity loop, no derivative term.
+_ABSENT = {"cv_Kp": 0.0, "cv_Ki": 0.0, "tau_v": 0.0, "tau_vf": 0.0, "omega_max": math.inf,
+           "cp_Kd": 0.0, "Tf": 0.0}
 
 
 def drivetrain_problem(stiffness, load_inertia, backlash, damping=0.0, where="samples"):
@@ -631,11 +697,39 @@ def _which(where, bad):
     return "" if where is None else f" ({where} {_indices(bad)})"
 
 
+def _structure(config):
+    """The static fields of a validated config: (cascade, feedback_output, the filters' points
+    and types)."""
+    return (is_cascade(config), config.position_loop.feedback == "output",
+            tuple((item.at, item.type) for item in config.filters))
+
+
+def _filters(config, numbers=None):
+    """The Filter records of a validated config; ``numbers``: filter keys -> values replacing
+    the config's (arrays of a batch)."""
+    numbers = numbers or {}
+    filters = []
+    for i, item in enumerate(config.filters):
+        values = {}
+        for name in FILTER_NUMBERS[item.type]:
+            key = f"filters.{i}.{name}"
+            values[_FILTER_FIELDS[name]] = numbers.get(key, getattr(item, name))
+        filters.append(Filter(item.at, item.type, **values))
+    return tuple(filters)
+
+
 def _row(config):
-    """One run's fields from a validated config (derived ``mu_v`` and ``Tf`` resolved)."""
-    row = {field: _value_at(config, p.key) for field, p in _FIELD_PARAMETERS.items()}
+    """One run's array fields from a validated config (derived ``mu_v`` and ``Tf`` resolved,
+    the fields its architecture leaves out at their :data:`_ABSENT` values)."""
+    row = dict(_ABSENT)
+    for key in variable_keys(config):
+        record = parameter(key, config)
+        value = _value_at(config, key)
+        if record.field is not None and value is not None:
+            row[record.field] = value
     row["mu_v"] = config.motor.viscous_friction
-    row["Tf"] = config.position_loop.filter_time_constant
+    if not is_cascade(config):
+        row["Tf"] = config.position_loop.filter_time_constant
     row["derivative_on_measurement"] = config.position_loop.derivative_on == "measurement"
     row["eta_b"] = config.gear.backdrive
     return row
@@ -649,7 +743,8 @@ def variant_parameters(params, changes, n=None):
     params : cas_freq.config.ActuatorConfig
         The validated base config.
     changes : dict of str to array_like
-        Dotted key -> values in SI (scalar or shape (n,)).
+        Dotted key -> values in SI (scalar or shape (n,)): keys of the config's architecture
+        (:func:`variable_keys`), its filters' numbers ``filters.<i>.<name>`` included.
     n : int, optional
         Number of samples; default the common length of the changed arrays (1 if none).
 
@@ -661,11 +756,12 @@ def variant_parameters(params, changes, n=None):
     ------
     ConfigError
         Naming the key, the first bad value and the samples, for a value outside the range
-        the config schema accepts, or a combination it rejects.
+        the config schema accepts, or a combination it rejects; naming the key and why for a
+        key the config's architecture does not have (``position_loop.Kd`` with a velocity loop).
     """
     arrays = {}
     for key, values in changes.items():
-        check_key(key)
+        check_key(key, params)
         arrays[key] = np.atleast_1d(np.asarray(values, dtype=float))
     lengths = {a.shape[0] for a in arrays.values() if a.shape[0] != 1}
     if n is None:
@@ -680,7 +776,10 @@ def variant_parameters(params, changes, n=None):
     for key, value in base.items():
         if key in arrays:
             array = np.broadcast_to(arrays[key], (n,)).astype(float)
-            PARAMETERS[key].check(array)
+            parameter(key, params).check(array)
+            problem = depth_problem(array) if key.endswith(".depth") else None
+            if problem:
+                raise ConfigError(f"{key}: {problem}")
             full[key] = array
         elif value is not None:
             full[key] = np.full(n, float(value))
@@ -700,30 +799,70 @@ def variant_parameters(params, changes, n=None):
                                  full["gear.backlash"], full["gear.damping"])
     if problem:
         raise ConfigError(problem)
-    kp, ki, kd = full["position_loop.Kp"], full["position_loop.Ki"], full["position_loop.Kd"]
-    if full["position_loop.Tf"] is None:
-        undefined = (kd > 0) & (kp == 0)
-        if undefined.any():
-            raise ConfigError(
-                "position_loop.Tf: defaults to Kd/(10*Kp), which is undefined with "
-                f"position_loop.Kp = 0 and Kd > 0 (samples {_indices(undefined)}): set Tf"
-            )
-        full["position_loop.Tf"] = filter_time_constant(kp, kd)
-        problem = derived_problem("position_loop.Tf", full["position_loop.Tf"])
-        if problem:
-            raise ConfigError(problem)
-    none = (kp == 0) & (ki == 0) & (kd == 0)
-    if none.any():
-        raise ConfigError(
-            f"position_loop: Kp, Ki and Kd are all 0: no position loop (samples {_indices(none)})"
-        )
-    none = (full["current_loop.Kp"] == 0) & (full["current_loop.Ki"] == 0)
-    if none.any():
-        raise ConfigError(
-            f"current_loop: Kp and Ki are both 0: no current loop (samples {_indices(none)})"
-        )
-    fields = {p.field: full[key] for key, p in PARAMETERS.items() if key in full and p.field}
+    cascade = is_cascade(params)
+    if not cascade:
+        _derive_filter_time_constant(full)
+    _check_some_gain(full, cascade)
+    fields = dict(_ABSENT)
+    for key in variable_keys(params):
+        record = parameter(key, params)
+        if record.field is not None and full[key] is not None:
+            fields[record.field] = full[key]
+    structure = _structure(params)
     return LoopParameters(
         **fields,
         derivative_on_measurement=np.full(n, params.position_loop.derivative_on == "measurement"),
+        cascade=cascade, feedback_output=structure[1],
+        filters=tuple(f.broadcast(n) for f in _filters(params, full)),
     )
+
+
+def _derive_filter_time_constant(full):
+    """Set ``full["position_loop.Tf"]`` (arrays of a batch) to Kd/(10*Kp) unless set."""
+    if full["position_loop.Tf"] is not None:
+        return
+    kp, kd = full["position_loop.Kp"], full["position_loop.Kd"]
+    undefined = (kd > 0) & (kp == 0)
+    if undefined.any():
+        raise ConfigError(
+            "position_loop.Tf: defaults to Kd/(10*Kp), which is undefined with "
+            f"position_loop.Kp = 0 and Kd > 0 (samples {_indices(undefined)}): set Tf"
+        )
+    full["position_loop.Tf"] = filter_time_constant(kp, kd)
+    problem = derived_problem("position_loop.Tf", full["position_loop.Tf"])
+    if problem:
+        raise ConfigError(problem)
+
+
+def _check_some_gain(full, cascade):
+    """Raise ConfigError for samples (arrays of a batch) where a loop has no gain at all."""
+    kp, ki = full["position_loop.Kp"], full["position_loop.Ki"]
+    kd = 0.0 if cascade else full["position_loop.Kd"]
+    none = (kp == 0) & (ki == 0) & (kd == 0)
+    if none.any():
+        names = "Kp and Ki are both 0" if cascade else "Kp, Ki and Kd are all 0"
+        raise ConfigError(
+            f"position_loop: {names}: no position loop (samples {_indices(none)})"
+        )
+    for section in ("current_loop", "velocity_loop") if cascade else ("current_loop",):
+        none = (full[f"{section}.Kp"] == 0) & (full[f"{section}.Ki"] == 0)
+        if none.any():
+            raise ConfigError(f"{section}: Kp and Ki are both 0: no {section.split('_')[0]} "
+                              f"loop (samples {_indices(none)})")
+
+
+def unsupported_architecture(config):
+    """What this version cannot compute yet for validated ``config``, or None.
+
+    The config schema and :class:`LoopParameters` carry the velocity loop, the filters and the
+    output-side position feedback, but the model does not use them yet; the loader refuses
+    such a config here (one place: :func:`cas_freq.config.loader._load`) rather than print
+    the figures of another loop.
+    """
+    if is_cascade(config):
+        return "velocity_loop: not supported by this version yet"
+    if config.filters:
+        return "filters: not supported by this version yet"
+    if config.position_loop.feedback == "output":
+        return "position_loop.feedback: output is not supported by this version yet"
+    return None

@@ -6,6 +6,7 @@ and by :func:`variant_parameters`; and the derived rules (Tf, mu_v) must give th
 through the schema's properties and through :func:`variant_parameters`.
 """
 
+import copy
 import dataclasses
 import math
 import types
@@ -13,14 +14,19 @@ import typing
 
 import numpy as np
 import pytest
+from architectures import as_cascade
 from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 
 from cas_freq.config import ActuatorConfig, load_variant
 from cas_freq.config.loader import validate
+from cas_freq.config.schema import CascadePositionLoop
 from cas_freq.exceptions import ConfigError, ConfigTypeError
 from cas_freq.parameters import (
+    CASCADE_ONLY,
+    CASCADE_PARAMETERS,
     PARAMETERS,
+    STATIC_FIELDS,
     VARIABLE_KEYS,
     LoopParameters,
     base_values,
@@ -91,17 +97,28 @@ def test_table_covers_every_numeric_schema_field():
     # the load envelope's step is a test condition (a fin angle checked as a requirement's
     # step is), not a parameter of the actuator
     fields.pop("load_envelope.step")
+    # a cascade's position loop (with a velocity_loop: section) is a model of its own; its
+    # Kp, Ki and ff_v are declared from CASCADE_PARAMETERS' rows (another unit)
+    cascade = _numeric_schema_fields(CascadePositionLoop, "position_loop.")
+    assert set(CASCADE_PARAMETERS) <= set(cascade)
+    fields.update({key: info for key, info in cascade.items() if key not in CASCADE_PARAMETERS})
     assert set(fields) == set(table)
-    for key, info in fields.items():
+    for key, info in [*fields.items(), *((k, cascade[k]) for k in CASCADE_PARAMETERS)]:
+        row = (CASCADE_PARAMETERS if info is cascade.get(key) and key in CASCADE_PARAMETERS
+               else table)[key]
         # each field is declared from its own row (param(key)), not from a neighbour's
-        assert info.json_schema_extra == {"key": key, "unit": table[key].unit}, key
-        assert info.description == table[key].meaning, key
+        assert info.json_schema_extra == {"key": key, "unit": row.unit}, key
+        assert info.description == row.meaning, key
 
 
 def test_table_covers_every_float_field_of_loop_parameters():
-    floats = {f.name for f in dataclasses.fields(LoopParameters)} - {"derivative_on_measurement"}
-    mapped = [p.field for p in PARAMETERS.values() if p.field is not None]
+    floats = ({f.name for f in dataclasses.fields(LoopParameters)}
+              - {"derivative_on_measurement", *STATIC_FIELDS})
+    # a cascade's velocity_loop.i_max and velocity_loop.ff_a fill the fields of
+    # position_loop.i_max and position_loop.ff_a: each field once, where it first appears
+    mapped = list(dict.fromkeys(p.field for p in PARAMETERS.values() if p.field is not None))
     assert sorted(mapped) == sorted(floats)
+    assert {p.field for p in CASCADE_PARAMETERS.values()} <= floats
     # in the dataclass's order, so the table reads like the dataclass
     order = [f.name for f in dataclasses.fields(LoopParameters) if f.name in floats]
     assert mapped == order
@@ -147,7 +164,10 @@ def test_bound_enforced_identically_by_schema_parse_value_and_variants(key, ship
         parse_value(key, bad)
     assert str(info.value) == expected
 
-    # the config schema
+    # the config schema (a velocity-loop key in a cascade config)
+    if key in CASCADE_ONLY:
+        as_cascade(shipped_raw)
+    cascade = copy.deepcopy(shipped_raw) if key in CASCADE_ONLY else None
     if key == "motor.mu_v":
         del shipped_raw["motor"]["no_load"]
     _set(shipped_raw, key, bad)
@@ -157,7 +177,7 @@ def test_bound_enforced_identically_by_schema_parse_value_and_variants(key, ship
 
     # variant_parameters: same message, with the offending sample (its values are in SI)
     if key in VARIABLE_KEYS and not parameter.datasheet_unit:
-        params = load_variant().params
+        params = validate(cascade, "test") if cascade else load_variant().params
         good = _inside(parameter, base_values(params)[key])
         with pytest.raises(ConfigError) as info:
             variant_parameters(params, {key: [good, bad]})

@@ -112,7 +112,11 @@ def run(args):
         from cas_freq.studies.distributed import parse_scheduler
 
         parse_scheduler(args.scheduler)
-    tolerances = [parse_tolerance(text) for text in args.tolerance]
+    from cas_freq.parameters import CASCADE_PARAMETERS
+
+    for text in args.tolerance:  # refused before any work, except a key whose unit depends on
+        if str(text).partition("=")[0].strip() not in CASCADE_PARAMETERS:  # the architecture
+            parse_tolerance(text)
     step = angle(args.step, "--step") if args.step else None
     variants = load_variants(args)
     # one seed for every variant: each is drawn around its own values with the same numbers
@@ -122,6 +126,8 @@ def run(args):
         for loaded in variants:
             label = "montecarlo" if len(variants) == 1 else f"montecarlo {loaded.variant}"
             progress = terminal_progress(label, unit="sample")
+            # an absolute width in the units of this variant's architecture
+            tolerances = [parse_tolerance(text, loaded.params) for text in args.tolerance]
             results.append(run_montecarlo(loaded, tolerances, args.samples,
                                           distribution=args.distribution, seed=seed,
                                           step_rad=step, simulate=not args.no_step,

@@ -61,10 +61,13 @@ def register(commands):
     parser.set_defaults(handler=run)
 
 
-def split_settings(settings):
+def split_settings(settings, config=None, parse=True):
     """(fixed overrides as ``KEY=VALUE`` texts, grid axes as key -> values [SI]) from
-    ``--set``."""
+    ``--set``; the values in the units of ``config``'s architecture (a velocity loop changes
+    the position gains' units). ``parse=False``, before the config is loaded: the axes of the
+    keys whose unit depends on the architecture as their texts (the key checked)."""
     from cas_freq.config import parse_set_option
+    from cas_freq.parameters import CASCADE_PARAMETERS, check_key
     from cas_freq.studies.sweep import is_grid_spec, parse_grid_values
 
     fixed, axes = [], {}
@@ -74,7 +77,11 @@ def split_settings(settings):
         if sep and is_grid_spec(value):
             if key in axes:
                 raise CasFreqError(f"--set {key}: swept twice")
-            axes[key] = parse_grid_values(key, value)
+            if parse or key not in CASCADE_PARAMETERS:
+                axes[key] = parse_grid_values(key, value, config)
+            else:
+                check_key(key)
+                axes[key] = value
         else:
             parse_set_option(text)  # refuses a malformed one before any work
             fixed.append(text)
@@ -125,7 +132,7 @@ def run(args):
         from cas_freq.studies.distributed import parse_scheduler
 
         parse_scheduler(args.scheduler)
-    fixed, axes = split_settings(args.overrides)
+    fixed, axes = split_settings(args.overrides, parse=False)
     if not axes:
         raise CasFreqError("sweep: give at least one grid, e.g. --set position_loop.Kp=2:12:200")
     step = angle(args.step, "--step") if args.step else None
@@ -145,6 +152,8 @@ def run(args):
         for loaded in variants:
             label = "sweep" if len(variants) == 1 else f"sweep {loaded.variant}"
             progress = terminal_progress(label, unit="point")
+            # the grid in the units of this variant's architecture
+            axes = split_settings(args.overrides, loaded.params)[1]
             results.append(run_sweep(loaded, axes, step_rad=step, fit=not args.no_fit,
                                      sinedwell=sinedwell, progress=progress,
                                      scheduler=args.scheduler))

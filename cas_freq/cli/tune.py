@@ -21,6 +21,7 @@ from cas_freq.exceptions import CasFreqError
 def register(commands):
     """Add the ``tune`` sub-parser."""
     from cas_freq.tuning.options import (
+        CASCADE_DEFAULT_FREE,
         DEFAULT_FACTOR,
         DEFAULT_FREE,
         GLOBAL_COUNT,
@@ -42,8 +43,9 @@ def register(commands):
         "writes them for any config); -o writes the config with the tuned variant.",
     )
     add_config_arguments(parser, all_by_default=False)
-    parser.add_argument("--free", default=",".join(DEFAULT_FREE), metavar="KEY,KEY,...",
-                        help=f"keys to tune (default: {','.join(DEFAULT_FREE)})")
+    parser.add_argument("--free", metavar="KEY,KEY,...",
+                        help=f"keys to tune (default: {','.join(DEFAULT_FREE)}; with a "
+                        f"velocity loop {','.join(CASCADE_DEFAULT_FREE)})")
     parser.add_argument("--bounds", action="append", default=[], metavar="KEY=LO:HI",
                         help="a free key's range, SI or with units (default: the variant's "
                         f"value /{DEFAULT_FACTOR:g} .. x{DEFAULT_FACTOR:g}); repeatable")

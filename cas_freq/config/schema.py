@@ -17,13 +17,25 @@ from pydantic import (
     BeforeValidator,
     ConfigDict,
     Field,
+    ValidatorFunctionWrapHandler,
     field_validator,
     model_validator,
 )
 from pydantic_core import PydanticCustomError
 
 from cas_freq.config.requirement import Requirement
+from cas_freq.filters_config import (
+    DEFAULT_DAMPING,
+    FILTER_NUMBERS,
+    depth_problem,
+    point_problem,
+    type_problem,
+)
 from cas_freq.parameters import (
+    CASCADE_ONLY,
+    CASCADE_PARAMETERS,
+    CASCADE_REFUSED,
+    FILTER_PARAMETERS,
     PARAMETERS,
     Parameter,
     derived_problem,
@@ -43,6 +55,35 @@ def param(key):
     conversion :func:`cas_freq.parameters.parse_value` uses.
     """
     return _field(PARAMETERS[key], key)
+
+
+def cascade_param(key):
+    """Type of the float field of dotted config ``key`` in a cascade (a velocity loop), as
+    :data:`CASCADE_PARAMETERS` declares it."""
+    return _field(CASCADE_PARAMETERS[key], key)
+
+
+def refused(why):
+    """Type of a key that this section refuses with the message ``why`` whenever given (null
+    is taken as absent)."""
+
+    def refuse(value):
+        if value is None:  # absent (a dumped config writes it so)
+            return None
+        raise PydanticCustomError("cas_value", why)
+
+    return Annotated[Any, BeforeValidator(refuse), Field(json_schema_extra={"refused": why})]
+
+
+def _feedback(value):
+    if value not in ("motor", "output"):
+        raise PydanticCustomError("cas_value", "must be motor or output, got {value}",
+                                  {"value": repr(value)})
+    return value
+
+
+#: ``position_loop.feedback``: the position loop measures the motor (default) or the output.
+Feedback = Annotated[str, BeforeValidator(_feedback)]
 
 
 def _field(parameter, key):
@@ -163,6 +204,8 @@ class PositionLoop(_Section):
     i_max: param("position_loop.i_max")
     delay: param("position_loop.delay")
     derivative_on: Literal["error", "measurement"] = "error"
+    feedback: Feedback = "motor"
+    omega_max: refused(CASCADE_ONLY["position_loop.omega_max"]) = None
 
     @model_validator(mode="after")
     def _filter_defined(self):
@@ -182,6 +225,116 @@ class PositionLoop(_Section):
     def filter_time_constant(self):
         """Derivative filter time constant [s]: ``Tf``, or Kd/(10*Kp) (0 when Kd = 0)."""
         return filter_time_constant(self.Kp, self.Kd, self.Tf)
+
+
+class CascadePositionLoop(_Section):
+    """P or PI position controller of a cascade: its output is the velocity command
+    [rad/s, motor] of the velocity loop (docs/config.md)."""
+
+    Kp: cascade_param("position_loop.Kp")
+    Ki: cascade_param("position_loop.Ki") = 0.0
+    ff_v: cascade_param("position_loop.ff_v") = 0.0
+    omega_max: param("position_loop.omega_max") | None = None
+    delay: param("position_loop.delay")
+    feedback: Feedback = "motor"
+    Kd: refused(CASCADE_REFUSED["position_loop.Kd"]) = None
+    Tf: refused(CASCADE_REFUSED["position_loop.Tf"]) = None
+    derivative_on: refused(CASCADE_REFUSED["position_loop.derivative_on"]) = None
+    i_max: refused(CASCADE_REFUSED["position_loop.i_max"]) = None
+    ff_a: refused(CASCADE_REFUSED["position_loop.ff_a"]) = None
+
+    @model_validator(mode="after")
+    def _some_gain(self):
+        if self.Kp == 0 and self.Ki == 0:
+            raise PydanticCustomError("cas_value", "Kp and Ki are both 0: no position loop")
+        return self
+
+    @property
+    def filter_time_constant(self):
+        """No derivative term in a cascade: 0 [s]."""
+        return 0.0
+
+
+class VelocityLoop(_Section):
+    """PI velocity controller of a cascade, between the position and the current loops, with
+    its current-command limit, delay, feedback low-pass and acceleration feed-forward."""
+
+    Kp: param("velocity_loop.Kp")
+    Ki: param("velocity_loop.Ki")
+    i_max: param("velocity_loop.i_max")
+    delay: param("velocity_loop.delay") = 0.0
+    feedback_filter: param("velocity_loop.feedback_filter") = 0.0
+    ff_a: param("velocity_loop.ff_a") = 0.0
+
+    @model_validator(mode="after")
+    def _some_gain(self):
+        if self.Kp == 0 and self.Ki == 0:
+            raise PydanticCustomError("cas_value", "Kp and Ki are both 0: no velocity loop")
+        return self
+
+
+def _filter_field(name):
+    """Type of a filter's number ``name`` (:data:`FILTER_PARAMETERS`)."""
+    return _field(FILTER_PARAMETERS[name], f"filters.N.{name}")
+
+
+class FilterSpec(_Section):
+    """One filter of ``filters:`` (:mod:`cas_freq.filters_config`): its point, its type and its
+    numbers (``damping`` of a lowpass2 defaults to 0.7071; a notch needs ``width`` and
+    ``depth``)."""
+
+    at: str
+    type: str
+    frequency: _filter_field("frequency")
+    damping: _filter_field("damping") | None = None
+    width: _filter_field("width") | None = None
+    depth: _filter_field("depth") | None = None
+
+    @field_validator("at")
+    @classmethod
+    def _point(cls, value):
+        problem = point_problem(value)
+        if problem:
+            raise PydanticCustomError("cas_value", problem)
+        return value
+
+    @field_validator("type")
+    @classmethod
+    def _type(cls, value):
+        problem = type_problem(value)
+        if problem:
+            raise PydanticCustomError("cas_value", problem)
+        return value
+
+    @field_validator("depth")
+    @classmethod
+    def _depth(cls, value):
+        problem = depth_problem(value) if value is not None else None
+        if problem:
+            raise PydanticCustomError("cas_value", problem)
+        return value
+
+    @model_validator(mode="before")
+    @classmethod
+    def _default_damping(cls, data):
+        if isinstance(data, dict) and data.get("type") == "lowpass2" and "damping" not in data:
+            data = {**data, "damping": DEFAULT_DAMPING}
+        return data
+
+    @model_validator(mode="after")
+    def _numbers_of_type(self):
+        taken = FILTER_NUMBERS[self.type]
+        extra = [name for name in ("damping", "width", "depth")
+                 if getattr(self, name) is not None and name not in taken]
+        if extra:
+            raise PydanticCustomError(
+                "cas_value", f"a {self.type} filter takes {', '.join(taken)}, not "
+                f"{', '.join(extra)}")
+        missing = [name for name in taken if getattr(self, name) is None]
+        if missing:
+            raise PydanticCustomError(
+                "cas_value", f"a {self.type} filter needs {' and '.join(missing)}")
+        return self
 
 
 class Simulation(_Section):
@@ -319,12 +472,40 @@ class ActuatorConfig(_Section):
     gear: Gear
     load: Load = Load()
     current_loop: CurrentLoop
-    position_loop: PositionLoop
+    velocity_loop: VelocityLoop | None = None
+    position_loop: PositionLoop | CascadePositionLoop
+    filters: tuple[FilterSpec, ...] = ()
     simulation: Simulation = Simulation()
     requirements: tuple[Requirement, ...] = ()
     reference: Reference | None = None
     load_envelope: LoadEnvelopeSpec | None = None
     variants: dict[str, dict[str, Any] | None] = {}
+
+    @classmethod
+    def model_validate(cls, obj, **kwargs):
+        """Validate ``obj``; a ``velocity_loop`` section makes ``position_loop`` a
+        :class:`CascadePositionLoop` (its gains in the cascade's units)."""
+        context = dict(kwargs.pop("context", None) or {})
+        context.setdefault("cascade", isinstance(obj, dict)
+                           and obj.get("velocity_loop") is not None)
+        return super().model_validate(obj, context=context, **kwargs)
+
+    @field_validator("position_loop", mode="wrap")
+    @classmethod
+    def _position_loop(cls, value, handler: ValidatorFunctionWrapHandler, info):
+        if isinstance(value, (PositionLoop, CascadePositionLoop)):
+            return value
+        model = CascadePositionLoop if (info.context or {}).get("cascade") else PositionLoop
+        return model.model_validate(value)
+
+    @model_validator(mode="after")
+    def _filter_points(self):
+        for index, item in enumerate(self.filters):
+            if item.at == "velocity_feedback" and self.velocity_loop is None:
+                raise PydanticCustomError(
+                    "cas_value", f"filters.{index}.at: velocity_feedback needs a velocity loop "
+                    "(a velocity_loop section); use current_command")
+        return self
 
     @field_validator("output_name")
     @classmethod

@@ -18,7 +18,7 @@ import math
 import re
 
 from cas_freq.exceptions import ConfigError
-from cas_freq.parameters import PARAMETERS, VARIABLE_KEYS, check_key, parse_value
+from cas_freq.parameters import PARAMETERS, VARIABLE_KEYS, check_key, parameter, parse_value
 
 #: How far a fit may move a key from its start: a factor (log keys) or scales (others).
 SEARCH_FACTOR = 1e3
@@ -146,38 +146,45 @@ def _bounds(parameter, start, log, scale):
     return low / scale, high / scale
 
 
-def free_keys(spec, loop, variant="base"):
+def free_keys(spec, loop, variant="base", config=None):
     """The :class:`FreeKey` of each key of ``spec``, started from ``loop`` (one run's
-    :class:`~cas_freq.parameters.LoopParameters`, derived values resolved) or the spec's start.
+    :class:`~cas_freq.parameters.LoopParameters`, derived values resolved) or the spec's start;
+    ``config`` (the validated config of ``loop``), when given, refuses a key its architecture
+    does not have.
 
     Raises
     ------
     ConfigError
-        For a key the simulator does not read, or a key that starts at 0 (or absent) where a
-        fit in ratios needs a start above 0.
+        For a key the simulator does not read or the config's architecture does not have, or a
+        key that starts at 0 (or absent) where a fit in ratios needs a start above 0.
     """
     free = []
     for key in spec.keys:
-        parameter = PARAMETERS[key]
-        if parameter.field is None:
+        if config is not None:  # a key of the config's architecture (no Kd with a velocity loop)
+            try:
+                check_key(key, config)
+            except ConfigError as exc:
+                raise ConfigError(f"--params: {exc}") from None
+        record = parameter(key, config)
+        if record.field is None:
             accepted = ", ".join(k for k in VARIABLE_KEYS if PARAMETERS[k].field)
             raise ConfigError(f"--params: {key} is not a parameter of the simulated loops; "
                               f"free one of: {accepted}")
         if key in spec.starts:
             start = float(spec.starts[key])
         else:
-            value = getattr(loop, parameter.field)
+            value = getattr(loop, record.field)
             start = 0.0 if value is None else float(value[0])
-        nonnegative = parameter.lower is not None and parameter.lower >= 0
+        nonnegative = record.lower is not None and record.lower >= 0
         if nonnegative and not start > 0:
             where = ("given as the start" if key in spec.starts
                      else f"in variant {variant!r}")
             raise ConfigError(
-                f"--params: {key} is {start:g} {parameter.unit} ({where}); a fit of a key "
+                f"--params: {key} is {start:g} {record.unit} ({where}); a fit of a key "
                 f"that cannot be negative needs a start above 0: give one, e.g. --params "
-                f"...,{key}=VALUE (in {parameter.unit} or with a unit)")
+                f"...,{key}=VALUE (in {record.unit} or with a unit)")
         scale = 1.0 if nonnegative else (abs(start) or 1.0)
-        low, high = _bounds(parameter, start, nonnegative, scale)
+        low, high = _bounds(record, start, nonnegative, scale)
         free.append(FreeKey(key=key, start=start, log=nonnegative, scale=scale,
                             lower=low, upper=high))
     return free

@@ -279,7 +279,7 @@ def fit_physical(loaded, recordings, steps_rad, spec, channels=("position",), ma
         if missing:
             raise ConfigError(f"{missing[0]}: no current column, so current cannot be fitted; "
                               "fit the position alone (--channels position)")
-    free = free_keys(spec, variant_parameters(loaded.params, {}), loaded.variant)
+    free = free_keys(spec, variant_parameters(loaded.params, {}), loaded.variant, loaded.params)
     replayer = RecordingReplayer(loaded.params, recordings, steps_rad)
     blocks = _blocks(recordings, channels, replayer.masks)
     problem = _Problem(replayer, free, blocks)

@@ -25,7 +25,7 @@ import numpy as np
 
 from cas_freq.exceptions import ConfigError
 from cas_freq.fileio import json_ready
-from cas_freq.parameters import PARAMETERS, base_values, check_key, unit_of
+from cas_freq.parameters import base_values, check_key, parameter, unit_of
 from cas_freq.studies.sweep import evaluate_figures, figure_names
 from cas_freq.units import to_si
 
@@ -53,15 +53,17 @@ class Tolerance:
 MAX_SAMPLES = 1_000_000
 
 
-def parse_tolerance(text):
-    """``KEY=10%`` or ``KEY=0.02 ms`` (or a plain number in SI) → :class:`Tolerance`."""
+def parse_tolerance(text, config=None):
+    """``KEY=10%`` or ``KEY=0.02 ms`` (or a plain number in SI) → :class:`Tolerance`; an
+    absolute width in the key's unit in ``config``'s architecture (a velocity loop changes the
+    position gains' units)."""
     key, sep, value = str(text).partition("=")
     key, value = key.strip(), value.strip()
     accepted = (f"--tolerance {text!r}: expected KEY=PERCENT% or KEY=ABSOLUTE (a number in the "
                 f"key's SI unit or with a unit), e.g. motor.Km=10% or current_loop.delay=0.02ms")
     if not sep or not key or not value:
         raise ConfigError(accepted)
-    check_key(key)
+    check_key(key, config)
     match = re.fullmatch(r"([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*%", value)
     if match:
         relative = float(match.group(1)) / 100.0
@@ -69,9 +71,9 @@ def parse_tolerance(text):
             raise ConfigError(accepted)
         return Tolerance(key, relative, None)
     # a width, not a value of the key: in the key's unit, but its bound is >= 0, not the key's
-    unit = unit_of(key)
+    unit = unit_of(key, config)
     try:
-        PARAMETERS[key].check_has_unit(value)
+        parameter(key, config).check_has_unit(value)
         absolute = to_si(value, unit)
     except (TypeError, ValueError, OverflowError) as exc:
         raise ConfigError(f"--tolerance {key}: cannot read {value!r} as a width in {unit} "
@@ -142,6 +144,11 @@ class MonteCarlo:
     step_deg: float | None
     requirements: tuple
     sinedwell: tuple | None = None
+    units: dict = dataclasses.field(default_factory=dict)
+
+    def unit(self, key):
+        """SI unit of toleranced ``key`` in the config's architecture."""
+        return self.units.get(key) or unit_of(key)
 
 
 def run_montecarlo(loaded, tolerances, samples, *, distribution="normal", seed=None,
@@ -178,6 +185,7 @@ def run_montecarlo(loaded, tolerances, samples, *, distribution="normal", seed=N
         distribution=distribution, seed=seed, samples=values, figures=figures,
         stability=stability, step_deg=None if step_rad is None else math.degrees(step_rad),
         requirements=requirements, sinedwell=sinedwell,
+        units={t.key: unit_of(t.key, loaded.params) for t in tolerances},
     )
 
 
@@ -279,7 +287,7 @@ def montecarlo_dict(mc):
         "distribution_note": ("normal: sigma = tolerance / 3" if mc.distribution == "normal"
                               else "uniform on nominal ± tolerance"),
         "seed": mc.seed,
-        "tolerances": [{"key": t.key, "unit": unit_of(t.key), "relative": t.relative,
+        "tolerances": [{"key": t.key, "unit": mc.unit(t.key), "relative": t.relative,
                         "absolute": t.absolute} for t in mc.tolerances],
         "step_deg": mc.step_deg,
         "sinedwell_deg": None if mc.sinedwell is None else math.degrees(mc.sinedwell[0]),
@@ -296,7 +304,7 @@ def montecarlo_samples_csv(mc):
     names = figure_names(mc.figures)
     keys = list(mc.samples)
     out = io.StringIO()
-    out.write(",".join(["sample", *(f"{k} [{unit_of(k)}]" for k in keys), "stability",
+    out.write(",".join(["sample", *(f"{k} [{mc.unit(k)}]" for k in keys), "stability",
                         *names]) + "\n")
     for index in range(len(mc.stability)):
         cells = [str(index), *(f"{mc.samples[k][index]:.10g}" for k in keys),

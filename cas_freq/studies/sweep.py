@@ -20,23 +20,24 @@ from cas_freq.parameters import check_key, parse_value, unit_of, variant_paramet
 MAX_POINTS = 1_000_000
 
 
-def parse_grid_values(key, spec):
-    """Values [SI] of one grid axis: ``start:stop:count`` or ``a,b,c``.
+def parse_grid_values(key, spec, config=None):
+    """Values [SI] of one grid axis: ``start:stop:count`` or ``a,b,c`` (in the unit of
+    ``config``'s architecture, :func:`cas_freq.parameters.parameter`).
 
     Raises
     ------
     ConfigError
         For a key that cannot be varied or a spec that does not parse, naming what is accepted.
     """
-    check_key(key)
+    check_key(key, config)
     accepted = (f"--set {key}={spec}: expected START:STOP:COUNT (COUNT >= 1 evenly spaced "
-                f"values) or a list A,B,C, numbers in {unit_of(key)} or with units")
+                f"values) or a list A,B,C, numbers in {unit_of(key, config)} or with units")
     text = str(spec).strip()
     if ":" in text:
         parts = text.split(":")
         if len(parts) != 3:
             raise ConfigError(accepted)
-        start, stop = (parse_value(key, part.strip()) for part in parts[:2])
+        start, stop = (parse_value(key, part.strip(), config) for part in parts[:2])
         try:
             count = int(parts[2])
         except ValueError:
@@ -53,7 +54,7 @@ def parse_grid_values(key, spec):
     if len(parts) > MAX_POINTS:
         raise ConfigError(f"--set {key}: {len(parts)} values, more than the {MAX_POINTS} points "
                           "a sweep accepts")
-    return np.array([parse_value(key, part) for part in parts])
+    return np.array([parse_value(key, part, config) for part in parts])
 
 
 def is_grid_spec(value):
@@ -193,6 +194,11 @@ class Sweep:
     stability: np.ndarray
     step_deg: float | None
     sinedwell_deg: float | None = None
+    units: dict = dataclasses.field(default_factory=dict)
+
+    def unit(self, key):
+        """SI unit of swept ``key`` in the swept config's architecture."""
+        return self.units.get(key) or unit_of(key)
 
 
 def run_sweep(loaded, axes, *, step_rad=None, fit=True, sinedwell=None, progress=None,
@@ -212,6 +218,7 @@ def run_sweep(loaded, axes, *, step_rad=None, fit=True, sinedwell=None, progress
         points=points, figures=figures, stability=stability,
         step_deg=None if step_rad is None else math.degrees(step_rad),
         sinedwell_deg=None if sinedwell is None else math.degrees(sinedwell[0]),
+        units={key: unit_of(key, loaded.params) for key in axes},
     )
 
 
@@ -258,7 +265,7 @@ def sweep_dict(sweep):
         "config_path": sweep.config_path,
         "variant": sweep.variant,
         "overrides": list(sweep.overrides),
-        "swept": {key: {"unit": unit_of(key), "values": values.tolist()}
+        "swept": {key: {"unit": sweep.unit(key), "values": values.tolist()}
                   for key, values in sweep.axes.items()},
         "step_deg": sweep.step_deg,
         "sinedwell_deg": sweep.sinedwell_deg,
@@ -277,7 +284,7 @@ def sweep_csv(sweep):
     figures, reasons = shown_figures(sweep), not_shown(sweep)
     keys = list(sweep.points)
     out = io.StringIO()
-    out.write(",".join([*(f"{k} [{unit_of(k)}]" for k in keys), "stability", *names,
+    out.write(",".join([*(f"{k} [{sweep.unit(k)}]" for k in keys), "stability", *names,
                         "run_figures_not_shown"]) + "\n")
     for index in range(len(sweep.stability)):
         cells = [f"{sweep.points[k][index]:.10g}" for k in keys]

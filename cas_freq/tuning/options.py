@@ -10,6 +10,8 @@ OBJECTIVES = {
 
 #: Keys freed when ``--free`` is not given.
 DEFAULT_FREE = ("position_loop.Kp", "position_loop.Ki", "position_loop.Kd")
+#: Keys freed when ``--free`` is not given, in a config with a velocity loop (no Kd there).
+CASCADE_DEFAULT_FREE = ("position_loop.Kp", "velocity_loop.Kp", "velocity_loop.Ki")
 
 #: Default range of a key without ``--bounds``: its value divided and multiplied by this.
 DEFAULT_FACTOR = 4.0
@@ -19,5 +21,5 @@ GLOBAL_COUNT = 128
 ROUNDS = 6
 ROUND_COUNT = 32
 
-__all__ = ["DEFAULT_FACTOR", "DEFAULT_FREE", "GLOBAL_COUNT", "OBJECTIVES", "ROUNDS",
-           "ROUND_COUNT"]
+__all__ = ["CASCADE_DEFAULT_FREE", "DEFAULT_FACTOR", "DEFAULT_FREE", "GLOBAL_COUNT", "OBJECTIVES",
+           "ROUNDS", "ROUND_COUNT"]

@@ -5,9 +5,9 @@ from cas_freq.exceptions import ConfigError
 from cas_freq.studies.montecarlo import parse_tolerance
 from cas_freq.tuning import search
 from cas_freq.tuning.evaluate import constraints
-from cas_freq.tuning.options import DEFAULT_FREE, GLOBAL_COUNT, ROUNDS
+from cas_freq.tuning.options import GLOBAL_COUNT, ROUNDS
 from cas_freq.tuning.scenarios import scenarios
-from cas_freq.tuning.space import parse_bounds, parse_free, tune_keys
+from cas_freq.tuning.space import default_free, parse_bounds, parse_free, tune_keys
 
 
 def tune_variant(loaded, free=None, bounds=(), objective="max-bandwidth", robust=None,
@@ -20,7 +20,7 @@ def tune_variant(loaded, free=None, bounds=(), objective="max-bandwidth", robust
     ----------
     loaded : cas_freq.config.LoadedVariant
     free : str, optional
-        ``KEY,KEY`` (default :data:`~cas_freq.tuning.space.DEFAULT_FREE`).
+        ``KEY,KEY`` (default :func:`~cas_freq.tuning.space.default_free`).
     bounds : sequence of str
         ``KEY=LO:HI`` texts.
     tolerances : sequence of str
@@ -40,7 +40,7 @@ def tune_variant(loaded, free=None, bounds=(), objective="max-bandwidth", robust
         config without a load envelope.
     """
     params = loaded.params
-    keys = parse_free(free if free is not None else ",".join(DEFAULT_FREE))
+    keys = parse_free(free if free is not None else ",".join(default_free(params)), params)
     held, skipped = constraints(params.requirements, margin_pct / 100.0,
                                 advisory=not required_only)
     if not held:
@@ -51,9 +51,9 @@ def tune_variant(loaded, free=None, bounds=(), objective="max-bandwidth", robust
         if params.load_envelope is None:
             raise ConfigError(f"--load-cases: {loaded.source} declares no load_envelope")
         cases = list(params.load_envelope.hinge_stiffness)
-    scenario_set = scenarios(params, robust, [parse_tolerance(t) for t in tolerances],
+    scenario_set = scenarios(params, robust, [parse_tolerance(t, params) for t in tolerances],
                              yield_pct, seed, cases, distribution)
-    return search.tune(params, tune_keys(params, keys, parse_bounds(bounds, keys)),
+    return search.tune(params, tune_keys(params, keys, parse_bounds(bounds, keys, params)),
                        scenario_set, held, skipped, objective, seed=seed,
                        global_count=candidates, rounds=rounds, scheduler=scheduler,
                        progress=progress)

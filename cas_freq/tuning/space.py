@@ -14,8 +14,16 @@ import math
 import numpy as np
 
 from cas_freq.exceptions import ConfigError
-from cas_freq.parameters import PARAMETERS, check_key, parse_value, variant_parameters
-from cas_freq.tuning.options import DEFAULT_FACTOR, DEFAULT_FREE
+from cas_freq.parameters import (
+    check_key,
+    is_cascade,
+    loop_values,
+    parameter,
+    parse_value,
+    unit_of,
+    variant_parameters,
+)
+from cas_freq.tuning.options import CASCADE_DEFAULT_FREE, DEFAULT_FACTOR, DEFAULT_FREE
 
 
 @dataclasses.dataclass(frozen=True)
@@ -31,6 +39,9 @@ class TuneKey:
         The range [SI].
     log : bool
         Searched in ln(value) (both bounds > 0), else linearly.
+    unit : str
+        The key's SI unit in the config's architecture (default that of
+        :data:`~cas_freq.parameters.PARAMETERS`).
     """
 
     key: str
@@ -38,11 +49,11 @@ class TuneKey:
     lower: float
     upper: float
     log: bool
+    unit: str = ""
 
-    @property
-    def unit(self):
-        """The key's SI unit."""
-        return PARAMETERS[self.key].unit
+    def __post_init__(self):
+        if not self.unit:
+            object.__setattr__(self, "unit", unit_of(self.key))
 
     def value(self, unit):
         """Values [SI] of unit-box coordinates ``unit`` (array in [0, 1])."""
@@ -60,15 +71,22 @@ class TuneKey:
         return (value - self.lower) / (self.upper - self.lower)
 
 
-def parse_free(text):
-    """``KEY,KEY`` -> tuple of keys (checked, no repeats)."""
+def default_free(config):
+    """The keys freed without ``--free``: the PID gains, or with a velocity loop the position
+    P gain and the velocity PI gains."""
+    return CASCADE_DEFAULT_FREE if is_cascade(config) else DEFAULT_FREE
+
+
+def parse_free(text, config=None):
+    """``KEY,KEY`` -> tuple of keys (checked, no repeats; in ``config``'s architecture when
+    given)."""
     keys = [part.strip() for part in str(text).split(",")]
     if not text or any(not key for key in keys):
         raise ConfigError(f"--free {text!r}: expected KEY,KEY,... e.g. "
                           f"{','.join(DEFAULT_FREE)}")
     for key in keys:
-        check_key(key)
-        if PARAMETERS[key].field is None:
+        check_key(key, config)
+        if parameter(key, config).field is None and not key.startswith("filters."):
             raise ConfigError(f"--free {key}: not a parameter of the loops (it only derives "
                               "another); free the key it derives")
     if len(set(keys)) != len(keys):
@@ -76,8 +94,9 @@ def parse_free(text):
     return tuple(keys)
 
 
-def parse_bounds(texts, free):
-    """``KEY=LO:HI`` options -> {key: (lo, hi)} [SI], every key one of ``free``."""
+def parse_bounds(texts, free, config=None):
+    """``KEY=LO:HI`` options -> {key: (lo, hi)} [SI], every key one of ``free`` (its unit that
+    of ``config``'s architecture)."""
     bounds = {}
     for text in texts:
         key, sep, rest = str(text).partition("=")
@@ -88,7 +107,7 @@ def parse_bounds(texts, free):
                               "position_loop.Kp=1:20")
         if key not in free:
             raise ConfigError(f"--bounds {key}: not a free key (free: {', '.join(free)})")
-        lo, hi = parse_value(key, low.strip()), parse_value(key, high.strip())
+        lo, hi = parse_value(key, low.strip(), config), parse_value(key, high.strip(), config)
         if not lo < hi:
             raise ConfigError(f"--bounds {text!r}: LO must be below HI")
         bounds[key] = (lo, hi)
@@ -100,16 +119,17 @@ def tune_keys(params, free, bounds):
     loop = variant_parameters(params, {})
     keys = []
     for key in free:
-        start = float(getattr(loop, PARAMETERS[key].field)[0])
+        start = float(loop_values(loop, key, params)[0])
         if key in bounds:
             lower, upper = bounds[key]
         elif start > 0:
             lower, upper = start / DEFAULT_FACTOR, start * DEFAULT_FACTOR
         else:
             raise ConfigError(f"--free {key}: the variant's value is {start:g} "
-                              f"{PARAMETERS[key].unit}, so no default range is a factor of it; "
+                              f"{unit_of(key, params)}, so no default range is a factor of it; "
                               f"give --bounds {key}=LO:HI")
-        keys.append(TuneKey(key, start, lower, upper, log=lower > 0))
+        keys.append(TuneKey(key, start, lower, upper, log=lower > 0,
+                            unit=unit_of(key, params)))
     return keys
 
 
@@ -122,5 +142,5 @@ def sobol(count, dimensions, seed):
     return sampler.random_base2(power)[:count]
 
 
-__all__ = ["DEFAULT_FACTOR", "DEFAULT_FREE", "TuneKey", "parse_bounds", "parse_free", "sobol",
-           "tune_keys"]
+__all__ = ["DEFAULT_FACTOR", "DEFAULT_FREE", "TuneKey", "default_free", "parse_bounds",
+           "parse_free", "sobol", "tune_keys"]

@@ -1,0 +1,173 @@
+"""The loop filters of a config (``filters:``, docs/config.md).
+
+Each filter sits in series at one point of the loop, ``at``:
+
+- ``current_command``: after the velocity or position controller, before the current loop;
+- ``velocity_feedback``: on the measured velocity (needs a velocity loop).
+
+and is one of three kinds, ``type`` (ω0 = ``frequency`` [rad/s]):
+
+- ``lowpass1``: 1/(s/ω0 + 1);
+- ``lowpass2`` (``damping`` ζ, default 1/√2): ω0²/(s² + 2ζω0 s + ω0²);
+- ``notch`` (``width`` Δω [rad/s], ``depth`` [dB] < 0): (s² + 2dζω0 s + ω0²)/(s² + 2ζω0 s + ω0²)
+  with ζ = Δω/(2ω0), d = 10^(depth/20).
+
+:data:`FILTER_PARAMETERS` holds the records of a filter's numbers (unit, bounds, meaning), as
+:data:`cas_freq.parameters.PARAMETERS` does for the other keys. :class:`Filter` carries one
+filter of a batch of runs: its point and kind are the same for the whole batch (they shape the
+loop), its numbers are per run. This module imports only :mod:`cas_freq.exceptions` and
+:mod:`cas_freq.parameter_record`.
+"""
+
+import dataclasses
+
+import numpy as np
+
+from cas_freq.exceptions import ConfigError
+from cas_freq.parameter_record import Parameter
+
+__all__ = ["DEFAULT_DAMPING", "FILTER_NUMBERS", "FILTER_PARAMETERS", "FILTER_POINTS",
+           "FILTER_TYPES", "Filter", "depth_problem", "point_problem", "type_problem"]
+
+#: Where a filter may sit.
+FILTER_POINTS = ("current_command", "velocity_feedback")
+#: The kinds of filter, each with the numbers it takes (config names; ``frequency`` first).
+FILTER_NUMBERS = {
+    "lowpass1": ("frequency",),
+    "lowpass2": ("frequency", "damping"),
+    "notch": ("frequency", "width", "depth"),
+}
+FILTER_TYPES = tuple(FILTER_NUMBERS)
+#: Damping of a ``lowpass2`` without ``damping`` (1/√2: Butterworth) [-].
+DEFAULT_DAMPING = 0.7071
+
+#: The numbers of a filter of ``filters:`` (:mod:`cas_freq.filters_config`), by item key;
+#: the dotted key of filter i's number is ``filters.<i>.<name>``.
+FILTER_PARAMETERS = {
+    p.key.rpartition(".")[2]: p for p in (
+        Parameter("filters.N.frequency", None, "rad/s", 0.0, True, 1e9,
+                  "filter frequency w0, > 0..1e9 [rad/s]"),
+        Parameter("filters.N.damping", None, "dimensionless", 0.0, True, 100.0,
+                  f"damping of a lowpass2 filter, default {DEFAULT_DAMPING:g}, > 0..100 "
+                  "[dimensionless]"),
+        Parameter("filters.N.width", None, "rad/s", 0.0, True, 1e9,
+                  "width of a notch filter, > 0..1e9 [rad/s]"),
+        Parameter("filters.N.depth", None, "dB", -300.0, False, None,
+                  "depth of a notch filter at its frequency, below 0 dB, >= -300 [dB]"),
+    )
+}
+
+
+def point_problem(at):
+    """What is wrong with a filter point ``at``, or None."""
+    if at in FILTER_POINTS:
+        return None
+    return f"{at!r} is not a filter point; use current_command or velocity_feedback"
+
+
+def type_problem(kind):
+    """What is wrong with a filter type ``kind``, or None."""
+    if kind in FILTER_TYPES:
+        return None
+    return f"{kind!r} is not a filter type; use lowpass1, lowpass2 or notch"
+
+
+def depth_problem(values):
+    """What is wrong with notch depths [dB] (array), or None: a notch's depth is below 0 dB."""
+    values = np.atleast_1d(np.asarray(values, dtype=float))
+    bad = ~(values < 0)
+    if not bad.any():
+        return None
+    return f"a notch's depth is below 0 dB, got {float(values[bad][0]):g} dB"
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Filter:
+    """One filter of a batch of runs.
+
+    Attributes
+    ----------
+    at : str
+        Its point, one of :data:`FILTER_POINTS` (the same for every run).
+    kind : str
+        Its type, one of :data:`FILTER_TYPES` (the same for every run).
+    frequency : numpy.ndarray
+        ω0 per run [rad/s].
+    damping : numpy.ndarray
+        ζ of a ``lowpass2`` per run [-] (NaN for the other kinds).
+    width : numpy.ndarray
+        Δω of a ``notch`` per run [rad/s] (NaN for the other kinds).
+    depth_db : numpy.ndarray
+        Depth of a ``notch`` per run [dB], < 0 (NaN for the other kinds).
+
+    The arrays are read-only, 1-D and of one length (scalars broadcast); the numbers a kind does
+    not use are set to NaN whatever is given.
+    """
+
+    at: str
+    kind: str
+    frequency: np.ndarray
+    damping: np.ndarray = np.nan
+    width: np.ndarray = np.nan
+    depth_db: np.ndarray = np.nan
+
+    #: The per-run fields, in order.
+    NUMBERS = ("frequency", "damping", "width", "depth_db")
+
+    def __post_init__(self):
+        for problem in (point_problem(self.at), type_problem(self.kind)):
+            if problem:
+                raise ConfigError(f"simulation parameters: filter: {problem}")
+        try:
+            arrays = np.broadcast_arrays(*(np.atleast_1d(np.asarray(getattr(self, name),
+                                                                    dtype=float))
+                                           for name in self.NUMBERS))
+        except ValueError:
+            raise ConfigError("simulation parameters: filter: its numbers' shapes do not "
+                              "broadcast") from None
+        used = {"depth" if name == "depth_db" else name for name in self.NUMBERS}
+        used &= set(FILTER_NUMBERS[self.kind])
+        for name, array in zip(self.NUMBERS, arrays, strict=True):
+            if array.ndim != 1:
+                raise ConfigError(f"simulation parameters: filter {name}: must be 1-D, got "
+                                  f"{array.shape}")
+            config_name = "depth" if name == "depth_db" else name
+            array = np.array(array) if config_name in used else np.full(array.shape, np.nan)
+            if config_name in used and not (np.isfinite(array).all()
+                                            and (name == "depth_db" or (array > 0).all())):
+                raise ConfigError(f"simulation parameters: a {self.kind} filter's {name} must "
+                                  f"be finite{'' if name == 'depth_db' else ' and > 0'}")
+            array.setflags(write=False)
+            object.__setattr__(self, name, array)
+        if self.kind == "notch":
+            problem = depth_problem(self.depth_db)
+            if problem:
+                raise ConfigError(f"simulation parameters: filter depth_db: {problem}")
+
+    @property
+    def n_runs(self):
+        """Number of runs."""
+        return self.frequency.shape[0]
+
+    @property
+    def notch_damping(self):
+        """ζ = Δω/(2ω0) of a notch [-] (NaN for the other kinds)."""
+        return self.width / (2.0 * self.frequency)
+
+    def broadcast(self, n):
+        """This filter with every array of length ``n``."""
+        return dataclasses.replace(self, **{name: np.broadcast_to(getattr(self, name), (n,))
+                                            for name in self.NUMBERS})
+
+    def take(self, rows):
+        """The runs ``rows`` (a slice, or an array of run indices)."""
+        return dataclasses.replace(self, **{name: getattr(self, name)[rows]
+                                            for name in self.NUMBERS})
+
+    @classmethod
+    def stacked(cls, filters):
+        """One filter of several runs from filters of the same point and kind (one per run
+        group, in order)."""
+        first = filters[0]
+        return cls(first.at, first.kind, **{
+            name: np.concatenate([getattr(f, name) for f in filters]) for name in cls.NUMBERS})
