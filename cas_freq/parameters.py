@@ -851,18 +851,27 @@ def _check_some_gain(full, cascade):
                               f"loop (samples {_indices(none)})")
 
 
-def unsupported_architecture(config):
-    """What this version cannot compute yet for validated ``config``, or None.
+def unsupported_architecture(params):
+    """What the nonlinear simulation cannot run yet for ``params`` (loop parameters or a
+    validated config), or None.
 
-    The config schema and :class:`LoopParameters` carry the velocity loop, the filters and the
-    output-side position feedback, but the model does not use them yet; the loader refuses
-    such a config here (one place: :func:`cas_freq.config.loader._load`) rather than print
-    the figures of another loop.
+    The frequency-domain model (:mod:`cas_freq.model.structure`) computes the velocity loop,
+    the filters and the output-side position feedback; the simulator does not yet, and refuses
+    them here (one place: :func:`cas_freq.simulation.simulator.simulate_batch`) rather than
+    simulate another loop.
     """
-    if is_cascade(config):
-        return "velocity_loop: not supported by this version yet"
-    if config.filters:
-        return "filters: not supported by this version yet"
-    if config.position_loop.feedback == "output":
-        return "position_loop.feedback: output is not supported by this version yet"
+    if isinstance(params, LoopParameters):
+        cascade, filters, output = params.cascade, params.filters, params.feedback_output
+    else:
+        cascade, filters = is_cascade(params), params.filters
+        output = params.position_loop.feedback == "output"
+    if cascade:
+        return ("velocity_loop: the nonlinear simulation of a velocity loop is not in this "
+                "version yet (its frequency-domain figures are: cas-freq analyze)")
+    if filters:
+        return ("filters: the nonlinear simulation of filters is not in this version yet (their "
+                "frequency-domain figures are: cas-freq analyze)")
+    if output:
+        return ("position_loop.feedback: the nonlinear simulation of output feedback is not in "
+                "this version yet (its frequency-domain figures are: cas-freq analyze)")
     return None

@@ -27,7 +27,6 @@ from yaml.events import AliasEvent, CollectionEndEvent, CollectionStartEvent, Sc
 
 from cas_freq.config.schema import BASE_VARIANT, ActuatorConfig, CascadePositionLoop
 from cas_freq.exceptions import ConfigError, ConfigTypeError, listed
-from cas_freq.parameters import unsupported_architecture
 
 #: Keys that give the same quantity another way: setting the key removes its alternative.
 _ALTERNATIVES = {"motor.mu_v": "motor.no_load", "motor.no_load": "motor.mu_v"}
@@ -526,10 +525,6 @@ def _load(data, path, variant, overrides, overrides_name="--set"):
         origin += f" with {overrides_name} " + ", ".join(
             one_line(f"{k}={v}")[:80] for k, v in overrides)
     params = validate(resolved, origin)
-    # the one refusal of the architectures the model does not compute yet: delete it when it does
-    unsupported = unsupported_architecture(params)
-    if unsupported:
-        raise ConfigError(f"{origin}: {unsupported}")
     return LoadedVariant(str(path), variant, params, tuple(overrides))
 
 

@@ -72,8 +72,9 @@ class Selector:
         for name, array in self.arrays.items():
             values[name] = _rows_of(array, index, column)
         values["filters"] = tuple(
-            dataclasses.replace(item, **{name: _rows_of(getattr(item, name), index, column)
-                                         for name in FILTER_NUMBERS})
+            types.SimpleNamespace(at=item.at, kind=item.kind,
+                                  **{name: _rows_of(getattr(item, name), index, column)
+                                     for name in FILTER_NUMBERS})
             for item in self.filters)
         return types.SimpleNamespace(**values)
 

@@ -62,7 +62,7 @@ import numpy as np
 
 from cas_freq.exceptions import ConfigError, ModelError
 from cas_freq.jit import ENGINE_ENV, ENGINES, engine_name  # noqa: F401 (re-exported)
-from cas_freq.parameters import LoopParameters
+from cas_freq.parameters import LoopParameters, unsupported_architecture
 from cas_freq.simulation.engine import FLAG_SIGNALS, CommandSet, Engine
 
 #: Largest default step [s].
@@ -353,11 +353,13 @@ def default_time_step(delays_s, periods_s=(), max_step_s=5e-6):
 
 
 def _as_parameters(params):
-    if isinstance(params, LoopParameters):
-        return params
-    if isinstance(params, (list, tuple)):
-        return LoopParameters.from_configs(params)
-    return LoopParameters.from_config(params)
+    if not isinstance(params, LoopParameters):
+        params = (LoopParameters.from_configs(params) if isinstance(params, (list, tuple))
+                  else LoopParameters.from_config(params))
+    unsupported = unsupported_architecture(params)
+    if unsupported:
+        raise ConfigError(unsupported)
+    return params
 
 
 def _period_steps(rate_hz, dt, name):
