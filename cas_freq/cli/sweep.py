@@ -17,6 +17,7 @@ from cas_freq.exceptions import CasFreqError
 TABLE_FIGURES = (
     ("position_loop.phase_margin_deg", "PM_p [deg]"),
     ("position_loop.gain_margin_db", "GM_p [dB]"),
+    ("velocity_loop.phase_margin_deg", "PM_v [deg]"),
     ("current_loop.phase_margin_deg", "PM_i [deg]"),
     ("closed_loop.bandwidth_rad_s", "BW [rad/s]"),
     ("closed_loop.peak_db", "peak [dB]"),
