@@ -181,9 +181,13 @@ def test_batch_analysis_is_the_same_on_either_path(monkeypatch, config, variant)
                                    rtol=rtol, atol=1e-12, equal_nan=True, err_msg=name)
 
 
-def test_small_batches_stay_on_numpy(monkeypatch):
-    # a single analysis must not need numba: below COMPILED_FROM the numpy path runs
+def test_a_single_analysis_stays_on_numpy(monkeypatch):
+    # a single analysis must not need numba: below COMPILED_FROM the numpy path runs (a batch
+    # chooses once for all its chunks, so a run's figures do not depend on its chunk: see
+    # tests/test_distributed.py)
+    from cas_freq.analysis import analyze
+    from cas_freq.config import load_variant
+
     monkeypatch.setattr(response_kernel, "grid_responses", None)  # would fail if called
-    params = _params()
-    assert params.n_runs * OMEGA.size < COMPILED_FROM
-    batch_analyze(params)
+    assert _params().n_runs * OMEGA.size < COMPILED_FROM
+    assert analyze(load_variant(None, "base")).stable
