@@ -410,7 +410,8 @@ class Analysis(Summary):
     def _summary(self):
         closed = self.closed_loop
         rows = [("stability", self.stability.verdict, "")]
-        for loop in ("current_loop", "position_loop"):
+        loops = ("current_loop", "velocity_loop", "position_loop")
+        for loop in (name for name in loops if getattr(self, name) is not None):
             margins = getattr(self, loop)
             rows += [(f"{loop}.{name}", getattr(margins, name))
                      for name in ("phase_margin_deg", "crossover_rad_s", "gain_margin_db")]
