@@ -15,6 +15,7 @@ import math
 import os
 import re
 import time
+import types
 from pathlib import Path
 
 from cas_freq.config.wording import name_the_output
@@ -180,20 +181,28 @@ def _limits_text(step):
 
 def analysis_loops(analysis):
     """(key of :data:`LOOPS`, symbol, break point, margins) of every loop of an analysis,
-    innermost first, then each inner loop with every other loop closed."""
-    cascade = analysis.velocity_loop is not None
-    keys = ["current_loop", *(["velocity_loop"] if cascade else []), "position_loop"]
-    views = [(key, getattr(analysis, key)) for key in keys]
-    views += [(f"{key}.loop_at_a_time", getattr(analysis, key).loop_at_a_time)
+    innermost first, then each inner loop with every other loop closed. The break points are
+    the loop structure's (:func:`cas_freq.model.structure.build`: a cascade's position loop is
+    broken at the velocity command)."""
+    from cas_freq.report.data import described_loops
+
+    if analysis.loaded is not None:
+        described = described_loops(analysis.loaded.params)
+    else:  # an analysis without its variant: the loops it has, the break points of LOOPS
+        names = [key for key in ("current_loop", "velocity_loop", "position_loop")
+                 if getattr(analysis, key) is not None]
+        breaks = {"position_loop": ("the velocity command" if "velocity_loop" in names
+                                    else "the current command")}
+        described = [types.SimpleNamespace(name=key, breaks_at=breaks.get(
+            key, LOOPS[key].broken_at)) for key in names]
+    keys = [loop.name for loop in described]
+    breaks_at = {loop.name: loop.breaks_at for loop in described}
+    views = [(key, getattr(analysis, key), breaks_at[key]) for key in keys]
+    views += [(f"{key}.loop_at_a_time", getattr(analysis, key).loop_at_a_time,
+               f"{breaks_at[key]}, every other loop closed")
               for key in keys[:-1] if getattr(analysis, key).loop_at_a_time is not None]
-    out = []
-    for key, margins in views:
-        loop = LOOPS[key]
-        broken_at = loop.broken_at
-        if cascade and key.startswith("position_loop"):
-            broken_at = broken_at.replace("the current command", "the velocity command")
-        out.append((key, loop.symbol, f"{loop.name}, broken at {broken_at}", margins))
-    return out
+    return [(key, LOOPS[key].symbol, f"{LOOPS[key].name}, broken at {where}", margins)
+            for key, margins, where in views]
 
 
 def margins_table(analysis):
