@@ -190,3 +190,47 @@ def test_tables_and_text_name_each_break_point(axis, qt):
     keys = [key for key, *_ in analysis_loops(qt.analysis)]
     assert keys == ["current_loop", "position_loop", "current_loop.loop_at_a_time"]
     assert math.isfinite(qt.analysis.current_loop.loop_at_a_time.phase_margin_deg)
+
+
+@pytest.mark.parametrize("stem", ["bode_loops", "nichols", "nyquist"])
+def test_cascade_figures_keep_every_label_inside(axis, stem):
+    # as tests/test_report.py checks the PID-on-PI: titles, labels and legends inside
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = plots.VARIANT_FIGURES[stem][0](axis)
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    inside = fig.bbox.padded(1.0)
+    artists = [*fig.legends, fig._suptitle]
+    for ax in fig.axes:
+        artists += [ax.get_legend(), ax.title, ax.xaxis.label, ax.yaxis.label]
+    for artist in artists:
+        if artist is None or not artist.get_visible():
+            continue
+        box = artist.get_window_extent(renderer)
+        if box.width:
+            assert inside.x0 <= box.x0 and box.x1 <= inside.x1, (stem, artist)
+            assert inside.y0 <= box.y0 and box.y1 <= inside.y1, (stem, artist)
+
+
+# ---- compare ---------------------------------------------------------------------------------
+
+def test_compare_overlay_shows_the_velocity_loop_of_a_cascade(axis, no_notch, qt):
+    from cas_freq.plots.overlays import COMPARE_FIGURES, bode_overlay
+
+    fig = bode_overlay([axis, no_notch], ["base", "no_notch"])
+    assert [ax.get_ylabel() for ax in fig.axes] == [
+        "|L_p| [dB]", "∠L_p [deg]", "|T| [dB] (● ω_BW)", "|L_v| [dB]", "∠L_v [deg]"]
+    velocity = fig.axes[3]
+    curves_drawn = [line for line in velocity.lines if len(line.get_xdata()) > 2]
+    # per variant: L_v broken at the current command (solid), with every other loop closed
+    # (dashed), in the variant's colour
+    assert [line.get_linestyle() for line in curves_drawn] == ["-", "--", "-", "--"]
+    for line, data in zip(curves_drawn[::2], (axis, no_notch), strict=True):
+        expected = 20.0 * np.log10(np.abs(data.curves.loops["velocity_loop"]))
+        assert np.asarray(line.get_ydata()) == pytest.approx(expected, abs=DRAWN_DB)
+    caption = COMPARE_FIGURES["bode_overlay"][1]([axis, no_notch], ["base", "no_notch"])
+    assert "L_v" in caption
+    # a PID-on-PI comparison keeps its three rows
+    assert len(bode_overlay([qt], ["base"]).axes) == 3
+    assert COMPARE_FIGURES["bode_overlay"][1]([qt], ["base"]) == "L_p and T overlaid"

@@ -200,9 +200,9 @@ def nyquist(data):
                      else f": PM {aat.phase_margin_deg:.3g}° @ {aat.crossover_rad_s:.4g} rad/s")
             ax.plot(_r(shown.real), _r(shown.imag), color=color, lw=1.1, ls="--",
                     label=f"{loop.symbol} with every other loop closed, ω > 0{words}")
-        ax.set_title(f"{loop.symbol} ({loop.words}, broken at {loop.break_symbol}), "
+        ax.set_title(f"{loop.symbol} ({loop.words}, broken at {loop.break_symbol})\n"
                      f"ω {c.omega_rad_s[0]:.3g}..{c.omega_rad_s[-1]:.3g} "
-                     f"rad/s; view ±{half:g} around −1", **({"fontsize": 9} if panels > 2 else {}))
+                     f"rad/s; view ±{half:g} around −1")
         handles, labels = ax.get_legend_handles_labels()
         legends.append(fig.legend(handles, labels, loc=f"lower {side}", fontsize=7))
     legend_room_below(fig, layout, legends)
