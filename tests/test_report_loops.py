@@ -234,3 +234,22 @@ def test_compare_overlay_shows_the_velocity_loop_of_a_cascade(axis, no_notch, qt
     # a PID-on-PI comparison keeps its three rows
     assert len(bode_overlay([qt], ["base"]).axes) == 3
     assert COMPARE_FIGURES["bode_overlay"][1]([qt], ["base"]) == "L_p and T overlaid"
+
+
+def test_compare_tables_list_the_velocity_loop_from_the_figure_table(axis, no_notch):
+    # the every-figure table of compare reads labels from cas_freq.figures: a cascade's
+    # velocity loop and its loop-at-a-time view get their rows, valued as analyze gives them
+    from cas_freq.analysis import to_dict
+    from cas_freq.report.compare import difference_rows
+
+    results = [{"analyze": to_dict(d.analysis), "simulate": [], "linear_steps": [],
+                "sinedwell": None} for d in (axis, no_notch)]
+    rows, _, keys = difference_rows(results)
+    by_label = {row[0]: row for row in rows}
+    row = by_label["velocity loop: phase margin [deg]"]
+    assert float(row[1]) == pytest.approx(axis.analysis.velocity_loop.phase_margin_deg,
+                                          rel=1e-4)
+    row = by_label["velocity loop, every other loop closed: phase margin [deg]"]
+    assert float(row[1]) == pytest.approx(
+        axis.analysis.velocity_loop.loop_at_a_time.phase_margin_deg, rel=1e-4)
+    assert "analyze.velocity_loop.loop_at_a_time.crossover_rad_s" in keys
