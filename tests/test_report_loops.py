@@ -253,3 +253,27 @@ def test_compare_tables_list_the_velocity_loop_from_the_figure_table(axis, no_no
     assert float(row[1]) == pytest.approx(
         axis.analysis.velocity_loop.loop_at_a_time.phase_margin_deg, rel=1e-4)
     assert "analyze.velocity_loop.loop_at_a_time.crossover_rad_s" in keys
+
+
+def test_parameter_table_of_a_cascade(axis, no_notch, qt):
+    # a cascade's gains in their own units (the position loop commands the speed: 1/s), its
+    # filters by point and type ("—" where a variant has none), no PID-only keys
+    from cas_freq.report.build import parameter_table
+    from cas_freq.report.data import current_limit
+
+    rows = {row[0]: row[1:] for row in parameter_table([axis, no_notch]).rows}
+    assert rows["velocity-loop proportional gain"] == ("A·s/rad", "1.3", "1.3")
+    assert rows["velocity-loop integral gain"] == ("A/rad", "15", "15")
+    kp = next(label for label in rows if label.startswith("position-loop proportional gain"))
+    assert rows[kp] == ("1/s", "40", "40")
+    assert rows["notch at the current command: filter frequency ω0"] == ("rad/s", "800", "—")
+    assert rows["notch at the current command: depth of a notch filter at its frequency"] == (
+        "dB", "-20", "—")
+    assert rows["lowpass2 at the velocity feedback: filter frequency ω0"] == (
+        "rad/s", "3000", "3000")
+    assert "derivative on" not in rows
+    assert not [label for label in rows if "derivative gain" in label]
+    assert current_limit(axis.loaded.params) == 10.0  # velocity_loop.i_max
+    assert current_limit(qt.loaded.params) == qt.loaded.params.position_loop.i_max
+    pid = {row[0] for row in parameter_table([qt]).rows}
+    assert "derivative on" in pid and not [label for label in pid if "velocity-loop" in label]

@@ -38,6 +38,7 @@ from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_sv
 )
 from cas_freq.plots.common import figure as _figure
 from cas_freq.plots.common import rounded as _r
+from cas_freq.report.data import current_limit
 from cas_freq.simulation.second_order import second_order_step
 
 HALF_POWER_DB = 20.0 * math.log10(1.0 / math.sqrt(2.0))
@@ -511,7 +512,7 @@ def steps(data):
         top.set_title(f"{a_deg:g}° step: {_limit_words(run.step)}")
         mid.plot(t_ms, _r(r.i[keep]), color="C0", label="motor current i")
         for sign in (1, -1):
-            mid.axhline(sign * params.position_loop.i_max, color="C3", ls="--", lw=0.9)
+            mid.axhline(sign * current_limit(params), color="C3", ls="--", lw=0.9)
             bottom.axhline(sign * params.current_loop.v_max, color="C1", ls="--", lw=0.9)
         mid.set_ylabel("current i [A]")
         bottom.plot(t_ms, _r(r.V[keep]), color="C0", label="motor voltage V")

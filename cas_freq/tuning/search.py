@@ -111,9 +111,11 @@ def pareto_front(evaluation):
     trade-off figure (ties kept once), ordered by bandwidth."""
     rows = np.flatnonzero(evaluation.feasible)
     # a figure no candidate has (the overshoot when the steps were not simulated) is left out
-    points = np.column_stack([sense * evaluation.nominal[name][rows]
-                              for name, sense in TRADE_OFF
-                              if np.isfinite(evaluation.nominal[name]).any()])
+    figures = [(name, sense) for name, sense in TRADE_OFF
+               if np.isfinite(evaluation.nominal[name]).any()]
+    if not figures:
+        return np.array([], dtype=int)
+    points = np.column_stack([sense * evaluation.nominal[name][rows] for name, sense in figures])
     good = np.all(np.isfinite(points), axis=1)
     rows, points = rows[good], points[good]
     front = []
