@@ -180,7 +180,7 @@ def nyquist(data):
     p = Selector(parts.one_variant(data.loaded.params))()
     described = c.outermost_first()
     panels = len(described)
-    layout = Margins(left=0.65, right=0.15, top=0.95, wgap=0.75)
+    layout = Margins(left=0.65, right=0.15, top=1.2, wgap=0.75)  # two-line panel titles
     fig, axes = _figure(1, panels, (5.5 * panels, 7.6), margins=layout)
     legends = []
     sides = ("left", "right") if panels == 2 else ("left", "center", "right")[:panels]
