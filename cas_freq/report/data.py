@@ -149,8 +149,8 @@ class Curves:
         Every loop of the structure by name, innermost first, broken at its controller's
         output with the loops inside closed and those outside open.
     loop_at_a_time : dict of str to numpy.ndarray
-        The inner loops with every other loop closed (the outermost's is its own response,
-        not repeated).
+        The inner loops with every other loop closed, where that differs from ``loops`` (the
+        outermost's is its own response, not repeated).
     sensitivity, closed_loop : numpy.ndarray
         S = 1/(1 + L_p) and T.
     described : tuple of CurveLoop
@@ -303,9 +303,12 @@ def curves(params, frequency_range_rad_s, points_per_decade):
     omega = frequency_grid(*frequency_range_rad_s, points_per_decade, loops.total_delay)
     found = responses(Selector(loops.params)(), 1j * omega, loop_at_a_time=True)
     outermost = list(found.loops)[-1]
+    # the inner loops with every other loop closed, where that differs from the cascade view
+    # (it does not where the loops outside have no gain)
     return Curves(omega, dict(found.loops),
                   {name: values for name, values in found.loop_at_a_time.items()
-                   if name != outermost},
+                   if name != outermost
+                   and not np.allclose(values, found.loops[name], rtol=1e-12, atol=0.0)},
                   1.0 / (1.0 + found.loops[outermost]), found.closed_loop,
                   described_loops(loops.params))
 
