@@ -206,9 +206,8 @@ def nyquist(data):
         handles, labels = ax.get_legend_handles_labels()
         legends.append(fig.legend(handles, labels, loc=f"lower {side}", fontsize=7))
     legend_room_below(fig, layout, legends)
-    symbols = " and ".join(loop.symbol for loop in described)
-    if panels > 2:
-        symbols = ", ".join(loop.symbol for loop in described[:-1]) + f" and {described[-1].symbol}"
+    names = [loop.symbol for loop in described]
+    symbols = ", ".join(names[:-1]) + " and " + names[-1]
     fig.suptitle(f"{data.label}: Nyquist plots of {symbols} ({EXACT})\ncurves clipped to "
                  "the view, arrows point to increasing ω")
     return fig

@@ -382,15 +382,16 @@ def nichols(data, magnitude_range_db=(-40.0, 60.0)):
         label = (f"{loop.symbol} with every other loop closed (dashed)" if dashed
                  else loop.title)
         ax.plot(np.where(shown, p, np.nan), np.where(shown, m, np.nan), color=color,
-                ls="--" if dashed else "-", lw=1.1 if dashed else 1.5, label=label)
+                label=label, **({"ls": "--", "lw": 1.1} if dashed else {}))
         if not dashed:
             for cross in margins.gain_crossovers:
                 if _in_range(w, cross.frequency_rad_s):
                     ax.plot([cross.phase_deg], [0.0], "o", color=color, ms=5)
         if loop.name == outermost and not dashed:
             phases = (m, p)
-    low = min(np.nanmin(p[shown]) for _, p, shown in drawn)
-    high = max(np.nanmax(p[shown]) for _, p, shown in drawn)
+    # no loop within the magnitude range: one turn around the critical point
+    low = min((np.nanmin(p[shown]) for _, p, shown in drawn), default=-360.0)
+    high = max((np.nanmax(p[shown]) for _, p, shown in drawn), default=0.0)
     first = True
     for k in range(int(math.floor((low + 180.0) / 360.0)), int(math.ceil((high + 180) / 360)) + 1):
         x = -180.0 + 360.0 * k

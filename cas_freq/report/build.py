@@ -449,8 +449,8 @@ _PARAMETER_KEYS = (
 )
 
 #: The same for a drive with a velocity loop (P/PI position -> PI velocity -> PI current;
-#: :data:`~cas_freq.parameters.CASCADE_PARAMETERS` gives the position keys' units), then the
-#: numbers of its filters (``filters.<i>.<name>``).
+#: :data:`~cas_freq.parameters.CASCADE_PARAMETERS` gives the position keys' units); the
+#: filters' numbers follow either (:func:`_filter_rows`).
 _CASCADE_PARAMETER_KEYS = (
     "motor.R", "motor.L", "motor.Km", "motor.Ke", "motor.J", "motor.mu_v", "gear.ratio",
     "current_loop.Kp", "current_loop.Ki", "current_loop.delay", "current_loop.v_max",
