@@ -69,10 +69,12 @@ def _section(section, value, name="x", extra=""):
 
 
 def _full_dcf(values=None, skip=()):
-    """A minimal parameter file of every object of OBJECTS (the report's gains by default)."""
+    """A minimal parameter file of every object of the PID-on-PI (the report's gains by
+    default)."""
     values = {**REPORT_GAINS, **(values or {})}
     return "".join(_section(obj.section, values[(obj.index, obj.subindex)], obj.name)
-                   for obj in epos4.OBJECTS if (obj.index, obj.subindex) not in skip)
+                   for obj in epos4.objects_of(epos4.PID_ON_PI)
+                   if (obj.index, obj.subindex) not in skip)
 
 
 # --------------------------------------------------------------------------- conversions
@@ -377,3 +379,83 @@ def test_any_text_is_read_or_refused_with_a_config_error(tmp_path):
             pass
 
     check()
+
+
+# --------------------------------------------------------------------------- a cascade (issue 25)
+
+AXIS = ROOT / "configs" / "cascade_axis.yaml"
+# configs/cascade_axis.yaml in the drive's units, by hand (1 uA = 1e-6 A, 1 uV = 1e-6 V):
+#   velocity Kp 1.3 A*s/rad = 1.3e6 uA*s/rad = 1300000; Ki 15 A/rad = 15e6 uA/rad = 15000000
+#   current Kp 4 V/A = 4000000 uV/A; Ki 2000 V/(A*s) = 2000e6 uV/(A*s) * 1e-3 = 2000000
+#   uV/(A*ms); velocity_loop.i_max 10 A = 10000 mA
+AXIS_GAINS = {(0x30A0, 1): 4_000_000, (0x30A0, 2): 2_000_000, (0x30A2, 1): 1_300_000,
+              (0x30A2, 2): 15_000_000, (0x3001, 2): 10_000}
+
+
+def test_a_cascade_maps_its_velocity_controller_to_object_0x30A2():
+    params = load_variant(AXIS, "base").params
+    settings = epos4.settings_of(params)
+    assert {(s.obj.index, s.obj.subindex): s.value for s in settings} == AXIS_GAINS
+    keys = {(s.obj.index, s.obj.subindex): s.obj.key for s in settings}
+    assert keys[(0x30A2, 1)] == "velocity_loop.Kp" and keys[(0x30A2, 2)] == "velocity_loop.Ki"
+    assert keys[(0x3001, 2)] == "velocity_loop.i_max"
+    # the PID-on-PI's position objects carry no key of a cascade
+    assert not [s for s in settings if s.obj.index == 0x30A1]
+
+
+def test_a_cascade_round_trips_through_a_parameter_file(tmp_path):
+    # settings -> parameter file -> read for a cascade config -> SI values: the velocity gains
+    # come back exactly (whole numbers in the drive's units), the 0x30A1 objects are not read
+    loaded = load_variant(AXIS, "base", (("velocity_loop.Kp", 0.8), ("velocity_loop.Ki", 12.5)))
+    settings = epos4.settings_of(loaded.params)
+    path = _dcf(tmp_path, epos4.export_text(settings, "cascade_axis", None,
+                                            epos4.not_exported(loaded.params))
+                + _section("30A1sub1", 6_343_500))
+    export = epos4.read_export(path, epos4.CASCADE)
+    values = {key: si for key, (_, si) in epos4.import_values(export).items()}
+    assert values == pytest.approx({"current_loop.Kp": 4.0, "current_loop.Ki": 2000.0,
+                                    "velocity_loop.Kp": 0.8, "velocity_loop.Ki": 12.5,
+                                    "velocity_loop.i_max": 10.0}, rel=1e-12)
+    assert export.ignored >= 2  # FileInfo and 30A1sub1
+    # a cascade's parameter file lacking the velocity gains is refused, naming them
+    with pytest.raises(ConfigError, match=r"0x30A2:01 Velocity controller P gain.*cascade"):
+        epos4.read_export(_dcf(tmp_path, _full_dcf(), "pid.dcf"), epos4.CASCADE)
+
+
+def test_blocks_without_an_epos4_object_are_named_not_dropped(tmp_path):
+    lines = epos4.not_exported(load_variant(AXIS, "base").params)
+    assert any(line.startswith("no EPOS4 object for filters.0 (notch at the current command): "
+                               "not exported") for line in lines)
+    assert any(line.startswith("no EPOS4 object for filters.1 (lowpass2 at the velocity "
+                               "feedback): not exported") for line in lines)
+    assert any("velocity_loop.feedback_filter" in line and "0x30A2:05" in line for line in lines)
+    assert any("position loop" in line and "not exported" in line for line in lines)
+    assert epos4.not_exported(load_variant(QT_CAS, "base").params) == []
+    output = epos4.not_exported(load_variant(
+        QT_CAS, "base", (("position_loop.feedback", "output"),)).params)
+    assert output and output[0].startswith(
+        "no EPOS4 object for position_loop.feedback: output") and "0x30AE" in output[0]
+    # the command prints them, and the parameter file says them in its header
+    out = tmp_path / "axis.dcf"
+    code, text, err = run_cli(["epos4", "export", str(AXIS), "-o", str(out)])
+    assert code == 0, err
+    assert "no EPOS4 object for filters.0 (notch at the current command): not exported" in text
+    assert "1300000 uA*s/rad" in text and "15000000 uA/rad" in text
+    assert "; no EPOS4 object for filters.0" in out.read_text()
+    code, text, err = run_cli(["epos4", "export", str(AXIS), "--json"])
+    assert code == 0, err
+    assert len(json.loads(text)["not_exported"]) == len(lines)
+
+
+def test_import_into_a_cascade_config_writes_velocity_gains(tmp_path):
+    dcf = tmp_path / "axis.dcf"
+    code, _, err = run_cli(["epos4", "export", str(AXIS), "--set", "velocity_loop.Kp=0.9",
+                            "-o", str(dcf)])
+    assert code == 0, err
+    out = tmp_path / "axis.yaml"
+    code, _, err = run_cli(["epos4", "import", str(dcf), str(AXIS), "--variant", "drive",
+                            "-o", str(out)])
+    assert code == 0, err
+    variant = yaml.safe_load(out.read_text())["variants"]["drive"]
+    assert variant["velocity_loop.Kp"] == "900000 uA*s/rad"
+    assert load_variant(out, "drive").params.velocity_loop.Kp == pytest.approx(0.9, rel=1e-12)

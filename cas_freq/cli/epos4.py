@@ -42,8 +42,9 @@ def register(commands):
     importer = actions.add_parser(
         "import", help="an EPOS Studio parameter file as a new config variant",
         description="Read the current and position controller gains, feed-forward and current "
-        "limit of an EPOS4 parameter file (INI-style DCF) and write CONFIG with a new variant "
-        "holding them (to stdout, or to -o OUT). CONFIG is never modified.",
+        "limit of an EPOS4 parameter file (INI-style DCF; for a CONFIG with a velocity loop the "
+        "current and velocity controller gains and the current limit) and write CONFIG with a "
+        "new variant holding them (to stdout, or to -o OUT). CONFIG is never modified.",
     )
     importer.add_argument("export_file", metavar="EXPORT_FILE",
                           help="EPOS Studio parameter file (.dcf)")
@@ -97,7 +98,10 @@ def run_import(args):
         raise CasFreqError(f"-o {output}: is the input config {config}; inputs are never "
                            "modified, write the result to another file")
 
-    export = epos4.read_export(args.export_file)
+    from cas_freq.config import load_variant
+
+    structure = epos4.architecture(load_variant(config).params)
+    export = epos4.read_export(args.export_file, structure)
     values = epos4.import_values(export)
     absent = list(export.absent)
     comment = f"EPOS4 parameters imported by cas-freq epos4 import from {Path(export.path).name}"
@@ -159,18 +163,21 @@ def run_export(args):
         loaded, origin, settings = items[0]
         if loaded.overrides:
             origin += " with --set " + ", ".join(f"{k}={v}" for k, v in loaded.overrides)
-        write_text_atomic(output, epos4.export_text(settings, origin, output.name))
+        write_text_atomic(output, epos4.export_text(settings, origin, output.name,
+                                                    epos4.not_exported(loaded.params)))
         if not args.quiet:
             wrote(output)
     if args.json:
         data = [{"config": loaded.source, "variant": loaded.variant,
                  "objects": [item.to_dict() for item in settings],
+                 "not_exported": epos4.not_exported(loaded.params),
                  "output": str(output) if output is not None else None}
                 for loaded, _, settings in items]
         print_json(data if several_variants(args) else data[0])
     else:
         print("\n\n".join(
             epos4.settings_table(settings, f"{loaded.params.name} / {loaded.variant}: EPOS4 "
-                                 "objects (units of the EPOS4 Firmware Specification)")
+                                 "objects (units of the EPOS4 Firmware Specification)",
+                                 epos4.not_exported(loaded.params))
             for loaded, _, settings in items))
     return EXIT_OK

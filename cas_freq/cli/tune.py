@@ -170,7 +170,8 @@ def _tuned_config(loaded, result, name):
 
     values = result.values()
     verdict = "meets every held requirement" if result.feasible else "INFEASIBLE: the closest"
-    changed = {key: (si_text(key, value), f"tuned ({result.objective}; {verdict})")
+    changed = {key: (si_text(key, value, loaded.params),
+                     f"tuned ({result.objective}; {verdict})")
                for key, value in values.items()}
     comment = (f"cas-freq tune of {', '.join(values)} from variant {loaded.variant} "
                f"({result.scenarios.label}, seed {result.seed})")
@@ -187,8 +188,9 @@ def _drive_settings(tuned):
         settings = epos4.settings_of(tuned.params, f"variant {tuned.variant!r}")
     except ConfigError as exc:
         return {"table": f"EPOS4 units: not writable ({exc})", "objects": []}
-    return {"table": epos4.settings_table(settings, f"{tuned.variant} in EPOS4 units"),
-            "objects": [item.to_dict() for item in settings]}
+    missing = epos4.not_exported(tuned.params)
+    return {"table": epos4.settings_table(settings, f"{tuned.variant} in EPOS4 units", missing),
+            "objects": [item.to_dict() for item in settings], "not_exported": missing}
 
 
 def _compare(loaded, output, name, folder):

@@ -16,8 +16,15 @@ object                name                           drive unit           config
                       velocity gain
 0x30A1:05             Position controller FF         uA*s^2/rad           position_loop.ff_a
                       acceleration gain
+0x30A2:01             Velocity controller P gain     uA*s/rad             velocity_loop.Kp
+0x30A2:02             Velocity controller I gain     uA/rad               velocity_loop.Ki
 0x3001:02             Output current limit           mA                   position_loop.i_max
+                                                                          (velocity_loop.i_max)
 ====================  =============================  ===================  ====================
+
+The 0x30A1 objects carry the PID-on-PI's position loop, the 0x30A2 objects a cascade's velocity
+loop (:func:`objects_of`); the blocks of a variant that no object carries (filters, a cascade's
+position loop, an output encoder) are listed by :func:`not_exported`, never dropped silently.
 
 Sources: maxon, *EPOS4 Positioning Controllers, Firmware Specification* (document rel8234,
 edition November 2018), section 6.2 "Object dictionary": §6.2.53 Motor data (0x3001),
@@ -51,13 +58,18 @@ from pathlib import Path
 from cas_freq.exceptions import ConfigError
 
 __all__ = [
+    "CASCADE",
     "FIRMWARE_SPECIFICATION",
     "OBJECTS",
+    "PID_ON_PI",
     "DriveObject",
     "DriveSetting",
     "Epos4Export",
+    "architecture",
     "export_text",
     "import_values",
+    "not_exported",
+    "objects_of",
     "read_export",
     "settings_of",
     "settings_table",
@@ -79,6 +91,10 @@ UNSIGNED32 = 0x0007
 MAX_FILE_BYTES = 16 << 20
 
 
+#: The loop structures :data:`OBJECTS` are declared for (:func:`architecture`).
+PID_ON_PI, CASCADE = "PID-on-PI", "cascade"
+
+
 @dataclasses.dataclass(frozen=True)
 class DriveObject:
     """One object of the EPOS4 object dictionary that carries a config key.
@@ -98,6 +114,10 @@ class DriveObject:
         True if an export must hold it (the controller gains); False for the current limit.
     source : str
         Where the index, subindex and unit come from.
+    architectures : tuple of str
+        The loop structures whose config keys it carries: :data:`PID_ON_PI` (the report's
+        PID position loop on a PI current loop), :data:`CASCADE` (P/PI position, PI velocity,
+        PI current).
     """
 
     index: int
@@ -107,6 +127,7 @@ class DriveObject:
     key: str
     required: bool
     source: str
+    architectures: tuple = (PID_ON_PI, CASCADE)
 
     @property
     def label(self):
@@ -122,6 +143,13 @@ class DriveObject:
 _CURRENT = "EPOS4 Firmware Specification §6.2.61 Current control parameter set"
 _POSITION = "EPOS4 Firmware Specification §6.2.62 Position control parameter set"
 _MOTOR = "EPOS4 Firmware Specification §6.2.53 Motor data"
+# 0x30A2 "Velocity control parameter set": subindex 1 "Velocity controller P gain", 2
+# "Velocity controller I gain" (3, 4: FF velocity and acceleration gains, 5: "Velocity
+# controller filter cut-off frequency"), UNSIGNED32, as public EPOS4 driver code lists the
+# object dictionary citing the Firmware Specification (p. 167 of rel8234). The units µA·s/rad
+# (current per rad/s) and µA/rad (current per rad) follow the micro-SI scaling of the
+# confirmed gains of 0x30A0/0x30A1; maxon's own words on them were not found (docs/epos4.md).
+_VELOCITY = "EPOS4 Firmware Specification, 0x30A2 Velocity control parameter set (p. 167)"
 
 #: The EPOS4 objects cas_freq reads and writes, in the order they are printed.
 OBJECTS = (
@@ -130,17 +158,36 @@ OBJECTS = (
     DriveObject(0x30A0, 2, "Current controller I gain", "uV/(A*ms)", "current_loop.Ki", True,
                 _CURRENT),
     DriveObject(0x30A1, 1, "Position controller P gain", "uA/rad", "position_loop.Kp", True,
-                _POSITION),
+                _POSITION, (PID_ON_PI,)),
     DriveObject(0x30A1, 2, "Position controller I gain", "uA/(rad*s)", "position_loop.Ki",
-                True, _POSITION),
+                True, _POSITION, (PID_ON_PI,)),
     DriveObject(0x30A1, 3, "Position controller D gain", "uA*s/rad", "position_loop.Kd", True,
-                _POSITION),
+                _POSITION, (PID_ON_PI,)),
     DriveObject(0x30A1, 4, "Position controller FF velocity gain", "uA*s/rad",
-                "position_loop.ff_v", True, _POSITION),
+                "position_loop.ff_v", True, _POSITION, (PID_ON_PI,)),
     DriveObject(0x30A1, 5, "Position controller FF acceleration gain", "uA*s^2/rad",
-                "position_loop.ff_a", True, _POSITION),
-    DriveObject(0x3001, 2, "Output current limit", "mA", "position_loop.i_max", False, _MOTOR),
+                "position_loop.ff_a", True, _POSITION, (PID_ON_PI,)),
+    DriveObject(0x30A2, 1, "Velocity controller P gain", "uA*s/rad", "velocity_loop.Kp", True,
+                _VELOCITY, (CASCADE,)),
+    DriveObject(0x30A2, 2, "Velocity controller I gain", "uA/rad", "velocity_loop.Ki", True,
+                _VELOCITY, (CASCADE,)),
+    DriveObject(0x3001, 2, "Output current limit", "mA", "position_loop.i_max", False, _MOTOR,
+                (PID_ON_PI,)),
+    DriveObject(0x3001, 2, "Output current limit", "mA", "velocity_loop.i_max", False, _MOTOR,
+                (CASCADE,)),
 )
+
+
+def architecture(params):
+    """:data:`CASCADE` for a validated config with a velocity loop, else :data:`PID_ON_PI`."""
+    from cas_freq.parameters import is_cascade
+
+    return CASCADE if is_cascade(params) else PID_ON_PI
+
+
+def objects_of(structure=PID_ON_PI):
+    """The objects of :data:`OBJECTS` that carry the config keys of a loop ``structure``."""
+    return tuple(obj for obj in OBJECTS if structure in obj.architectures)
 
 #: 0x30A1:09 "SI unit position controller I gain": the unit of 0x30A1:02, selectable in later
 #: firmware. Only its default (µA/(rad*s)) is read; another value is refused rather than
@@ -151,8 +198,53 @@ I_GAIN_UNIT_DEFAULT = 0xFA040300
 #: What a variant has that no object of :data:`OBJECTS` carries (docs/epos4.md).
 NOT_WRITTEN = ("position_loop.Tf (no EPOS4 object for the derivative filter was confirmed), "
                "current_loop.v_max (the supply voltage), the delays")
+#: The same for a cascade (the blocks with no object are listed one by one, :func:`not_exported`).
+NOT_WRITTEN_CASCADE = ("current_loop.v_max (the supply voltage), the delays, "
+                       "position_loop.omega_max, position_loop.ff_v, velocity_loop.ff_a (the "
+                       "units of 0x30A2:03/04 were not confirmed)")
 
-_BY_ADDRESS = {(obj.index, obj.subindex): obj for obj in OBJECTS}
+
+def not_exported(params):
+    """One line per block of a validated variant that no EPOS4 object carries, saying so.
+
+    The EPOS4 object dictionary (as public driver code lists it, docs/epos4.md) has no
+    configurable filter at the current command or on the velocity feedback; its velocity
+    controller has a filter cut-off frequency (0x30A2:05) whose unit and form (a first-order
+    low-pass?) were not confirmed; its dual-loop mode (0x30AE "Dual loop position control
+    parameter set") closes the position loop on a second encoder with gains whose form and
+    units were not confirmed. A cascade's position loop (a velocity command per position error)
+    has no object: the EPOS4's position controller (0x30A1) commands the current.
+
+    Returns
+    -------
+    list of str
+        ``"no EPOS4 object for filters.0 (notch at the current command): not exported (...)"``.
+    """
+    lines = []
+    if architecture(params) == CASCADE:
+        lines.append("no EPOS4 object for the cascade's position loop (position_loop.Kp, "
+                     "position_loop.Ki: a velocity command per position error): not exported "
+                     "(the EPOS4's position controller 0x30A1 commands the current; with the "
+                     "velocity controller 0x30A2 the position loop runs in the master)")
+        if getattr(params.velocity_loop, "feedback_filter", 0.0):
+            lines.append("no EPOS4 object for velocity_loop.feedback_filter (first-order "
+                         "low-pass on the measured speed): not exported (0x30A2:05 Velocity "
+                         "controller filter cut-off frequency exists; its unit and filter form "
+                         "were not confirmed)")
+    for index, item in enumerate(getattr(params, "filters", None) or ()):
+        lines.append(f"no EPOS4 object for filters.{index} ({item.type} at the "
+                     f"{item.at.replace('_', ' ')}): not exported (the EPOS4 has no "
+                     "configurable filter there in the public object dictionary)")
+    if getattr(params.position_loop, "feedback", "motor") == "output":
+        lines.append("no EPOS4 object for position_loop.feedback: output (the position loop on "
+                     "an output encoder): not exported (the dual-loop mode, 0x30AE Dual loop "
+                     "position control parameter set, reads a second encoder; its gains' form "
+                     "and units were not confirmed)")
+    return lines
+
+
+_BY_ADDRESS = {structure: {(obj.index, obj.subindex): obj for obj in objects_of(structure)}
+               for structure in (PID_ON_PI, CASCADE)}
 _SECTION = re.compile(r"([0-9A-Fa-f]{4})(?:sub([0-9A-Fa-f]{1,2}))?")
 _VALUE = re.compile(r"(-?)(?:0[xX]([0-9A-Fa-f]+)|(\d+))")
 _NO_DEFAULTS = "\x00cas_freq: no DEFAULT section"
@@ -289,13 +381,17 @@ def _integer(text, data_type, where, expected):
     return value
 
 
-def read_export(path):
+def read_export(path, structure=PID_ON_PI):
     """Read the EPOS4 objects of :data:`OBJECTS` from an EPOS Studio parameter file.
 
     Parameters
     ----------
     path : str or Path
         The INI-style parameter file (CiA 306 DCF). It is only read.
+    structure : str
+        The loop structure of the config the values go to (:func:`architecture`): the objects
+        of :func:`objects_of` it are read (a cascade: the current and velocity controllers and
+        the current limit), the others ignored.
 
     Returns
     -------
@@ -326,7 +422,7 @@ def read_export(path):
         if match is not None:
             address = (int(match.group(1), 16),
                        int(match.group(2), 16) if match.group(2) is not None else None)
-        obj = _BY_ADDRESS.get(address)
+        obj = _BY_ADDRESS[structure].get(address)
         if address == I_GAIN_UNIT:
             i_gain_unit = section
             continue
@@ -340,19 +436,20 @@ def read_export(path):
                               "object may appear once")
         seen_at[obj] = (section, line)
         found[obj] = _read_value(parser, section, obj, where, key_lines, line)
-    if i_gain_unit is not None:
+    if i_gain_unit is not None and structure == PID_ON_PI:
         _check_i_gain_unit(parser, i_gain_unit, where, key_lines, header_lines)
 
-    missing = [obj for obj in OBJECTS if obj.required and obj not in found]
+    objects = objects_of(structure)
+    missing = [obj for obj in objects if obj.required and obj not in found]
     if missing:
         listed = ", ".join(f"{obj.label} {obj.name} ([{obj.section}])" for obj in missing)
         raise ConfigError(f"{where}: missing {'object' if len(missing) == 1 else 'objects'} "
-                          f"{listed}; an EPOS4 export holds every controller gain "
-                          f"({', '.join(o.label for o in OBJECTS if o.required)})")
+                          f"{listed}; an EPOS4 export for a {structure} config holds every "
+                          f"controller gain ({', '.join(o.label for o in objects if o.required)})")
     return Epos4Export(
         path=where,
-        values=tuple(found[obj] for obj in OBJECTS if obj in found),
-        absent=tuple(obj for obj in OBJECTS if obj not in found),
+        values=tuple(found[obj] for obj in objects if obj in found),
+        absent=tuple(obj for obj in objects if obj not in found),
         ignored=ignored,
     )
 
@@ -493,8 +590,9 @@ def settings_of(params, origin="the variant"):
     Returns
     -------
     list of DriveSetting
-        In the order of :data:`OBJECTS`; each value is rounded half up to a whole number of the
-        drive's unit.
+        The objects of the variant's loop structure (:func:`objects_of`), in the order of
+        :data:`OBJECTS`; each value is rounded half up to a whole number of the drive's unit.
+        The blocks no object carries: :func:`not_exported`.
 
     Raises
     ------
@@ -508,7 +606,7 @@ def settings_of(params, origin="the variant"):
     values = base_values(params)
     _, low, high = DATA_TYPES[UNSIGNED32]
     settings = []
-    for obj in OBJECTS:
+    for obj in objects_of(architecture(params)):
         si = values[obj.key]
         si_unit = _si_unit(obj.key)
         exact = float(_quantity(si, si_unit).to(obj.unit).magnitude)
@@ -527,7 +625,7 @@ def settings_of(params, origin="the variant"):
 # --------------------------------------------------------------------------- writing
 
 
-def settings_table(settings, title):
+def settings_table(settings, title, missing=None):
     """A text table of a variant's settings, for typing them into the drive.
 
     Parameters
@@ -535,6 +633,8 @@ def settings_table(settings, title):
     settings : sequence of DriveSetting
     title : str
         First line (``"qt_cas / base"``).
+    missing : sequence of str, optional
+        The variant's :func:`not_exported` lines, printed after the table.
 
     Returns
     -------
@@ -559,11 +659,13 @@ def settings_table(settings, title):
                          f"{item.obj.unit} ({100 * item.relative_change:+.3g} %)")
     else:
         lines.append("  no rounding: every value is a whole number in the drive's unit")
-    lines.append(f"  not drive objects: {NOT_WRITTEN}")
+    cascade = any(item.obj.key.startswith("velocity_loop.") for item in settings)
+    lines.append(f"  not drive objects: {NOT_WRITTEN_CASCADE if cascade else NOT_WRITTEN}")
+    lines += [f"  {line}" for line in missing or ()]
     return "\n".join(lines)
 
 
-def export_text(settings, origin, file_name=None):
+def export_text(settings, origin, file_name=None, missing=()):
     """An EPOS4 parameter file (INI-style DCF) holding ``settings``, as :func:`read_export`
     reads it.
 
@@ -574,6 +676,8 @@ def export_text(settings, origin, file_name=None):
         The config and variant it was written from, for the file's header comment.
     file_name : str, optional
         ``FileName`` of the ``[FileInfo]`` section.
+    missing : sequence of str
+        The variant's :func:`not_exported` lines, written as comments after the header.
 
     Returns
     -------
@@ -592,6 +696,7 @@ def export_text(settings, origin, file_name=None):
         "; Firmware Specification, as cas_freq/drive/epos4.py cites them; file format: the",
         "; INI-style CANopen DCF (CiA 306), with only these objects. Values are whole numbers",
         "; in the drive's units, rounded from the variant's SI values.",
+        *(f"; {line}" for line in missing),
         "",
         "[FileInfo]",
     ]

@@ -145,11 +145,16 @@ def _scalar(value):
     return text.removesuffix("...").strip()
 
 
-def si_text(key, value):
-    """``'0.0075 N*m/A'``: a value [SI] with its key's unit, 6 significant digits."""
-    from cas_freq.parameters import PARAMETERS
+def si_text(key, value, config=None):
+    """``'0.0075 N*m/A'``: a value [SI] with its key's unit (in ``config``'s architecture: a
+    cascade's ``position_loop.Kp`` is in 1/s; a filter's number in its own unit), 6
+    significant digits."""
+    from cas_freq.parameters import unit_of
 
-    unit = PARAMETERS[key].unit
+    unit = unit_of(key, config)
+    if unit.startswith("1/"):  # "1/s" reads as a number and a stray "/s": write "s^-1"
+        base, _, power = unit[2:].partition("^")
+        unit = f"{base}^-{power or 1}"
     return f"{value:.6g}" if unit == "dimensionless" else f"{value:.6g} {unit}"
 
 

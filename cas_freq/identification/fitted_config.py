@@ -34,7 +34,7 @@ def variant_entries(loaded, fit):
     from cas_freq.identification.free_keys import labels
 
     names = labels(fit.free)
-    changed = {free.key: (si_text(free.key, value), _comment(fit, index, names))
+    changed = {free.key: (si_text(free.key, value, loaded.params), _comment(fit, index, names))
                for index, (free, value) in enumerate(zip(fit.free, fit.estimate, strict=True))}
     return entries_with(loaded, changed)
 

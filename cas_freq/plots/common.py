@@ -306,3 +306,12 @@ def plain_log_labels(axis):
 def rounded(values):
     """Plotted data rounded to 6 significant digits (no last-bit noise reaches the figure)."""
     return round_array(values, 6)
+
+
+#: Each loop's colour in the loop figures (C2 is T, C3 the Ms and requirement marks).
+LOOP_COLORS = {"current_loop": "C0", "velocity_loop": "C4", "position_loop": "C1"}
+
+
+def loop_color(name):
+    """The colour of loop ``name`` (a key of :data:`LOOP_COLORS`) in every loop figure."""
+    return LOOP_COLORS.get(name, "C5")

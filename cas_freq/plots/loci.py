@@ -26,7 +26,8 @@ import math
 
 import numpy as np
 
-from cas_freq.plots.common import EXACT, Margins, legend_room_below, legend_room_right
+from cas_freq.model import parts
+from cas_freq.plots.common import EXACT, Margins, legend_room_below, legend_room_right, loop_color
 from cas_freq.plots.common import figure as _figure
 from cas_freq.plots.common import rounded as _r
 
@@ -169,41 +170,61 @@ def _nyquist_panel(ax, omega, values, margins, exact, name, color):
 
 
 def nyquist(data):
-    """Nyquist plots of L_p and L_i (exact delays), zoomed on −1, with the Ms circle and the
-    disk-margin disk of each loop (as the engine reports Ms and α)."""
-    from cas_freq.model import ActuatorLoops
+    """Nyquist plot of every loop of the structure (exact delays), outermost first, one panel
+    each (L_p, L_v with a velocity loop, L_i), zoomed on −1, with the Ms circle and the
+    disk-margin disk of each loop (as the engine reports Ms and α); an inner loop with every
+    other loop closed is drawn dashed on its loop's panel."""
+    from cas_freq.model.loops import Selector, responses
 
     c = data.curves
-    loops = ActuatorLoops(data.loaded.params)
-    layout = Margins(left=0.65, right=0.15, top=0.95, wgap=0.75)
-    fig, axes = _figure(1, 2, (11, 7.6), margins=layout)
+    p = Selector(parts.one_variant(data.loaded.params))()
+    described = c.outermost_first()
+    panels = len(described)
+    layout = Margins(left=0.65, right=0.15, top=1.2, wgap=0.75)  # two-line panel titles
+    fig, axes = _figure(1, panels, (5.5 * panels, 7.6), margins=layout)
     legends = []
-    panels = (("L_p", "position loop", c.position_loop, data.analysis.position_loop,
-               loops.position_loop, "C1"),
-              ("L_i", "current loop", c.current_loop, data.analysis.current_loop,
-               loops.current_loop, "C0"))
-    for ax, side, (name, words, values, margins, loop, color) in zip(
-            axes[0], ("left", "right"), panels, strict=True):
-        def exact(w, loop=loop):
-            return complex(loop(np.array([1j * w]))[0])
+    sides = ("left", "right") if panels == 2 else ("left", "center", "right")[:panels]
+    for ax, side, loop in zip(axes[0], sides, described, strict=True):
+        color = loop_color(loop.name)
 
-        half = _nyquist_panel(ax, c.omega_rad_s, values, margins, exact, name, color)
-        ax.set_title(f"{name} ({words}), ω {c.omega_rad_s[0]:.3g}..{c.omega_rad_s[-1]:.3g} "
+        def exact(w, name=loop.name):
+            return complex(responses(p, np.array([1j * w]), closed=False).loops[name][0])
+
+        margins = getattr(data.analysis, loop.name)
+        half = _nyquist_panel(ax, c.omega_rad_s, c.loops[loop.name], margins, exact,
+                              loop.symbol, color)
+        if loop.name in c.loop_at_a_time:
+            shown = _clipped(c.loop_at_a_time[loop.name], half)
+            aat = margins.loop_at_a_time
+            words = ("" if aat is None or aat.phase_margin_deg is None
+                     else f": PM {aat.phase_margin_deg:.3g}° @ {aat.crossover_rad_s:.4g} rad/s")
+            ax.plot(_r(shown.real), _r(shown.imag), color=color, lw=1.1, ls="--",
+                    label=f"{loop.symbol} with every other loop closed, ω > 0{words}")
+        ax.set_title(f"{loop.symbol} ({loop.words}, broken at {loop.break_symbol})\n"
+                     f"ω {c.omega_rad_s[0]:.3g}..{c.omega_rad_s[-1]:.3g} "
                      f"rad/s; view ±{half:g} around −1")
         handles, labels = ax.get_legend_handles_labels()
         legends.append(fig.legend(handles, labels, loc=f"lower {side}", fontsize=7))
     legend_room_below(fig, layout, legends)
-    fig.suptitle(f"{data.label}: Nyquist plots of L_p and L_i ({EXACT})\ncurves clipped to "
+    names = [loop.symbol for loop in described]
+    symbols = ", ".join(names[:-1]) + " and " + names[-1]
+    fig.suptitle(f"{data.label}: Nyquist plots of {symbols} ({EXACT})\ncurves clipped to "
                  "the view, arrows point to increasing ω")
     return fig
 
 
-def nyquist_caption(data):  # noqa: ARG001  (the same for every variant)
+def nyquist_caption(data):
     """Caption of :func:`nyquist` for one variant."""
-    return ("Nyquist plots of L_p (left) and L_i (right), exact delays: ω > 0 solid with arrows "
+    described = data.curves.outermost_first()
+    places = ("left", "right") if len(described) == 2 else ("left", "middle", "right")
+    panels = ", ".join(f"{loop.symbol} ({loop.words}, broken at {loop.breaks_at}; {place})"
+                       for loop, place in zip(described, places, strict=False))
+    inner = ", ".join(loop.symbol for loop in described[1:])
+    return (f"Nyquist plots of {panels}, exact delays: ω > 0 solid with arrows "
             "towards increasing ω, ω < 0 dotted; the −1 point, the unit circle, the Ms circle "
             "(centre −1, radius 1/Ms) and the disk-margin disk (real-axis diameter "
-            "−(2+α)/(2−α)..−(2−α)/(2+α)); view zoomed to "
+            "−(2+α)/(2−α)..−(2−α)/(2+α)); "
+            f"{inner} with every other loop closed dashed; view zoomed to "
             f"±{NYQUIST_HALF_WIDTH:g} around −1, the curve clipped "
             "to it (the low-frequency branch lies outside)")
 

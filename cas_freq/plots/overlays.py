@@ -48,10 +48,15 @@ def _overlay_legend(fig, layout, handles, labels):
 def bode_overlay(datas, labels):
     """|L_p|, ∠L_p and |T| of several variants overlaid; the phase axis covers what the curves
     take up to a little past the highest gain crossover (:func:`~cas_freq.plots.ranges.
-    phase_window`), where the margins are read."""
+    phase_window`), where the margins are read. When a variant has a velocity loop, |L_v| and
+    ∠L_v follow (broken at the current command; with every other loop closed dashed, in the
+    variant's colour)."""
+    velocity = [d for d in datas if "velocity_loop" in d.curves.loops]
     layout = Margins(hgap=0.25)
-    fig, axes = _figure(3, 1, (8, 8.5), sharex=True, margins=layout)
-    mag, ph, cl = axes[:, 0]
+    rows = 5 if velocity else 3
+    fig, axes = _figure(rows, 1, (8, 8.5 + (4.5 if velocity else 0.0)), sharex=True,
+                        margins=layout)
+    mag, ph, cl = axes[:3, 0]
     phases, crossovers = [], []
     for data, label, color in zip(datas, labels, _colors(datas), strict=True):
         c = data.curves
@@ -79,12 +84,49 @@ def bode_overlay(datas, labels):
     cl.set_ylabel("|T| [dB] (● ω_BW)")
     handles, names = mag.get_legend_handles_labels()
     more, more_names = cl.get_legend_handles_labels()
+    if velocity:
+        _velocity_rows(axes[3, 0], axes[4, 0], datas)
+        more = [*more, Line2D([], [], color="k", ls="--", lw=1.0)]
+        more_names = [*more_names, "L_v with every other loop closed (dashed)"]
     _overlay_legend(fig, layout, handles + more, names + more_names)
-    _log_axes([mag, ph, cl], [min(d.curves.omega_rad_s[0] for d in datas),
-                              max(d.curves.omega_rad_s[-1] for d in datas)])
-    fig.suptitle(f"L_p and T of {len(datas)} variants ({EXACT}); phase shown up to "
+    _log_axes(list(axes[:, 0]), [min(d.curves.omega_rad_s[0] for d in datas),
+                                 max(d.curves.omega_rad_s[-1] for d in datas)])
+    shown = "L_p, L_v and T" if velocity else "L_p and T"
+    fig.suptitle(f"{shown} of {len(datas)} variants ({EXACT}); phase shown up to "
                  f"{PAST_CROSSOVER:g}× the highest crossover")
     return fig
+
+
+def _velocity_rows(mag, ph, datas):
+    """|L_v| and ∠L_v of the variants that have a velocity loop: broken at the current command
+    (solid), with every other loop closed (dashed)."""
+    phases, crossovers = [], []
+    for data, color in zip(datas, _colors(datas), strict=True):
+        c = data.curves
+        if "velocity_loop" not in c.loops:
+            continue
+        w = _r(c.omega_rad_s)
+        margins = data.analysis.velocity_loop
+        for values, style, figures in ((c.loops["velocity_loop"], "-", margins),
+                                       (c.loop_at_a_time.get("velocity_loop"), "--",
+                                        margins.loop_at_a_time)):
+            if values is None:
+                continue
+            phase = _phase_deg(values, c.omega_rad_s)
+            mag.plot(w, _db(values), color=color, ls=style, lw=1.5 if style == "-" else 1.1)
+            ph.plot(w, phase, color=color, ls=style, lw=1.5 if style == "-" else 1.1)
+            phases.append((w, phase))
+            if figures is not None:
+                crossovers += [x.frequency_rad_s for x in figures.gain_crossovers
+                               if _in_range(w, x.frequency_rad_s)]
+    mag.axhline(0.0, color="k", lw=0.8)
+    ph.axhline(-180.0, color="k", lw=0.8)
+    mag.set_ylim(max(mag.get_ylim()[0], -80.0), mag.get_ylim()[1])
+    low, high, step = phase_window(phases, crossovers)
+    ph.set_ylim(low, high)
+    ph.yaxis.set_major_locator(MultipleLocator(step))
+    mag.set_ylabel("|L_v| [dB]")
+    ph.set_ylabel("∠L_v [deg]")
 
 
 def _step_overlay_window(datas, which):
@@ -175,7 +217,10 @@ def bandwidth_overlay(datas, labels):
 #: The overlay figures of a comparison: file stem -> (function, caption); a caption is a string
 #: or a function of (datas, labels) that returns one.
 COMPARE_FIGURES = {
-    "bode_overlay": (bode_overlay, "L_p and T overlaid"),
+    "bode_overlay": (bode_overlay, lambda datas, labels: (
+        "L_p, L_v (broken at the current command; every other loop closed dashed) and T "
+        "overlaid" if any("velocity_loop" in d.curves.loops for d in datas)
+        else "L_p and T overlaid")),
     "step_overlay": (step_overlay, step_overlay_caption),
     "bandwidth_overlay": (bandwidth_overlay, "Bandwidth versus amplitude overlaid"),
 }

@@ -30,6 +30,7 @@ from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_sv
     Margins,
     legend_room_below,
     legend_room_right,
+    loop_color,
     plain_log_labels,
     png_bytes,
     svg_text,
@@ -37,6 +38,7 @@ from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_sv
 )
 from cas_freq.plots.common import figure as _figure
 from cas_freq.plots.common import rounded as _r
+from cas_freq.report.data import current_limit
 from cas_freq.simulation.second_order import second_order_step
 
 HALF_POWER_DB = 20.0 * math.log10(1.0 / math.sqrt(2.0))
@@ -81,9 +83,32 @@ def _margin_words(margins):
     return "; ".join(words) if words else "no crossover in range"
 
 
+def loop_views(data):
+    """(CurveLoop, response, margins, dashed) of every loop drawn in the loop figures,
+    innermost first: each loop broken with the loops inside closed, then (dashed, same colour)
+    each inner loop with every other loop closed."""
+    c, a = data.curves, data.analysis
+    views = []
+    for loop in c.described:
+        margins = getattr(a, loop.name)
+        views.append((loop, c.loops[loop.name], margins, False))
+        if loop.name in c.loop_at_a_time and margins.loop_at_a_time is not None:
+            views.append((loop, c.loop_at_a_time[loop.name], margins.loop_at_a_time, True))
+    return views
+
+
+def loops_words(curves):
+    """``"L_i and L_p"``, ``"L_i, L_v and L_p"``: the symbols of the loops, innermost first."""
+    symbols = [loop.symbol for loop in curves.described]
+    return ", ".join(symbols[:-1]) + " and " + symbols[-1]
+
+
 def bode_loops(data, with_closed_loop=False, figure_class=None):
-    """Bode of L_i and L_p: every gain ● and phase □ crossover in range marked, the headline
-    margins drawn as bars and stated in the legend (never as text on the axes).
+    """Bode of every loop of the structure (L_i, L_v with a velocity loop, L_p), each named
+    with its break point: every gain ● and phase □ crossover in range marked, the headline
+    margins drawn as bars and stated in the legend (never as text on the axes). The inner
+    loops with every other loop closed are drawn dashed in their loop's colour, their margins
+    in the legend.
 
     ``with_closed_loop`` adds T = δ/δ_cmd with its bandwidth ▽ (the API's
     :meth:`cas_freq.analysis.Analysis.plot`); ``figure_class`` is the Figure subclass to build
@@ -94,13 +119,13 @@ def bode_loops(data, with_closed_loop=False, figure_class=None):
     fig, axes = _figure(2, 1, (9, 7.2), sharex=True, margins=layout,
                         **({"figure_class": figure_class} if figure_class else {}))
     mag, ph = axes[:, 0]
-    loops = (("L_i (current loop, broken at V)", c.current_loop, data.analysis.current_loop, "C0"),
-             ("L_p (position loop, broken at i_cmd)", c.position_loop,
-              data.analysis.position_loop, "C1"))
     lowest_phase = 0.0
-    for name, response, margins, color in loops:
+    solid = [view for view in loop_views(data) if not view[3]]
+    dashed = [view for view in loop_views(data) if view[3]]
+    for loop, response, margins, _ in solid:
+        color = loop_color(loop.name)
         m, p = _db(response), _phase_deg(response, c.omega_rad_s)
-        mag.plot(w, m, color=color, label=f"{name}: {_margin_words(margins)}")
+        mag.plot(w, m, color=color, label=f"{loop.title}: {_margin_words(margins)}")
         ph.plot(w, p, color=color)
         for cross in margins.gain_crossovers:
             if not _in_range(w, cross.frequency_rad_s):
@@ -125,6 +150,15 @@ def bode_loops(data, with_closed_loop=False, figure_class=None):
         for x in (margins.crossover_rad_s,):
             if _in_range(w, x):
                 lowest_phase = min(lowest_phase, _at(w, p, x))
+    for loop, response, margins, _ in dashed:
+        color = loop_color(loop.name)
+        p = _phase_deg(response, c.omega_rad_s)
+        mag.plot(w, _db(response), color=color, ls="--", lw=1.1,
+                 label=f"{loop.symbol} with every other loop closed (dashed): "
+                 f"{_margin_words(margins)}")
+        ph.plot(w, p, color=color, ls="--", lw=1.1)
+        if _in_range(w, margins.crossover_rad_s):
+            lowest_phase = min(lowest_phase, _at(w, p, margins.crossover_rad_s))
     if with_closed_loop:
         _closed_loop_curve(mag, ph, w, c, data.analysis.closed_loop)
     mag.axhline(0.0, color="k", lw=0.8)
@@ -144,7 +178,9 @@ def bode_loops(data, with_closed_loop=False, figure_class=None):
     legend = fig.legend(handles, labels, loc="lower center", ncols=1, fontsize=7.5)
     legend_room_below(fig, layout, [legend])
     _log_axes([mag, ph], w)
-    loops = "L_i, L_p and closed loop T" if with_closed_loop else "open loops L_i and L_p"
+    symbols = loops_words(c)
+    loops = (f"{symbols.replace(' and ', ', ')} and closed loop T" if with_closed_loop
+             else f"open loops {symbols}")
     fig.suptitle(f"{data.label}: {loops} ({EXACT}); margins in the legend")
     return fig
 
@@ -325,46 +361,67 @@ def _n_contours(ax, phase_range_deg, magnitude_range_db, obstacles=()):
 
 
 def nichols(data, magnitude_range_db=(-40.0, 60.0)):
-    """Nichols chart of L_p (the part within ``magnitude_range_db``), critical points marked,
-    with M (constant |T|) and N (constant ∠T) contours."""
+    """Nichols chart of every loop of the structure (the parts within ``magnitude_range_db``;
+    the inner loops with every other loop closed dashed), critical points marked, frequencies
+    marked on the outermost loop, with M (constant |T|) and N (constant ∠T) contours (each
+    loop's own closure L/(1 + L))."""
     c = data.curves
     w = _r(c.omega_rad_s)
-    m, p = _db(c.position_loop), _phase_deg(c.position_loop, c.omega_rad_s)
-    shown = (m >= magnitude_range_db[0]) & (m <= magnitude_range_db[1])
     layout = Margins()
     fig, axes = _figure(1, 1, (9.5, 5.5), margins=layout)
     ax = axes[0, 0]
-    ax.plot(np.where(shown, p, np.nan), np.where(shown, m, np.nan), color="C1", label="L_p")
-    low, high = np.nanmin(p[shown]), np.nanmax(p[shown])
+    outermost = c.described[-1].name
+    drawn, phases = [], []
+    for loop, response, margins, dashed in loop_views(data):
+        m, p = _db(response), _phase_deg(response, c.omega_rad_s)
+        shown = (m >= magnitude_range_db[0]) & (m <= magnitude_range_db[1])
+        if not shown.any():
+            continue
+        drawn.append((m, p, shown))
+        color = loop_color(loop.name)
+        label = (f"{loop.symbol} with every other loop closed (dashed)" if dashed
+                 else loop.title)
+        ax.plot(np.where(shown, p, np.nan), np.where(shown, m, np.nan), color=color,
+                label=label, **({"ls": "--", "lw": 1.1} if dashed else {}))
+        if not dashed:
+            for cross in margins.gain_crossovers:
+                if _in_range(w, cross.frequency_rad_s):
+                    ax.plot([cross.phase_deg], [0.0], "o", color=color, ms=5)
+        if loop.name == outermost and not dashed:
+            phases = (m, p)
+    # no loop within the magnitude range: one turn around the critical point
+    low = min((np.nanmin(p[shown]) for _, p, shown in drawn), default=-360.0)
+    high = max((np.nanmax(p[shown]) for _, p, shown in drawn), default=0.0)
     first = True
     for k in range(int(math.floor((low + 180.0) / 360.0)), int(math.ceil((high + 180) / 360)) + 1):
         x = -180.0 + 360.0 * k
         if low - 30 <= x <= high + 30:
             ax.plot([x], [0.0], "r+", ms=12, mew=2, label="critical point (−1)" if first else None)
             first = False
-    obstacles = [(float(x), float(y), 0.0) for x, y in zip(p[shown], m[shown], strict=True)
+    obstacles = [(float(x), float(y), 0.0) for m, p, shown in drawn
+                 for x, y in zip(p[shown], m[shown], strict=True)
                  if y < magnitude_range_db[0] + 20.0]
-    for target in (10.0, 100.0, 1000.0, 10000.0):
-        if w[0] <= target <= w[-1]:
-            x, y = _at(w, p, target), _at(w, m, target)
-            if magnitude_range_db[0] <= y <= magnitude_range_db[1]:
-                ax.plot([x], [y], ".", color="k")
-                ax.annotate(f"{target:g} rad/s", (x, y), xytext=(5, 3),
-                            textcoords="offset points", fontsize=8)
-                obstacles.append((x, y, None))  # the label reaches to the right
-    for cross in data.analysis.position_loop.gain_crossovers:
-        if _in_range(w, cross.frequency_rad_s):
-            ax.plot([cross.phase_deg], [0.0], "o", color="C1", ms=5)
+    if phases:
+        m, p = phases
+        for target in (10.0, 100.0, 1000.0, 10000.0):
+            if w[0] <= target <= w[-1]:
+                x, y = _at(w, p, target), _at(w, m, target)
+                if magnitude_range_db[0] <= y <= magnitude_range_db[1]:
+                    ax.plot([x], [y], ".", color="k")
+                    ax.annotate(f"{target:g} rad/s", (x, y), xytext=(5, 3),
+                                textcoords="offset points", fontsize=8)
+                    obstacles.append((x, y, None))  # the label reaches to the right
     _m_contours(ax, (low - 30.0, high + 30.0), magnitude_range_db)
     _n_contours(ax, (low - 30.0, high + 30.0), magnitude_range_db, obstacles)
     ax.set_xlim(low - 30.0, high + 30.0)
     ax.set_ylim(*magnitude_range_db)
     ax.axhline(0.0, color="k", lw=0.8)
-    ax.xaxis.set_major_locator(MultipleLocator(90))
-    ax.set_xlabel("phase of L_p [deg]")
-    ax.set_ylabel("magnitude of L_p [dB]")
+    ax.xaxis.set_major_locator(MultipleLocator(90 if high - low <= 720.0 else 180))
+    ax.set_xlabel("phase of L [deg]")
+    ax.set_ylabel("magnitude of L [dB]")
     legend_room_right(fig, layout, ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0)))
-    fig.suptitle(f"{data.label}: Nichols chart of L_p ({EXACT})")
+    fig.suptitle(f"{data.label}: Nichols chart of {loops_words(c)} ({EXACT}); frequencies "
+                 f"marked on {c.described[-1].symbol}")
     return fig
 
 
@@ -456,7 +513,7 @@ def steps(data):
         top.set_title(f"{a_deg:g}° step: {_limit_words(run.step)}")
         mid.plot(t_ms, _r(r.i[keep]), color="C0", label="motor current i")
         for sign in (1, -1):
-            mid.axhline(sign * params.position_loop.i_max, color="C3", ls="--", lw=0.9)
+            mid.axhline(sign * current_limit(params), color="C3", ls="--", lw=0.9)
             bottom.axhline(sign * params.current_loop.v_max, color="C1", ls="--", lw=0.9)
         mid.set_ylabel("current i [A]")
         bottom.plot(t_ms, _r(r.V[keep]), color="C0", label="motor voltage V")
@@ -648,14 +705,23 @@ def sinedwell(data):
     return fig
 
 
+def _dashed_words(curves):
+    """``"; L_i with every other loop closed dashed"`` (the inner loops' other view)."""
+    inner = [loop.symbol for loop in curves.described if loop.name in curves.loop_at_a_time]
+    return f"; {' and '.join(inner)} with every other loop closed dashed" if inner else ""
+
+
 #: The figures of one variant: file stem -> (function, caption); a caption is a string or a
 #: function of the variant's data that returns one.
 VARIANT_FIGURES = {
-    "bode_loops": (bode_loops, "Bode of L_i and L_p with every crossover and the margins"),
+    "bode_loops": (bode_loops, lambda data: (
+        f"Bode of {loops_words(data.curves)} with every crossover and the margins"
+        + _dashed_words(data.curves))),
     "closed_loop": (closed_loop, "Closed loop T with the −3 dB line, ω_BW and the peak"),
     "sensitivity": (sensitivity, "S and T together"),
-    "nichols": (nichols, "Nichols chart of L_p with M contours (constant |T|, dB) and N contours "
-                "(constant ∠T, deg)"),
+    "nichols": (nichols, lambda data: (
+        f"Nichols chart of {loops_words(data.curves)} with M contours (constant |T|, dB) and N "
+        "contours (constant ∠T, deg)" + _dashed_words(data.curves))),
     "nyquist": (loci.nyquist, loci.nyquist_caption),
     "pole_zero": (loci.pole_zero, loci.pole_zero_caption),
     "steps": (steps, "Step responses, linear vs nonlinear, limits shaded"),

@@ -15,12 +15,14 @@ import math
 import os
 import re
 import time
+import types
 from pathlib import Path
 
 from cas_freq.config.wording import name_the_output
 from cas_freq.figures import FIGURES, LOOPS
 from cas_freq.report.data import (
     ReportSettings,
+    current_limit,
     display_path,
     gather_frequency,
     gather_time,
@@ -180,20 +182,28 @@ def _limits_text(step):
 
 def analysis_loops(analysis):
     """(key of :data:`LOOPS`, symbol, break point, margins) of every loop of an analysis,
-    innermost first, then each inner loop with every other loop closed."""
-    cascade = analysis.velocity_loop is not None
-    keys = ["current_loop", *(["velocity_loop"] if cascade else []), "position_loop"]
-    views = [(key, getattr(analysis, key)) for key in keys]
-    views += [(f"{key}.loop_at_a_time", getattr(analysis, key).loop_at_a_time)
+    innermost first, then each inner loop with every other loop closed. The break points are
+    the loop structure's (:func:`cas_freq.model.structure.build`: a cascade's position loop is
+    broken at the velocity command)."""
+    from cas_freq.report.data import described_loops
+
+    if analysis.loaded is not None:
+        described = described_loops(analysis.loaded.params)
+    else:  # an analysis without its variant: the loops it has, the break points of LOOPS
+        names = [key for key in ("current_loop", "velocity_loop", "position_loop")
+                 if getattr(analysis, key) is not None]
+        breaks = {"position_loop": ("the velocity command" if "velocity_loop" in names
+                                    else "the current command")}
+        described = [types.SimpleNamespace(name=key, breaks_at=breaks.get(
+            key, LOOPS[key].broken_at)) for key in names]
+    keys = [loop.name for loop in described]
+    breaks_at = {loop.name: loop.breaks_at for loop in described}
+    views = [(key, getattr(analysis, key), breaks_at[key]) for key in keys]
+    views += [(f"{key}.loop_at_a_time", getattr(analysis, key).loop_at_a_time,
+               f"{breaks_at[key]}, every other loop closed")
               for key in keys[:-1] if getattr(analysis, key).loop_at_a_time is not None]
-    out = []
-    for key, margins in views:
-        loop = LOOPS[key]
-        broken_at = loop.broken_at
-        if cascade and key.startswith("position_loop"):
-            broken_at = broken_at.replace("the current command", "the velocity command")
-        out.append((key, loop.symbol, f"{loop.name}, broken at {broken_at}", margins))
-    return out
+    return [(key, LOOPS[key].symbol, f"{LOOPS[key].name}, broken at {where}", margins)
+            for key, margins, where in views]
 
 
 def margins_table(analysis):
@@ -340,7 +350,7 @@ def small_signal_sentence(data):
         return (f"The {step.amplitude_deg:g}° step diverged (beyond 10⁶ times the step at t = "
                 f"{number(diverged * 1e3)} ms), so it has no figures and no fit.")
     head = (f"The {step.amplitude_deg:g}° step reaches {number(step.max_current_a)} A of the "
-            f"±{params.position_loop.i_max:g} A current limit and {number(step.max_voltage_v)} V "
+            f"±{current_limit(params):g} A current limit and {number(step.max_voltage_v)} V "
             f"of the ±{params.current_loop.v_max:g} V voltage limit: ")
     elements = nonlinear_elements(params, data.analysis.drivetrain is not None)
     others = "; ".join(elements)
@@ -438,10 +448,23 @@ _PARAMETER_KEYS = (
     "position_loop.ff_v", "position_loop.ff_a", "position_loop.delay", "position_loop.i_max",
 )
 
-#: The settings shown after them (not numbers): (label, getter of a config).
+#: The same for a drive with a velocity loop (P/PI position -> PI velocity -> PI current;
+#: :data:`~cas_freq.parameters.CASCADE_PARAMETERS` gives the position keys' units); the
+#: filters' numbers follow either (:func:`_filter_rows`).
+_CASCADE_PARAMETER_KEYS = (
+    "motor.R", "motor.L", "motor.Km", "motor.Ke", "motor.J", "motor.mu_v", "gear.ratio",
+    "current_loop.Kp", "current_loop.Ki", "current_loop.delay", "current_loop.v_max",
+    "velocity_loop.Kp", "velocity_loop.Ki", "velocity_loop.delay", "velocity_loop.i_max",
+    "velocity_loop.feedback_filter", "velocity_loop.ff_a",
+    "position_loop.Kp", "position_loop.Ki", "position_loop.ff_v", "position_loop.omega_max",
+    "position_loop.delay",
+)
+
+#: The settings shown after them (not numbers): (label, getter of a config, shown for a
+#: cascade).
 _SETTING_ROWS = (
-    ("derivative on", lambda p: p.position_loop.derivative_on),
-    ("controllers (simulation)", lambda p: p.simulation.controllers),
+    ("derivative on", lambda p: p.position_loop.derivative_on, False),
+    ("controllers (simulation)", lambda p: p.simulation.controllers, True),
 )
 
 #: Keys of the load and drivetrain (docs/model.md §5), shown when some variant is loaded; each
@@ -469,16 +492,17 @@ _SHOWN_KEY_UNITS = {"motor.coulomb_friction": ("mN·m", 1e3)}
 
 #: The parameter table's ASCII symbols as a reader writes them (whole words only).
 _SYMBOLS = {"mu_v": "μv", "eta": "η", "eta_b": "η_b", "tau_c": "τc", "tau_p": "τp",
-            "tau_h": "τ_h", "delta": "δ"}
+            "tau_h": "τ_h", "delta": "δ", "tau_v": "τv", "tau_vf": "τvf", "w0": "ω0"}
 
 
-def parameter_row_head(key, output):
+def parameter_row_head(key, output, config=None):
     """(label, shown unit, factor from SI) of a parameter: its label and unit from
-    :data:`~cas_freq.parameters.PARAMETERS` (``+/-`` as ``±``), "the output" named as the config
+    :data:`~cas_freq.parameters.PARAMETERS` (in ``config``'s architecture: a cascade's position
+    gains per second; a filter's numbers; ``+/-`` as ``±``), "the output" named as the config
     names it."""
-    from cas_freq.parameters import PARAMETERS
+    from cas_freq.parameters import parameter as record
 
-    parameter = PARAMETERS[key]
+    parameter = record(key, config)
     unit, scale = _SHOWN_KEY_UNITS.get(key) or _SHOWN_UNITS.get(parameter.unit) or (
         parameter.unit.replace("*", "·").replace("^2", "²"), 1.0)
     label = name_the_output(parameter.label, output).replace("+/-", "±")
@@ -499,21 +523,58 @@ def parameter_value(params, key):
 def parameter_table(datas):
     """The parameters of every variant (motor, gear, gains, delays, limits) with units; motor
     angles, loops on the motor shaft (docs/model.md)."""
+    from cas_freq.parameters import base_values, is_cascade
+
     loaded = any(d.analysis.drivetrain is not None for d in datas)
     output = datas[0].loaded.params.output_label
     configs = [d.loaded.params for d in datas]
+    cascade = is_cascade(configs[0])
 
     def numbers(keys):
         for key in keys:
-            label, unit, scale = parameter_row_head(key, output)
-            yield (label, unit, *(number(parameter_value(p, key) * scale) for p in configs))
+            label, unit, scale = parameter_row_head(key, output, configs[0])
+            yield (label, unit, *(number(None if (v := parameter_value(p, key)) is None
+                                         else v * scale) for p in configs))
 
-    rows = [*numbers(_PARAMETER_KEYS),
-            *((label, "", *(get(p) for p in configs)) for label, get in _SETTING_ROWS),
-            *numbers(_LOAD_KEYS if loaded else ())]
+    rows = [*numbers(_CASCADE_PARAMETER_KEYS if cascade else _PARAMETER_KEYS),
+            *_filter_rows(configs, [base_values(p) for p in configs], output),
+            *((label, "", *(get(p) for p in configs)) for label, get, both in _SETTING_ROWS
+              if both or not cascade)]
+    if any(p.position_loop.feedback == "output" for p in configs):
+        rows.append(("position feedback", "", *(p.position_loop.feedback for p in configs)))
+    rows += numbers(_LOAD_KEYS if loaded else ())
+    caption = ("parameters of each variant (gains on the motor angle; Tf derived as "
+               "Kd/(10·Kp) unless set; μv derived from the no-load point unless set)")
+    if cascade:
+        caption = ("parameters of each variant (gains on the motor angle; the position loop "
+                   "commands the motor speed; μv derived from the no-load point unless set; "
+                   "—: not set)")
     return Table(("parameter", "unit", *(d.loaded.variant for d in datas)), tuple(rows),
-                 "parameters of each variant (gains on the motor angle; Tf derived as "
-                 "Kd/(10·Kp) unless set; μv derived from the no-load point unless set)")
+                 caption)
+
+
+def _filter_rows(configs, values, output):
+    """The numbers of the variants' filters, one row per filter (by its point, type and order
+    among the filters of that point and type, so that a variant without a filter shows "—"
+    and another filter's number never lands in its row) and number."""
+    keys = {}  # (at, type, n) -> per variant: filter index or None
+    for k, p in enumerate(configs):
+        seen = {}
+        for index, item in enumerate(p.filters or ()):
+            n = seen[(item.at, item.type)] = seen.get((item.at, item.type), -1) + 1
+            keys.setdefault((item.at, item.type, n), [None] * len(configs))[k] = index
+    for (at, kind, n), indices in keys.items():
+        k = next(j for j, index in enumerate(indices) if index is not None)
+        names = [key.rsplit(".", 1)[1] for key in values[k]
+                 if key.startswith(f"filters.{indices[k]}.")]
+        where = f"{kind} at the {at.replace('_', ' ')}" + (f" #{n + 1}" if n else "")
+        for name in names:
+            label, unit, scale = parameter_row_head(f"filters.{indices[k]}.{name}", output,
+                                                    configs[k])
+            cells = [None if index is None else values[j].get(f"filters.{index}.{name}")
+                     for j, index in enumerate(indices)]
+            yield (f"{where}: {label}", unit,
+                   *(number(None if value is None else value * scale) for value in cells))
 
 
 def config_hash(path):

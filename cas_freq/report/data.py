@@ -99,15 +99,93 @@ class ReportSettings:
         })
 
 
+#: How a figure's legend names each break point of :func:`cas_freq.model.structure.build`
+#: (its ``breaks_at``), in a word.
+BREAK_SYMBOLS = {"the voltage": "V", "the current command": "i_cmd",
+                 "the velocity command": "ω_cmd"}
+
+
+@dataclasses.dataclass(frozen=True)
+class CurveLoop:
+    """One loop of the structure as the figures name it.
+
+    Attributes
+    ----------
+    name : str
+        Its figures' prefix (``"velocity_loop"``).
+    symbol : str
+        ``"L_v"``.
+    words : str
+        ``"velocity loop"``.
+    breaks_at : str
+        Where it is broken, in words (``"the current command"``).
+    """
+
+    name: str
+    symbol: str
+    words: str
+    breaks_at: str
+
+    @property
+    def break_symbol(self):
+        """The break point in a word (``"i_cmd"``)."""
+        return BREAK_SYMBOLS.get(self.breaks_at, self.breaks_at)
+
+    @property
+    def title(self):
+        """``"L_v (velocity loop, broken at i_cmd)"``."""
+        return f"{self.symbol} ({self.words}, broken at {self.break_symbol})"
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class Curves:
-    """Exact-delay frequency responses on a plotting grid (complex, shape (n,))."""
+    """Exact-delay frequency responses on a plotting grid (complex, shape (n,)).
+
+    Attributes
+    ----------
+    omega_rad_s : numpy.ndarray
+        The grid [rad/s].
+    loops : dict of str to numpy.ndarray
+        Every loop of the structure by name, innermost first, broken at its controller's
+        output with the loops inside closed and those outside open.
+    loop_at_a_time : dict of str to numpy.ndarray
+        The inner loops with every other loop closed, where that differs from ``loops`` (the
+        outermost's is its own response, not repeated).
+    sensitivity, closed_loop : numpy.ndarray
+        S = 1/(1 + L_p) and T.
+    described : tuple of CurveLoop
+        The loops' names, symbols and break points, innermost first (the structure's).
+    """
 
     omega_rad_s: np.ndarray
-    current_loop: np.ndarray
-    position_loop: np.ndarray
+    loops: dict
+    loop_at_a_time: dict
     sensitivity: np.ndarray
     closed_loop: np.ndarray
+    described: tuple
+
+    @property
+    def current_loop(self):
+        """L_i [-]."""
+        return self.loops["current_loop"]
+
+    @property
+    def position_loop(self):
+        """L_p [-]."""
+        return self.loops["position_loop"]
+
+    def outermost_first(self):
+        """The loops' :class:`CurveLoop`, outermost first."""
+        return tuple(reversed(self.described))
+
+
+def described_loops(params):
+    """The :class:`CurveLoop` of every loop of ``params``' structure, innermost first."""
+    from cas_freq.model import parts
+    from cas_freq.model.structure import build
+
+    return tuple(CurveLoop(loop.name, loop.symbol, loop.name.replace("_", " "), loop.breaks_at)
+                 for loop in build(parts.one_variant(params)).loops)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -187,6 +265,13 @@ class VariantData:
         return tuple(getattr(self.loaded.params, "requirements", ()) or ())
 
 
+def current_limit(params):
+    """The current-command limit i_max [A] of a validated config: the velocity loop's with
+    one, else the position loop's."""
+    velocity = getattr(params, "velocity_loop", None)
+    return (velocity if velocity is not None else params.position_loop).i_max
+
+
 def variant_label(loaded):
     """``config / variant`` (with the ``--set`` overrides, if any)."""
     label = f"{loaded.params.name} / {loaded.variant}"
@@ -196,7 +281,7 @@ def variant_label(loaded):
 
 
 def curves(params, frequency_range_rad_s, points_per_decade):
-    """Exact-delay responses of every loop on a plotting grid.
+    """Exact-delay responses of every loop (both views) and of T on a plotting grid.
 
     Parameters
     ----------
@@ -212,12 +297,20 @@ def curves(params, frequency_range_rad_s, points_per_decade):
     """
     from cas_freq.analysis.frequency import frequency_grid
     from cas_freq.model import ActuatorLoops
+    from cas_freq.model.loops import Selector, responses
 
     loops = ActuatorLoops(params)
     omega = frequency_grid(*frequency_range_rad_s, points_per_decade, loops.total_delay)
-    s = 1j * omega
-    return Curves(omega, loops.current_loop(s), loops.position_loop(s), loops.sensitivity(s),
-                  loops.closed_loop(s))
+    found = responses(Selector(loops.params)(), 1j * omega, loop_at_a_time=True)
+    outermost = list(found.loops)[-1]
+    # the inner loops with every other loop closed, where that differs from the cascade view
+    # (it does not where the loops outside have no gain)
+    return Curves(omega, dict(found.loops),
+                  {name: values for name, values in found.loop_at_a_time.items()
+                   if name != outermost
+                   and not np.allclose(values, found.loops[name], rtol=1e-12, atol=0.0)},
+                  1.0 / (1.0 + found.loops[outermost]), found.closed_loop,
+                  described_loops(loops.params))
 
 
 #: Plot range when a loop has no figure to centre on [rad/s].
@@ -227,12 +320,17 @@ FALLBACK_CURVE_RANGE_RAD_S = (1.0, 2.0e4)
 def loop_frequency_range(analysis, margin=3.0):
     """Plot range [rad/s] that holds every headline frequency the report's tables give.
 
-    The gain crossovers of both loops, the headline phase crossovers (upper and lower gain
-    margins), the sensitivity peaks and the closed-loop bandwidth, peak and −90° point, widened
-    by ``margin`` on each side and rounded out to whole decades, within the analysed range.
+    The gain crossovers of every loop (both views), the headline phase crossovers (upper and
+    lower gain margins), the sensitivity peaks and the closed-loop bandwidth, peak and −90°
+    point, widened by ``margin`` on each side and rounded out to whole decades, within the
+    analysed range.
     """
     frequencies = []
-    for loop in (analysis.current_loop, analysis.position_loop):
+    loops = [analysis.current_loop, analysis.velocity_loop, analysis.position_loop]
+    loops += [loop.loop_at_a_time for loop in loops[:2] if loop is not None]
+    for loop in loops:
+        if loop is None:
+            continue
         frequencies += [loop.crossover_rad_s, loop.phase_crossover_rad_s,
                         loop.phase_crossover_low_rad_s, loop.sensitivity_peak_rad_s]
         frequencies += [c.frequency_rad_s for c in loop.gain_crossovers]

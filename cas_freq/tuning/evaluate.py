@@ -145,14 +145,16 @@ def _quantile_shortfall(constraint, values, counted, target):
 
 
 def _screened_figures(params, changes, n, m, scenario_set, held, step, fit, sinedwell,
-                      scheduler, screen=True):
+                      scheduler, screen=True, simulate=True):
     """Figures of every row: the linear ones of all, the simulated ones (step, fit,
     sine-dwell) only of the candidates the linear requirements leave feasible.
 
     A candidate whose linear figures already fail (in the nominal scenario, or at the target
     yield) cannot be feasible whatever its step does, so its simulated figures stay NaN (its
     shortfall NaN: not known, not counted when candidates are ranked). The figures of the
-    others are those of one batch with the simulation, as ``verify`` computes them.
+    others are those of one batch with the simulation, as ``verify`` computes them. With
+    ``simulate`` False (a structure the simulator does not run yet) no candidate is simulated:
+    the simulated figures are NaN.
     """
     figures, stability = evaluate_figures(params, changes, scheduler=scheduler)
     linear = [c for c in held if c.requirement.kind not in ("step", "sinedwell")]
@@ -164,6 +166,8 @@ def _screened_figures(params, changes, n, m, scenario_set, held, step, fit, sine
     keep = ok[:, 0] & (ok[:, counted].mean(axis=1) >= scenario_set.target - 1e-12)
     if not screen:
         keep = np.ones(n, dtype=bool)
+    if not simulate:
+        keep = np.zeros(n, dtype=bool)
     rows = np.repeat(keep, m)
     simulated = {key: values[rows] for key, values in changes.items()}
     if keep.any():
@@ -182,9 +186,11 @@ def _screened_figures(params, changes, n, m, scenario_set, held, step, fit, sine
     return figures, stability, keep
 
 
-def evaluate(params, keys, unit, scenario_set, held, objective, scheduler=None, screen=True):
+def evaluate(params, keys, unit, scenario_set, held, objective, scheduler=None, screen=True,
+             simulate=True):
     """Evaluate candidates given as unit-box points ``unit`` (n, k); ``screen``: simulate only
-    the candidates the linear requirements leave feasible (else every one)."""
+    the candidates the linear requirements leave feasible (else every one); ``simulate``
+    False: none (the step and sine-dwell figures NaN)."""
     from cas_freq.parameters import base_values
 
     unit = np.atleast_2d(unit)
@@ -204,7 +210,7 @@ def evaluate(params, keys, unit, scenario_set, held, objective, scheduler=None, 
     m = scenario_set.count
     figures, stability, simulated = _screened_figures(params, changes, n, m, scenario_set,
                                                       held, step, fit, sinedwell, scheduler,
-                                                      screen)
+                                                      screen, simulate)
     stable = (stability.astype(str) == "stable").reshape(n, m)
     counted, target = scenario_set.counted, scenario_set.target
     passed, violation, every = [], [], np.ones((n, m), dtype=bool)

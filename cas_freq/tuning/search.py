@@ -110,8 +110,12 @@ def pareto_front(evaluation):
     """Indices of the feasible candidates no other feasible candidate beats in every
     trade-off figure (ties kept once), ordered by bandwidth."""
     rows = np.flatnonzero(evaluation.feasible)
-    points = np.column_stack([sense * evaluation.nominal[name][rows]
-                              for name, sense in TRADE_OFF])
+    # a figure no candidate has (the overshoot when the steps were not simulated) is left out
+    figures = [(name, sense) for name, sense in TRADE_OFF
+               if np.isfinite(evaluation.nominal[name]).any()]
+    if not figures:
+        return np.array([], dtype=int)
+    points = np.column_stack([sense * evaluation.nominal[name][rows] for name, sense in figures])
     good = np.all(np.isfinite(points), axis=1)
     rows, points = rows[good], points[good]
     front = []
@@ -127,7 +131,7 @@ def pareto_front(evaluation):
 
 def tune(params, keys, scenario_set, held, skipped, objective="max-bandwidth", seed=0,
          global_count=GLOBAL_COUNT, rounds=ROUNDS, round_count=ROUND_COUNT, scheduler=None,
-         progress=None):
+         progress=None, simulate=True):
     """Search the keys' box for the best tuning (module docstring).
 
     Parameters
@@ -147,6 +151,9 @@ def tune(params, keys, scenario_set, held, skipped, objective="max-bandwidth", s
         Evaluate on a dask.distributed cluster (``local:N`` or an address).
     progress : callable, optional
         ``progress(done, total)`` in candidates.
+    simulate : bool
+        Simulate the steps of the trade-off and of the held requirements (False: a loop
+        structure the simulator does not run yet; the frequency-domain figures only).
 
     Returns
     -------
@@ -157,9 +164,11 @@ def tune(params, keys, scenario_set, held, skipped, objective="max-bandwidth", s
     own = np.array([[key.unit_of(key.start) for key in keys]])
     start = np.clip(own, 0.0, 1.0)
     batches = [np.vstack([start, sobol(global_count, k, seed)])]
-    evaluations = [evaluate(params, keys, batches[0], scenario_set, held, objective, scheduler)]
+    evaluations = [evaluate(params, keys, batches[0], scenario_set, held, objective, scheduler,
+                            simulate=simulate)]
     # the variant as it is (outside the bounds, maybe: then not a candidate), every figure
-    before = evaluate(params, keys, own, scenario_set, held, objective, scheduler, screen=False)
+    before = evaluate(params, keys, own, scenario_set, held, objective, scheduler, screen=False,
+                      simulate=simulate)
     done = batches[0].shape[0]
     if progress:
         progress(done, total)
@@ -176,7 +185,7 @@ def tune(params, keys, scenario_set, held, skipped, objective="max-bandwidth", s
                            for c, rows in zip(centres, shares, strict=True)])
         batches.append(batch)
         evaluations.append(evaluate(params, keys, batch, scenario_set, held, objective,
-                                    scheduler))
+                                    scheduler, simulate=simulate))
         done += batch.shape[0]
         if progress:
             progress(done, total)

@@ -175,8 +175,10 @@ def tune_text(data):
         front = data["pareto"]
         shown = front if len(front) <= MAX_ROWS else [
             front[int(i)] for i in np.unique(np.linspace(0, len(front) - 1, MAX_ROWS).round())]
+        simulated = any(point["step.overshoot_pct"] is not None for point in front)
         lines += ["", f"trade-off: {len(front)} feasible candidates on the Pareto front of "
                   "bandwidth (up), phase margin (up) and overshoot (down), nominal"
+                  + ("" if simulated else " (the steps not simulated: no overshoot)")
                   + (f"; {len(shown)} shown, evenly by bandwidth (all in --json)"
                      if len(shown) < len(front) else "")]
         keys = [free["key"] for free in data["free"]]
@@ -184,10 +186,15 @@ def tune_text(data):
         lines.append(head + f" {'BW rad/s':>9} {'PM deg':>7} {'OS %':>6}")
         for point in shown:
             lines.append("  " + " ".join(f"{point[key]:>10.4g}" for key in keys)
-                         + f" {point['closed_loop.bandwidth_rad_s']:>9.4g}"
-                         f" {point['position_loop.phase_margin_deg']:>7.3g}"
-                         f" {point['step.overshoot_pct']:>6.3g}")
+                         + f" {_cell(point['closed_loop.bandwidth_rad_s'], 9, '.4g')}"
+                         f" {_cell(point['position_loop.phase_margin_deg'], 7, '.3g')}"
+                         f" {_cell(point['step.overshoot_pct'], 6, '.3g')}")
     return "\n".join(lines)
+
+
+def _cell(value, width, spec):
+    """A number right-aligned in ``width`` characters, "—" for none (not computed)."""
+    return f"{'—' if value is None else format(value, spec):>{width}}"
 
 
 __all__ = ["BINDING", "tune_dict", "tune_text"]
