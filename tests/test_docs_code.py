@@ -191,8 +191,14 @@ def test_the_code_blocks_of_each_page_run(page, tmp_path, monkeypatch):
     _run_page(page, tmp_path, slow=False)
 
 
+#: The pages with slow-marked blocks (run again whole, as a slow block may use an earlier one's
+#: output).
+SLOW_PAGES = [page for page in PAGES
+              if any(marker == "slow" for *_, marker in blocks(page.read_text(encoding="utf-8")))]
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.name)
+@pytest.mark.parametrize("page", SLOW_PAGES, ids=lambda p: p.name)
 def test_every_code_block_of_each_page_runs_slow_ones_included(page, tmp_path, monkeypatch):
     monkeypatch.setenv("MPLBACKEND", "Agg")
     _run_page(page, tmp_path, slow=True)
