@@ -3,13 +3,18 @@ jobs, links), and the manual it used to be lives in docs/*.md, pages a MkDocs si
 they are. These tests keep it so: the README's length, the two set-up commands, every page
 titled and listed in docs/index.md, and every relative link pointing at a file that exists."""
 
+import importlib.util
 import re
 from pathlib import Path
 
 import pytest
+import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = sorted((ROOT / "docs").glob("*.md"))
+#: Pages the docs site generates when it is built (docs/_hooks/reference.py's and the gallery's
+#: index): links to them are links within the site, not to files of the repository.
+GENERATED = {"reference/config.md", "reference/cli.md", "readme.md", "generated/gallery/index.md"}
 #: A Markdown link or image: [text](target) or ![alt](target), target up to a space or ")".
 LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)(?:\s+\"[^\"]*\")?\)")
 
@@ -50,7 +55,9 @@ def test_each_docs_page_starts_with_its_title_and_is_listed_in_the_index(page):
 @pytest.mark.parametrize("path", [ROOT / "README.md", *PAGES], ids=lambda p: p.name)
 def test_every_relative_link_points_to_an_existing_file(path):
     links = _relative_links(path)
-    missing = [t for t in links if t and not (path.parent / t).exists()]
+    generated = {ROOT / "docs" / page for page in GENERATED}
+    missing = [t for t in links
+               if t and not (path.parent / t).exists() and (path.parent / t) not in generated]
     assert not missing, f"{path.relative_to(ROOT)} links to missing files: {missing}"
 
 
@@ -61,3 +68,14 @@ def test_the_link_finder_sees_links_and_skips_urls_and_anchors(tmp_path):
                     "`code` [f](mailto:a@b.c)\n", encoding="utf-8")
     assert _relative_links(page) == ["x.md", "img/y.png", "z.md"]
     assert "docs/model.md" in _relative_links(ROOT / "README.md")
+
+
+def test_the_generated_pages_are_those_the_docs_hook_writes():
+    # GENERATED above must not excuse a link to a page that nothing writes
+    hooks = importlib.util.spec_from_file_location("reference", ROOT / "docs/_hooks/reference.py")
+    reference = importlib.util.module_from_spec(hooks)
+    hooks.loader.exec_module(reference)
+    assert GENERATED == {*reference.PAGES, "generated/gallery/index.md"}
+    site = yaml.safe_load((ROOT / "mkdocs.yml").read_text(encoding="utf-8"))
+    (plugin,) = [p["gallery"] for p in site["plugins"] if isinstance(p, dict) and "gallery" in p]
+    assert plugin["gallery_dirs"] == "docs/generated/gallery"
