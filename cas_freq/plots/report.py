@@ -456,7 +456,8 @@ def steps(data):
         top.set_title(f"{a_deg:g}° step: {_limit_words(run.step)}")
         mid.plot(t_ms, _r(r.i[keep]), color="C0", label="motor current i")
         for sign in (1, -1):
-            mid.axhline(sign * params.position_loop.i_max, color="C3", ls="--", lw=0.9)
+            mid.axhline(sign * (params.velocity_loop or params.position_loop).i_max,  # a cascade's
+                        color="C3", ls="--", lw=0.9)
             bottom.axhline(sign * params.current_loop.v_max, color="C1", ls="--", lw=0.9)
         mid.set_ylabel("current i [A]")
         bottom.plot(t_ms, _r(r.V[keep]), color="C0", label="motor voltage V")

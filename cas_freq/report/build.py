@@ -339,8 +339,9 @@ def small_signal_sentence(data):
     if diverged is not None:
         return (f"The {step.amplitude_deg:g}° step diverged (beyond 10⁶ times the step at t = "
                 f"{number(diverged * 1e3)} ms), so it has no figures and no fit.")
+    i_max = (params.velocity_loop or params.position_loop).i_max  # a cascade's velocity loop's
     head = (f"The {step.amplitude_deg:g}° step reaches {number(step.max_current_a)} A of the "
-            f"±{params.position_loop.i_max:g} A current limit and {number(step.max_voltage_v)} V "
+            f"±{i_max:g} A current limit and {number(step.max_voltage_v)} V "
             f"of the ±{params.current_loop.v_max:g} V voltage limit: ")
     elements = nonlinear_elements(params, data.analysis.drivetrain is not None)
     others = "; ".join(elements)
@@ -503,10 +504,13 @@ def parameter_table(datas):
     output = datas[0].loaded.params.output_label
     configs = [d.loaded.params for d in datas]
 
+    def shown(value, scale):  # None: a key the variant's architecture has not (a cascade's Kd)
+        return "—" if value is None else number(value * scale)
+
     def numbers(keys):
         for key in keys:
             label, unit, scale = parameter_row_head(key, output)
-            yield (label, unit, *(number(parameter_value(p, key) * scale) for p in configs))
+            yield (label, unit, *(shown(parameter_value(p, key), scale) for p in configs))
 
     rows = [*numbers(_PARAMETER_KEYS),
             *((label, "", *(get(p) for p in configs)) for label, get in _SETTING_ROWS),
