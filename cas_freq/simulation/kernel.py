@@ -18,6 +18,10 @@ one machine-code loop, ``prange`` over the runs. Per step :math:`t_k \to t_{k+1}
 3. **Position controller** (§4): PID with filtered derivative, feed-forward, clamp to ±i_max,
    anti-windup (:func:`_controller_update`, the scalar form of
    :class:`~cas_freq.simulation.controllers.Controller`); its output enters the delay line τp.
+   Other architectures (``ext`` given, :mod:`~cas_freq.simulation.architecture`): the
+   position loop measures N*delta with output feedback; its output goes through the velocity
+   loop of a cascade (delay line tau_p, PI on the filtered speed, clamp ±i_max) and the
+   filters at the current command (:func:`_inner`) before the delay line read in step 4.
 4. **Current controller** (§3): PI on the delayed current command, clamp to ±v_max,
    anti-windup; its output enters the delay line τc.
 5. Every ``record_every`` steps the signals of :data:`~cas_freq.simulation.engine.SIGNALS`.

@@ -8,7 +8,10 @@ trapezoidal controllers, delay lines. numpy and scipy only (no python-control, n
 With a load or drivetrain term ("Load and drivetrain" of the model) the plant is the loaded one
 of :mod:`~cas_freq.simulation.mechanics` (load inertia, damping and hinge moment, a compliant
 gear whose fin angle delta is a state of its own, efficiencies, backlash, Coulomb friction);
-runs without any keep the unloaded plant and its numbers.
+runs without any keep the unloaded plant and its numbers. The other drive architectures
+(docs/model.md §13: a velocity loop, filters, output feedback) add their blocks between the
+position controller and the current loop (:mod:`~cas_freq.simulation.architecture`, from the
+declared structure); sampled controllers are simulated for the PID-on-PI only.
 
 Engines
 -------
