@@ -151,9 +151,18 @@ def test_a_run_of_a_batch_is_the_run_alone():
     assert np.max(np.abs(together.delta[0] - together.delta[1])) > 1e-3
 
 
-def _engines(p, amplitude_rad, t_end):
-    return [simulate_batch(p, Step(amplitude_rad), t_end=t_end, extend=False, engine=engine)
-            for engine in ("compiled", "reference")]
+def _engines(p, amplitude_rad, t_end, **rates):
+    return [simulate_batch(p, Step(amplitude_rad), t_end=t_end, extend=False, engine=engine,
+                           **rates) for engine in ("compiled", "reference")]
+
+
+def _assert_same(compiled, reference):
+    for name in ("delta", "theta", "omega", "i", "V", "current_command", "position_integral"):
+        a, b = getattr(compiled, name), getattr(reference, name)
+        scale = np.max(np.abs(b), axis=1, keepdims=True)
+        assert np.all(np.abs(a - b) <= 1e-9 * scale), name
+    for name in ("current_limited", "voltage_limited"):
+        assert np.array_equal(getattr(compiled, name), getattr(reference, name)), name
 
 
 def _shipped_output_feedback():
@@ -170,12 +179,14 @@ def test_both_engines_agree_on_every_architecture(build):
     # steps of the cascade's 10 us and 4000 of the QT-CAS's 5 us
     compiled, reference = _engines(build(), math.radians(10.0), 0.02)
     assert compiled.current_limited.any()
-    for name in ("delta", "theta", "omega", "i", "V", "current_command", "position_integral"):
-        a, b = getattr(compiled, name), getattr(reference, name)
-        scale = np.max(np.abs(b), axis=1, keepdims=True)
-        assert np.all(np.abs(a - b) <= 1e-9 * scale), name
-    for name in ("current_limited", "voltage_limited"):
-        assert np.array_equal(getattr(compiled, name), getattr(reference, name)), name
+    _assert_same(compiled, reference)
+
+
+def test_both_engines_agree_on_sampled_controllers_with_output_feedback():
+    # sampled controllers (the QT-CAS's 25 kHz / 2.5 kHz) on the output encoder
+    runs = _engines(_shipped_output_feedback(), math.radians(10.0), 0.02,
+                    current_rate_hz=25_000.0, position_rate_hz=2_500.0)
+    _assert_same(*runs)
 
 
 def _rigid_cascade(**changes):
