@@ -10,7 +10,8 @@ References and tolerances
   is second order in dt (exact plant and filter steps for inputs linear over a step,
   trapezoidal controllers, interpolated delays), observed below 0.006 dB and 0.05 deg at the
   default dt (the largest at 3000 rad/s on the notch of the PID-on-PI case), so the tests hold
-  it to 0.02 dB and 0.2 deg and the steps to 1e-3 of the step (observed ~4e-5).
+  it to 0.02 dB and 0.2 deg and the steps to 2e-4 of the step (observed 1.7e-6 to 3.5e-5,
+  the largest on the compliant QT-CAS at 5 us).
   The cases are linearised where the simulator is nonlinear by design (docs/model.md, "Load
   and drivetrain": the gear's efficiency scales the reaction by 1/eta forward and eta_b
   backward, Coulomb friction, the hinge bias): eta = eta_b = 1, no friction, no bias. With the
@@ -126,7 +127,7 @@ def test_small_step_matches_the_linear_pade_model(case):
     closed = linear_model(p, 8).closed_loop  # with the feed-forward off: a step has none
     linear = control.step_response(closed, result.t).outputs
     error = result.delta[0] / SMALL - linear
-    assert np.max(np.abs(error)) < 1e-3
+    assert np.max(np.abs(error)) < 2e-4
     assert np.max(np.abs(linear - linear[-1])) > 0.05  # the step moves: the test can fail
 
 
