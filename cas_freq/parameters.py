@@ -78,7 +78,6 @@ __all__ = [
     "parameter",
     "parse_value",
     "unit_of",
-    "unsupported_architecture",
     "variable_keys",
     "variant_parameters",
     "viscous_friction",
@@ -849,29 +848,3 @@ def _check_some_gain(full, cascade):
         if none.any():
             raise ConfigError(f"{section}: Kp and Ki are both 0: no {section.split('_')[0]} "
                               f"loop (samples {_indices(none)})")
-
-
-def unsupported_architecture(params):
-    """What the nonlinear simulation cannot run yet for ``params`` (loop parameters or a
-    validated config), or None.
-
-    The frequency-domain model (:mod:`cas_freq.model.structure`) computes the velocity loop,
-    the filters and the output-side position feedback; the simulator does not yet, and refuses
-    them here (one place: :func:`cas_freq.simulation.simulator.simulate_batch`) rather than
-    simulate another loop.
-    """
-    if isinstance(params, LoopParameters):
-        cascade, filters, output = params.cascade, params.filters, params.feedback_output
-    else:
-        cascade, filters = is_cascade(params), params.filters
-        output = params.position_loop.feedback == "output"
-    if cascade:
-        return ("velocity_loop: the nonlinear simulation of a velocity loop is not in this "
-                "version yet (its frequency-domain figures are: cas-freq analyze)")
-    if filters:
-        return ("filters: the nonlinear simulation of filters is not in this version yet (their "
-                "frequency-domain figures are: cas-freq analyze)")
-    if output:
-        return ("position_loop.feedback: the nonlinear simulation of output feedback is not in "
-                "this version yet (its frequency-domain figures are: cas-freq analyze)")
-    return None

@@ -12,8 +12,9 @@ import threading
 import numba
 import numpy as np
 
-from cas_freq.simulation import kernel
+from cas_freq.simulation import architecture, kernel
 from cas_freq.simulation import mechanics as mech
+from cas_freq.simulation.delay_line import ring_size
 from cas_freq.simulation.engine import LOAD_SIGNALS, SIGNALS, recorded_rows
 
 #: Command values per kernel call, about (steps x columns) (memory of the command rows).
@@ -44,8 +45,16 @@ class CompiledEngine:
         self.dt = dt
         self.commands = commands
         self.every_c, self.every_p = current_every or 0, position_every or 0
+        # the blocks the report's PID-on-PI does not have, from the declared structure
+        self.inner = inner = architecture.inner_blocks(params, dt)
         self.p, self.m, self.has_derivative, (slots_c, slots_p) = kernel.parameter_table(
-            params, dt, position_every)
+            params, dt, position_every, inner)
+        self.ext = None
+        if inner is not None:
+            table, state, steps = architecture.kernel_tables(
+                inner, n, dt, architecture.position(params).delay)
+            slots = 1 << (ring_size(steps) - 1).bit_length()
+            self.ext = (table, state, steps, np.zeros((n, slots)), np.zeros((n, slots)))
         # a batch with some loaded run: the loaded plant's table (mechanics.py) and 5 states
         loaded = bool(np.any(params.loaded))
         self.q = mech.table(params, dt) if loaded else None
@@ -70,12 +79,16 @@ class CompiledEngine:
         """Controller outputs at t = 0, then the sample at 0 (as Engine.start)."""
         right, left = self._rows(np.zeros(1))
         kernel.start_batch(*self._args(), right, left, self.every_c, self.every_p,
-                           self.has_derivative, self.dt)
+                           self.has_derivative, self.dt, self.ext)
         return tuple(np.array(value) for value in self.sample())
 
     def sample(self):
         """The recorded signals at the present step, in the order of :attr:`signals`."""
-        return kernel.sample(self.p, self.x, self.s, self.q is not None)
+        values = kernel.sample(self.p, self.x, self.s, self.q is not None)
+        if self.inner is not None and self.inner.cascade:  # the velocity controller's clamp
+            limited = self.ext[1][:, architecture.S_LIMITED] != 0
+            values = values[:7] + (limited,) + values[8:]
+        return values
 
     def recorded_rows(self, n_steps, record_every=1):
         """How many samples the next ``n_steps`` steps record."""
@@ -119,7 +132,7 @@ class CompiledEngine:
                 # the kernel writes sample j of this call at column j - (base - offset)
                 advance(*self._args(), right, left, start - 1, record_every, base - offset,
                         floats, flags, self.every_c, self.every_p, self.has_derivative,
-                        self.dt, q)
+                        self.dt, q, self.ext)
                 self.k = stop - 1
         finally:
             if parallel:

@@ -26,6 +26,7 @@ whole loop is integrated to second order in dt. Sampled controllers are updated 
 
 import numpy as np
 
+from cas_freq.simulation import architecture
 from cas_freq.simulation.commands import Step, fin_limits
 from cas_freq.simulation.controllers import Controller
 from cas_freq.simulation.delay_line import DelayLine
@@ -197,22 +198,84 @@ class Engine:
             p.ci_Kp, p.ci_Ki, np.zeros_like(p.ci_Kp), p.Tf, p.v_max, dt * (current_every or 1),
             sampled=current_every is not None,
         )
+        # the blocks the report's PID-on-PI does not have (velocity loop, filters, output
+        # feedback), read from the declared structure (architecture.py); None without them
+        self.inner = inner = architecture.inner_blocks(p, dt)
+        position = (architecture.position(p) if inner is not None else
+                    architecture.Position(p.cp_Kp, p.cp_Ki, p.cp_Kd, p.Tf, p.i_max, p.ff_v,
+                                          p.ff_a, p.tau_p))
         self.position = Controller(
-            p.cp_Kp, p.cp_Ki, p.cp_Kd, p.Tf, p.i_max, dt * (position_every or 1),
-            sampled=position_every is not None,
+            position.kp, position.ki, position.kd, position.tf, position.limit,
+            dt * (position_every or 1), sampled=position_every is not None,
         )
-        self.cp_Ki, self.ff_v, self.ff_a = p.cp_Ki, p.ff_v, p.ff_a
+        self.cp_Ki, self.ff_v, self.ff_a = position.ki, position.ff_v, position.ff_a
+        #: The controller whose output is the current command (its clamp is current_limited).
+        self.commander = self.position
+        if inner is not None:
+            self._setup_inner(p, dt, position.delay)
         self.on_measurement = p.derivative_on_measurement
         # Derivative input: the error everywhere (None), -theta everywhere (True), or mixed.
         on = self.on_measurement
         self._derivative_on = None if not on.any() else (True if on.all() else on)
         self.voltage_line = DelayLine(p.tau_c, dt, hold=current_every is not None)
-        self.current_line = DelayLine(p.tau_p, dt, hold=position_every is not None)
+        if inner is None or not inner.cascade:
+            self.current_line = DelayLine(p.tau_p, dt, hold=position_every is not None)
         self.k = 0
+
+    def _setup_inner(self, p, dt, position_delay):
+        """The velocity loop, the filters and the measured angle of :attr:`inner`."""
+        inner = self.inner
+        self.ratio, self.loaded = p.ratio, p.loaded
+        self.path = None if inner.path is None else architecture.FilterState(inner.path)
+        self.sensor = None if inner.sensor is None else architecture.FilterState(inner.sensor)
+        if inner.cascade:
+            n = p.n_runs
+            self.velocity = Controller(
+                inner.velocity_kp, inner.velocity_ki, np.zeros(n), np.ones(n),
+                inner.velocity_limit, dt * (self.position_every or 1),
+                sampled=self.position_every is not None,
+            )
+            self.commander = self.velocity
+            self.velocity_ff_a = inner.velocity_ff_a
+            hold = self.position_every is not None
+            # position controller -> tau_p -> velocity controller -> tau_v -> current loop
+            self.velocity_line = DelayLine(np.broadcast_to(position_delay, (n,)), dt, hold=hold)
+            self.current_line = DelayLine(np.broadcast_to(inner.velocity_delay, (n,)), dt,
+                                          hold=hold)
+
+    def _measured_angle(self):
+        """The angle the position loop measures: the motor angle, or with output feedback the
+        output angle on the motor's scale N*delta (a rigid, unloaded run's is theta)."""
+        theta = self.x[:, 2]
+        if self.inner is None or not self.inner.output_feedback or self.drivetrain is None:
+            return theta
+        return np.where(self.loaded, self.ratio * self.x[:, 4], theta)
+
+    def _inner_update(self, k, left, right, start=False):
+        """The blocks between the position controller and the current loop at step ``k``:
+        the position controller's output (``u_left``, ``u_p``) becomes the current command."""
+        u_left, u_right = self.u_left, self.u_p
+        if self.inner.cascade:
+            self.velocity_line.push(k, u_right, u_left)
+            if self.position_every is None:
+                w_cmd, w_cmd_left = self.velocity_line.read_limits(k)
+            else:
+                w_cmd = w_cmd_left = self.velocity_line.read(k)
+            w = self.x[:, 1]
+            if self.sensor is not None:
+                w = (self.sensor.start if start else self.sensor.step)(w, w)[1]
+            ff_right = self.velocity_ff_a * right[2]
+            ff_left = ff_right if left is right else self.velocity_ff_a * left[2]
+            step = self.velocity.start if start else self.velocity.update
+            u_left, u_right, self.current_limited = step(w_cmd_left - w, w_cmd - w, None, None,
+                                                         ff_left, ff_right)
+        if self.path is not None:
+            u_left, u_right = (self.path.start if start else self.path.step)(u_left, u_right)
+        self.u_left, self.u_p = u_left, u_right
 
     def _errors(self, theta_cmd):
         """Position error and the derivative's input (the error, or -theta)."""
-        theta = self.x[:, 2]
+        theta = self._measured_angle()
         e = theta_cmd - theta
         on = self._derivative_on
         if on is None:
@@ -239,6 +302,12 @@ class Engine:
         jumps = np.any(angle != angle_left, axis=1) | np.any(ff != ff_left, axis=1)
         if not (np.count_nonzero(ff) or np.count_nonzero(ff_left)):
             ff = ff_left = None
+        if self.inner is not None and self.inner.cascade:  # the acceleration, for ff_a
+            (_, _, accel), (_, _, accel_left) = self.commands.motor_limits(times)
+            if self.position_every is not None:
+                accel_left = accel
+            jumps = jumps | np.any(accel != accel_left, axis=1)
+            return (angle, ff, accel), (angle_left, ff_left, accel_left), jumps.tolist()
         return (angle, ff), (angle_left, ff_left), jumps.tolist()
 
     def _position_update(self, left, right, start=False):
@@ -263,16 +332,24 @@ class Engine:
 
     def start(self):
         """Controller outputs at t = 0 (plant at rest, nothing before), then the sample at 0."""
-        (angle, ff), (angle_left, ff_left), _ = self._command_rows(np.zeros(1))
-        right = (angle[0], None if ff is None else ff[0])
-        left = (angle_left[0], None if ff_left is None else ff_left[0])
+        rows, rows_left, _ = self._command_rows(np.zeros(1))
+        right, left = self._row(rows, 0), self._row(rows_left, 0)
         self.theta_cmd = right[0]
         self._position_update(left, right, start=True)
+        if self.inner is not None:
+            self._inner_update(0, left, right, start=True)
         self.current_line.push(0, self.u_p, self.u_left)
         self._current_update(start=True)
         self.voltage_line.push(0, self.v_c, self.v_left)
         self.v = self.voltage_line.read(0)
         return tuple(np.array(value) for value in self.sample())
+
+    @staticmethod
+    def _row(rows, j):
+        """Row ``j`` of a limit of :meth:`_command_rows`: (angle, feed-forward or None[,
+        acceleration])."""
+        angle, ff = rows[0][j], None if rows[1] is None else rows[1][j]
+        return (angle, ff) if len(rows) == 2 else (angle, ff, rows[2][j])
 
     def sample(self):
         """The recorded signals at the present step, in the order of :attr:`signals`.
@@ -321,25 +398,23 @@ class Engine:
         states = np.empty((kept.size, n, nx))
         volts, theta_cmd, i_cmd, integral = (np.empty((kept.size, n)) for _ in range(4))
         limited = np.zeros((2, kept.size, n), dtype=bool)
-        position, current = self.position, self.current
+        position, current, commander = self.position, self.current, self.commander
         row = 0
         for chunk in range(first, first + n_steps, _CHUNK):
             stop = min(chunk + _CHUNK, first + n_steps)
-            (angle, ff), (angle_left, ff_left), jumps = self._command_rows(
-                np.arange(chunk, stop) * self.dt
-            )
+            rows, rows_left, jumps = self._command_rows(np.arange(chunk, stop) * self.dt)
             recorded = np.arange(chunk, stop) % record_every == 0
-            theta_cmd[row : row + np.count_nonzero(recorded)] = angle[recorded]
+            theta_cmd[row : row + np.count_nonzero(recorded)] = rows[0][recorded]
             for j, (jump, record) in enumerate(zip(jumps, recorded.tolist(), strict=True)):
-                right = (angle[j], None if ff is None else ff[j])
-                left = (angle_left[j], None if ff_left is None else ff_left[j]) if jump else right
+                right = self._row(rows, j)
+                left = self._row(rows_left, j) if jump else right
                 self._step(left, right)
                 if record:
                     states[row] = self.x
                     volts[row] = self.v
                     i_cmd[row] = self.i_cmd
                     integral[row] = position.integral
-                    if position.clamped:  # else current_limited is False throughout
+                    if commander.clamped:  # else current_limited is False throughout
                         limited[0, row] = self.current_limited
                     if current.clamped:
                         limited[1, row] = self.voltage_limited
@@ -393,6 +468,10 @@ class Engine:
         self.theta_cmd = right[0]
         if self.position_every is None or k % self.position_every == 0:
             self._position_update(left, right)
+            if self.inner is not None:
+                self._inner_update(k, left, right)
+        elif self.inner is not None and self.path is not None:
+            raise NotImplementedError("filters with a sampled controller")  # simulator refuses
         self.current_line.push(k, self.u_p, self.u_left)
         if self.current_every is None or k % self.current_every == 0:
             self._current_update()

@@ -18,6 +18,10 @@ one machine-code loop, ``prange`` over the runs. Per step :math:`t_k \to t_{k+1}
 3. **Position controller** (§4): PID with filtered derivative, feed-forward, clamp to ±i_max,
    anti-windup (:func:`_controller_update`, the scalar form of
    :class:`~cas_freq.simulation.controllers.Controller`); its output enters the delay line τp.
+   Other architectures (``ext`` given, :mod:`~cas_freq.simulation.architecture`): the
+   position loop measures N*delta with output feedback; its output goes through the velocity
+   loop of a cascade (delay line tau_p, PI on the filtered speed, clamp ±i_max) and the
+   filters at the current command (:func:`_inner`) before the delay line read in step 4.
 4. **Current controller** (§3): PI on the delayed current command, clamp to ±v_max,
    anti-windup; its output enters the delay line τc.
 5. Every ``record_every`` steps the signals of :data:`~cas_freq.simulation.engine.SIGNALS`.
@@ -48,6 +52,7 @@ import numpy as np
 from numba import prange
 
 from cas_freq.jit import cached_jit as _jit
+from cas_freq.simulation import architecture as arch
 from cas_freq.simulation import mechanics as mech
 from cas_freq.simulation.controllers import derivative_filter
 from cas_freq.simulation.delay_line import delay_steps, ring_size
@@ -307,6 +312,76 @@ def _controller_update(
     return integral, state, e_right, y_before, rest_right, u_left, u_right, limited
 
 
+# --- the inner blocks: velocity loop and filters (architecture.py) ----------------------------
+
+@_jit(inline="always")  # numba-level: array arguments cost a call
+def _chain(g, gs, r, start, m, z, u_a, u_b):
+    """Step the filter chain of order ``m`` whose table starts at column ``start`` of ``g``
+    (its states at columns ``z`` .. ``z + m`` of ``gs``, scratch after them) over one step
+    for an input linear from ``u_a`` to ``u_b`` (FilterState.step); returns C z_k+1."""
+    g_a, g_b, c = start + m * m, start + m * m + m, start + m * m + 2 * m
+    for i in range(m):
+        acc = 0.0
+        for j in range(m):
+            acc += g[r, start + i * m + j] * gs[r, z + j]
+        acc += g[r, g_a + i] * u_a
+        acc += g[r, g_b + i] * u_b
+        gs[r, z + m + i] = acc
+    y = 0.0
+    for i in range(m):
+        gs[r, z + i] = gs[r, z + m + i]
+        y += g[r, c + i] * gs[r, z + i]
+    return y
+
+
+@_jit(inline="always")  # numba-level: array arguments cost a call
+def _inner(ext, r, k, ratio, w_start, w, u_left, u_right, acc_left, acc_right, advance, dt,
+           first):
+    """The blocks between the position controller and the current loop at step ``k``
+    (Engine._inner_update): the position controller's output limits (``u_left``,
+    ``u_right``) through the velocity loop (a cascade: delay line tau_p, PI on the filtered
+    motor speed ``w`` with its feed-forward of the command's acceleration ``acc`` [rad/s^2 at
+    the output]) and the filters at the current command. ``first``: the outputs at t = 0.
+
+    Returns
+    -------
+    tuple of float
+        The current command's left and right limits [A], and 1.0 where the velocity
+        controller's right-limit output was clamped (else the value passed in the state).
+    """
+    g, gs, m_v, line_right, line_left = ext
+    m_path, m_sensor = int(g[r, arch.PATH_ORDER]), int(g[r, arch.SENSOR_ORDER])
+    if g[r, arch.CASCADE] != 0.0:
+        _push(line_right, line_left, r, k, u_right, u_left, False)
+        f_v = g[r, arch.V_FRACTION]
+        w_cmd = _read(line_right, line_left, r, m_v[r], f_v, k, k, False, False)
+        w_cmd_left = _read(line_right, line_left, r, m_v[r], f_v, k, k, True, False)
+        measured = w
+        if m_sensor > 0:
+            start = arch.PATH + m_path * m_path + 3 * m_path + 1  # arch.chain_columns
+            d = g[r, start + m_sensor * m_sensor + 3 * m_sensor]
+            y = 0.0
+            if not first:
+                y = _chain(g, gs, r, start, m_sensor, arch.S_PATH + 2 * m_path, w_start, w)
+            measured = y + d * w
+        ff_a = g[r, arch.V_FF_A]
+        (gs[r, arch.S_INT], _, gs[r, arch.S_E], _, gs[r, arch.S_REST], u_left, u_right,
+         gs[r, arch.S_LIMITED]) = _controller_update(
+            gs[r, arch.S_INT], 0.0, gs[r, arch.S_E], 0.0, gs[r, arch.S_REST],
+            w_cmd_left - measured, w_cmd - measured, 0.0, 0.0, ff_a * (ratio * acc_left),
+            ff_a * (ratio * acc_right), advance, g[r, arch.V_KP], g[r, arch.V_KI], 0.0, 0.0,
+            0.0, 0.0, False, g[r, arch.V_LIMIT], dt, True,
+        )
+    if m_path > 0:
+        d = g[r, arch.PATH + m_path * m_path + 3 * m_path]
+        y = 0.0
+        if not first:
+            y = _chain(g, gs, r, arch.PATH, m_path, arch.S_PATH, gs[r, arch.S_PATH_U], u_left)
+        gs[r, arch.S_PATH_U] = u_right
+        u_left, u_right = y + d * u_left, y + d * u_right
+    return u_left, u_right, gs[r, arch.S_LIMITED]
+
+
 # --- one run: start and steps -----------------------------------------------------------------
 
 @_jit(inline="always")  # numba-level: array arguments cost a call
@@ -378,7 +453,7 @@ def _command(p, commands, r, row):
 
 @_jit()
 def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
-                right, left, every_c, every_p, has_derivative, dt):
+                right, left, every_c, every_p, has_derivative, dt, ext):
     """Controller outputs at t = 0 (plant at rest, nothing before), as Engine.start.
 
     Parameters
@@ -399,6 +474,11 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
         Some run has a derivative term (Kd > 0).
     dt : float
         Step [s].
+    ext : tuple or None
+        The inner blocks (velocity loop, filters, output feedback) where the runs have some:
+        the table, state and velocity-line steps of
+        :func:`~cas_freq.simulation.architecture.kernel_tables` and the velocity line's ring
+        buffers; None for the report's PID-on-PI (numba compiles it without their branches).
     """
     for r in range(x.shape[0]):
         sampled_p, sampled_c = every_p > 0, every_c > 0
@@ -413,7 +493,14 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
             p, r, x[r, 2], angle_left, angle, ff_left, ff, 0.0, 0.0, 0.0, 0.0, 0.0, sampled_p,
             has_derivative, dt * max(every_p, 1), not sampled_p,
         )
-        _push(current_right, current_left, r, 0, s[r, _P_U], s[r, _P_U_LEFT], sampled_p)
+        u_left, u_right = s[r, _P_U_LEFT], s[r, _P_U]
+        if ext is not None:  # the position loop measures the same at rest (theta = N delta)
+            col = r if right.shape[2] > 1 else 0
+            u_left, u_right, _ = _inner(
+                ext, r, 0, p[r, _RATIO], 0.0, x[r, 1], u_left, u_right,
+                right[0, 2, col] if sampled_p else left[0, 2, col], right[0, 2, col],
+                sampled_p, dt, True)
+        _push(current_right, current_left, r, 0, u_right, u_left, sampled_p)
         (s[r, _C_INT], s[r, _C_E], s[r, _C_REST], s[r, _C_V_LEFT], s[r, _C_V],
          s[r, _C_LIMITED], s[r, _I_CMD]) = _current_update(
             p, r, x[r, 0], 0, current_right, current_left, m[r, 1], sampled_p, sampled_c,
@@ -427,27 +514,27 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
 @_jit(parallel=True, nogil=True)
 def advance_parallel(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                      right, left, k0, record_every, record_base, floats, flags,
-                     every_c, every_p, has_derivative, dt, q):
+                     every_c, every_p, has_derivative, dt, q, ext):
     """:func:`advance_serial` with the runs shared among numba's threads (NUMBA_NUM_THREADS)."""
     for run in prange(x.shape[0]):
         if q is None:
             _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None)
+                         flags, every_c, every_p, has_derivative, dt, None, ext)
         elif q[run, _Q_LOADED] != 0.0:
             _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, q)
+                         flags, every_c, every_p, has_derivative, dt, q, ext)
         else:
             _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None)
+                         flags, every_c, every_p, has_derivative, dt, None, ext)
 
 
 @_jit(nogil=True)
 def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                    right, left, k0, record_every, record_base, floats, flags,
-                   every_c, every_p, has_derivative, dt, q):
+                   every_c, every_p, has_derivative, dt, q, ext):
     """Advance every run from step ``k0`` by ``len(right)`` steps (Engine._step, per run).
 
     Parameters
@@ -471,26 +558,28 @@ def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, curre
         The loaded plant's table (n_runs, mechanics.COLUMNS) where some run is loaded, else
         None. Runs with ``q[r, LOADED] == 0`` take the unloaded path (the same machine code
         as a batch without ``q``: numba prunes the loaded branches where ``q`` is None).
+    ext : tuple or None
+        The inner blocks, as for :func:`start_batch` (None: pruned likewise).
     """
     for r in range(x.shape[0]):
         if q is None:
             _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None)
+                         flags, every_c, every_p, has_derivative, dt, None, ext)
         elif q[r, _Q_LOADED] != 0.0:
             _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, q)
+                         flags, every_c, every_p, has_derivative, dt, q, ext)
         else:
             _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None)
+                         flags, every_c, every_p, has_derivative, dt, None, ext)
 
 
 @_jit()
 def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                  right, left, k0, record_every, record_base, floats, flags,
-                 every_c, every_p, has_derivative, dt, q):
+                 every_c, every_p, has_derivative, dt, q, ext):
     """Advance run ``r`` (arguments of :func:`advance_serial`).
 
     The run's states are held in local variables over the steps and written back at the end.
@@ -551,8 +640,17 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
         j_l, b_l, k_h, coulomb = q[r, _Q_J_L], q[r, _Q_B_L], q[r, _Q_K_H], q[r, _Q_F_C]
         e_forward, e_back = q[r, _Q_E_FORWARD], q[r, _Q_E_BACK]
         rec_delta, rec_omega_l = floats[7, r], floats[8, r]
+    # the inner blocks (ext, architecture.py): output feedback, and the current command's
+    # clamp flag (the velocity controller's in a cascade)
+    i_limited = p_limited
+    output_feedback = False
+    if ext is not None:
+        output_feedback = ext[0][r, arch.OUTPUT] != 0.0
+        if ext[0][r, arch.CASCADE] != 0.0:
+            i_limited = ext[1][r, arch.S_LIMITED]
     for row in range(n_steps):
         k = k0 + row
+        w_start = w
         # 1. voltage at the terminals over [t_k, t_k+1]: the current controller's output
         #    delayed by tau_c, linear over the step (held for a sampled controller)
         if sampled_c:
@@ -683,10 +781,13 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
             else:
                 angle_left = ratio * left[row, 0, col]
                 ff_left = ff_v * (ratio * left[row, 1, col]) + ff_a * (ratio * left[row, 2, col])
-            e_right = angle - th
-            e_left = angle_left - th
+            measured = th
+            if ext is not None and q is not None and output_feedback:
+                measured = ratio * d_l  # the output angle on the motor's scale
+            e_right = angle - measured
+            e_left = angle_left - measured
             if on_measurement:  # derivative on the measurement: acts on -theta
-                y_left = y_right = -th
+                y_left = y_right = -measured
             else:
                 y_left, y_right = e_left, e_right
             p_int, p_filter, p_e, p_y, p_rest, u_left, u_p, p_limited = _controller_update(
@@ -694,10 +795,22 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
                 ff_left, ff, True, cp_kp, cp_ki, cp_gd, cp_a, cp_b, cp_c, has_derivative,
                 i_max, period_p, not sampled_p,
             )
+            i_limited = p_limited
         slot = k & mask_p
-        current_right[r, slot] = u_p
-        if not sampled_p:
-            current_left[r, slot] = u_left
+        if ext is None:
+            current_right[r, slot] = u_p
+            if not sampled_p:
+                current_left[r, slot] = u_left
+        else:  # velocity loop and filters (continuous controllers only: simulator.py)
+            acc_right = right[row, 2, col]
+            acc_left = acc_right if sampled_p else left[row, 2, col]
+            cmd_left, cmd_right, limited = _inner(ext, r, k, ratio, w_start, w, u_left, u_p,
+                                                  acc_left, acc_right, True, dt, False)
+            if ext[0][r, arch.CASCADE] != 0.0:
+                i_limited = limited
+            current_right[r, slot] = cmd_right
+            if not sampled_p:
+                current_left[r, slot] = cmd_left
         # 4. current controller at t_k+1 (§3), its output into the delay line tau_c
         if not sampled_c or k == next_c:
             if sampled_c:
@@ -751,7 +864,7 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
             rec_angle[out] = angle
             rec_i_cmd[out] = i_cmd
             rec_integral[out] = cp_ki * p_int
-            rec_p_limited[out] = p_limited != 0.0
+            rec_p_limited[out] = i_limited != 0.0
             rec_c_limited[out] = c_limited != 0.0
             if q is not None:
                 rec_delta[out] = d_l
@@ -771,7 +884,7 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
 
 # --- the tables the kernel reads, and the samples it holds (for compiled.py) -----------------
 
-def parameter_table(params, dt, position_every=None):
+def parameter_table(params, dt, position_every=None, inner=None):
     """The kernel's per-run parameter table and delay steps of a batch.
 
     Parameters
@@ -782,6 +895,10 @@ def parameter_table(params, dt, position_every=None):
         Step [s].
     position_every : int or None
         Update period of a sampled position controller in steps; None for a continuous one.
+    inner : cas_freq.simulation.architecture.Inner, optional
+        The runs' inner blocks: the position controller's numbers then come from the
+        structure (:func:`~cas_freq.simulation.architecture.position`) and, in a cascade, the
+        delay line read by the current controller is the velocity loop's (tau_v).
 
     Returns
     -------
@@ -797,17 +914,24 @@ def parameter_table(params, dt, position_every=None):
     p[:, _PHI:_PHI + 9] = phi.reshape(n, 9)
     p[:, _GA:_GA + 3] = g_a
     p[:, _GB:_GB + 3] = g_b
-    p[:, _RATIO], p[:, _FF_V], p[:, _FF_A] = pr.ratio, pr.ff_v, pr.ff_a
-    p[:, _CP_KP], p[:, _CP_KI], p[:, _I_MAX] = pr.cp_Kp, pr.cp_Ki, pr.i_max
+    position = (arch.position(pr) if inner is not None else
+                arch.Position(pr.cp_Kp, pr.cp_Ki, pr.cp_Kd, pr.Tf, pr.i_max, pr.ff_v, pr.ff_a,
+                              pr.tau_p))
+    p[:, _RATIO], p[:, _FF_V], p[:, _FF_A] = pr.ratio, position.ff_v, position.ff_a
+    p[:, _CP_KP], p[:, _CP_KI], p[:, _I_MAX] = position.kp, position.ki, position.limit
     p[:, _CI_KP], p[:, _CI_KI], p[:, _V_MAX] = pr.ci_Kp, pr.ci_Ki, pr.v_max
     p[:, _ON_MEASUREMENT] = pr.derivative_on_measurement
     # the derivative filter's coefficients (controllers.py), as the reference computes them
-    has_derivative = bool(np.any(pr.cp_Kd > 0))
+    has_derivative = bool(np.any(position.kd > 0))
     if has_derivative:
-        filter_ = derivative_filter(pr.cp_Kd, pr.Tf, dt * (position_every or 1),
+        filter_ = derivative_filter(position.kd, position.tf, dt * (position_every or 1),
                                     sampled=position_every is not None)
         p[:, _CP_GD], p[:, _CP_A], p[:, _CP_B], p[:, _CP_C] = filter_
-    (m_c, f_c), (m_p, f_p) = delay_steps(pr.tau_c, dt), delay_steps(pr.tau_p, dt)
+    # the line the current controller reads: after the position controller (tau_p), or in a
+    # cascade after the velocity controller (tau_v)
+    current_delay = (np.broadcast_to(inner.velocity_delay, (n,))
+                     if inner is not None and inner.cascade else pr.tau_p)
+    (m_c, f_c), (m_p, f_p) = delay_steps(pr.tau_c, dt), delay_steps(current_delay, dt)
     p[:, _F_C], p[:, _F_P] = f_c, f_p
     slots = tuple(1 << (ring_size(m) - 1).bit_length() for m in (m_c, m_p))
     return p, np.stack([m_c, m_p], axis=1), has_derivative, slots

@@ -8,7 +8,10 @@ trapezoidal controllers, delay lines. numpy and scipy only (no python-control, n
 With a load or drivetrain term ("Load and drivetrain" of the model) the plant is the loaded one
 of :mod:`~cas_freq.simulation.mechanics` (load inertia, damping and hinge moment, a compliant
 gear whose fin angle delta is a state of its own, efficiencies, backlash, Coulomb friction);
-runs without any keep the unloaded plant and its numbers.
+runs without any keep the unloaded plant and its numbers. The other drive architectures
+(docs/model.md §13: a velocity loop, filters, output feedback) add their blocks between the
+position controller and the current loop (:mod:`~cas_freq.simulation.architecture`, from the
+declared structure); sampled controllers are simulated for the PID-on-PI only.
 
 Engines
 -------
@@ -62,7 +65,7 @@ import numpy as np
 
 from cas_freq.exceptions import ConfigError, ModelError
 from cas_freq.jit import ENGINE_ENV, ENGINES, engine_name  # noqa: F401 (re-exported)
-from cas_freq.parameters import LoopParameters, unsupported_architecture
+from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.engine import FLAG_SIGNALS, CommandSet, Engine
 
 #: Largest default step [s].
@@ -356,9 +359,6 @@ def _as_parameters(params):
     if not isinstance(params, LoopParameters):
         params = (LoopParameters.from_configs(params) if isinstance(params, (list, tuple))
                   else LoopParameters.from_config(params))
-    unsupported = unsupported_architecture(params)
-    if unsupported:
-        raise ConfigError(unsupported)
     return params
 
 
@@ -559,13 +559,18 @@ def simulate_batch(
     n = p.n_runs
     periods = [1.0 / r for r in (current_rate_hz, position_rate_hz) if r]
     if dt is None:
-        dt = default_time_step([*p.tau_c, *p.tau_p], periods, step_bound(p))
+        dt = default_time_step([*p.tau_c, *p.tau_p, *p.tau_v], periods, step_bound(p))
     if not (isinstance(dt, (int, float)) and dt > 0 and math.isfinite(dt)):
         raise ConfigError(f"dt: must be a finite time > 0 s, got {dt!r}")
     if not (isinstance(record_every, int) and record_every >= 1):
         raise ConfigError(f"record_every: must be an integer >= 1, got {record_every!r}")
     every_c = _period_steps(current_rate_hz, dt, "current_rate_hz")
     every_p = _period_steps(position_rate_hz, dt, "position_rate_hz")
+    if (every_c or every_p) and (p.cascade or p.filters):
+        raise ConfigError(
+            "simulation.controllers: sampled controllers are simulated for the PID-on-PI "
+            "(with either encoder) only; a velocity loop or filters need continuous ones "
+            "(simulation.controllers: continuous)")
     _command_list(commands, n)
     settles, last_change, final = _settling_facts(commands, n)
     if t_end is None:
@@ -581,7 +586,7 @@ def simulate_batch(
     if not math.isfinite(t_end):
         raise ConfigError(f"t_end: must be finite, got {t_end!r}")
     cap = 10.0 * t_end if max_t_end is None else max(max_t_end, t_end)
-    max_delay = float(max(np.max(p.tau_c), np.max(p.tau_p), 0.0))
+    max_delay = float(max(np.max(p.tau_c), np.max(p.tau_p), np.max(p.tau_v), 0.0))
     check_budget(n, int(round(t_end / dt)), dt, record_every, max_delay)
     cap = min(cap, max(t_end, budget_steps(n, dt, record_every, max_delay) * dt))
 

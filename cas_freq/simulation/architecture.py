@@ -1,0 +1,312 @@
+r"""What the simulator takes from the declared loop structure: the loops' controllers, their
+delays and feed-forward, the filters as exactly discretised state-space blocks, the signal each
+loop measures.
+
+The simulator does not compose the loops itself: :func:`inner_blocks` reads the structure of
+:func:`cas_freq.model.structure.build` (the same one the frequency domain evaluates) and
+returns the numbers each engine's steps use. Limits (``omega_max``, ``i_max``, ``v_max``) are
+not linear and so not in the structure; they come from the parameters.
+
+**Filters** (the blocks of a loop's ``path`` or ``sensor``) are continuous linear blocks in
+series. Each is realised in a scaled state space (entries of the order of its frequency,
+well-conditioned for the exponential), the chain is connected in series, and the chain is
+stepped exactly for an input linear over the step, as the plant is
+(:func:`~cas_freq.simulation.engine.plant_step_matrices`, first-order hold):
+
+.. math::
+    z_{k+1} = \Phi z_k + G_a u_k^+ + G_b u_{k+1}^-, \qquad
+    y_{k+1}^\mp = C z_{k+1} + D u_{k+1}^\mp
+
+(the right limit ``+`` of the input at the step's start, the left limit ``-`` at its end: a
+step command passes through a filter's direct term at once).
+"""
+
+import dataclasses
+
+import numpy as np
+
+from cas_freq.model import structure as loop_structure
+from cas_freq.simulation.mechanics import distinct_exponentials
+
+
+@dataclasses.dataclass(frozen=True)
+class FilterChain:
+    """Filters in series, stepped exactly for an input linear over the step.
+
+    Attributes
+    ----------
+    phi : numpy.ndarray
+        (n_runs, m, m) state transition over one step.
+    g_a, g_b : numpy.ndarray
+        (n_runs, m) input matrices of the input at the step's start and end.
+    c : numpy.ndarray
+        (n_runs, m) output row.
+    d : numpy.ndarray
+        (n_runs,) direct term.
+    """
+
+    phi: np.ndarray
+    g_a: np.ndarray
+    g_b: np.ndarray
+    c: np.ndarray
+    d: np.ndarray
+
+    @property
+    def order(self):
+        """Number of states m."""
+        return self.phi.shape[1]
+
+
+@dataclasses.dataclass(frozen=True)
+class Inner:
+    """The blocks between the position controller and the current loop, and the position
+    loop's measurement (the parts the report's PID-on-PI does not have).
+
+    Attributes
+    ----------
+    cascade : bool
+        A velocity loop between the position loop and the current loop.
+    output_feedback : bool
+        The position loop measures the output angle on the motor's scale, N*delta.
+    velocity_kp, velocity_ki, velocity_limit, velocity_ff_a : numpy.ndarray or None
+        The velocity PI's gains [A*s/rad], [A/rad], its current limit [A] and the
+        feed-forward of the motor-angle command's acceleration [A*s^2/rad] (cascade only).
+    velocity_delay : float or numpy.ndarray
+        Delay between the velocity controller and the current loop [s] (cascade only, else 0).
+    path : FilterChain or None
+        Filters at the current command (after the controller that commands the current).
+    sensor : FilterChain or None
+        Filters on the measured motor speed (the velocity loop's feedback filter and the
+        ``velocity_feedback`` filters).
+    """
+
+    cascade: bool
+    output_feedback: bool
+    velocity_kp: object = None
+    velocity_ki: object = None
+    velocity_limit: object = None
+    velocity_ff_a: object = None
+    velocity_delay: object = 0.0
+    path: FilterChain | None = None
+    sensor: FilterChain | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class Position:
+    """The position controller's numbers, as the engines use them.
+
+    ``kp``, ``ki``, ``kd``, ``tf`` the PID's (P/PI in a cascade: ``kd`` 0), ``limit`` the clamp
+    of its output (i_max, or omega_max in a cascade), ``ff_v`` and ``ff_a`` the feed-forward
+    of the motor-angle command's rate and acceleration into its output, ``delay`` the delay
+    after it [s].
+    """
+
+    kp: np.ndarray
+    ki: np.ndarray
+    kd: np.ndarray
+    tf: np.ndarray
+    limit: np.ndarray
+    ff_v: np.ndarray
+    ff_a: np.ndarray
+    delay: object
+
+
+def needs_inner(params):
+    """Whether ``params`` has a block the PID-on-PI steps do not (velocity loop, filters,
+    output feedback)."""
+    return bool(params.cascade or params.filters or params.feedback_output)
+
+
+def _feedforward(loop, n):
+    """(rate, acceleration) coefficients of a loop's feed-forward polynomial Phi(s)."""
+    if loop.feedforward is None:
+        return np.zeros(n), np.zeros(n)
+    padded = (0.0, 0.0, 0.0) + tuple(loop.feedforward)
+    return (np.broadcast_to(np.asarray(padded[-2], dtype=float), (n,)).copy(),
+            np.broadcast_to(np.asarray(padded[-3], dtype=float), (n,)).copy())
+
+
+def _per_run(value, n):
+    return np.broadcast_to(np.asarray(value, dtype=float), (n,)).astype(float)
+
+
+def position(params):
+    """The position controller of ``params`` (:class:`Position`), from the structure."""
+    p = params
+    n = p.n_runs
+    loop = loop_structure.build(p).loops[-1]
+    ff_v, ff_a = _feedforward(loop, n)
+    if p.cascade:
+        kp, ki = (_per_run(c, n) for c in loop.controller.numerator)
+        return Position(kp, ki, np.zeros(n), np.ones(n), _per_run(p.omega_max, n), ff_v, ff_a,
+                        loop.delay)
+    return Position(p.cp_Kp, p.cp_Ki, p.cp_Kd, p.Tf, p.i_max, ff_v, ff_a, loop.delay)
+
+
+def _block_state_space(block, n):
+    """A (scaled) realisation (A, B, C, D) per run of a proper block of degree 1 or 2.
+
+    Degree 2, denominator a2 s^2 + a1 s + a0 (a0, a2 > 0): w0 = sqrt(a0/a2), the states
+    x1 = w0^2/den u and x2 = (w0 s/den) u (x1' = w0 x2, x2' = -w0 x1 - 2 zeta w0 x2 + w0 u).
+    """
+    num = [_per_run(c, n) for c in block.numerator]
+    den = [_per_run(c, n) for c in block.denominator]
+    order = len(den) - 1
+    num = [np.zeros(n)] * (order + 1 - len(num)) + num
+    lead = den[0]
+    num = [c / lead for c in num]
+    den = [c / lead for c in den]
+    d = num[0]
+    rest = [num[i] - d * den[i] for i in range(1, order + 1)]  # remainder over den (monic)
+    if order == 1:
+        a = -den[1][:, None, None]
+        b = np.ones((n, 1))
+        c = rest[0][:, None]
+        return a, b, c, d
+    if order == 2:
+        w0 = np.sqrt(den[2])
+        two_zeta_w0 = den[1]
+        a = np.zeros((n, 2, 2))
+        a[:, 0, 1] = w0
+        a[:, 1, 0] = -w0
+        a[:, 1, 1] = -two_zeta_w0
+        b = np.zeros((n, 2))
+        b[:, 1] = w0
+        c = np.stack([rest[1] / (w0 * w0), rest[0] / w0], axis=1)
+        return a, b, c, d
+    raise ValueError(f"{block.name}: order {order} (the simulator steps orders 1 and 2)")
+
+
+def _series(first, second):
+    """The state space of ``second`` after ``first`` (per run)."""
+    a1, b1, c1, d1 = first
+    a2, b2, c2, d2 = second
+    n, m1, m2 = a1.shape[0], a1.shape[1], a2.shape[1]
+    a = np.zeros((n, m1 + m2, m1 + m2))
+    a[:, :m1, :m1] = a1
+    a[:, m1:, m1:] = a2
+    a[:, m1:, :m1] = b2[:, :, None] * c1[:, None, :]
+    b = np.concatenate([b1, b2 * d1[:, None]], axis=1)
+    c = np.concatenate([d2[:, None] * c1, c2], axis=1)
+    return a, b, c, d1 * d2
+
+
+def filter_chain(blocks, n, dt):
+    """The blocks in series stepped exactly over ``dt`` [s] (:class:`FilterChain`), or None
+    for no block."""
+    if not blocks:
+        return None
+    spaces = [_block_state_space(block, n) for block in blocks]
+    a, b, c, d = spaces[0]
+    for space in spaces[1:]:
+        a, b, c, d = _series((a, b, c, d), space)
+    m = a.shape[1]
+    augmented = np.zeros((n, m + 2, m + 2))
+    augmented[:, :m, :m] = a
+    augmented[:, :m, m] = b
+    augmented[:, m, m + 1] = 1.0 / dt
+    e = distinct_exponentials(augmented * dt)
+    return FilterChain(np.ascontiguousarray(e[:, :m, :m]), e[:, :m, m] - e[:, :m, m + 1],
+                       e[:, :m, m + 1].copy(), np.ascontiguousarray(c), d)
+
+
+def inner_blocks(params, dt):
+    """The blocks of ``params`` between the position controller and the current loop
+    (:class:`Inner`), from the structure (:func:`cas_freq.model.structure.build`); None for
+    the report's PID-on-PI without filters on the motor encoder."""
+    p = params
+    if not needs_inner(p):
+        return None
+    n = p.n_runs
+    loops = loop_structure.build(p).loops
+    commanding = loops[1]  # the loop whose controller commands the current loop
+    output_feedback = loops[-1].feedback == "output_angle"
+    path = filter_chain(commanding.path, n, dt)
+    if not p.cascade:
+        return Inner(False, output_feedback, path=path)
+    kp, ki = (_per_run(c, n) for c in commanding.controller.numerator)
+    _, ff_a = _feedforward(commanding, n)
+    return Inner(True, output_feedback, velocity_kp=kp, velocity_ki=ki,
+                 velocity_limit=_per_run(p.i_max, n), velocity_ff_a=ff_a,
+                 velocity_delay=commanding.delay, path=path,
+                 sensor=filter_chain(commanding.sensor, n, dt))
+
+
+class FilterState:
+    """A :class:`FilterChain`'s state over a batch (numpy; the reference engine)."""
+
+    def __init__(self, chain):
+        self.chain = chain
+        self.z = np.zeros(chain.phi.shape[:2])
+        self.u = None  # the input's right limit at the last step
+
+    def start(self, u_left, u_right):
+        """Outputs at t = 0 from rest (left and right limits)."""
+        self.u = u_right
+        d = self.chain.d
+        return d * u_left, d * u_right
+
+    def step(self, u_left, u_right):
+        """Advance one step to an input with limits ``u_left``, ``u_right`` at its end."""
+        ch = self.chain
+        self.z = (np.einsum("rij,rj->ri", ch.phi, self.z) + ch.g_a * self.u[:, None]
+                  + ch.g_b * u_left[:, None])
+        self.u = u_right
+        y = np.einsum("ri,ri->r", ch.c, self.z)
+        return y + ch.d * u_left, y + ch.d * u_right
+
+
+# --- the compiled kernel's tables of these blocks (kernel.py) ------------------------------
+
+#: Columns of the kernel's table of the inner blocks (n_runs, columns): flags and the velocity
+#: loop, then each filter chain's Phi (row-major), G_a, G_b, C and D.
+CASCADE, OUTPUT, V_KP, V_KI, V_LIMIT, V_FF_A, V_FRACTION, PATH_ORDER, SENSOR_ORDER = range(9)
+PATH = 9  # first column of the path chain (the sensor chain follows it)
+#: Columns of the kernel's state of the inner blocks: the velocity controller (integral,
+#: error, rest, output left and right, clamped), the path filter's last input, then the path
+#: filter's states and as many scratch columns, then the sensor filter's.
+S_INT, S_E, S_REST, S_U_LEFT, S_U, S_LIMITED, S_PATH_U = range(7)
+S_PATH = 7
+
+
+def chain_columns(m):
+    """Columns of a filter chain of order ``m`` in the kernel's table."""
+    return m * m + 3 * m + 1
+
+
+def _put_chain(table, start, chain):
+    if chain is None:
+        return
+    n, m = chain.phi.shape[:2]
+    table[:, start:start + m * m] = chain.phi.reshape(n, m * m)
+    start += m * m
+    for part in (chain.g_a, chain.g_b, chain.c):
+        table[:, start:start + m] = part
+        start += m
+    table[:, start] = chain.d
+
+
+def kernel_tables(inner, n, dt, position_delay):
+    """The kernel's tables of ``inner`` (:class:`Inner`) for ``n`` runs: the parameters
+    (n_runs, columns),
+    a zeroed state (n_runs, columns) and the whole steps of the delay between the position
+    and the velocity controller (n_runs,) (0 without a velocity loop).
+
+    The delay lines' ring sizes follow from those steps (:func:`delay_line.ring_size`)."""
+    from cas_freq.simulation.delay_line import delay_steps
+
+    m_path = 0 if inner.path is None else inner.path.order
+    m_sensor = 0 if inner.sensor is None else inner.sensor.order
+    table = np.zeros((n, PATH + chain_columns(m_path) + chain_columns(m_sensor)))
+    table[:, CASCADE] = inner.cascade
+    table[:, OUTPUT] = inner.output_feedback
+    table[:, PATH_ORDER], table[:, SENSOR_ORDER] = m_path, m_sensor
+    _put_chain(table, PATH, inner.path)
+    _put_chain(table, PATH + chain_columns(m_path), inner.sensor)
+    steps = np.zeros(n, dtype=np.int64)
+    if inner.cascade:
+        table[:, V_KP], table[:, V_KI] = inner.velocity_kp, inner.velocity_ki
+        table[:, V_LIMIT], table[:, V_FF_A] = inner.velocity_limit, inner.velocity_ff_a
+        steps, table[:, V_FRACTION] = delay_steps(np.broadcast_to(position_delay, (n,)), dt)
+    state = np.zeros((n, S_PATH + 2 * (m_path + m_sensor)))  # states and scratch
+    return table, state, steps
