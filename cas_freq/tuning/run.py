@@ -2,7 +2,6 @@
 them."""
 
 from cas_freq.exceptions import ConfigError
-from cas_freq.parameters import unsupported_architecture
 from cas_freq.studies.montecarlo import parse_tolerance
 from cas_freq.tuning import search
 from cas_freq.tuning.evaluate import constraints
@@ -37,24 +36,13 @@ def tune_variant(loaded, free=None, bounds=(), objective="max-bandwidth", robust
     Raises
     ------
     ConfigError
-        For a bad option (naming it), a config without requirements, load cases asked of a
-        config without a load envelope, or ``min-settling`` of a loop structure the nonlinear
-        simulation does not run yet (the other objectives tune it in the frequency domain).
+        For a bad option (naming it), a config without requirements, or load cases asked of a
+        config without a load envelope.
     """
     params = loaded.params
     keys = parse_free(free if free is not None else ",".join(default_free(params)), params)
     held, skipped = constraints(params.requirements, margin_pct / 100.0,
                                 advisory=not required_only)
-    # a loop structure the nonlinear simulation does not run yet: tune in the frequency domain
-    # (no step: its requirements are left to verify, the overshoot out of the trade-off)
-    unsimulated = unsupported_architecture(params)
-    if unsimulated is not None:
-        if objective == "min-settling":
-            raise ConfigError(f"--objective min-settling: needs the simulated step, and "
-                              f"{unsimulated}; use --objective max-bandwidth or max-margin")
-        skipped = [*skipped, *((c.requirement, f"not simulated: {unsimulated}")
-                               for c in held if c.requirement.kind in ("step", "sinedwell"))]
-        held = [c for c in held if c.requirement.kind not in ("step", "sinedwell")]
     if not held:
         raise ConfigError(f"{loaded.source}: no requirement to tune to (the config's "
                           "requirements: section)")
@@ -68,7 +56,7 @@ def tune_variant(loaded, free=None, bounds=(), objective="max-bandwidth", robust
     return search.tune(params, tune_keys(params, keys, parse_bounds(bounds, keys, params)),
                        scenario_set, held, skipped, objective, seed=seed,
                        global_count=candidates, rounds=rounds, scheduler=scheduler,
-                       progress=progress, simulate=unsimulated is None)
+                       progress=progress)
 
 
 __all__ = ["tune_variant"]
