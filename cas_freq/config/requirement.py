@@ -235,22 +235,29 @@ class Requirement(BaseModel):
 
     @field_validator("step", "amplitude", mode="before")
     @classmethod
-    def _angle(cls, value):
+    def _angle(cls, value, info):
+        from cas_freq.output import ANGLE, LENGTH, wrong_kind
+
         if value is None:
             return value
-        text = f"give an output angle with a unit (e.g. '10 deg'), got {value!r}"
+        linear = bool(info is not None and (info.context or {}).get("linear"))
+        unit, what, example = ((LENGTH, "an output length", "5 mm") if linear else
+                               (ANGLE, "an output angle", "10 deg"))
+        text = f"give {what} with a unit (e.g. '{example}'), got {value!r}"
         if not isinstance(value, str):
             raise PydanticCustomError("cas_value", text)
         try:
-            number = to_si(value, "rad")
+            number = to_si(value, unit.si)
             unitless = not has_unit(value)
         except (TypeError, ValueError) as exc:
-            raise PydanticCustomError("cas_value", f"{text} ({exc})") from None
+            wrong = wrong_kind(value, unit, "")
+            raise PydanticCustomError("cas_value", wrong or f"{text} ({exc})") from None
         if unitless:
             raise PydanticCustomError("cas_value", text)
-        if not 0 < number <= math.pi / 2:
+        if not 0 < number <= unit.largest:
             raise PydanticCustomError(
-                "cas_value", f"must be > 0 and at most 90 deg at the output, got {value!r}"
+                "cas_value", f"must be > 0 and at most {unit.largest_text} at the output, got "
+                f"{value!r}"
             )
         return number
 

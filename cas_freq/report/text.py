@@ -119,7 +119,7 @@ def analysis_table(analysis):
             f"    phase -90 deg at   {_fmt(closed.phase_90_rad_s, 'rad/s')}",
         ]
     if analysis.drivetrain is not None:
-        lines += _drivetrain_lines(analysis.drivetrain)
+        lines += _drivetrain_lines(analysis.drivetrain, analysis.loaded)
     if analysis.pade_vs_exact:
         lines.append(
             "  Padé vs exact      PM_p [deg]  GM_p [dB]  PM_i [deg]  w_BW [rad/s]  max|dT|"
@@ -338,8 +338,13 @@ def command_table(run):
     return "\n".join(lines)
 
 
-def _drivetrain_lines(load):
-    """The drivetrain block of the analyze text (cas_freq.analysis.drivetrain)."""
+def _drivetrain_lines(load, loaded=None):
+    """The drivetrain block of the analyze text (cas_freq.analysis.drivetrain); the load
+    spring at the output as ``loaded``'s output names it (K_h [N*m/rad], at a linear output
+    K [N/m])."""
+    from cas_freq.output import ANGLE, output_unit
+
+    unit = ANGLE if loaded is None else output_unit(loaded.params)
     gear = "compliant gear, two masses" if load.compliant else "rigid gear"
     lines = [
         f"  load and drivetrain ({gear}), reflected to the motor shaft",
@@ -356,8 +361,8 @@ def _drivetrain_lines(load):
             lines.append(f"    {label:<18} {_fmt(mode.frequency_rad_s, 'rad/s')}, "
                          f"zeta {_fmt(mode.damping)}")
     low, high = load.stable_hinge_stiffness_n_m_rad
-    lines.append("    stable for K_h     " + (
+    lines.append(f"    stable for {unit.spring:<8}" + (
         "none scanned" if low is None and high is None else
         f"{'-inf' if low is None else _fmt(low)} .. {'+inf' if high is None else _fmt(high)} "
-        "N*m/rad"))
+        f"{unit.spring_unit}"))
     return lines
