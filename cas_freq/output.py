@@ -58,11 +58,6 @@ class OutputUnit:
     spring: str
     spring_unit: str
 
-    @property
-    def from_deg(self):
-        """Factor from a typed record's ``_deg`` value (degrees of the SI value) to
-        :attr:`shown`: 1 for an angle, pi/180 * 1000 for a length in mm."""
-        return self.scale / math.degrees(1.0)
 
     @property
     def linear(self):
@@ -74,10 +69,17 @@ class OutputUnit:
         ``peak_rate_deg_s`` -> ``peak_rate_mm_s`` (unchanged for an angle)."""
         return re.sub(r"_deg(?=$|_s$|_s2$)", f"_{self.shown}", key)
 
-    def show(self, value_deg, digits=4):
-        """A typed record's ``_deg`` value as text in this unit: ``"5 mm"``, ``"10°"``."""
-        value = value_deg * self.from_deg
-        text = f"{value:.{digits}g}"
+    def value(self, value_deg):
+        """A typed record's ``_deg`` value in :attr:`shown` (unchanged for an angle)."""
+        return value_deg if self.kind == "angle" else math.radians(value_deg) * self.scale
+
+    def show(self, value_deg):
+        """A typed record's ``_deg`` value as text in this unit: ``"10 deg"``, ``"5 mm"``."""
+        return f"{self.value(value_deg):g} {self.shown}"
+
+    def symbol(self, value_deg):
+        """The same for labels of figures and tables: ``"10°"``, ``"5 mm"``."""
+        text = f"{self.value(value_deg):g}"
         return f"{text}°" if self.shown == "deg" else f"{text} {self.shown}"
 
 
@@ -123,7 +125,7 @@ def output_json(data, unit, residual_keys=("rms_residual",)):
     for key, value in data.items():
         if OUTPUT_KEYS.search(key) and isinstance(value, (int, float)) \
                 and not isinstance(value, bool):
-            out[unit.key(key)] = value * unit.from_deg
+            out[unit.key(key)] = unit.value(value)
         elif OUTPUT_KEYS.search(key) and value is None:
             out[unit.key(key)] = None
         elif key in _SPRING_KEYS:

@@ -4,9 +4,9 @@ move with and without feed-forward; or any command from a CSV table."""
 from cas_freq.cli.common import (
     EXIT_OK,
     add_config_arguments,
-    angle,
     load_variants,
     output_path,
+    output_step,
     print_json,
     several_variants,
     terminal_progress,
@@ -24,7 +24,8 @@ def register(commands):
     add_config_arguments(parser)
     what = parser.add_mutually_exclusive_group(required=True)
     what.add_argument(
-        "--step", metavar="ANGLE", help="output step with a unit, e.g. 10deg or 0.1rad",
+        "--step", metavar="STEP", help="output step with a unit, e.g. 10deg or 0.1rad (a linear "
+        "output: 5mm)",
     )
     what.add_argument(
         "--command", metavar="FILE",
@@ -86,7 +87,8 @@ def run(args):
         runs = profile_runs(variants, move, progress=progress)
         to_dict, to_table = profile_run_dict, profile_table
     else:
-        runs = step_runs(variants, angle(args.step, "--step"), progress=progress)
+        runs = step_runs(variants, output_step(args.step, "--step", variants),
+                         progress=progress)
         to_dict, to_table = step_run_dict, step_table
     if progress:
         progress.done()

@@ -175,7 +175,7 @@ def step_table(run):
     return "\n".join([
         head,
         *warning,
-        f"  nonlinear step of {step.amplitude_deg:g} deg at the {run.output}; "
+        f"  nonlinear step of {run.output_unit.show(step.amplitude_deg)} at the {run.output}; "
         f"dt {result.dt_s * 1e6:g} us, {result.t_end_s * 1e3:g} ms ({settled}{extended})",
         _figure_line("step.rise_time_s", step.rise_time_s),
         _figure_line("step.overshoot_pct", step.overshoot_pct),

@@ -14,6 +14,7 @@ import numpy as np
 
 from cas_freq.exceptions import ConfigError
 from cas_freq.fileio import json_ready
+from cas_freq.output import ANGLE, OutputUnit
 from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.commands import Profile
 from cas_freq.simulation.profile_figures import profile_figures
@@ -126,6 +127,8 @@ class ProfileRun:
     without_feedforward: object
     linear_stability: str = "stable"
     output: str = "output"
+    #: How the output is measured and shown (:mod:`cas_freq.output`).
+    output_unit: OutputUnit = ANGLE
 
 
 def profile_runs(variants, move, verdicts=None, progress=None):

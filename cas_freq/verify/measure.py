@@ -87,7 +87,7 @@ def measure(variants, requirements, known=None):
             elif requirement.kind == "step":
                 run = steps[requirement.step][index]
                 values[key] = figure(run, requirement.metric)
-                context[key] = f"nonlinear step of {run.step.amplitude_deg:g} deg"
+                context[key] = f"nonlinear step of {run.output_unit.show(run.step.amplitude_deg)}"
             elif requirement.kind == "profile":
                 from cas_freq.simulation.profile_run import profile_condition_text
 
@@ -143,12 +143,14 @@ def _sinedwell_bandwidth(loaded, analysis, amplitude, frequencies):
         The bandwidth [rad/s], the bound the grid gives when it holds no crossing, and the text
         of what was run (with why nothing was, when the sine-dwell exceeds the budget).
     """
+    from cas_freq.output import output_unit
     from cas_freq.simulation.run import dwell_parameters, over_budget_reason
     from cas_freq.simulation.simulator import BudgetError
     from cas_freq.simulation.sinedwell import dwell_frequencies, sine_dwell
 
     grid = frequencies or dwell_frequencies(analysis)
-    text = (f"sine-dwell at {math.degrees(amplitude):g} deg, {len(grid)} frequencies "
+    shown = output_unit(loaded.params).show(math.degrees(amplitude))
+    text = (f"sine-dwell at {shown}, {len(grid)} frequencies "
             f"{min(grid):.4g}..{max(grid):.4g} rad/s"
             + ("" if frequencies else " (the variant's default grid)"))
     current_rate_hz, position_rate_hz = loaded.params.simulation.rates_hz
