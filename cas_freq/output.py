@@ -73,6 +73,17 @@ class OutputUnit:
         """A typed record's ``_deg`` value in :attr:`shown` (unchanged for an angle)."""
         return value_deg if self.kind == "angle" else math.radians(value_deg) * self.scale
 
+    @property
+    def quantity(self):
+        """What the output's value is called in axis labels: ``"angle"``, ``"position"``."""
+        return "angle" if self.kind == "angle" else "position"
+
+    def from_si(self, values):
+        """Output values [SI] (an array) in :attr:`shown` (``numpy.degrees`` for an angle)."""
+        import numpy as np
+
+        return np.degrees(values) if self.kind == "angle" else np.asarray(values) * self.scale
+
     def show(self, value_deg):
         """A typed record's ``_deg`` value as text in this unit: ``"10 deg"``, ``"5 mm"``."""
         return f"{self.value(value_deg):g} {self.shown}"
@@ -97,7 +108,7 @@ def output_unit(config):
 
 #: JSON keys (their last part) that hold an output quantity in degrees: the conditions of a
 #: run (step, amplitude, move) and its output figures (errors, residuals).
-OUTPUT_KEYS = re.compile(r"(amplitude|distance|peak_rate|tracking_error_max|tracking_error_rms"
+OUTPUT_KEYS = re.compile(r"(amplitudes?|distance|peak_rate|tracking_error_max|tracking_error_rms"
                          r"|final_error|max_abs_error|rms_error|limit_onset_amplitude"
                          r"|step)_deg(_s|_s2)?$")
 #: JSON keys of the load spring at the output (``analyze``'s drivetrain), renamed at a linear
@@ -123,11 +134,8 @@ def output_json(data, unit, residual_keys=("rms_residual",)):
         return data
     out = {}
     for key, value in data.items():
-        if OUTPUT_KEYS.search(key) and isinstance(value, (int, float)) \
-                and not isinstance(value, bool):
-            out[unit.key(key)] = unit.value(value)
-        elif OUTPUT_KEYS.search(key) and value is None:
-            out[unit.key(key)] = None
+        if OUTPUT_KEYS.search(key) and not isinstance(value, (dict, bool)):
+            out[unit.key(key)] = _scaled(value, unit)
         elif key in _SPRING_KEYS:
             out[_SPRING_KEYS[key]] = value
         elif key in residual_keys and isinstance(value, (int, float)):
@@ -135,6 +143,13 @@ def output_json(data, unit, residual_keys=("rms_residual",)):
         else:
             out[key] = output_json(value, unit, residual_keys)
     return out
+
+
+def _scaled(value, unit):
+    """A ``_deg`` value (a number, None or a list of them) in ``unit``."""
+    if isinstance(value, (list, tuple)):
+        return [_scaled(item, unit) for item in value]
+    return None if value is None else unit.value(value)
 
 
 def wrong_kind(text, unit, option):

@@ -195,6 +195,14 @@ def step_table(run):
     ])
 
 
+def _amplitude(entry):
+    """An amplitude of a sine-dwell dict as text: ``amplitude_deg``, or ``amplitude_mm`` at a
+    linear output (:func:`cas_freq.output.output_json`)."""
+    if "amplitude_mm" in entry:
+        return _fmt(entry["amplitude_mm"], "mm")
+    return _fmt(entry["amplitude_deg"], "deg")
+
+
 def _sinedwell_not_computed_table(head, data):
     """:func:`sinedwell_table` of a variant whose sine-dwell was not computed: why, and the
     nonlinear steps with their fits (or when they diverged)."""
@@ -213,7 +221,7 @@ def _sinedwell_not_computed_table(head, data):
         else:
             cells = (f"{_fmt(entry['step'].get('overshoot_pct')):>15}"
                      f"{_fmt(entry['fit'].get('bandwidth_closed_form_rad_s')):>18}")
-        lines.append(f"    {_fmt(entry['amplitude_deg'], 'deg'):>10}{cells}")
+        lines.append(f"    {_amplitude(entry):>10}{cells}")
     return "\n".join(lines)
 
 
@@ -238,7 +246,7 @@ def sinedwell_table(data):
         f"{sim['controllers']} controllers, dt {sim['dt_s'] * 1e6:g} us; "
         "first harmonic of delta / command",
         "  " + f"{'[rad/s]':>10}" + "".join(
-            f"{_fmt(a['amplitude_deg'], 'deg'):>18}" for a in amplitudes
+            f"{_amplitude(a):>18}" for a in amplitudes
         ) + f"{'linear':>18}",
     ]
     missing = False
@@ -258,9 +266,12 @@ def sinedwell_table(data):
     if missing:
         lines.append("  (— no first harmonic: the run diverged until its state overflowed, or "
                      "no linear response exists)")
-    onset = data["limit_onset_amplitude_deg"]
+    onset_mm = data.get("limit_onset_amplitude_mm")
+    onset = data.get("limit_onset_amplitude_deg", onset_mm)
+    unit = "deg" if "limit_onset_amplitude_deg" in data else "mm"
     lines.append(
-        "  limits act from " + (f"{onset:g} deg" if onset is not None else "no amplitude given")
+        "  limits act from " + (f"{onset:g} {unit}" if onset is not None else
+                                "no amplitude given")
     )
     bench = data.get("report_bench")
     wide = 7 if data.get("bandwidth_requirement_rad_s") is not None else 0
@@ -285,7 +296,7 @@ def sinedwell_table(data):
     for row in data["bandwidth_three_ways"]:
         wide = 7 if required is not None else 0
         lines.append(
-            f"    {_fmt(row['amplitude_deg'], 'deg'):>10}{cell(row, 'linear_rad_s', 11 + wide)}"
+            f"    {_amplitude(row):>10}{cell(row, 'linear_rad_s', 11 + wide)}"
             f"{cell(row, 'sinedwell_rad_s', 12 + wide)}{cell(row, 'step_fit_rad_s', 10 + wide)}"
         )
     if any(row.get("sinedwell_bound") for row in data["bandwidth_three_ways"]):
