@@ -72,13 +72,15 @@ def linear_param(key):
     return _field(LINEAR_PARAMETERS[key], key)
 
 
-def refused(why):
+def refused(why, quote=False):
     """Type of a key that this section refuses with the message ``why`` whenever given (null
-    is taken as absent)."""
+    is taken as absent); ``quote``: the message ends with the value given."""
 
     def refuse(value):
         if value is None:  # absent (a dumped config writes it so)
             return None
+        if quote:
+            raise PydanticCustomError("cas_value", why + ", got {value}", {"value": repr(value)})
         raise PydanticCustomError("cas_value", why)
 
     return Annotated[Any, BeforeValidator(refuse), Field(json_schema_extra={"refused": why})]
@@ -200,9 +202,9 @@ class Load(_Section):
     damping: param("load.damping") = 0.0
     hinge_stiffness: param("load.hinge_stiffness") = 0.0
     hinge_bias: param("load.hinge_bias") = 0.0
-    mass: refused(LINEAR_ONLY["load.mass"]) = None
-    stiffness: refused(LINEAR_ONLY["load.stiffness"]) = None
-    bias: refused(LINEAR_ONLY["load.bias"]) = None
+    mass: refused(LINEAR_ONLY["load.mass"], quote=True) = None
+    stiffness: refused(LINEAR_ONLY["load.stiffness"], quote=True) = None
+    bias: refused(LINEAR_ONLY["load.bias"], quote=True) = None
 
     @property
     def rotary_inertia(self):
@@ -218,9 +220,9 @@ class LinearLoad(_Section):
     damping: linear_param("load.damping") = 0.0
     stiffness: param("load.stiffness") = 0.0
     bias: param("load.bias") = 0.0
-    inertia: refused(LINEAR_REFUSED["load.inertia"]) = None
-    hinge_stiffness: refused(LINEAR_REFUSED["load.hinge_stiffness"]) = None
-    hinge_bias: refused(LINEAR_REFUSED["load.hinge_bias"]) = None
+    inertia: refused(LINEAR_REFUSED["load.inertia"], quote=True) = None
+    hinge_stiffness: refused(LINEAR_REFUSED["load.hinge_stiffness"], quote=True) = None
+    hinge_bias: refused(LINEAR_REFUSED["load.hinge_bias"], quote=True) = None
 
     @property
     def rotary_inertia(self):
