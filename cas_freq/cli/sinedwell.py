@@ -61,10 +61,10 @@ def parse_amplitudes(text, variants=None):
     at a linear output of ``variants`` (:func:`cas_freq.cli.common.output_step`)."""
     parts = [part.strip() for part in text.split(",")]
     if not text.strip() or any(not part for part in parts):
-        example = "0.5deg,2deg,10deg"
+        example = "angles such as 0.5deg,2deg,10deg"
         if variants and any(getattr(v.params, "linear", False) for v in variants):
-            example = LINEAR_DEFAULT_AMPLITUDES
-        raise CasFreqError(f"--amplitudes: expected amplitudes such as {example}, got {text!r}")
+            example = f"lengths such as {LINEAR_DEFAULT_AMPLITUDES}"
+        raise CasFreqError(f"--amplitudes: expected {example}, got {text!r}")
     if variants is None:
         return [abs(angle(part, "--amplitudes")) for part in parts]
     return [abs(output_step(part, "--amplitudes", variants)) for part in parts]
