@@ -46,6 +46,8 @@ class OutputUnit:
         The load spring at the output as text names it (``"K_h"``, ``"K"``).
     spring_unit : str
         Its unit (``"N*m/rad"``, ``"N/m"``).
+    rate_examples : tuple of str
+        Example speed and acceleration limits of a move (``"2000deg/s"``, ``"1e5deg/s^2"``).
     """
 
     kind: str
@@ -57,6 +59,7 @@ class OutputUnit:
     largest_text: str
     spring: str
     spring_unit: str
+    rate_examples: tuple = ()
 
 
     @property
@@ -96,9 +99,10 @@ class OutputUnit:
 
 #: A rotary output: angles in rad, shown in deg.
 ANGLE = OutputUnit("angle", "rad", "deg", math.degrees(1.0), "10deg", math.pi / 2, "90 deg",
-                   "K_h", "N*m/rad")
+                   "K_h", "N*m/rad", ("2000deg/s", "1e5deg/s^2"))
 #: A linear output: lengths in m, shown in mm.
-LENGTH = OutputUnit("length", "m", "mm", 1e3, "5mm", 1.0, "1 m", "K", "N/m")
+LENGTH = OutputUnit("length", "m", "mm", 1e3, "5mm", 1.0, "1 m", "K", "N/m",
+                    ("100mm/s", "2000mm/s^2"))
 
 
 def output_unit(config):
@@ -108,8 +112,8 @@ def output_unit(config):
 
 #: JSON keys (their last part) that hold an output quantity in degrees: the conditions of a
 #: run (step, amplitude, move) and its output figures (errors, residuals).
-OUTPUT_KEYS = re.compile(r"(amplitudes?|distance|peak_rate|tracking_error_max|tracking_error_rms"
-                         r"|final_error|max_abs_error|rms_error|limit_onset_amplitude"
+OUTPUT_KEYS = re.compile(r"(amplitudes?|distance|peak_rate|velocity|acceleration|deceleration"
+                         r"|tracking_error_max|tracking_error_rms|final_error|max_abs_error|rms_error|limit_onset_amplitude"
                          r"|step)_deg(_s|_s2)?$")
 #: JSON keys of the load spring at the output (``analyze``'s drivetrain), renamed at a linear
 #: output, whose spring is in N/m.

@@ -46,7 +46,8 @@ def rotary(tmp_path_factory):
     data = yaml.safe_load(open(CONFIG, encoding="utf-8"))
     data["gear"] = {"ratio": 2 * math.pi * BELT / LEAD, "efficiency": ETA}
     data["load"] = {"inertia": MASS, "damping": 200.0, "hinge_stiffness": 1e5}
-    data["requirements"] = [r for r in data["requirements"] if "step" not in r]
+    data["requirements"] = [r for r in data["requirements"]  # in mm: not for a rotary output
+                            if "step" not in r and "profile" not in r]
     path = tmp_path_factory.mktemp("rotary") / "rotary.yaml"
     path.write_text(yaml.safe_dump(data), encoding="utf-8")
     return load_variant(str(path))
@@ -119,6 +120,22 @@ def test_cli_analyze_simulate_verify_in_mm():
     assert "nonlinear step of 5 mm" in conditions
 
 
+def test_cli_profile_move_in_mm():
+    argv = ["simulate", CONFIG, "--profile", "5mm", "--velocity", "100mm/s",
+            "--acceleration", "2000mm/s^2"]
+    code, out, err = run_cli(argv)
+    assert code == 0, err
+    assert "profile move of 5 mm at 100 mm/s, 2000 mm/s^2 at the rod" in out
+    # 5 mm = 2 motor revolutions; 100 mm/s = 20 screw rev/s = 40 motor rev/s = 2400 rpm
+    assert "2 rev, profile velocity 2400 rpm" in out
+    assert "largest tracking error during the move [mm]" in out
+    assert _output_lines_in_degrees(out) == []
+    code, out, err = run_cli([*argv, "--json"])
+    data = json.loads(out)
+    assert data["move"]["distance_mm"] == 5.0
+    assert "tracking_error_max_mm" in data["profile"] and "_deg" not in json.dumps(data)
+
+
 def test_cli_report_in_mm(tmp_path):
     code, out, err = run_cli(["report", CONFIG, "-o", str(tmp_path / "r"), "-q",
                               "--amplitudes", "0.1mm,5mm", "--frequencies", "100:1000:3"])
@@ -151,6 +168,10 @@ def test_cli_report_in_mm(tmp_path):
      ("--step: 5mm is a length; this actuator's output is rotary: give an angle, e.g. 10deg",)),
     (["sinedwell", CONFIG, "--amplitudes", "1deg"],
      ("--amplitudes: 1deg is an angle", "give a length, e.g. 5mm")),
+    (["simulate", CONFIG, "--profile", "5deg", "--velocity", "100mm/s", "--acceleration",
+      "2000mm/s^2"], ("--profile: 5deg is an angle", "give a length, e.g. 5mm")),
+    (["simulate", CONFIG, "--profile", "5mm", "--velocity", "100deg/s", "--acceleration",
+      "2000mm/s^2"], ("--velocity:", "'100deg/s'", "100mm/s")),
 ])
 def test_bad_linear_input_names_key_value_and_what_is_accepted(argv, words):
     code, out, err = run_cli(argv)
@@ -160,9 +181,28 @@ def test_bad_linear_input_names_key_value_and_what_is_accepted(argv, words):
         assert word in err
 
 
+@pytest.mark.parametrize(("config", "metric", "words"), [
+    (CONFIG, "profile.tracking_error_max_deg",
+     "profile.tracking_error_max_deg is an angle of the output; this actuator's output is "
+     "linear: use profile.tracking_error_max_mm"),
+    ("configs/dc_servo.yaml", "profile.tracking_error_max_mm",
+     "profile.tracking_error_max_mm is a length of the output; this actuator's output is "
+     "rotary: use profile.tracking_error_max_deg"),
+])
+def test_requirement_on_an_output_quantity_of_the_other_kind(tmp_path, config, metric, words):
+    data = yaml.safe_load(open(config, encoding="utf-8"))
+    data["requirements"] = [{"id": "T", "metric": metric, "max": 1, "profile": {
+        "distance": "5 mm", "velocity": "100 mm/s", "acceleration": "2000 mm/s^2"}}]
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(data), encoding="utf-8")
+    code, out, err = run_cli(["verify", str(path)])
+    assert code == 2
+    assert f"requirements.0.metric: {words}" in err
+
+
 def test_requirement_step_in_degrees_on_a_linear_output(tmp_path):
     data = yaml.safe_load(open(CONFIG, encoding="utf-8"))
-    data["requirements"][-1]["step"] = "0.3 deg"
+    data["requirements"][3]["step"] = "0.3 deg"  # OS-1
     path = tmp_path / "bad.yaml"
     path.write_text(yaml.safe_dump(data), encoding="utf-8")
     code, out, err = run_cli(["verify", str(path)])

@@ -68,8 +68,9 @@ def run(args):
         step_runs,
     )
 
-    move = _profile(args)
+    _profile(args, None)  # its options refused before the config is read
     variants = load_variants(args)
+    move = _profile(args, variants)
     if args.csv and len(variants) > 1:
         for loaded in variants:
             check_output_file(step_csv_name(args.csv, loaded, len(variants)), "--csv")
@@ -106,9 +107,11 @@ def run(args):
     return EXIT_OK
 
 
-def _profile(args):
+def _profile(args, variants):
     """The :class:`~cas_freq.simulation.commands.Profile` of ``--profile`` and its limits, or
-    None without ``--profile`` (when the limits must not be given either)."""
+    None without ``--profile`` (when the limits must not be given either); ``variants``: the
+    loaded variants, whose output's kind says how the move is read (None: check the options
+    only, the move as an angle)."""
     from cas_freq.exceptions import CasFreqError
 
     limits = {"velocity": args.velocity, "acceleration": args.acceleration,
@@ -122,7 +125,15 @@ def _profile(args):
     if missing:
         raise CasFreqError(f"--profile: needs {' and '.join(missing)} (e.g. --profile 10deg "
                            "--velocity 2000deg/s --acceleration 1e5deg/s^2)")
+    from cas_freq.output import ANGLE, output_unit
     from cas_freq.simulation.profile_run import make_profile
 
+    units = {output_unit(loaded.params) for loaded in variants or ()}
+    if len(units) > 1:
+        raise CasFreqError("--profile: the selected variants mix rotary and linear outputs; "
+                           "select one kind with --variant")
+    if variants is None:
+        return None
     return make_profile(args.profile, **limits,
-                        names={"distance": "--profile", **{k: f"--{k}" for k in limits}})
+                        names={"distance": "--profile", **{k: f"--{k}" for k in limits}},
+                        unit=units.pop() if units else ANGLE)

@@ -304,7 +304,7 @@ def fit_table(data):
     shown = output_unit(data.loaded.params).shown  # the residual is in the output's unit
     header = tuple(f"{f.label} [{shown if f.key == 'fit.rms_residual' else f.shown_unit or '-'}]"
                    if f.name != "success" else f.label
-                   for f in FIGURES.values() if f.key.startswith("fit."))
+                   for f in FIGURES.values() if f.key.startswith("fit.") and f.output != "length")
     return Table(("step", *header), tuple(rows),
                  "second-order-plus-delay fits (docs/model.md §7)")
 

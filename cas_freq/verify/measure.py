@@ -17,7 +17,18 @@ def figure(result, metric):
     """The figure named ``metric`` (its dotted key in the command's JSON, e.g.
     ``closed_loop.bandwidth_rad_s``) of a typed result (:class:`~cas_freq.analysis.Analysis`,
     :class:`~cas_freq.simulation.run.StepRun`): the same names, read as attributes. None where
-    the figure does not exist."""
+    the figure does not exist. A linear output's quantity (``profile.tracking_error_max_mm``)
+    is its rotary twin's attribute in mm (:mod:`cas_freq.output`)."""
+    from cas_freq.figures import FIGURES
+
+    record = FIGURES.get(metric)
+    if record is not None and record.output == "length":
+        from cas_freq.output import LENGTH
+
+        value = figure(result, record.twin)
+        if value is None:
+            return None
+        return LENGTH.value(value) if FIGURES[record.twin].unit == "deg" else value * LENGTH.scale
     value = result
     for part in metric.split("."):
         value = getattr(value, part, None)
@@ -93,7 +104,8 @@ def measure(variants, requirements, known=None):
 
                 run = moves[requirement.profile][index]
                 values[key] = figure(run, requirement.metric)
-                context[key] = (f"profile move of {profile_condition_text(run.move)}, "
+                context[key] = (f"profile move of "
+                                f"{profile_condition_text(run.move, run.output_unit)}, "
                                 "feed-forward as configured")
             else:
                 condition = (requirement.amplitude, requirement.frequencies)
