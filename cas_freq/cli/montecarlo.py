@@ -138,7 +138,10 @@ def run(args):
             if progress:
                 progress.done()
     several = several_variants(args)
-    data = [montecarlo_dict(result) for result in results]
+    from cas_freq.output import output_json, output_unit
+
+    data = [output_json(montecarlo_dict(result), output_unit(loaded.params))  # mm if linear
+            for result, loaded in zip(results, variants, strict=True)]
     if args.output:
         from cas_freq.plots.studies import svg_text
 

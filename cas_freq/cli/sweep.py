@@ -161,7 +161,10 @@ def run(args):
             if progress:
                 progress.done()
     several = several_variants(args)
-    data = [sweep_dict(result) for result in results]
+    from cas_freq.output import output_json, output_unit
+
+    data = [output_json(sweep_dict(result), output_unit(loaded.params))  # mm if linear
+            for result, loaded in zip(results, variants, strict=True)]
     data = data if several else data[0]
     csv_text = None
     if args.csv or args.output:
