@@ -172,6 +172,9 @@ def test_cli_report_in_mm(tmp_path):
       "2000mm/s^2"], ("--profile: 5deg is an angle", "give a length, e.g. 5mm")),
     (["simulate", CONFIG, "--profile", "5mm", "--velocity", "100deg/s", "--acceleration",
       "2000mm/s^2"], ("--velocity:", "'100deg/s'", "100mm/s")),
+    # command tables are read as angles: refused at a linear output, not misread
+    (["simulate", CONFIG, "--command", "tests/no_such_command.csv"],
+     ("--command: ball_screw has a linear output (gear.screw_lead)",)),
 ])
 def test_bad_linear_input_names_key_value_and_what_is_accepted(argv, words):
     code, out, err = run_cli(argv)

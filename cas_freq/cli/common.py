@@ -260,6 +260,16 @@ def output_step(text, option, variants):
         raise CasFreqError(str(exc)) from None
 
 
+def refuse_linear(loaded, option):
+    """Raise CasFreqError when ``loaded`` (a LoadedVariant) has a linear output: ``option``
+    reads the output as an angle (a recording, a command table), which this version does not
+    read in lengths."""
+    if getattr(loaded.params, "linear", False):
+        raise CasFreqError(f"{option}: {loaded.params.name} has a linear output (gear.screw_lead); "
+                           "its tables are read as angles (deg or rad), so this version does "
+                           "not read them for a linear output")
+
+
 class _Progress:
     """A tqdm bar driven by ``(done, planned)`` calls (the plan may grow).
 

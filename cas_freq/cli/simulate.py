@@ -8,6 +8,7 @@ from cas_freq.cli.common import (
     output_path,
     output_step,
     print_json,
+    refuse_linear,
     several_variants,
     terminal_progress,
     wrote,
@@ -78,6 +79,8 @@ def run(args):
     if args.command:
         from cas_freq.simulation.commands import read_command_csv
 
+        for loaded in variants:
+            refuse_linear(loaded, "--command")
         command = read_command_csv(args.command)
         runs = [command_run(loaded, command, progress=progress) for loaded in variants]
         to_dict, to_table = command_run_dict, command_table
