@@ -11,7 +11,8 @@ which rename ``..._deg`` to ``..._mm`` (``step.amplitude_mm``) and scale the val
 output quantity a user gives (a step, an amplitude, a move) is read by :func:`read_output`,
 which refuses an angle at a linear output and a length at a rotary one, saying what to give.
 
-This module imports only :mod:`cas_freq.units` (the unit conversion).
+This module imports only :mod:`cas_freq.units` (the unit conversion) and, where it converts
+arrays, numpy.
 """
 
 import dataclasses
