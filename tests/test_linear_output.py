@@ -148,6 +148,21 @@ def test_cli_report_in_mm(tmp_path):
     assert "amplitude_mm" in results and "amplitude_deg" not in results
 
 
+def test_cli_compare_of_two_linear_actuators_in_mm(tmp_path):
+    heavy = tmp_path / "heavy.yaml"
+    text = open(CONFIG, encoding="utf-8").read()
+    heavy.write_text(text.replace("name: ball_screw", "name: heavy").replace(
+        "mass: 20 kg ", "mass: 40 kg "), encoding="utf-8")
+    code, out, err = run_cli(["compare", CONFIG, str(heavy), "-o", str(tmp_path / "c"), "-q",
+                              "--amplitudes", "0.1mm,5mm", "--frequencies", "100:1000:3"])
+    assert code == 0, err
+    text = (tmp_path / "c" / "report.md").read_text(encoding="utf-8")
+    assert "nonlinear step 5 mm: rise time" in text and "amplitudes at the rod: 0.1 mm, 5 mm" \
+        in text
+    assert _output_lines_in_degrees(text) == []
+    assert "amplitude_deg" not in (tmp_path / "c" / "results.json").read_text(encoding="utf-8")
+
+
 @pytest.mark.parametrize(("argv", "words"), [
     # rotary load keys on a linear output, and the other way round: key, value, what it takes
     (["analyze", CONFIG, "--set", "load.inertia=1e-4"],
