@@ -187,6 +187,9 @@ def test_cli_compare_of_two_linear_actuators_in_mm(tmp_path):
       "2000mm/s^2"], ("--profile: 5deg is an angle", "give a length, e.g. 5mm")),
     (["simulate", CONFIG, "--profile", "5mm", "--velocity", "100deg/s", "--acceleration",
       "2000mm/s^2"], ("--velocity:", "'100deg/s'", "100mm/s")),
+    # the load envelope sweeps a rotary output's hinge spring
+    (["analyze", CONFIG, "--set", "load_envelope.hinge_stiffness=0:1:3"],
+     ("load_envelope: the load envelope sweeps a rotary output's load.hinge_stiffness",)),
     # command tables are read as angles: refused at a linear output, not misread
     (["simulate", CONFIG, "--command", "tests/no_such_command.csv"],
      ("--command: ball_screw has a linear output (gear.screw_lead)",)),

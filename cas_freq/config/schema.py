@@ -567,6 +567,21 @@ class ActuatorConfig(_Section):
             object.__setattr__(self, "load", LinearLoad())  # the default load: absent
         return self
 
+    @model_validator(mode="after")
+    def _rotary_sections(self):
+        if not self.linear:
+            return self
+        if self.load_envelope is not None:
+            raise PydanticCustomError(
+                "cas_value", "load_envelope: the load envelope sweeps a rotary output's "
+                "load.hinge_stiffness [N*m/rad]; this version has none for a linear output "
+                "(gear.screw_lead): remove the section")
+        if self.reference is not None and self.reference.step_amplitude is not None:
+            raise PydanticCustomError(
+                "cas_value", "reference.step_amplitude: an angle; this version reads no "
+                "reference step of a linear output (gear.screw_lead): remove the key")
+        return self
+
     @property
     def linear(self):
         """True for a linear output (``gear.screw_lead``): lengths at the output."""
