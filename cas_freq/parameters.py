@@ -190,7 +190,7 @@ PARAMETERS = _table(
     ("velocity_loop.ff_a", "ff_a", "A*s^2/rad", -1e9, False, 1e9,
      "feed-forward of the motor-angle command acceleration into the current command, 0 or "
      "|ff_a| 1e-12..1e9 [A*s^2/rad]", 1e-12),
-    # a linear output (docs/config.md, "Linear output"): the screw, and the load in kg, N/m, N
+    # a linear output (docs/model.md, "Linear output"): the screw, and the load in kg, N/m, N
     ("gear.screw_lead", None, "m", 1e-6, False, 1.0,
      "lead of the output's screw (travel per screw revolution); makes the output linear, "
      "output x = motor angle * lead / (2*pi*gear.ratio), 1e-6..1 [m]"),
