@@ -160,49 +160,63 @@ class Actuator:
                                  **{name: getattr(loops, name)(s) for name in _LOOPS})
 
     @one_blas_thread()
-    def simulate(self, step="10 deg"):
+    def simulate(self, step=None):
         """Nonlinear step of the output, as ``cas-freq simulate --step``.
 
         Parameters
         ----------
-        step : str
-            Step at the output with a unit (``"10 deg"``, ``"0.1 rad"``), non-zero, within ±90°.
+        step : str, optional
+            Step at the output with a unit (``"10 deg"``, ``"0.1 rad"``), non-zero, within ±90°;
+            at a linear output (``gear.screw_lead``) a length (``"5 mm"``) within ±1 m. Default
+            10 deg, or 5 mm.
 
         Returns
         -------
         StepResponse
         """
-        from cas_freq.cli.common import angle
+        from cas_freq.cli.common import output_step
+        from cas_freq.output import output_unit
         from cas_freq.simulation.run import step_run
 
-        return StepResponse.of(step_run(self.loaded, angle(str(step), "step")))
+        step = output_unit(self.loaded.params).example if step is None else step
+        return StepResponse.of(step_run(self.loaded, output_step(str(step), "step",
+                                                                 [self.loaded])))
 
     @one_blas_thread()
-    def simulate_profile(self, distance="10 deg", velocity="2000 deg/s",
-                         acceleration="1e5 deg/s^2", deceleration=None):
+    def simulate_profile(self, distance=None, velocity=None, acceleration=None,
+                         deceleration=None):
         """A profile move of the output, with and without feed-forward, as ``cas-freq simulate
         --profile``.
 
         Parameters
         ----------
         distance : str or float
-            The move at the output (``"10 deg"``; a number is rad), non-zero, within ±90°.
+            The move at the output (default ``"10 deg"``; a number is rad), non-zero, within
+            ±90°; at a linear output a length (default ``"5 mm"``; a number is m).
         velocity : str or float
-            Velocity limit at the output (``"2000 deg/s"``; a number is rad/s) [> 0].
+            Velocity limit at the output (default ``"2000 deg/s"``, or ``"100 mm/s"``; a number
+            is rad/s, or m/s) [> 0].
         acceleration, deceleration : str or float
             Acceleration and deceleration (default: the acceleration) limits at the output
-            (``"1e5 deg/s^2"``; a number is rad/s^2) [> 0].
+            (default ``"1e5 deg/s^2"``, or ``"2000 mm/s^2"``; a number is rad/s^2, or m/s^2)
+            [> 0].
 
         Returns
         -------
         ProfileResponse
         """
+        from cas_freq.output import output_unit
         from cas_freq.simulation.profile_run import make_profile, profile_run
 
+        unit = output_unit(self.loaded.params)
+        defaults = (unit.example, *unit.rate_examples)
+        distance, velocity, acceleration = (
+            default if value is None else value
+            for value, default in zip((distance, velocity, acceleration), defaults, strict=True))
         move = make_profile(distance, velocity, acceleration, deceleration,
                             names={"distance": "distance", "velocity": "velocity",
                                    "acceleration": "acceleration",
-                                   "deceleration": "deceleration"})
+                                   "deceleration": "deceleration"}, unit=unit)
         return ProfileResponse.of(profile_run(self.loaded, move))
 
     @one_blas_thread()
@@ -375,8 +389,8 @@ class StepResponse(Summary):
     ----------
     time_s : numpy.ndarray
         Sample times [s].
-    output_angle_deg, command_deg : numpy.ndarray
-        Output angle and its command [deg].
+    output_angle_deg, command_deg : numpy.ndarray or None
+        Output angle and its command [deg] (None at a linear output).
     current_a, voltage_v : numpy.ndarray
         Motor current [A] and terminal voltage [V].
     step : cas_freq.simulation.step_figures.StepFigures
@@ -386,21 +400,28 @@ class StepResponse(Summary):
         bandwidth.
     run : cas_freq.simulation.run.StepRun
         Everything ``cas-freq simulate`` has (limit flags, simulation settings, ...).
+    output_mm, command_mm : numpy.ndarray or None
+        At a linear output (``gear.screw_lead``): its position and command [mm] (else None).
     """
 
     time_s: np.ndarray
-    output_angle_deg: np.ndarray
-    command_deg: np.ndarray
+    output_angle_deg: np.ndarray | None
+    command_deg: np.ndarray | None
     current_a: np.ndarray
     voltage_v: np.ndarray
     step: object
     fit: object
     run: object
+    output_mm: np.ndarray | None = None
+    command_mm: np.ndarray | None = None
 
     @classmethod
     def of(cls, run):
         """The view of a :class:`cas_freq.simulation.run.StepRun`."""
         r = run.result
+        if run.output_unit.linear:
+            return cls(r.t, None, None, r.i, r.V, run.step, run.fit, run,
+                       run.output_unit.from_si(r.delta), run.output_unit.from_si(r.command))
         return cls(r.t, np.degrees(r.delta), np.degrees(r.command), r.i, r.V, run.step, run.fit,
                    run)
 
@@ -411,7 +432,8 @@ class StepResponse(Summary):
                              "max_current_a", "max_voltage_v", "current_limited")]
         rows += [(f"fit.{name}", getattr(fit, name))
                  for name in ("wn_rad_s", "zeta", "td_s", "bandwidth_closed_form_rad_s")]
-        return f"{step.amplitude_deg:g}° step of the {self.run.output} (nonlinear)", rows
+        size = self.run.output_unit.symbol(step.amplitude_deg)
+        return f"{size} step of the {self.run.output} (nonlinear)", rows
 
     def to_dict(self):
         """JSON-ready dict: the JSON of ``cas-freq simulate --step ... --json``."""
@@ -439,8 +461,8 @@ class ProfileResponse(Summary):
     ----------
     time_s : numpy.ndarray
         Sample times [s].
-    output_angle_deg, command_deg : numpy.ndarray
-        Output angle and profile command [deg].
+    output_angle_deg, command_deg : numpy.ndarray or None
+        Output angle and profile command [deg] (None at a linear output).
     current_a, voltage_v : numpy.ndarray
         Motor current [A] and terminal voltage [V].
     profile : cas_freq.simulation.profile_figures.ProfileFigures
@@ -449,32 +471,50 @@ class ProfileResponse(Summary):
         The same figures of the move with ff_v = ff_a = 0.
     run : cas_freq.simulation.profile_run.ProfileRun
         Both runs and everything ``cas-freq simulate --profile`` has.
+    output_mm, command_mm : numpy.ndarray or None
+        At a linear output (``gear.screw_lead``): its position and command [mm] (else None).
     """
 
     time_s: np.ndarray
-    output_angle_deg: np.ndarray
-    command_deg: np.ndarray
+    output_angle_deg: np.ndarray | None
+    command_deg: np.ndarray | None
     current_a: np.ndarray
     voltage_v: np.ndarray
     profile: object
     without_feedforward: object
     run: object
+    output_mm: np.ndarray | None = None
+    command_mm: np.ndarray | None = None
 
     @classmethod
     def of(cls, run):
         """The view of a :class:`cas_freq.simulation.profile_run.ProfileRun`."""
         r = run.result
+        if run.output_unit.linear:
+            return cls(r.t, None, None, r.i, r.V, run.profile, run.without_feedforward, run,
+                       run.output_unit.from_si(r.delta), run.output_unit.from_si(r.command))
         return cls(r.t, np.degrees(r.delta), np.degrees(r.command), r.i, r.V, run.profile,
                    run.without_feedforward, run)
 
     def _summary(self):
+        from cas_freq.verify.measure import figure
+
+        unit = self.run.output_unit
         names = ("tracking_error_max_deg", "tracking_error_rms_deg", "overshoot_pct",
                  "settling_time_s", "max_current_a", "max_voltage_v")
-        rows = [(f"profile.{name}", getattr(self.profile, name)) for name in names]
-        rows += [(f"{label} (without feed-forward)", value, unit) for label, value, unit in
-                 (row((f"profile.{name}", getattr(self.without_feedforward, name)))
-                  for name in names[:3])]
-        return (f"{self.profile.distance_deg:g}° move at {self.profile.peak_rate_deg_s:g}°/s "
+        keys = [f"profile.{unit.key(name)}" for name in names]  # the _mm twins if linear
+
+        def value(figures, key):  # a figure of either run, in mm at a linear output
+            if not unit.linear:
+                return getattr(figures, key.partition(".")[2])
+            return figure(types.SimpleNamespace(profile=figures), key)
+
+        rows = [(key, value(self.profile, key)) for key in keys]
+        rows += [(f"{label} (without feed-forward)", number, shown) for label, number, shown in
+                 (row((key, value(self.without_feedforward, key))) for key in keys[:3])]
+        rate = (f"{self.profile.peak_rate_deg_s:g}°/s" if not unit.linear else
+                f"{unit.value(self.profile.peak_rate_deg_s):g} mm/s")
+        return (f"{unit.symbol(self.profile.distance_deg)} move at {rate} "
                 "peak rate (with the config's feed-forward)", rows)
 
     def to_dict(self):

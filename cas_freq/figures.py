@@ -72,7 +72,7 @@ LOOPS.update({f"{key}.loop_at_a_time": Loop(loop.name, loop.symbol,
 #: How each unit (pint spelling, as :attr:`Figure.unit`) is shown.
 UNIT_LABELS = {"rad/s": "rad/s", "deg": "deg", "dB": "dB", "percent": "%", "s": "s", "A": "A",
                "V": "V", "rad": "rad", "": "", "kg*m^2": "kg·m²", "N*m*s/rad": "N·m·s/rad",
-               "N*m/rad": "N·m/rad"}
+               "N*m/rad": "N·m/rad", "mm": "mm"}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -107,6 +107,12 @@ class Figure:
     json_key : str
         Where the command's JSON holds it, dotted; ``*`` stands for each element of a list (the
         sine-dwell's amplitudes). Default: ``key``.
+    output : str
+        ``"angle"`` for a quantity of a rotary output (an error, a residual), ``"length"`` for
+        its twin at a linear output (``gear.screw_lead``), ``""`` for any other figure.
+    twin : str
+        The key of the other kind's record of an output quantity
+        (``profile.tracking_error_max_mm`` <-> ``profile.tracking_error_max_deg``), else ``""``.
     """
 
     key: str
@@ -120,6 +126,8 @@ class Figure:
     loop: str | None = None
     requirement: bool = True
     json_key: str = ""
+    output: str = ""
+    twin: str = ""
 
     def __post_init__(self):
         if not self.json_key:
@@ -330,8 +338,31 @@ def _table():
     for row in _OTHER_FIGURES:
         keywords = row[-1] if isinstance(row[-1], dict) else {}
         positional = row[:len(row) - bool(keywords)]
-        figures.append(Figure(*positional, **keywords))
+        figure = Figure(*positional, **keywords)
+        if figure.key in _OUTPUT_FIGURES:  # an output quantity, and its twin in mm
+            twin = _OUTPUT_FIGURES[figure.key]
+            figures += [
+                dataclasses.replace(figure, output="angle", twin=twin),
+                dataclasses.replace(figure, key=twin, unit="mm", shown_unit="mm", scale=1.0,
+                                    json_key=_length_key(figure.json_key), output="length",
+                                    twin=figure.key),
+            ]
+        else:
+            figures.append(figure)
     return {figure.key: figure for figure in figures}
+
+
+def _length_key(key):
+    """The key of an output quantity at a linear output: ``_deg`` -> ``_mm``; the fit's
+    residual (in the output's SI unit) -> ``rms_residual_mm``."""
+    return key.replace("_deg", "_mm") if "_deg" in key else f"{key}_mm"
+
+
+#: The figures that are quantities of the output (an angle at a rotary output), with the key
+#: of their twin at a linear output (a length in mm, :mod:`cas_freq.output`).
+_OUTPUT_FIGURES = {key: _length_key(key) for key in (
+    "fit.rms_residual", "sinedwell.limit_onset_amplitude_deg", "profile.tracking_error_max_deg",
+    "profile.tracking_error_rms_deg", "profile.final_error_deg")}
 
 
 #: Every figure, by its dotted key.

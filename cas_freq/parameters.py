@@ -63,6 +63,9 @@ __all__ = [
     "CASCADE_PARAMETERS",
     "CASCADE_REFUSED",
     "FILTER_PARAMETERS",
+    "LINEAR_ONLY",
+    "LINEAR_PARAMETERS",
+    "LINEAR_REFUSED",
     "PARAMETERS",
     "STATIC_FIELDS",
     "VARIABLE_KEYS",
@@ -73,7 +76,9 @@ __all__ = [
     "derived_problem",
     "drivetrain_problem",
     "filter_time_constant",
+    "effective_ratio",
     "is_cascade",
+    "is_linear",
     "loop_values",
     "parameter",
     "parse_value",
@@ -184,6 +189,18 @@ PARAMETERS = _table(
     ("velocity_loop.ff_a", "ff_a", "A*s^2/rad", -1e9, False, 1e9,
      "feed-forward of the motor-angle command acceleration into the current command, 0 or "
      "|ff_a| 1e-12..1e9 [A*s^2/rad]", 1e-12),
+    # a linear output (docs/model.md, "Linear output"): the screw, and the load in kg, N/m, N
+    ("gear.screw_lead", None, "m", 1e-6, False, 1.0,
+     "lead of the output's screw (travel per screw revolution); makes the output linear, "
+     "output x = motor angle * lead / (2*pi*gear.ratio), 1e-6..1 [m]"),
+    ("load.mass", "J_L", "kg", 0.0, False, 1e6,
+     "moving mass m at a linear output, 0 or 1e-12..1e6 [kg]", 1e-12),
+    ("load.stiffness", "K_h", "N/m", -1e12, False, 1e12,
+     "load spring K at a linear output: load force -K*x (> 0 opposes, < 0 aids the motion), 0 "
+     "or |K| 1e-12..1e12 [N/m]", 1e-12),
+    ("load.bias", "tau_h", "N", -1e9, False, 1e9,
+     "constant load force at a linear output, nonlinear simulation only, 0 or |value| "
+     "1e-12..1e9 [N]", 1e-12),
     ("simulation.current_loop_rate", None, "Hz", 1.0, False, 1e9,
      "current-controller sample rate with controllers: sampled, 1..1e9 [Hz]"),
     ("simulation.position_loop_rate", None, "Hz", 1.0, False, 1e9,
@@ -215,6 +232,43 @@ CASCADE_PARAMETERS = _table(
      {"hint": _CASCADE_HINT.format(key="position_loop.ff_v", unit="[-]", example="1")}),
 )
 
+#: The keys whose unit and meaning change at a linear output (``gear.screw_lead`` set): the
+#: output moves in metres. :func:`parameter` reads these records for a linear config.
+LINEAR_PARAMETERS = _table(
+    ("gear.ratio", "ratio", "dimensionless", 1e-3, False, 1e6,
+     "reduction N before the screw of a linear output: motor angle = N * screw angle, "
+     "1e-3..1e6 [dimensionless]"),
+    ("load.damping", "b_L", "N*s/m", 0.0, False, 1e9,
+     "load viscous damping b_L at a linear output, 0 or 1e-15..1e9 [N*s/m]", 1e-15),
+    ("gear.stiffness", "K_g", "N/m", 0.0, False, 1e15,
+     "axial stiffness K_g of the screw drive at the output (0: rigid), 0 or 1e-6..1e15 [N/m]",
+     1e-6),
+    ("gear.damping", "c_g", "N*s/m", 0.0, False, 1e9,
+     "damping c_g of the screw drive at the output, in parallel with its spring (needs "
+     "gear.stiffness), 0 or 1e-15..1e9 [N*s/m]", 1e-15),
+    ("gear.backlash", "backlash", "m", 0.0, False, 0.1,
+     "total axial play of the screw drive at the output, nonlinear simulation only, 0 or "
+     "1e-12..0.1 [m]", 1e-12),
+)
+
+#: Keys of a rotary output that a linear output refuses, and what it takes instead.
+LINEAR_REFUSED = {
+    "load.inertia": "a linear output (gear.screw_lead) takes load.mass [kg]",
+    "load.hinge_stiffness": "a linear output (gear.screw_lead) takes load.stiffness [N/m]",
+    "load.hinge_bias": "a linear output (gear.screw_lead) takes load.bias [N]",
+}
+#: Keys of a linear output that a rotary output refuses, and what it takes instead.
+LINEAR_ONLY = {
+    "gear.screw_lead": "the config's output is rotary: a screw (a linear output) is declared in "
+                       "the config file, not varied",
+    "load.mass": "the moving mass of a linear output (gear.screw_lead); a rotary output takes "
+                 "load.inertia [kg*m^2]",
+    "load.stiffness": "the load spring of a linear output (gear.screw_lead); a rotary output "
+                      "takes load.hinge_stiffness [N*m/rad]",
+    "load.bias": "the load force of a linear output (gear.screw_lead); a rotary output takes "
+                 "load.hinge_bias [N*m]",
+}
+
 #: Keys of the PID-on-PI position loop that a cascade refuses, and why.
 CASCADE_REFUSED = {
     "position_loop.Kd": "not used with a velocity loop (the position controller is P or PI)",
@@ -245,6 +299,32 @@ def is_cascade(config):
     return getattr(config, "velocity_loop", None) is not None
 
 
+def is_linear(config):
+    """True when validated ``config`` (an ActuatorConfig, or None) has a linear output (a
+    screw: ``gear.screw_lead``)."""
+    return getattr(getattr(config, "gear", None), "screw_lead", None) is not None
+
+
+def effective_ratio(ratio, screw_lead=None):
+    """The model's gear ratio N [rad/rad, or rad/m at a linear output]: motor angle = N *
+    output.
+
+    At a linear output x = theta * lead / (2 pi ratio), so N = 2 pi ratio / lead [rad/m] = 1/n;
+    every load at the output then reflects as a rotary one does (docs/model.md, "Linear
+    output"). Scalars or arrays.
+    """
+    if screw_lead is None:
+        return ratio
+    return 2.0 * math.pi * np.asarray(ratio, dtype=float) / screw_lead
+
+
+def _refused_keys(config):
+    """Keys ``config``'s architecture and output refuse, with why (:func:`variable_keys`)."""
+    refused = dict(CASCADE_REFUSED if is_cascade(config) else CASCADE_ONLY)
+    refused.update(LINEAR_REFUSED if is_linear(config) else LINEAR_ONLY)
+    return refused
+
+
 def parameter(key, config=None):
     """The :class:`Parameter` of dotted ``key`` as ``config``'s architecture reads it.
 
@@ -263,6 +343,8 @@ def parameter(key, config=None):
     """
     if is_cascade(config) and key in CASCADE_PARAMETERS:
         return CASCADE_PARAMETERS[key]
+    if is_linear(config) and key in LINEAR_PARAMETERS:
+        return LINEAR_PARAMETERS[key]
     if key in PARAMETERS:
         return PARAMETERS[key]
     match = _FILTER_KEY.fullmatch(key)
@@ -284,7 +366,7 @@ def variable_keys(config=None):
     config)."""
     if config is None:
         return VARIABLE_KEYS
-    refused = CASCADE_REFUSED if is_cascade(config) else CASCADE_ONLY
+    refused = _refused_keys(config)
     return (*(key for key in VARIABLE_KEYS if key not in refused), *_filter_keys(config))
 
 
@@ -300,7 +382,7 @@ def check_key(key, config=None):
         if key not in VARIABLE_KEYS:
             parameter(key)  # an unknown filter number
         return
-    refused = CASCADE_REFUSED if is_cascade(config) else CASCADE_ONLY
+    refused = _refused_keys(config)
     if key in refused:
         raise ConfigError(f"{key}: {refused[key]}")
     match = _FILTER_KEY.fullmatch(key)
@@ -326,6 +408,8 @@ def loop_values(loop, key, config=None):
         if index >= len(loop.filters) or name not in _FILTER_FIELDS:
             return None
         return getattr(loop.filters[index], _FILTER_FIELDS[name])
+    if key == "gear.ratio" and is_linear(config):  # the loop holds N = 2 pi ratio / lead
+        return loop.ratio * config.gear.screw_lead / (2.0 * math.pi)
     field = parameter(key, config).field
     return None if field is None else getattr(loop, field)
 
@@ -449,7 +533,11 @@ class LoopParameters:
         Motor: resistance [ohm], inductance [H], torque constant [N*m/A], back-EMF constant
         [V*s/rad], inertia [kg*m^2], viscous friction [N*m*s/rad].
     ratio : numpy.ndarray
-        Gear ratio N [-]: motor angle = N * fin angle.
+        Gear ratio N [-]: motor angle = N * output angle. At a linear output N = 2 pi
+        gear.ratio / gear.screw_lead [rad/m] (:func:`effective_ratio`), the output and every
+        output quantity are in metres, and the load fields hold the linear load's numbers
+        (``J_L`` the mass [kg], ``b_L`` [N*s/m], ``K_h`` [N/m], ``tau_h`` [N], ``K_g`` [N/m],
+        ``c_g`` [N*s/m], ``backlash`` [m]): the same equations, n = 1/N [m/rad].
     ci_Kp, ci_Ki, v_max, tau_c : numpy.ndarray
         Current loop: PI gains [V/A], [V/(A*s)], output limit [V], transport delay [s].
     cp_Kp, cp_Ki, cp_Kd, Tf : numpy.ndarray
@@ -664,14 +752,19 @@ _ABSENT = {"cv_Kp": 0.0, "cv_Ki": 0.0, "tau_v": 0.0, "tau_vf": 0.0, "omega_max":
            "cp_Kd": 0.0, "Tf": 0.0}
 
 
-def drivetrain_problem(stiffness, load_inertia, backlash, damping=0.0, where="samples"):
+def drivetrain_problem(stiffness, load_inertia, backlash, damping=0.0, where="samples",
+                       linear=False):
     """What is wrong with a combination of drivetrain values (arrays), or None.
 
     A compliant gear (``gear.stiffness`` > 0) needs a load inertia (the load side of the
-    two-mass model); backlash is a dead zone in the gear's spring and the mesh damping acts in
-    parallel with it, so both need a stiffness. The message ends with the indices of the bad
-    ``where`` (samples, runs), unless ``where`` is None (one config).
+    two-mass model; at a linear output, ``linear``, a moving mass); backlash is a dead zone in
+    the gear's spring and the mesh damping acts in parallel with it, so both need a stiffness.
+    The message ends with the indices of the bad ``where`` (samples, runs), unless ``where`` is
+    None (one config).
     """
+    stiffness_unit = "N/m" if linear else "N*m/rad"
+    load = "load.mass > 0 kg" if linear else "load.inertia > 0 kg*m^2"
+    load_name = load.partition(" ")[0]
     stiffness, load_inertia, backlash, damping = np.broadcast_arrays(
         *(np.atleast_1d(np.asarray(v, dtype=float))
           for v in (stiffness, load_inertia, backlash, damping))
@@ -679,15 +772,15 @@ def drivetrain_problem(stiffness, load_inertia, backlash, damping=0.0, where="sa
     bad = (damping > 0) & ~(stiffness > 0)
     if bad.any():
         return ("gear.damping: the mesh damping acts in parallel with the gear's spring, so it "
-                f"needs gear.stiffness > 0 N*m/rad as well{_which(where, bad)}")
+                f"needs gear.stiffness > 0 {stiffness_unit} as well{_which(where, bad)}")
     bad = (stiffness > 0) & ~(load_inertia > 0)
     if bad.any():
-        return ("gear.stiffness: a compliant gear needs load.inertia > 0 kg*m^2 (the load side "
-                f"of the two-mass model), got load.inertia = 0{_which(where, bad)}")
+        return (f"gear.stiffness: a compliant gear needs {load} (the load side of the two-mass "
+                f"model), got {load_name} = 0{_which(where, bad)}")
     bad = (backlash > 0) & ~(stiffness > 0)
     if bad.any():
         return ("gear.backlash: the play is a dead zone in the gear's spring, so it needs "
-                f"gear.stiffness > 0 N*m/rad as well{_which(where, bad)}")
+                f"gear.stiffness > 0 {stiffness_unit} as well{_which(where, bad)}")
     return None
 
 
@@ -726,6 +819,8 @@ def _row(config):
         value = _value_at(config, key)
         if record.field is not None and value is not None:
             row[record.field] = value
+    if is_linear(config):
+        row["ratio"] = effective_ratio(config.gear.ratio, config.gear.screw_lead)
     row["mu_v"] = config.motor.viscous_friction
     if not is_cascade(config):
         row["Tf"] = config.position_loop.filter_time_constant
@@ -794,8 +889,10 @@ def variant_parameters(params, changes, n=None):
             raise ConfigError(problem)
     if full["gear.backdrive_efficiency"] is None:
         full["gear.backdrive_efficiency"] = full["gear.efficiency"]
-    problem = drivetrain_problem(full["gear.stiffness"], full["load.inertia"],
-                                 full["gear.backlash"], full["gear.damping"])
+    linear = is_linear(params)
+    problem = drivetrain_problem(full["gear.stiffness"],
+                                 full["load.mass" if linear else "load.inertia"],
+                                 full["gear.backlash"], full["gear.damping"], linear=linear)
     if problem:
         raise ConfigError(problem)
     cascade = is_cascade(params)
@@ -807,6 +904,8 @@ def variant_parameters(params, changes, n=None):
         record = parameter(key, params)
         if record.field is not None and full[key] is not None:
             fields[record.field] = full[key]
+    if linear:
+        fields["ratio"] = effective_ratio(full["gear.ratio"], full["gear.screw_lead"])
     structure = _structure(params)
     return LoopParameters(
         **fields,

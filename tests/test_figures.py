@@ -10,6 +10,7 @@ from clirun import run_cli
 
 from cas_freq.config.requirement import METRICS, Requirement, metric_unit
 from cas_freq.figures import CONDITIONS, FIGURES, LOOPS, json_values
+from cas_freq.output import LENGTH
 from cas_freq.parameters import PARAMETERS
 
 #: One run per command, on the shipped config's base variant (a few seconds in all): a 10° step
@@ -26,6 +27,12 @@ COMMANDS = {
     "sinedwell": ["sinedwell", "--amplitudes", "10deg", "--frequencies", "200,1000", "--json"],
     "profile": ["simulate", "--profile", "10deg", "--velocity", "2000deg/s",
                 "--acceleration", "1e5deg/s^2", "--json"],
+    # a linear output (configs/ball_screw.yaml): its output quantities are the twins in mm
+    "step linear": ["simulate", "configs/ball_screw.yaml", "--step", "5mm", "--json"],
+    "sinedwell linear": ["sinedwell", "configs/ball_screw.yaml", "--amplitudes", "2mm",
+                         "--frequencies", "50,400", "--json"],
+    "profile linear": ["simulate", "configs/ball_screw.yaml", "--profile", "5mm", "--velocity",
+                       "100mm/s", "--acceleration", "2000mm/s^2", "--json"],
 }
 
 #: The groups of each command's JSON whose numbers are figures (dotted, ``*``: each element of
@@ -38,6 +45,9 @@ GROUPS = {
     "step": ("step", "fit"),
     "sinedwell": ("amplitudes.*",),
     "profile": ("profile",),
+    "step linear": ("step", "fit"),
+    "sinedwell linear": ("amplitudes.*",),
+    "profile linear": ("profile",),
 }
 
 
@@ -65,7 +75,8 @@ def _is_number(value):
 def test_every_figure_resolves_in_its_commands_json(outputs, key):
     figure = FIGURES[key]
     command = ("analyze loaded" if key.startswith("drivetrain.") else
-               "analyze cascade" if key.startswith("velocity_loop.") else figure.command)
+               "analyze cascade" if key.startswith("velocity_loop.") else
+               f"{figure.command} linear" if figure.output == "length" else figure.command)
     values = json_values(figure, outputs[command])  # KeyError: no such key
     assert values, key
     for value in values:
@@ -80,7 +91,7 @@ def test_the_runs_give_numbers_where_the_shipped_config_has_them(outputs):
     # where |L_i| > 1, docs/model.md §7's table: "—") is absent; every other requirement figure
     # is a number, so the previous test checked real values, not nulls
     missing = sorted(key for key, figure in FIGURES.items() if figure.requirement
-                     and not key.startswith("velocity_loop.")
+                     and not key.startswith("velocity_loop.") and figure.output != "length"
                      and None in json_values(figure, outputs[figure.command]))
     # (with the position loop closed, L_i has the position loop's two integrators: a lower
     # margin exists there)
@@ -89,8 +100,11 @@ def test_the_runs_give_numbers_where_the_shipped_config_has_them(outputs):
 
 @pytest.mark.parametrize("command", list(COMMANDS))
 def test_every_number_of_a_figure_group_is_in_the_table(outputs, command):
-    known = {f.json_key for f in FIGURES.values() if f.command == command.split()[0]}
-    known |= set(CONDITIONS.get(command, ()))
+    linear = command.endswith(" linear")  # the output quantities' twins in mm
+    known = {f.json_key for f in FIGURES.values() if f.command == command.split()[0]
+             and f.output != ("angle" if linear else "length")}
+    known |= {LENGTH.key(key) if linear else key
+              for key in CONDITIONS.get(command.split()[0] if linear else command, ())}
     for group in GROUPS[command]:
         node = [outputs[command]]
         for part in group.split("."):
@@ -113,7 +127,8 @@ def test_requirement_metrics_are_the_tables_with_their_units():
                 ("_s", "s"), ("_a", "A"), ("_v", "V"))
     for key in METRICS:
         name = key.rpartition(".")[2]
-        expected = next((unit for suffix, unit in suffixes if name.endswith(suffix)), None)
+        expected = next((unit for suffix, unit in (*suffixes, ("_mm", "mm"))
+                         if name.endswith(suffix)), None)
         if expected is not None:
             assert metric_unit(key) == expected, key
     assert metric_unit("fit.zeta") == "" and metric_unit("fit.rms_residual") == "rad"

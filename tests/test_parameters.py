@@ -20,11 +20,12 @@ from pydantic.fields import FieldInfo
 
 from cas_freq.config import ActuatorConfig, load_variant
 from cas_freq.config.loader import validate
-from cas_freq.config.schema import CascadePositionLoop
+from cas_freq.config.schema import CascadePositionLoop, LinearGear, LinearLoad
 from cas_freq.exceptions import ConfigError, ConfigTypeError
 from cas_freq.parameters import (
     CASCADE_ONLY,
     CASCADE_PARAMETERS,
+    LINEAR_ONLY,
     PARAMETERS,
     STATIC_FIELDS,
     VARIABLE_KEYS,
@@ -102,9 +103,20 @@ def test_table_covers_every_numeric_schema_field():
     cascade = _numeric_schema_fields(CascadePositionLoop, "position_loop.")
     assert set(CASCADE_PARAMETERS) <= set(cascade)
     fields.update({key: info for key, info in cascade.items() if key not in CASCADE_PARAMETERS})
+    # a linear output (gear.screw_lead) has gear and load sections of its own; the keys whose
+    # unit changes are declared from LINEAR_PARAMETERS' rows
+    from cas_freq.parameters import LINEAR_PARAMETERS
+
+    linear = {**_numeric_schema_fields(LinearGear, "gear."),
+              **_numeric_schema_fields(LinearLoad, "load.")}
+    assert set(LINEAR_PARAMETERS) <= set(linear)
+    fields.update({key: info for key, info in linear.items()
+                   if key not in LINEAR_PARAMETERS and key not in fields})
     assert set(fields) == set(table)
-    for key, info in [*fields.items(), *((k, cascade[k]) for k in CASCADE_PARAMETERS)]:
+    for key, info in [*fields.items(), *((k, cascade[k]) for k in CASCADE_PARAMETERS),
+                      *((k, linear[k]) for k in LINEAR_PARAMETERS)]:
         row = (CASCADE_PARAMETERS if info is cascade.get(key) and key in CASCADE_PARAMETERS
+               else LINEAR_PARAMETERS if info is linear.get(key) and key in LINEAR_PARAMETERS
                else table)[key]
         # each field is declared from its own row (param(key)), not from a neighbour's
         assert info.json_schema_extra == {"key": key, "unit": row.unit}, key
@@ -164,10 +176,16 @@ def test_bound_enforced_identically_by_schema_parse_value_and_variants(key, ship
         parse_value(key, bad)
     assert str(info.value) == expected
 
-    # the config schema (a velocity-loop key in a cascade config)
+    # the config schema (a velocity-loop key in a cascade config, a linear output's key in a
+    # config with a screw)
     if key in CASCADE_ONLY:
         as_cascade(shipped_raw)
-    cascade = copy.deepcopy(shipped_raw) if key in CASCADE_ONLY else None
+    if key in LINEAR_ONLY:
+        shipped_raw["gear"]["screw_lead"] = 0.005
+        shipped_raw["load"] = {}
+        for section in ("variants", "load_envelope", "requirements"):  # angles, rotary loads
+            shipped_raw.pop(section, None)
+    cascade = copy.deepcopy(shipped_raw) if key in {**CASCADE_ONLY, **LINEAR_ONLY} else None
     if key == "motor.mu_v":
         del shipped_raw["motor"]["no_load"]
     _set(shipped_raw, key, bad)

@@ -43,7 +43,7 @@ def test_pyproject_lists_every_package_and_maps_the_configs():
     assert settings["setuptools"]["package-dir"] == {"cas_freq.configs": "configs"}
     assert settings["setuptools"]["package-data"] == {"cas_freq.configs": ["*.yaml"]}
     assert {p.name for p in (ROOT / "configs").glob("*.yaml")} == {
-        "qt_cas.yaml", "dc_servo.yaml", "cascade_axis.yaml"}
+        "qt_cas.yaml", "dc_servo.yaml", "cascade_axis.yaml", "ball_screw.yaml"}
 
 
 def test_the_shipped_configs_are_package_data_when_installed_else_the_repositorys(

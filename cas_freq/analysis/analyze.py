@@ -48,6 +48,7 @@ from cas_freq.jit import compiled_for, use_compiled
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, EXACT, DelayModel
 from cas_freq.model.loops import Selector, current_loop, responses
 from cas_freq.model.structure import build
+from cas_freq.output import output_json, output_unit
 from cas_freq.summary import Summary
 
 #: Variants per chunk: the grid responses take about 26 kB per variant and response.
@@ -560,7 +561,9 @@ def analyze(
                      "not stable")
     load = drivetrain(params, order) if params.loaded[0] else None
     if load is not None:
-        notes.extend(drivetrain_notes(load, loaded.params.output_label))
+        unit = output_unit(loaded.params)
+        notes.extend(drivetrain_notes(load, loaded.params.output_label,
+                                      (unit.spring, unit.spring_unit)))
     rows = pade_study(params, pade_orders, omega) if pade_orders > 0 else ()
     edges = _range_edges(figures, omega, stability.stable)
     for section, figure, at_edge in edges:
@@ -618,6 +621,7 @@ def _range_edges(figures, omega, stable):
 
 def to_dict(analysis):
     """JSON-ready dict of an :class:`Analysis` (non-finite numbers become None)."""
+    unit = output_unit(analysis.loaded.params) if analysis.loaded is not None else None
     data = dataclasses.asdict(dataclasses.replace(analysis, loaded=None))
     del data["loaded"]
     edges = data.pop("range_edges")
@@ -642,4 +646,4 @@ def to_dict(analysis):
         for part in section.split("."):
             place = place[part]
         place[f"{figure}_at_range_edge"] = None if at_edge is None else bool(at_edge)
-    return json_ready(data)
+    return json_ready(data if unit is None else output_json(data, unit))

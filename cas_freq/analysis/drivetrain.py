@@ -167,30 +167,32 @@ def _boundary(p, unstable, stable, pade_order):
     return float(0.5 * (unstable + stable))
 
 
-def drivetrain_notes(load, output="output"):
+def drivetrain_notes(load, output="output", spring=("K_h", "N*m/rad")):
     """Plain sentences on what the drivetrain figures mean for stability (``output``: what
-    they call the output, the config's ``output_label``)."""
+    they call the output, the config's ``output_label``; ``spring``: the load spring's symbol
+    and unit, :class:`cas_freq.output.OutputUnit`)."""
+    symbol, unit = spring
     notes = []
     own = load.hinge_stiffness_n_m_rad
     if not load.plant_stable:
         notes.append(
-            f"the open-loop plant is statically unstable: the aiding load spring K_h "
-            f"{own:.4g} N*m/rad puts a mechanical pole at +{load.plant_unstable_pole_rad_s:.4g} "
+            f"the open-loop plant is statically unstable: the aiding load spring {symbol} "
+            f"{own:.4g} {unit} puts a mechanical pole at +{load.plant_unstable_pole_rad_s:.4g} "
             f"rad/s; only feedback can hold the {output}"
         )
     low, high = load.stable_hinge_stiffness_n_m_rad
     if low is None and high is None:
-        notes.append("the closed loop is unstable for every load spring K_h scanned")
+        notes.append(f"the closed loop is unstable for every load spring {symbol} scanned")
         return notes
     inside = (low is None or own > low) and (high is None or own < high)
     span = (f"{'-inf' if low is None else f'{low:.4g}'} .. "
-            f"{'+inf' if high is None else f'{high:.4g}'} N*m/rad")
+            f"{'+inf' if high is None else f'{high:.4g}'} {unit}")
     if inside:
-        margin = [] if low is None else [f"{own - low:.4g} N*m/rad more aiding stiffness"]
-        margin += [] if high is None else [f"{high - own:.4g} N*m/rad more opposing"]
-        notes.append(f"closed loop stable for load spring K_h {span} at the {output}; it is lost "
-                     f"with {' or '.join(margin) or 'no stiffness within the scan'}")
+        margin = [] if low is None else [f"{own - low:.4g} {unit} more aiding stiffness"]
+        margin += [] if high is None else [f"{high - own:.4g} {unit} more opposing"]
+        notes.append(f"closed loop stable for load spring {symbol} {span} at the {output}; it is "
+                     f"lost with {' or '.join(margin) or 'no stiffness within the scan'}")
     else:
-        notes.append(f"closed loop unstable at this load spring K_h ({own:.4g} N*m/rad); "
+        notes.append(f"closed loop unstable at this load spring {symbol} ({own:.4g} {unit}); "
                      f"the nearest stable range is {span}")
     return notes

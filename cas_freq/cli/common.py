@@ -244,6 +244,32 @@ def angle(text, option):
     return value
 
 
+def output_step(text, option, variants):
+    """A step (or move) at the output with a unit, in SI: an angle [rad] within ±90 deg at a
+    rotary output ('10deg'), a length [m] within ±1 m at a linear one ('5mm'); the other kind
+    is refused naming what to give (:func:`cas_freq.output.read_output`)."""
+    from cas_freq.output import output_unit, read_output
+
+    units = {output_unit(loaded.params) for loaded in variants}
+    if len(units) > 1:
+        raise CasFreqError(f"{option}: the selected variants mix rotary and linear outputs; "
+                           "select one kind with --variant")
+    try:
+        return read_output(text, units.pop(), option)
+    except ValueError as exc:
+        raise CasFreqError(str(exc)) from None
+
+
+def refuse_linear(loaded, option):
+    """Raise CasFreqError when ``loaded`` (a LoadedVariant) has a linear output: ``option``
+    reads the output as an angle (a recording, a command table), which this version does not
+    read in lengths."""
+    if getattr(loaded.params, "linear", False):
+        raise CasFreqError(f"{option}: {loaded.params.name} has a linear output (gear.screw_lead); "
+                           "its tables are read as angles (deg or rad), so this version does "
+                           "not read them for a linear output")
+
+
 class _Progress:
     """A tqdm bar driven by ``(done, planned)`` calls (the plan may grow).
 

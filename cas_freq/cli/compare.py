@@ -74,7 +74,7 @@ def run(args):
     variants = []
     for config in args.configs or [None]:
         variants += selected_variants(config, names, args.overrides, all_by_default=True)
-    settings = settings_from_args(args)
+    settings = settings_from_args(args, variants)
     if args.output is not None or len(variants) >= 2:
         from cas_freq.fileio import check_output_dir
         from cas_freq.report.compare import default_compare_dir

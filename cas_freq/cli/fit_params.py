@@ -217,6 +217,9 @@ def run_params(args):
     columns = column_option(args)
     loaded = selected_variants(args.target, [args.variant] if args.variant else [],
                                args.overrides)[0]
+    from cas_freq.cli.common import refuse_linear
+
+    refuse_linear(loaded, "fit")
     if as_file and Path(output).resolve() == Path(loaded.source).resolve():
         raise CasFreqError(f"-o {output}: is the input config; inputs are never modified")
     recordings = [read_recording(path, columns) for path in args.data]

@@ -180,6 +180,9 @@ def run_recordings(args):
     from cas_freq.cli.common import selected_variants
 
     loaded = selected_variants(args.target, [args.variant] if args.variant else [], [])[0]
+    from cas_freq.cli.common import refuse_linear
+
+    refuse_linear(loaded, "fit")
     recordings = [read_recording(path, columns) for path in args.data]
     fits = fit_recordings(recordings, step)
     from cas_freq.simulation.run import step_batch

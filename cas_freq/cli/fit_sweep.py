@@ -194,6 +194,9 @@ def run_sweep(args):
 
     columns = column_option(args)
     loaded = selected_variants(args.target, [args.variant] if args.variant else [], [])[0]
+    from cas_freq.cli.common import refuse_linear
+
+    refuse_linear(loaded, "fit")
     recordings = [read_sweep(path, columns) for path in args.data]
     _, data = results(recordings, loaded)
 

@@ -3,9 +3,9 @@
 from cas_freq.cli.common import (
     EXIT_OK,
     add_config_arguments,
-    angle,
     file_safe,
     output_path,
+    output_step,
     print_json,
     several_variants,
     variant_csv,
@@ -112,13 +112,16 @@ def run(args):
         from cas_freq.studies.distributed import parse_scheduler
 
         parse_scheduler(args.scheduler)
-    from cas_freq.parameters import CASCADE_PARAMETERS
+    from cas_freq.parameters import CASCADE_PARAMETERS, LINEAR_ONLY, LINEAR_PARAMETERS
 
     for text in args.tolerance:  # refused before any work, except a key whose unit depends on
-        if str(text).partition("=")[0].strip() not in CASCADE_PARAMETERS:  # the architecture
+        key = str(text).partition("=")[0].strip()  # the architecture or the output's kind
+        if key not in CASCADE_PARAMETERS and key not in LINEAR_PARAMETERS \
+                and key not in LINEAR_ONLY:
             parse_tolerance(text)
-    step = angle(args.step, "--step") if args.step else None
     variants = load_variants(args)
+    # an angle at a rotary output, a length at a linear one
+    step = output_step(args.step, "--step", variants) if args.step else None
     # one seed for every variant: each is drawn around its own values with the same numbers
     seed = args.seed if args.seed is not None or len(variants) == 1 else fresh_seed()
     results = []
@@ -135,7 +138,10 @@ def run(args):
             if progress:
                 progress.done()
     several = several_variants(args)
-    data = [montecarlo_dict(result) for result in results]
+    from cas_freq.output import output_json, output_unit
+
+    data = [output_json(montecarlo_dict(result), output_unit(loaded.params))  # mm if linear
+            for result, loaded in zip(results, variants, strict=True)]
     if args.output:
         from cas_freq.plots.studies import svg_text
 

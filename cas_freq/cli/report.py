@@ -10,6 +10,8 @@ from cas_freq.cli.common import (
 
 #: Amplitudes when none are given: small signal, two intermediate sizes, the report's 10 deg.
 DEFAULT_AMPLITUDES = "0.5deg,2deg,5deg,10deg"
+#: The default amplitudes at a linear output (``gear.screw_lead``).
+LINEAR_DEFAULT_AMPLITUDES = "0.1mm,0.5mm,1mm,5mm"
 #: Sine-dwell frequencies when none are given: derived from each variant's loop (16
 #: log-spaced over 0.1..5 x its linear bandwidth, cas_freq.report.data.ReportSettings).
 DEFAULT_FREQUENCIES = None
@@ -30,7 +32,8 @@ def register(commands):
     parser.add_argument(
         "--amplitudes", default=DEFAULT_AMPLITUDES, metavar="A,B,...",
         help=f"sine-dwell and step amplitudes at the output, with units; the smallest and the "
-        f"largest are the steps shown (default: {DEFAULT_AMPLITUDES})",
+        f"largest are the steps shown (default: {DEFAULT_AMPLITUDES}; a linear output: "
+        f"{LINEAR_DEFAULT_AMPLITUDES})",
     )
     parser.add_argument(
         "--frequencies", default=DEFAULT_FREQUENCIES, metavar="MIN:MAX:N|F1,F2,...",
@@ -45,15 +48,19 @@ def register(commands):
     parser.set_defaults(handler=run)
 
 
-def settings_from_args(args):
-    """ReportSettings from the command-line options."""
-    from cas_freq.cli.sinedwell import parse_amplitudes, parse_frequencies
+def settings_from_args(args, variants=None):
+    """ReportSettings from the command-line options (amplitudes read as ``variants``' output
+    takes them: lengths at a linear output, whose default is
+    :data:`LINEAR_DEFAULT_AMPLITUDES`)."""
+    from cas_freq.cli.sinedwell import amplitudes_text, parse_amplitudes, parse_frequencies
     from cas_freq.model.delay import DelayModel
     from cas_freq.report.data import ReportSettings
 
     DelayModel(args.pade_order)  # validates 1..MAX_PADE_ORDER with a clear message
+    text = amplitudes_text(args.amplitudes, variants, DEFAULT_AMPLITUDES,
+                           LINEAR_DEFAULT_AMPLITUDES)
     return ReportSettings(
-        amplitudes_rad=tuple(parse_amplitudes(args.amplitudes)),
+        amplitudes_rad=tuple(parse_amplitudes(text, variants)),
         frequencies_rad_s=(None if args.frequencies is None
                            else tuple(parse_frequencies(args.frequencies))),
         pade_order=args.pade_order,
@@ -72,7 +79,7 @@ def run(args):
     from cas_freq.report.build import build_report
 
     variants = load_variants(args, all_by_default=True)
-    settings = settings_from_args(args)
+    settings = settings_from_args(args, variants)
     from cas_freq.fileio import check_output_dir
 
     if args.output is not None:

@@ -4,10 +4,11 @@ move with and without feed-forward; or any command from a CSV table."""
 from cas_freq.cli.common import (
     EXIT_OK,
     add_config_arguments,
-    angle,
     load_variants,
     output_path,
+    output_step,
     print_json,
+    refuse_linear,
     several_variants,
     terminal_progress,
     wrote,
@@ -24,7 +25,8 @@ def register(commands):
     add_config_arguments(parser)
     what = parser.add_mutually_exclusive_group(required=True)
     what.add_argument(
-        "--step", metavar="ANGLE", help="output step with a unit, e.g. 10deg or 0.1rad",
+        "--step", metavar="STEP", help="output step with a unit, e.g. 10deg or 0.1rad (a linear "
+        "output: 5mm)",
     )
     what.add_argument(
         "--command", metavar="FILE",
@@ -67,8 +69,9 @@ def run(args):
         step_runs,
     )
 
-    move = _profile(args)
+    _profile(args, None)  # its options refused before the config is read
     variants = load_variants(args)
+    move = _profile(args, variants)
     if args.csv and len(variants) > 1:
         for loaded in variants:
             check_output_file(step_csv_name(args.csv, loaded, len(variants)), "--csv")
@@ -76,6 +79,8 @@ def run(args):
     if args.command:
         from cas_freq.simulation.commands import read_command_csv
 
+        for loaded in variants:
+            refuse_linear(loaded, "--command")
         command = read_command_csv(args.command)
         runs = [command_run(loaded, command, progress=progress) for loaded in variants]
         to_dict, to_table = command_run_dict, command_table
@@ -86,7 +91,8 @@ def run(args):
         runs = profile_runs(variants, move, progress=progress)
         to_dict, to_table = profile_run_dict, profile_table
     else:
-        runs = step_runs(variants, angle(args.step, "--step"), progress=progress)
+        runs = step_runs(variants, output_step(args.step, "--step", variants),
+                         progress=progress)
         to_dict, to_table = step_run_dict, step_table
     if progress:
         progress.done()
@@ -104,9 +110,11 @@ def run(args):
     return EXIT_OK
 
 
-def _profile(args):
+def _profile(args, variants):
     """The :class:`~cas_freq.simulation.commands.Profile` of ``--profile`` and its limits, or
-    None without ``--profile`` (when the limits must not be given either)."""
+    None without ``--profile`` (when the limits must not be given either); ``variants``: the
+    loaded variants, whose output's kind says how the move is read (None: check the options
+    only, the move as an angle)."""
     from cas_freq.exceptions import CasFreqError
 
     limits = {"velocity": args.velocity, "acceleration": args.acceleration,
@@ -120,7 +128,15 @@ def _profile(args):
     if missing:
         raise CasFreqError(f"--profile: needs {' and '.join(missing)} (e.g. --profile 10deg "
                            "--velocity 2000deg/s --acceleration 1e5deg/s^2)")
+    from cas_freq.output import ANGLE, output_unit
     from cas_freq.simulation.profile_run import make_profile
 
+    units = {output_unit(loaded.params) for loaded in variants or ()}
+    if len(units) > 1:
+        raise CasFreqError("--profile: the selected variants mix rotary and linear outputs; "
+                           "select one kind with --variant")
+    if variants is None:
+        return None
     return make_profile(args.profile, **limits,
-                        names={"distance": "--profile", **{k: f"--{k}" for k in limits}})
+                        names={"distance": "--profile", **{k: f"--{k}" for k in limits}},
+                        unit=units.pop() if units else ANGLE)

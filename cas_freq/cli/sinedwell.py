@@ -5,6 +5,7 @@ from cas_freq.cli.common import (
     add_config_arguments,
     angle,
     load_variants,
+    output_step,
     print_json,
     several_variants,
     terminal_progress,
@@ -25,7 +26,8 @@ def register(commands):
     add_config_arguments(parser)
     parser.add_argument(
         "--amplitudes", default=DEFAULT_AMPLITUDES, metavar="A,B,...",
-        help=f"output amplitudes with units (default: {DEFAULT_AMPLITUDES})",
+        help=f"output amplitudes with units (default: {DEFAULT_AMPLITUDES}; a linear output: "
+        f"{LINEAR_DEFAULT_AMPLITUDES})",
     )
     parser.add_argument(
         "--frequencies", default=None, metavar="MIN:MAX:N|F1,F2,...",
@@ -41,12 +43,31 @@ def register(commands):
     parser.set_defaults(handler=run)
 
 
-def parse_amplitudes(text):
-    """Comma-separated output angles with units → list of radians."""
+#: The defaults at a linear output (``gear.screw_lead``): lengths.
+LINEAR_DEFAULT_AMPLITUDES = "0.1mm,0.5mm,2mm"
+
+
+def amplitudes_text(text, variants, default, linear_default):
+    """``text``, or at a linear output the linear default where ``text`` is the rotary
+    ``default`` (an option left unset)."""
+    from cas_freq.output import output_unit
+
+    linear = any(output_unit(loaded.params).linear for loaded in variants or ())
+    return linear_default if linear and text == default else text
+
+
+def parse_amplitudes(text, variants=None):
+    """Comma-separated output amplitudes with units → list in SI: angles [rad], or lengths [m]
+    at a linear output of ``variants`` (:func:`cas_freq.cli.common.output_step`)."""
     parts = [part.strip() for part in text.split(",")]
     if not text.strip() or any(not part for part in parts):
-        raise CasFreqError(f"--amplitudes: expected angles such as 0.5deg,2deg,10deg, got {text!r}")
-    return [abs(angle(part, "--amplitudes")) for part in parts]
+        example = "angles such as 0.5deg,2deg,10deg"
+        if variants and any(getattr(v.params, "linear", False) for v in variants):
+            example = f"lengths such as {LINEAR_DEFAULT_AMPLITUDES}"
+        raise CasFreqError(f"--amplitudes: expected {example}, got {text!r}")
+    if variants is None:
+        return [abs(angle(part, "--amplitudes")) for part in parts]
+    return [abs(output_step(part, "--amplitudes", variants)) for part in parts]
 
 
 def parse_frequencies(text):
@@ -62,15 +83,18 @@ def parse_frequencies(text):
 def run(args):
     """Sine-dwell the selected variants; print a table or JSON."""
     from cas_freq.analysis import analyze
+    from cas_freq.output import output_json, output_unit
     from cas_freq.report.text import sinedwell_table
     from cas_freq.simulation.run import over_budget_reason, sinedwell_run, sinedwell_run_dict
     from cas_freq.simulation.simulator import BudgetError
     from cas_freq.simulation.sinedwell import dwell_frequencies
 
-    amplitudes = parse_amplitudes(args.amplitudes)
+    variants = load_variants(args)
+    amplitudes = parse_amplitudes(amplitudes_text(args.amplitudes, variants, DEFAULT_AMPLITUDES,
+                                                  LINEAR_DEFAULT_AMPLITUDES), variants)
     frequencies = None if args.frequencies is None else parse_frequencies(args.frequencies)
     data = []
-    for loaded in load_variants(args):
+    for loaded in variants:
         progress = terminal_progress(f"sine-dwell {loaded.variant}")
         analysis = analyze(loaded)
         try:  # by default the report's grid; none for a loop that is not stable
@@ -84,7 +108,7 @@ def run(args):
                                ) from None
         if progress:
             progress.done()
-        data.append(sinedwell_run_dict(result))
+        data.append(output_json(sinedwell_run_dict(result), output_unit(loaded.params)))
     if args.json:
         print_json(data if several_variants(args) else data[0])
     else:

@@ -3,10 +3,10 @@
 from cas_freq.cli.common import (
     EXIT_OK,
     add_config_arguments,
-    angle,
     file_safe,
     load_variants,
     output_path,
+    output_step,
     print_json,
     several_variants,
     variant_csv,
@@ -136,7 +136,11 @@ def run(args):
     fixed, axes = split_settings(args.overrides, parse=False)
     if not axes:
         raise CasFreqError("sweep: give at least one grid, e.g. --set position_loop.Kp=2:12:200")
-    step = angle(args.step, "--step") if args.step else None
+    if args.frequencies and not args.sinedwell:
+        raise CasFreqError("--frequencies: only with --sinedwell")
+    variants = load_variants(args, overrides=fixed)
+    # an angle at a rotary output, a length at a linear one
+    step = output_step(args.step, "--step", variants) if args.step else None
     sinedwell = None
     if args.sinedwell:
         from cas_freq.cli.sinedwell import parse_frequencies
@@ -144,10 +148,7 @@ def run(args):
 
         frequencies = (DEFAULT_SINEDWELL_FREQUENCIES_RAD_S if args.frequencies is None
                        else parse_frequencies(args.frequencies))
-        sinedwell = (abs(angle(args.sinedwell, "--sinedwell")), frequencies)
-    elif args.frequencies:
-        raise CasFreqError("--frequencies: only with --sinedwell")
-    variants = load_variants(args, overrides=fixed)
+        sinedwell = (abs(output_step(args.sinedwell, "--sinedwell", variants)), frequencies)
     results = []
     with session(args.scheduler):  # one cluster for every variant
         for loaded in variants:
@@ -161,7 +162,10 @@ def run(args):
             if progress:
                 progress.done()
     several = several_variants(args)
-    data = [sweep_dict(result) for result in results]
+    from cas_freq.output import output_json, output_unit
+
+    data = [output_json(sweep_dict(result), output_unit(loaded.params))  # mm if linear
+            for result, loaded in zip(results, variants, strict=True)]
     data = data if several else data[0]
     csv_text = None
     if args.csv or args.output:

@@ -137,7 +137,19 @@ class ProfileCondition(BaseModel):
 
     @field_validator("distance", mode="before")
     @classmethod
-    def _distance(cls, value):
+    def _distance(cls, value, info):
+        from cas_freq.output import LENGTH, wrong_kind
+
+        if (info.context or {}).get("linear"):  # a linear output: a length
+            wrong = wrong_kind(value, LENGTH, "") if isinstance(value, str) else None
+            if wrong:
+                raise PydanticCustomError("cas_value", wrong)
+            number = _quantity_field(value, "m", "5 mm", "the move at the output")
+            if not (number != 0 and abs(number) <= LENGTH.largest):
+                raise PydanticCustomError(
+                    "cas_value", f"must be non-zero and within ±{LENGTH.largest_text} at the "
+                    f"output, got {value!r}")
+            return number
         number = _quantity_field(value, "rad", "10 deg", "the move at the output")
         if not (number != 0 and abs(number) <= math.pi / 2):
             raise PydanticCustomError(
@@ -153,6 +165,9 @@ class ProfileCondition(BaseModel):
         unit, example, what = (("rad/s", "2000 deg/s", "a speed at the output")
                                if info.field_name == "velocity" else
                                ("rad/s^2", "1e5 deg/s^2", "an acceleration at the output"))
+        if (info.context or {}).get("linear"):  # a linear output: per metre
+            unit, example = (("m/s", "100 mm/s") if info.field_name == "velocity" else
+                             ("m/s^2", "2000 mm/s^2"))
         number = _quantity_field(value, unit, example, what)
         if not number > 0:
             raise PydanticCustomError("cas_value", f"must be > 0, got {value!r}")
@@ -210,12 +225,20 @@ class Requirement(BaseModel):
 
     @field_validator("metric")
     @classmethod
-    def _known_metric(cls, value):
+    def _known_metric(cls, value, info):
         if value not in METRICS:
             raise PydanticCustomError(
                 "cas_value",
                 f"unknown figure {value!r}; accepted: {accepted_metrics()}",
             )
+        figure = FIGURES[value]
+        linear = bool((info.context or {}).get("linear"))
+        if figure.output == ("angle" if linear else "length"):
+            kind = "an angle" if linear else "a length"
+            output = "linear" if linear else "rotary"
+            raise PydanticCustomError(
+                "cas_value", f"{value} is {kind} of the output; this actuator's output is "
+                f"{output}: use {figure.twin}")
         return value
 
     @field_validator("min", "max", mode="before")
@@ -235,22 +258,29 @@ class Requirement(BaseModel):
 
     @field_validator("step", "amplitude", mode="before")
     @classmethod
-    def _angle(cls, value):
+    def _angle(cls, value, info):
+        from cas_freq.output import ANGLE, LENGTH, wrong_kind
+
         if value is None:
             return value
-        text = f"give an output angle with a unit (e.g. '10 deg'), got {value!r}"
+        linear = bool(info is not None and (info.context or {}).get("linear"))
+        unit, what, example = ((LENGTH, "an output length", "5 mm") if linear else
+                               (ANGLE, "an output angle", "10 deg"))
+        text = f"give {what} with a unit (e.g. '{example}'), got {value!r}"
         if not isinstance(value, str):
             raise PydanticCustomError("cas_value", text)
         try:
-            number = to_si(value, "rad")
+            number = to_si(value, unit.si)
             unitless = not has_unit(value)
         except (TypeError, ValueError) as exc:
-            raise PydanticCustomError("cas_value", f"{text} ({exc})") from None
+            wrong = wrong_kind(value, unit, "")
+            raise PydanticCustomError("cas_value", wrong or f"{text} ({exc})") from None
         if unitless:
             raise PydanticCustomError("cas_value", text)
-        if not 0 < number <= math.pi / 2:
+        if not 0 < number <= unit.largest:
             raise PydanticCustomError(
-                "cas_value", f"must be > 0 and at most 90 deg at the output, got {value!r}"
+                "cas_value", f"must be > 0 and at most {unit.largest_text} at the output, got "
+                f"{value!r}"
             )
         return number
 

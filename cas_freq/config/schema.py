@@ -36,6 +36,9 @@ from cas_freq.parameters import (
     CASCADE_PARAMETERS,
     CASCADE_REFUSED,
     FILTER_PARAMETERS,
+    LINEAR_ONLY,
+    LINEAR_PARAMETERS,
+    LINEAR_REFUSED,
     PARAMETERS,
     Parameter,
     derived_problem,
@@ -63,13 +66,21 @@ def cascade_param(key):
     return _field(CASCADE_PARAMETERS[key], key)
 
 
-def refused(why):
+def linear_param(key):
+    """Type of the float field of dotted config ``key`` at a linear output, as
+    :data:`LINEAR_PARAMETERS` declares it."""
+    return _field(LINEAR_PARAMETERS[key], key)
+
+
+def refused(why, quote=False):
     """Type of a key that this section refuses with the message ``why`` whenever given (null
-    is taken as absent)."""
+    is taken as absent); ``quote``: the message ends with the value given."""
 
     def refuse(value):
         if value is None:  # absent (a dumped config writes it so)
             return None
+        if quote:
+            raise PydanticCustomError("cas_value", why + ", got {value}", {"value": repr(value)})
         raise PydanticCustomError("cas_value", why)
 
     return Annotated[Any, BeforeValidator(refuse), Field(json_schema_extra={"refused": why})]
@@ -167,6 +178,22 @@ class Gear(_Section):
         return self.backdrive_efficiency
 
 
+class LinearGear(_Section):
+    """Reduction and screw of a linear output: output x = motor angle * screw_lead / (2 pi
+    ratio) [m] (docs/model.md, "Linear output"); stiffness, damping and play are axial, at the
+    output."""
+
+    ratio: linear_param("gear.ratio")
+    screw_lead: param("gear.screw_lead")
+    efficiency: param("gear.efficiency") = 1.0
+    backdrive_efficiency: param("gear.backdrive_efficiency") | None = None
+    stiffness: linear_param("gear.stiffness") = 0.0
+    damping: linear_param("gear.damping") = 0.0
+    backlash: linear_param("gear.backlash") = 0.0
+
+    backdrive = Gear.backdrive
+
+
 class Load(_Section):
     """What the fin carries, at the fin (docs/model.md, "Load and drivetrain"); all absent
     (0) by default: the report's unloaded bench."""
@@ -175,6 +202,33 @@ class Load(_Section):
     damping: param("load.damping") = 0.0
     hinge_stiffness: param("load.hinge_stiffness") = 0.0
     hinge_bias: param("load.hinge_bias") = 0.0
+    mass: refused(LINEAR_ONLY["load.mass"], quote=True) = None
+    stiffness: refused(LINEAR_ONLY["load.stiffness"], quote=True) = None
+    bias: refused(LINEAR_ONLY["load.bias"], quote=True) = None
+
+    @property
+    def rotary_inertia(self):
+        """The load's inertia as the model holds it (``J_L``) [kg*m^2]."""
+        return self.inertia
+
+
+class LinearLoad(_Section):
+    """What a linear output moves, at the output: a mass, a damper, a spring (-K*x) and a
+    constant force; all absent (0) by default."""
+
+    mass: param("load.mass") = 0.0
+    damping: linear_param("load.damping") = 0.0
+    stiffness: param("load.stiffness") = 0.0
+    bias: param("load.bias") = 0.0
+    inertia: refused(LINEAR_REFUSED["load.inertia"], quote=True) = None
+    hinge_stiffness: refused(LINEAR_REFUSED["load.hinge_stiffness"], quote=True) = None
+    hinge_bias: refused(LINEAR_REFUSED["load.hinge_bias"], quote=True) = None
+
+    @property
+    def rotary_inertia(self):
+        """The load as the model holds it (``J_L``, the mass) [kg, i.e. kg*m^2/rad^2 with the
+        output in m]."""
+        return self.mass
 
 
 class CurrentLoop(_Section):
@@ -469,8 +523,8 @@ class ActuatorConfig(_Section):
     output_name: str | None = None
     drive: Literal["epos4"] | None = None
     motor: Motor
-    gear: Gear
-    load: Load = Load()
+    gear: Gear | LinearGear
+    load: Load | LinearLoad = Load()
     current_loop: CurrentLoop
     velocity_loop: VelocityLoop | None = None
     position_loop: PositionLoop | CascadePositionLoop
@@ -488,7 +542,50 @@ class ActuatorConfig(_Section):
         context = dict(kwargs.pop("context", None) or {})
         context.setdefault("cascade", isinstance(obj, dict)
                            and obj.get("velocity_loop") is not None)
+        gear = obj.get("gear") if isinstance(obj, dict) else None
+        context.setdefault("linear", isinstance(gear, dict)
+                           and gear.get("screw_lead") is not None)
         return super().model_validate(obj, context=context, **kwargs)
+
+    @field_validator("gear", mode="wrap")
+    @classmethod
+    def _gear(cls, value, handler: ValidatorFunctionWrapHandler, info):
+        if isinstance(value, (Gear, LinearGear)):
+            return value
+        return (LinearGear if (info.context or {}).get("linear") else Gear).model_validate(value)
+
+    @field_validator("load", mode="wrap")
+    @classmethod
+    def _load(cls, value, handler: ValidatorFunctionWrapHandler, info):
+        if isinstance(value, (Load, LinearLoad)):
+            return value
+        return (LinearLoad if (info.context or {}).get("linear") else Load).model_validate(value)
+
+    @model_validator(mode="after")
+    def _load_matches_gear(self):
+        if isinstance(self.gear, LinearGear) and isinstance(self.load, Load):
+            object.__setattr__(self, "load", LinearLoad())  # the default load: absent
+        return self
+
+    @model_validator(mode="after")
+    def _rotary_sections(self):
+        if not self.linear:
+            return self
+        if self.load_envelope is not None:
+            raise PydanticCustomError(
+                "cas_value", "load_envelope: the load envelope sweeps a rotary output's "
+                "load.hinge_stiffness [N*m/rad]; this version has none for a linear output "
+                "(gear.screw_lead): remove the section")
+        if self.reference is not None and self.reference.step_amplitude is not None:
+            raise PydanticCustomError(
+                "cas_value", "reference.step_amplitude: an angle; this version reads no "
+                "reference step of a linear output (gear.screw_lead): remove the key")
+        return self
+
+    @property
+    def linear(self):
+        """True for a linear output (``gear.screw_lead``): lengths at the output."""
+        return isinstance(self.gear, LinearGear)
 
     @field_validator("position_loop", mode="wrap")
     @classmethod
@@ -537,8 +634,9 @@ class ActuatorConfig(_Section):
 
     @model_validator(mode="after")
     def _drivetrain(self):
-        problem = drivetrain_problem(self.gear.stiffness, self.load.inertia, self.gear.backlash,
-                                     self.gear.damping, where=None)
+        problem = drivetrain_problem(self.gear.stiffness, self.load.rotary_inertia,
+                                     self.gear.backlash, self.gear.damping, where=None,
+                                     linear=self.linear)
         if problem:
             raise PydanticCustomError("cas_value", problem)
         return self

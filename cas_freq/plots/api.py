@@ -68,11 +68,15 @@ def step_figure(response):
     t_ms = 1e3 * response.time_s
     fig = Figure(figsize=(8, 6), layout="constrained")
     angle, current = fig.subplots(2, 1, sharex=True)
-    angle.plot(t_ms, response.command_deg, color="k", ls=":", lw=0.9, label="command δ_cmd")
+    unit = response.run.output_unit  # deg, or mm at a linear output
+    command, output = ((response.command_mm, response.output_mm) if unit.linear else
+                       (response.command_deg, response.output_angle_deg))
+    angle.plot(t_ms, command, color="k", ls=":", lw=0.9, label="command δ_cmd")
     name = response.run.output
-    angle.plot(t_ms, response.output_angle_deg, label=f"{name} angle δ")
-    angle.set_ylabel(f"{name} angle [deg]")
-    angle.set_title(f"{response.step.amplitude_deg:g}° step (nonlinear, limits and delays)")
+    angle.plot(t_ms, output, label=f"{name} {unit.quantity} δ")
+    angle.set_ylabel(f"{name} {unit.quantity} [{unit.shown}]")
+    angle.set_title(f"{unit.symbol(response.step.amplitude_deg)} step (nonlinear, limits and "
+                    "delays)")
     angle.legend()
     current.plot(t_ms, response.current_a, label="motor current i")
     current.set_ylabel("current [A]")

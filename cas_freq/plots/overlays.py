@@ -159,7 +159,8 @@ def step_overlay(datas, labels):
         ax.set_xlim(0.0, 1e3 * window_s)
         ax.set_xlabel("time [ms]")
         ax.set_ylabel("δ / step size [-]")
-        size = "/".join(sorted({f"{a:g}°" for a in amplitudes}))
+        unit = datas[0].dwell.steps[0].output_unit  # deg, or mm at a linear output
+        size = "/".join(sorted({unit.symbol(a) for a in amplitudes}))
         ax.set_title(f"{'smallest' if col == 0 else 'largest'} step ({size})")
     handles = [Line2D([], [], color=color) for color in _colors(datas)]
     names = [f"{label}: {_limit_words(d.dwell.steps[d.small_index].step)} (smallest), "

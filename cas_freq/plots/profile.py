@@ -34,26 +34,27 @@ def profile_figure(run, figure_class=Figure):
         a for a in arrivals if np.isfinite(a))])
     fig = figure_class(figsize=(8, 6), layout="constrained")
     angle, error = fig.subplots(2, 1, sharex=True)
-    first = run.result
+    first, unit = run.result, run.output_unit  # deg, or mm at a linear output
     keep = first.t <= view_end
-    angle.plot(1e3 * first.t[keep], np.degrees(first.command[keep]), color="k", ls=":", lw=0.9,
+    angle.plot(1e3 * first.t[keep], unit.from_si(first.command[keep]), color="k", ls=":", lw=0.9,
                label="command δ_cmd")
     for name, label, style in _RUNS:
         result = getattr(run, name)
         keep = result.t <= view_end
         t_ms = 1e3 * result.t[keep]
-        angle.plot(t_ms, np.degrees(result.delta[keep]), ls=style, label=f"δ, {label}")
-        error.plot(t_ms, np.degrees(result.command[keep] - result.delta[keep]), ls=style,
+        angle.plot(t_ms, unit.from_si(result.delta[keep]), ls=style, label=f"δ, {label}")
+        error.plot(t_ms, unit.from_si(result.command[keep] - result.delta[keep]), ls=style,
                    label=label)
     for ax in (angle, error):
         ax.axvspan(1e3 * run.move.start_s, 1e3 * move_end, color="0.9", zorder=0)
         ax.grid(True, alpha=0.35)
-    angle.set_ylabel(f"{run.output} angle [deg]")
-    angle.set_title(f"profile move of {run.profile.distance_deg:g}° (nonlinear, limits and "
+    angle.set_ylabel(f"{run.output} {unit.quantity} [{unit.shown}]")
+    angle.set_title(f"profile move of {unit.symbol(run.profile.distance_deg)} (nonlinear, "
+                    "limits and "
                     "delays; the move shaded)")
     angle.legend()
     error.axhline(0.0, color="k", lw=0.6)
-    error.set_ylabel("tracking error δ_cmd − δ [deg]")
+    error.set_ylabel(f"tracking error δ_cmd − δ [{unit.shown}]")
     error.set_xlabel("time [ms]")
     error.legend()
     return fig

@@ -22,6 +22,7 @@ from matplotlib.ticker import MultipleLocator
 
 from cas_freq.analysis.frequency import continuous_phase
 from cas_freq.config.wording import common_output_label
+from cas_freq.output import output_unit
 from cas_freq.plots import loci
 from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_svg re-exported)
     EXACT,
@@ -498,19 +499,19 @@ def steps(data):
         window_s = _step_window_s(run)
         keep = _thin(r.t, window_s)
         t_ms = _r(1e3 * np.asarray(r.t)[keep])
-        a_deg = run.step.amplitude_deg
+        unit = run.output_unit
         top, mid, bottom = axes[:, col]
         for ax in (top, mid, bottom):
             _shade_limits(ax, 1e3 * np.asarray(r.t), r, 1e3 * window_s)
             ax.set_xlim(0.0, 1e3 * window_s)
-        top.plot(t_ms, _r(np.degrees(r.command[keep])), color="k", lw=0.8, ls=":",
+        top.plot(t_ms, _r(unit.from_si(r.command[keep])), color="k", lw=0.8, ls=":",
                  label="command δ_cmd")
-        top.plot(t_ms, _r(np.degrees(r.delta[keep])), color="C0",
+        top.plot(t_ms, _r(unit.from_si(r.delta[keep])), color="C0",
                  label="nonlinear (limits, exact delays)")
-        top.plot(t_ms, _r(np.degrees(data.linear_steps[k][keep])), color="C1", ls="--",
+        top.plot(t_ms, _r(unit.from_si(data.linear_steps[k][keep])), color="C1", ls="--",
                  label=f"linear T (Padé {data.pade_order})")
-        top.set_ylabel(f"{params.output_label} angle δ [deg]")
-        top.set_title(f"{a_deg:g}° step: {_limit_words(run.step)}")
+        top.set_ylabel(f"{params.output_label} {unit.quantity} δ [{unit.shown}]")
+        top.set_title(f"{unit.symbol(run.step.amplitude_deg)} step: {_limit_words(run.step)}")
         mid.plot(t_ms, _r(r.i[keep]), color="C0", label="motor current i")
         for sign in (1, -1):
             mid.axhline(sign * current_limit(params), color="C3", ls="--", lw=0.9)
@@ -550,12 +551,13 @@ def step_fit(data):
     window_s = _step_window_s(run)
     keep = _thin(r.t, window_s)
     t = np.asarray(r.t)[keep]
-    a_deg = run.step.amplitude_deg
+    unit = run.output_unit
+    a_deg = unit.value(run.step.amplitude_deg)  # the step in the unit the axis shows
     fig, axes = _figure(1, 1, (8, 4.5), margins=Margins(top=0.6))
     ax = axes[0, 0]
     window = 1e3 * window_s
     t_ms = _r(1e3 * t)
-    ax.plot(t_ms, _r(np.degrees(r.delta[keep])), color="C0", lw=2.2, alpha=0.7,
+    ax.plot(t_ms, _r(unit.from_si(r.delta[keep])), color="C0", lw=2.2, alpha=0.7,
             label="nonlinear simulation (data)")
     if fit.success:
         ax.plot(t_ms, _r(second_order_step(t, fit.wn_rad_s, fit.zeta, fit.td_s, a_deg)),
@@ -571,9 +573,10 @@ def step_fit(data):
                 f"ζ {fit_ref.zeta:g}, td {1e3 * (fit_ref.td or 0.0):g} ms")
     ax.set_xlim(0.0, window)
     ax.set_xlabel("time [ms]")
-    ax.set_ylabel(f"{data.loaded.params.output_label} angle δ [deg]")
+    ax.set_ylabel(f"{data.loaded.params.output_label} {unit.quantity} δ [{unit.shown}]")
     ax.legend(loc="lower right")
-    ax.set_title(f"{a_deg:g}° step: second-order-plus-delay fit (docs/model.md §7)")
+    ax.set_title(f"{unit.symbol(run.step.amplitude_deg)} step: second-order-plus-delay fit "
+                 "(docs/model.md §7)")
     fig.suptitle(f"{data.label}: second-order fit to the nonlinear step (exact delays)")
     return fig
 
@@ -601,8 +604,9 @@ def _requirement_lines(ax, verdicts):
 
 
 def _step_amplitudes_deg(data):
-    """The variant's amplitudes [deg]: one step (and one sine-dwell, if computed) each."""
-    return np.array([run.step.amplitude_deg for run in data.dwell.steps])
+    """The variant's amplitudes [deg, or mm at a linear output]: one step (and one sine-dwell,
+    if computed) each."""
+    return np.array([run.output_unit.value(run.step.amplitude_deg) for run in data.dwell.steps])
 
 
 def _bandwidth_series(ax, data, color, prefix=""):
@@ -630,7 +634,7 @@ def _amplitude_axis(ax, datas):
     ax.set_xticks(amplitudes, [f"{a:g}" for a in amplitudes])
     ax.minorticks_off()
     output = common_output_label(d.loaded.params for d in datas)
-    ax.set_xlabel(f"{output} amplitude [deg]")
+    ax.set_xlabel(f"{output} amplitude [{output_unit(datas[0].loaded.params).shown}]")
 
 
 def _reference_points(datas):
@@ -683,13 +687,14 @@ def sinedwell(data):
     fig, axes = _figure(2, 1, (8, 6), sharex=True, margins=Margins())
     mag, ph = axes[:, 0]
     lin = np.asarray(data.dwell.linear_response)
+    unit = output_unit(data.loaded.params)
     for k, amplitude in enumerate(np.degrees(np.asarray(r.amplitudes_rad))):
         color = f"C{k % 10}"
         hit = np.asarray(r.limit_hit[k], bool)
         magnitude, phase = _r(r.magnitude_db[k]), _r(r.phase_deg[k])
         for ax, values in ((mag, magnitude), (ph, phase)):
             ax.plot(w, values, "-", color=color, lw=1,
-                    label=f"{amplitude:g}°" if ax is mag else None)
+                    label=unit.symbol(amplitude) if ax is mag else None)
             ax.plot(w[hit], values[hit], "o", color=color, mfc="none", ms=5)
             ax.plot(w[~hit], values[~hit], "o", color=color, ms=4)
     # the linear T on top, dashed, so that the small-signal trace does not hide it

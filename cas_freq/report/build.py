@@ -20,6 +20,7 @@ from pathlib import Path
 
 from cas_freq.config.wording import name_the_output
 from cas_freq.figures import FIGURES, LOOPS
+from cas_freq.output import output_json, output_unit
 from cas_freq.report.data import (
     ReportSettings,
     current_limit,
@@ -96,7 +97,7 @@ def reference_blocks(datas):
     for k, (figure, unit, value, _) in enumerate(rows_by_variant[0]):
         rows.append((figure, unit, number(value),
                      *(number(rows[k][3]) for rows in rows_by_variant)))
-    steps = {f"{d.dwell.steps[d.reference_index].step.amplitude_deg:g}°" for d in datas}
+    steps = {_step_text(d.dwell.steps[d.reference_index]) for d in datas}
     size = ("" if reference.step_amplitude is None
             else f" ({math.degrees(reference.step_amplitude):g}° step)")
     source = f"{reference.source}: " if reference.source else ""
@@ -151,11 +152,11 @@ def summary_rows(data):
              for name in ("bandwidth_rad_s", "peak_db", "phase_90_rad_s")]
     for k, run in enumerate(data.dwell.steps):  # one step per sine-dwell amplitude
         label, unit, _ = _figure_row("sinedwell.bandwidth_rad_s", None, "sine-dwell ")
-        rows.append((f"{label} at {run.step.amplitude_deg:g}°", unit,
+        rows.append((f"{label} at {_step_text(run)}", unit,
                      sinedwell_bandwidth(data, k)))
     for k in sorted({data.small_index, data.large_index}):
         step = data.dwell.steps[k]
-        prefix = f"{step.step.amplitude_deg:g}° step "
+        prefix = f"{_step_text(step)} step "
         rows += [_figure_row(f"step.{name}", getattr(step.step, name), prefix)
                  for name in ("rise_time_s", "overshoot_pct", "settling_time_s")]
         rows += [(f"{prefix}limits", "", _limits_text(step.step)),
@@ -272,13 +273,18 @@ def pade_table(analysis):
                  "headline figures with Padé delays of each order beside exact delays")
 
 
+def _step_text(run):
+    """A StepRun's size as labels show it: ``"10°"``, at a linear output ``"5 mm"``."""
+    return run.output_unit.symbol(run.step.amplitude_deg)
+
+
 def step_table(data):
     """Step figures of the smallest and largest steps, nonlinear and linear."""
     columns, figures = [], []
     for k in sorted({data.small_index, data.large_index}):
         run = data.dwell.steps[k]
-        a_deg = run.step.amplitude_deg
-        columns += [f"{a_deg:g}° nonlinear", f"{a_deg:g}° linear (Padé {data.pade_order})"]
+        size = _step_text(run)
+        columns += [f"{size} nonlinear", f"{size} linear (Padé {data.pade_order})"]
         figures += [run.step, data.linear_step_figures[k]]
     rows = tuple((figure.label, figure.shown_unit,
                   *(number(_shown(figure.key, getattr(f, figure.name))) for f in figures))
@@ -293,10 +299,10 @@ def fit_table(data):
     rows = []
     for run in data.dwell.steps:
         fit = run.fit
-        rows.append((f"{run.step.amplitude_deg:g}° step (model)", number(fit.wn_rad_s),
+        rows.append((f"{_step_text(run)} step (model)", number(fit.wn_rad_s),
                      number(fit.zeta, 3), number(_ms(fit.td_s), 3),
                      number(fit.bandwidth_closed_form_rad_s),
-                     number(_shown("fit.rms_residual", fit.rms_residual), 3),
+                     number(fit.rms_residual * run.output_unit.scale, 3),
                      "yes" if fit.success else "no"))
     reference = data.reference
     if reference is not None and reference.fit is not None:
@@ -305,8 +311,10 @@ def fit_table(data):
                 else f"{math.degrees(reference.step_amplitude):g}° ")
         rows.append((f"{size}step (reference)", number(fit.wn), number(fit.zeta),
                      number(_ms(fit.td)), number(fit.bandwidth_rad_s), "—", "—"))
-    header = tuple(f"{f.label} [{f.shown_unit or '-'}]" if f.name != "success" else f.label
-                   for f in FIGURES.values() if f.key.startswith("fit."))
+    shown = output_unit(data.loaded.params).shown  # the residual is in the output's unit
+    header = tuple(f"{f.label} [{shown if f.key == 'fit.rms_residual' else f.shown_unit or '-'}]"
+                   if f.name != "success" else f.label
+                   for f in FIGURES.values() if f.key.startswith("fit.") and f.output != "length")
     return Table(("step", *header), tuple(rows),
                  "second-order-plus-delay fits (docs/model.md §7)")
 
@@ -314,10 +322,12 @@ def fit_table(data):
 def bandwidth_table(data):
     """Bandwidth three ways per amplitude."""
     result = data.dwell.result
+    unit = output_unit(data.loaded.params)
     rows = []
     for k, run in enumerate(data.dwell.steps):  # one step per sine-dwell amplitude
         hit = "not computed" if result is None else number(bool(result.limit_hit[k].any()))
-        rows.append((f"{run.step.amplitude_deg:g}", number(data.dwell.linear_bandwidth_rad_s),
+        rows.append((f"{unit.value(run.step.amplitude_deg):g}",
+                     number(data.dwell.linear_bandwidth_rad_s),
                      number(sinedwell_bandwidth(data, k)),
                      number(run.fit.bandwidth_closed_form_rad_s), hit))
     onset = data.dwell.limit_onset_rad
@@ -327,12 +337,13 @@ def bandwidth_table(data):
                    f"{data.dwell.not_computed}")
     else:
         caption = ("bandwidth three ways; a limit first acts at "
-                   f"{math.degrees(onset):g}°" if onset is not None else
+                   f"{unit.symbol(math.degrees(onset))}" if onset is not None else
                    "bandwidth three ways; no limit acts at any amplitude")
         caption += (f"; sine-dwell grid {len(w)} points over {w[0]:.4g}..{w[-1]:.4g} rad/s"
                     "; > / <: the −3.01 dB point lies beyond the grid's top / bottom")
-    return Table(("amplitude [deg]", "linear −3 dB of T [rad/s]", "sine-dwell −3 dB [rad/s]",
-                  "step fit closed form [rad/s]", "limit acts in the dwell"), tuple(rows),
+    return Table((f"amplitude [{unit.shown}]", "linear −3 dB of T [rad/s]",
+                  "sine-dwell −3 dB [rad/s]", "step fit closed form [rad/s]",
+                  "limit acts in the dwell"), tuple(rows),
                  caption)
 
 
@@ -347,9 +358,9 @@ def small_signal_sentence(data):
     params = data.loaded.params
     diverged = diverged_at(run)
     if diverged is not None:
-        return (f"The {step.amplitude_deg:g}° step diverged (beyond 10⁶ times the step at t = "
+        return (f"The {_step_text(run)} step diverged (beyond 10⁶ times the step at t = "
                 f"{number(diverged * 1e3)} ms), so it has no figures and no fit.")
-    head = (f"The {step.amplitude_deg:g}° step reaches {number(step.max_current_a)} A of the "
+    head = (f"The {_step_text(run)} step reaches {number(step.max_current_a)} A of the "
             f"±{current_limit(params):g} A current limit and {number(step.max_voltage_v)} V "
             f"of the ±{params.current_loop.v_max:g} V voltage limit: ")
     elements = nonlinear_elements(params, data.analysis.drivetrain is not None)
@@ -475,6 +486,12 @@ _LOAD_KEYS = (
     "gear.backlash", "motor.coulomb_friction",
 )
 
+#: The same at a linear output (``gear.screw_lead``): the load in kg, N*s/m, N/m, N.
+_LINEAR_LOAD_KEYS = (
+    "load.mass", "load.damping", "load.stiffness", "load.bias",
+    *(key for key in _LOAD_KEYS if not key.startswith("load.")),
+)
+
 #: Effective values of keys a config may leave to a rule (derived, or a default of another key).
 _EFFECTIVE = {
     "motor.mu_v": lambda p: p.motor.viscous_friction,
@@ -485,7 +502,8 @@ _EFFECTIVE = {
 #: How an SI unit of :data:`~cas_freq.parameters.PARAMETERS` is shown: (unit, factor from SI);
 #: a unit not listed is shown as pint spells it with ``·`` and ``²``.
 _SHOWN_UNITS = {"ohm": ("Ω", 1.0), "H": ("mH", 1e3), "s": ("ms", 1e3),
-                "rad": ("deg", 180.0 / math.pi), "dimensionless": ("-", 1.0)}
+                "rad": ("deg", 180.0 / math.pi), "dimensionless": ("-", 1.0),
+                "m": ("mm", 1e3)}
 
 #: Keys shown in another unit than their SI unit's (a friction of a few mN·m).
 _SHOWN_KEY_UNITS = {"motor.coulomb_friction": ("mN·m", 1e3)}
@@ -497,9 +515,9 @@ _SYMBOLS = {"mu_v": "μv", "eta": "η", "eta_b": "η_b", "tau_c": "τc", "tau_p"
 
 def parameter_row_head(key, output, config=None):
     """(label, shown unit, factor from SI) of a parameter: its label and unit from
-    :data:`~cas_freq.parameters.PARAMETERS` (in ``config``'s architecture: a cascade's position
-    gains per second; a filter's numbers; ``+/-`` as ``±``), "the output" named as the config
-    names it."""
+    :data:`~cas_freq.parameters.PARAMETERS` (in ``config``'s architecture and output kind: a
+    cascade's position gains per second, a linear output's loads in SI lengths; a filter's
+    numbers; ``+/-`` as ``±``), "the output" named as the config names it."""
     from cas_freq.parameters import parameter as record
 
     parameter = record(key, config)
@@ -529,6 +547,11 @@ def parameter_table(datas):
     output = datas[0].loaded.params.output_label
     configs = [d.loaded.params for d in datas]
     cascade = is_cascade(configs[0])
+    linear = configs[0].linear  # the variants of one report share their output's kind
+    keys = _CASCADE_PARAMETER_KEYS if cascade else _PARAMETER_KEYS
+    if linear:
+        at = keys.index("gear.ratio") + 1
+        keys = (*keys[:at], "gear.screw_lead", *keys[at:])
 
     def numbers(keys):
         for key in keys:
@@ -536,13 +559,13 @@ def parameter_table(datas):
             yield (label, unit, *(number(None if (v := parameter_value(p, key)) is None
                                          else v * scale) for p in configs))
 
-    rows = [*numbers(_CASCADE_PARAMETER_KEYS if cascade else _PARAMETER_KEYS),
+    rows = [*numbers(keys),
             *_filter_rows(configs, [base_values(p) for p in configs], output),
             *((label, "", *(get(p) for p in configs)) for label, get, both in _SETTING_ROWS
               if both or not cascade)]
     if any(p.position_loop.feedback == "output" for p in configs):
         rows.append(("position feedback", "", *(p.position_loop.feedback for p in configs)))
-    rows += numbers(_LOAD_KEYS if loaded else ())
+    rows += numbers((_LINEAR_LOAD_KEYS if linear else _LOAD_KEYS) if loaded else ())
     caption = ("parameters of each variant (gains on the motor angle; Tf derived as "
                "Kd/(10·Kp) unless set; μv derived from the no-load point unless set)")
     if cascade:
@@ -621,7 +644,8 @@ def report_blocks(datas, figure_blocks, settings, command=None, extra=()):
         :mod:`cas_freq.report.profile`, :mod:`cas_freq.report.envelope`).
     """
     params = datas[0].loaded.params
-    amplitudes = ", ".join(f"{math.degrees(a):g}°" for a in settings.amplitudes_rad)
+    amplitudes = ", ".join(output_unit(params).symbol(math.degrees(a))
+                           for a in settings.amplitudes_rad)
     blocks = [Heading(1, f"cas_freq report: {params.name}"), Paragraph(overall_verdict(datas))]
     if params.description:
         blocks.append(Paragraph(params.description))
@@ -699,7 +723,7 @@ def report_files(datas, settings, *, png=False, command=None, rendered=None, env
     blocks = report_blocks(datas, figure_blocks, settings, command,
                            (*profile.blocks, *envelope.blocks))
     params = datas[0].loaded.params
-    yield "results.json", results_json({
+    yield "results.json", results_json(output_json({
         "config": params.name,
         "config_path": display_path(datas[0].loaded.source),
         "description": params.description,
@@ -713,7 +737,7 @@ def report_files(datas, settings, *, png=False, command=None, rendered=None, env
         "figures": {d.loaded.variant: sorted(b.path for b in f.values()
                                              if isinstance(b, Figure))
                     for d, f in zip(datas, figure_blocks, strict=True)},
-    })
+    }, output_unit(params)))
     yield "report.md", markdown.render(blocks)
     yield "index.html", html.render(blocks, f"cas_freq report: {params.name}")
 

@@ -265,7 +265,8 @@ def parameter_blocks(variants, labels):
 #: Unit and factor from SI of a figure missing from the figure table (:data:`FIGURES`; the
 #: drivetrain's figures), by its name's suffix.
 _SUFFIX_UNITS = (("_rad_s", "rad/s", 1.0), ("_deg", "deg", 1.0), ("_db", "dB", 1.0),
-                 ("_pct", "%", 1.0), ("_s", "ms", 1e3), ("_a", "A", 1.0), ("_v", "V", 1.0))
+                 ("_pct", "%", 1.0), ("_s", "ms", 1e3), ("_a", "A", 1.0), ("_v", "V", 1.0),
+                 ("_mm", "mm", 1.0))
 
 #: Readable name of each group of figures (the key before the figure's name).
 _GROUP_LABELS = {
@@ -282,7 +283,7 @@ _GROUP_LABELS = {
 _STEP_GROUPS = (("linear step ", "linear step {}", "step"), ("step ", "nonlinear step {}", "step"),
                 ("fit ", "fit to the {} step", "fit"))
 
-_AMPLITUDE = re.compile(r"(?P<key>.*?) (?P<amplitude>[-+\d.e]+°)")
+_AMPLITUDE = re.compile(r"(?P<key>.*?) (?P<amplitude>[-+\d.e]+(?:°| mm))")
 
 
 def table_figure(key):
@@ -365,31 +366,42 @@ def flat_figures(results):
     table), ``step <a>°.*`` and ``fit <a>°.*`` (the simulated steps), ``linear step <a>°.*``,
     ``sinedwell.bandwidth <a>°`` and ``sinedwell.limit_onset_amplitude_deg``.
     """
+    from cas_freq.output import LENGTH, output_json
+
+    # a linear output's entry (its steps' amplitude_mm): every output quantity in mm
+    linear = any("amplitude_mm" in run["step"] for run in results["simulate"])
+    results = output_json(results, LENGTH) if linear else results
+    amplitude, onset = (("amplitude_mm", "sinedwell.limit_onset_amplitude_mm") if linear else
+                        ("amplitude_deg", "sinedwell.limit_onset_amplitude_deg"))
+
+    def size(entry):  # "10°", or "5 mm"
+        return f"{entry[amplitude]:g} mm" if linear else f"{entry[amplitude]:g}°"
+
     out = {}
     analysis = {k: v for k, v in results["analyze"].items() if k not in _NOT_FIGURES}
     _flatten("analyze", analysis, out)
     for run in results["simulate"]:
-        a = f"{run['step']['amplitude_deg']:g}°"
-        _flatten(f"step {a}", {k: v for k, v in run["step"].items() if k != "amplitude_deg"},
+        a = size(run["step"])
+        _flatten(f"step {a}", {k: v for k, v in run["step"].items() if k != amplitude},
                  out)
         _flatten(f"fit {a}", run["fit"], out)
     for run in results["linear_steps"]:
-        a = f"{run['amplitude_deg']:g}°"
+        a = size(run)
         _flatten(f"linear step {a}", {k: v for k, v in run.items()
-                                       if k not in ("amplitude_deg", "pade_order")
+                                       if k not in (amplitude, "pade_order")
                                        and v is not None}, out)
     dwell = results["sinedwell"]
     if dwell is None:  # not computed (results["not_computed"] says why)
         for run in results["simulate"]:
-            out[f"sinedwell.bandwidth_rad_s {run['step']['amplitude_deg']:g}°"] = "not computed"
-        out["sinedwell.limit_onset_amplitude_deg"] = "not computed"
+            out[f"sinedwell.bandwidth_rad_s {size(run['step'])}"] = "not computed"
+        out[onset] = "not computed"
     else:
         for entry in dwell["amplitudes"]:
             bound = entry.get("bandwidth_bound")
-            out[f"sinedwell.bandwidth_rad_s {entry['amplitude_deg']:g}°"] = (
+            out[f"sinedwell.bandwidth_rad_s {size(entry)}"] = (
                 entry["bandwidth_rad_s"] if bound is None
                 else f"{bound['relation']} {bound['edge_rad_s']:.4g}")
-        out["sinedwell.limit_onset_amplitude_deg"] = dwell["limit_onset_amplitude_deg"]
+        out[onset] = dwell[onset.rpartition(".")[2]]
     return {k: v for k, v in out.items() if not isinstance(v, list)}
 
 
@@ -455,7 +467,10 @@ def verdict_matrix(datas, labels):
 
 def compare_blocks(datas, labels, figure_blocks, settings, command=None):
     """Every block of the comparison, in order."""
-    amplitudes = ", ".join(f"{math.degrees(a):g}°" for a in settings.amplitudes_rad)
+    from cas_freq.output import output_unit
+
+    unit = output_unit(datas[0].loaded.params)  # the entries share their output's kind
+    amplitudes = ", ".join(unit.symbol(math.degrees(a)) for a in settings.amplitudes_rad)
     output = common_output_label(d.loaded.params for d in datas)
     blocks = [Heading(1, "cas_freq compare: " + ", ".join(labels))]
     blocks += parameter_blocks([d.loaded for d in datas], labels)
@@ -547,7 +562,9 @@ def compare_files(datas, labels, settings, *, png=False, command=None):
     all_results = [variant_results(d) for d in datas]
     rows, flats, keys = difference_rows(all_results)
     matrix, header = verdict_matrix(datas, labels)
-    yield "results.json", results_json({
+    from cas_freq.output import output_json, output_unit
+
+    yield "results.json", results_json(output_json({
         "baseline": labels[0],
         "labels": labels,
         "settings": settings.to_dict(),
@@ -564,7 +581,7 @@ def compare_files(datas, labels, settings, *, png=False, command=None):
         ],
         "verdict_matrix": {"header": list(header), "rows": [list(r) for r in matrix]},
         "figures": sorted(b.path for b in figure_blocks.values()),
-    })
+    }, output_unit(datas[0].loaded.params)))  # output quantities in mm at a linear output
     yield "report.md", markdown.render(blocks)
     yield "index.html", html.render(blocks, "cas_freq compare: " + ", ".join(labels))
 

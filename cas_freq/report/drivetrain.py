@@ -22,9 +22,12 @@ def nonlinear_terms(params):
         terms.append(f"Coulomb friction {number(params.motor.coulomb_friction * 1e3, 4)} mN·m "
                      "on the motor shaft")
     if params.gear.backlash:
-        terms.append(f"backlash {number(math.degrees(params.gear.backlash), 4)}° (total, at "
-                     f"the {params.output_label})")
-    if params.load.hinge_bias:
+        play = (f"{number(params.gear.backlash * 1e3, 4)} mm" if params.linear else
+                f"{number(math.degrees(params.gear.backlash), 4)}°")
+        terms.append(f"backlash {play} (total, at the {params.output_label})")
+    if params.linear and params.load.bias:
+        terms.append(f"a constant load force {number(params.load.bias, 4)} N")
+    elif not params.linear and params.load.hinge_bias:
         terms.append(f"a constant load moment {number(params.load.hinge_bias, 4)} N·m")
     if params.gear.backdrive != params.gear.efficiency:
         terms.append(f"backdrive efficiency {number(params.gear.backdrive, 3)}"
@@ -40,6 +43,9 @@ def drivetrain_blocks(data):
     load = data.analysis.drivetrain
     if load is None:
         return []
+    from cas_freq.output import output_unit
+
+    unit = output_unit(data.loaded.params)
     low, high = load.stable_hinge_stiffness_n_m_rad
     span = ("none scanned" if low is None and high is None else
             f"{'−∞' if low is None else number(low, 4)} .. "
@@ -53,8 +59,8 @@ def drivetrain_blocks(data):
          f"UNSTABLE, pole at +{number(load.plant_unstable_pole_rad_s, 4)} rad/s"),
         ("resonances (poles of θ/i)", "", _modes(load.resonances)),
         ("anti-resonances (zeros of θ/i)", "", _modes(load.anti_resonances)),
-        (f"closed loop stable for K_h (at the {data.loaded.params.output_label})", "N·m/rad",
-         span),
+        (f"closed loop stable for {unit.spring} (at the {data.loaded.params.output_label})",
+         unit.spring_unit.replace("*", "·"), span),
     )
     blocks = [Table(("load and drivetrain", "unit", "value"), rows,
                     f"load and drivetrain of {data.loaded.variant} (motor shaft unless named)")]

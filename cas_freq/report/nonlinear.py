@@ -40,10 +40,14 @@ def nonlinear_elements(params, loaded):
     if motor.coulomb_friction:
         found.append(f"Coulomb friction of {1e3 * motor.coulomb_friction:g} mN·m on the motor "
                      "shaft")
-    if load.hinge_bias:
+    if params.linear and load.bias:
+        found.append(f"a constant load force of {load.bias:g} N on the {output}")
+    elif not params.linear and load.hinge_bias:
         found.append(f"a constant load moment of {load.hinge_bias:g} N·m on the {output}")
     if gear.backlash:
-        found.append(f"a gear backlash of {math.degrees(gear.backlash):.3g}°")
+        play = (f"{1e3 * gear.backlash:.3g} mm" if params.linear else
+                f"{math.degrees(gear.backlash):.3g}°")
+        found.append(f"a gear backlash of {play}")
     if params.simulation.controllers == "sampled":
         current, position = params.simulation.rates_hz
         found.append(f"sampled controllers ({current:g} Hz and {position:g} Hz, zero-order "

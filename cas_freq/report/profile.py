@@ -10,10 +10,11 @@ from cas_freq.figures import FIGURES
 from cas_freq.report.numbers import number
 
 
-def _trapezoid_text(move):
+def _trapezoid_text(move, unit):
     t_a, t_c, t_d = (float(x) for x in move.phases())
     shape = "Trapezoidal" if t_c > 0 else "Triangular (the velocity limit is not reached)"
-    return (f"{shape}: peak {number(math.degrees(float(move.peak_rate_rad_s)), 4, 'deg/s')}, "
+    peak = unit.value(math.degrees(float(move.peak_rate_rad_s)))
+    return (f"{shape}: peak {number(peak, 4, f'{unit.shown}/s')}, "
             f"accelerating {number(t_a * 1e3, 4, 'ms')}, cruising {number(t_c * 1e3, 4, 'ms')}, "
             f"decelerating {number(t_d * 1e3, 4, 'ms')}")
 
@@ -42,16 +43,20 @@ def figure_rows(run):
     """(label, unit, with feed-forward, without) of every figure of a :class:`ProfileRun`,
     the values as text."""
     rows = []
+    output = run.output_unit
     for label, unit, what in FIGURE_ROWS:
         cells = []
+        angle = FIGURES[f"profile.{what}"].unit == "deg"  # an output quantity: mm if linear
         for figures in (run.profile, run.without_feedforward):
-            text = number(getattr(figures, what) * FIGURES[f"profile.{what}"].scale, 4)
+            value = getattr(figures, what)
+            text = number(output.value(value) if angle else
+                          value * FIGURES[f"profile.{what}"].scale, 4)
             if what == "max_current_a":
                 text += f" ({_limit(figures.current_limited)})"
             elif what == "max_voltage_v":
                 text += f" ({_limit(figures.voltage_limited)})"
             cells.append(text)
-        rows.append((label, unit, *cells))
+        rows.append((label, output.shown if angle else unit, *cells))
     return rows
 
 
@@ -68,7 +73,8 @@ def move_text(run):
     from cas_freq.simulation.profile_run import move_dict, profile_condition_text
 
     motor = move_dict(run.move, run.ratio)["motor"]
-    return (f"profile move of {profile_condition_text(run.move)} at the {run.output}; at the motor "
+    return (f"profile move of {profile_condition_text(run.move, run.output_unit)} at the "
+            f"{run.output}; at the motor "
             f"(x {run.ratio:g}): {number(motor['distance_rev'], 4)} rev, profile velocity "
             f"{number(motor['velocity_rpm'], 4)} rpm, acceleration "
             f"{number(motor['acceleration_rpm_s'], 4)} rpm/s, deceleration "
@@ -91,7 +97,7 @@ def profile_table(run):
                     + ("settled" if run.result_without_feedforward.settled else "NOT settled"))
     lines += [
         f"  {move_text(run)}",
-        f"  {_trapezoid_text(run.move)}",
+        f"  {_trapezoid_text(run.move, run.output_unit)}",
         f"  nonlinear run; dt {r.dt_s * 1e6:g} us, {r.t_end_s * 1e3:g} ms ({settled}"
         f"{', horizon extended' if r.extended else ''}); {_feedforward_text(run)}",
     ]
@@ -109,9 +115,9 @@ def _table_rows(runs):
     feed-forward) per variant."""
     rows = []
     per_run = [figure_rows(run) for run in runs]
-    for k, (label, unit, *_) in enumerate(FIGURE_ROWS):
+    for k, (label, *_) in enumerate(FIGURE_ROWS):
         cells = [cell for rows_of_run in per_run for cell in rows_of_run[k][2:]]
-        rows.append((label.strip(), unit, *cells))
+        rows.append((label.strip(), per_run[0][k][1], *cells))  # mm at a linear output
     return tuple(rows)
 
 
@@ -161,15 +167,18 @@ def profile_section(datas, png=False):
         "= 0); figures defined in docs/model.md, \"Profile moves\"."
         + (f" Not simulated (closed loop not stable): {', '.join(skipped)}." if skipped
            else ""))]
+    from cas_freq.output import output_unit
+
+    unit = output_unit(datas[0].loaded.params)
     results = []
     for number_, condition in enumerate(conditions, start=1):
         move = condition.command()
         verdicts = {id(d.loaded): d.analysis.stability.verdict for d in stable}
         runs = profile_runs([d.loaded for d in stable], move, verdicts) if stable else []
-        blocks.append(Heading(3, f"Move {number_}: {profile_condition_text(move)}"))
+        blocks.append(Heading(3, f"Move {number_}: {profile_condition_text(move, unit)}"))
         if not runs:
             continue
-        blocks.append(Paragraph(f"{move_text(runs[0])}. {_trapezoid_text(move)}."))
+        blocks.append(Paragraph(f"{move_text(runs[0])}. {_trapezoid_text(move, unit)}."))
         header = ("figure", "unit", *(f"{run.variant}, {which}" for run in runs
                                       for which in ("with ff", "without ff")))
         blocks.append(Table(header, _table_rows(runs),
@@ -183,10 +192,10 @@ def profile_section(datas, png=False):
             if png:
                 yield f"{stem}.png", png_data
             blocks.append(Figure(
-                f"{stem}.svg", f"Profile move {number_}: command and {run.output} angle, "
+                f"{stem}.svg", f"Profile move {number_}: command and {run.output} {unit.quantity}, "
                 f"tracking error, with and without feed-forward — {run.config} / {run.variant}",
                 svg))
-        results.append({"condition": profile_condition_text(move),
+        results.append({"condition": profile_condition_text(move, unit),
                         "variants": [{**profile_run_dict(run), "figure": path}
                                      for run, path in zip(runs, paths, strict=True)]})
     return ProfileSection(blocks, results)

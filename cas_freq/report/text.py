@@ -119,7 +119,7 @@ def analysis_table(analysis):
             f"    phase -90 deg at   {_fmt(closed.phase_90_rad_s, 'rad/s')}",
         ]
     if analysis.drivetrain is not None:
-        lines += _drivetrain_lines(analysis.drivetrain)
+        lines += _drivetrain_lines(analysis.drivetrain, analysis.loaded)
     if analysis.pade_vs_exact:
         lines.append(
             "  Padé vs exact      PM_p [deg]  GM_p [dB]  PM_i [deg]  w_BW [rad/s]  max|dT|"
@@ -175,7 +175,7 @@ def step_table(run):
     return "\n".join([
         head,
         *warning,
-        f"  nonlinear step of {step.amplitude_deg:g} deg at the {run.output}; "
+        f"  nonlinear step of {run.output_unit.show(step.amplitude_deg)} at the {run.output}; "
         f"dt {result.dt_s * 1e6:g} us, {result.t_end_s * 1e3:g} ms ({settled}{extended})",
         _figure_line("step.rise_time_s", step.rise_time_s),
         _figure_line("step.overshoot_pct", step.overshoot_pct),
@@ -193,6 +193,14 @@ def step_table(run):
         " % of step",
         f"    closed-form bandwidth {_fmt(fit.bandwidth_closed_form_rad_s, 'rad/s')}",
     ])
+
+
+def _amplitude(entry):
+    """An amplitude of a sine-dwell dict as text: ``amplitude_deg``, or ``amplitude_mm`` at a
+    linear output (:func:`cas_freq.output.output_json`)."""
+    if "amplitude_mm" in entry:
+        return _fmt(entry["amplitude_mm"], "mm")
+    return _fmt(entry["amplitude_deg"], "deg")
 
 
 def _sinedwell_not_computed_table(head, data):
@@ -213,7 +221,7 @@ def _sinedwell_not_computed_table(head, data):
         else:
             cells = (f"{_fmt(entry['step'].get('overshoot_pct')):>15}"
                      f"{_fmt(entry['fit'].get('bandwidth_closed_form_rad_s')):>18}")
-        lines.append(f"    {_fmt(entry['amplitude_deg'], 'deg'):>10}{cells}")
+        lines.append(f"    {_amplitude(entry):>10}{cells}")
     return "\n".join(lines)
 
 
@@ -238,7 +246,7 @@ def sinedwell_table(data):
         f"{sim['controllers']} controllers, dt {sim['dt_s'] * 1e6:g} us; "
         "first harmonic of delta / command",
         "  " + f"{'[rad/s]':>10}" + "".join(
-            f"{_fmt(a['amplitude_deg'], 'deg'):>18}" for a in amplitudes
+            f"{_amplitude(a):>18}" for a in amplitudes
         ) + f"{'linear':>18}",
     ]
     missing = False
@@ -258,9 +266,12 @@ def sinedwell_table(data):
     if missing:
         lines.append("  (— no first harmonic: the run diverged until its state overflowed, or "
                      "no linear response exists)")
-    onset = data["limit_onset_amplitude_deg"]
+    onset_mm = data.get("limit_onset_amplitude_mm")
+    onset = data.get("limit_onset_amplitude_deg", onset_mm)
+    unit = "deg" if "limit_onset_amplitude_deg" in data else "mm"
     lines.append(
-        "  limits act from " + (f"{onset:g} deg" if onset is not None else "no amplitude given")
+        "  limits act from " + (f"{onset:g} {unit}" if onset is not None else
+                                "no amplitude given")
     )
     bench = data.get("report_bench")
     wide = 7 if data.get("bandwidth_requirement_rad_s") is not None else 0
@@ -285,7 +296,7 @@ def sinedwell_table(data):
     for row in data["bandwidth_three_ways"]:
         wide = 7 if required is not None else 0
         lines.append(
-            f"    {_fmt(row['amplitude_deg'], 'deg'):>10}{cell(row, 'linear_rad_s', 11 + wide)}"
+            f"    {_amplitude(row):>10}{cell(row, 'linear_rad_s', 11 + wide)}"
             f"{cell(row, 'sinedwell_rad_s', 12 + wide)}{cell(row, 'step_fit_rad_s', 10 + wide)}"
         )
     if any(row.get("sinedwell_bound") for row in data["bandwidth_three_ways"]):
@@ -338,8 +349,13 @@ def command_table(run):
     return "\n".join(lines)
 
 
-def _drivetrain_lines(load):
-    """The drivetrain block of the analyze text (cas_freq.analysis.drivetrain)."""
+def _drivetrain_lines(load, loaded=None):
+    """The drivetrain block of the analyze text (cas_freq.analysis.drivetrain); the load
+    spring at the output as ``loaded``'s output names it (K_h [N*m/rad], at a linear output
+    K [N/m])."""
+    from cas_freq.output import ANGLE, output_unit
+
+    unit = ANGLE if loaded is None else output_unit(loaded.params)
     gear = "compliant gear, two masses" if load.compliant else "rigid gear"
     lines = [
         f"  load and drivetrain ({gear}), reflected to the motor shaft",
@@ -356,8 +372,8 @@ def _drivetrain_lines(load):
             lines.append(f"    {label:<18} {_fmt(mode.frequency_rad_s, 'rad/s')}, "
                          f"zeta {_fmt(mode.damping)}")
     low, high = load.stable_hinge_stiffness_n_m_rad
-    lines.append("    stable for K_h     " + (
+    lines.append(f"    stable for {unit.spring:<8}" + (
         "none scanned" if low is None and high is None else
         f"{'-inf' if low is None else _fmt(low)} .. {'+inf' if high is None else _fmt(high)} "
-        "N*m/rad"))
+        f"{unit.spring_unit}"))
     return lines

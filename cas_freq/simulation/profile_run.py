@@ -14,6 +14,7 @@ import numpy as np
 
 from cas_freq.exceptions import ConfigError
 from cas_freq.fileio import json_ready
+from cas_freq.output import ANGLE, OutputUnit, output_json
 from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.commands import Profile
 from cas_freq.simulation.profile_figures import profile_figures
@@ -38,7 +39,8 @@ def _quantity(value, unit, name, example, positive=True):
     """``value`` (a string with a unit, or a number in ``unit``) as a float in ``unit``."""
     from cas_freq.units import has_unit, to_si
 
-    what = {"rad": "an angle", "rad/s": "a positive speed"}.get(unit, "a positive acceleration")
+    what = {"rad": "an angle", "m": "a length", "rad/s": "a positive speed",
+            "m/s": "a positive speed"}.get(unit, "a positive acceleration")
     expected = f"expected {what} at the output with a unit such as {example}"
     try:
         number = to_si(value, unit)
@@ -51,7 +53,7 @@ def _quantity(value, unit, name, example, positive=True):
     return number
 
 
-def make_profile(distance, velocity, acceleration, deceleration=None, names=None):
+def make_profile(distance, velocity, acceleration, deceleration=None, names=None, unit=ANGLE):
     """A :class:`Profile` from values with units, as the CLI and the config give them.
 
     Parameters
@@ -66,6 +68,9 @@ def make_profile(distance, velocity, acceleration, deceleration=None, names=None
     names : dict, optional
         How each of ``distance``, ``velocity``, ... is named in error messages (default
         ``profile.<name>``; the CLI names its options).
+    unit : cas_freq.output.OutputUnit
+        The output's kind: at a linear output the move is a length (``"5 mm"``, ``"100 mm/s"``,
+        ``"2000 mm/s^2"``; numbers in m, m/s, m/s^2) and an angle is refused.
 
     Raises
     ------
@@ -74,14 +79,20 @@ def make_profile(distance, velocity, acceleration, deceleration=None, names=None
     """
     names = {key: f"profile.{key}" for key in ("distance", *(k for k, *_ in _LIMITS))} | \
         dict(names or {})
-    move = _quantity(distance, "rad", names["distance"], "10deg", positive=False)
-    if not (move != 0 and abs(move) <= math.pi / 2):
-        raise ConfigError(f"{names['distance']}: must be non-zero and within ±90 deg at the "
-                          f"output, got {distance!r}")
+    from cas_freq.output import wrong_kind
+
+    wrong = wrong_kind(distance, unit, names["distance"]) if isinstance(distance, str) else None
+    if wrong:
+        raise ConfigError(wrong)
+    move = _quantity(distance, unit.si, names["distance"], unit.example, positive=False)
+    if not (move != 0 and abs(move) <= unit.largest):
+        raise ConfigError(f"{names['distance']}: must be non-zero and within "
+                          f"±{unit.largest_text} at the output, got {distance!r}")
     given = {"velocity": velocity, "acceleration": acceleration, "deceleration": deceleration}
-    limits = {key: None if given[key] is None else _quantity(given[key], unit, names[key],
-                                                              example)
-              for key, unit, example in _LIMITS}
+    rates = ((f"{unit.si}/s", unit.rate_examples[0]), *[(f"{unit.si}/s^2",
+                                                          unit.rate_examples[1])] * 2)
+    limits = {key: None if given[key] is None else _quantity(given[key], si, names[key], example)
+              for (key, *_), (si, example) in zip(_LIMITS, rates, strict=True)}
     return Profile(move, limits["velocity"], limits["acceleration"], limits["deceleration"])
 
 
@@ -126,6 +137,8 @@ class ProfileRun:
     without_feedforward: object
     linear_stability: str = "stable"
     output: str = "output"
+    #: How the output is measured and shown (:mod:`cas_freq.output`).
+    output_unit: OutputUnit = ANGLE
 
 
 def profile_runs(variants, move, verdicts=None, progress=None):
@@ -224,7 +237,7 @@ def profile_run_dict(run):
     """
     on = _run_part(run.result, run.profile)
     off = _run_part(run.result_without_feedforward, run.without_feedforward)
-    return json_ready({
+    return json_ready(output_json({
         "config": run.config,
         "config_path": run.config_path,
         "variant": run.variant,
@@ -239,14 +252,18 @@ def profile_run_dict(run):
                                 "simulation": off["simulation"]},
         "simulation": {"controllers": _controllers(run.result), "dt_s": run.result.dt_s,
                        **on["simulation"]},
-    })
+    }, run.output_unit))
 
 
-def profile_condition_text(move):
-    """``10 deg at 2000 deg/s, 1e+05 deg/s^2`` (and the deceleration when it differs)."""
-    text = (f"{math.degrees(float(move.distance_rad)):g} deg at "
-            f"{math.degrees(move.velocity_rad_s):g} deg/s, "
-            f"{math.degrees(move.acceleration_rad_s2):g} deg/s^2")
+def profile_condition_text(move, unit=ANGLE):
+    """``10 deg at 2000 deg/s, 1e+05 deg/s^2`` (and the deceleration when it differs); at a
+    linear output (``unit``) in mm, mm/s, mm/s^2."""
+    def shown(value):  # [SI] -> the output's unit
+        return unit.value(math.degrees(float(value)))
+
+    u = unit.shown
+    text = (f"{shown(move.distance_rad):g} {u} at {shown(move.velocity_rad_s):g} {u}/s, "
+            f"{shown(move.acceleration_rad_s2):g} {u}/s^2")
     if move.deceleration_rad_s2 != move.acceleration_rad_s2:
-        text += f" (deceleration {math.degrees(move.deceleration_rad_s2):g} deg/s^2)"
+        text += f" (deceleration {shown(move.deceleration_rad_s2):g} {u}/s^2)"
     return text

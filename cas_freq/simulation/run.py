@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from cas_freq.fileio import json_ready
+from cas_freq.output import ANGLE, OutputUnit, output_json, output_unit
 from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.commands import Step
 from cas_freq.simulation.second_order import fit_second_order
@@ -39,6 +40,8 @@ class StepRun:
     fit: object
     linear_stability: str = "stable"
     output: str = "output"
+    #: How the output is measured and shown (:mod:`cas_freq.output`).
+    output_unit: OutputUnit = ANGLE
 
 
 def linear_verdict(params):
@@ -58,6 +61,7 @@ def _identity(loaded):
         "variant": loaded.variant,
         "overrides": tuple(f"{key}={value}" for key, value in loaded.overrides),
         "output": loaded.params.output_label,
+        "output_unit": output_unit(loaded.params),
     }
 
 
@@ -157,7 +161,7 @@ def limit_activity(t, active):
 
 
 def diverged_at(run):
-    """The first time [s] at which a :class:`StepRun`'s fin angle diverged
+    """The first time [s] at which a :class:`StepRun`'s output diverged
     (:func:`~cas_freq.simulation.step_figures.diverged`), or None."""
     from cas_freq.simulation.step_figures import diverged
 
@@ -167,7 +171,7 @@ def diverged_at(run):
 def step_run_dict(run):
     """JSON-ready dict of a :class:`StepRun` (non-finite numbers become None)."""
     result = run.result
-    return json_ready({
+    return json_ready(output_json({
         "config": run.config,
         "config_path": run.config_path,
         "variant": run.variant,
@@ -187,7 +191,7 @@ def step_run_dict(run):
             "settled": result.settled,
             "diverged_at_s": diverged_at(run),
         },
-    })
+    }, run.output_unit))
 
 
 def _controllers(result):
@@ -206,14 +210,16 @@ def step_csv_name(path, run, count):
 
 
 def step_run_csv(run):
-    """The run's time series as CSV text (header names carry units)."""
-    r = run.result
+    """The run's time series as CSV text (header names carry units; the output's in deg, or
+    in mm at a linear output)."""
+    r, unit = run.result, run.output_unit
     columns = np.column_stack([
-        r.t, np.degrees(r.command), np.degrees(r.delta), r.theta, r.omega, r.i, r.V,
+        r.t, r.command * unit.scale, r.delta * unit.scale, r.theta, r.omega, r.i, r.V,
         r.current_limited.astype(int), r.voltage_limited.astype(int),
     ])
     out = io.StringIO()
-    out.write(",".join(f"{name} [{unit}]" for name, unit in CSV_COLUMNS) + "\n")
+    out.write(",".join(f"{name} [{unit.shown if shown == 'deg' else shown}]"
+                       for name, shown in CSV_COLUMNS) + "\n")
     np.savetxt(out, columns, delimiter=",", fmt="%.9g")
     return out.getvalue()
 
@@ -230,6 +236,8 @@ class CommandRun:
     result: object
     linear_stability: str
     output: str = "output"
+    #: How the output is measured and shown (:mod:`cas_freq.output`).
+    output_unit: OutputUnit = ANGLE
 
 
 def command_run(loaded, command, progress=None):
@@ -335,6 +343,8 @@ class SineDwellRun:
     bandwidth_requirement_rad_s: float | None = None
     reference: object = None
     output: str = "output"
+    #: How the output is measured and shown (:mod:`cas_freq.output`).
+    output_unit: OutputUnit = ANGLE
     frequencies_rad_s: tuple = ()
     not_computed: str | None = None
 

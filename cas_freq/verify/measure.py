@@ -17,7 +17,18 @@ def figure(result, metric):
     """The figure named ``metric`` (its dotted key in the command's JSON, e.g.
     ``closed_loop.bandwidth_rad_s``) of a typed result (:class:`~cas_freq.analysis.Analysis`,
     :class:`~cas_freq.simulation.run.StepRun`): the same names, read as attributes. None where
-    the figure does not exist."""
+    the figure does not exist. A linear output's quantity (``profile.tracking_error_max_mm``)
+    is its rotary twin's attribute in mm (:mod:`cas_freq.output`)."""
+    from cas_freq.figures import FIGURES
+
+    record = FIGURES.get(metric)
+    if record is not None and record.output == "length":
+        from cas_freq.output import LENGTH
+
+        value = figure(result, record.twin)
+        if value is None:
+            return None
+        return LENGTH.value(value) if FIGURES[record.twin].unit == "deg" else value * LENGTH.scale
     value = result
     for part in metric.split("."):
         value = getattr(value, part, None)
@@ -87,13 +98,14 @@ def measure(variants, requirements, known=None):
             elif requirement.kind == "step":
                 run = steps[requirement.step][index]
                 values[key] = figure(run, requirement.metric)
-                context[key] = f"nonlinear step of {run.step.amplitude_deg:g} deg"
+                context[key] = f"nonlinear step of {run.output_unit.show(run.step.amplitude_deg)}"
             elif requirement.kind == "profile":
                 from cas_freq.simulation.profile_run import profile_condition_text
 
                 run = moves[requirement.profile][index]
                 values[key] = figure(run, requirement.metric)
-                context[key] = (f"profile move of {profile_condition_text(run.move)}, "
+                context[key] = (f"profile move of "
+                                f"{profile_condition_text(run.move, run.output_unit)}, "
                                 "feed-forward as configured")
             else:
                 condition = (requirement.amplitude, requirement.frequencies)
@@ -143,12 +155,14 @@ def _sinedwell_bandwidth(loaded, analysis, amplitude, frequencies):
         The bandwidth [rad/s], the bound the grid gives when it holds no crossing, and the text
         of what was run (with why nothing was, when the sine-dwell exceeds the budget).
     """
+    from cas_freq.output import output_unit
     from cas_freq.simulation.run import dwell_parameters, over_budget_reason
     from cas_freq.simulation.simulator import BudgetError
     from cas_freq.simulation.sinedwell import dwell_frequencies, sine_dwell
 
     grid = frequencies or dwell_frequencies(analysis)
-    text = (f"sine-dwell at {math.degrees(amplitude):g} deg, {len(grid)} frequencies "
+    shown = output_unit(loaded.params).show(math.degrees(amplitude))
+    text = (f"sine-dwell at {shown}, {len(grid)} frequencies "
             f"{min(grid):.4g}..{max(grid):.4g} rad/s"
             + ("" if frequencies else " (the variant's default grid)"))
     current_rate_hz, position_rate_hz = loaded.params.simulation.rates_hz
