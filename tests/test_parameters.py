@@ -183,7 +183,7 @@ def test_bound_enforced_identically_by_schema_parse_value_and_variants(key, ship
     if key in LINEAR_ONLY:
         shipped_raw["gear"]["screw_lead"] = 0.005
         shipped_raw["load"] = {}
-        for section in ("variants", "load_envelope", "requirements"):  # angles, rotary loads
+        for section in ("variants", "load_envelope", "requirements", "reference"):  # angles
             shipped_raw.pop(section, None)
     cascade = copy.deepcopy(shipped_raw) if key in {**CASCADE_ONLY, **LINEAR_ONLY} else None
     if key == "motor.mu_v":
