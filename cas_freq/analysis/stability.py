@@ -508,7 +508,15 @@ def _realization_shapes(p, structure, n):
 def _roots_of_rows(polynomials):
     """``np.roots`` of each row (leading zeros allowed), the companion matrices of rows with
     the same leading and trailing zeros stacked for one eigenvalue call (the matrices
-    ``np.roots`` builds, so the same roots)."""
+    ``np.roots`` builds, so the same roots); rows that are equal (an inner loop that a sweep
+    of an outer loop's gains leaves alone) are solved once."""
+    distinct, inverse = np.unique(polynomials, axis=0, return_inverse=True)
+    roots = _distinct_roots(distinct)
+    return [roots[i] for i in inverse.reshape(-1)]
+
+
+def _distinct_roots(polynomials):
+    """:func:`_roots_of_rows` of rows without repeats."""
     nonzero = polynomials != 0
     width = polynomials.shape[1]
     first = np.argmax(nonzero, axis=1)
