@@ -124,7 +124,7 @@ def main(argv=None):
         return child(args)
     loops = {case: grid(case, args.variants) for case in CASES}
     n = {case: loop.n_runs for case, (loop, _) in loops.items()}
-    for loop, warm in loops.values():  # numba's cache loaded, every chunk path taken once
+    for _, warm in loops.values():  # numba's cache loaded, every chunk path taken once
         for aat in (False, True):
             timed(warm, args.workers, aat)
     before = os.getloadavg()

@@ -130,7 +130,8 @@ def _figures_on(p, omega, verdicts, columns=None, delay=EXACT, crossings=False,
             if kind == names[0] and view is None:
                 return prepared.current_loop(runs, 1j * w, delay)
             values = prepared.responses(runs, 1j * w, closed=kind == "closed_loop",
-                                        delay=delay, loop_at_a_time=view is not None)
+                                        delay=delay, loop_at_a_time=view is not None,
+                                        through=kind if kind in names else None)
             if kind == "closed_loop":
                 return values.closed_loop
             return (values.loops if view is None else values.loop_at_a_time)[kind]

@@ -228,10 +228,16 @@ class PreparedResponses:
             reference=None if stage.reference is None else _pick(stage.reference, runs))
             for stage in self.steps[:count]]
 
-    def responses(self, runs, s, closed=True, delay=EXACT, loop_at_a_time=False):
-        """:func:`responses` of the runs ``runs`` (indices, one per value of ``s``)."""
-        return _recurrence(_pick(self.denominator, runs), _pick(self.seen, runs), self.names,
-                           self._steps(runs), s, closed, delay, loop_at_a_time)
+    def responses(self, runs, s, closed=True, delay=EXACT, loop_at_a_time=False, through=None):
+        """:func:`responses` of the runs ``runs`` (indices, one per value of ``s``); with
+        ``through`` (a loop's name; not with ``closed`` or ``loop_at_a_time``) only the loops
+        up to that one (those outside it do not change it)."""
+        count = None
+        if through is not None and not (closed or loop_at_a_time):
+            count = self.names.index(through) + 1
+        return _recurrence(_pick(self.denominator, runs), _pick(self.seen, runs),
+                           self.names[:count], self._steps(runs, count), s, closed, delay,
+                           loop_at_a_time)
 
     def current_loop(self, runs, s, delay=EXACT):
         """:func:`current_loop` of the runs ``runs``."""
