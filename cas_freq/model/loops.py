@@ -217,9 +217,13 @@ class PreparedResponses:
     def __init__(self, p):
         structure = build(p)
         self.names = structure.names
-        self.denominator = structure.plant.denominator
-        self.seen = structure.plant.signals[structure.output]
-        self.steps = stages(structure)
+        self.denominator = _arrays(structure.plant.denominator)
+        self.seen = _arrays(structure.plant.signals[structure.output])
+        self.steps = [dataclasses.replace(
+            stage, a=_arrays(stage.a), b=_arrays(stage.b), g=_arrays(stage.g),
+            f=_arrays(stage.f), tau=_arrays((stage.tau,))[0],
+            reference=None if stage.reference is None else _arrays(stage.reference))
+            for stage in stages(structure)]
 
     def _steps(self, runs, count=None):
         return [dataclasses.replace(
@@ -244,9 +248,15 @@ class PreparedResponses:
         return _current_loop(self._steps(runs, 1)[0], _pick(self.denominator, runs), s, delay)
 
 
+def _arrays(polynomial):
+    """The coefficients as arrays (n,) where they vary, else as they are (0-d arrays as
+    floats: the same number)."""
+    return tuple(float(c) if np.ndim(c) == 0 else np.asarray(c) for c in polynomial)
+
+
 def _pick(polynomial, runs):
-    """The coefficients of the runs ``runs`` (those every run shares as they are)."""
-    return tuple(c if np.ndim(c) == 0 else np.asarray(c)[runs] for c in polynomial)
+    """The coefficients (of :func:`_arrays`) of the runs ``runs``."""
+    return tuple(c[runs] if isinstance(c, np.ndarray) else c for c in polynomial)
 
 
 class ActuatorLoops:
