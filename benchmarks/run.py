@@ -122,9 +122,13 @@ def gain_grid(params, n):
 def bench_margins(params, changes, label, sample, rows):
     n = len(next(iter(changes.values())))
     loop = variant_parameters(params, changes)
-    batch_analyze(variant_parameters(params, {k: v[:64] for k, v in changes.items()}))  # warm
+    # the figures python-control computes: each loop's margins with the loops outside it open
+    # (loop_at_a_time=False; the inner loop's margins with every loop closed cost another
+    # margin search per run, see benchmarks/architectures.py)
+    batch_analyze(variant_parameters(params, {k: v[:64] for k, v in changes.items()}),
+                  loop_at_a_time=False)  # warm
     start = time.perf_counter()
-    result = batch_analyze(loop)
+    result = batch_analyze(loop, loop_at_a_time=False)
     ours = time.perf_counter() - start
     picks = np.linspace(0, n - 1, sample).astype(int)
     control_figures(params, changes, 0)  # warm-up (imports)

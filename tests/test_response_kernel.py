@@ -191,3 +191,32 @@ def test_a_single_analysis_stays_on_numpy(monkeypatch):
     monkeypatch.setattr(response_kernel, "grid_responses", None)  # would fail if called
     assert _params().n_runs * OMEGA.size < COMPILED_FROM
     assert analyze(load_variant(None, "base")).stable
+
+
+def test_prepared_responses_equal_the_responses_of_the_chosen_runs():
+    # The margin searches evaluate a few points of some runs through PreparedResponses (the
+    # structure built once per batch). Reference: responses()/current_loop() of those runs'
+    # own parameters (Selector(runs)); the same coefficients, so equal to the bit.
+    from cas_freq.model.loops import PreparedResponses, current_loop
+
+    params = load_variant("configs/cascade_axis.yaml").params
+    rng = np.random.default_rng(3)
+    p = variant_parameters(params, {"position_loop.Kp": 40.0 * rng.uniform(0.8, 1.2, 12),
+                                    "velocity_loop.Kp": 1.3 * rng.uniform(0.8, 1.2, 12),
+                                    "velocity_loop.feedback_filter": np.r_[np.zeros(6),
+                                                                          np.full(6, 2e-4)]})
+    selector = Selector(p)
+    prepared = PreparedResponses(selector())
+    runs = np.array([0, 3, 3, 7, 11, 6])
+    s = 1j * np.geomspace(10.0, 1e5, runs.size)
+    ours = prepared.responses(runs, s, closed=True, loop_at_a_time=True)
+    theirs = responses(selector(runs), s, closed=True, delay=EXACT, loop_at_a_time=True)
+    np.testing.assert_array_equal(ours.closed_loop, theirs.closed_loop)
+    for name in theirs.loops:
+        np.testing.assert_array_equal(ours.loops[name], theirs.loops[name])
+        np.testing.assert_array_equal(ours.loop_at_a_time[name], theirs.loop_at_a_time[name])
+        inner = prepared.responses(runs, s, closed=False, through=name).loops
+        assert list(inner)[-1] == name
+        np.testing.assert_array_equal(inner[name], theirs.loops[name])
+    np.testing.assert_array_equal(prepared.current_loop(runs, s),
+                                  current_loop(selector(runs), s))

@@ -95,3 +95,64 @@ def test_phase_jumps_are_where_numpy_unwrap_adds_turns():
     u = np.cumsum(rng.normal(size=(50, 400)) + 1j * rng.normal(size=(50, 400)), axis=1)
     expected = np.abs(np.diff(np.angle(u), axis=1)) > math.pi
     np.testing.assert_array_equal(phase_jumps(u), expected)
+
+
+def _mixed_cascade_batch():
+    """40 variants of the cascade whose blocks realise to different state counts: velocity
+    and position integrators on and off, zero and nonzero delays (shared and per run), the
+    speed filter on and off, two coupling stiffnesses."""
+    rng = np.random.default_rng(7)
+    n = 40
+    params = load_variant("configs/cascade_axis.yaml").params
+
+    def some(value, other):
+        return np.where(rng.uniform(size=n) < 0.3, other, value)
+
+    return variant_parameters(params, {
+        "position_loop.Kp": 40.0 * rng.uniform(0.5, 1.5, n),
+        "velocity_loop.Kp": 1.3 * rng.uniform(0.5, 1.5, n),
+        "velocity_loop.Ki": some(15.0, 0.0), "position_loop.Ki": some(100.0, 0.0),
+        "velocity_loop.delay": some(1e-4, 0.0),
+        "current_loop.delay": rng.choice([0.0, 5e-5, 6e-5], n),
+        "velocity_loop.feedback_filter": some(2e-4, 0.0),
+        "gear.stiffness": some(2000.0, 1000.0),
+    })
+
+
+def test_batched_poles_are_the_poles_of_each_run_to_the_bit():
+    # A batch's ambiguous Routh verdicts come from closed_loop_poles_of_runs (stacked state
+    # matrices, one eigenvalue call per group of runs that realise alike). Reference: the
+    # one-run path, closed_loop_poles of each run alone; every product in the assembly has
+    # an inner dimension of 1 and LAPACK sees the same matrix, so they must be equal exactly
+    # (the verdicts then cannot depend on the runs beside a run, e.g. on the chunking).
+    from cas_freq.analysis.stability import _sorted, closed_loop_poles_of_runs
+
+    for p in (_mixed_cascade_batch(),
+              variant_parameters(load_variant().params,
+                                 {"position_loop.Kp": np.array([4.0, 6.3, 60.0, 200.0]),
+                                  "position_loop.Ki": np.array([0.0, 5.0, 5.0, 0.0]),
+                                  "position_loop.Kd": np.array([0.0, 0.05, 0.0, 0.05])})):
+        batch = closed_loop_poles_of_runs(p, 6)
+        sizes = set()
+        for run, poles in enumerate(batch):
+            alone = closed_loop_poles(p.run(run), 6)
+            sizes.add(alone.size)
+            np.testing.assert_array_equal(_sorted(poles), alone)
+        assert len(sizes) > 1  # the batch mixes state counts
+
+
+def test_roots_of_rows_are_numpys_roots_and_verdicts_agree_run_by_run():
+    # _roots_of_rows (the inner loops' ambiguous verdicts): the companion matrices np.roots
+    # builds, stacked; equal rows solved once. Reference: np.roots of each row, exactly; and
+    # the batch's verdicts equal those of each run analysed alone.
+    from cas_freq.analysis.stability import _roots_of_rows, loop_polynomials, loop_verdicts
+
+    p = _mixed_cascade_batch()
+    for polynomials in loop_polynomials(p, 6).values():
+        repeated = np.vstack([polynomials, polynomials[:5]])
+        for row, roots in zip(repeated, _roots_of_rows(repeated), strict=True):
+            np.testing.assert_array_equal(roots, np.roots(np.trim_zeros(row, "f")))
+    together = loop_verdicts(p, 6)
+    for run in range(p.n_runs):
+        alone = loop_verdicts(p.run(run), 6)
+        assert {k: v[run] for k, v in together.items()} == {k: v[0] for k, v in alone.items()}

@@ -46,7 +46,7 @@ from cas_freq.analysis.stability import (
 from cas_freq.fileio import json_ready
 from cas_freq.jit import compiled_for, use_compiled
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, EXACT, DelayModel
-from cas_freq.model.loops import Selector, current_loop, responses
+from cas_freq.model.loops import PreparedResponses, Selector, responses
 from cas_freq.model.structure import build
 from cas_freq.output import output_json, output_unit
 from cas_freq.summary import Summary
@@ -124,12 +124,15 @@ def _figures_on(p, omega, verdicts, columns=None, delay=EXACT, crossings=False,
     low = omega[:columns]
     m = low.size
 
+    prepared = PreparedResponses(selector())
+
     def evaluator(kind, view=None):
         def evaluate(runs, w):
             if kind == names[0] and view is None:
-                return current_loop(selector(runs), 1j * w, delay)
-            values = responses(selector(runs), 1j * w, closed=kind == "closed_loop",
-                               delay=delay, loop_at_a_time=view is not None)
+                return prepared.current_loop(runs, 1j * w, delay)
+            values = prepared.responses(runs, 1j * w, closed=kind == "closed_loop",
+                                        delay=delay, loop_at_a_time=view is not None,
+                                        through=kind if kind in names else None)
             if kind == "closed_loop":
                 return values.closed_loop
             return (values.loops if view is None else values.loop_at_a_time)[kind]

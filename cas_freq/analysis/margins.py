@@ -224,10 +224,12 @@ def continuous_phase_at(response, omega, rows, columns):
     simple = columns <= first_jump[rows]
     value = quarter_turn(response[rows, columns], quarters[rows])
     out[simple] = np.angle(value[simple]) + target[rows[simple]]
-    for row in np.unique(rows[~simple]):
-        unwrapped = np.unwrap(np.angle(quarter_turn(response[row, :width], quarters[row])))
-        mine = (rows == row) & ~simple
-        out[mine] = unwrapped[columns[mine]] + target[row]
+    hard = ~simple
+    if hard.any():  # every such row unwrapped at once (row by row: the same numbers)
+        unique, which = np.unique(rows[hard], return_inverse=True)
+        turned = quarter_turn(response[unique, :width], quarters[unique][:, None])
+        unwrapped = np.unwrap(np.angle(turned), axis=1)
+        out[hard] = unwrapped[which.reshape(-1), columns[hard]] + target[rows[hard]]
     return out
 
 

@@ -55,10 +55,10 @@ def _evaluate(c, w, w2, real, imaginary, out):
 
 
 @cached_jit(inline="always")
-def _polynomial(coefficients, values, k, i, w, w2, real, imaginary, out):
+def _polynomial(coefficients, values, shared, k, i, w, w2, real, imaginary, out):
     """Polynomial k of run i on the grid: its precomputed values where every run shares it
-    (``values`` has a row), else evaluated into ``out``."""
-    if values.shape[1] == 1:
+    (``shared[k]``), else evaluated into ``out``."""
+    if shared[k]:
         return values[k, 0]
     _evaluate(coefficients[k, _row(coefficients, i)], w, w2, real, imaginary, out)
     return out
@@ -71,13 +71,14 @@ def _row(array, i):
 
 
 @cached_jit(nogil=True)
-def _responses(w, plant, output, a, b, g, f, reference, values, has_reference, delays,
-               fill, loops, aat, t):
+def _responses(w, plant, output, a, b, g, f, reference, values, shared, has_reference,
+               delays, fill, loops, aat, t):
     """Fill ``loops`` (k, run, frequency), ``aat`` (the same with every other loop closed; no
     runs where not asked) and ``t`` (no runs where not asked). Stacks (loop, run or 1, width)
-    as built by :func:`grid_responses`, ``values`` their precomputed values where shared
-    (:func:`_shared_values`); ``fill[k]``: how many runs of loop k to write (1 where
-    every run shares its cascade response). Each run is evaluated a stage at a time over the
+    as built by :func:`grid_responses`, ``values`` their precomputed values where every run
+    shares polynomial k (``shared``: a flag per polynomial; :func:`_shared_values`);
+    ``fill[k]``: how many runs of loop k to write (1 where every run shares its cascade
+    response). Each run is evaluated a stage at a time over the
     whole grid (loops over the grid that the compiler vectorises)."""
     count = a.shape[0]
     m = w.size
@@ -92,32 +93,33 @@ def _responses(w, plant, output, a, b, g, f, reference, values, has_reference, d
     real = np.empty(m)
     imaginary = np.empty(m)
     v_plant, v_output, v_a, v_b, v_g, v_f, v_reference = values
+    s_plant, s_output, s_a, s_b, s_g, s_f, s_reference = shared
     inner = np.empty((count, m), dtype=np.complex128)
     terms = np.empty((count, m), dtype=np.complex128)
     betas = np.empty((count, m), dtype=np.complex128)
     for i in range(loops.shape[1]):
-        e[:] = _polynomial(plant, v_plant, 0, i, w, w2, real, imaginary, work[0])
+        e[:] = _polynomial(plant, v_plant, s_plant, 0, i, w, w2, real, imaginary, work[0])
         for j in range(m):
             gain[j] = 1.0
             sensed[j] = 1.0
             command[j] = 0.0
         for k in range(count):
             d = delays[k, _row(delays, i)]
-            bk = _polynomial(b, v_b, k, i, w, w2, real, imaginary, work[1])
-            fk = _polynomial(f, v_f, k, i, w, w2, real, imaginary, work[2])
+            bk = _polynomial(b, v_b, s_b, k, i, w, w2, real, imaginary, work[1])
+            fk = _polynomial(f, v_f, s_f, k, i, w, w2, real, imaginary, work[2])
             if with_t:
                 if has_reference[k]:
-                    value = _polynomial(reference, v_reference, k, i, w, w2, real, imaginary,
-                                        work[3])
+                    value = _polynomial(reference, v_reference, s_reference, k, i, w, w2,
+                                        real, imaginary, work[3])
                     for j in range(m):
                         command[j] = command[j] * bk[j] + gain[j] * value[j] * d[j]
                 else:
                     for j in range(m):
                         command[j] = command[j] * bk[j]
-            value = _polynomial(a, v_a, k, i, w, w2, real, imaginary, work[3])
+            value = _polynomial(a, v_a, s_a, k, i, w, w2, real, imaginary, work[3])
             for j in range(m):
                 gain[j] = gain[j] * value[j] * d[j]
-            value = _polynomial(g, v_g, k, i, w, w2, real, imaginary, work[4])
+            value = _polynomial(g, v_g, s_g, k, i, w, w2, real, imaginary, work[4])
             write = i < fill[k]
             for j in range(m):
                 c = gain[j] * value[j] * sensed[j]
@@ -130,7 +132,7 @@ def _responses(w, plant, output, a, b, g, f, reference, values, has_reference, d
                 e[j] = beta * e[j] + c
                 sensed[j] = sensed[j] * fk[j]
         if with_t:
-            value = _polynomial(output, v_output, 0, i, w, w2, real, imaginary, work[3])
+            value = _polynomial(output, v_output, s_output, 0, i, w, w2, real, imaginary, work[3])
             for j in range(m):
                 t[i, j] = _divide(command[j] * sensed[j] * value[j], e[j])
         if with_aat:
@@ -143,25 +145,26 @@ def _responses(w, plant, output, a, b, g, f, reference, values, has_reference, d
                     aat[k, i, j] = _divide(upper, above * inner[k, j])
 
 
-def _shared_values(stack, omega):
-    """A stack's values on the grid, (loops, 1, m), where every run shares it (by the kernel's
-    own arithmetic, so a run's figures do not depend on the runs beside it); else an empty
-    (loops, 0, m) array (each run evaluates its own)."""
-    if stack.shape[1] > 1:
-        return np.empty((stack.shape[0], 0, omega.size), dtype=complex)
+def _shared_values(stack, shared, omega):
+    """A stack's values on the grid, (loops, 1, m), of the polynomials every run shares
+    (``shared``, a flag per loop; the others' rows are left unset and each run evaluates its
+    own), by the kernel's own arithmetic, so a run's figures do not depend on the runs beside
+    it (whether a coefficient varies within a chunk does)."""
     out = np.empty((stack.shape[0], 1, omega.size), dtype=complex)
-    _evaluate_all(stack, omega, out)
+    _evaluate_all(stack, shared, omega, out)
     return out
 
 
 @cached_jit(nogil=True)
-def _evaluate_all(stack, w, out):
-    """out[k, 0] = polynomial k of a one-row stack on the grid (:func:`_evaluate`)."""
+def _evaluate_all(stack, shared, w, out):
+    """out[k, 0] = polynomial k of the stack on the grid (:func:`_evaluate`) where
+    ``shared[k]`` (its first row: every row is the same)."""
     w2 = -w * w
     real = np.empty(w.size)
     imaginary = np.empty(w.size)
     for k in range(stack.shape[0]):
-        _evaluate(stack[k, 0], w, w2, real, imaginary, out[k, 0])
+        if shared[k]:
+            _evaluate(stack[k, 0], w, w2, real, imaginary, out[k, 0])
 
 
 def _shared(value):
@@ -252,9 +255,17 @@ def grid_responses(p, omega, n, delay, closed=True, feedforward=False, loop_at_a
     loops = np.empty((count, n, m), dtype=complex)
     aat = np.empty((count, n if loop_at_a_time else 0, m), dtype=complex)
     t = np.empty((n if closed else 0, m), dtype=complex)
-    values = tuple(_shared_values(stack, omega) for stack in (plant, output, a, b, g, f, reference))
-    _responses(omega, plant, output, a, b, g, f, reference, values, has_reference, delays, fill,
-               loops, aat, t)
+    roles = ([structure.plant.denominator], [structure.plant.signals[structure.output]],
+             [s.a for s in steps], [s.b for s in steps], [s.g for s in steps],
+             [s.f for s in steps],
+             [s.reference if s.reference is not None else (0.0,) for s in steps])
+    shared = tuple(np.array([all(_shared(c) for c in polynomial) for polynomial in role])
+                   for role in roles)
+    stacks = (plant, output, a, b, g, f, reference)
+    values = tuple(_shared_values(stack, flags, omega)
+                   for stack, flags in zip(stacks, shared, strict=True))
+    _responses(omega, plant, output, a, b, g, f, reference, values, shared, has_reference,
+               delays, fill, loops, aat, t)
     names = structure.names
     cascade = {name: loops[k, 0] if fill[k] == 1 else loops[k] for k, name in enumerate(names)}
     return LoopResponses(

@@ -275,11 +275,12 @@ def loop_verdicts(p, order=DEFAULT_PADE_ORDER):
 
     def fallback(name):
         if name == names[-1]:
-            return lambda rows: [pole_verdict(closed_loop_poles(p.run(r), order)) for r in rows]
+            return lambda rows: [pole_verdict(poles) for poles in
+                                 closed_loop_poles_of_runs(p.take(rows), order)]
         if name == names[0]:
             return lambda rows: [pole_verdict(current_loop_poles(p.run(r), order)) for r in rows]
-        return lambda rows: [pole_verdict(np.roots(np.trim_zeros(polynomials[name][r], "f")))
-                             for r in rows]
+        return lambda rows: [pole_verdict(poles) for poles in
+                             _roots_of_rows(polynomials[name][rows])]
 
     return {name: verdicts(polynomial, fallback(name))
             for name, polynomial in polynomials.items()}
@@ -423,33 +424,137 @@ def loop_system(params, pade_order, loops=None):
     tuple of numpy.ndarray
         (A, B, C, D); outputs in the order of :data:`cas_freq.model.structure.SIGNALS`.
     """
-    p = parts.one_variant(params)
+    return _assemble(parts.one_variant(params), pade_order, loops)
+
+
+def _assemble(p, pade_order, loops=None, n=None):
+    """:func:`loop_system` of one run (``n`` None: 2-D matrices) or of the ``n`` runs of
+    ``p`` at once (stacks (n, ., .); every run must realise to the same state count, as
+    :func:`_realization_shapes` groups them). The stacks hold, run by run, the same numbers
+    as the one-run matrices: every product here has an inner dimension of 1 (one rounding)."""
     structure = build(p)
     a, b = parts.plant_matrices(p)
-    states = a.shape[1]
-    rows = np.zeros((4, states))
-    rows[0, 0] = rows[1, 1] = rows[2, 2] = 1.0
-    rows[3] = parts.fin_output(states, float(p.ratio[0]))
-    system = (a[0], b[0, :, :1], rows, np.zeros((4, 1)))
+    states = a.shape[-1]
+    if n is None:
+        a, b, lead = a[0], b[0, :, :1], ()
+        ratio = np.asarray(p.ratio, dtype=float).reshape(-1)[:1]
+    else:
+        b, lead = b[:, :, :1], (n,)
+        ratio = np.broadcast_to(np.asarray(p.ratio, dtype=float), (n,))
+    rows = np.zeros((*lead, 4, states))
+    rows[..., 0, 0] = rows[..., 1, 1] = rows[..., 2, 2] = 1.0
+    values, inverse = np.unique(ratio, return_inverse=True)
+    output = np.stack([parts.fin_output(states, float(r)) for r in values])[inverse]
+    rows[..., 3, :] = output[0] if n is None else output
+    system = (a, b, rows, np.zeros((4, 1)))
     chosen = structure.loops[:loops]
     for k, loop in enumerate(chosen):
-        forward = loop_forward(loop, pade_order, reference=k == len(chosen) - 1)
+        forward = loop_forward(loop, pade_order, reference=k == len(chosen) - 1, n=n)
         system = _feedback(series(forward, system), SIGNAL_ROWS[loop.feedback],
-                           loop_sensor(loop))
+                           loop_sensor(loop, n))
     return system
+
+
+def closed_loop_poles_of_runs(p, pade_order):
+    """:func:`closed_loop_poles` of every run of ``p`` (unsorted), the state matrices built
+    and their eigenvalues found a group of runs at a time (runs whose blocks realise to the
+    same state count): the same matrices, so the same eigenvalues, as run by run, without
+    its cost in Python (about 3 ms a run for the cascade; a few microseconds here).
+
+    Parameters
+    ----------
+    p : cas_freq.parameters.LoopParameters
+        The runs.
+    pade_order : int
+        Padé order n >= 1 of every delay.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        Complex poles [rad/s] of each run.
+    """
+    n = p.n_runs
+    structure = build(p)
+    if structure.loops[-1].reference is not None:  # the command's own path: run by run
+        return [closed_loop_poles(p.run(r), pade_order) for r in range(n)]
+    shapes = _realization_shapes(p, structure, n)
+    _, group = np.unique(shapes, axis=0, return_inverse=True)
+    out = [None] * n
+    for g in range(int(group.max()) + 1 if n else 0):
+        rows = np.flatnonzero(group.reshape(-1) == g)
+        a = _assemble(p.take(rows), pade_order, n=rows.size)[0]
+        for r, poles in zip(rows, np.linalg.eigvals(a), strict=True):
+            out[r] = poles
+    return out
+
+
+def _realization_shapes(p, structure, n):
+    """Per run, what sets its state count: a compliant gear, each realised denominator's
+    leading zeros (a controller without its integrator, a filter of zero time constant) and
+    each delay being zero; (n, k) integers."""
+    columns = [np.broadcast_to(np.asarray(p.K_g) > 0, (n,))]
+    for loop in structure.loops:
+        controller = loop.controller
+        denominators = [controller.minimal()[1] if controller.minimal else
+                        parts.stacked(controller.denominator, n)]
+        denominators += [parts.stacked(block.denominator, n)
+                         for block in (*loop.path, *loop.sensor)]
+        columns += [np.argmax(d != 0, axis=1) for d in denominators]
+        columns.append(np.broadcast_to(np.asarray(loop.delay, dtype=float) == 0,
+                                       (n,)).reshape(-1))
+    return np.column_stack(columns).astype(int)
+
+
+def _roots_of_rows(polynomials):
+    """``np.roots`` of each row (leading zeros allowed), the companion matrices of rows with
+    the same leading and trailing zeros stacked for one eigenvalue call (the matrices
+    ``np.roots`` builds, so the same roots); rows that are equal (an inner loop that a sweep
+    of an outer loop's gains leaves alone) are solved once."""
+    distinct, inverse = np.unique(polynomials, axis=0, return_inverse=True)
+    roots = _distinct_roots(distinct)
+    return [roots[i] for i in inverse.reshape(-1)]
+
+
+def _distinct_roots(polynomials):
+    """:func:`_roots_of_rows` of rows without repeats."""
+    nonzero = polynomials != 0
+    width = polynomials.shape[1]
+    first = np.argmax(nonzero, axis=1)
+    last = width - 1 - np.argmax(nonzero[:, ::-1], axis=1)
+    out = [None] * polynomials.shape[0]
+    keys = np.column_stack([first, last])
+    for key in np.unique(keys, axis=0):
+        rows = np.flatnonzero(np.all(keys == key, axis=1))
+        start, stop = int(key[0]), int(key[1])
+        kept = polynomials[rows, start:stop + 1]
+        size = kept.shape[1]
+        if size > 1:
+            companion = np.zeros((rows.size, size - 1, size - 1))
+            companion[:, 1:, :-1] = np.eye(size - 2)
+            companion[:, 0, :] = -kept[:, 1:] / kept[:, :1]
+            roots = np.linalg.eigvals(companion)
+        else:
+            roots = np.zeros((rows.size, 0), dtype=complex)
+        zeros = np.zeros((rows.size, width - 1 - stop), dtype=roots.dtype)
+        for r, value in zip(rows, np.hstack((roots, zeros)), strict=True):
+            out[r] = value
+    return out
 
 
 #: Output row of each measured signal in :func:`loop_system`.
 SIGNAL_ROWS = {name: row for row, name in enumerate(SIGNALS)}
 
 
-def loop_forward(loop, pade_order, reference=False):
+def loop_forward(loop, pade_order, reference=False, n=None):
     """A loop's forward path (controller, path filters, Padé delay) in state space with two
     input columns: the error, and the command (the same column unless ``reference`` and the
     controller's command path differs: the derivative on the measurement). Realised in its
-    minimal form (exact common factors cancelled)."""
+    minimal form (exact common factors cancelled). One run (2-D matrices), or stacks over
+    ``n`` runs that realise alike (no command path of its own)."""
     controller = loop.controller
     if reference and loop.reference is not None:
+        if n is not None:
+            raise ValueError("a command path of its own is realised run by run")
         numerators, denominator = _cancel_zero_roots(
             [parts.stacked(controller.numerator, 1)[0], parts.stacked(loop.reference, 1)[0]],
             parts.stacked(controller.denominator, 1)[0])
@@ -459,27 +564,42 @@ def loop_forward(loop, pade_order, reference=False):
                  np.hstack([first[3], command[3]]))
     else:
         numerator, denominator = (controller.minimal() if controller.minimal else
-                                  (parts.stacked(controller.numerator, 1),
-                                   parts.stacked(controller.denominator, 1)))
-        first = _realize(numerator[0], denominator[0])
-        first = (first[0], np.hstack([first[1]] * 2), first[2], np.hstack([first[3]] * 2))
-    return series(first, _delay_free(loop, pade_order))
+                                  (parts.stacked(controller.numerator, n or 1),
+                                   parts.stacked(controller.denominator, n or 1)))
+        if n is None:
+            numerator, denominator = numerator[0], denominator[0]
+        first = _realize(numerator, denominator)
+        first = (first[0], _concatenate([first[1]] * 2, -1), first[2],
+                 _concatenate([first[3]] * 2, -1))
+    return series(first, _delay_free(loop, pade_order, n))
 
 
-def _delay_free(loop, pade_order):
+def _delay_free(loop, pade_order, n=None):
     """The path filters and the Padé delay of a loop, in series."""
     rest = (np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((1, 0)), np.ones((1, 1)))
     for block in loop.path:
-        rest = series(rest, _realize_block(block))
-    return series(rest, pade_realization(float(np.squeeze(loop.delay)), pade_order))
+        rest = series(rest, _realize_block(block, n))
+    return series(rest, _pade(loop.delay, pade_order, n))
 
 
-def loop_sensor(loop):
+def _pade(delay, pade_order, n=None):
+    """:func:`~cas_freq.model.delay.pade_realization` of a loop's delay: of one run, or a
+    stack over ``n`` runs whose delays are all zero or all positive (2-D where they share it)."""
+    taus = np.asarray(delay, dtype=float).reshape(-1)
+    values, inverse = np.unique(taus, return_inverse=True)
+    if n is None or values.size == 1:
+        return pade_realization(float(values[0] if n is not None else taus[0]), pade_order)
+    each = [pade_realization(float(tau), pade_order) for tau in values]
+    return tuple(np.stack([m[i] for m in each])[np.broadcast_to(inverse, (n,))]
+                 for i in range(4))
+
+
+def loop_sensor(loop, n=None):
     """A loop's sensor filters in state space, None for a plain measurement."""
     sensor = None
     for block in loop.sensor:
-        sensor = _realize_block(block) if sensor is None else series(
-            sensor, _realize_block(block))
+        sensor = _realize_block(block, n) if sensor is None else series(
+            sensor, _realize_block(block, n))
     return sensor
 
 
@@ -494,48 +614,73 @@ def _cancel_zero_roots(numerators, denominator):
     return numerators, denominator
 
 
-def _realize_block(block):
-    return _realize(parts.stacked(block.numerator, 1)[0], parts.stacked(block.denominator, 1)[0])
+def _realize_block(block, n=None):
+    numerator = parts.stacked(block.numerator, n or 1)
+    denominator = parts.stacked(block.denominator, n or 1)
+    if n is None:
+        return _realize(numerator[0], denominator[0])
+    return _realize(numerator, denominator)
+
+
+def _trim_leading(coefficients):
+    """The coefficients (..., width) without the leading columns that are zero in every row."""
+    nonzero = np.any(coefficients.reshape(-1, coefficients.shape[-1]) != 0, axis=0)
+    return coefficients[..., int(np.argmax(nonzero)) if nonzero.any() else coefficients.shape[-1]:]
 
 
 def _realize(numerator, denominator):
     """(A, B, C, D) of a proper rational function (coefficients, highest power first) in
-    observable companion form, normalised by the leading denominator coefficient."""
-    denominator = np.trim_zeros(np.asarray(denominator, dtype=float), "f")
-    numerator = np.trim_zeros(np.asarray(numerator, dtype=float), "f")
-    order = denominator.size - 1
-    numerator = np.concatenate([np.zeros(order + 1 - numerator.size), numerator]) / denominator[0]
-    denominator = denominator / denominator[0]
-    d = numerator[0]
-    a = np.zeros((order, order))
+    observable companion form, normalised by the leading denominator coefficient. Rows of
+    stacks (runs, width) give stacks (runs, ., .); their denominators must share a degree."""
+    denominator = _trim_leading(np.asarray(denominator, dtype=float))
+    numerator = _trim_leading(np.asarray(numerator, dtype=float))
+    order = denominator.shape[-1] - 1
+    lead = np.broadcast_shapes(numerator.shape[:-1], denominator.shape[:-1])
+    if numerator.shape[-1] > order + 1:  # leading zeros of some rows only
+        numerator = numerator[..., -(order + 1):]
+    numerator = np.concatenate([np.zeros((*numerator.shape[:-1], order + 1 - numerator.shape[-1])),
+                                numerator], axis=-1) / denominator[..., :1]
+    denominator = denominator / denominator[..., :1]
+    d = numerator[..., 0]
+    a = np.zeros((*lead, order, order))
     if order:
-        a[:, 0] = -denominator[1:]
-        a[:-1, 1:] = np.eye(order - 1)
-    b = (numerator[1:] - d * denominator[1:]).reshape(order, 1)
-    c = np.zeros((1, order))
+        a[..., :, 0] = -denominator[..., 1:]
+        a[..., :-1, 1:] = np.eye(order - 1)
+    b = (numerator[..., 1:] - d[..., None] * denominator[..., 1:])[..., None]
+    c = np.zeros((*lead, 1, order))
     if order:
-        c[0, 0] = 1.0
-    return a, b, c, np.array([[d]])
+        c[..., 0, 0] = 1.0
+    return a, b, c, d[..., None, None]
+
+
+def _concatenate(arrays, axis):
+    """np.concatenate of matrices and stacks of matrices (leading axes broadcast)."""
+    lead = np.broadcast_shapes(*(m.shape[:-2] for m in arrays))
+    return np.concatenate([np.broadcast_to(m, (*lead, *m.shape[-2:])) for m in arrays],
+                          axis=axis)
 
 
 def _feedback(system, row, sensor=None):
     """Negative feedback of output ``row`` (through ``sensor``, if any) to the first input;
     the second input (the command) stays, every output kept. The fed-back output has no
-    direct term, as every measured signal here."""
+    direct term, as every measured signal here. Matrices or stacks of them."""
     a, b, c, d = system
-    b_error, b_command, d_error, d_command = b[:, :1], b[:, 1:], d[:, :1], d[:, 1:]
-    measured = c[row:row + 1]
+    b_error, b_command = b[..., :, :1], b[..., :, 1:]
+    d_error, d_command = d[..., :, :1], d[..., :, 1:]
+    measured = c[..., row:row + 1, :]
     if sensor is None:
         return a - b_error @ measured, b_command, c - d_error @ measured, d_command
     a_s, b_s, c_s, d_s = sensor
-    m, q = a.shape[0], a_s.shape[0]
-    a_new = np.zeros((m + q, m + q))
-    a_new[:m, :m] = a - b_error @ d_s @ measured
-    a_new[:m, m:] = -b_error @ c_s
-    a_new[m:, :m] = b_s @ measured
-    a_new[m:, m:] = a_s
-    c_new = np.hstack([c - d_error @ d_s @ measured, -d_error @ c_s])
-    return a_new, np.vstack([b_command, np.zeros((q, 1))]), c_new, d_command
+    m, q = a.shape[-1], a_s.shape[-1]
+    lead = np.broadcast_shapes(*(x.shape[:-2] for x in (*system, *sensor)))
+    a_new = np.zeros((*lead, m + q, m + q))
+    a_new[..., :m, :m] = a - b_error @ d_s @ measured
+    a_new[..., :m, m:] = -b_error @ c_s
+    a_new[..., m:, :m] = b_s @ measured
+    a_new[..., m:, m:] = a_s
+    c_new = _concatenate([c - d_error @ d_s @ measured, -d_error @ c_s], -1)
+    b_new = _concatenate([b_command, np.zeros((q, 1))], -2)
+    return a_new, b_new, c_new, d_command
 
 
 def current_loop_poles(params, pade_order):
@@ -584,15 +729,17 @@ def _plant(params, output, states=3):
 
 
 def series(first, second):
-    """``first`` then ``second`` (single input; ``first`` single output)."""
+    """``first`` then ``second`` (single input; ``first`` single output); matrices or stacks
+    of them (leading axes broadcast)."""
     a1, b1, c1, d1 = first
     a2, b2, c2, d2 = second
-    m1, m2 = a1.shape[0], a2.shape[0]
-    a = np.zeros((m1 + m2, m1 + m2))
-    a[:m1, :m1] = a1
-    a[m1:, :m1] = b2 @ c1
-    a[m1:, m1:] = a2
-    return a, np.vstack([b1, b2 @ d1]), np.hstack([d2 @ c1, c2]), d2 @ d1
+    m1, m2 = a1.shape[-1], a2.shape[-1]
+    lead = np.broadcast_shapes(*(m.shape[:-2] for m in (*first, *second)))
+    a = np.zeros((*lead, m1 + m2, m1 + m2))
+    a[..., :m1, :m1] = a1
+    a[..., m1:, :m1] = b2 @ c1
+    a[..., m1:, m1:] = a2
+    return a, _concatenate([b1, b2 @ d1], -2), _concatenate([d2 @ c1, c2], -1), d2 @ d1
 
 
 def _close_loop(system, feedback_row, output_row):

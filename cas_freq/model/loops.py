@@ -143,11 +143,19 @@ def responses(p, s, closed=True, delay=EXACT, feedforward=False, loop_at_a_time=
     LoopResponses
     """
     structure = build(p)
-    e = parts.polyval(structure.plant.denominator, s)
+    seen = structure.plant.signals[output or structure.output]
+    return _recurrence(structure.plant.denominator, seen, structure.names,
+                       stages(structure, feedforward), s, closed, delay, loop_at_a_time)
+
+
+def _recurrence(denominator, seen, names, steps, s, closed, delay, loop_at_a_time):
+    """:func:`responses` of the stages ``steps`` of the loops ``names`` over the plant's
+    denominator, T read at the plant signal ``seen`` (polynomials)."""
+    e = parts.polyval(denominator, s)
     gain = sensed = 1.0  # A_(k-1), F~_(k-1)
     command = 0.0
     cascade, inner, terms, betas = {}, [], [], []
-    for loop, stage in zip(structure.loops, stages(structure, feedforward), strict=True):
+    for name, stage in zip(names, steps, strict=True):
         d = delay.response(s, stage.tau)
         b = parts.polyval(stage.b, s)
         f = parts.polyval(stage.f, s) if len(stage.f) > 1 else stage.f[0]
@@ -158,7 +166,7 @@ def responses(p, s, closed=True, delay=EXACT, feedforward=False, loop_at_a_time=
                 command = command + gain * parts.polyval(stage.reference, s) * d
         gain = gain * parts.polyval(stage.a, s) * d
         c = gain * parts.polyval(stage.g, s) * sensed
-        cascade[loop.name] = c / (beta * e)
+        cascade[name] = c / (beta * e)
         inner.append(e)
         terms.append(c)
         betas.append(beta)
@@ -166,7 +174,6 @@ def responses(p, s, closed=True, delay=EXACT, feedforward=False, loop_at_a_time=
         sensed = sensed * f
     t = None
     if closed:
-        seen = structure.plant.signals[output or structure.output]
         t = command * sensed * parts.polyval(seen, s) / e
     aat = None
     if loop_at_a_time:
@@ -176,7 +183,7 @@ def responses(p, s, closed=True, delay=EXACT, feedforward=False, loop_at_a_time=
         for k in range(len(terms) - 1, -1, -1):
             upper = upper + terms[k] * above
             above = above * betas[k]
-            aat[structure.loops[k].name] = upper / (above * inner[k])
+            aat[names[k]] = upper / (above * inner[k])
         aat = dict(reversed(aat.items()))
     return LoopResponses(cascade, t, aat)
 
@@ -184,10 +191,72 @@ def responses(p, s, closed=True, delay=EXACT, feedforward=False, loop_at_a_time=
 def current_loop(p, s, delay=EXACT):
     """L_i(s) alone (cheaper than :func:`responses`)."""
     structure = build(p)
-    stage = stages(structure)[0]
+    return _current_loop(stages(structure)[0], structure.plant.denominator, s, delay)
+
+
+def _current_loop(stage, denominator, s, delay):
     f = parts.polyval(stage.f, s) if len(stage.f) > 1 else stage.f[0]
     return (parts.polyval(stage.a, s) * delay.response(s, stage.tau) * parts.polyval(stage.g, s)
-            / (parts.polyval(stage.b, s) * f * parts.polyval(structure.plant.denominator, s)))
+            / (parts.polyval(stage.b, s) * f * parts.polyval(denominator, s)))
+
+
+class PreparedResponses:
+    """:func:`responses` and :func:`current_loop` of a few runs of a batch at a time, the
+    structure built and multiplied out once for the whole batch (the margin searches
+    evaluate a handful of points of some runs hundreds of times per batch; building the
+    structure for each call cost more than the arithmetic). Every coefficient is the same
+    number as :func:`responses` of those runs computes, so the responses are the same to
+    the bit.
+
+    Parameters
+    ----------
+    p : types.SimpleNamespace
+        Every run's parameters, each a scalar or an array (n,) (a :class:`Selector`'s call).
+    """
+
+    def __init__(self, p):
+        structure = build(p)
+        self.names = structure.names
+        self.denominator = _arrays(structure.plant.denominator)
+        self.seen = _arrays(structure.plant.signals[structure.output])
+        self.steps = [dataclasses.replace(
+            stage, a=_arrays(stage.a), b=_arrays(stage.b), g=_arrays(stage.g),
+            f=_arrays(stage.f), tau=_arrays((stage.tau,))[0],
+            reference=None if stage.reference is None else _arrays(stage.reference))
+            for stage in stages(structure)]
+
+    def _steps(self, runs, count=None):
+        return [dataclasses.replace(
+            stage, a=_pick(stage.a, runs), b=_pick(stage.b, runs), g=_pick(stage.g, runs),
+            f=_pick(stage.f, runs), tau=_pick((stage.tau,), runs)[0],
+            reference=None if stage.reference is None else _pick(stage.reference, runs))
+            for stage in self.steps[:count]]
+
+    def responses(self, runs, s, closed=True, delay=EXACT, loop_at_a_time=False, through=None):
+        """:func:`responses` of the runs ``runs`` (indices, one per value of ``s``); with
+        ``through`` (a loop's name; not with ``closed`` or ``loop_at_a_time``) only the loops
+        up to that one (those outside it do not change it)."""
+        count = None
+        if through is not None and not (closed or loop_at_a_time):
+            count = self.names.index(through) + 1
+        return _recurrence(_pick(self.denominator, runs), _pick(self.seen, runs),
+                           self.names[:count], self._steps(runs, count), s, closed, delay,
+                           loop_at_a_time)
+
+    def current_loop(self, runs, s, delay=EXACT):
+        """:func:`current_loop` of the runs ``runs``."""
+        return _current_loop(self._steps(runs, 1)[0], _pick(self.denominator, runs), s, delay)
+
+
+def _arrays(polynomial):
+    """The coefficients as arrays (n,) where they vary, else as they are (0-d arrays as
+    floats: the same number)."""
+    return tuple(float(c) if np.ndim(c) == 0 else np.asarray(c) for c in polynomial)
+
+
+def _pick(polynomial, runs):
+    """The coefficients (of :func:`_arrays`) of the runs ``runs``."""
+    return tuple(c[runs] if isinstance(c, np.ndarray) else c for c in polynomial)
 
 
 class ActuatorLoops:
