@@ -32,7 +32,8 @@ def test_shipped_config_passes(shipped):
     assert statuses[("base", "BW-1")] == "PASS" and statuses[("base", "OS-1")] == "PASS"
     # base PM 34.7 deg < 45 deg (analyze): an advisory, not a failure
     assert statuses[("base", "PM-P")] == "ADVISORY"
-    assert {v["variant"] for v in data["verdicts"]} == {"base", "fitted", "relaxed", "loaded"}
+    assert {v["variant"] for v in data["verdicts"]} == {"base", "fitted", "relaxed", "loaded",
+                                                         "fin_encoder"}
 
 
 def test_verdicts_are_the_commands_figures(shipped):
@@ -55,9 +56,9 @@ def test_junit_is_valid_and_complete(shipped):
     assert root.tag == "testsuites" and root.get("failures") == "0"
     suites = root.findall("testsuite")
     assert [s.get("name") for s in suites] == ["qt_cas/base", "qt_cas/fitted", "qt_cas/relaxed",
-                                                   "qt_cas/loaded"]
+                                                   "qt_cas/loaded", "qt_cas/fin_encoder"]
     cases = suites[0].findall("testcase")
-    assert int(suites[0].get("tests")) == len(cases) == len(data["verdicts"]) // 4
+    assert int(suites[0].get("tests")) == len(cases) == len(data["verdicts"]) // 5
     assert all(case.find("failure") is None for case in cases)
     assert "ADVISORY" in "".join(case.findtext("system-out") for case in cases)
 

@@ -43,7 +43,7 @@ def shipped_variants():
 
 def test_shipped_variants_in_file_order(shipped_raw, shipped_variants):
     # "base" first, then the file's variants in file order.
-    names = ["base", "fitted", "relaxed", "loaded"]
+    names = ["base", "fitted", "relaxed", "loaded", "fin_encoder"]
     assert variant_names(shipped_raw) == names
     assert [v.variant for v in load_all_variants()] == names
     assert list(shipped_variants) == names
@@ -129,7 +129,7 @@ def test_set_overrides_apply_after_the_variant(shipped_config_path):
 
 def test_overrides_apply_to_every_variant(shipped_config_path):
     loaded = load_all_variants(shipped_config_path, [("position_loop.Ki", 0.0)])
-    assert [lv.params.position_loop.Ki for lv in loaded] == [0.0, 0.0, 0.0, 0.0]
+    assert [lv.params.position_loop.Ki for lv in loaded] == [0.0] * 5
 
 
 def test_setting_mu_v_removes_no_load(shipped_config_path):
@@ -528,7 +528,7 @@ def test_unknown_variant(shipped_config_path):
         load_variant(shipped_config_path, "fited")
     message = str(info.value)
     assert "unknown variant 'fited'" in message
-    assert "['base', 'fitted', 'relaxed', 'loaded']" in message  # what is accepted
+    assert "['base', 'fitted', 'relaxed', 'loaded', 'fin_encoder']" in message  # what is accepted
 
 
 def test_bad_yaml_syntax_names_the_line(shipped_config_path, write_config):

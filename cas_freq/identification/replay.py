@@ -17,7 +17,7 @@ import numpy as np
 
 from cas_freq.parameters import variant_parameters
 from cas_freq.simulation.commands import Recorded, Step
-from cas_freq.simulation.simulator import default_time_step, simulate_batch, step_bound
+from cas_freq.simulation.simulator import loop_time_step, simulate_batch
 
 #: A command is a step when every sample from the trigger on is within this fraction of the
 #: step size of the step.
@@ -87,7 +87,7 @@ class RecordingReplayer:
         self.rates = config.simulation.rates_hz
         one = variant_parameters(config, {})
         periods = [1.0 / rate for rate in self.rates if rate]
-        self.dt = default_time_step([*one.tau_c, *one.tau_p], periods, step_bound(one))
+        self.dt = loop_time_step(one, periods)
         shortest = min(float(np.min(np.diff(t))) if t.size > 1 else np.inf for t in self.times)
         self.record_every = max(1, int(shortest / (4.0 * self.dt)))
         self.t_end = max(float(t[-1]) for t in self.times) + 2 * self.record_every * self.dt

@@ -169,7 +169,7 @@ def profile_runs(variants, move, verdicts=None, progress=None):
         if id(loaded) not in verdicts:
             verdicts[id(loaded)] = linear_verdict(loaded.params)
     runs = [None] * len(variants)
-    for ((current_rate_hz, position_rate_hz), dt), members in groups.items():
+    for ((current_rate_hz, position_rate_hz), dt, _), members in groups.items():
         loops = LoopParameters.from_configs([variants[index].params for index in members])
         count = len(members)
         both = loops.take(np.r_[np.arange(count), np.arange(count)])

@@ -11,7 +11,7 @@ from cas_freq.output import ANGLE, OutputUnit, output_json, output_unit
 from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.commands import Step
 from cas_freq.simulation.second_order import fit_second_order
-from cas_freq.simulation.simulator import default_time_step, simulate_batch, step_bound
+from cas_freq.simulation.simulator import loop_time_step, simulate_batch
 from cas_freq.simulation.step_figures import simulation_step_figures
 
 #: Columns of the time-series CSV, with their units (the same for every config; ``fit`` also
@@ -71,11 +71,13 @@ def step_run(loaded, amplitude_rad):
 
 
 def _batch_key(params):
-    """Variants with equal keys can share a batch and get exactly their solo results."""
+    """Variants with equal keys can share a batch and get exactly their solo results: the same
+    controller rates, time step and loop structure (a batch has one structure)."""
     rates = params.simulation.rates_hz
     p = LoopParameters.from_config(params)
     periods = [1.0 / rate for rate in rates if rate]
-    return rates, default_time_step([*p.tau_c, *p.tau_p], periods, step_bound(p))
+    structure = (p.cascade, p.feedback_output, tuple((f.at, f.kind) for f in p.filters))
+    return rates, loop_time_step(p, periods), structure
 
 
 def step_runs(variants, amplitude_rad, progress=None):
@@ -117,7 +119,7 @@ def step_batch(items, verdicts=None, progress=None):
         if id(loaded) not in verdicts:  # once per variant, however many step sizes
             verdicts[id(loaded)] = linear_verdict(loaded.params)
     runs = [None] * len(items)
-    for ((current_rate_hz, position_rate_hz), dt), members in groups.items():
+    for ((current_rate_hz, position_rate_hz), dt, _), members in groups.items():
         batch = simulate_batch(
             [items[index][0].params for index in members],
             [Step(items[index][1]) for index in members], dt=dt,

@@ -325,6 +325,12 @@ def step_bound(params):
     )
 
 
+def loop_time_step(p, periods_s=()):
+    """The default time step of runs ``p``: :func:`default_time_step` of every loop's delay and
+    the controllers' periods, at most :func:`step_bound`."""
+    return default_time_step([*p.tau_c, *p.tau_p, *p.tau_v], periods_s, step_bound(p))
+
+
 def default_time_step(delays_s, periods_s=(), max_step_s=5e-6):
     """Largest step <= ``max_step_s`` of which every delay and period is a whole multiple.
 
@@ -559,7 +565,7 @@ def simulate_batch(
     n = p.n_runs
     periods = [1.0 / r for r in (current_rate_hz, position_rate_hz) if r]
     if dt is None:
-        dt = default_time_step([*p.tau_c, *p.tau_p, *p.tau_v], periods, step_bound(p))
+        dt = loop_time_step(p, periods)
     if not (isinstance(dt, (int, float)) and dt > 0 and math.isfinite(dt)):
         raise ConfigError(f"dt: must be a finite time > 0 s, got {dt!r}")
     if not (isinstance(record_every, int) and record_every >= 1):

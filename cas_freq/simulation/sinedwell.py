@@ -55,7 +55,7 @@ from cas_freq.exceptions import ConfigError
 from cas_freq.formulas import HALF_POWER
 from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.commands import Sine
-from cas_freq.simulation.simulator import default_time_step, simulate_batch, step_bound
+from cas_freq.simulation.simulator import loop_time_step, simulate_batch
 
 #: Half-power level [dB]: 20 log10(1/sqrt(2)) = -3.0103 dB.
 HALF_POWER_DB = 20.0 * math.log10(HALF_POWER)
@@ -396,7 +396,7 @@ def _dwell(runs, amplitudes, frequency_index, frequencies, *, periods_settle, pe
     t_end = float(np.max(settle + periods_measure * periods))
     if dt is None:
         periods_c = [1.0 / rate for rate in (current_rate_hz, position_rate_hz) if rate]
-        dt = default_time_step([*runs.tau_c, *runs.tau_p], periods_c, step_bound(runs))
+        dt = loop_time_step(runs, periods_c)
     fastest = 2.0 * math.pi / (MIN_STEPS_PER_PERIOD * dt)
     if frequencies.max() > fastest:
         raise ConfigError(
@@ -512,9 +512,9 @@ def _chunk_within_budget(params, frequencies, settings, n_f, current_rate_hz,
     dt = settings["dt"]
     if dt is None:
         periods_c = [1.0 / rate for rate in (current_rate_hz, position_rate_hz) if rate]
-        dt = default_time_step([*params.tau_c, *params.tau_p], periods_c, step_bound(params))
+        dt = loop_time_step(params, periods_c)
     record_every = max(1, int(periods.min() / (settings["samples_per_period"] * dt)))
-    max_delay = float(max(np.max(params.tau_c), np.max(params.tau_p), 0.0))
+    max_delay = float(max(np.max(params.tau_c), np.max(params.tau_p), np.max(params.tau_v), 0.0))
     runs = budget_runs(int(round(t_end / dt)), dt, record_every, max_delay)
     return max(1, runs // n_f)
 
