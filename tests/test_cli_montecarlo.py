@@ -136,7 +136,8 @@ def test_several_variants_share_the_draws(tmp_path, capsys):
     # of the samples agree, to the CSV's 10 significant digits (a sample's rounding, <= 5e-11
     # of it, is below 1e-9 of the deviation's scale 1)
     nominal = {item.variant: item.params.motor.Km for item in
-               [load_variant(None, name) for name in ("base", "fitted", "relaxed", "loaded")]}
+               [load_variant(None, name)
+                for name in ("base", "fitted", "relaxed", "loaded", "fin_encoder")]}
     deviations = {}
     for row in rows:
         deviations.setdefault(row[0], []).append(float(row[2]) / nominal[row[0]] - 1.0)

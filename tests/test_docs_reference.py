@@ -38,8 +38,13 @@ def test_every_numeric_key_is_listed_with_its_unit_and_range(config_page, key):
     record = PARAMETERS[key]
     # a key of both position loops: the PID-on-PI's row; omega_max: the cascade's (PID-on-PI
     # refuses it)
+    # a linear output's keys (refused in the rotary sections): their own section's row
+    from cas_freq.parameters import LINEAR_ONLY
+
     after = ("CascadePositionLoop" if key == "position_loop.omega_max" else
-             "PositionLoop" if key.startswith("position_loop.") else None)
+             "PositionLoop" if key.startswith("position_loop.") else
+             ("LinearGear" if key.startswith("gear.") else "LinearLoad") if key in LINEAR_ONLY
+             else None)
     _, unit, accepted, _, meaning = _row(config_page, key, after)
     assert unit.startswith(record.unit if record.unit != "dimensionless" else "—"), unit
     assert accepted == reference.accepted_range(record)
