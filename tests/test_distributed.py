@@ -27,6 +27,10 @@ from cas_freq.studies.sweep import evaluate_figures
 
 distributed = pytest.importorskip("distributed", reason="the 'distributed' extra is not installed")
 
+#: Local clusters of worker processes cost seconds each: run by .ci/run (the suite keeps its CPU
+#: budget), with ``-m slow``.
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def draw_of_40():

@@ -170,6 +170,7 @@ def test_model_comparison_prefers_the_friction_that_is_there():
 
 # --- the command ------------------------------------------------------------------------------
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_cli_writes_a_config_that_analyze_accepts(tmp_path):
     config = tmp_path / "fitted.yaml"
     shipped = (ROOT / "configs" / "qt_cas.yaml").read_bytes()
@@ -184,6 +185,7 @@ def test_cli_writes_a_config_that_analyze_accepts(tmp_path):
     assert bench.Km / bench.J == pytest.approx(KM / J, rel=2e-3)
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_cli_directory_output_and_comparison(tmp_path):
     out = tmp_path / "fit"
     result = _cli("fit", "--data", *sorted(glob.glob(str(PHYSICAL / "friction_*.csv"))),
@@ -249,6 +251,7 @@ def test_profile_recording_from_simulate_is_replayed_with_its_feedforward(tmp_pa
     assert km / mu == pytest.approx(KM / MU, rel=0.02)
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_the_reports_workflow_on_its_second_order_step():
     """docs/identification.md, "Table 4": the catalog model's Km, J and mu_v fitted to the
     synthetic recording of the report's own second-order step (462 rad/s, 0.54, 2 ms). The data
@@ -269,6 +272,7 @@ def test_the_reports_workflow_on_its_second_order_step():
     assert max(item["ratio"] for item in model["residual_over_noise"]) > 10
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_a_sweep_recording_fits_in_the_time_domain():
     """The SYNTHETIC chirp of examples/recordings/sweep (the fitted variant, feed-forward off)
     replayed as a recorded move: Km/J within 0.1 % of Table 4's 10431 (noise 0.02 deg over

@@ -97,6 +97,7 @@ def _run(args, cache, *, code=None):
     return subprocess.run(command, env=env, capture_output=True, text=True, check=True).stderr
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_the_first_run_says_once_that_it_compiles_and_how_long_it_took(tmp_path):
     # the smallest command with a compiled kernel: a step fit (fit_kernel, ~2 s to compile)
     t = np.linspace(0.0, 0.2, 201)
@@ -114,6 +115,7 @@ def test_the_first_run_says_once_that_it_compiles_and_how_long_it_took(tmp_path)
     assert list((tmp_path / "quiet").rglob("*.nbi"))  # (it did compile)
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_the_api_tells_only_a_configured_logger(tmp_path):
     fit = ("import numpy as np; from cas_freq.simulation import fit_second_order; "
            "t = np.linspace(0, 0.2, 201); fit_second_order(t, 1 - np.exp(-60 * t), 1.0)")

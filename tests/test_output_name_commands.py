@@ -104,6 +104,7 @@ def dc_texts(dc_config, tmp_path_factory):
     return texts
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_every_command_says_output_for_an_actuator_that_does_not_name_it(dc_texts):
     written = {name.removeprefix("file ") for name in dc_texts if name.startswith("file ")}
     # each command wrote what it should (a missing file would leave nothing to check)

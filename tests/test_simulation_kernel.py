@@ -84,20 +84,18 @@ def assert_same(compiled, reference, scale_rad):
 
 @pytest.mark.parametrize("path", [None, "configs/dc_servo.yaml"])
 def test_ten_degree_step_of_every_variant(path):
-    # every variant of the config, default horizon with its extension: one batch per loop
-    # structure (the QT-CAS's fin_encoder closes the position loop on the output)
+    # every variant of the config on the motor encoder in one batch, default horizon with its
+    # extension (a batch has one loop structure: the QT-CAS's fin_encoder, closed on the
+    # output, is compared engine against engine in tests/test_simulation_architectures.py)
     with open(path or "configs/qt_cas.yaml", encoding="utf-8") as stream:
         raw = yaml.safe_load(stream)
-    names = variant_names(raw)
-    groups = {}
-    for name in names:
-        feedback = (raw.get("variants") or {}).get(name, {}).get("position_loop.feedback")
-        groups.setdefault(feedback or "motor", []).append(name)
+    variants = raw.get("variants") or {}
+    names = [name for name in variant_names(raw)
+             if variants.get(name, {}).get("position_loop.feedback", "motor") == "motor"]
     amplitude = math.radians(10.0)
-    for group in groups.values():
-        compiled, reference = both(parameters(path, group), Step(amplitude))
-        assert_same(compiled, reference, amplitude)
-        assert compiled.current_limited.any()  # docs/model.md §10: the 20 A clamp acts
+    compiled, reference = both(parameters(path, names), Step(amplitude))
+    assert_same(compiled, reference, amplitude)
+    assert compiled.current_limited.any()  # docs/model.md §10: the 20 A clamp acts
 
 
 def test_each_variant_alone_is_the_same_run():

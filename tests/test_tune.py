@@ -200,6 +200,7 @@ def test_tuned_config_verifies_and_input_unchanged(tmp_path):
 
 # ---- 5. robust ----------------------------------------------------------------------------------
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_robust_montecarlo_yield_holds_on_fresh_samples(tmp_path):
     out_path = tmp_path / "robust.yaml"
     samples, target = 20, 90.0
