@@ -78,6 +78,7 @@ __all__ = [
     "filter_time_constant",
     "effective_ratio",
     "is_cascade",
+    "loop_structure",
     "is_linear",
     "loop_values",
     "parameter",
@@ -698,8 +699,8 @@ class LoopParameters:
         configs = list(configs)
         if not configs:
             raise ConfigError("simulation parameters: need at least one config")
-        structure = _structure(configs[0])
-        if any(_structure(config) != structure for config in configs[1:]):
+        structure = loop_structure(configs[0])
+        if any(loop_structure(config) != structure for config in configs[1:]):
             raise ConfigError("simulation parameters: the configs of one batch must share their "
                               "loop structure (velocity loop, position feedback, filters' points "
                               "and types)")
@@ -789,9 +790,9 @@ def _which(where, bad):
     return "" if where is None else f" ({where} {_indices(bad)})"
 
 
-def _structure(config):
+def loop_structure(config):
     """The static fields of a validated config: (cascade, feedback_output, the filters' points
-    and types)."""
+    and types). Runs of one batch share them."""
     return (is_cascade(config), config.position_loop.feedback == "output",
             tuple((item.at, item.type) for item in config.filters))
 
@@ -906,7 +907,7 @@ def variant_parameters(params, changes, n=None):
             fields[record.field] = full[key]
     if linear:
         fields["ratio"] = effective_ratio(full["gear.ratio"], full["gear.screw_lead"])
-    structure = _structure(params)
+    structure = loop_structure(params)
     return LoopParameters(
         **fields,
         derivative_on_measurement=np.full(n, params.position_loop.derivative_on == "measurement"),

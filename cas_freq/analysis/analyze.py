@@ -47,7 +47,7 @@ from cas_freq.fileio import json_ready
 from cas_freq.jit import compiled_for, use_compiled
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, EXACT, DelayModel
 from cas_freq.model.loops import PreparedResponses, Selector, responses
-from cas_freq.model.structure import build
+from cas_freq.model.structure import build, total_delay
 from cas_freq.output import output_json, output_unit
 from cas_freq.summary import Summary
 
@@ -270,12 +270,6 @@ def _chunk_figures(p, frequency_range, points_per_decade, pade_order, delay=EXAC
             figures[name] = np.array(figures[name], copy=True)
             figures[name][rows] = value
     return figures, verdicts
-
-
-def total_delay(p):
-    """The largest sum of the loops' delays over the runs [s] (sets how finely the grid must
-    sample the phase)."""
-    return float(np.max(sum(np.asarray(loop.delay, dtype=float) for loop in build(p).loops)))
 
 
 def batch_analyze(

@@ -25,7 +25,7 @@ import numpy as np
 
 from cas_freq.model import parts
 from cas_freq.model.delay import EXACT
-from cas_freq.model.structure import build, stages
+from cas_freq.model.structure import build, stages, total_delay
 
 #: LoopParameters fields the frequency responses use (where the parameters have them).
 RESPONSE_FIELDS = (
@@ -318,4 +318,4 @@ class ActuatorLoops:
     @property
     def total_delay(self):
         """Sum of the transport delays [s] (sets how finely a grid must sample the phase)."""
-        return float(sum(np.max(loop.delay) for loop in build(self._p).loops))
+        return total_delay(self._p)

@@ -333,6 +333,12 @@ def build(p):
     return Structure(plant(p), (current, velocity, position))
 
 
+def total_delay(p):
+    """The largest sum of the loops' delays over the runs [s] (sets how finely a frequency grid
+    must sample the phase)."""
+    return float(np.max(sum(np.asarray(loop.delay, dtype=float) for loop in build(p).loops)))
+
+
 def _runs(p):
     n = getattr(p, "n_runs", None)
     if n is not None:

@@ -8,7 +8,7 @@ import numpy as np
 
 from cas_freq.fileio import json_ready
 from cas_freq.output import ANGLE, OutputUnit, output_json, output_unit
-from cas_freq.parameters import LoopParameters
+from cas_freq.parameters import LoopParameters, loop_structure
 from cas_freq.simulation.commands import Step
 from cas_freq.simulation.second_order import fit_second_order
 from cas_freq.simulation.simulator import loop_time_step, simulate_batch
@@ -76,8 +76,7 @@ def _batch_key(params):
     rates = params.simulation.rates_hz
     p = LoopParameters.from_config(params)
     periods = [1.0 / rate for rate in rates if rate]
-    structure = (p.cascade, p.feedback_output, tuple((f.at, f.kind) for f in p.filters))
-    return rates, loop_time_step(p, periods), structure
+    return rates, loop_time_step(p, periods), loop_structure(params)
 
 
 def step_runs(variants, amplitude_rad, progress=None):
