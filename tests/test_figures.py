@@ -176,7 +176,7 @@ def test_verify_reads_the_field_the_json_prints(outputs):
 
 
 def test_the_reports_tables_read_the_labels_of_the_tables():
-    from cas_freq.report.build import _LOAD_KEYS, _PARAMETER_KEYS, parameter_row_head
+    from cas_freq.report.parameter_table import _LOAD_KEYS, _PARAMETER_KEYS, parameter_row_head
 
     # parameter labels and units from cas_freq.parameters, "the output" as the config names it
     assert parameter_row_head("load.inertia", "fin") == (
