@@ -241,6 +241,7 @@ def test_sampled_margins_approach_the_continuous_ones(base):
             dgm = m.gain_margin_db - figures[loop]["gain_margin_db"]
             assert abs(dpm) < math.degrees(figures[loop]["crossover_rad_s"] * period)
             differences.append((dpm, dgm))
-    for (pm_coarse, gm_coarse), (pm_fine, gm_fine) in zip(differences[:2], differences[2:], strict=True):
+    coarse, fine = differences[:2], differences[2:]
+    for (pm_coarse, gm_coarse), (pm_fine, gm_fine) in zip(coarse, fine, strict=True):
         assert pm_coarse / pm_fine == pytest.approx(2.0, rel=0.1)
         assert gm_coarse / gm_fine == pytest.approx(2.0, rel=0.1)
