@@ -245,3 +245,27 @@ def test_sampled_margins_approach_the_continuous_ones(base):
     for (pm_coarse, gm_coarse), (pm_fine, gm_fine) in zip(coarse, fine, strict=True):
         assert pm_coarse / pm_fine == pytest.approx(2.0, rel=0.1)
         assert gm_coarse / gm_fine == pytest.approx(2.0, rel=0.1)
+
+
+@pytest.mark.filterwarnings("ignore:Badly conditioned filter coefficients")
+def test_margins_equal_python_control_where_it_is_reliable(base):
+    """The oracle's margins (root finding on the exact responses) against
+    control.stability_margins on the single-rate QT-CAS loops at 50 kHz, and its responses
+    against control.frequency_response. python-control's discrete margins go through
+    polynomials (or, warning of inaccuracy, an interpolated FRD): on the 50 kHz L_p its FRD
+    fallback agrees to 1e-4 deg / 1e-4 dB, which is the tolerance here; on the multirate L_p
+    (19 states at 2.5 kHz) its polynomial method returns no phase margin at all (PM inf),
+    which is why the oracle finds the crossings itself (its polynomial conversion also warns
+    of badly conditioned coefficients here, ignored)."""
+    loops = single_rate(base, 20e-6)
+    omega = np.geomspace(1.0, 0.99 * math.pi / 20e-6, 50)
+    with pytest.warns(UserWarning, match="frd"):
+        gm, pm, _, w180, wc, _ = control.stability_margins(loops.position)
+    ours = sampled_margins(loops.position, points=1500)
+    assert ours.phase_margin_deg == pytest.approx(pm, abs=1e-4)
+    assert ours.crossover_rad_s == pytest.approx(wc, rel=1e-5)
+    assert ours.gain_margin_db == pytest.approx(20 * math.log10(gm), abs=1e-4)
+    assert ours.phase_crossover_rad_s == pytest.approx(w180, rel=1e-5)
+    for system in (loops.current, loops.position):
+        response = control.frequency_response(system, omega).complex
+        assert _rel(evaluate(system, omega), response) < 1e-12
