@@ -619,6 +619,8 @@ class LoopParameters:
     cascade: bool = False
     feedback_output: bool = False
     filters: tuple = ()
+    sample_rates: tuple = ()
+    sampling_method: str = "backward"
 
     def __post_init__(self):
         names = _array_fields(self)
@@ -740,7 +742,7 @@ class LoopParameters:
 
 
 #: LoopParameters fields that are the same for the whole batch (not arrays).
-STATIC_FIELDS = ("cascade", "feedback_output", "filters")
+STATIC_FIELDS = ("cascade", "feedback_output", "filters", "sample_rates", "sampling_method")
 
 
 def _array_fields(params):

@@ -19,6 +19,7 @@ import os
 
 import numpy as np
 
+from cas_freq.analysis import sampled_stability
 from cas_freq.analysis.closed_loop import (
     CLOSED_LOOP_FIGURES,
     ClosedLoopFigures,
@@ -47,6 +48,8 @@ from cas_freq.fileio import json_ready
 from cas_freq.jit import compiled_for, use_compiled
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, EXACT, DelayModel
 from cas_freq.model.loops import PreparedResponses, Selector, responses
+from cas_freq.model.sampled import PreparedSampled, is_sampled, nyquist_frequencies
+from cas_freq.model.sampled import responses as sampled_responses
 from cas_freq.model.structure import build, total_delay
 from cas_freq.output import output_json, output_unit
 from cas_freq.summary import Summary
@@ -123,8 +126,12 @@ def _figures_on(p, omega, verdicts, columns=None, delay=EXACT, crossings=False,
     n = p.n_runs
     low = omega[:columns]
     m = low.size
+    # a sampled loop's figures stop below its Nyquist frequency
+    limit = ({name: int(np.searchsorted(low, w, side="left")) for name, w in
+              nyquist_frequencies(p).items()} if is_sampled(p) else dict.fromkeys(names, m))
+    limit["closed_loop"] = limit[top]
 
-    prepared = PreparedResponses(selector())
+    prepared = PreparedSampled(selector) if is_sampled(p) else PreparedResponses(selector())
 
     def evaluator(kind, view=None):
         def evaluate(runs, w):
@@ -144,20 +151,24 @@ def _figures_on(p, omega, verdicts, columns=None, delay=EXACT, crossings=False,
     for k, name in enumerate(names):
         response = grid.loops[name]
         inner = k < len(names) - 1
-        values, found = _loop_figures_of(evaluator(name), low, response[..., :m], n,
+        own = limit[name]
+        probes = probes if probes is None else probes.below(np.log(low[own - 1]))
+        values, found = _loop_figures_of(evaluator(name), low[:own], response[..., :own], n,
                                          verdicts[name] == "stable", probes, crossings, inner)
         figures.update({f"{name}.{key}": value for key, value in values.items()})
         tops[name] = np.broadcast_to(np.abs(response[..., m - 1:]), (n, omega.size - m + 1))
         if at_a_time and inner:
             aat = np.broadcast_to(grid.loop_at_a_time[name], (n, omega.size))
-            values, _ = _loop_figures_of(evaluator(name, AT_A_TIME), low, aat[:, :m], n, whole,
-                                         probes, crossings, False)
+            values, _ = _loop_figures_of(evaluator(name, AT_A_TIME), low[:own], aat[:, :own], n,
+                                         whole, probes, crossings, False)
             tops[f"{name}.{AT_A_TIME}"] = np.abs(aat[:, m - 1:])
         if at_a_time:  # (the outermost loop's two views are one)
             figures.update({f"{name}.{AT_A_TIME}.{key}": value for key, value in values.items()})
         probes = found if probes is None else probes + found
     closed_grid = np.broadcast_to(grid.closed_loop, (n, omega.size))
-    values = closed_loop_figures(evaluator("closed_loop"), low, closed_grid[:, :m], whole)
+    own = limit["closed_loop"]
+    values = closed_loop_figures(evaluator("closed_loop"), low[:own], closed_grid[:, :own],
+                                 whole)
     figures.update({f"closed_loop.{key}": value for key, value in values.items()})
     tops["closed_loop"] = np.abs(closed_grid[:, m - 1:])
     return figures, tops
@@ -188,6 +199,8 @@ def _grid_responses(p, omega, n, delay, compiled=None, at_a_time=True):
     (:func:`cas_freq.model.loops.responses`, the reference). The two agree to ~1e-14 relative,
     not to the last bit: a batch chooses once for all its chunks, so a run's figures do not
     depend on the chunk it falls in."""
+    if is_sampled(p):
+        return sampled_responses(p, 1j * omega, loop_at_a_time=at_a_time)
     if compiled_for(n * omega.size) if compiled is None else compiled:
         from cas_freq.analysis.response_kernel import grid_responses
 
@@ -251,10 +264,10 @@ def _chunk_figures(p, frequency_range, points_per_decade, pade_order, delay=EXAC
     """
     full = frequency_grid(*frequency_range, points_per_decade, total_delay(p))
     if verdicts is None:
-        verdicts = loop_verdicts(p, pade_order)
+        verdicts = every_loop_verdict(p, pade_order)
     coarse = frequency_grid(*frequency_range, points_per_decade, 0.0)
     split = _split_index(full, coarse)
-    if crossings or split >= coarse.size - 1 or split < 3:
+    if crossings or split >= coarse.size - 1 or split < 3 or is_sampled(p):
         figures, _ = _figures_on(p, full, verdicts, delay=delay, crossings=crossings,
                                  compiled=compiled, at_a_time=at_a_time)
         return figures, verdicts
@@ -270,6 +283,15 @@ def _chunk_figures(p, frequency_range, points_per_decade, pade_order, delay=EXAC
             figures[name] = np.array(figures[name], copy=True)
             figures[name][rows] = value
     return figures, verdicts
+
+
+def every_loop_verdict(p, pade_order=DEFAULT_PADE_ORDER):
+    """Each loop's verdict closed with the loops inside it, per run: from the Padé model's
+    poles (:func:`~cas_freq.analysis.stability.loop_verdicts`), or for sampled loops from the
+    discrete-time poles (:func:`~cas_freq.analysis.sampled_stability.loop_verdicts`)."""
+    if is_sampled(p):
+        return sampled_stability.loop_verdicts(p)
+    return loop_verdicts(p, pade_order)
 
 
 def batch_analyze(
@@ -397,6 +419,9 @@ class Analysis(Summary):
     drivetrain: object = None
     #: The velocity loop's margins, for a drive with one (None otherwise).
     velocity_loop: LoopMargins | None = None
+    #: With sampled controllers, the headline figures of the same loops run continuously
+    #: (:func:`_continuous_figures`); None otherwise.
+    continuous: dict | None = None
     #: The analysed variant (:class:`cas_freq.config.LoadedVariant`), which :meth:`plot`
     #: evaluates the loops of; not part of the JSON.
     loaded: object = dataclasses.field(default=None, compare=False)
@@ -530,9 +555,11 @@ def analyze(
     params = LoopParameters.from_config(loaded.params)
     omega = frequency_grid(*frequency_range, points_per_decade, total_delay(params))
     order = delay.order or DEFAULT_PADE_ORDER
-    verdicts = loop_verdicts(params, order)
+    sampled = is_sampled(params)
+    verdicts = every_loop_verdict(params, order)
     every = list(verdicts.values())
-    poles = closed_loop_poles(params, order)
+    poles = (sampled_stability.closed_loop_poles(params) if sampled
+             else closed_loop_poles(params, order))
     stability = Stability(
         verdict=str(every[-1][0]), pade_order=order,
         current_loop_verdict=str(every[0][0]),
@@ -541,7 +568,12 @@ def analyze(
     figures, _ = _chunk_figures(params, frequency_range, points_per_decade, order, delay,
                                 crossings=True, verdicts=verdicts)
     notes = []
-    if delay.exact:
+    continuous = None
+    if sampled:
+        continuous = _continuous_figures(params, frequency_range, points_per_decade, order,
+                                         delay)
+        notes.extend(sampling_notes(params, figures))
+    elif delay.exact:
         notes.append(
             f"stability from the poles of the Padé model of order {stability.pade_order}; "
             "every frequency figure uses exact delays"
@@ -562,7 +594,7 @@ def analyze(
         notes.extend(drivetrain_notes(load, loaded.params.output_label,
                                       (unit.spring, unit.spring_unit)))
     rows = pade_study(params, pade_orders, omega) if pade_orders > 0 else ()
-    edges = _range_edges(figures, omega, stability.stable)
+    edges = _range_edges(figures, omega, stability.stable, sampled)
     for section, figure, at_edge in edges:
         if at_edge:
             notes.append(f"{_edge_words(section, figure)} at an end of the analysed range "
@@ -585,8 +617,68 @@ def analyze(
         notes=tuple(notes),
         range_edges=edges,
         drivetrain=load,
+        continuous=continuous,
         loaded=loaded,
     )
+
+
+def _continuous_figures(params, frequency_range, points_per_decade, order, delay):
+    """The headline figures of the same loops run continuously (the cost of sampling):
+    {loop: {figure: value}, "closed_loop": {...}, "stability": verdict}."""
+    params = dataclasses.replace(params, sample_rates=())
+    verdicts = every_loop_verdict(params, order)
+    figures, _ = _chunk_figures(params, frequency_range, points_per_decade, order, delay,
+                                verdicts=verdicts)
+    out = {"stability": str(list(verdicts.values())[-1][0])}
+    for name in verdicts:
+        out[name] = {key: _value(figures[f"{name}.{key}"][0]) for key in CONTINUOUS_FIGURES}
+    out["closed_loop"] = {key: _value(figures[f"closed_loop.{key}"][0])
+                          for key in ("bandwidth_rad_s", "peak_db")}
+    return out
+
+
+#: The loop figures shown beside a sampled loop's (``continuous`` in the JSON).
+CONTINUOUS_FIGURES = ("phase_margin_deg", "crossover_rad_s", "gain_margin_db", "delay_margin_s")
+
+
+def sampling_notes(params, figures):
+    """What the output says of sampled loops: the rates, where the figures stop, and a rate
+    below twice a loop's crossover."""
+    from cas_freq.model.sampled import periods
+
+    every = periods(params)
+    rates = ", ".join(f"{name.replace('_loop', '')} {1.0 / period:g} Hz"
+                      for name, period in every.items())
+    notes = [f"sampled controllers ({rates}; {params.sampling_method} discretisation, "
+             "zero-order hold): stability from the discrete-time poles, each loop's figures "
+             "exact at its sampling instants and up to its Nyquist frequency pi/T; the "
+             "continuous figures beside them ('continuous')"]
+    for name, period in every.items():
+        crossover = np.asarray(figures[f"{name}.crossover_rad_s"])[0]
+        sampling = 2.0 * np.pi / period
+        if np.isfinite(crossover) and sampling < 2.0 * crossover:
+            notes.append(f"{name.replace('_', ' ')} sampled at {1.0 / period:g} Hz "
+                         f"({sampling:.5g} rad/s): below twice its crossover "
+                         f"({crossover:.5g} rad/s)")
+    return notes
+
+
+def _add_sampling(data, analysis):
+    """The sampling section of a sampled analysis's JSON and each loop's delay margin in
+    samples of its own period."""
+    from cas_freq.model.sampled import periods
+    from cas_freq.parameters import LoopParameters
+
+    params = LoopParameters.from_config(analysis.loaded.params)
+    every = periods(params)
+    data["sampling"] = {
+        "method": params.sampling_method,
+        "rates_hz": {name: 1.0 / period for name, period in every.items()},
+        "nyquist_rad_s": {name: np.pi / period for name, period in every.items()},
+    }
+    for name, period in every.items():
+        margin = data[name]["delay_margin_s"]
+        data[name]["delay_margin_samples"] = None if margin is None else margin / period
 
 
 def _edge_words(section, figure):
@@ -598,7 +690,7 @@ def _edge_words(section, figure):
     return words + (" (every other loop closed)" if view else "")
 
 
-def _range_edges(figures, omega, stable):
+def _range_edges(figures, omega, stable, sampled=False):
     """(section, figure, bool) for each maximum the engine searched: True when it lies at the
     top end of the grid (``_maximum_at_top``) or, for the sensitivity peak, at the bottom end;
     None for a loop that is not stable (no peak is reported then). A section is a loop, a
@@ -607,11 +699,12 @@ def _range_edges(figures, omega, stable):
     sections = [key[:-len("._maximum_at_top")] for key in figures
                 if key.endswith("._maximum_at_top") and key != "closed_loop._maximum_at_top"]
     for section in sections:
-        at_top = bool(np.asarray(figures[f"{section}._maximum_at_top"])[0])
+        # a sampled loop's grid ends at its Nyquist frequency, the top of its frequency axis
+        at_top = bool(np.asarray(figures[f"{section}._maximum_at_top"])[0]) and not sampled
         peak_w = np.asarray(figures[f"{section}.sensitivity_peak_rad_s"])[0]
         at_bottom = bool(np.isfinite(peak_w) and peak_w == omega[0])
         edges.append((section, "sensitivity_peak", (at_top or at_bottom) if stable else None))
-    closed_top = bool(np.asarray(figures["closed_loop._maximum_at_top"])[0])
+    closed_top = bool(np.asarray(figures["closed_loop._maximum_at_top"])[0]) and not sampled
     edges.append(("closed_loop", "peak", closed_top if stable else None))
     return tuple(edges)
 
@@ -626,6 +719,10 @@ def to_dict(analysis):
         del data["drivetrain"]
     if data["velocity_loop"] is None:
         del data["velocity_loop"]
+    if data["continuous"] is None:
+        del data["continuous"]
+    elif analysis.loaded is not None:
+        _add_sampling(data, analysis)
     for loop in ("current_loop", "velocity_loop", "position_loop"):
         if loop in data and data[loop]["loop_at_a_time"] is not None:
             del data[loop]["loop_at_a_time"]["loop_at_a_time"]

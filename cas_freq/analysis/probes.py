@@ -41,6 +41,12 @@ class Probes:
         return Probes(np.concatenate([self.runs, other.runs]),
                       np.concatenate([self.log_w, other.log_w]))
 
+    def below(self, log_w):
+        """The probes at or below ``log_w`` [log(rad/s)] (a sampled loop's figures stop at its
+        Nyquist frequency)."""
+        kept = self.log_w <= log_w
+        return self if kept.all() else Probes(self.runs[kept], self.log_w[kept])
+
 
 def extremum_probes(evaluate, omega, response, squared=None):
     """Probes at the local extrema of |L| that may cross 0 dB between two samples.

@@ -36,7 +36,7 @@ RESPONSE_FIELDS = (
 )
 
 #: Fields the whole batch shares (the architecture), passed on as they are.
-STATIC_FIELDS = ("cascade", "feedback_output")
+STATIC_FIELDS = ("cascade", "feedback_output", "sample_rates", "sampling_method")
 
 #: Per-run numbers of a filter (cas_freq.parameters.Filter).
 FILTER_NUMBERS = ("frequency", "damping", "width", "depth_db")

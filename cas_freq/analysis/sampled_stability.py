@@ -1,0 +1,281 @@
+r"""Stability of sampled loops from their discrete-time poles (docs/model.md, "Sampled
+controllers").
+
+The loops of the declared structure are assembled in discrete-time state space, inside out,
+with the same interconnections as the continuous closed loop
+(:func:`cas_freq.analysis.stability.loop_system`; series and feedback are the same algebra in
+discrete time):
+
+- the plant's hold-equivalent at the innermost rate with the current loop's delay
+  :math:`\tau_c = mT + \varepsilon` exact: m samples of delay line, then
+  :math:`x^+ = \Phi x + \Gamma_1 v + \Gamma_0 v^-`, :math:`\Phi = e^{AT}`,
+  :math:`\Gamma_1 = \int_0^{T-\varepsilon} e^{A\eta} d\eta\, B`,
+  :math:`\Gamma_0 = e^{A(T-\varepsilon)} \int_0^{\varepsilon} e^{A\eta} d\eta\, B`
+  (one matrix exponential of an augmented matrix each);
+- each controller and filter realised as in continuous time and discretised by the
+  generalised bilinear transform (:math:`\alpha = 1` backward, :math:`1/2` Tustin), which has
+  exactly the transfer function of the block with s replaced (:mod:`cas_freq.model.sampled`);
+- a delay between two controllers as a delay line of :math:`\lceil \tau/T \rceil` samples;
+- a slower loop sees the loops inside it lifted to its rate: their command held for M fast
+  steps, :math:`A_s = A^M`, :math:`B_s = \sum_{i<M} A^i B`.
+
+A loop is stable when every pole of its closed loop (with the loops inside it) lies inside the
+unit circle, marginal within :data:`cas_freq.analysis.stability.MARGINAL_TOLERANCE` of it.
+"""
+
+import numpy as np
+from scipy.linalg import expm
+
+from cas_freq.analysis.stability import (
+    MARGINAL_TOLERANCE,
+    SIGNAL_ROWS,
+    _concatenate,
+    _feedback,
+    _realize,
+    series,
+)
+from cas_freq.model import parts
+from cas_freq.model.sampled import groups
+from cas_freq.model.structure import build
+from cas_freq.threads import one_blas_thread
+
+#: The generalised bilinear transform's alpha of each method.
+ALPHA = {"backward": 1.0, "tustin": 0.5}
+
+
+def discretised(system, period, method):
+    """A continuous (A, B, C, D) (or stacks) discretised by the generalised bilinear transform
+    (the block's transfer function with s replaced, :func:`cas_freq.model.sampled.equivalent_s`).
+    """
+    a, b, c, d = system
+    alpha = ALPHA[method]
+    states = a.shape[-1]
+    if states == 0:
+        return system
+    eye = np.eye(states)
+    inverse = np.linalg.inv(eye - alpha * period * a)
+    return (inverse @ (eye + (1.0 - alpha) * period * a), inverse @ b * period,
+            c @ inverse, d + alpha * period * (c @ inverse @ b))
+
+
+def delay_line(samples, lead=()):
+    """z^-d in state space (d >= 0 samples)."""
+    d = int(samples)
+    if d == 0:
+        return (np.zeros((*lead, 0, 0)), np.zeros((*lead, 0, 1)), np.zeros((*lead, 1, 0)),
+                np.ones((*lead, 1, 1)))
+    a = np.zeros((*lead, d, d))
+    a[..., 1:, :-1] = np.eye(d - 1)
+    b = np.zeros((*lead, d, 1))
+    b[..., 0, 0] = 1.0
+    c = np.zeros((*lead, 1, d))
+    c[..., 0, -1] = 1.0
+    return a, b, c, np.zeros((*lead, 1, 1))
+
+
+def hold_equivalent(a, b, tau, period):
+    """The plant (A, B) (stacks (n, s, s), (n, s, 1)) held at ``period`` and delayed by ``tau``
+    (the same for every run here): (A, B, C, D) with the delay line and one extra state for
+    the fractional part; outputs the four measured signals (rows of ``C`` set by the caller:
+    here the states themselves)."""
+    n, states = a.shape[0], a.shape[-1]
+    whole = int(np.floor(tau / period + 1e-9))
+    fraction = tau - whole * period
+    fraction = 0.0 if fraction < 1e-9 * period else fraction
+
+    def integral(h):
+        m = np.zeros((n, states + 1, states + 1))
+        m[:, :states, :states] = a * h
+        m[:, :states, states:] = b * h
+        with one_blas_thread():
+            e = expm(m)
+        return e[:, :states, :states], e[:, :states, states:]
+
+    phi_1, gamma_1 = integral(period - fraction)
+    phi_2, psi = integral(fraction)
+    phi = phi_1 @ phi_2
+    gamma_0 = phi_1 @ psi
+    big = np.zeros((n, states + 1, states + 1))
+    big[:, :states, :states] = phi
+    big[:, :states, states:] = gamma_0
+    inputs = np.concatenate([gamma_1, np.ones((n, 1, 1))], axis=1)
+    held = (big, inputs, np.zeros((n, 1, states + 1)), np.zeros((n, 1, 1)))
+    return series(delay_line(whole, (n,)), held), states
+
+
+def loop_poles(p):
+    """The discrete-time poles of every loop closed with the loops inside it, per run.
+
+    Parameters
+    ----------
+    p : cas_freq.parameters.LoopParameters
+        The runs, with ``sample_rates``.
+
+    Returns
+    -------
+    dict of str to list of numpy.ndarray
+        Loop name (innermost first) -> each run's poles (complex, in the z-plane of the loop's
+        own rate); an inner loop's without those at z = 1 (:func:`_seen`).
+    """
+    n = p.n_runs
+    names = build(p).names
+    top = names[-1]
+    out = {name: [None] * n for name in names}
+    keys = _shapes(p)
+    _, group = np.unique(keys, axis=0, return_inverse=True)
+    for g in range(int(group.max()) + 1 if n else 0):
+        rows = np.flatnonzero(group.reshape(-1) == g)
+        for name, matrices in _assembled(p.take(rows), rows.size).items():
+            with one_blas_thread():
+                poles = np.linalg.eigvals(matrices)
+            for r, value in zip(rows, poles, strict=True):
+                out[name][r] = value if name == top else _seen(value)
+    return out
+
+
+def _seen(poles):
+    """An inner loop's poles without those at z = 1: modes its loops do not see (the shaft's
+    position) or exact cancellations, as the continuous inner loops' factors s
+    (:func:`cas_freq.analysis.stability.loop_polynomials`)."""
+    return poles[np.abs(poles - 1.0) > MARGINAL_TOLERANCE]
+
+
+def loop_verdicts(p):
+    """``"stable"``, ``"marginal"`` or ``"unstable"`` of every loop (closed with the loops
+    inside it) of every run, as :func:`cas_freq.analysis.stability.loop_verdicts`."""
+    return {name: np.array([pole_verdict(z) for z in poles], dtype=object)
+            for name, poles in loop_poles(p).items()}
+
+
+def pole_verdict(poles):
+    """The verdict of discrete-time poles (inside the unit circle: stable)."""
+    radius = np.abs(np.asarray(poles, dtype=complex))
+    if np.any(radius > 1.0 + MARGINAL_TOLERANCE):
+        return "unstable"
+    if np.any(radius >= 1.0 - MARGINAL_TOLERANCE):
+        return "marginal"
+    return "stable"
+
+
+def _shapes(p):
+    """Per run, what sets its state count (runs alike are assembled as one stack)."""
+    n = p.n_runs
+    structure = build(p)
+    plan = groups(structure.names, p.sample_rates)
+    columns = [np.broadcast_to(np.asarray(p.K_g) > 0, (n,)),
+               np.broadcast_to(np.asarray(p.K_h) != 0, (n,))]
+    period = {k: group.period for group in plan for k in group.loops}
+    inner_period = {}
+    for g, group in enumerate(plan):
+        for position, k in enumerate(group.loops):
+            inner_period[k] = group.period if position or not g else plan[g - 1].period
+    for k, loop in enumerate(structure.loops):
+        controller = loop.controller
+        denominators = [controller.minimal()[1] if controller.minimal else
+                        parts.stacked(controller.denominator, n)]
+        denominators += [parts.stacked(block.denominator, n)
+                         for block in (*loop.path, *loop.sensor)]
+        columns += [np.argmax(d != 0, axis=1) for d in denominators]
+        tau = np.broadcast_to(np.asarray(loop.delay, dtype=float), (n,))
+        samples = (np.floor(tau / period[k] + 1e-9) if k == 0
+                   else np.ceil(tau / inner_period[k] - 1e-9))
+        columns.append(samples)
+        if k == 0:
+            columns.append(tau)  # the fractional part sets the hold-equivalent
+    return np.column_stack(columns)
+
+
+def _assembled(p, n):
+    """The closed-loop state matrices (n, s, s) of each loop of runs that realise alike."""
+    return _closed(p, n, build(p))
+
+
+def _closed(p, n, structure):
+    """:func:`_assembled` of the structure ``structure`` of the runs ``p``."""
+    plan = groups(structure.names, p.sample_rates)
+    method = p.sampling_method
+    a, b = parts.plant_matrices(p)
+    states = a.shape[-1]
+    rows = np.zeros((n, 4, states))
+    rows[:, 0, 0] = rows[:, 1, 1] = rows[:, 2, 2] = 1.0
+    ratio = np.broadcast_to(np.asarray(p.ratio, dtype=float), (n,))
+    rows[:, 3] = np.stack([parts.fin_output(states, float(r)) for r in ratio])
+    b = b[:, :, :1]
+    tau = float(np.asarray(structure.loops[0].delay, dtype=float).reshape(-1)[0])
+    system, _ = hold_equivalent(a, b, tau, plan[0].period)
+    width = system[0].shape[-1]
+    c = np.zeros((n, 4, width))
+    c[:, :, width - states - 1:width - 1] = rows
+    system = (system[0], system[1], c, np.zeros((n, 4, 1)))
+    out = {}
+    for g, group in enumerate(plan):
+        if g:
+            tau = np.asarray(structure.loops[group.loops[0]].delay, dtype=float)
+            samples = int(np.ceil(float(tau.reshape(-1)[0]) / plan[g - 1].period - 1e-9))
+            system = _lifted(series(delay_line(samples, (n,)), system), group.ratio)
+        for position, k in enumerate(group.loops):
+            loop = structure.loops[k]
+            samples = 0
+            if position:
+                tau = np.asarray(loop.delay, dtype=float).reshape(-1)[0]
+                samples = int(np.ceil(float(tau) / group.period - 1e-9))
+            forward = _forward(loop, group.period, method, samples, n)
+            sensor = _sensor(loop, group.period, method, n)
+            system = _feedback(series(forward, system), SIGNAL_ROWS[loop.feedback], sensor)
+            out[structure.names[k]] = system[0]
+    return out
+
+
+def _forward(loop, period, method, samples, n):
+    """A loop's controller (minimal form) and path filters, discretised, then its delay line;
+    two input columns (error, command) as :func:`cas_freq.analysis.stability.loop_forward`."""
+    controller = loop.controller
+    numerator, denominator = (controller.minimal() if controller.minimal else
+                              (parts.stacked(controller.numerator, n),
+                               parts.stacked(controller.denominator, n)))
+    first = discretised(_realize(numerator, denominator), period, method)
+    for block in loop.path:
+        first = series(first, discretised(_realize(parts.stacked(block.numerator, n),
+                                                   parts.stacked(block.denominator, n)),
+                                          period, method))
+    first = series(first, delay_line(samples, (n,)))
+    a, b, c, d = first
+    return a, _concatenate([b] * 2, -1), c, _concatenate([d] * 2, -1)
+
+
+def _sensor(loop, period, method, n):
+    sensor = None
+    for block in loop.sensor:
+        part = discretised(_realize(parts.stacked(block.numerator, n),
+                                    parts.stacked(block.denominator, n)), period, method)
+        sensor = part if sensor is None else series(sensor, part)
+    return sensor
+
+
+def _lifted(system, ratio):
+    """A fast system with its input held for ``ratio`` steps, seen every ``ratio`` steps."""
+    a, b, c, d = system
+    power = np.broadcast_to(np.eye(a.shape[-1]), a.shape).copy()
+    total = np.zeros_like(b)
+    for _ in range(ratio):
+        total = total + power @ b
+        power = power @ a
+    return power, total, c, d
+
+
+def closed_loop_poles(p):
+    """The whole loop's discrete-time poles of one run mapped to the s-plane,
+    :math:`s = \\ln z / T` [rad/s] (T the outermost loop's period), sorted by real part,
+    largest first: the continuous-time poles whose sampled motion they are."""
+    poles = loop_poles(p)[build(p).names[-1]][0]
+    period = periods_of(p)[-1]
+    with np.errstate(divide="ignore"):
+        s = np.log(poles.astype(complex)) / period
+    return s[np.argsort(-s.real, kind="stable")]
+
+
+def periods_of(p):
+    """Each loop's period [s], innermost first."""
+    structure = build(p)
+    return [group.period for group in groups(structure.names, p.sample_rates)
+            for _ in group.loops]

@@ -1,0 +1,454 @@
+r"""Frequency responses of sampled (digital) loops, exact at the sampling instants.
+
+A drive runs its controllers at fixed rates (the EPOS4: the current loop at 25 kHz, the
+position loop at 2.5 kHz). ``sampling:`` (docs/config.md) declares them; the loops of the
+declared structure (:mod:`cas_freq.model.structure`) are then evaluated as the drive runs them
+(docs/model.md, "Sampled controllers"):
+
+- every controller, path filter, feedback filter and command path is the continuous block with
+  :math:`s` replaced by :math:`(1 - z^{-1})/T` (``backward``) or :math:`\frac{2}{T}\frac{z -
+  1}{z + 1}` (``tustin``), :math:`z = e^{j\omega T}`, T the period of the loop it belongs to;
+- the current controller's output is held (zero-order hold) and reaches the motor after the
+  current loop's delay :math:`\tau_c = mT + \varepsilon` (:math:`0 \le \varepsilon < T`): the
+  plant's hold-equivalent (modified z-transform) is exact, from the plant's modes
+  :math:`p_i` (eigenvalues of the state matrix of :func:`cas_freq.model.parts.plant_matrices`),
+  with :math:`\lambda_i = e^{p_i T}`:
+
+  .. math::
+      P_y(z) = z^{-m} \sum_i \frac{w_{y,i}\,(g_{1,i} + g_{0,i} z^{-1})}{z - \lambda_i},
+      \quad g_{1,i} = \int_0^{T-\varepsilon} e^{p_i \eta}\, d\eta, \quad
+      g_{0,i} = e^{p_i (T - \varepsilon)} \int_0^{\varepsilon} e^{p_i \eta}\, d\eta
+
+  (:math:`w_{y,i}` the mode's residue in the measured signal y per volt);
+- a delay between two controllers (the held output of one, sampled by the next) is
+  :math:`\lceil \tau / T_{inner} \rceil` samples of the inner (faster) controller;
+- where an outer loop runs M times slower than the loops inside it (multirate), the inner
+  loops are closed at their rate and the outer loop sees their response through its hold and
+  its sampler, the decimation sum
+
+  .. math::
+      P(e^{j\omega T_s}) = \frac{1}{M} \sum_{k=0}^{M-1} H_M(z_k)\, z_k^{-d}\, G(z_k),
+      \qquad z_k = e^{j(\omega + 2\pi k/T_s) T_f}, \qquad H_M(z) = \sum_{i<M} z^{-i}.
+
+The loops are then composed by the same recurrence as the continuous ones
+(:mod:`cas_freq.model.structure`), over values instead of polynomials. Each loop's response
+is a function of its own :math:`e^{j\omega T}`: meaningful up to its Nyquist frequency
+:math:`\pi/T` (the figures stop there). The closed loop T is the output's samples per
+command sample at the outermost loop's rate. Loop-at-a-time views of loops inside a slower
+loop are not defined (with the slower loop closed they are periodically time-varying): NaN.
+"""
+
+import dataclasses
+import math
+import types
+
+import numpy as np
+
+from cas_freq.exceptions import ConfigError
+from cas_freq.model import parts
+from cas_freq.model.structure import SIGNALS, build, product, stages
+
+#: The discretisations of a sampled controller (docs/model.md).
+METHODS = ("backward", "tustin")
+
+#: A delay within this fraction of a whole number of periods counts as that number.
+_WHOLE = 1e-9
+
+#: Plant fields of the hold-equivalent (those of :func:`cas_freq.model.parts.plant_matrices`).
+PLANT_FIELDS = ("R", "L", "Ke", "Km", "J", "mu_v", "J_L", "b_L", "K_h", "K_g", "c_g", "ratio",
+                "eta")
+
+#: Above this condition number of its eigenvectors a plant's modes are not trusted.
+_MODAL_CONDITION = 1e10
+
+
+@dataclasses.dataclass(frozen=True)
+class Group:
+    """Loops running at one rate (innermost first).
+
+    Attributes
+    ----------
+    period : float
+        Sampling period T [s].
+    loops : tuple of int
+        Indices of its loops in the structure.
+    ratio : int
+        Its period over the period of the group inside it (1 for the innermost).
+    """
+
+    period: float
+    loops: tuple
+    ratio: int
+
+
+def is_sampled(p):
+    """True where the parameters declare sampled loops (``sample_rates``)."""
+    return bool(getattr(p, "sample_rates", ()))
+
+
+def groups(names, sample_rates):
+    """The loops grouped by rate, innermost first.
+
+    Parameters
+    ----------
+    names : tuple of str
+        The structure's loops, innermost first.
+    sample_rates : tuple of (str, float)
+        Sampled loops and their rates [Hz].
+
+    Returns
+    -------
+    list of Group
+    """
+    rates = dict(sample_rates)
+    unknown = sorted(set(rates) - set(names))
+    if unknown:
+        raise ConfigError(f"sampling.{unknown[0]}: the drive has no such loop "
+                          f"(its loops: {', '.join(names)})")
+    missing = [name for name in names if name not in rates]
+    if missing:
+        raise ConfigError(
+            f"sampling.{missing[0]}: missing; with any loop sampled, every loop is (an inner "
+            "loop is never slower than the loop around it, and a continuous loop inside a "
+            "sampled one is not modelled)")
+    out = []
+    for k, name in enumerate(names):
+        period = 1.0 / float(rates[name])
+        if out and math.isclose(period, out[-1].period, rel_tol=_WHOLE):
+            out[-1] = dataclasses.replace(out[-1], loops=(*out[-1].loops, k))
+            continue
+        ratio = 1
+        if out:
+            exact = period / out[-1].period
+            ratio = round(exact)
+            if ratio < 1 or not math.isclose(exact, ratio, rel_tol=1e-9):
+                raise ConfigError(
+                    f"sampling.{name}: {rates[name]:g} Hz; accepted: the rate of the loop inside "
+                    f"it ({rates[names[k - 1]]:g} Hz) divided by a whole number")
+        out.append(Group(period, (k,), ratio))
+    return out
+
+
+def equivalent_s(omega, period, method):
+    r"""The value of s that a discretised block sees at :math:`z = e^{j\omega T}`.
+
+    Backward: :math:`(1 - z^{-1})/T`; Tustin: :math:`\frac{2}{T}\frac{z - 1}{z + 1} =
+    \frac{2j}{T}\tan(\omega T/2)` (both computed without cancellation near z = 1).
+
+    Parameters
+    ----------
+    omega : numpy.ndarray
+        Frequencies [rad/s].
+    period : float
+        T [s].
+    method : str
+        ``"backward"`` or ``"tustin"``.
+    """
+    if method == "backward":
+        return -np.expm1(-1j * omega * period) / period
+    if method == "tustin":
+        return 2j * np.tan(0.5 * omega * period) / period
+    raise ConfigError(f"sampling.method: {method!r}; accepted: {', '.join(METHODS)}")
+
+
+def _phi(x):
+    """(e^x - 1)/x, 1 at x = 0."""
+    small = np.abs(x) < 1e-12
+    safe = np.where(small, 1.0, x)
+    return np.where(small, 1.0 + 0.5 * x, np.expm1(safe) / safe)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class PlantModes:
+    """The plant of every run as modes: poles (N, n) [rad/s] and, per measured signal, the
+    residues (N, n) per volt; ``shape`` is the runs' shape in the parameters."""
+
+    poles: np.ndarray
+    residues: dict
+    shape: tuple
+
+    def pick(self, runs):
+        """The modes of the runs ``runs`` (indices into a batch's runs)."""
+        if not self.shape:
+            return self
+        return PlantModes(self.poles[runs], {k: v[runs] for k, v in self.residues.items()},
+                          np.shape(runs))
+
+
+def plant_modes(p):
+    """:class:`PlantModes` of the runs of ``p`` (each distinct plant decomposed once).
+
+    Parameters
+    ----------
+    p : types.SimpleNamespace or LoopParameters
+        Parameters (scalars or arrays that broadcast over runs).
+
+    Raises
+    ------
+    ConfigError
+        For a plant whose poles are (nearly) repeated: its modes are not a basis.
+    """
+    values = [np.asarray(getattr(p, name), dtype=float) for name in PLANT_FIELDS]
+    shape = np.broadcast_shapes(*(v.shape for v in values))
+    flat = np.column_stack([np.broadcast_to(v, shape).reshape(-1) for v in values]) \
+        if shape else np.array([[float(v) for v in values]])
+    distinct, inverse = np.unique(flat, axis=0, return_inverse=True)
+    q = types.SimpleNamespace(**dict(zip(PLANT_FIELDS, distinct.T, strict=True)))
+    a, b = parts.plant_matrices(q)
+    poles, vectors = np.linalg.eig(a)
+    if np.any(np.linalg.cond(vectors) > _MODAL_CONDITION):
+        raise ConfigError("sampling: the plant has (nearly) repeated poles; its sampled "
+                          "responses need distinct poles (change a drivetrain value slightly)")
+    inputs = np.linalg.solve(vectors, b[:, :, :1].astype(complex))[..., 0]
+    states = a.shape[-1]
+    rows = np.zeros((distinct.shape[0], len(SIGNALS), states))
+    rows[:, 0, 0] = rows[:, 1, 1] = rows[:, 2, 2] = 1.0
+    rows[:, 3] = np.stack([parts.fin_output(states, r) for r in distinct[:, -2]])
+    seen = rows @ vectors  # (U, signals, states)
+    inverse = inverse.reshape(-1)
+    residues = {name: (seen[:, k] * inputs)[inverse] for k, name in enumerate(SIGNALS)}
+    return PlantModes(poles[inverse], residues, shape)
+
+
+def hold_equivalent(modes, tau, period, omega):
+    r"""The plant's hold-equivalent :math:`P_y(e^{j\omega T})` per measured signal.
+
+    Parameters
+    ----------
+    modes : PlantModes
+    tau : float or numpy.ndarray
+        Delay between the held controller output and the motor [s] (broadcasting over the
+        runs as the parameters do).
+    period : float
+        T [s].
+    omega : numpy.ndarray
+        Frequencies [rad/s], broadcasting with the runs' shape (leading axes allowed).
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        Signal name -> complex response [unit per volt].
+    """
+    states = modes.poles.shape[1]
+    p = modes.poles.reshape((*modes.shape, states))
+    tau = np.asarray(tau, dtype=float)[..., None]
+    whole = np.floor(tau / period + _WHOLE)
+    fraction = tau - whole * period
+    fraction = np.where(fraction < _WHOLE * period, 0.0, fraction)
+    g1 = (period - fraction) * _phi(p * (period - fraction))
+    g0 = np.exp(p * (period - fraction)) * fraction * _phi(p * fraction)
+    lam = np.expm1(p * period)
+    z_minus_1 = np.expm1(1j * omega * period)
+    z_inverse = np.exp(-1j * omega * period)
+    kernels = [(g1[..., i] + g0[..., i] * z_inverse) / (z_minus_1 - lam[..., i])
+               for i in range(states)]
+    shift = z_inverse ** whole[..., 0]
+    out = {}
+    for name, residue in modes.residues.items():
+        residue = residue.reshape((*modes.shape, states))
+        out[name] = shift * sum(residue[..., i] * kernel for i, kernel in enumerate(kernels))
+    return out
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class SampledResponses:
+    """As :class:`cas_freq.model.loops.LoopResponses`, plus each loop's sampling period."""
+
+    loops: dict
+    closed_loop: np.ndarray | None
+    loop_at_a_time: dict | None = None
+    periods: dict = dataclasses.field(default_factory=dict)
+
+    @property
+    def current_loop(self):
+        """L_i(e^(j w T_i)) [-]."""
+        return self.loops["current_loop"]
+
+    @property
+    def position_loop(self):
+        """L_p(e^(j w T_p)) [-]."""
+        return self.loops["position_loop"]
+
+
+def periods(p):
+    """Each loop's sampling period [s], innermost first (name -> T)."""
+    structure = build(p)
+    return {structure.names[k]: group.period
+            for group in groups(structure.names, p.sample_rates) for k in group.loops}
+
+
+def nyquist_frequencies(p):
+    """Each loop's Nyquist frequency pi/T [rad/s] (name -> value)."""
+    return {name: math.pi / period for name, period in periods(p).items()}
+
+
+def responses(p, s, closed=True, loop_at_a_time=False, output=None, modes=None):
+    r"""Every loop's response and (optionally) T of sampled loops at ``s = j omega``.
+
+    Parameters
+    ----------
+    p : types.SimpleNamespace or LoopParameters
+        Parameters broadcastable against ``s``, with ``sample_rates`` and ``sampling_method``.
+    s : numpy.ndarray
+        Points on the imaginary axis, ``1j * omega`` [rad/s].
+    closed : bool
+        Also compute T (the output's samples per command sample).
+    loop_at_a_time : bool
+        Also every loop broken with all the others closed (NaN for a loop inside a slower one).
+    output : str, optional
+        The plant signal T reads (default the structure's output).
+    modes : PlantModes, optional
+        The runs' plant modes, if already decomposed (:func:`plant_modes`).
+
+    Returns
+    -------
+    SampledResponses
+    """
+    structure = build(p)
+    plan = groups(structure.names, p.sample_rates)
+    method = getattr(p, "sampling_method", "backward")
+    omega = np.asarray(s).imag
+    rank = len(np.broadcast_shapes(omega.shape, _runs(p)))
+    omega = omega.reshape((1,) * (rank - omega.ndim) + omega.shape)  # aliases go before
+    modes = plant_modes(p) if modes is None else modes
+    steps = stages(structure)
+    sensors = [product(block.numerator for block in loop.sensor) for loop in structure.loops]
+    seen = output or structure.output
+    top = len(plan) - 1
+
+    # the frequencies each group is evaluated at: omega and its aliases at the slower rates
+    frequencies = [None] * len(plan)
+    nu = omega
+    for g in range(top, -1, -1):
+        frequencies[g] = nu
+        if g:
+            k = np.arange(plan[g].ratio).reshape((-1,) + (1,) * nu.ndim)
+            nu = nu[None] + 2.0 * np.pi * k / plan[g].period
+
+    signals = hold_equivalent(modes, structure.loops[0].delay, plan[0].period, frequencies[0])
+    cascade, views = {}, {}
+    t = None
+    for g, group in enumerate(plan):
+        nu = frequencies[g]
+        x = equivalent_s(nu, group.period, method)
+        z_inverse = np.exp(-1j * nu * group.period)
+        e, gain, sensed, command = 1.0, 1.0, 1.0, 0.0
+        inner, terms, betas = [], [], []
+        for position, k in enumerate(group.loops):
+            stage = steps[k]
+            d = 1.0 if position == 0 else z_inverse ** _samples(stage.tau, group.period)
+            b = parts.polyval(stage.b, x)
+            f = parts.polyval(stage.f, x) if len(stage.f) > 1 else stage.f[0]
+            beta = b * f
+            if closed and g == top:
+                command = command * b
+                if stage.reference is not None:
+                    command = command + gain * parts.polyval(stage.reference, x) * d
+            gain = gain * parts.polyval(stage.a, x) * d
+            c = gain * signals[structure.loops[k].feedback] * _value(sensors[k], x) * sensed
+            cascade[structure.names[k]] = _own(c / (beta * e), nu.ndim - omega.ndim)
+            inner.append(e)
+            terms.append(c)
+            betas.append(beta)
+            e = beta * e + c
+            sensed = sensed * f
+        if loop_at_a_time:
+            views.update(_at_a_time([structure.names[k] for k in group.loops], terms, betas,
+                                    inner, nu.ndim - omega.ndim, g == top))
+        if g == top:
+            if closed:
+                t = command * sensed * signals[seen] / e
+            break
+        # what the next (slower) group's loops see: held, delayed, sampled
+        outer = plan[g + 1]
+        slow = steps[outer.loops[0]]
+        fast = group.period
+        held = (z_inverse ** _samples(slow.tau, fast)
+                * _hold_sum(nu, fast, outer.ratio))
+        signals = {name: np.mean(held * gain * value * sensed / e, axis=0)
+                   for name, value in signals.items()}
+    period_of = {structure.names[k]: group.period for group in plan for k in group.loops}
+    ndim = np.ndim(s)
+    return SampledResponses({name: _trim(v, ndim) for name, v in cascade.items()},
+                            None if t is None else _trim(t, ndim),
+                            {name: _trim(v, ndim) for name, v in views.items()}
+                            if loop_at_a_time else None, period_of)
+
+
+def _runs(p):
+    """The shape the runs' parameters broadcast to (() where every one is a scalar)."""
+    shapes = [np.shape(value) for value in vars(p).values() if isinstance(value, np.ndarray)]
+    shapes += [np.shape(getattr(item, name)) for item in getattr(p, "filters", ())
+               for name in ("frequency", "damping", "width", "depth_db")
+               if isinstance(getattr(item, name, None), np.ndarray)]
+    return np.broadcast_shapes(*shapes)
+
+
+def _trim(values, ndim):
+    """Without the leading axes of length 1 that the runs' rank added to ``s``'s."""
+    values = np.asarray(values)
+    while values.ndim > ndim and values.shape[0] == 1:
+        values = values[0]
+    return values
+
+
+def _samples(tau, period):
+    """Whole samples of a delay between two controllers: ceil(tau/T) (per run)."""
+    return np.ceil(np.asarray(tau, dtype=float) / period - _WHOLE)
+
+
+def _hold_sum(nu, period, count):
+    """H_M(z) = sum_(i<M) z^-i at z = e^(j nu T) (M at z = 1)."""
+    low = -np.expm1(-1j * nu * period)
+    high = -np.expm1(-1j * nu * period * count)
+    near = np.abs(low) < 1e-300
+    return np.where(near, float(count), high / np.where(near, 1.0, low))
+
+
+def _value(polynomial, x):
+    return parts.polyval(polynomial, x) if len(polynomial) > 1 else polynomial[0]
+
+
+def _own(values, aliases):
+    """A group's response at omega itself (the first of its aliases)."""
+    return values[(0,) * aliases] if aliases else values
+
+
+def _at_a_time(names, terms, betas, inner, aliases, top):
+    """The loop-at-a-time views of one group's loops (NaN unless it is the outermost group:
+    a loop inside a slower loop, with that loop closed, is periodically time-varying)."""
+    out = {}
+    upper, above = 0.0, 1.0
+    for k in range(len(terms) - 1, -1, -1):
+        upper = upper + terms[k] * above
+        above = above * betas[k]
+        value = upper / (above * inner[k])
+        out[names[k]] = _own(value, aliases) if top else np.full_like(_own(value, aliases),
+                                                                       np.nan)
+    return dict(reversed(out.items()))
+
+
+class PreparedSampled:
+    """:class:`cas_freq.model.loops.PreparedResponses` for sampled loops: the responses of a
+    few runs of a batch at a time (the margin searches' refinements).
+
+    Parameters
+    ----------
+    selector : cas_freq.model.loops.Selector
+        The batch's parameters.
+    """
+
+    def __init__(self, selector):
+        self.selector = selector
+        self.modes = plant_modes(selector())
+
+    def responses(self, runs, s, closed=True, delay=None, loop_at_a_time=False, through=None):
+        """:func:`responses` of the runs ``runs`` (indices, one per value of ``s``); ``delay``
+        and ``through`` are accepted for the continuous evaluator's signature (a sampled loop's
+        delays are exact)."""
+        return responses(self.selector(runs), s, closed=closed, loop_at_a_time=loop_at_a_time,
+                         modes=self.modes.pick(runs))
+
+    def current_loop(self, runs, s, delay=None):
+        """The innermost loop's response of the runs ``runs``."""
+        return self.responses(runs, s, closed=False).loops["current_loop"]
