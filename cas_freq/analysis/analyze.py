@@ -159,8 +159,11 @@ def _figures_on(p, omega, verdicts, columns=None, delay=EXACT, crossings=False,
         tops[name] = np.broadcast_to(np.abs(response[..., m - 1:]), (n, omega.size - m + 1))
         if at_a_time and inner:
             aat = np.broadcast_to(grid.loop_at_a_time[name], (n, omega.size))
-            values, _ = _loop_figures_of(evaluator(name, AT_A_TIME), low[:own], aat[:, :own], n,
-                                         whole, probes, crossings, False)
+            if np.isnan(aat[:, :1]).all():  # inside a slower sampled loop: not defined
+                values = {key: _undefined(value, n) for key, value in values.items()}
+            else:
+                values, _ = _loop_figures_of(evaluator(name, AT_A_TIME), low[:own],
+                                             aat[:, :own], n, whole, probes, crossings, False)
             tops[f"{name}.{AT_A_TIME}"] = np.abs(aat[:, m - 1:])
         if at_a_time:  # (the outermost loop's two views are one)
             figures.update({f"{name}.{AT_A_TIME}.{key}": value for key, value in values.items()})
@@ -172,6 +175,15 @@ def _figures_on(p, omega, verdicts, columns=None, delay=EXACT, crossings=False,
     figures.update({f"closed_loop.{key}": value for key, value in values.items()})
     tops["closed_loop"] = np.abs(closed_grid[:, m - 1:])
     return figures, tops
+
+
+def _undefined(value, n):
+    """A figure of a view that is not defined: NaN, no crossings, no maximum at the top."""
+    if isinstance(value, tuple):  # the crossings' (runs, frequencies, ...) arrays
+        return tuple(np.zeros(0, dtype=np.asarray(v).dtype) for v in value)
+    if np.asarray(value).dtype == bool:
+        return np.zeros(n, dtype=bool)
+    return np.full(n, np.nan)
 
 
 def _loop_figures_of(evaluate, low, response, n, stable, probes, crossings, inner):
@@ -422,6 +434,8 @@ class Analysis(Summary):
     #: With sampled controllers, the headline figures of the same loops run continuously
     #: (:func:`_continuous_figures`); None otherwise.
     continuous: dict | None = None
+    #: With sampled controllers: {"method", "rates_hz": {loop: Hz}, "nyquist_rad_s": {...}}.
+    sampling: dict | None = None
     #: The analysed variant (:class:`cas_freq.config.LoadedVariant`), which :meth:`plot`
     #: evaluates the loops of; not part of the JSON.
     loaded: object = dataclasses.field(default=None, compare=False)
@@ -568,10 +582,11 @@ def analyze(
     figures, _ = _chunk_figures(params, frequency_range, points_per_decade, order, delay,
                                 crossings=True, verdicts=verdicts)
     notes = []
-    continuous = None
+    continuous = sampling = None
     if sampled:
         continuous = _continuous_figures(params, frequency_range, points_per_decade, order,
                                          delay)
+        sampling = _sampling(params)
         notes.extend(sampling_notes(params, figures))
     elif delay.exact:
         notes.append(
@@ -618,6 +633,7 @@ def analyze(
         range_edges=edges,
         drivetrain=load,
         continuous=continuous,
+        sampling=sampling,
         loaded=loaded,
     )
 
@@ -647,7 +663,7 @@ def sampling_notes(params, figures):
     from cas_freq.model.sampled import periods
 
     every = periods(params)
-    rates = ", ".join(f"{name.replace('_loop', '')} {1.0 / period:g} Hz"
+    rates = ", ".join(f"{name.replace('_loop', '')} {rate_text(1.0 / period)}"
                       for name, period in every.items())
     notes = [f"sampled controllers ({rates}; {params.sampling_method} discretisation, "
              "zero-order hold): stability from the discrete-time poles, each loop's figures "
@@ -657,28 +673,26 @@ def sampling_notes(params, figures):
         crossover = np.asarray(figures[f"{name}.crossover_rad_s"])[0]
         sampling = 2.0 * np.pi / period
         if np.isfinite(crossover) and sampling < 2.0 * crossover:
-            notes.append(f"{name.replace('_', ' ')} sampled at {1.0 / period:g} Hz "
+            notes.append(f"{name.replace('_', ' ')} sampled at {rate_text(1.0 / period)} "
                          f"({sampling:.5g} rad/s): below twice its crossover "
                          f"({crossover:.5g} rad/s)")
     return notes
 
 
-def _add_sampling(data, analysis):
-    """The sampling section of a sampled analysis's JSON and each loop's delay margin in
-    samples of its own period."""
-    from cas_freq.model.sampled import periods
-    from cas_freq.parameters import LoopParameters
+def rate_text(hz):
+    """A sampling rate in words: ``25 kHz``, ``500 Hz``."""
+    return f"{hz / 1e3:.6g} kHz" if hz >= 1e3 else f"{hz:.6g} Hz"
 
-    params = LoopParameters.from_config(analysis.loaded.params)
+
+def _sampling(params):
+    """The sampling section of a sampled analysis: method, each loop's rate and Nyquist
+    frequency."""
+    from cas_freq.model.sampled import periods
+
     every = periods(params)
-    data["sampling"] = {
-        "method": params.sampling_method,
-        "rates_hz": {name: 1.0 / period for name, period in every.items()},
-        "nyquist_rad_s": {name: np.pi / period for name, period in every.items()},
-    }
-    for name, period in every.items():
-        margin = data[name]["delay_margin_s"]
-        data[name]["delay_margin_samples"] = None if margin is None else margin / period
+    return {"method": params.sampling_method,
+            "rates_hz": {name: float(rate) for name, rate in params.sample_rates},
+            "nyquist_rad_s": {name: np.pi / period for name, period in every.items()}}
 
 
 def _edge_words(section, figure):
@@ -721,8 +735,11 @@ def to_dict(analysis):
         del data["velocity_loop"]
     if data["continuous"] is None:
         del data["continuous"]
-    elif analysis.loaded is not None:
-        _add_sampling(data, analysis)
+        del data["sampling"]
+    else:
+        for name, rate in analysis.sampling["rates_hz"].items():
+            margin = data[name]["delay_margin_s"]
+            data[name]["delay_margin_samples"] = None if margin is None else margin * rate
     for loop in ("current_loop", "velocity_loop", "position_loop"):
         if loop in data and data[loop]["loop_at_a_time"] is not None:
             del data[loop]["loop_at_a_time"]["loop_at_a_time"]

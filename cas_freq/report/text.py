@@ -83,17 +83,55 @@ def _at_a_time_lines(margins):
     ]
 
 
+def _sampling_lines(analysis):
+    """The sampled loops' rates and headline figures beside the continuous model's."""
+    sampling, continuous = analysis.sampling, analysis.continuous
+    rates = ", ".join(f"{name.replace('_loop', '')} {_fmt(rate / 1e3, 'kHz')}"
+                      for name, rate in sampling["rates_hz"].items())
+    lines = [f"  sampled controllers: {rates} ({sampling['method']}, zero-order hold)",
+             "    figure                          sampled     continuous"]
+    rows = []
+    for name, rate in sampling["rates_hz"].items():
+        margins = getattr(analysis, name)
+        short = name.replace("_loop", "")
+        rows += [
+            (f"{short} phase margin [deg]", margins.phase_margin_deg,
+             continuous[name]["phase_margin_deg"]),
+            (f"{short} crossover [rad/s]", margins.crossover_rad_s,
+             continuous[name]["crossover_rad_s"]),
+            (f"{short} gain margin [dB]", margins.gain_margin_db,
+             continuous[name]["gain_margin_db"]),
+            (f"{short} delay margin [ms]", _ms(margins.delay_margin_s),
+             _ms(continuous[name]["delay_margin_s"])),
+        ]
+        samples = None if margins.delay_margin_s is None else margins.delay_margin_s * rate
+        rows.append((f"{short} delay margin [samples]", samples, None))
+    closed = analysis.closed_loop
+    rows += [("bandwidth [rad/s]", closed and closed.bandwidth_rad_s,
+              continuous["closed_loop"]["bandwidth_rad_s"]),
+             ("resonance peak [dB]", closed and closed.peak_db,
+              continuous["closed_loop"]["peak_db"])]
+    lines += [f"    {label:<30} {_fmt(a):>9} {_fmt(b):>14}" for label, a, b in rows]
+    lines.append(f"    {'stability':<30} {analysis.stability.verdict:>9} "
+                 f"{continuous['stability']:>14}")
+    return lines
+
+
 def analysis_table(analysis):
     """Multi-line summary of one :class:`cas_freq.analysis.Analysis`."""
     low, high = analysis.frequency_range_rad_s
     head = f"{analysis.config} / {analysis.variant}"
     if analysis.overrides:
         head += " with " + ", ".join(analysis.overrides)
+    poles = ("discrete-time poles" if analysis.sampling
+             else f"Padé {analysis.stability.pade_order} poles")
     lines = [
         head,
         f"  delays {analysis.delay_model}; range {low:g}..{high:g} rad/s; closed loop "
-        f"{analysis.stability.verdict.upper()} (Padé {analysis.stability.pade_order} poles)",
+        f"{analysis.stability.verdict.upper()} ({poles})",
     ]
+    if analysis.sampling:
+        lines += _sampling_lines(analysis)
     loops = [("current loop L_i (broken at the voltage)", analysis.current_loop)]
     if analysis.velocity_loop is not None:
         loops.append(("velocity loop L_v (broken at the current command)",
@@ -106,6 +144,11 @@ def analysis_table(analysis):
     for k, (title, margins) in enumerate(loops):
         lines += _loop_lines(title, margins)
         if k < len(loops) - 1 and margins.loop_at_a_time is not None:
+            if analysis.sampling and margins.loop_at_a_time.crossover_rad_s is None \
+                    and margins.loop_at_a_time.gain_margin_db is None:
+                lines.append("    every other loop closed: not defined (a slower sampled loop "
+                             "around it makes it periodically time-varying)")
+                continue
             lines += _at_a_time_lines(margins.loop_at_a_time)
     closed = analysis.closed_loop
     lines.append("  closed loop T = delta/delta_cmd")
