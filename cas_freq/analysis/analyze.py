@@ -587,7 +587,7 @@ def analyze(
         continuous = _continuous_figures(params, frequency_range, points_per_decade, order,
                                          delay)
         sampling = _sampling(params)
-        notes.extend(sampling_notes(params, figures))
+        notes.extend(sampling_notes(params, continuous))
     elif delay.exact:
         notes.append(
             f"stability from the poles of the Padé model of order {stability.pade_order}; "
@@ -657,9 +657,10 @@ def _continuous_figures(params, frequency_range, points_per_decade, order, delay
 CONTINUOUS_FIGURES = ("phase_margin_deg", "crossover_rad_s", "gain_margin_db", "delay_margin_s")
 
 
-def sampling_notes(params, figures):
+def sampling_notes(params, continuous):
     """What the output says of sampled loops: the rates, where the figures stop, and a rate
-    below twice a loop's crossover."""
+    below twice a loop's crossover (the continuous loop's: a sampled loop's own crossover
+    lies below its Nyquist frequency by construction)."""
     from cas_freq.model.sampled import periods
 
     every = periods(params)
@@ -670,9 +671,9 @@ def sampling_notes(params, figures):
              "exact at its sampling instants and up to its Nyquist frequency pi/T; the "
              "continuous figures beside them ('continuous')"]
     for name, period in every.items():
-        crossover = np.asarray(figures[f"{name}.crossover_rad_s"])[0]
+        crossover = continuous[name]["crossover_rad_s"]
         sampling = 2.0 * np.pi / period
-        if np.isfinite(crossover) and sampling < 2.0 * crossover:
+        if crossover is not None and sampling < 2.0 * crossover:
             notes.append(f"{name.replace('_', ' ')} sampled at {rate_text(1.0 / period)} "
                          f"({sampling:.5g} rad/s): below twice its crossover "
                          f"({crossover:.5g} rad/s)")
