@@ -407,6 +407,12 @@ class Sampling(_Section):
     loop's. ``method``: how a sampled controller is discretised, ``backward`` (default) or
     ``tustin``. ``simulation.controllers: sampled`` with its two rates is an older spelling of
     the same declaration (both given: they must agree).
+
+    Attributes
+    ----------
+    method : str
+        How a sampled controller is discretised: ``backward`` (s -> (1 - z^-1)/T) or
+        ``tustin`` (s -> (2/T)(z - 1)/(z + 1)).
     """
 
     current_loop: param("sampling.current_loop") | None = None
