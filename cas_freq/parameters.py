@@ -384,9 +384,11 @@ def check_key(key, config=None):
     """Raise ConfigError unless ``key`` is a numeric dotted key that can be varied (in
     ``config``'s architecture and filters, when given)."""
     if key not in VARIABLE_KEYS and not _FILTER_KEY.fullmatch(key):
+        static = key in PARAMETERS and key.startswith(("sampling.", "simulation."))
+        why = ("a sample rate is static, one for every run of a batch: give one value, or a "
+               "variant per rate" if static else "not a numeric loop parameter")
         raise ConfigError(
-            f"{key}: cannot be varied (not a numeric loop parameter); accepted keys: "
-            f"{', '.join(variable_keys(config))}"
+            f"{key}: cannot be varied ({why}); accepted keys: {', '.join(variable_keys(config))}"
         )
     if config is None:
         if key not in VARIABLE_KEYS:

@@ -196,6 +196,13 @@ def test_set_reaches_a_sampling_key():
     assert params.sampling.sample_rates == (("current_loop", 24e3), ("position_loop", 2e3))
 
 
+def test_a_sweep_cannot_vary_a_rate_but_fixes_one():
+    code, _, err = run_cli(["sweep", "--set", "sampling.current_loop=25kHz,50kHz"])
+    assert code == 2
+    assert ("sampling.current_loop: cannot be varied (a sample rate is static, one for every run "
+            "of a batch: give one value, or a variant per rate)") in err
+
+
 def test_a_variant_overrides_sampling(write_config, shipped_raw):
     raw = shipped_raw
     raw.pop("load_envelope")  # it names the shipped variants replaced here
@@ -279,3 +286,21 @@ def test_without_sampling_everything_is_continuous_as_before():
             assert loop.sample_rates == () and loop.sampling_method == "backward", loaded.variant
             assert loaded.params.simulation.rates_hz == (None, None)
             assert variant_parameters(loaded.params, {}).sample_rates == ()
+
+
+def test_the_simulation_output_names_a_continuous_position_loop():
+    # sampling: {current_loop: 25 kHz} leaves the position loop continuous: rates_hz has None
+    # there, which the simulation's description of its controllers says (it formatted both
+    # rates as numbers before)
+    from types import SimpleNamespace
+
+    from cas_freq.simulation.run import _controllers
+
+    current, position = load_variant(None, "base", [("sampling.current_loop", "25 kHz")]
+                                     ).params.simulation.rates_hz
+    result = SimpleNamespace(current_rate_hz=current, position_rate_hz=position)
+    assert _controllers(result) == ("sampled (current loop 25000 Hz, position loop continuous, "
+                                    "zero-order hold)")
+    both = SimpleNamespace(current_rate_hz=25e3, position_rate_hz=2.5e3)
+    assert _controllers(both) == ("sampled (current loop 25000 Hz, position loop 2500 Hz, "
+                                  "zero-order hold)")
