@@ -107,7 +107,7 @@ def sampling_problem(rates, cascade):
         return (f"sampling.current_loop: absent (continuous) while sampling.{name} is "
                 f"{_hz(rate)}; accepted: a current-loop rate whenever any loop is sampled (a "
                 "continuous current loop inside a sampled loop is not modelled)")
-    for (inner, inner_hz), (outer, outer_hz) in zip(pairs, pairs[1:]):
+    for (inner, inner_hz), (outer, outer_hz) in zip(pairs[:-1], pairs[1:], strict=True):
         if outer_hz > inner_hz:
             return (f"sampling.{outer}: {_hz(outer_hz)} is faster than sampling.{inner} "
                     f"({_hz(inner_hz)}) inside it; accepted: at most {_hz(inner_hz)} (an inner "

@@ -440,7 +440,7 @@ class Simulation(_Section):
     zero-order hold (the EPOS4 runs its current loop at 25 kHz and its position loop at
     2.5 kHz), as ``sampling: {current_loop: ..., position_loop: ...}`` does; a
     ``position_loop_rate`` of null leaves the position loop continuous. Once validated, the
-    section follows ``sampling:`` (:meth:`ActuatorConfig._one_sampling`).
+    section states what ``sampling:`` declares, so ``rates_hz`` follows it.
     """
 
     controllers: Literal["continuous", "sampled"] = "continuous"
