@@ -41,8 +41,8 @@ which keys each architecture refuses and why; the filters' numbers are the keys
 
 This module sits at the bottom of the package: it imports only :mod:`cas_freq.exceptions`,
 :mod:`cas_freq.formulas`, :mod:`cas_freq.parameter_record` (the :class:`Parameter` record) and
-:mod:`cas_freq.filters_config`, which import nothing else from cas_freq but
-:mod:`cas_freq.units`.
+:mod:`cas_freq.filters_config` and :mod:`cas_freq.sampling_config`, which import nothing else
+from cas_freq but :mod:`cas_freq.units`.
 """
 
 import dataclasses
@@ -57,6 +57,7 @@ from cas_freq.formulas import viscous_friction_from_no_load as viscous_friction
 from cas_freq.parameter_record import Parameter
 from cas_freq.parameter_record import indices as _indices
 from cas_freq.parameter_record import table as _table
+from cas_freq.sampling_config import DEFAULT_METHOD, check_static
 
 __all__ = [
     "CASCADE_ONLY",
@@ -206,12 +207,20 @@ PARAMETERS = _table(
      "current-controller sample rate with controllers: sampled, 1..1e9 [Hz]"),
     ("simulation.position_loop_rate", None, "Hz", 1.0, False, 1e9,
      "position-controller sample rate with controllers: sampled, 1..1e9 [Hz]"),
+    # the sampled controllers (cas_freq.sampling_config): static, LoopParameters.sample_rates
+    ("sampling.current_loop", None, "Hz", 1.0, False, 1e9,
+     "sample rate of the current controller (absent: continuous), 1..1e9 [Hz]"),
+    ("sampling.velocity_loop", None, "Hz", 1.0, False, 1e9,
+     "sample rate of the velocity controller of a cascade (absent: continuous), 1..1e9 [Hz]"),
+    ("sampling.position_loop", None, "Hz", 1.0, False, 1e9,
+     "sample rate of the position controller (absent: continuous), 1..1e9 [Hz]"),
 )
 
 #: Keys a sweep or a Monte Carlo run can change per sample: every key that reaches the loop
-#: parameters (the simulation's sample rates are settings of a whole run, not of a sample), and
+#: parameters (the sample rates are static, the same for a whole batch, not of a sample), and
 #: the numbers of the config's filters (``filters.0.frequency``, :func:`variable_keys`).
-VARIABLE_KEYS = tuple(key for key in PARAMETERS if not key.startswith("simulation."))
+VARIABLE_KEYS = tuple(key for key in PARAMETERS
+                      if not key.startswith(("simulation.", "sampling.")))
 
 _CASCADE_HINT = ("with a velocity_loop the position controller's output is a velocity command: "
                  "{key} is in {unit} (e.g. {example})")
@@ -375,9 +384,11 @@ def check_key(key, config=None):
     """Raise ConfigError unless ``key`` is a numeric dotted key that can be varied (in
     ``config``'s architecture and filters, when given)."""
     if key not in VARIABLE_KEYS and not _FILTER_KEY.fullmatch(key):
+        static = key in PARAMETERS and key.startswith(("sampling.", "simulation."))
+        why = ("a sample rate is static, one for every run of a batch: give one value, or a "
+               "variant per rate" if static else "not a numeric loop parameter")
         raise ConfigError(
-            f"{key}: cannot be varied (not a numeric loop parameter); accepted keys: "
-            f"{', '.join(variable_keys(config))}"
+            f"{key}: cannot be varied ({why}); accepted keys: {', '.join(variable_keys(config))}"
         )
     if config is None:
         if key not in VARIABLE_KEYS:
@@ -518,8 +529,9 @@ class LoopParameters:
 
     Every attribute is a read-only float array of shape (n_runs,), except
     ``derivative_on_measurement`` (bool array) and the static fields ``cascade``,
-    ``feedback_output`` and ``filters`` (:data:`STATIC_FIELDS`), which are the same for every run
-    of a batch: they choose the loop's structure. Each float field carries one key of
+    ``feedback_output``, ``filters``, ``sample_rates`` and ``sampling_method``
+    (:data:`STATIC_FIELDS`), which are the same for every run of a batch: they choose the loop's
+    structure. Each float field carries one key of
     :data:`PARAMETERS` (or of :data:`CASCADE_PARAMETERS`). The keys' accepted ranges are
     checked where a value enters (the config schema, :func:`variant_parameters`), not here: an
     internal scan (the stable range of the hinge stiffness, :mod:`cas_freq.analysis.drivetrain`)
@@ -579,6 +591,14 @@ class LoopParameters:
     filters : tuple of cas_freq.filters_config.Filter
         Static points and kinds of the loop's filters (their numbers per run), in series in the
         config's order; empty by default.
+    sample_rates : tuple of (str, float)
+        Static: the sampled loops, innermost first, as (loop name, rate [Hz]) pairs, e.g.
+        ``(("current_loop", 25000.0), ("position_loop", 2500.0))``; a loop not named is
+        continuous, () (the default) means every controller is continuous. The config's
+        ``sampling:`` declaration (:mod:`cas_freq.sampling_config`, whose rules it obeys).
+    sampling_method : str
+        Static: how the sampled controllers are discretised, ``"backward"`` (default) or
+        ``"tustin"`` (``sampling.method``).
     """
 
     R: np.ndarray
@@ -620,7 +640,7 @@ class LoopParameters:
     feedback_output: bool = False
     filters: tuple = ()
     sample_rates: tuple = ()
-    sampling_method: str = "backward"
+    sampling_method: str = DEFAULT_METHOD
 
     def __post_init__(self):
         names = _array_fields(self)
@@ -677,6 +697,8 @@ class LoopParameters:
             raise ConfigError(f"simulation parameters: filters: the numbers' lengths do not "
                               f"match n_runs = {self.n_runs}") from None
         object.__setattr__(self, "filters", filters)
+        object.__setattr__(self, "sample_rates",
+                           check_static(self.sample_rates, self.sampling_method, self.cascade))
 
     @property
     def compliant(self):
@@ -705,12 +727,13 @@ class LoopParameters:
         if any(loop_structure(config) != structure for config in configs[1:]):
             raise ConfigError("simulation parameters: the configs of one batch must share their "
                               "loop structure (velocity loop, position feedback, filters' points "
-                              "and types)")
+                              "and types, sampling)")
         rows = [_row(config) for config in configs]
         filters = tuple(Filter.stacked(group)
                         for group in zip(*(_filters(config) for config in configs), strict=True))
         return cls(**{key: np.array([row[key] for row in rows]) for key in rows[0]},
-                   cascade=structure[0], feedback_output=structure[1], filters=filters)
+                   cascade=structure[0], feedback_output=structure[1], filters=filters,
+                   sample_rates=structure[3], sampling_method=structure[4])
 
     @classmethod
     def from_config(cls, config):
@@ -794,9 +817,10 @@ def _which(where, bad):
 
 def loop_structure(config):
     """The static fields of a validated config: (cascade, feedback_output, the filters' points
-    and types). Runs of one batch share them."""
+    and types, sample_rates, sampling_method). Runs of one batch share them."""
     return (is_cascade(config), config.position_loop.feedback == "output",
-            tuple((item.at, item.type) for item in config.filters))
+            tuple((item.at, item.type) for item in config.filters),
+            config.sampling.sample_rates, config.sampling.method)
 
 
 def _filters(config, numbers=None):
@@ -915,6 +939,7 @@ def variant_parameters(params, changes, n=None):
         derivative_on_measurement=np.full(n, params.position_loop.derivative_on == "measurement"),
         cascade=cascade, feedback_output=structure[1],
         filters=tuple(f.broadcast(n) for f in _filters(params, full)),
+        sample_rates=structure[3], sampling_method=structure[4],
     )
 
 

@@ -218,11 +218,12 @@ def test_parameter_table_converts_to_the_baseline_unit(write_config, shipped_raw
     variants = [load_variant(path, name) for name in ("base", "same_in_us", "slow")]
     rows, equal = parameter_differences(variants)
     table = {row[0]: row[2:] for row in rows}
-    assert set(table) == {"position_loop.delay", "simulation.controllers"}
+    # the older spelling of the sampling is compared as the sampling: section it declares
+    assert set(table) == {"position_loop.delay", "sampling.current_loop", "sampling.position_loop"}
     # base writes 0.4 ms: the row is in ms, 500 us shown as 0.5 ms
     assert table["position_loop.delay"] == ("0.4 ms", "0.4 ms", "0.5 ms")
-    assert table["simulation.controllers"] == ("continuous", "continuous", "sampled")
-    assert equal == len(config_keys()) - 2
+    assert table["sampling.position_loop"] == ("—", "—", "2500 Hz")
+    assert equal == len(config_keys()) - 3
     # a --set override counts like a variant's value, in the unit it is written with
     override = load_variant(path, "base", overrides=[("position_loop.Tf", "0.7 ms")])
     rows, _ = parameter_differences([variants[0], override])

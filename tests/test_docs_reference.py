@@ -63,6 +63,7 @@ def test_the_filters_numbers_and_refused_keys_are_listed(config_page):
         assert _row(config_page, f"filters[].{name}")[2] == reference.accepted_range(record)
     assert _row(config_page, "position_loop.Kd", after="CascadePositionLoop")[2] == "refused"
     assert _row(config_page, "simulation.controllers")[2] == "`continuous`, `sampled`"
+    assert _row(config_page, "sampling.method")[2:4] == ["`backward`, `tustin`", "`backward`"]
 
 
 def test_the_range_is_read_from_the_bounds():

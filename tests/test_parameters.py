@@ -141,10 +141,13 @@ def test_every_row_is_well_formed():
         assert parameter.key == key
         assert parameter.meaning.endswith(f"[{parameter.unit}]"), key
         assert unit_of(key) == parameter.unit
-    # the loop-parameter keys can be varied, the simulation's sample rates cannot
-    assert set(VARIABLE_KEYS) == {k for k in PARAMETERS if not k.startswith("simulation.")}
+    # the loop-parameter keys can be varied, the sample rates (static: one per batch) cannot
+    assert set(VARIABLE_KEYS) == {k for k in PARAMETERS
+                                  if not k.startswith(("simulation.", "sampling."))}
     with pytest.raises(ConfigError, match="simulation.current_loop_rate: cannot be varied"):
         check_key("simulation.current_loop_rate")
+    with pytest.raises(ConfigError, match="sampling.position_loop: cannot be varied"):
+        check_key("sampling.position_loop")
 
 
 def test_base_values_reads_every_variable_key():

@@ -46,6 +46,13 @@ from cas_freq.parameters import (
     filter_time_constant,
     viscous_friction,
 )
+from cas_freq.sampling_config import (
+    DEFAULT_METHOD,
+    LOOPS,
+    conflict_problem,
+    sample_rates,
+    sampling_problem,
+)
 
 BASE_VARIANT = "base"
 
@@ -391,22 +398,66 @@ class FilterSpec(_Section):
         return self
 
 
-class Simulation(_Section):
-    """How the nonlinear simulation runs the controllers.
+class Sampling(_Section):
+    """The controllers' sample rates and discretisation (:mod:`cas_freq.sampling_config`).
 
-    ``controllers: continuous`` (default) integrates both controllers with the simulator's fine
-    step; ``sampled`` runs them at the given rates with zero-order hold (the EPOS4 runs its
-    current loop at 25 kHz and its position loop at 2.5 kHz). The frequency-domain analysis is
-    continuous-time either way.
+    A rate per loop (``current_loop: 25 kHz``, ``velocity_loop`` with a velocity loop only,
+    ``position_loop: 2.5 kHz``); an absent loop is continuous. When any loop is sampled the
+    current loop is; an inner loop's rate is an integer multiple of the next outer sampled
+    loop's. ``method``: how a sampled controller is discretised, ``backward`` (default) or
+    ``tustin``. ``simulation.controllers: sampled`` with its two rates is an older spelling of
+    the same declaration (both given: they must agree).
+
+    Attributes
+    ----------
+    method : str
+        How a sampled controller is discretised: ``backward`` (s -> (1 - z^-1)/T) or
+        ``tustin`` (s -> (2/T)(z - 1)/(z + 1)).
+    """
+
+    current_loop: param("sampling.current_loop") | None = None
+    velocity_loop: param("sampling.velocity_loop") | None = None
+    position_loop: param("sampling.position_loop") | None = None
+    method: Literal["backward", "tustin"] = DEFAULT_METHOD
+
+    @property
+    def rates(self):
+        """Loop name -> rate [Hz] or None (continuous), innermost first."""
+        return {name: getattr(self, name) for name in LOOPS}
+
+    @property
+    def sample_rates(self):
+        """The sampled loops as (loop name, rate [Hz]) pairs, innermost first; () when every
+        controller is continuous (:attr:`cas_freq.parameters.LoopParameters.sample_rates`)."""
+        return sample_rates(self.rates)
+
+
+class Simulation(_Section):
+    """The older spelling of ``sampling:``, for the current and position loops.
+
+    ``controllers: continuous`` (default) declares nothing: the controllers are continuous
+    unless ``sampling:`` samples them. ``sampled`` samples both at the given rates with
+    zero-order hold (the EPOS4 runs its current loop at 25 kHz and its position loop at
+    2.5 kHz), as ``sampling: {current_loop: ..., position_loop: ...}`` does; a
+    ``position_loop_rate`` of null leaves the position loop continuous. Once validated, the
+    section states what ``sampling:`` declares, so ``rates_hz`` follows it.
     """
 
     controllers: Literal["continuous", "sampled"] = "continuous"
     current_loop_rate: param("simulation.current_loop_rate") = 25e3
-    position_loop_rate: param("simulation.position_loop_rate") = 2.5e3
+    position_loop_rate: param("simulation.position_loop_rate") | None = 2.5e3
+
+    @property
+    def rates(self):
+        """The rates this spelling declares: loop name -> rate [Hz] or None (continuous)."""
+        if self.controllers == "continuous":
+            return {}
+        return {"current_loop": self.current_loop_rate, "position_loop": self.position_loop_rate}
 
     @property
     def rates_hz(self):
-        """(current, position) sample rates [Hz], or (None, None) for continuous controllers."""
+        """(current, position) sample rates [Hz], each None for a continuous controller; the
+        config's ``sampling:`` once validated (the rates the nonlinear simulation runs)."""
         if self.controllers == "continuous":
             return None, None
         return self.current_loop_rate, self.position_loop_rate
@@ -529,6 +580,7 @@ class ActuatorConfig(_Section):
     velocity_loop: VelocityLoop | None = None
     position_loop: PositionLoop | CascadePositionLoop
     filters: tuple[FilterSpec, ...] = ()
+    sampling: Sampling = Sampling()
     simulation: Simulation = Simulation()
     requirements: tuple[Requirement, ...] = ()
     reference: Reference | None = None
@@ -594,6 +646,28 @@ class ActuatorConfig(_Section):
             return value
         model = CascadePositionLoop if (info.context or {}).get("cascade") else PositionLoop
         return model.model_validate(value)
+
+    @model_validator(mode="after")
+    def _one_sampling(self):
+        """Reconcile ``sampling:`` and ``simulation.controllers: sampled`` into one declaration,
+        check its rules (:func:`cas_freq.sampling_config.sampling_problem`), and make both
+        sections state it (``simulation.rates_hz`` follows ``sampling:``)."""
+        declared, old = self.sampling.rates, self.simulation.rates
+        given = any(rate is not None for rate in declared.values())
+        if given and old:
+            problem = conflict_problem(declared, old)
+            if problem:
+                raise PydanticCustomError("cas_value", problem)
+        rates = declared if given else {**declared, **old}
+        problem = sampling_problem(rates, self.velocity_loop is not None)
+        if problem:
+            raise PydanticCustomError("cas_value", problem)
+        object.__setattr__(self, "sampling", self.sampling.model_copy(update=rates))
+        if rates.get("current_loop") is not None:
+            object.__setattr__(self, "simulation", self.simulation.model_copy(update={
+                "controllers": "sampled", "current_loop_rate": rates["current_loop"],
+                "position_loop_rate": rates.get("position_loop")}))
+        return self
 
     @model_validator(mode="after")
     def _filter_points(self):

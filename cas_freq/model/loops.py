@@ -35,7 +35,7 @@ RESPONSE_FIELDS = (
     "cv_Kp", "cv_Ki", "tau_v", "tau_vf",
 )
 
-#: Fields the whole batch shares (the architecture), passed on as they are.
+#: Fields the whole batch shares (the architecture, the sampling), passed on as they are.
 STATIC_FIELDS = ("cascade", "feedback_output", "sample_rates", "sampling_method")
 
 #: Per-run numbers of a filter (cas_freq.parameters.Filter).

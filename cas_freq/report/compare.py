@@ -70,7 +70,7 @@ def default_compare_dir(variants, selected=None):
 #: Config settings that are not numbers, compared beside :data:`PARAMETERS` (key: meaning).
 SETTINGS = {
     "position_loop.derivative_on": "the derivative acts on the error or on the measurement",
-    "simulation.controllers": "controllers of the nonlinear simulation: continuous or sampled",
+    "sampling.method": "discretisation of the sampled controllers: backward or tustin",
 }
 
 #: Parameters that are derived when the config does not set them (key: effective value of a
@@ -89,8 +89,9 @@ _RANGE = re.compile(r",\s*(?:0 or\s+)?(?:\|\w+\|\s+)?[-+]?[\d.]+(?:e[-+]?\d+)?"
 
 def config_keys():
     """Every compared config key: :data:`PARAMETERS` and :data:`SETTINGS`, grouped by section
-    in the config's order."""
-    keys = [*PARAMETERS, *SETTINGS]
+    in the config's order; the sampling once, as ``sampling.*`` (``simulation.*`` is its older
+    spelling, which a validated config makes agree with it)."""
+    keys = [key for key in (*PARAMETERS, *SETTINGS) if not key.startswith("simulation.")]
     sections = list(dict.fromkeys(key.split(".")[0] for key in keys))
     return sorted(keys, key=lambda key: sections.index(key.split(".")[0]))
 

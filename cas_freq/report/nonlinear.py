@@ -9,6 +9,8 @@ the Padé approximation of the delays is left.
 
 import math
 
+from cas_freq.sampling_config import rates_text
+
 
 def nonlinear_elements(params, loaded):
     """The simulator's elements of a variant that the linear model does not have, as phrases.
@@ -48,8 +50,7 @@ def nonlinear_elements(params, loaded):
         play = (f"{1e3 * gear.backlash:.3g} mm" if params.linear else
                 f"{math.degrees(gear.backlash):.3g}°")
         found.append(f"a gear backlash of {play}")
-    if params.simulation.controllers == "sampled":
-        current, position = params.simulation.rates_hz
-        found.append(f"sampled controllers ({current:g} Hz and {position:g} Hz, zero-order "
-                     "hold)")
+    if params.sampling.sample_rates:
+        found.append(f"sampled controllers ({rates_text(params.sampling.sample_rates)}, "
+                     "zero-order hold)")
     return found

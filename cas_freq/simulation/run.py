@@ -196,10 +196,12 @@ def step_run_dict(run):
 
 
 def _controllers(result):
-    if result.current_rate_hz is None and result.position_rate_hz is None:
+    rates = {"current loop": result.current_rate_hz, "position loop": result.position_rate_hz}
+    if all(rate is None for rate in rates.values()):
         return "continuous"
-    return (f"sampled (current loop {result.current_rate_hz:g} Hz, "
-            f"position loop {result.position_rate_hz:g} Hz, zero-order hold)")
+    loops = ", ".join(f"{name} continuous" if rate is None else f"{name} {rate:g} Hz"
+                      for name, rate in rates.items())
+    return f"sampled ({loops}, zero-order hold)"
 
 
 def step_csv_name(path, run, count):

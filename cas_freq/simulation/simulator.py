@@ -574,9 +574,9 @@ def simulate_batch(
     every_p = _period_steps(position_rate_hz, dt, "position_rate_hz")
     if (every_c or every_p) and (p.cascade or p.filters):
         raise ConfigError(
-            "simulation.controllers: sampled controllers are simulated for the PID-on-PI "
-            "(with either encoder) only; a velocity loop or filters need continuous ones "
-            "(simulation.controllers: continuous)")
+            "sampling: sampled controllers are simulated for the PID-on-PI (with either "
+            "encoder) only; a velocity loop or filters need continuous ones in the nonlinear "
+            "simulation (no sampling: rates, no simulation.controllers: sampled)")
     _command_list(commands, n)
     settles, last_change, final = _settling_facts(commands, n)
     if t_end is None:
