@@ -118,6 +118,15 @@ def sampling_problem(rates, cascade):
                     f"({_hz(inner_hz)}) divided by an integer (ratio {inner_hz / outer_hz:.6g}); "
                     f"accepted: {_hz(inner_hz)}/N, e.g. {_hz(inner_hz / below)} (N = {below}) or "
                     f"{_hz(inner_hz / (below + 1))} (N = {below + 1}): multirate must be exact")
+    loops = ("current_loop", "velocity_loop", "position_loop") if cascade else (
+        "current_loop", "position_loop")
+    missing = [name for name in loops if rates.get(name) is None]
+    if pairs and missing:
+        return (f"sampling.{missing[0]}: absent (continuous) while "
+                f"{', '.join(f'sampling.{name}' for name, _ in pairs)} are sampled; accepted: a "
+                f"rate for every loop once one is sampled (a continuous loop is faster than any "
+                "sampled loop, so it cannot sit outside one, and a continuous loop inside a "
+                "sampled one is not modelled)")
     return None
 
 

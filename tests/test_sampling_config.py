@@ -101,13 +101,21 @@ def test_accepted_rates_innermost_first():
     assert loop.sample_rates == (("current_loop", 20e3), ("velocity_loop", 5e3),
                                  ("position_loop", 1e3))
     assert loop.sampling_method == "tustin"
-    # equal rates are an integer multiple (1); the current loop alone is sampled
+    # equal rates are an integer multiple (1)
     same = load_variant(None, "base", [("sampling.current_loop", "10 kHz"),
                                        ("sampling.position_loop", "10 kHz")]).params
     assert same.sampling.sample_rates == (("current_loop", 1e4), ("position_loop", 1e4))
-    alone = load_variant(None, "base", [("sampling.current_loop", "25 kHz")]).params
-    assert alone.sampling.sample_rates == (("current_loop", 25e3),)
-    assert alone.simulation.rates_hz == (25e3, None)  # the simulator: position loop continuous
+
+
+def test_every_loop_is_sampled_once_one_is():
+    # a continuous position loop around a sampled current loop would be faster than the loop
+    # inside it; a continuous velocity loop between two sampled loops likewise
+    with pytest.raises(ConfigError, match=r"sampling\.position_loop: absent \(continuous\) "
+                                          r"while sampling\.current_loop are sampled"):
+        load_variant(None, "base", [("sampling.current_loop", "25 kHz")])
+    with pytest.raises(ConfigError, match=r"sampling\.velocity_loop: absent"):
+        load_variant(CASCADE, "base", [("sampling.current_loop", "25 kHz"),
+                                       ("sampling.position_loop", "2.5 kHz")])
 
 
 # ---- the two spellings ----------------------------------------------------------------------
@@ -127,11 +135,11 @@ def test_the_older_spelling_is_the_same_declaration():
     tustin = load_variant(None, "base", [("simulation.controllers", "sampled"),
                                          ("sampling.method", "tustin")]).params
     assert tustin.sampling.sample_rates == EPOS4_PAIRS and tustin.sampling.method == "tustin"
-    # the older spelling's rates at other values, and a null position rate: continuous
+    # the older spelling's rates at other values
     other = load_variant(None, "base", [("simulation.controllers", "sampled"),
                                         ("simulation.current_loop_rate", "20 kHz"),
-                                        ("simulation.position_loop_rate", None)]).params
-    assert other.sampling.sample_rates == (("current_loop", 2e4),)
+                                        ("simulation.position_loop_rate", "4 kHz")]).params
+    assert other.sampling.sample_rates == (("current_loop", 2e4), ("position_loop", 4e3))
 
 
 @pytest.mark.parametrize("overrides, expected", [
@@ -228,7 +236,8 @@ def test_a_variant_overrides_sampling(write_config, shipped_raw):
         load_variant(write_config(raw, "bad.yaml"), "base")
 
 
-@pytest.mark.parametrize("overrides", [EPOS4, [("sampling.current_loop", "25 kHz")]])
+@pytest.mark.parametrize("overrides", [EPOS4, [("sampling.current_loop", "50 kHz"),
+                                                ("sampling.position_loop", "5 kHz")]])
 def test_a_dumped_sampled_config_validates_again(overrides):
     config = load_variant(None, "base", overrides).params
     data = config.model_dump(exclude={"load_envelope", "variants"})
@@ -286,21 +295,3 @@ def test_without_sampling_everything_is_continuous_as_before():
             assert loop.sample_rates == () and loop.sampling_method == "backward", loaded.variant
             assert loaded.params.simulation.rates_hz == (None, None)
             assert variant_parameters(loaded.params, {}).sample_rates == ()
-
-
-def test_the_simulation_output_names_a_continuous_position_loop():
-    # sampling: {current_loop: 25 kHz} leaves the position loop continuous: rates_hz has None
-    # there, which the simulation's description of its controllers says (it formatted both
-    # rates as numbers before)
-    from types import SimpleNamespace
-
-    from cas_freq.simulation.run import _controllers
-
-    current, position = load_variant(None, "base", [("sampling.current_loop", "25 kHz")]
-                                     ).params.simulation.rates_hz
-    result = SimpleNamespace(current_rate_hz=current, position_rate_hz=position)
-    assert _controllers(result) == ("sampled (current loop 25000 Hz, position loop continuous, "
-                                    "zero-order hold)")
-    both = SimpleNamespace(current_rate_hz=25e3, position_rate_hz=2.5e3)
-    assert _controllers(both) == ("sampled (current loop 25000 Hz, position loop 2500 Hz, "
-                                  "zero-order hold)")
