@@ -23,6 +23,8 @@ A loop is stable when every pole of its closed loop (with the loops inside it) l
 unit circle, marginal within :data:`cas_freq.analysis.stability.MARGINAL_TOLERANCE` of it.
 """
 
+import dataclasses
+
 import numpy as np
 from scipy.linalg import expm
 
@@ -187,7 +189,20 @@ def _shapes(p):
 
 def _assembled(p, n):
     """The closed-loop state matrices (n, s, s) of each loop of runs that realise alike."""
-    return _closed(p, n, build(p))
+    return {name: closing.closed[0] for name, closing in _closed(p, n, build(p)).items()}
+
+
+def loop_systems(p):
+    """Each loop of one run as discrete-time state spaces, innermost first.
+
+    Returns
+    -------
+    dict of str to Closing
+        Loop name -> its loop broken at its controller's output (inputs error and command;
+        outputs the four measured signals), the row it measures, its sensor, the system
+        with it closed (input the command) and its period [s].
+    """
+    return _closed(p, 1, build(p))
 
 
 def _closed(p, n, structure):
@@ -221,9 +236,24 @@ def _closed(p, n, structure):
                 samples = int(np.ceil(float(tau) / group.period - 1e-9))
             forward = _forward(loop, group.period, method, samples, n)
             sensor = _sensor(loop, group.period, method, n)
-            system = _feedback(series(forward, system), SIGNAL_ROWS[loop.feedback], sensor)
-            out[structure.names[k]] = system[0]
+            opened = series(forward, system)
+            system = _feedback(opened, SIGNAL_ROWS[loop.feedback], sensor)
+            out[structure.names[k]] = Closing(opened, SIGNAL_ROWS[loop.feedback], sensor,
+                                              system, group.period)
     return out
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Closing:
+    """One loop of :func:`loop_systems`: ``opened`` (A, B, C, D) with the loops inside it
+    closed and it open, ``row`` the measured signal, ``sensor`` its filters (or None),
+    ``closed`` the same with it closed, ``period`` its sampling period [s]."""
+
+    opened: tuple
+    row: int
+    sensor: tuple | None
+    closed: tuple
+    period: float
 
 
 def _forward(loop, period, method, samples, n):

@@ -281,11 +281,24 @@ class ActuatorLoops:
         self.delay = delay
         self._p = Selector(params)()  # one run: every parameter a scalar
 
-    def _responses(self, s, closed=True, feedforward=False):
-        return responses(self._p, np.asarray(s, dtype=complex), closed, self.delay, feedforward)
+    def _responses(self, s, closed=True, feedforward=False, output=None):
+        s = np.asarray(s, dtype=complex)
+        if self.sampled:
+            from cas_freq.model import sampled
+
+            return sampled.responses(self._p, s, closed, output=output, feedforward=feedforward)
+        return responses(self._p, s, closed, self.delay, feedforward, output=output)
+
+    @property
+    def sampled(self):
+        """True for sampled controllers (``sampling:``): every response is then that of the
+        sampled loops at z = e^(j omega T) (:mod:`cas_freq.model.sampled`)."""
+        return bool(getattr(self._p, "sample_rates", ()))
 
     def current_loop(self, s):
         """L_i(s) = C_i(s) e^(-s tau_c) Y(s), broken at the voltage [-]."""
+        if self.sampled:
+            return self._responses(s, closed=False).current_loop
         return current_loop(self._p, np.asarray(s, dtype=complex), self.delay)
 
     def current_closed_loop(self, s):
@@ -311,9 +324,7 @@ class ActuatorLoops:
         The closed loop read at the current instead of the output:
         :math:`i/\delta_{cmd} = N\, i/\theta_{cmd}`.
         """
-        s = np.asarray(s, dtype=complex)
-        return self._p.ratio * responses(self._p, s, delay=self.delay,
-                                         output="current").closed_loop
+        return self._p.ratio * self._responses(s, output="current").closed_loop
 
     @property
     def total_delay(self):

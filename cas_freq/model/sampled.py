@@ -282,7 +282,8 @@ def nyquist_frequencies(p):
     return {name: math.pi / period for name, period in periods(p).items()}
 
 
-def responses(p, s, closed=True, loop_at_a_time=False, output=None, modes=None):
+def responses(p, s, closed=True, loop_at_a_time=False, output=None, modes=None,
+              feedforward=False):
     r"""Every loop's response and (optionally) T of sampled loops at ``s = j omega``.
 
     Parameters
@@ -299,6 +300,10 @@ def responses(p, s, closed=True, loop_at_a_time=False, output=None, modes=None):
         The plant signal T reads (default the structure's output).
     modes : PlantModes, optional
         The runs' plant modes, if already decomposed (:func:`plant_modes`).
+    feedforward : bool
+        Let the feed-forward act on the command in T: the command's rate and acceleration as
+        the drive's trajectory generator knows them (the polynomial at s = j omega, sampled),
+        added to the controller's output of its loop (loops of the outermost rate only).
 
     Returns
     -------
@@ -307,6 +312,10 @@ def responses(p, s, closed=True, loop_at_a_time=False, output=None, modes=None):
     structure = build(p)
     plan = groups(structure.names, p.sample_rates)
     method = getattr(p, "sampling_method", "backward")
+    if feedforward and any(structure.loops[k].feedforward is not None
+                           for group in plan[:-1] for k in group.loops):
+        raise ConfigError("sampling: the feed-forward into a loop faster than the outermost is "
+                          "not modelled in the frequency domain (sample those loops alike)")
     omega = np.asarray(s).imag
     rank = len(np.broadcast_shapes(omega.shape, _runs(p)))
     omega = omega.reshape((1,) * (rank - omega.ndim) + omega.shape)  # aliases go before
@@ -344,6 +353,12 @@ def responses(p, s, closed=True, loop_at_a_time=False, output=None, modes=None):
                 command = command * b
                 if stage.reference is not None:
                     command = command + gain * parts.polyval(stage.reference, x) * d
+                if feedforward and structure.loops[k].feedforward is not None:
+                    loop = structure.loops[k]
+                    injected = (parts.polyval(loop.feedforward, 1j * nu)
+                                * parts.polyval(loop.controller.denominator, x)
+                                * _value(product(block.numerator for block in loop.path), x))
+                    command = command + gain * injected * d
             gain = gain * parts.polyval(stage.a, x) * d
             c = gain * signals[structure.loops[k].feedback] * _value(sensors[k], x) * sensed
             cascade[structure.names[k]] = _own(c / (beta * e), nu.ndim - omega.ndim)
@@ -452,3 +467,38 @@ class PreparedSampled:
     def current_loop(self, runs, s, delay=None):
         """The innermost loop's response of the runs ``runs``."""
         return self.responses(runs, s, closed=False).loops["current_loop"]
+
+
+def drive_responses(p, s, closed=True, loop_at_a_time=False):
+    """The loops' responses as the drive runs them: sampled where ``p`` declares sampling
+    (NaN at and above each loop's Nyquist frequency, T and the loops' views above the
+    outermost's, so that curves stop there), else continuous with exact delays
+    (:func:`cas_freq.model.loops.responses`).
+
+    Parameters
+    ----------
+    p : types.SimpleNamespace or LoopParameters
+        Parameters broadcastable against ``s``.
+    s : numpy.ndarray
+        ``1j * omega`` [rad/s].
+    closed, loop_at_a_time : bool
+        As :func:`responses`.
+    """
+    from cas_freq.model.loops import responses as continuous
+
+    if not is_sampled(p):
+        return continuous(p, s, closed=closed, loop_at_a_time=loop_at_a_time)
+    found = responses(p, s, closed=closed, loop_at_a_time=loop_at_a_time)
+    omega = np.asarray(s).imag
+    limits = nyquist_frequencies(p)
+    top = limits[list(limits)[-1]]
+
+    def cut(values, limit):
+        return np.where(omega < limit, values, np.nan)
+
+    return SampledResponses(
+        {name: cut(v, limits[name]) for name, v in found.loops.items()},
+        None if found.closed_loop is None else cut(found.closed_loop, top),
+        None if found.loop_at_a_time is None else
+        {name: cut(v, limits[name]) for name, v in found.loop_at_a_time.items()},
+        found.periods)

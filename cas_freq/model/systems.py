@@ -106,8 +106,11 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
     LinearModel
     """
     from cas_freq.analysis import stability
+    from cas_freq.model.sampled import is_sampled
 
     p = parts.one_variant(params)
+    if is_sampled(p):
+        return _sampled_model(p, pade_order)
     structure = build(p)
     loops = {}
     for k, loop in enumerate(structure.loops):
@@ -134,6 +137,45 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
              for key, system in loops.items()
              for name, signal_in, signal_out in [LOOP_NAMES[key]]}
     return LinearModel(pade_order, plant_system(p), **named)
+
+
+def _sampled_model(p, pade_order):
+    """:func:`linear_model` of sampled loops: discrete-time python-control systems, each loop
+    at its own period (the inner loops of a multirate drive at theirs, broken with the slower
+    loops open), T and S at the outermost loop's; the delays exact (whole samples and the
+    hold-equivalent's fractional part, :mod:`cas_freq.analysis.sampled_stability`)."""
+    from cas_freq.analysis import sampled_stability, stability
+
+    structure = build(p)
+    closings = sampled_stability.loop_systems(p)
+    loops = {}
+    for name, closing in closings.items():
+        a, b, c, d = (m[0] for m in closing.opened)
+        row = closing.row
+        measured = (a, b[:, :1], c[row:row + 1], d[row:row + 1, :1])
+        if closing.sensor is not None:
+            measured = stability.series(measured, tuple(m[0] for m in closing.sensor))
+        loops[name] = control.ss(*measured, closing.period)
+    top = closings[structure.names[-1]]
+    loops["current_closed_loop"] = control.feedback(loops["current_loop"], 1)
+    loops["sensitivity"] = control.feedback(control.ss([], [], [], [[1.0]], top.period),
+                                            loops[structure.names[-1]])
+    a, b, c, d = (m[0] for m in top.closed)
+    output = stability.SIGNAL_ROWS[structure.output]
+    loops["closed_loop"] = control.ss(a, b, c[output:output + 1], d[output:output + 1],
+                                      top.period)
+    named = {key: control.ss(system, name=name, inputs=signal_in, outputs=signal_out)
+             for key, system in loops.items()
+             for name, signal_in, signal_out in [LOOP_NAMES[key]]}
+    plant = plant_system(p)
+    a, b = plant.A, plant.B
+    held, _ = sampled_stability.hold_equivalent(a[None], b[None], 0.0,
+                                                closings["current_loop"].period)
+    states = a.shape[0]
+    held = control.ss(held[0][0][:states, :states], held[1][0][:states], plant.C, plant.D,
+                      closings["current_loop"].period, inputs="V", outputs=plant.output_labels,
+                      states=plant.state_labels, name="plant")
+    return LinearModel(pade_order, held, **named)
 
 
 def closed_loop_zeros(params, pade_order):

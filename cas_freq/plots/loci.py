@@ -174,7 +174,8 @@ def nyquist(data):
     each (L_p, L_v with a velocity loop, L_i), zoomed on −1, with the Ms circle and the
     disk-margin disk of each loop (as the engine reports Ms and α); an inner loop with every
     other loop closed is drawn dashed on its loop's panel."""
-    from cas_freq.model.loops import Selector, responses
+    from cas_freq.model.loops import Selector
+    from cas_freq.model.sampled import drive_responses as responses
 
     c = data.curves
     p = Selector(parts.one_variant(data.loaded.params))()

@@ -297,18 +297,21 @@ def curves(params, frequency_range_rad_s, points_per_decade):
     """
     from cas_freq.analysis.frequency import frequency_grid
     from cas_freq.model import ActuatorLoops
-    from cas_freq.model.loops import Selector, responses
+    from cas_freq.model.loops import Selector
+    from cas_freq.model.sampled import drive_responses
 
     loops = ActuatorLoops(params)
     omega = frequency_grid(*frequency_range_rad_s, points_per_decade, loops.total_delay)
-    found = responses(Selector(loops.params)(), 1j * omega, loop_at_a_time=True)
+    found = drive_responses(Selector(loops.params)(), 1j * omega, loop_at_a_time=True)
     outermost = list(found.loops)[-1]
     # the inner loops with every other loop closed, where that differs from the cascade view
     # (it does not where the loops outside have no gain)
     return Curves(omega, dict(found.loops),
                   {name: values for name, values in found.loop_at_a_time.items()
                    if name != outermost
-                   and not np.allclose(values, found.loops[name], rtol=1e-12, atol=0.0)},
+                   and not np.all(np.isnan(values))
+                   and not np.allclose(values, found.loops[name], rtol=1e-12, atol=0.0,
+                                       equal_nan=True)},
                   1.0 / (1.0 + found.loops[outermost]), found.closed_loop,
                   described_loops(loops.params))
 
