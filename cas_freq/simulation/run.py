@@ -196,10 +196,13 @@ def step_run_dict(run):
 
 
 def _controllers(result):
-    if result.current_rate_hz is None and result.position_rate_hz is None:
+    rates = [(name, getattr(result, f"{name}_rate_hz"))
+             for name in ("current", "velocity", "position")]
+    sampled = [f"{name} loop {rate:g} Hz" for name, rate in rates if rate is not None]
+    if not sampled:
         return "continuous"
-    return (f"sampled (current loop {result.current_rate_hz:g} Hz, "
-            f"position loop {result.position_rate_hz:g} Hz, zero-order hold)")
+    method = {"backward": "backward difference", "tustin": "Tustin"}[result.sampling_method]
+    return f"sampled ({', '.join(sampled)}, zero-order hold, {method})"
 
 
 def step_csv_name(path, run, count):
