@@ -131,9 +131,11 @@ def test_large_step_settles_on_command_and_horizon_extends(large_steps):
     assert short.extended and short.t_end_s == pytest.approx(0.015) and not short.settled
 
 
-def naive_integration(integral, e_start, e_end, rest_start, rest_end, ki, limit, period, locate):
-    """A clamp without anti-windup: the integral always integrates (trapezoidal rule)."""
-    return integral + 0.5 * period * (e_start + e_end)
+def naive_integration(integral, e_start, e_end, rest_start, rest_end, ki, limit, period, locate,
+                      backward=False):
+    """A clamp without anti-windup: the integral always integrates (trapezoidal rule, or a
+    sampled controller's backward difference)."""
+    return integral + (period * e_end if backward else 0.5 * period * (e_start + e_end))
 
 
 def test_second_order_fit_of_large_and_small_steps(large_steps):

@@ -631,7 +631,8 @@ def simulate_batch(
         raise ConfigError(f"dt: must be a finite time > 0 s, got {dt!r}")
     if not (isinstance(record_every, int) and record_every >= 1):
         raise ConfigError(f"record_every: must be an integer >= 1, got {record_every!r}")
-    every = {name: _period_steps(rate, dt, f"{name} rate") for name, rate in rates.items()}
+    every = {name: _period_steps(rate, dt, f"{name} rate ({name.split('_')[0]}_rate_hz)")
+             for name, rate in rates.items()}
     sampled = any(every.values())
     _command_list(commands, n)
     settles, last_change, final = _settling_facts(commands, n)
