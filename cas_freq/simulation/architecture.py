@@ -100,12 +100,11 @@ class Inner:
     sensor : FilterChain or None
         Filters on the measured motor speed (the velocity loop's feedback filter and the
         ``velocity_feedback`` filters).
-    velocity_every : int or None
-        Update period of a sampled velocity controller in steps (the sensor chain is then
-        discretised over it); None for a continuous one.
-    path_every : int or None
-        Update period of the controller that commands the current, in steps, where it is
-        sampled (the path chain is then discretised over it); None for a continuous one.
+    commander_every : int or None
+        Update period in steps of the controller that commands the current (the velocity
+        controller, or the position controller without one) where it is sampled; the path
+        chain (and the sensor chain, the velocity loop's) is then discretised over it. None
+        for a continuous one.
     """
 
     cascade: bool
@@ -117,8 +116,7 @@ class Inner:
     velocity_delay: object = 0.0
     path: FilterChain | None = None
     sensor: FilterChain | None = None
-    velocity_every: int | None = None
-    path_every: int | None = None
+    commander_every: int | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -274,17 +272,17 @@ def inner_blocks(params, dt, every=None, method="backward"):
     loops = loop_structure.build(p).loops
     commanding = loops[1]  # the loop whose controller commands the current loop
     output_feedback = loops[-1].feedback == "output_angle"
-    path_every = every.get(commanding.name)
-    path = filter_chain(commanding.path, n, dt, path_every, method)
+    commander_every = every.get(commanding.name)
+    path = filter_chain(commanding.path, n, dt, commander_every, method)
     if not p.cascade:
-        return Inner(False, output_feedback, path=path, path_every=path_every)
+        return Inner(False, output_feedback, path=path, commander_every=commander_every)
     kp, ki = (_per_run(c, n) for c in commanding.controller.numerator)
     _, ff_a = _feedforward(commanding, n)
     return Inner(True, output_feedback, velocity_kp=kp, velocity_ki=ki,
                  velocity_limit=_per_run(p.i_max, n), velocity_ff_a=ff_a,
                  velocity_delay=commanding.delay, path=path,
-                 sensor=filter_chain(commanding.sensor, n, dt, path_every, method),
-                 velocity_every=path_every, path_every=path_every)
+                 sensor=filter_chain(commanding.sensor, n, dt, commander_every, method),
+                 commander_every=commander_every)
 
 
 class FilterState:
@@ -363,7 +361,7 @@ def kernel_tables(inner, n, dt, position_delay, backward=False):
     table[:, CASCADE] = inner.cascade
     table[:, OUTPUT] = inner.output_feedback
     table[:, PATH_ORDER], table[:, SENSOR_ORDER] = m_path, m_sensor
-    table[:, COMMANDER_EVERY] = inner.path_every or 0
+    table[:, COMMANDER_EVERY] = inner.commander_every or 0
     table[:, V_BACKWARD] = backward
     _put_chain(table, PATH, inner.path)
     _put_chain(table, PATH + chain_columns(m_path), inner.sensor)
