@@ -26,7 +26,9 @@ one machine-code loop, ``prange`` over the runs. Per step :math:`t_k \to t_{k+1}
    anti-windup; its output enters the delay line τc.
 5. Every ``record_every`` steps the signals of :data:`~cas_freq.simulation.engine.SIGNALS`.
 
-Sampled controllers (§9 item 8) update every ``n`` steps and are held in between. Each
+Sampled controllers (§9 item 8) update every ``n`` steps and are held in between, each loop at
+its own period (the velocity controller's and the filters after a sampled controller in the
+inner blocks' table, :mod:`~cas_freq.simulation.architecture`). Each
 operation is written in the order of the reference, so that a single run gives the same
 numbers to the last bit or nearly (the clamp flags where an output rests exactly at its limit
 depend on the last bit); in a batch the reference's shortcuts are taken for the whole batch at
