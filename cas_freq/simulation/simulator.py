@@ -380,7 +380,9 @@ def loop_sampling(params, current_rate_hz=None, position_rate_hz=None, velocity_
         raise ConfigError(f"sample_rates: unknown loop {unknown[0]!r} (the loops: "
                           f"{', '.join(LOOPS)})")
     if rates.get("velocity_loop") is not None and not params.cascade:
-        raise ConfigError("velocity_loop: a sample rate for a drive without a velocity loop")
+        raise ConfigError(f"velocity_loop: a sample rate ({rates['velocity_loop']!r} Hz) for a "
+                          "drive without a velocity loop (its loops: current_loop, "
+                          "position_loop)")
     method = getattr(params, "sampling_method", None) or "backward"
     if method not in METHODS:
         raise ConfigError(f"sampling_method: expected one of {', '.join(METHODS)}, got "
