@@ -20,9 +20,10 @@ References and tolerances
   current loop only at k = 10 mod 20; exactly (no tolerance: a held value is the same float).
 - **Both engines** perform the same operations: the same trajectories to 1e-9 of each signal's
   scale (tests/test_simulation_kernel.py's tolerance), with the clamps acting.
-- **A single-rate sampled cascade by hand**: the simulation at the sampling instants against
-  the discrete loop written out in the test (plant discretised by scipy's zero-order hold from
-  the structure's transfer functions), to 1e-6 of the step (found 4e-13).
+- **A sampled cascade by hand** (single rate and 20/5/2.5 kHz): the simulation at the sampling
+  instants against the discrete loop written out in the test (plant discretised by scipy's
+  zero-order hold from the structure's transfer functions), to 1e-6 of the step (found
+  4e-13).
 - **Convergence.** Sampling five times faster brings the sampled cascade about five times
   closer to the continuous one (the hold's half-period delay is first order in the period).
 """
@@ -216,23 +217,28 @@ def _through(blocks, u):
     return u
 
 
-def test_a_single_rate_sampled_cascade_is_its_discrete_loop_by_hand():
-    # cascade_axis linearised (eta = 1, no friction or bias), every loop at 20 kHz (T = 50 us,
-    # 5 steps), a 0.05 deg step: the delays are whole samples (tau_c 1, tau_v 2, tau_p 4), so at
-    # the sampling instants the simulation is the discrete loop written out here: the plant
+@pytest.mark.parametrize("every", [(1, 1, 1), (1, 4, 8)], ids=["single_rate", "multirate"])
+def test_a_sampled_cascade_is_its_discrete_loop_by_hand(every):
+    # cascade_axis linearised (eta = 1, no friction or bias), the current loop at 20 kHz (T =
+    # 50 us, 5 steps), the velocity and position loops at 20 kHz too or at 5 and 2.5 kHz, a
+    # 0.05 deg step. The delays are whole samples of T (tau_c 1, tau_v 2, tau_p 4), so at the
+    # sampling instants the simulation is the discrete loop written out here at T: the plant
     # (the structure's voltage -> (i, omega, theta) transfer functions, which the simulator
-    # does not use) discretised with a zero-order hold by scipy, backward PIs (Kp + Ki T
-    # z/(z-1)), the velocity sensor's filters and the notch at the current command discretised
-    # by the backward difference block by block. Found 4e-13 of the motor-angle step; bound
-    # 1e-6. Checked to fail: the simulation by Tustin (2e-3 off), the reference with a
-    # forward-Euler integral (4e-4) or one more sample of tau_v (3e-3).
+    # does not use) discretised with a zero-order hold by scipy; backward PIs (Kp + Ki T_k
+    # z/(z-1)) updated every every[k] samples and held in between; the velocity sensor's
+    # filters and the notch at the current command discretised by the backward difference at
+    # the velocity loop's period, block by block. Found 4e-13 of the motor-angle step (both
+    # cases); bound 1e-6. Checked to fail: the simulation by Tustin (2e-3 off), the reference
+    # with a forward-Euler integral (4e-4) or one more sample of tau_v (3e-3) (single rate);
+    # the velocity filters discretised at 20 kHz (0.16) or its integral over 50 us (1.4e-2)
+    # (multirate).
     from tests.test_simulation_architectures import cascade_axis
 
     p = cascade_axis()
     rate, steps = 20e3, 5
     period = 1.0 / rate
     run = simulate_batch(p, Step(SMALL), t_end=0.02, extend=False, current_rate_hz=rate,
-                         velocity_rate_hz=rate, position_rate_hz=rate)
+                         velocity_rate_hz=rate / every[1], position_rate_hz=rate / every[2])
     assert run.dt_s == pytest.approx(period / steps)
     built = structure.build(p)
     current, velocity, position = built.loops
@@ -243,8 +249,8 @@ def test_a_single_rate_sampled_cascade_is_its_discrete_loop_by_hand():
                     for n in numerators])
     den = [float(np.ravel(c)[0]) for c in plant.denominator]
     a, b, c, d, _ = signal.cont2discrete(signal.tf2ss(num, den), period, method="zoh")
-    sensor = _discrete_blocks(velocity.sensor, period)
-    path = _discrete_blocks(velocity.path, period)
+    sensor = _discrete_blocks(velocity.sensor, every[1] * period)
+    path = _discrete_blocks(velocity.path, every[1] * period)
     gains = [tuple(float(np.ravel(k)[0]) for k in loop.controller.numerator)
              for loop in (current, velocity, position)]
     delays = [int(round(float(np.ravel(loop.delay)[0]) / period))
@@ -253,18 +259,24 @@ def test_a_single_rate_sampled_cascade_is_its_discrete_loop_by_hand():
     command = p.ratio[0] * SMALL  # the motor-angle step
     x = np.zeros((a.shape[0], 1))
     integrals = [0.0, 0.0, 0.0]
+    held = [0.0, 0.0, 0.0]  # the controllers' outputs (the velocity loop's after the notch)
     voltages, currents, speeds = [0.0] * delays[0], [0.0] * delays[1], [0.0] * delays[2]
     theta = []
 
     def pi(j, error):
-        integrals[j] += period * error  # backward: Ki T z/(z - 1)
+        integrals[j] += every[j] * period * error  # backward: Ki T_j z/(z - 1)
         return gains[j][0] * error + gains[j][1] * integrals[j]
 
-    for _ in range(int(round(0.02 * rate)) + 1):
+    for n in range(int(round(0.02 * rate)) + 1):
         i, w, angle = (c @ x).ravel()
         theta.append(angle)
-        speeds.append(pi(2, command - angle))
-        currents.append(_through(path, pi(1, speeds.pop(0) - _through(sensor, w))))
+        if n % every[2] == 0:
+            held[2] = pi(2, command - angle)
+        speeds.append(held[2])
+        speed_command = speeds.pop(0)  # tau_p later
+        if n % every[1] == 0:
+            held[1] = _through(path, pi(1, speed_command - _through(sensor, w)))
+        currents.append(held[1])
         voltages.append(pi(0, currents.pop(0) - i))
         x = a @ x + b * voltages.pop(0)
     simulated = run.theta[0, ::steps]
