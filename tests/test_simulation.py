@@ -6,6 +6,7 @@ The 10 deg runs of both shipped variants are simulated once per module, as one b
 default step and one at half of it (a batch costs about what one run costs).
 """
 
+import dataclasses
 import math
 import subprocess
 import sys
@@ -34,6 +35,18 @@ from cas_freq.simulation import (
 VARIANTS = ("base", "fitted")
 SMALL = math.radians(0.05)  # small enough for no limit: ~1 A and ~0.9 V at most (checked below)
 LARGE = math.radians(10.0)  # docs/model.md's 10 deg step at the fin
+
+
+def with_sampling(runs, rates, method="backward"):
+    """``runs`` (LoopParameters) declaring their sampling: the static fields ``sample_rates``
+    ((loop name, rate [Hz]) pairs) and ``sampling_method`` of issue 26, set on a copy where
+    LoopParameters does not have them yet (the simulator reads them with getattr)."""
+    if "sampling_method" in {f.name for f in dataclasses.fields(runs)}:
+        return dataclasses.replace(runs, sample_rates=tuple(rates), sampling_method=method)
+    runs = dataclasses.replace(runs)
+    object.__setattr__(runs, "sample_rates", tuple(rates))
+    object.__setattr__(runs, "sampling_method", method)
+    return runs
 
 
 def params(variant="base", overrides=()):
@@ -118,9 +131,11 @@ def test_large_step_settles_on_command_and_horizon_extends(large_steps):
     assert short.extended and short.t_end_s == pytest.approx(0.015) and not short.settled
 
 
-def naive_integration(integral, e_start, e_end, rest_start, rest_end, ki, limit, period, locate):
-    """A clamp without anti-windup: the integral always integrates (trapezoidal rule)."""
-    return integral + 0.5 * period * (e_start + e_end)
+def naive_integration(integral, e_start, e_end, rest_start, rest_end, ki, limit, period, locate,
+                      backward=False):
+    """A clamp without anti-windup: the integral always integrates (trapezoidal rule, or a
+    sampled controller's backward difference)."""
+    return integral + (period * e_end if backward else 0.5 * period * (e_start + e_end))
 
 
 def test_second_order_fit_of_large_and_small_steps(large_steps):
@@ -250,44 +265,54 @@ def test_dt_convergence_study(large_steps):
         assert min(ratios) > 2.5, (VARIANTS[j], worst)
 
 
-def _sampled_position_reference(config, rate, t_end):
+def _sampled_position_reference(config, rate, t_end, method="backward"):
     """Sample-exact small step of a 2.5 kHz position PID around the continuous current loop.
 
     The current loop and motor (i_cmd -> theta, Padé-10 tau_c) are discretised with a zero-order
-    hold (python-control c2d); the PID is written out: trapezoidal integral, backward-difference
-    filtered derivative, tau_p = whole samples of delay. Unit step.
+    hold (python-control c2d); the PID is written out as the design of issue 26 discretises it
+    (docs/model.md "Sampled controllers"): backward, Kp + Ki T z/(z-1) + Kd (z-1)/((Tf+T) z -
+    Tf); tustin, s -> (2/T)(z-1)/(z+1) in Kp + Ki/s + Kd s/(Tf s + 1), i.e. the trapezoidal
+    integral and 2 Kd (z-1)/((2Tf+T) z - (2Tf-T)); tau_p = whole samples of delay. Unit step.
     """
     lm = linear_model(config, 10)
     motor, loop = config.motor, config.position_loop
     mech = control.tf([motor.Km], [motor.J, motor.viscous_friction, 0.0])
     g = control.c2d(control.series(lm.current_closed_loop, control.ss(mech)), 1.0 / rate, "zoh")
     period, tf = 1.0 / rate, loop.filter_time_constant
-    a = tf / (tf + period)
     delay = [0.0] * int(round(loop.delay * rate))
     x = np.zeros((g.A.shape[0], 1))
-    integral = filtered = e_prev = 0.0
+    integral = derivative = e_prev = 0.0
     out = []
     for _ in range(int(round(t_end * rate)) + 1):
         theta = (g.C @ x).item()
         out.append(theta)
         e = 1.0 - theta
-        integral += 0.5 * period * (e_prev + e)
-        filtered = a * filtered + (1 - a) * e
+        if method == "backward":  # (Tf+T) D_n - Tf D_n-1 = Kd (e_n - e_n-1)
+            integral += period * e
+            derivative = (tf * derivative + loop.Kd * (e - e_prev)) / (tf + period)
+        else:  # (2Tf+T) D_n - (2Tf-T) D_n-1 = 2 Kd (e_n - e_n-1)
+            integral += 0.5 * period * (e_prev + e)
+            derivative = (2 * loop.Kd * (e - e_prev) + (2 * tf - period) * derivative) / (
+                2 * tf + period)
         e_prev = e
-        delay.append(loop.Kp * e + loop.Ki * integral + loop.Kd / tf * (e - filtered))
+        delay.append(loop.Kp * e + loop.Ki * integral + derivative)
         x = g.A @ x + g.B * delay.pop(0)
     return np.array(out)
 
 
+@pytest.mark.parametrize("method", ["backward", "tustin"])
 @pytest.mark.parametrize("variant", VARIANTS)
-def test_sampled_position_loop_is_sample_exact(variant):
+def test_sampled_position_loop_is_sample_exact(variant, method):
     # Position PID sampled at 2.5 kHz (zero-order hold), current loop continuous: at the
     # samples the simulation equals the discrete reference above. Found 2e-5 of the step (the
-    # reference's Padé-10 current delay); bound 1e-4.
+    # reference's Padé-10 current delay); bound 1e-4. (Before issue 26 the simulator's
+    # integral was the trapezoidal rule beside a backward derivative: 7.8e-4 off the backward
+    # reference.)
     config = params(variant)
-    run = simulate(config, Step(SMALL), t_end=0.04, extend=False, position_rate_hz=2.5e3)
+    runs = with_sampling(LoopParameters.from_config(config), (), method)
+    run = simulate(runs, Step(SMALL), t_end=0.04, extend=False, position_rate_hz=2.5e3)
     every = int(round(1 / (2.5e3 * run.dt_s)))
-    reference = _sampled_position_reference(config, 2.5e3, 0.04)
+    reference = _sampled_position_reference(config, 2.5e3, 0.04, method)
     assert np.max(np.abs(run.delta[::every] / SMALL - reference)) < 1e-4
 
 

@@ -241,11 +241,6 @@ def test_the_unstable_variant_oscillates_as_a_result():
     assert cycle.current_limited[0, cycle.t > 0.4].mean() > 0.1
 
 
-def test_sampled_controllers_with_a_velocity_loop_are_refused_clearly():
-    with pytest.raises(Exception, match="sampled controllers are simulated for the PID-on-PI"):
-        simulate_batch(_cascade(), Step(SMALL), t_end=0.01, position_rate_hz=2500.0)
-
-
 @pytest.mark.parametrize("args", [
     ["simulate", "{config}", "--step", "5deg"],
     ["simulate", "{config}", "--variant", "no_notch", "--step", "1deg"],

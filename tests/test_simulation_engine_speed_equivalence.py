@@ -57,7 +57,7 @@ def test_controller_shortcuts_are_exact(sampled, kd):
         # terms at the end of the update are the new right limit's: no jump here).
         expected = integrate_with_anti_windup(
             before[0], before[1], e, before[2], general._rest, general.ki, general.limit,
-            general.period, locate=not sampled,
+            general.period, locate=not sampled, backward=general.backward,
         )
         assert np.array_equal(general.integral, expected)
         clamped_updates += bool(u_general[2].any())

@@ -19,6 +19,23 @@ stepped exactly for an input linear over the step, as the plant is
 
 (the right limit ``+`` of the input at the step's start, the left limit ``-`` at its end: a
 step command passes through a filter's direct term at once).
+
+A filter after a **sampled** controller runs at that controller's rate (one at the current
+command at the rate of the controller that commands the current, one on the velocity feedback
+at the velocity loop's rate; docs/model.md "Sampled controllers"): the same realisation is
+discretised over the period T by the generalised bilinear transform
+:math:`s \to (z - 1)/(T (\alpha z + 1 - \alpha))` (alpha 1 backward difference, 1/2 Tustin;
+:data:`~cas_freq.simulation.controllers.METHODS`),
+
+.. math::
+    A_d = (I - \alpha T A)^{-1} (I + (1 - \alpha) T A), \quad
+    B_d = (I - \alpha T A)^{-1} T B, \quad
+    C_d = C (I - \alpha T A)^{-1}, \quad D_d = D + \alpha C_d B T
+
+(the formulas of ``scipy.signal.cont2discrete(method="gbt")``), and stepped at each update
+with the sampled input, :math:`y_n = C_d z_n + D_d u_n`, :math:`z_{n+1} = A_d z_n + B_d u_n`:
+the :class:`FilterChain` with :math:`\Phi = A_d`, :math:`G_a = B_d`, :math:`G_b = 0`, so both
+engines step it as a continuous chain, once per update, and hold its output in between.
 """
 
 import dataclasses
@@ -26,7 +43,12 @@ import dataclasses
 import numpy as np
 
 from cas_freq.model import structure as loop_structure
+from cas_freq.simulation.controllers import METHODS, check_method
 from cas_freq.simulation.mechanics import distinct_exponentials
+
+#: The loops a simulated drive can have, innermost first (their names in the structure and in
+#: the per-loop update periods the engines take, ``every``).
+LOOPS = ("current_loop", "velocity_loop", "position_loop")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -78,6 +100,11 @@ class Inner:
     sensor : FilterChain or None
         Filters on the measured motor speed (the velocity loop's feedback filter and the
         ``velocity_feedback`` filters).
+    commander_every : int or None
+        Update period in steps of the controller that commands the current (the velocity
+        controller, or the position controller without one) where it is sampled; the path
+        chain (and the sensor chain, the velocity loop's) is then discretised over it. None
+        for a continuous one.
     """
 
     cascade: bool
@@ -89,6 +116,7 @@ class Inner:
     velocity_delay: object = 0.0
     path: FilterChain | None = None
     sensor: FilterChain | None = None
+    commander_every: int | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -191,15 +219,33 @@ def _series(first, second):
     return a, b, c, d1 * d2
 
 
-def filter_chain(blocks, n, dt):
-    """The blocks in series stepped exactly over ``dt`` [s] (:class:`FilterChain`), or None
-    for no block."""
+def _discretised(a, b, c, d, period, alpha):
+    """A chain's realisation discretised over ``period`` [s] by the generalised bilinear
+    transform of weight ``alpha`` (module notes), as a :class:`FilterChain` (G_b = 0)."""
+    n, m = a.shape[:2]
+    ima = np.eye(m) - alpha * period * a
+    a_d = np.linalg.solve(ima, np.eye(m) + (1.0 - alpha) * period * a)
+    b_d = np.linalg.solve(ima, period * b[:, :, None])[:, :, 0]
+    c_d = np.linalg.solve(np.swapaxes(ima, 1, 2), c[:, :, None])[:, :, 0]
+    d_d = d + alpha * np.einsum("ri,ri->r", c, b_d)
+    return FilterChain(np.ascontiguousarray(a_d), b_d, np.zeros((n, m)), c_d, d_d)
+
+
+def filter_chain(blocks, n, dt, every=None, method="backward"):
+    """The blocks in series (:class:`FilterChain`), or None for no block.
+
+    Stepped exactly over ``dt`` [s] (a continuous chain), or, with ``every`` (a sampled
+    chain, updated every ``every`` steps), discretised over ``every * dt`` by ``method``
+    (module notes).
+    """
     if not blocks:
         return None
     spaces = [_block_state_space(block, n) for block in blocks]
     a, b, c, d = spaces[0]
     for space in spaces[1:]:
         a, b, c, d = _series((a, b, c, d), space)
+    if every is not None:
+        return _discretised(a, b, c, d, every * dt, METHODS[check_method(method)])
     m = a.shape[1]
     augmented = np.zeros((n, m + 2, m + 2))
     augmented[:, :m, :m] = a
@@ -210,26 +256,33 @@ def filter_chain(blocks, n, dt):
                        e[:, :m, m + 1].copy(), np.ascontiguousarray(c), d)
 
 
-def inner_blocks(params, dt):
+def inner_blocks(params, dt, every=None, method="backward"):
     """The blocks of ``params`` between the position controller and the current loop
     (:class:`Inner`), from the structure (:func:`cas_freq.model.structure.build`); None for
-    the report's PID-on-PI without filters on the motor encoder."""
+    the report's PID-on-PI without filters on the motor encoder.
+
+    ``every`` maps loop names (:data:`LOOPS`) to update periods in steps (None or absent:
+    continuous); a sampled loop's filters are discretised by ``method``.
+    """
     p = params
     if not needs_inner(p):
         return None
+    every = every or {}
     n = p.n_runs
     loops = loop_structure.build(p).loops
     commanding = loops[1]  # the loop whose controller commands the current loop
     output_feedback = loops[-1].feedback == "output_angle"
-    path = filter_chain(commanding.path, n, dt)
+    commander_every = every.get(commanding.name)
+    path = filter_chain(commanding.path, n, dt, commander_every, method)
     if not p.cascade:
-        return Inner(False, output_feedback, path=path)
+        return Inner(False, output_feedback, path=path, commander_every=commander_every)
     kp, ki = (_per_run(c, n) for c in commanding.controller.numerator)
     _, ff_a = _feedforward(commanding, n)
     return Inner(True, output_feedback, velocity_kp=kp, velocity_ki=ki,
                  velocity_limit=_per_run(p.i_max, n), velocity_ff_a=ff_a,
                  velocity_delay=commanding.delay, path=path,
-                 sensor=filter_chain(commanding.sensor, n, dt))
+                 sensor=filter_chain(commanding.sensor, n, dt, commander_every, method),
+                 commander_every=commander_every)
 
 
 class FilterState:
@@ -259,14 +312,20 @@ class FilterState:
 # --- the compiled kernel's tables of these blocks (kernel.py) ------------------------------
 
 #: Columns of the kernel's table of the inner blocks (n_runs, columns): flags and the velocity
-#: loop, then each filter chain's Phi (row-major), G_a, G_b, C and D.
-CASCADE, OUTPUT, V_KP, V_KI, V_LIMIT, V_FF_A, V_FRACTION, PATH_ORDER, SENSOR_ORDER = range(9)
-PATH = 9  # first column of the path chain (the sensor chain follows it)
+#: loop, the update period in steps of the controller that commands the current (the velocity
+#: controller, or the position controller without one; 0: continuous), 1.0 where a sampled
+#: velocity controller integrates by the backward difference, then each filter chain's Phi
+#: (row-major), G_a, G_b, C and D.
+(CASCADE, OUTPUT, V_KP, V_KI, V_LIMIT, V_FF_A, V_FRACTION, PATH_ORDER, SENSOR_ORDER,
+ COMMANDER_EVERY, V_BACKWARD) = range(11)
+PATH = 11  # first column of the path chain (the sensor chain follows it)
 #: Columns of the kernel's state of the inner blocks: the velocity controller (integral,
-#: error, rest, output left and right, clamped), the path filter's last input, then the path
-#: filter's states and as many scratch columns, then the sensor filter's.
-S_INT, S_E, S_REST, S_U_LEFT, S_U, S_LIMITED, S_PATH_U = range(7)
-S_PATH = 7
+#: error, rest, output left and right, clamped), the path filter's last input, the sensor
+#: filter's last input, the current command's left and right limits (held between the
+#: updates of a sampled commander), then the path filter's states and as many scratch
+#: columns, then the sensor filter's.
+S_INT, S_E, S_REST, S_U_LEFT, S_U, S_LIMITED, S_PATH_U, S_SENSOR_U, S_CMD_LEFT, S_CMD = range(10)
+S_PATH = 10
 
 
 def chain_columns(m):
@@ -286,8 +345,9 @@ def _put_chain(table, start, chain):
     table[:, start] = chain.d
 
 
-def kernel_tables(inner, n, dt, position_delay):
-    """The kernel's tables of ``inner`` (:class:`Inner`) for ``n`` runs: the parameters
+def kernel_tables(inner, n, dt, position_delay, backward=False):
+    """The kernel's tables of ``inner`` (:class:`Inner`) for ``n`` runs (``backward``: a
+    sampled velocity controller integrates by the backward difference): the parameters
     (n_runs, columns),
     a zeroed state (n_runs, columns) and the whole steps of the delay between the position
     and the velocity controller (n_runs,) (0 without a velocity loop).
@@ -301,6 +361,8 @@ def kernel_tables(inner, n, dt, position_delay):
     table[:, CASCADE] = inner.cascade
     table[:, OUTPUT] = inner.output_feedback
     table[:, PATH_ORDER], table[:, SENSOR_ORDER] = m_path, m_sensor
+    table[:, COMMANDER_EVERY] = inner.commander_every or 0
+    table[:, V_BACKWARD] = backward
     _put_chain(table, PATH, inner.path)
     _put_chain(table, PATH + chain_columns(m_path), inner.sensor)
     steps = np.zeros(n, dtype=np.int64)

@@ -36,23 +36,28 @@ class CompiledEngine:
         Commands of every run.
     dt : float
         Step [s].
-    current_every, position_every : int or None
-        Update period of a sampled controller in steps; None for a continuous one.
+    every : dict, optional
+        Loop name (:data:`~cas_freq.simulation.architecture.LOOPS`) -> update period of its
+        sampled controller in steps; None or absent for a continuous one.
+    method : {"backward", "tustin"}
+        The sampled controllers' and filters' discretisation.
     """
 
-    def __init__(self, params, commands, dt, current_every=None, position_every=None):
+    def __init__(self, params, commands, dt, every=None, method="backward"):
         n = params.n_runs
         self.dt = dt
         self.commands = commands
-        self.every_c, self.every_p = current_every or 0, position_every or 0
+        every = every or {}
+        position_every = every.get("position_loop")
+        self.every_c, self.every_p = every.get("current_loop") or 0, position_every or 0
         # the blocks the report's PID-on-PI does not have, from the declared structure
-        self.inner = inner = architecture.inner_blocks(params, dt)
+        self.inner = inner = architecture.inner_blocks(params, dt, every, method)
         self.p, self.m, self.has_derivative, (slots_c, slots_p) = kernel.parameter_table(
-            params, dt, position_every, inner)
+            params, dt, position_every, inner, method)
         self.ext = None
         if inner is not None:
             table, state, steps = architecture.kernel_tables(
-                inner, n, dt, architecture.position(params).delay)
+                inner, n, dt, architecture.position(params).delay, method == "backward")
             slots = 1 << (ring_size(steps) - 1).bit_length()
             self.ext = (table, state, steps, np.zeros((n, slots)), np.zeros((n, slots)))
         # a batch with some loaded run: the loaded plant's table (mechanics.py) and 5 states

@@ -9,17 +9,24 @@ so the derivative term :math:`K_d (y - x_f)/T_f` is :math:`K_d s/(T_f s + 1)` ap
 over a period T, from the inputs' right limits :math:`(e^-, y^-)` at the previous update to their
 left limits :math:`(e^+, y^+)` now (they differ where a step passes through):
 
-- the integral by the trapezoidal rule, :math:`T (e^- + e^+)/2`;
+- the integral by the trapezoidal rule, :math:`T (e^- + e^+)/2` (a sampled controller's by its
+  method, below);
 - continuous controllers (updated every simulation step): the filter state exactly for an
   input linear between updates, :math:`x_f^+ = a x_f + (1 - a) y^- + c (y^+ - y^-)`,
   :math:`a = e^{-T/T_f}`, :math:`c = 1 - T_f (1 - a)/T`; together with the plant's exact
   discretisation this makes the loop second order in the step;
-- sampled controllers (zero-order hold): the filter by backward difference,
-  :math:`a = T_f/(T_f + T)`, :math:`c = 1 - a`, stable for any :math:`T_f/T` and giving a
-  step's derivative kick the same area :math:`K_d \Delta e` as the continuous filter (the usual
-  choice: Åström & Wittenmark, *Computer-Controlled Systems*, 3rd ed., ch. 8). At 2.5 kHz,
-  :math:`T` = 0.4 ms is close to :math:`T_f` = 0.6 ms, so the choice matters: the exact filter
-  held for a period gives a 37 % larger kick;
+- sampled controllers (zero-order hold, docs/model.md "Sampled controllers"): the continuous
+  controller with :math:`s` replaced by the method's map, so that the simulated controller is
+  the frequency domain's digital one. ``backward`` (:math:`s \to (1 - z^{-1})/T`): the
+  integral :math:`I_n = I_{n-1} + T e_n` (:math:`K_i T z/(z-1)`), the filter
+  :math:`a = T_f/(T_f + T)`, :math:`c = 1 - a` (:math:`K_d (z-1)/((T_f+T) z - T_f)`);
+  ``tustin`` (:math:`s \to (2/T)(z-1)/(z+1)`): the trapezoidal integral
+  (:math:`K_i (T/2)(z+1)/(z-1)`), the filter :math:`a = (2T_f - T)/(2T_f + T)`,
+  :math:`c = (1 - a)/2` (:math:`2K_d (z-1)/((2T_f+T) z - (2T_f - T))`). Both are stable for
+  any :math:`T_f/T` and give a step's derivative kick the area :math:`K_d \Delta e` of the
+  continuous filter (Åström & Wittenmark, *Computer-Controlled Systems*, 3rd ed., ch. 8). At
+  2.5 kHz, :math:`T` = 0.4 ms is close to :math:`T_f` = 0.6 ms, so the choice matters: the
+  exact filter held for a period gives a 37 % larger kick;
 - anti-windup by conditional integration (docs/model.md): the integrator holds while the output
   would be clamped and the integration step pushes it further out; an update in which the output
   reaches the limit integrates up to it (:func:`integrate_with_anti_windup`).
@@ -29,7 +36,8 @@ import numpy as np
 
 
 def integrate_with_anti_windup(
-    integral, e_start, e_end, rest_start, rest_end, ki, limit, period, locate=True
+    integral, e_start, e_end, rest_start, rest_end, ki, limit, period, locate=True,
+    backward=False,
 ):
     """Advance the integral over one update unless that drives the output beyond its limit.
 
@@ -63,13 +71,16 @@ def integrate_with_anti_windup(
         Length of the interval [s].
     locate : bool
         Locate clamp instants within the interval.
+    backward : bool
+        The increment is ``period * e_end`` (a sampled controller discretised by the backward
+        difference; only without ``locate``) instead of the trapezoidal rule.
 
     Returns
     -------
     numpy.ndarray
         The new integral.
     """
-    increment = 0.5 * period * (e_start + e_end)
+    increment = period * e_end if backward else 0.5 * period * (e_start + e_end)
     trial = integral + increment
     u_trial = rest_end + ki * trial
     if locate:
@@ -105,7 +116,21 @@ def integrate_with_anti_windup(
     return np.where(outward, integral + fraction * increment, trial)
 
 
-def derivative_filter(kd, tf, period, sampled=False):
+#: The methods that discretise a sampled controller, and the weight alpha of the generalised
+#: bilinear transform s -> (z - 1)/(T (alpha z + 1 - alpha)) each is (1: backward difference,
+#: 1/2: Tustin).
+METHODS = {"backward": 1.0, "tustin": 0.5}
+
+
+def check_method(method):
+    """``method`` if it is one of :data:`METHODS`, else a ValueError naming it."""
+    if method not in METHODS:
+        raise ValueError(f"sampling method: expected one of {', '.join(METHODS)}, got "
+                         f"{method!r}")
+    return method
+
+
+def derivative_filter(kd, tf, period, sampled=False, method="backward"):
     r"""Gain and update coefficients of the filtered derivative (module notes).
 
     The term is :math:`K_d (y - x_f)/T_f` with :math:`x_f^+ = a x_f + b y^- + c (y^+ - y^-)`.
@@ -119,8 +144,10 @@ def derivative_filter(kd, tf, period, sampled=False):
     period : float
         Update period T [s].
     sampled : bool
-        Backward difference (sampled controller) instead of the exact update for an input
-        linear between updates.
+        A sampled controller, discretised by ``method`` (module notes), instead of the exact
+        update for an input linear between updates.
+    method : {"backward", "tustin"}
+        The sampled controller's discretisation.
 
     Returns
     -------
@@ -129,7 +156,10 @@ def derivative_filter(kd, tf, period, sampled=False):
     """
     safe_tf = np.where(kd > 0, tf, 1.0)
     gain_d = np.where(kd > 0, kd / safe_tf, 0.0)
-    if sampled:  # backward difference
+    if sampled and check_method(method) == "tustin":
+        a = (2.0 * safe_tf - period) / (2.0 * safe_tf + period)
+        c = 0.5 * (1.0 - a)
+    elif sampled:  # backward difference
         a = safe_tf / (safe_tf + period)
         c = 1.0 - a
     else:  # exact for an input linear between updates
@@ -160,17 +190,22 @@ class Controller:
     period : float
         Update period T [s].
     sampled : bool
-        A sampled controller (backward-difference derivative, first update from zero samples
+        A sampled controller (discretised by ``method``, first update from zero samples
         before t = 0) instead of a continuous one.
+    method : {"backward", "tustin"}
+        A sampled controller's discretisation (module notes).
     """
 
-    def __init__(self, kp, ki, kd, tf, limit, period, sampled=False):
+    def __init__(self, kp, ki, kd, tf, limit, period, sampled=False, method="backward"):
         self.kp, self.ki, self.limit, self.period = kp, ki, limit, period
         self.sampled = sampled
+        #: The integral's increment is T e_n (a sampled controller's backward difference).
+        self.backward = sampled and check_method(method) == "backward"
         self.has_derivative = bool(np.any(kd > 0))
         n = kp.shape[0]
         if self.has_derivative:
-            self._gain_d, self._a, self._b, self._c = derivative_filter(kd, tf, period, sampled)
+            self._gain_d, self._a, self._b, self._c = derivative_filter(kd, tf, period, sampled,
+                                                                        method)
         self._half_period = 0.5 * period
         self._lower = -limit
         self._unlimited = np.zeros(n, dtype=bool)
@@ -237,7 +272,10 @@ class Controller:
         within = False
         if advance:
             integral, e_before = self.integral, self._e
-            trial = integral + self._half_period * (e_before + e_left)
+            if self.backward:
+                trial = integral + self.period * e_left
+            else:
+                trial = integral + self._half_period * (e_before + e_left)
             ki_trial = ki * trial
             u_trial = rest_left + ki_trial
             # Where no run's output reaches its limit during the update,
@@ -255,7 +293,7 @@ class Controller:
             else:
                 self.integral = integrate_with_anti_windup(
                     integral, e_before, e_left, self._rest, rest_left, ki, self.limit,
-                    self.period, locate=not self.sampled,
+                    self.period, locate=not self.sampled, backward=self.backward,
                 )
                 self._ki_integral = ki * self.integral
         self._e = e_right

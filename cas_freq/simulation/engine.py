@@ -21,7 +21,10 @@ per run at the start of each step), and the fin's angle and rate are recorded as
 
 Continuous controllers are updated every step and read back with linear interpolation, so the
 whole loop is integrated to second order in dt. Sampled controllers are updated every
-``n`` steps and held (zero-order hold).
+``n`` steps and held (zero-order hold), each loop at its own period (``every``, a dict of
+loop name to steps, :data:`~cas_freq.simulation.architecture.LOOPS`), discretised by the
+sampling method (:mod:`~cas_freq.simulation.controllers`); the filters after a sampled
+controller at its rate (:mod:`~cas_freq.simulation.architecture`).
 """
 
 import numpy as np
@@ -173,13 +176,18 @@ class Engine:
         Commands of every run.
     dt : float
         Step [s].
-    current_every, position_every : int or None
-        Update period of a sampled controller in steps; None for a continuous one.
+    every : dict, optional
+        Loop name (:data:`~cas_freq.simulation.architecture.LOOPS`) -> update period of its
+        sampled controller in steps; None or absent for a continuous one.
+    method : {"backward", "tustin"}
+        The sampled controllers' and filters' discretisation.
     """
 
-    def __init__(self, params, commands, dt, current_every=None, position_every=None):
+    def __init__(self, params, commands, dt, every=None, method="backward"):
         p = params
         n = p.n_runs
+        every = every or {}
+        current_every, position_every = every.get("current_loop"), every.get("position_loop")
         self.dt = dt
         self.commands = commands
         # a batch with some loaded run: the 5-state plant of mechanics.py for every run
@@ -194,19 +202,21 @@ class Engine:
         self._inputs = np.empty((n, 3))
         self._volts = np.empty((n, 3))
         self.current_every, self.position_every = current_every, position_every
+        self.velocity_every = every.get("velocity_loop") if p.cascade else None
+        self.method = method
         self.current = Controller(
             p.ci_Kp, p.ci_Ki, np.zeros_like(p.ci_Kp), p.Tf, p.v_max, dt * (current_every or 1),
-            sampled=current_every is not None,
+            sampled=current_every is not None, method=method,
         )
         # the blocks the report's PID-on-PI does not have (velocity loop, filters, output
         # feedback), read from the declared structure (architecture.py); None without them
-        self.inner = inner = architecture.inner_blocks(p, dt)
+        self.inner = inner = architecture.inner_blocks(p, dt, every, method)
         position = (architecture.position(p) if inner is not None else
                     architecture.Position(p.cp_Kp, p.cp_Ki, p.cp_Kd, p.Tf, p.i_max, p.ff_v,
                                           p.ff_a, p.tau_p))
         self.position = Controller(
             position.kp, position.ki, position.kd, position.tf, position.limit,
-            dt * (position_every or 1), sampled=position_every is not None,
+            dt * (position_every or 1), sampled=position_every is not None, method=method,
         )
         self.cp_Ki, self.ff_v, self.ff_a = position.ki, position.ff_v, position.ff_a
         #: The controller whose output is the current command (its clamp is current_limited).
@@ -220,6 +230,9 @@ class Engine:
         self.voltage_line = DelayLine(p.tau_c, dt, hold=current_every is not None)
         if inner is None or not inner.cascade:
             self.current_line = DelayLine(p.tau_p, dt, hold=position_every is not None)
+        #: Update period in steps of the controller that commands the current (None:
+        #: continuous); its output, and the filters after it, are held in between.
+        self.commander_every = self.velocity_every if p.cascade else position_every
         self.k = 0
 
     def _setup_inner(self, p, dt, position_delay):
@@ -232,16 +245,16 @@ class Engine:
             n = p.n_runs
             self.velocity = Controller(
                 inner.velocity_kp, inner.velocity_ki, np.zeros(n), np.ones(n),
-                inner.velocity_limit, dt * (self.position_every or 1),
-                sampled=self.position_every is not None,
+                inner.velocity_limit, dt * (self.velocity_every or 1),
+                sampled=self.velocity_every is not None, method=self.method,
             )
             self.commander = self.velocity
             self.velocity_ff_a = inner.velocity_ff_a
-            hold = self.position_every is not None
             # position controller -> tau_p -> velocity controller -> tau_v -> current loop
-            self.velocity_line = DelayLine(np.broadcast_to(position_delay, (n,)), dt, hold=hold)
+            self.velocity_line = DelayLine(np.broadcast_to(position_delay, (n,)), dt,
+                                           hold=self.position_every is not None)
             self.current_line = DelayLine(np.broadcast_to(inner.velocity_delay, (n,)), dt,
-                                          hold=hold)
+                                          hold=self.velocity_every is not None)
 
     def _measured_angle(self):
         """The angle the position loop measures: the motor angle, or with output feedback the
@@ -251,27 +264,40 @@ class Engine:
             return theta
         return np.where(self.loaded, self.ratio * self.x[:, 4], theta)
 
+    def _command_update(self, k, left, right, start=False):
+        """The current command (``u_left``, ``u_cmd``) at step ``k``: the position
+        controller's output, or what the inner blocks make of it."""
+        if self.inner is None:
+            self.u_left, self.u_cmd = self.u_p_left, self.u_p
+        else:
+            self._inner_update(k, left, right, start)
+
     def _inner_update(self, k, left, right, start=False):
         """The blocks between the position controller and the current loop at step ``k``:
-        the position controller's output (``u_left``, ``u_p``) becomes the current command."""
-        u_left, u_right = self.u_left, self.u_p
+        the position controller's output (``u_p_left``, ``u_p``) becomes the current command
+        (``u_left``, ``u_cmd``), held between the updates of a sampled commander."""
+        u_left, u_right = self.u_p_left, self.u_p
         if self.inner.cascade:
             self.velocity_line.push(k, u_right, u_left)
-            if self.position_every is None:
+        if not (start or self.commander_every is None or k % self.commander_every == 0):
+            return  # a sampled commander's output (and the filters after it) held
+        if self.inner.cascade:
+            if self.position_every is None and self.velocity_every is None:
                 w_cmd, w_cmd_left = self.velocity_line.read_limits(k)
-            else:
+            else:  # a sampler sees the command from now on
                 w_cmd = w_cmd_left = self.velocity_line.read(k)
             w = self.x[:, 1]
             if self.sensor is not None:
                 w = (self.sensor.start if start else self.sensor.step)(w, w)[1]
             ff_right = self.velocity_ff_a * right[2]
-            ff_left = ff_right if left is right else self.velocity_ff_a * left[2]
+            ff_left = (ff_right if left is right or self.velocity_every is not None
+                       else self.velocity_ff_a * left[2])
             step = self.velocity.start if start else self.velocity.update
             u_left, u_right, self.current_limited = step(w_cmd_left - w, w_cmd - w, None, None,
                                                          ff_left, ff_right)
         if self.path is not None:
             u_left, u_right = (self.path.start if start else self.path.step)(u_left, u_right)
-        self.u_left, self.u_p = u_left, u_right
+        self.u_left, self.u_cmd = u_left, u_right
 
     def _errors(self, theta_cmd):
         """Position error and the derivative's input (the error, or -theta)."""
@@ -314,7 +340,9 @@ class Engine:
         step = self.position.start if start else self.position.update
         e_r, y_r = self._errors(right[0])
         e_l, y_l = (e_r, y_r) if left is right else self._errors(left[0])
-        self.u_left, self.u_p, self.current_limited = step(e_l, e_r, y_l, y_r, left[1], right[1])
+        self.u_p_left, self.u_p, limited = step(e_l, e_r, y_l, y_r, left[1], right[1])
+        if self.commander is self.position:
+            self.current_limited = limited
 
     def _current_update(self, start=False):
         step = self.current.start if start else self.current.update
@@ -336,9 +364,8 @@ class Engine:
         right, left = self._row(rows, 0), self._row(rows_left, 0)
         self.theta_cmd = right[0]
         self._position_update(left, right, start=True)
-        if self.inner is not None:
-            self._inner_update(0, left, right, start=True)
-        self.current_line.push(0, self.u_p, self.u_left)
+        self._command_update(0, left, right, start=True)
+        self.current_line.push(0, self.u_cmd, self.u_left)
         self._current_update(start=True)
         self.voltage_line.push(0, self.v_c, self.v_left)
         self.v = self.voltage_line.read(0)
@@ -468,11 +495,8 @@ class Engine:
         self.theta_cmd = right[0]
         if self.position_every is None or k % self.position_every == 0:
             self._position_update(left, right)
-            if self.inner is not None:
-                self._inner_update(k, left, right)
-        elif self.inner is not None and self.path is not None:
-            raise NotImplementedError("filters with a sampled controller")  # simulator refuses
-        self.current_line.push(k, self.u_p, self.u_left)
+        self._command_update(k, left, right)
+        self.current_line.push(k, self.u_cmd, self.u_left)
         if self.current_every is None or k % self.current_every == 0:
             self._current_update()
         line.push(k, self.v_c, self.v_left)

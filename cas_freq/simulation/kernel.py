@@ -26,7 +26,9 @@ one machine-code loop, ``prange`` over the runs. Per step :math:`t_k \to t_{k+1}
    anti-windup; its output enters the delay line τc.
 5. Every ``record_every`` steps the signals of :data:`~cas_freq.simulation.engine.SIGNALS`.
 
-Sampled controllers (§9 item 8) update every ``n`` steps and are held in between. Each
+Sampled controllers (§9 item 8) update every ``n`` steps and are held in between, each loop at
+its own period (the velocity controller's and the filters after a sampled controller in the
+inner blocks' table, :mod:`~cas_freq.simulation.architecture`). Each
 operation is written in the order of the reference, so that a single run gives the same
 numbers to the last bit or nearly (the clamp flags where an output rests exactly at its limit
 depend on the last bit); in a batch the reference's shortcuts are taken for the whole batch at
@@ -54,7 +56,7 @@ from numba import prange
 from cas_freq.jit import cached_jit as _jit
 from cas_freq.simulation import architecture as arch
 from cas_freq.simulation import mechanics as mech
-from cas_freq.simulation.controllers import derivative_filter
+from cas_freq.simulation.controllers import check_method, derivative_filter
 from cas_freq.simulation.delay_line import delay_steps, ring_size
 from cas_freq.simulation.engine import (
     SIGNALS,
@@ -90,7 +92,8 @@ _V_MAX = 27  # voltage limit [V]
 _F_C = 28  # fractional part of tau_c / dt
 _F_P = 29  # fractional part of tau_p / dt
 _ON_MEASUREMENT = 30  # 1.0 where the derivative acts on -theta
-_NP = 31
+_BACKWARD = 31  # 1.0 where sampled controllers integrate by the backward difference
+_NP = 32
 
 # Columns of the controller state ``s`` (n_runs, _NS).
 _P_INT = 0  # position controller: integral of the error [rad*s]
@@ -229,15 +232,20 @@ def _from_rest(q, r, mode, i, w, th, w_l, d_l, dz, c, tau_l, dt):
 
 
 @_jit(inline="always")
-def _anti_windup(integral, e_start, e_end, rest_start, rest_end, ki, limit, period, locate):
+def _anti_windup(integral, e_start, e_end, rest_start, rest_end, ki, limit, period, locate,
+                 backward):
     """New integral, conditional integration (controllers.integrate_with_anti_windup).
 
     With ``locate`` (continuous controllers) the instants where the clamp starts or ends inside
     the update are located on the output held at the old integral, and only the unclamped part
     is integrated; then an increment that would carry the output beyond the limit integrates
-    only up to it (docs/model.md §3, anti-windup).
+    only up to it (docs/model.md §3, anti-windup). ``backward``: a sampled controller's
+    increment ``period * e_end`` instead of the trapezoidal rule.
     """
-    increment = 0.5 * period * (e_start + e_end)
+    if backward:
+        increment = period * e_end
+    else:
+        increment = 0.5 * period * (e_start + e_end)
     trial = integral + increment
     u_trial = rest_end + ki * trial
     if locate:
@@ -274,13 +282,15 @@ def _anti_windup(integral, e_start, e_end, rest_start, rest_end, ki, limit, peri
 def _controller_update(
     integral, state, e_before, y_before, rest_before, e_left, e_right, y_left, y_right,
     ff_left, ff_right, advance, kp, ki, gain_d, a, b, c, has_derivative, limit, period, locate,
+    backward,
 ):
     r"""One update of a PI(D) controller with clamp and anti-windup (Controller.update).
 
     :math:`u = K_p e + K_i \int e + (K_d/T_f)(y - x_f) + u_{ff}`, the filter state advanced by
     :math:`x_f^+ = a x_f + b y^- + c (y^+ - y^-)`, the integral by the trapezoidal rule with
-    anti-windup; from the inputs' left limits (end of the interval) and right limits (from now
-    on). ``advance`` False: the first outputs of a continuous controller (states stay).
+    anti-windup (``backward``: a sampled controller's backward difference, ``T e_n``); from the
+    inputs' left limits (end of the interval) and right limits (from now on). ``advance``
+    False: the first outputs of a continuous controller (states stay).
 
     Returns
     -------
@@ -300,7 +310,8 @@ def _controller_update(
     rest_right = rest_right + ff_right
     if advance:
         integral = _anti_windup(
-            integral, e_before, e_left, rest_before, rest_left, ki, limit, period, locate
+            integral, e_before, e_left, rest_before, rest_left, ki, limit, period, locate,
+            backward,
         )
     ki_integral = ki * integral
     u_left = _clamp(rest_left + ki_integral, limit)
@@ -335,13 +346,17 @@ def _chain(g, gs, r, start, m, z, u_a, u_b):
 
 
 @_jit(inline="always")  # numba-level: array arguments cost a call
-def _inner(ext, r, k, ratio, w_start, w, u_left, u_right, acc_left, acc_right, advance, dt,
+def _inner(ext, r, k, ratio, w, u_left, u_right, acc_left, acc_right, p_due, hold_p, dt,
            first):
     """The blocks between the position controller and the current loop at step ``k``
     (Engine._inner_update): the position controller's output limits (``u_left``,
     ``u_right``) through the velocity loop (a cascade: delay line tau_p, PI on the filtered
     motor speed ``w`` with its feed-forward of the command's acceleration ``acc`` [rad/s^2 at
-    the output]) and the filters at the current command. ``first``: the outputs at t = 0.
+    the output]) and the filters at the current command. ``p_due``: the position controller
+    updated at this step; ``hold_p``: it is sampled (the velocity line holds). A sampled
+    commander (the velocity controller, or the position controller without one) and the
+    filters after it update every ``g[r, COMMANDER_EVERY]`` steps and hold in between.
+    ``first``: the outputs at t = 0.
 
     Returns
     -------
@@ -351,27 +366,46 @@ def _inner(ext, r, k, ratio, w_start, w, u_left, u_right, acc_left, acc_right, a
     """
     g, gs, m_v, line_right, line_left = ext
     m_path, m_sensor = int(g[r, arch.PATH_ORDER]), int(g[r, arch.SENSOR_ORDER])
-    if g[r, arch.CASCADE] != 0.0:
-        _push(line_right, line_left, r, k, u_right, u_left, False)
+    cascade = g[r, arch.CASCADE] != 0.0
+    if cascade:
+        _push(line_right, line_left, r, k, u_right, u_left, hold_p)
+    every = int(g[r, arch.COMMANDER_EVERY])  # the commander's period (0: continuous)
+    if cascade:
+        due = every == 0 or k % every == 0
+    else:
+        due = p_due
+    if not (first or due):  # a sampled commander's output (and the filters after it) held
+        return gs[r, arch.S_CMD_LEFT], gs[r, arch.S_CMD], gs[r, arch.S_LIMITED]
+    if cascade:
         f_v = g[r, arch.V_FRACTION]
-        w_cmd = _read(line_right, line_left, r, m_v[r], f_v, k, k, False, False)
-        w_cmd_left = _read(line_right, line_left, r, m_v[r], f_v, k, k, True, False)
+        sampled_v = every > 0
+        w_cmd = _read(line_right, line_left, r, m_v[r], f_v, k, k, False, hold_p)
+        w_cmd_left = w_cmd
+        if not (hold_p or sampled_v):
+            w_cmd_left = _read(line_right, line_left, r, m_v[r], f_v, k, k, True, hold_p)
         measured = w
         if m_sensor > 0:
             start = arch.PATH + m_path * m_path + 3 * m_path + 1  # arch.chain_columns
             d = g[r, start + m_sensor * m_sensor + 3 * m_sensor]
             y = 0.0
             if not first:
-                y = _chain(g, gs, r, start, m_sensor, arch.S_PATH + 2 * m_path, w_start, w)
+                y = _chain(g, gs, r, start, m_sensor, arch.S_PATH + 2 * m_path,
+                           gs[r, arch.S_SENSOR_U], w)
+            gs[r, arch.S_SENSOR_U] = w
             measured = y + d * w
         ff_a = g[r, arch.V_FF_A]
+        if sampled_v:  # a sampler sees the values from now on
+            acc_left = acc_right
         (gs[r, arch.S_INT], _, gs[r, arch.S_E], _, gs[r, arch.S_REST], u_left, u_right,
          gs[r, arch.S_LIMITED]) = _controller_update(
             gs[r, arch.S_INT], 0.0, gs[r, arch.S_E], 0.0, gs[r, arch.S_REST],
             w_cmd_left - measured, w_cmd - measured, 0.0, 0.0, ff_a * (ratio * acc_left),
-            ff_a * (ratio * acc_right), advance, g[r, arch.V_KP], g[r, arch.V_KI], 0.0, 0.0,
-            0.0, 0.0, False, g[r, arch.V_LIMIT], dt, True,
+            ff_a * (ratio * acc_right), (not first) or sampled_v, g[r, arch.V_KP],
+            g[r, arch.V_KI], 0.0, 0.0, 0.0, 0.0, False, g[r, arch.V_LIMIT],
+            dt * max(every, 1), not sampled_v, sampled_v and g[r, arch.V_BACKWARD] != 0.0,
         )
+        if sampled_v:  # held: no jump within an update
+            u_left = u_right
     if m_path > 0:
         d = g[r, arch.PATH + m_path * m_path + 3 * m_path]
         y = 0.0
@@ -379,6 +413,7 @@ def _inner(ext, r, k, ratio, w_start, w, u_left, u_right, acc_left, acc_right, a
             y = _chain(g, gs, r, arch.PATH, m_path, arch.S_PATH, gs[r, arch.S_PATH_U], u_left)
         gs[r, arch.S_PATH_U] = u_right
         u_left, u_right = y + d * u_left, y + d * u_right
+    gs[r, arch.S_CMD_LEFT], gs[r, arch.S_CMD] = u_left, u_right
     return u_left, u_right, gs[r, arch.S_LIMITED]
 
 
@@ -386,7 +421,8 @@ def _inner(ext, r, k, ratio, w_start, w, u_left, u_right, acc_left, acc_right, a
 
 @_jit(inline="always")  # numba-level: array arguments cost a call
 def _position_update(p, r, theta, angle_left, angle_right, ff_left, ff_right, integral, state,
-                     e_before, y_before, rest_before, advance, has_derivative, period, locate):
+                     e_before, y_before, rest_before, advance, has_derivative, period, locate,
+                     backward):
     """Position controller of run ``r`` on the motor angle ``theta`` (docs/model.md §4).
 
     Returns the outputs of :func:`_controller_update` (the output is the current command [A]).
@@ -401,13 +437,13 @@ def _position_update(p, r, theta, angle_left, angle_right, ff_left, ff_right, in
         integral, state, e_before, y_before, rest_before,
         e_left, e_right, y_left, y_right, ff_left, ff_right, advance,
         p[r, _CP_KP], p[r, _CP_KI], p[r, _CP_GD], p[r, _CP_A], p[r, _CP_B], p[r, _CP_C],
-        has_derivative, p[r, _I_MAX], period, locate,
+        has_derivative, p[r, _I_MAX], period, locate, backward,
     )
 
 
 @_jit(inline="always")  # numba-level: array arguments cost a call
 def _current_update(p, r, i, k, current_right, current_left, m_p, hold_p, sampled, integral,
-                    e_before, rest_before, advance, period):
+                    e_before, rest_before, advance, period, backward):
     """Current controller of run ``r`` on the command delayed by tau_p (docs/model.md §3).
 
     Returns
@@ -425,7 +461,7 @@ def _current_update(p, r, i, k, current_right, current_left, m_p, hold_p, sample
     integral, _, e, _, rest, v_left, v_right, limited = _controller_update(
         integral, 0.0, e_before, 0.0, rest_before, e_left, e_right, 0.0, 0.0, 0.0, 0.0,
         advance, p[r, _CI_KP], p[r, _CI_KI], 0.0, 0.0, 0.0, 0.0, False, p[r, _V_MAX], period,
-        not sampled,
+        not sampled, backward,
     )
     if sampled:  # held: no jump within an update
         v_left = v_right
@@ -482,6 +518,9 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
     """
     for r in range(x.shape[0]):
         sampled_p, sampled_c = every_p > 0, every_c > 0
+        backward = p[r, _BACKWARD] != 0.0
+        # the current command is held where its commander is sampled
+        hold_i = sampled_p if ext is None else ext[0][r, arch.COMMANDER_EVERY] > 0.0
         angle, ff = _command(p, right, r, 0)
         angle_left, ff_left = angle, ff
         if not sampled_p:  # a sampler sees the values from now on
@@ -491,20 +530,20 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
         (s[r, _P_INT], s[r, _P_FILTER], s[r, _P_E], s[r, _P_Y], s[r, _P_REST],
          s[r, _P_U_LEFT], s[r, _P_U], s[r, _P_LIMITED]) = _position_update(
             p, r, x[r, 2], angle_left, angle, ff_left, ff, 0.0, 0.0, 0.0, 0.0, 0.0, sampled_p,
-            has_derivative, dt * max(every_p, 1), not sampled_p,
+            has_derivative, dt * max(every_p, 1), not sampled_p, sampled_p and backward,
         )
         u_left, u_right = s[r, _P_U_LEFT], s[r, _P_U]
         if ext is not None:  # the position loop measures the same at rest (theta = N delta)
             col = r if right.shape[2] > 1 else 0
             u_left, u_right, _ = _inner(
-                ext, r, 0, p[r, _RATIO], 0.0, x[r, 1], u_left, u_right,
+                ext, r, 0, p[r, _RATIO], x[r, 1], u_left, u_right,
                 right[0, 2, col] if sampled_p else left[0, 2, col], right[0, 2, col],
-                sampled_p, dt, True)
-        _push(current_right, current_left, r, 0, u_right, u_left, sampled_p)
+                True, sampled_p, dt, True)
+        _push(current_right, current_left, r, 0, u_right, u_left, hold_i)
         (s[r, _C_INT], s[r, _C_E], s[r, _C_REST], s[r, _C_V_LEFT], s[r, _C_V],
          s[r, _C_LIMITED], s[r, _I_CMD]) = _current_update(
-            p, r, x[r, 0], 0, current_right, current_left, m[r, 1], sampled_p, sampled_c,
-            0.0, 0.0, 0.0, sampled_c, dt * max(every_c, 1),
+            p, r, x[r, 0], 0, current_right, current_left, m[r, 1], hold_i, sampled_c,
+            0.0, 0.0, 0.0, sampled_c, dt * max(every_c, 1), sampled_c and backward,
         )
         _push(voltage_right, voltage_left, r, 0, s[r, _C_V], s[r, _C_V_LEFT], sampled_c)
         s[r, _V] = _read(voltage_right, voltage_left, r, m[r, 0], p[r, _F_C], 0, 0, False,
@@ -605,6 +644,11 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
     cp_a, cp_b, cp_c, i_max = p[r, _CP_A], p[r, _CP_B], p[r, _CP_C], p[r, _I_MAX]
     ci_kp, ci_ki, v_max = p[r, _CI_KP], p[r, _CI_KI], p[r, _V_MAX]
     on_measurement = p[r, _ON_MEASUREMENT] != 0.0
+    backward = p[r, _BACKWARD] != 0.0
+    backward_p, backward_c = sampled_p and backward, sampled_c and backward
+    # the current command is held where its commander is sampled (the velocity controller in
+    # a cascade, else the position controller)
+    hold_i = sampled_p if ext is None else ext[0][r, arch.COMMANDER_EVERY] > 0.0
     col = r if right.shape[2] > 1 else 0
     mask_c, mask_p = voltage_right.shape[1] - 1, current_right.shape[1] - 1
     # the delay lines' reads at step k (_read): the sample index, for a holding line
@@ -650,7 +694,6 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
             i_limited = ext[1][r, arch.S_LIMITED]
     for row in range(n_steps):
         k = k0 + row
-        w_start = w
         # 1. voltage at the terminals over [t_k, t_k+1]: the current controller's output
         #    delayed by tau_c, linear over the step (held for a sampled controller)
         if sampled_c:
@@ -774,7 +817,8 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
         # 3. position controller at t_k+1 (§4), its output into the delay line tau_p
         angle = ratio * right[row, 0, col]
         ff = ff_v * (ratio * right[row, 1, col]) + ff_a * (ratio * right[row, 2, col])
-        if not sampled_p or k == next_p:
+        p_due = not sampled_p or k == next_p
+        if p_due:
             angle_left, ff_left = angle, ff
             if sampled_p:
                 next_p += every_p
@@ -793,7 +837,7 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
             p_int, p_filter, p_e, p_y, p_rest, u_left, u_p, p_limited = _controller_update(
                 p_int, p_filter, p_e, p_y, p_rest, e_left, e_right, y_left, y_right,
                 ff_left, ff, True, cp_kp, cp_ki, cp_gd, cp_a, cp_b, cp_c, has_derivative,
-                i_max, period_p, not sampled_p,
+                i_max, period_p, not sampled_p, backward_p,
             )
             i_limited = p_limited
         slot = k & mask_p
@@ -801,22 +845,22 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
             current_right[r, slot] = u_p
             if not sampled_p:
                 current_left[r, slot] = u_left
-        else:  # velocity loop and filters (continuous controllers only: simulator.py)
+        else:  # velocity loop and filters
             acc_right = right[row, 2, col]
             acc_left = acc_right if sampled_p else left[row, 2, col]
-            cmd_left, cmd_right, limited = _inner(ext, r, k, ratio, w_start, w, u_left, u_p,
-                                                  acc_left, acc_right, True, dt, False)
+            cmd_left, cmd_right, limited = _inner(ext, r, k, ratio, w, u_left, u_p, acc_left,
+                                                  acc_right, p_due, sampled_p, dt, False)
             if ext[0][r, arch.CASCADE] != 0.0:
                 i_limited = limited
             current_right[r, slot] = cmd_right
-            if not sampled_p:
+            if not hold_i:
                 current_left[r, slot] = cmd_left
         # 4. current controller at t_k+1 (§3), its output into the delay line tau_c
         if not sampled_c or k == next_c:
             if sampled_c:
                 next_c += every_c
             # the current command delayed by tau_p (_read at k, newest sample k)
-            if sampled_p:
+            if hold_i:
                 j = min(k - m_p - shift_p, k)
                 i_cmd = current_right[r, j & mask_p] if j >= 0 else 0.0
             else:
@@ -831,7 +875,7 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
             e_right = i_cmd - i
             e_left = e_right
             if not sampled_c:
-                if sampled_p:
+                if hold_i:
                     j = min(k - m_p - 1, k)
                     i_left = current_right[r, j & mask_p] if j >= 0 else 0.0
                 else:
@@ -848,6 +892,7 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
             c_int, _, c_e, _, c_rest, v_left, v_c, c_limited = _controller_update(
                 c_int, 0.0, c_e, 0.0, c_rest, e_left, e_right, 0.0, 0.0, 0.0, 0.0,
                 True, ci_kp, ci_ki, 0.0, 0.0, 0.0, 0.0, False, v_max, period_c, not sampled_c,
+                backward_c,
             )
             if sampled_c:  # held: no jump within an update
                 v_left = v_c
@@ -884,7 +929,7 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
 
 # --- the tables the kernel reads, and the samples it holds (for compiled.py) -----------------
 
-def parameter_table(params, dt, position_every=None, inner=None):
+def parameter_table(params, dt, position_every=None, inner=None, method="backward"):
     """The kernel's per-run parameter table and delay steps of a batch.
 
     Parameters
@@ -899,6 +944,8 @@ def parameter_table(params, dt, position_every=None, inner=None):
         The runs' inner blocks: the position controller's numbers then come from the
         structure (:func:`~cas_freq.simulation.architecture.position`) and, in a cascade, the
         delay line read by the current controller is the velocity loop's (tau_v).
+    method : {"backward", "tustin"}
+        The sampled controllers' discretisation (:mod:`~cas_freq.simulation.controllers`).
 
     Returns
     -------
@@ -921,11 +968,12 @@ def parameter_table(params, dt, position_every=None, inner=None):
     p[:, _CP_KP], p[:, _CP_KI], p[:, _I_MAX] = position.kp, position.ki, position.limit
     p[:, _CI_KP], p[:, _CI_KI], p[:, _V_MAX] = pr.ci_Kp, pr.ci_Ki, pr.v_max
     p[:, _ON_MEASUREMENT] = pr.derivative_on_measurement
+    p[:, _BACKWARD] = check_method(method) == "backward"
     # the derivative filter's coefficients (controllers.py), as the reference computes them
     has_derivative = bool(np.any(position.kd > 0))
     if has_derivative:
         filter_ = derivative_filter(position.kd, position.tf, dt * (position_every or 1),
-                                    sampled=position_every is not None)
+                                    sampled=position_every is not None, method=method)
         p[:, _CP_GD], p[:, _CP_A], p[:, _CP_B], p[:, _CP_C] = filter_
     # the line the current controller reads: after the position controller (tau_p), or in a
     # cascade after the velocity controller (tau_v)

@@ -196,12 +196,13 @@ def step_run_dict(run):
 
 
 def _controllers(result):
-    rates = {"current loop": result.current_rate_hz, "position loop": result.position_rate_hz}
-    if all(rate is None for rate in rates.values()):
+    rates = [(name, getattr(result, f"{name}_rate_hz"))
+             for name in ("current", "velocity", "position")]
+    sampled = [f"{name} loop {rate:g} Hz" for name, rate in rates if rate is not None]
+    if not sampled:
         return "continuous"
-    loops = ", ".join(f"{name} continuous" if rate is None else f"{name} {rate:g} Hz"
-                      for name, rate in rates.items())
-    return f"sampled ({loops}, zero-order hold)"
+    method = {"backward": "backward difference", "tustin": "Tustin"}[result.sampling_method]
+    return f"sampled ({', '.join(sampled)}, zero-order hold, {method})"
 
 
 def step_csv_name(path, run, count):

@@ -11,7 +11,10 @@ gear whose fin angle delta is a state of its own, efficiencies, backlash, Coulom
 runs without any keep the unloaded plant and its numbers. The other drive architectures
 (docs/model.md §13: a velocity loop, filters, output feedback) add their blocks between the
 position controller and the current loop (:mod:`~cas_freq.simulation.architecture`, from the
-declared structure); sampled controllers are simulated for the PID-on-PI only.
+declared structure). Sampled controllers (docs/model.md "Sampled controllers"): each loop at
+its own rate, zero-order hold, discretised by the backward difference or Tustin, with the
+filters after a sampled controller at its rate; :func:`loop_sampling` is the one place that
+reads which loops are sampled.
 
 Engines
 -------
@@ -66,6 +69,8 @@ import numpy as np
 from cas_freq.exceptions import ConfigError, ModelError
 from cas_freq.jit import ENGINE_ENV, ENGINES, engine_name  # noqa: F401 (re-exported)
 from cas_freq.parameters import LoopParameters
+from cas_freq.simulation.architecture import LOOPS
+from cas_freq.simulation.controllers import METHODS
 from cas_freq.simulation.engine import FLAG_SIGNALS, CommandSet, Engine
 
 #: Largest default step [s].
@@ -118,6 +123,8 @@ class _Signals:
     current_rate_hz: float | None
     position_rate_hz: float | None
     omega_L: np.ndarray | None = None
+    velocity_rate_hz: float | None = None
+    sampling_method: str | None = None
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -156,6 +163,11 @@ class SimulationResult(_Signals):
     omega_L : numpy.ndarray or None
         Fin rate [rad/s] where some run of the batch is loaded (omega / N for a rigid gear),
         else None.
+    velocity_rate_hz : float or None
+        Rate of a sampled velocity controller; None for a continuous one (or none).
+    sampling_method : str or None
+        The sampled controllers' discretisation ("backward", "tustin"); None if every
+        controller is continuous.
     """
 
 
@@ -196,6 +208,7 @@ class BatchResult(_Signals):
             t=t, **fields, dt_s=self.dt_s, t_end_s=t_end, extended=extended,
             settled=settled, current_rate_hz=self.current_rate_hz,
             position_rate_hz=self.position_rate_hz, omega_L=omega_l,
+            velocity_rate_hz=self.velocity_rate_hz, sampling_method=self.sampling_method,
         )
 
 
@@ -327,8 +340,54 @@ def step_bound(params):
 
 def loop_time_step(p, periods_s=()):
     """The default time step of runs ``p``: :func:`default_time_step` of every loop's delay and
-    the controllers' periods, at most :func:`step_bound`."""
-    return default_time_step([*p.tau_c, *p.tau_p, *p.tau_v], periods_s, step_bound(p))
+    the controllers' periods (``periods_s`` and those the runs declare, :func:`loop_sampling`),
+    at most :func:`step_bound`."""
+    declared = [1.0 / rate for rate in loop_sampling(p)[0].values() if rate]
+    return default_time_step([*p.tau_c, *p.tau_p, *p.tau_v], [*periods_s, *declared],
+                             step_bound(p))
+
+
+def loop_sampling(params, current_rate_hz=None, position_rate_hz=None, velocity_rate_hz=None):
+    """Which loops of the runs ``params`` are sampled, at which rates, and by which method.
+
+    The one place the simulator reads this: the runs' declaration (the static fields
+    ``sample_rates``, pairs of loop name and rate [Hz], and ``sampling_method`` of
+    :class:`~cas_freq.parameters.LoopParameters`) where it declares some sampled loop, else
+    the rates given (the callers' ``simulation.rates_hz``: current and position loops). Rates
+    given beside a declaration must agree with it.
+
+    Returns
+    -------
+    tuple
+        {loop name: rate [Hz] or None (continuous)} for every loop of
+        :data:`~cas_freq.simulation.architecture.LOOPS`, and the method ("backward" or
+        "tustin").
+    """
+    declared = dict(getattr(params, "sample_rates", ()) or ())
+    given = {"current_loop": current_rate_hz, "velocity_loop": velocity_rate_hz,
+             "position_loop": position_rate_hz}
+    given = {name: rate for name, rate in given.items() if rate is not None}
+    if declared:
+        differ = [name for name, rate in given.items() if declared.get(name) != rate]
+        if differ:
+            name = differ[0]
+            raise ConfigError(f"{name}: a simulation rate of {given[name]!r} Hz against the "
+                              f"sampling the runs declare ({declared.get(name)!r} Hz); give "
+                              "the rates once")
+    rates = declared or given
+    unknown = sorted(set(rates) - set(LOOPS))
+    if unknown:
+        raise ConfigError(f"sample_rates: unknown loop {unknown[0]!r} (the loops: "
+                          f"{', '.join(LOOPS)})")
+    if rates.get("velocity_loop") is not None and not params.cascade:
+        raise ConfigError(f"velocity_loop: a sample rate ({rates['velocity_loop']!r} Hz) for a "
+                          "drive without a velocity loop (its loops: current_loop, "
+                          "position_loop)")
+    method = getattr(params, "sampling_method", None) or "backward"
+    if method not in METHODS:
+        raise ConfigError(f"sampling_method: expected one of {', '.join(METHODS)}, got "
+                          f"{method!r}")
+    return {name: rates.get(name) for name in LOOPS}, method
 
 
 def default_time_step(delays_s, periods_s=(), max_step_s=5e-6):
@@ -520,7 +579,7 @@ def _advance(engine, recording, done, target, record_every, progress):
 def simulate_batch(
     params, commands, *, dt=None, t_end=None, max_t_end=None, extend=True,
     current_rate_hz=None, position_rate_hz=None, record_every=1, progress=None, engine=None,
-    buffers=None,
+    buffers=None, velocity_rate_hz=None,
 ):
     """Simulate a batch of runs at once.
 
@@ -543,6 +602,8 @@ def simulate_batch(
         Extend the horizon of settling commands until every run has settled (or the cap).
     current_rate_hz, position_rate_hz : float, optional
         Sample rates of sampled controllers (e.g. 25e3 and 2.5e3) [Hz]; continuous if None.
+        Runs that declare their sampling (``sample_rates``) take it from there
+        (:func:`loop_sampling`).
     record_every : int
         Keep every n-th step's sample (memory: 10 float arrays of n_runs x n_samples).
     progress : callable, optional
@@ -556,6 +617,8 @@ def simulate_batch(
     buffers : RecordingBuffers, optional
         Memory kept between batches to record into (a study's chunks); the result's signals
         are then views into it, valid until the next batch recorded into it.
+    velocity_rate_hz : float, optional
+        Sample rate of a sampled velocity controller [Hz] (a cascade); continuous if None.
 
     Returns
     -------
@@ -563,20 +626,16 @@ def simulate_batch(
     """
     p = _as_parameters(params)
     n = p.n_runs
-    periods = [1.0 / r for r in (current_rate_hz, position_rate_hz) if r]
+    rates, method = loop_sampling(p, current_rate_hz, position_rate_hz, velocity_rate_hz)
     if dt is None:
-        dt = loop_time_step(p, periods)
+        dt = loop_time_step(p, [1.0 / rate for rate in rates.values() if rate])
     if not (isinstance(dt, (int, float)) and dt > 0 and math.isfinite(dt)):
         raise ConfigError(f"dt: must be a finite time > 0 s, got {dt!r}")
     if not (isinstance(record_every, int) and record_every >= 1):
         raise ConfigError(f"record_every: must be an integer >= 1, got {record_every!r}")
-    every_c = _period_steps(current_rate_hz, dt, "current_rate_hz")
-    every_p = _period_steps(position_rate_hz, dt, "position_rate_hz")
-    if (every_c or every_p) and (p.cascade or p.filters):
-        raise ConfigError(
-            "sampling: sampled controllers are simulated for the PID-on-PI (with either "
-            "encoder) only; a velocity loop or filters need continuous ones in the nonlinear "
-            "simulation (no sampling: rates, no simulation.controllers: sampled)")
+    every = {name: _period_steps(rate, dt, f"{name} rate ({name.split('_')[0]}_rate_hz)")
+             for name, rate in rates.items()}
+    sampled = any(every.values())
     _command_list(commands, n)
     settles, last_change, final = _settling_facts(commands, n)
     if t_end is None:
@@ -597,7 +656,7 @@ def simulate_batch(
     cap = min(cap, max(t_end, budget_steps(n, dt, record_every, max_delay) * dt))
 
     command_set = CommandSet(commands, p.ratio)
-    engine = engine_class(engine)(p, command_set, dt, every_c, every_p)
+    engine = engine_class(engine)(p, command_set, dt, every, method)
     names = engine.signals  # SIGNALS, and LOAD_SIGNALS where some run is loaded
     first = dict(zip(names, engine.start(), strict=True))
     # every signal (n_runs, n_samples): the engines record run by run
@@ -634,9 +693,10 @@ def simulate_batch(
         position_integral=signals["position_integral"],
         current_limited=signals["current_limited"], voltage_limited=signals["voltage_limited"],
         dt_s=float(dt), t_end_s=float(steps_done * dt), extended=extended, settled=settled,
-        current_rate_hz=current_rate_hz, position_rate_hz=position_rate_hz,
+        current_rate_hz=rates["current_loop"], position_rate_hz=rates["position_loop"],
         t_end_runs=np.where(np.isnan(run_end), steps_done * dt, run_end) if settles else None,
         first_t_end_s=float(int(round(t_end / dt)) * dt), omega_L=omega_l,
+        velocity_rate_hz=rates["velocity_loop"], sampling_method=method if sampled else None,
     )
 
 
