@@ -75,7 +75,8 @@ def test_load_defaults_to_the_shipped_base_variant():
     assert act.config_path == str(default_config_path())
     assert act.overrides == ()
     assert act.params.name == "qt_cas"
-    assert act.variants == ["base", "fitted", "relaxed", "loaded", "fin_encoder"]
+    assert act.variants == ["base", "fitted", "relaxed", "loaded", "fin_encoder",
+                            "sampled"]
 
 
 def test_analyze_takes_the_delay_and_range_of_the_cli(act):

@@ -161,7 +161,7 @@ def test_analyze_json_position_loop_has_lower_gain_margin(base_json):
 def test_analyze_all_variants_json(all_variants_json, base_json):
     assert isinstance(all_variants_json, list)
     variants = [item["variant"] for item in all_variants_json]
-    assert variants == ["base", "fitted", "relaxed", "loaded", "fin_encoder"]
+    assert variants == ["base", "fitted", "relaxed", "loaded", "fin_encoder", "sampled"]
     for item in all_variants_json:
         _assert_has_keys(item)
     # The same computation as the single-variant run, so the same numbers.

@@ -105,11 +105,14 @@ def test_help_has_no_doubled_percent(command, capsys):
 @pytest.mark.parametrize(("argv", "variants"), [
     (["analyze"], ["base"]),
     (["analyze", "--variant", "relaxed", "--variant", "base"], ["base", "relaxed"]),
-    (["sweep", "--all-variants"], ["base", "fitted", "relaxed", "loaded", "fin_encoder"]),
+    (["sweep", "--all-variants"], ["base", "fitted", "relaxed", "loaded", "fin_encoder",
+                                 "sampled"]),
     (["montecarlo", "--variant", "fitted"], ["fitted"]),
     (["simulate", "--step", "1deg", "--variant", "fitted", "--variant", "fitted"], ["fitted"]),
-    (["report"], ["base", "fitted", "relaxed", "loaded", "fin_encoder"]),
-    (["report", "--all-variants"], ["base", "fitted", "relaxed", "loaded", "fin_encoder"]),
+    (["report"], ["base", "fitted", "relaxed", "loaded", "fin_encoder",
+                                 "sampled"]),
+    (["report", "--all-variants"], ["base", "fitted", "relaxed", "loaded", "fin_encoder",
+                                 "sampled"]),
     (["report", "--variant", "fitted"], ["fitted"]),
 ])
 def test_variant_selection_is_the_same_everywhere(argv, variants):

@@ -119,25 +119,26 @@ def test_several_variants_share_the_draws(tmp_path, capsys):
     assert main([*argv, "--all-variants", "--json", "-o", str(report)]) == 0
     data = _strict(capsys.readouterr().out)
     assert [item["variant"] for item in data] == ["base", "fitted", "relaxed", "loaded",
-                                                  "fin_encoder"]
+                                                  "fin_encoder", "sampled"]
     # no --seed: one fresh seed, used for every variant (and printed with each)
     assert len({item["seed"] for item in data}) == 1
     assert _strict((report / "montecarlo.json").read_text()) == data
     assert sorted(p.name for p in report.iterdir()) == [
         ".cas-freq-output", "histograms.base.svg", "histograms.fin_encoder.svg",
         "histograms.fitted.svg", "histograms.loaded.svg", "histograms.relaxed.svg",
+        "histograms.sampled.svg",
         "montecarlo.json", "samples.csv"]
     lines = (report / "samples.csv").read_text().splitlines()
     assert lines[0].startswith("variant,sample,motor.Km [")
     rows = [line.split(",") for line in lines[1:]]
     assert [row[0] for row in rows] == (["base"] * 6 + ["fitted"] * 6 + ["relaxed"] * 6
-                                        + ["loaded"] * 6 + ["fin_encoder"] * 6)
+                                        + ["loaded"] * 6 + ["fin_encoder"] * 6 + ["sampled"] * 6)
     # the same standard-normal numbers around each variant's own Km: the relative deviations
     # of the samples agree, to the CSV's 10 significant digits (a sample's rounding, <= 5e-11
     # of it, is below 1e-9 of the deviation's scale 1)
     nominal = {item.variant: item.params.motor.Km for item in
                [load_variant(None, name)
-                for name in ("base", "fitted", "relaxed", "loaded", "fin_encoder")]}
+                for name in ("base", "fitted", "relaxed", "loaded", "fin_encoder", "sampled")]}
     deviations = {}
     for row in rows:
         deviations.setdefault(row[0], []).append(float(row[2]) / nominal[row[0]] - 1.0)

@@ -134,17 +134,18 @@ def test_several_variants_json_text_csv_and_report(tmp_path, capsys):
     out_csv, report = tmp_path / "s.csv", tmp_path / "rep"
     assert main([*GRID, "--all-variants", "--csv", str(out_csv), "-o", str(report)]) == 0
     text = capsys.readouterr().out
-    assert text.count("sweep of 2 points") == 5 and "qt_cas (relaxed)" in text
+    assert text.count("sweep of 2 points") == 6 and "qt_cas (relaxed)" in text
     rows = list(csv.DictReader(out_csv.open()))
     assert [row["variant"] for row in rows] == ["base", "base", "fitted", "fitted",
                                                 "relaxed", "relaxed", "loaded", "loaded",
-                                                "fin_encoder", "fin_encoder"]
+                                                "fin_encoder", "fin_encoder", "sampled", "sampled"]
     assert list(rows[0])[:2] == ["variant", "position_loop.Kp [A/rad]"]
     assert (report / "sweep.csv").read_text() == out_csv.read_text()
     assert sorted(p.name for p in report.iterdir()) == [
         ".cas-freq-output", "sweep.base.svg", "sweep.csv", "sweep.fin_encoder.svg",
-        "sweep.fitted.svg", "sweep.json", "sweep.loaded.svg", "sweep.relaxed.svg"]
-    assert len(_strict((report / "sweep.json").read_text())) == 5
+        "sweep.fitted.svg", "sweep.json", "sweep.loaded.svg", "sweep.relaxed.svg",
+        "sweep.sampled.svg"]
+    assert len(_strict((report / "sweep.json").read_text())) == 6
 
 
 def test_step_and_fit_figures_of_an_unstable_point_are_not_shown(tmp_path, capsys):

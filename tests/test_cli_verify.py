@@ -33,7 +33,7 @@ def test_shipped_config_passes(shipped):
     # base PM 34.7 deg < 45 deg (analyze): an advisory, not a failure
     assert statuses[("base", "PM-P")] == "ADVISORY"
     assert {v["variant"] for v in data["verdicts"]} == {"base", "fitted", "relaxed", "loaded",
-                                                         "fin_encoder"}
+                                                         "fin_encoder", "sampled"}
 
 
 def test_verdicts_are_the_commands_figures(shipped):
@@ -56,9 +56,10 @@ def test_junit_is_valid_and_complete(shipped):
     assert root.tag == "testsuites" and root.get("failures") == "0"
     suites = root.findall("testsuite")
     assert [s.get("name") for s in suites] == ["qt_cas/base", "qt_cas/fitted", "qt_cas/relaxed",
-                                                   "qt_cas/loaded", "qt_cas/fin_encoder"]
+                                                   "qt_cas/loaded", "qt_cas/fin_encoder",
+                                                   "qt_cas/sampled"]
     cases = suites[0].findall("testcase")
-    assert int(suites[0].get("tests")) == len(cases) == len(data["verdicts"]) // 5
+    assert int(suites[0].get("tests")) == len(cases) == len(data["verdicts"]) // 6
     assert all(case.find("failure") is None for case in cases)
     assert "ADVISORY" in "".join(case.findtext("system-out") for case in cases)
 

@@ -177,12 +177,14 @@ def test_parameter_table_lists_exactly_the_keys_that_differ(shipped_raw):
     keys = set().union(*per_variant)
     expected = {k for k in keys if _differ([values.get(k) for values in per_variant])}
     # what the YAML says: the fitted motor (Km, J, mu_v replacing the no-load point), the
-    # relaxed position gains, and the loaded variant's load and drivetrain
+    # relaxed position gains, the loaded variant's load and drivetrain, and the sampled
+    # variant's controller rates
     assert expected == {"motor.Km", "motor.J", "motor.mu_v", "motor.no_load.speed",
                         "motor.no_load.current", "position_loop.Kp", "position_loop.Ki",
                         "position_loop.Kd", "motor.coulomb_friction", "gear.efficiency",
                         "gear.backdrive_efficiency", "gear.stiffness", "gear.damping",
-                        "load.inertia", "load.hinge_stiffness", "load.hinge_bias"}
+                        "load.inertia", "load.hinge_stiffness", "load.hinge_bias",
+                        "sampling.current_loop", "sampling.position_loop"}
     rows, equal = parameter_differences([load_variant(None, name) for name in names])
     assert [row[0] for row in rows] == [k for k in config_keys() if k in expected]
     assert equal == len(config_keys()) - len(expected)

@@ -43,7 +43,7 @@ def shipped_variants():
 
 def test_shipped_variants_in_file_order(shipped_raw, shipped_variants):
     # "base" first, then the file's variants in file order.
-    names = ["base", "fitted", "relaxed", "loaded", "fin_encoder"]
+    names = ["base", "fitted", "relaxed", "loaded", "fin_encoder", "sampled"]
     assert variant_names(shipped_raw) == names
     assert [v.variant for v in load_all_variants()] == names
     assert list(shipped_variants) == names
@@ -528,7 +528,8 @@ def test_unknown_variant(shipped_config_path):
         load_variant(shipped_config_path, "fited")
     message = str(info.value)
     assert "unknown variant 'fited'" in message
-    assert "['base', 'fitted', 'relaxed', 'loaded', 'fin_encoder']" in message  # what is accepted
+    # what is accepted
+    assert "['base', 'fitted', 'relaxed', 'loaded', 'fin_encoder', 'sampled']" in message
 
 
 def test_bad_yaml_syntax_names_the_line(shipped_config_path, write_config):

@@ -305,7 +305,7 @@ def test_set_option_parses_or_raises_cas_freq_error(text):
 
 def test_variant_loading_is_unchanged_for_the_shipped_config():
     assert [v.variant for v in load_all_variants()] == ["base", "fitted", "relaxed", "loaded",
-                                                       "fin_encoder"]
+                                                       "fin_encoder", "sampled"]
     assert load_variant(None, "fitted").params.motor.Km == 0.0075
 
 

@@ -116,7 +116,7 @@ def test_to_control_systems_are_named(act):
 
 #: Every shipped variant (config, variant).
 SHIPPED = [("configs/qt_cas.yaml", v) for v in ("base", "fitted", "relaxed", "loaded",
-                                                 "fin_encoder")] + [
+                                                 "fin_encoder", "sampled")] + [
     ("configs/dc_servo.yaml", "base")]
 
 

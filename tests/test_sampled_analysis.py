@@ -170,9 +170,10 @@ def test_sine_dwell_of_the_sampled_simulation_against_the_sampled_closed_loop():
     rates, at an amplitude below every limit (0.002 deg: the acceleration feed-forward alone
     reaches the current limit near 4000 rad/s at 0.05 deg), against the sampled linear closed
     loop with the feed-forward (output samples per command sample at 2.5 kHz), up to half the
-    position loop's Nyquist frequency (3927 rad/s): within 0.3 dB and 2 deg. The simulator
-    measures the continuous output's first harmonic, which differs from the samples' by the
-    aliases of the hold: it grows toward the Nyquist frequency (1.7 deg at 3926 rad/s)."""
+    position loop's Nyquist frequency (3927 rad/s). The issue asks 0.3 dB and 2 deg; the
+    sine dwell of a sampled drive reads the output at the position samples, where the two are
+    the same linear system: measured 0.001 dB and 0.01 deg, asserted 0.02 dB and 0.1 deg (the
+    continuous output's first harmonic would lag by 2.9 deg more at 3926 rad/s)."""
     from cas_freq.simulation.sinedwell import linear_reference, sine_dwell
 
     loaded = load_variant(QT_CAS, "sampled")
@@ -181,9 +182,9 @@ def test_sine_dwell_of_the_sampled_simulation_against_the_sampled_closed_loop():
                        current_rate_hz=25e3, position_rate_hz=2.5e3)
     assert not dwell.limit_hit.any()
     linear = linear_reference(loaded.params, omega)
-    assert np.max(np.abs(dwell.magnitude_db[0] - 20 * np.log10(np.abs(linear)))) < 0.3
+    assert np.max(np.abs(dwell.magnitude_db[0] - 20 * np.log10(np.abs(linear)))) < 0.02
     phase = np.degrees(np.unwrap(np.angle(linear)))
-    assert np.max(np.abs(dwell.phase_deg[0] - phase)) < 2.0
+    assert np.max(np.abs(dwell.phase_deg[0] - phase)) < 0.1
 
 
 @pytest.mark.parametrize("rates", [EPOS4, (("current_loop", 25e3), ("position_loop", 25e3))])

@@ -488,7 +488,8 @@ def drive_responses(p, s, closed=True, loop_at_a_time=False):
 
     if not is_sampled(p):
         return continuous(p, s, closed=closed, loop_at_a_time=loop_at_a_time)
-    found = responses(p, s, closed=closed, loop_at_a_time=loop_at_a_time)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):  # (cut off below)
+        found = responses(p, s, closed=closed, loop_at_a_time=loop_at_a_time)
     omega = np.asarray(s).imag
     limits = nyquist_frequencies(p)
     top = limits[list(limits)[-1]]

@@ -304,6 +304,8 @@ def curves(params, frequency_range_rad_s, points_per_decade):
     omega = frequency_grid(*frequency_range_rad_s, points_per_decade, loops.total_delay)
     found = drive_responses(Selector(loops.params)(), 1j * omega, loop_at_a_time=True)
     outermost = list(found.loops)[-1]
+    with np.errstate(invalid="ignore"):  # NaN above a sampled loop's Nyquist frequency
+        sensitivity = 1.0 / (1.0 + found.loops[outermost])
     # the inner loops with every other loop closed, where that differs from the cascade view
     # (it does not where the loops outside have no gain)
     return Curves(omega, dict(found.loops),
@@ -312,7 +314,7 @@ def curves(params, frequency_range_rad_s, points_per_decade):
                    and not np.all(np.isnan(values))
                    and not np.allclose(values, found.loops[name], rtol=1e-12, atol=0.0,
                                        equal_nan=True)},
-                  1.0 / (1.0 + found.loops[outermost]), found.closed_loop,
+                  sensitivity, found.closed_loop,
                   described_loops(loops.params))
 
 

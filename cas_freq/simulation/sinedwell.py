@@ -30,6 +30,12 @@ with a special phase, instead
   window takes out an offset and a linear drift (what is left of the slow mode), which would
   otherwise leak into the first harmonic.
 
+With sampled controllers the fit reads the output (and the command) at the position loop's
+sampling instants, as the drive sees them: the sampled closed loop T(e^(j w T)) is output samples
+per command sample (docs/model.md, section 14); the continuous output between the samples holds
+the hold's aliases as well (about 3 deg more lag at half the Nyquist frequency of the QT-CAS's
+2.5 kHz position loop).
+
 For the base config at 0.05 deg and 50 rad/s (the slowest mode is the worst case there), the
 fitted response changes by < 5e-4 dB and < 5e-4 deg between 2 and 6 settling periods.
 
@@ -405,6 +411,11 @@ def _dwell(runs, amplitudes, frequency_index, frequencies, *, periods_settle, pe
             "period)"
         )
     record_every = max(1, int(periods.min() / (samples_per_period * dt)))
+    stride = 1
+    if position_rate_hz:  # sampled: the output as the drive sees it, at its position samples
+        steps = max(1, int(round(1.0 / (position_rate_hz * dt))))
+        record_every = max(k for k in range(1, min(record_every, steps) + 1) if steps % k == 0)
+        stride = steps // record_every
     batch = simulate_batch(
         runs, Sine(amplitudes, frequencies[frequency_index]), t_end=t_end, dt=dt,
         record_every=record_every, current_rate_hz=current_rate_hz,
@@ -421,7 +432,7 @@ def _dwell(runs, amplitudes, frequency_index, frequencies, *, periods_settle, pe
         measured[j] = count
         window = (t >= batch.t_end_s - count * period - half_sample) & (
             t < batch.t_end_s - half_sample
-        )
+        ) & (np.arange(t.size) % stride == 0)
         rows = frequency_index == j
         response[rows] = first_harmonic(t[window], batch.delta[rows][:, window], w) / (
             first_harmonic(t[window], batch.command[rows][:, window], w)
