@@ -49,7 +49,7 @@ from cas_freq.jit import compiled_for, use_compiled
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, EXACT, DelayModel
 from cas_freq.model.loops import PreparedResponses, Selector, responses
 from cas_freq.model.sampled import PreparedSampled, is_sampled, nyquist_frequencies
-from cas_freq.model.sampled import responses as sampled_responses
+from cas_freq.model.sampled import grid_responses as sampled_grid_responses
 from cas_freq.model.structure import build, total_delay
 from cas_freq.output import output_json, output_unit
 from cas_freq.summary import Summary
@@ -212,7 +212,7 @@ def _grid_responses(p, omega, n, delay, compiled=None, at_a_time=True):
     not to the last bit: a batch chooses once for all its chunks, so a run's figures do not
     depend on the chunk it falls in."""
     if is_sampled(p):
-        return sampled_responses(p, 1j * omega, loop_at_a_time=at_a_time)
+        return sampled_grid_responses(p, omega, loop_at_a_time=at_a_time)
     if compiled_for(n * omega.size) if compiled is None else compiled:
         from cas_freq.analysis.response_kernel import grid_responses
 

@@ -117,46 +117,47 @@ def loop_poles(p):
     -------
     dict of str to list of numpy.ndarray
         Loop name (innermost first) -> each run's poles (complex, in the z-plane of the loop's
-        own rate); an inner loop's without those at z = 1 (:func:`_seen`).
+        own rate); an inner loop's without those at z = 1 (:func:`_unseen`).
     """
-    n = p.n_runs
-    names = build(p).names
-    top = names[-1]
-    out = {name: [None] * n for name in names}
-    keys = _shapes(p)
-    _, group = np.unique(keys, axis=0, return_inverse=True)
-    for g in range(int(group.max()) + 1 if n else 0):
-        rows = np.flatnonzero(group.reshape(-1) == g)
-        for name, matrices in _assembled(p.take(rows), rows.size).items():
-            with one_blas_thread():
-                poles = np.linalg.eigvals(matrices)
-            for r, value in zip(rows, poles, strict=True):
-                out[name][r] = value if name == top else _seen(value)
+    out = {name: [None] * p.n_runs for name in build(p).names}
+    for name, rows, poles, inner in _poles_by_group(p):
+        for r, value in zip(rows, poles, strict=True):
+            out[name][r] = value[~_unseen(value)] if inner else value
     return out
-
-
-def _seen(poles):
-    """An inner loop's poles without those at z = 1: modes its loops do not see (the shaft's
-    position) or exact cancellations, as the continuous inner loops' factors s
-    (:func:`cas_freq.analysis.stability.loop_polynomials`)."""
-    return poles[np.abs(poles - 1.0) > MARGINAL_TOLERANCE]
 
 
 def loop_verdicts(p):
     """``"stable"``, ``"marginal"`` or ``"unstable"`` of every loop (closed with the loops
     inside it) of every run, as :func:`cas_freq.analysis.stability.loop_verdicts`."""
-    return {name: np.array([pole_verdict(z) for z in poles], dtype=object)
-            for name, poles in loop_poles(p).items()}
+    out = {name: np.empty(p.n_runs, dtype=object) for name in build(p).names}
+    for name, rows, poles, inner in _poles_by_group(p):
+        radius = np.abs(poles)
+        if inner:
+            radius = np.where(_unseen(poles), 0.0, radius)
+        out[name][rows] = np.where(
+            np.any(radius > 1.0 + MARGINAL_TOLERANCE, axis=-1), "unstable",
+            np.where(np.any(radius >= 1.0 - MARGINAL_TOLERANCE, axis=-1), "marginal", "stable"))
+    return out
 
 
-def pole_verdict(poles):
-    """The verdict of discrete-time poles (inside the unit circle: stable)."""
-    radius = np.abs(np.asarray(poles, dtype=complex))
-    if np.any(radius > 1.0 + MARGINAL_TOLERANCE):
-        return "unstable"
-    if np.any(radius >= 1.0 - MARGINAL_TOLERANCE):
-        return "marginal"
-    return "stable"
+def _poles_by_group(p):
+    """(loop name, runs, their poles (runs, states), whether an inner loop) for each group of
+    runs that realise alike (one eigenvalue call per group and loop)."""
+    n = p.n_runs
+    top = build(p).names[-1]
+    _, group = np.unique(_shapes(p), axis=0, return_inverse=True)
+    for g in range(int(group.max()) + 1 if n else 0):
+        rows = np.flatnonzero(group.reshape(-1) == g)
+        for name, matrices in _assembled(p.take(rows), rows.size).items():
+            with one_blas_thread():
+                yield name, rows, np.linalg.eigvals(matrices), name != top
+
+
+def _unseen(poles):
+    """An inner loop's poles at z = 1: modes its loops do not see (the shaft's position) or
+    exact cancellations, as the continuous inner loops' factors s
+    (:func:`cas_freq.analysis.stability.loop_polynomials`); not counted in its verdict."""
+    return np.abs(poles - 1.0) <= MARGINAL_TOLERANCE
 
 
 def _shapes(p):

@@ -283,7 +283,7 @@ def nyquist_frequencies(p):
 
 
 def responses(p, s, closed=True, loop_at_a_time=False, output=None, modes=None,
-              feedforward=False):
+              feedforward=False, through=None):
     r"""Every loop's response and (optionally) T of sampled loops at ``s = j omega``.
 
     Parameters
@@ -304,24 +304,83 @@ def responses(p, s, closed=True, loop_at_a_time=False, output=None, modes=None,
         Let the feed-forward act on the command in T: the command's rate and acceleration as
         the drive's trajectory generator knows them (the polynomial at s = j omega, sampled),
         added to the controller's output of its loop (loops of the outermost rate only).
+    through : str, optional
+        Only the loops of the groups up to the one holding this loop (at omega itself; the
+        loops outside it do not change them); not with ``closed``.
 
     Returns
     -------
     SampledResponses
     """
-    structure = build(p)
-    plan = groups(structure.names, p.sample_rates)
-    method = getattr(p, "sampling_method", "backward")
+    return _evaluate(Prepared.of(p, modes), s, closed, loop_at_a_time, output, feedforward,
+                     through)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Prepared:
+    """The runs' loops multiplied out once (structure, stages, sensors' numerators, delays,
+    plant modes), for :func:`responses` of all of them or of a few at a time
+    (:meth:`pick`: the margin searches' refinements)."""
+
+    structure: object
+    plan: list
+    method: str
+    steps: list
+    sensors: list
+    modes: PlantModes
+    shape: tuple
+
+    @classmethod
+    def of(cls, p, modes=None):
+        """The loops of the runs ``p``."""
+        structure = build(p)
+        return cls(structure, groups(structure.names, p.sample_rates),
+                   getattr(p, "sampling_method", "backward"),
+                   [dataclasses.replace(stage, a=_arrays(stage.a), b=_arrays(stage.b),
+                                        f=_arrays(stage.f), tau=_arrays((stage.tau,))[0],
+                                        reference=None if stage.reference is None
+                                        else _arrays(stage.reference))
+                    for stage in stages(structure)],
+                   [_arrays(product(block.numerator for block in loop.sensor))
+                    for loop in structure.loops],
+                   plant_modes(p) if modes is None else modes, _runs(p))
+
+    def pick(self, runs):
+        """The same of the runs ``runs`` (indices into the runs of 1-D parameters)."""
+        return dataclasses.replace(
+            self, steps=[dataclasses.replace(
+                stage, a=_pick(stage.a, runs), b=_pick(stage.b, runs), f=_pick(stage.f, runs),
+                tau=_pick((stage.tau,), runs)[0],
+                reference=None if stage.reference is None else _pick(stage.reference, runs))
+                for stage in self.steps],
+            sensors=[_pick(sensor, runs) for sensor in self.sensors],
+            modes=self.modes.pick(runs), shape=np.shape(runs))
+
+
+def _arrays(polynomial):
+    """Coefficients as arrays where they vary between runs, else as floats."""
+    return tuple(float(c) if np.ndim(c) == 0 else np.asarray(c) for c in polynomial)
+
+
+def _pick(polynomial, runs):
+    return tuple(c[runs] if isinstance(c, np.ndarray) and c.ndim else c for c in polynomial)
+
+
+def _evaluate(prepared, s, closed, loop_at_a_time, output, feedforward, through):
+    """:func:`responses` of prepared loops."""
+    structure, plan, method = prepared.structure, prepared.plan, prepared.method
+    steps, sensors, modes = prepared.steps, prepared.sensors, prepared.modes
+    if through is not None:
+        k = structure.names.index(through)
+        plan = [group for group in plan if min(group.loops) <= k]
+        closed = False
     if feedforward and any(structure.loops[k].feedforward is not None
                            for group in plan[:-1] for k in group.loops):
         raise ConfigError("sampling: the feed-forward into a loop faster than the outermost is "
                           "not modelled in the frequency domain (sample those loops alike)")
     omega = np.asarray(s).imag
-    rank = len(np.broadcast_shapes(omega.shape, _runs(p)))
+    rank = len(np.broadcast_shapes(omega.shape, prepared.shape))
     omega = omega.reshape((1,) * (rank - omega.ndim) + omega.shape)  # aliases go before
-    modes = plant_modes(p) if modes is None else modes
-    steps = stages(structure)
-    sensors = [product(block.numerator for block in loop.sensor) for loop in structure.loops]
     seen = output or structure.output
     top = len(plan) - 1
 
@@ -334,7 +393,7 @@ def responses(p, s, closed=True, loop_at_a_time=False, output=None, modes=None,
             k = np.arange(plan[g].ratio).reshape((-1,) + (1,) * nu.ndim)
             nu = nu[None] + 2.0 * np.pi * k / plan[g].period
 
-    signals = hold_equivalent(modes, structure.loops[0].delay, plan[0].period, frequencies[0])
+    signals = hold_equivalent(modes, steps[0].tau, plan[0].period, frequencies[0])
     cascade, views = {}, {}
     t = None
     for g, group in enumerate(plan):
@@ -454,19 +513,75 @@ class PreparedSampled:
     """
 
     def __init__(self, selector):
-        self.selector = selector
-        self.modes = plant_modes(selector())
+        self.prepared = Prepared.of(selector())
 
     def responses(self, runs, s, closed=True, delay=None, loop_at_a_time=False, through=None):
         """:func:`responses` of the runs ``runs`` (indices, one per value of ``s``); ``delay``
-        and ``through`` are accepted for the continuous evaluator's signature (a sampled loop's
-        delays are exact)."""
-        return responses(self.selector(runs), s, closed=closed, loop_at_a_time=loop_at_a_time,
-                         modes=self.modes.pick(runs))
+        is accepted for the continuous evaluator's signature (a sampled loop's delays are
+        exact)."""
+        if closed or loop_at_a_time:
+            through = None
+        return _evaluate(self.prepared.pick(runs), s, closed, loop_at_a_time, None, False,
+                         through)
 
     def current_loop(self, runs, s, delay=None):
         """The innermost loop's response of the runs ``runs``."""
         return self.responses(runs, s, closed=False).loops["current_loop"]
+
+
+def grid_responses(p, omega, closed=True, loop_at_a_time=False):
+    """:func:`responses` on a sorted grid of frequencies, each loop only below its Nyquist
+    frequency (NaN from it up), T and the outermost loop's below the outermost's: each group
+    of loops is evaluated up to its own Nyquist frequency and no further.
+
+    Parameters
+    ----------
+    p : types.SimpleNamespace or LoopParameters
+        Parameters broadcastable against ``omega``'s points.
+    omega : numpy.ndarray
+        Increasing frequencies [rad/s], shape (m,).
+    closed, loop_at_a_time : bool
+        As :func:`responses`.
+
+    Returns
+    -------
+    SampledResponses
+    """
+    omega = np.asarray(omega, dtype=float)
+    structure = build(p)
+    plan = groups(structure.names, p.sample_rates)
+    edges = [int(np.searchsorted(omega, np.pi / group.period)) for group in plan]
+    out = responses(p, 1j * omega[:edges[-1]], closed=closed, loop_at_a_time=loop_at_a_time)
+    pieces = {name: [v] for name, v in out.loops.items()}
+    views = {name: [v] for name, v in (out.loop_at_a_time or {}).items()}
+    start = edges[-1]
+    for g in range(len(plan) - 2, -1, -1):  # the faster groups, on up to their Nyquist
+        inner = structure.names[plan[g].loops[-1]]
+        part = responses(p, 1j * omega[start:edges[g]], closed=False,
+                         loop_at_a_time=loop_at_a_time, through=inner)
+        for name in pieces:
+            pieces[name].append(part.loops.get(name, _nan_like(pieces[name][0],
+                                                               edges[g] - start)))
+        for name in views:
+            views[name].append(_nan_like(views[name][0], edges[g] - start))
+        start = edges[g]
+
+    def joined(chunks):
+        value = np.concatenate([np.broadcast_to(c, (*np.shape(chunks[0])[:-1], c.shape[-1]))
+                                if np.ndim(c) else c for c in chunks], axis=-1)
+        return np.concatenate([value, _nan_like(value, omega.size - value.shape[-1])], axis=-1)
+
+    t = None
+    if out.closed_loop is not None:
+        t = joined([out.closed_loop])
+    return SampledResponses({name: joined(c) for name, c in pieces.items()}, t,
+                            {name: joined(c) for name, c in views.items()}
+                            if loop_at_a_time else None, out.periods)
+
+
+def _nan_like(values, count):
+    """NaN of ``values``' leading shape and ``count`` points."""
+    return np.full((*np.shape(values)[:-1], count), np.nan, dtype=complex)
 
 
 def drive_responses(p, s, closed=True, loop_at_a_time=False):
@@ -488,9 +603,11 @@ def drive_responses(p, s, closed=True, loop_at_a_time=False):
 
     if not is_sampled(p):
         return continuous(p, s, closed=closed, loop_at_a_time=loop_at_a_time)
+    omega = np.asarray(s).imag
+    if omega.ndim == 1 and np.all(np.diff(omega) > 0):
+        return grid_responses(p, omega, closed=closed, loop_at_a_time=loop_at_a_time)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):  # (cut off below)
         found = responses(p, s, closed=closed, loop_at_a_time=loop_at_a_time)
-    omega = np.asarray(s).imag
     limits = nyquist_frequencies(p)
     top = limits[list(limits)[-1]]
 
