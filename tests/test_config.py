@@ -129,7 +129,7 @@ def test_set_overrides_apply_after_the_variant(shipped_config_path):
 
 def test_overrides_apply_to_every_variant(shipped_config_path):
     loaded = load_all_variants(shipped_config_path, [("position_loop.Ki", 0.0)])
-    assert [lv.params.position_loop.Ki for lv in loaded] == [0.0] * 5
+    assert [lv.params.position_loop.Ki for lv in loaded] == [0.0] * 6
 
 
 def test_setting_mu_v_removes_no_load(shipped_config_path):

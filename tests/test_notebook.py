@@ -137,8 +137,19 @@ def test_to_control_default_works_with_python_controls_margins_and_step_info(con
         # (numpy RuntimeWarning, fitted and loaded variants); the margins it returns are right
         warnings.simplefilter("ignore", RuntimeWarning)
         for loop in ("current_loop", "position_loop"):
-            _, pm, _, _, wgc, _ = control.stability_margins(getattr(systems, loop))
             exact = getattr(analysis, loop)
+            system = getattr(systems, loop)
+            if system.isdtime(strict=True):
+                # sampled: the systems are exact (no Padé); python-control's margins of a
+                # discrete system interpolate its frequency response (0.24 deg off here), so
+                # its response is read at cas_freq's crossover instead: |L| = 1 and the phase
+                # -180 deg + PM, to 1e-9
+                value = system(np.exp(1j * exact.crossover_rad_s * system.dt))
+                assert abs(value) == pytest.approx(1.0, abs=1e-9)
+                assert np.degrees(np.angle(-value)) == pytest.approx(exact.phase_margin_deg,
+                                                                     abs=1e-7)
+                continue
+            _, pm, _, _, wgc, _ = control.stability_margins(system)
             # Padé-4 against the exact delays: the delays' phase at crossover (< 0.2 rad) is
             # matched by the (4,4) Padé to ~1e-10 rad, so PM and ωc agree to 1e-6 relative
             assert pm == pytest.approx(exact.phase_margin_deg, rel=1e-6)
@@ -148,6 +159,16 @@ def test_to_control_default_works_with_python_controls_margins_and_step_info(con
     # the same as cas_freq's |T(0)| (taken 1000x below the grid, so to ~1e-4 dB)
     final = info["SteadyStateValue"]
     assert 20.0 * np.log10(final) == pytest.approx(analysis.closed_loop.dc_gain_db, abs=1e-4)
+    if systems.closed_loop.isdtime(strict=True):
+        # sampled: the report's linear step is T's output samples (each held until the next):
+        # at the sample instants it is python-control's step response of the same discrete T
+        period = systems.closed_loop.dt
+        response = control.step_response(systems.closed_loop, T=np.arange(400) * period)
+        t = np.arange(0.0, 400 * period - 1e-12, 1e-5)
+        ours = linear_steps(act.params, [t], [1.0], 4)[0]
+        held = response.outputs[np.floor(t / period + 1e-9).astype(int)]
+        np.testing.assert_allclose(ours, held, rtol=1e-10, atol=1e-12)
+        return
     # cas_freq's linear step of the same Padé model (the report's), on a 10 µs grid, measured
     # from that final value: the overshoot is a value of y, the same to the grid's resolution
     # of the peak (1e-4 relative); the rise time is two interpolated crossings, to a grid step

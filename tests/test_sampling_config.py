@@ -179,20 +179,6 @@ def test_rates_hz_follows_sampling_and_the_simulator_samples():
     assert len(np.unique(continuous.current_command)) > 100
 
 
-def test_a_sampled_velocity_loop_is_refused_by_the_simulator_naming_sampling():
-    from cas_freq.simulation.commands import Step
-    from cas_freq.simulation.simulator import simulate_batch
-
-    params = load_variant(CASCADE, "base", [
-        ("sampling.current_loop", "20 kHz"), ("sampling.velocity_loop", "5 kHz"),
-        ("sampling.position_loop", "1 kHz")]).params
-    current, position = params.simulation.rates_hz
-    with pytest.raises(ConfigError, match=r"^sampling: sampled controllers are simulated for the "
-                                          r"PID-on-PI .* only; a velocity loop or filters"):
-        simulate_batch([params], Step(0.01), t_end=1e-3, current_rate_hz=current,
-                       position_rate_hz=position)
-
-
 # ---- --set, variants, dumps -----------------------------------------------------------------
 
 def test_set_reaches_a_sampling_key():

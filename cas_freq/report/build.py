@@ -133,11 +133,23 @@ _SUMMARY_LOOP_FIGURES = {
 }
 
 
-def summary_rows(data):
-    """Headline figures of one variant: (figure, unit, value)."""
+#: The continuous figures shown beside sampled ones (loop -> figures; ``closed_loop`` too).
+_SUMMARY_CONTINUOUS = {
+    "current_loop": ("phase_margin_deg", "gain_margin_db"),
+    "velocity_loop": ("phase_margin_deg", "gain_margin_db"),
+    "position_loop": ("phase_margin_deg", "gain_margin_db"),
+    "closed_loop": ("bandwidth_rad_s", "peak_db"),
+}
+
+
+def summary_rows(data, continuous=False):
+    """Headline figures of one variant: (figure, unit, value); with ``continuous`` (some
+    variant of the table has sampled controllers) also the figures of its loops run
+    continuously (a continuous variant's are its own)."""
     a = data.analysis
     cl = a.closed_loop
-    rows = [("closed loop (Padé poles)", "", a.stability.verdict)]
+    poles = "Padé or discrete-time poles" if continuous else "Padé poles"
+    rows = [(f"closed loop ({poles})", "", a.stability.verdict)]
     for loop, names in _SUMMARY_LOOP_FIGURES.items():
         margins = a
         for part in loop.split("."):
@@ -149,6 +161,8 @@ def summary_rows(data):
                  for name in names]
     rows += [_figure_row(f"closed_loop.{name}", getattr(cl, name) if cl else None, "T ")
              for name in ("bandwidth_rad_s", "peak_db", "phase_90_rad_s")]
+    if continuous:
+        rows += _continuous_rows(a)
     for k, run in enumerate(data.dwell.steps):  # one step per sine-dwell amplitude
         label, unit, _ = _figure_row("sinedwell.bandwidth_rad_s", None, "sine-dwell ")
         rows.append((f"{label} at {_step_text(run)}", unit,
@@ -164,14 +178,33 @@ def summary_rows(data):
     return rows
 
 
+def _continuous_rows(analysis):
+    """The ``continuous`` figures of a sampled variant (a continuous one's own figures)."""
+    rows = []
+    for loop, names in _SUMMARY_CONTINUOUS.items():
+        own = getattr(analysis, loop)
+        if own is None and loop != "closed_loop":  # a drive without that loop
+            continue
+        symbol = "T" if loop == "closed_loop" else LOOPS[loop].symbol
+        for name in names:
+            value = (analysis.continuous[loop][name] if analysis.continuous
+                     else own and getattr(own, name))
+            label, unit, shown = _figure_row(f"{loop}.{name}", value, f"{symbol} ")
+            rows.append((f"{label}, controllers continuous", unit, shown))
+    return rows
+
+
 def summary_table(datas):
     """Headline figures of every variant side by side."""
-    per_variant = [summary_rows(d) for d in datas]
+    sampled = any(d.analysis.sampling for d in datas)
+    per_variant = [summary_rows(d, sampled) for d in datas]
     rows = []
     for k, (figure, unit, _) in enumerate(per_variant[0]):
         rows.append((figure, unit, *(number(values[k][2]) for values in per_variant)))
+    note = ("; sampled controllers at their sampling instants, each figure also with the "
+            "controllers continuous" if sampled else "")
     return Table(("figure", "unit", *(d.loaded.variant for d in datas)), tuple(rows),
-                 "headline figures (frequency responses with exact delays)")
+                 f"headline figures (frequency responses with exact delays{note})")
 
 
 def _limits_text(step):

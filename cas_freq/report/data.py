@@ -366,7 +366,8 @@ def unit_step_response(system, n_steps, dt):
     Parameters
     ----------
     system : control.StateSpace
-        Continuous-time, one input and one output.
+        One input and one output; continuous-time, or discrete-time (sampled controllers:
+        its output samples, each held until the next, on the grid).
     n_steps : int
         Number of samples (>= 1).
     dt : float
@@ -385,11 +386,22 @@ def unit_step_response(system, n_steps, dt):
     n = a.shape[0]
     if n == 0:
         return np.full(n_steps, float(d[0, 0]))
+    if system.isdtime(strict=True):  # sampled controllers: the output's samples, held
+        period = float(system.dt)
+        count = int(np.floor((n_steps - 1) * dt / period + 1e-9)) + 1
+        samples = _doubled(a, b[:, 0].copy(), c, d, count)
+        return samples[np.floor(np.arange(n_steps) * dt / period + 1e-9).astype(int)]
     block = np.zeros((n + 1, n + 1))
     block[:n, :n], block[:n, n] = a * dt, b[:, 0] * dt
     with one_blas_thread():
         exponential = expm(block)
-    power, offset = exponential[:n, :n], exponential[:n, n].copy()
+    return _doubled(exponential[:n, :n], exponential[:n, n].copy(), c, d, n_steps)
+
+
+def _doubled(power, offset, c, d, n_steps):
+    """y_k = C x_k + D of x_(k+1) = A x_k + b from x_0 = 0, k < n_steps, by doubling
+    (``power`` = A, ``offset`` = b; see :func:`unit_step_response`)."""
+    n = power.shape[0]
     states = np.zeros((n, n_steps))
     m = 1
     # an unstable loop's step overflows to inf and then NaN: that is its response (the report
