@@ -296,13 +296,20 @@ def _lifted(system, ratio):
 
 def closed_loop_poles(p):
     """The whole loop's discrete-time poles of one run mapped to the s-plane,
-    :math:`s = \\ln z / T` [rad/s] (T the outermost loop's period), sorted by real part,
-    largest first: the continuous-time poles whose sampled motion they are."""
+    :math:`s = \\ln z / T` [rad/s] (T the outermost loop's period; those at z = 0 left out),
+    sorted by real part, largest first: the continuous-time poles whose sampled motion they
+    are."""
     poles = loop_poles(p)[build(p).names[-1]][0]
-    period = periods_of(p)[-1]
-    with np.errstate(divide="ignore"):
-        s = np.log(poles.astype(complex)) / period
+    s = z_to_s(poles, periods_of(p)[-1])
     return s[np.argsort(-s.real, kind="stable")]
+
+
+def z_to_s(z, period):
+    """Discrete-time poles or zeros mapped to the s-plane, ln z / T [rad/s]; those at z = 0
+    (delay lines: no continuous-time counterpart) left out."""
+    z = np.asarray(z, dtype=complex)
+    z = z[np.abs(z) > 1e-12]
+    return np.log(z) / period
 
 
 def periods_of(p):

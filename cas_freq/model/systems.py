@@ -191,10 +191,16 @@ def closed_loop_zeros(params, pade_order):
     Returns
     -------
     numpy.ndarray
-        Complex zeros [rad/s], sorted by real part then imaginary part.
+        Complex zeros [rad/s], sorted by real part then imaginary part (sampled controllers:
+        the z-plane zeros mapped by ln z / T, those at z = 0 left out).
     """
-    zeros = np.asarray(control.zeros(linear_model(params, pade_order).closed_loop), complex)
+    closed = linear_model(params, pade_order).closed_loop
+    zeros = np.asarray(control.zeros(closed), complex)
     zeros = zeros[np.isfinite(zeros)]
+    if closed.isdtime(strict=True):  # sampled controllers: z-plane zeros, as the poles
+        from cas_freq.analysis.sampled_stability import z_to_s
+
+        zeros = z_to_s(zeros, closed.dt)
     return zeros[np.lexsort((zeros.imag, zeros.real))]
 
 

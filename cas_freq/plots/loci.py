@@ -376,10 +376,14 @@ def pole_zero_caption(data):
     zeros = closed_loop_zeros(data)
     view = pole_zero_view(a, poles)
     (x0, x1), (y0, y1) = view
-    return (f"Closed-loop pole-zero map of T (Padé {a.stability.pade_order} delays, the poles "
-            f"of the stability verdict): poles ×, zeros ○, the imaginary axis as the stability "
-            f"boundary, ωn and ζ beside each complex pair in view; view "
+    model = (f"sampled controllers: the discrete-time poles and zeros mapped by ln z / T, "
+             f"T = {1e3 / min(a.sampling['rates_hz'].values()):.4g} ms, those at z = 0 left out"
+             if a.sampling else
+             f"Padé {a.stability.pade_order} delays, the poles of the stability verdict")
+    faster = ("the delay lines and the faster inner-loop dynamics" if a.sampling else
+              "the delays' Padé poles and zeros and the faster inner-loop dynamics")
+    return (f"Closed-loop pole-zero map of T ({model}): poles ×, zeros ○, the imaginary axis "
+            f"as the stability boundary, ωn and ζ beside each complex pair in view; view "
             f"{x0:.4g}..{x1:.4g} × {y0:.4g}..{y1:.4g} rad/s; outside it: "
             f"{_outside(poles, view)} of {len(poles)} poles and {_outside(zeros, view)} of "
-            f"{len(zeros)} zeros (the delays' Padé poles and zeros and the faster inner-loop "
-            "dynamics)")
+            f"{len(zeros)} zeros ({faster})")

@@ -421,9 +421,11 @@ def variant_blocks(data, figure_blocks, settings):
     """The section of one variant."""
     a = data.analysis
     blocks = [Heading(2, f"Variant {data.loaded.variant}")]
+    poles = ("discrete-time poles of the sampled loops" if a.sampling else
+             f"poles of the Padé order {a.stability.pade_order} model")
     blocks.append(Paragraph(
-        f"{data.label}: closed loop {a.stability.verdict} (poles of the Padé order "
-        f"{a.stability.pade_order} model); every frequency response below uses exact delays."))
+        f"{data.label}: closed loop {a.stability.verdict} ({poles}); every frequency response "
+        "below uses exact delays."))
     if a.notes:
         blocks.append(Bullets(tuple(a.notes)))
     blocks += drivetrain_blocks(data)

@@ -94,7 +94,7 @@ def measure(variants, requirements, known=None):
                 values[key], context[key] = _unstable_figure(analyses[index], requirement)
             elif requirement.kind == "analyze":
                 values[key] = figure(analyses[index], requirement.metric)
-                context[key] = "linear, exact delays"
+                context[key] = _linear_condition(analyses[index], requirement.metric)
             elif requirement.kind == "step":
                 run = steps[requirement.step][index]
                 values[key] = figure(run, requirement.metric)
@@ -120,6 +120,21 @@ def measure(variants, requirements, known=None):
 #: Prefixes of the figures of the loops' open-loop responses (margins and crossovers).
 _LOOP_PREFIXES = ("position_loop.", "current_loop.")
 
+def _linear_condition(analysis, metric):
+    """How a linear figure was measured: exact delays, and with sampled controllers at the
+    sampling instants (a loop-at-a-time view inside a slower loop is not defined)."""
+    if not analysis.sampling:
+        return "linear, exact delays"
+    words = "linear, sampled controllers, exact delays"
+    loop = metric.split(".")[0]
+    if ".loop_at_a_time." in metric and figure(analysis, metric) is None:
+        rates = analysis.sampling["rates_hz"]
+        if rates.get(loop) != min(rates.values()):
+            words += (f"; not defined: with the slower loops closed the {loop.replace('_', ' ')}"
+                      " is periodically time-varying")
+    return words
+
+
 def _unstable_figure(analysis, requirement):
     """(value, condition) of a requirement on a variant whose closed loop is not stable.
 
@@ -132,8 +147,8 @@ def _unstable_figure(analysis, requirement):
     stability = analysis.stability
     if requirement.kind == "analyze" and requirement.metric.startswith(_LOOP_PREFIXES):
         return (figure(analysis, requirement.metric),
-                f"linear, exact delays; the closed loop is unstable "
-                f"(current loop alone: {stability.current_loop_verdict})")
+                f"{_linear_condition(analysis, requirement.metric)}; the closed loop is "
+                f"unstable (current loop alone: {stability.current_loop_verdict})")
     return None, f"not assessed: the closed loop is {stability.verdict}"
 
 
