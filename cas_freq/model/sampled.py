@@ -45,8 +45,18 @@ import types
 import numpy as np
 
 from cas_freq.exceptions import ConfigError
+from cas_freq.filters_config import ANALOG_POINTS, Filter
 from cas_freq.model import parts
-from cas_freq.model.structure import SIGNALS, build, product, stages
+from cas_freq.model.structure import (
+    SIGNALS,
+    analog_sensor,
+    build,
+    chain_state_space,
+    digital_sensor,
+    filter_block,
+    product,
+    stages,
+)
 
 #: The discretisations of a sampled controller (docs/model.md).
 METHODS = ("backward", "tustin")
@@ -161,22 +171,81 @@ def _phi(x):
 @dataclasses.dataclass(frozen=True, eq=False)
 class PlantModes:
     """The plant of every run as modes: poles (N, n) [rad/s] and, per measured signal, the
-    residues (N, n) per volt; ``shape`` is the runs' shape in the parameters."""
+    residues (N, n) per volt; ``shape`` is the runs' shape in the parameters. ``filtered``:
+    the measurements through analog filters (:func:`measured`), each its own augmented
+    plant's modes (name -> PlantModes with that one signal)."""
 
     poles: np.ndarray
     residues: dict
     shape: tuple
+    filtered: dict = dataclasses.field(default_factory=dict)
 
     def pick(self, runs):
         """The modes of the runs ``runs`` (indices into a batch's runs)."""
         if not self.shape:
             return self
         return PlantModes(self.poles[runs], {k: v[runs] for k, v in self.residues.items()},
-                          np.shape(runs))
+                          np.shape(runs), {k: v.pick(runs) for k, v in self.filtered.items()})
+
+
+def measured(loop):
+    """The name of the signal a loop's sampler reads: its plant signal, or, behind analog
+    filters (:func:`cas_freq.model.structure.analog_sensor`), ``"<loop name>.measured"``."""
+    return f"{loop.name}.measured" if analog_sensor(loop) else loop.feedback
+
+
+def with_analog_filters(a, b, rows, chains):
+    r"""The plant (A, B) with analog measurement filters in series on its signals.
+
+    A filter chain :math:`(A_f, B_f, C_f, D_f)` on the signal :math:`y = C_y x`:
+    :math:`A \to \begin{pmatrix} A & 0 \\ B_f C_y & A_f \end{pmatrix}`,
+    :math:`B \to (B, 0)`, the filtered signal's row :math:`(D_f C_y, C_f)` (the plant is
+    strictly proper: no direct term from V).
+
+    Parameters
+    ----------
+    a, b : numpy.ndarray
+        (n, s, s), (n, s, 1).
+    rows : numpy.ndarray
+        (n, r, s) output rows of the plant's signals.
+    chains : list of (int, tuple)
+        The row of the signal filtered and the chain's (A_f, B_f, C_f, D_f) of
+        :func:`cas_freq.model.structure.chain_state_space`.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray, numpy.ndarray)
+        A, B and the rows (the plant's, then one per chain in order), augmented.
+    """
+    for row, (af, bf, cf, df) in chains:
+        n, states, order = a.shape[0], a.shape[-1], af.shape[-1]
+        c_y = rows[:, row]
+        big = np.zeros((n, states + order, states + order))
+        big[:, :states, :states] = a
+        big[:, states:, :states] = bf[:, :, None] * c_y[:, None, :]
+        big[:, states:, states:] = af
+        a = big
+        b = np.concatenate([b, np.zeros((n, order, b.shape[-1]))], axis=1)
+        rows = np.concatenate([np.pad(rows, ((0, 0), (0, 0), (0, order))),
+                               np.concatenate([df[:, None] * c_y, cf], axis=1)[:, None]], axis=1)
+    return a, b, rows
+
+
+def _modes(a, b, rows, what):
+    """Poles (n, s) and residues (n, r, s) of (A, B) seen through ``rows``."""
+    poles, vectors = np.linalg.eig(a)
+    if np.any(np.linalg.cond(vectors) > _MODAL_CONDITION):
+        raise ConfigError(f"sampling: {what} has (nearly) repeated poles; its sampled "
+                          "responses need distinct poles (change a value slightly, e.g. a "
+                          "lowpass2's damping 1 to 0.999)")
+    inputs = np.linalg.solve(vectors, b[:, :, :1].astype(complex))[..., 0]
+    return poles, (rows @ vectors) * inputs[:, None, :]
 
 
 def plant_modes(p):
-    """:class:`PlantModes` of the runs of ``p`` (each distinct plant decomposed once).
+    """:class:`PlantModes` of the runs of ``p`` (each distinct plant decomposed once), with
+    the measurements behind analog filters (:func:`with_analog_filters`, one augmented plant
+    per filtered measurement).
 
     Parameters
     ----------
@@ -188,26 +257,45 @@ def plant_modes(p):
     ConfigError
         For a plant whose poles are (nearly) repeated: its modes are not a basis.
     """
+    analog = [item for item in getattr(p, "filters", ()) if item.at in ANALOG_POINTS]
     values = [np.asarray(getattr(p, name), dtype=float) for name in PLANT_FIELDS]
+    values += [np.nan_to_num(np.asarray(getattr(item, name), dtype=float))
+               for item in analog for name in Filter.NUMBERS]
     shape = np.broadcast_shapes(*(v.shape for v in values))
     flat = np.column_stack([np.broadcast_to(v, shape).reshape(-1) for v in values]) \
         if shape else np.array([[float(v) for v in values]])
     distinct, inverse = np.unique(flat, axis=0, return_inverse=True)
-    q = types.SimpleNamespace(**dict(zip(PLANT_FIELDS, distinct.T, strict=True)))
+    inverse = inverse.reshape(-1)
+    q = types.SimpleNamespace(**dict(zip(PLANT_FIELDS, distinct.T, strict=False)))
     a, b = parts.plant_matrices(q)
-    poles, vectors = np.linalg.eig(a)
-    if np.any(np.linalg.cond(vectors) > _MODAL_CONDITION):
-        raise ConfigError("sampling: the plant has (nearly) repeated poles; its sampled "
-                          "responses need distinct poles (change a drivetrain value slightly)")
-    inputs = np.linalg.solve(vectors, b[:, :, :1].astype(complex))[..., 0]
+    b = b[:, :, :1]
     states = a.shape[-1]
     rows = np.zeros((distinct.shape[0], len(SIGNALS), states))
     rows[:, 0, 0] = rows[:, 1, 1] = rows[:, 2, 2] = 1.0
-    rows[:, 3] = np.stack([parts.fin_output(states, r) for r in distinct[:, -2]])
-    seen = rows @ vectors  # (U, signals, states)
-    inverse = inverse.reshape(-1)
-    residues = {name: (seen[:, k] * inputs)[inverse] for k, name in enumerate(SIGNALS)}
-    return PlantModes(poles[inverse], residues, shape)
+    rows[:, 3] = np.stack([parts.fin_output(states, r) for r in q.ratio])
+    poles, residues = _modes(a, b, rows, "the plant")
+    filtered = {}
+    if analog:
+        structure = build(p)
+        columns = iter(distinct[:, len(PLANT_FIELDS):].T)
+        blocks = {}
+        for item in analog:  # the analog filters of the distinct runs, by the loop they are on
+            numbers = {number: next(columns) for number in Filter.NUMBERS}
+            blocks.setdefault(ANALOG_POINTS[item.at], []).append(
+                filter_block(types.SimpleNamespace(kind=item.kind, **numbers)))
+        for name, chain in blocks.items():
+            loop = structure.loop(name)
+            space = chain_state_space(chain, distinct.shape[0])
+            row = list(SIGNALS).index(loop.feedback)
+            a_f, b_f, rows_f = with_analog_filters(a, b, rows[:, row:row + 1], [(0, space)])
+            poles_f, residues_f = _modes(a_f, b_f, rows_f[:, 1:],
+                                         f"the plant with its filters on {name}'s measurement")
+            filtered[measured(loop)] = PlantModes(poles_f[inverse],
+                                                  {measured(loop): residues_f[:, 0][inverse]},
+                                                  shape)
+    return PlantModes(poles[inverse],
+                      {name: residues[:, k][inverse] for k, name in enumerate(SIGNALS)},
+                      shape, filtered)
 
 
 def hold_equivalent(modes, tau, period, omega):
@@ -247,6 +335,8 @@ def hold_equivalent(modes, tau, period, omega):
     for name, residue in modes.residues.items():
         residue = residue.reshape((*modes.shape, states))
         out[name] = shift * sum(residue[..., i] * kernel for i, kernel in enumerate(kernels))
+    for sub in modes.filtered.values():
+        out.update(hold_equivalent(sub, tau, period, omega))
     return out
 
 
@@ -321,7 +411,12 @@ def responses(p, s, closed=True, loop_at_a_time=False, output=None, modes=None,
     omega = omega.reshape((1,) * (rank - omega.ndim) + omega.shape)  # aliases go before
     modes = plant_modes(p) if modes is None else modes
     steps = stages(structure)
-    sensors = [product(block.numerator for block in loop.sensor) for loop in structure.loops]
+    # the analog sensor blocks are in the plant's hold-equivalent (plant_modes); the digital
+    # ones are evaluated at the loop's equivalent s
+    sensors = [product(block.numerator for block in digital_sensor(loop))
+               for loop in structure.loops]
+    sensor_denominators = [product(block.denominator for block in digital_sensor(loop))
+                           for loop in structure.loops]
     seen = output or structure.output
     top = len(plan) - 1
 
@@ -347,7 +442,7 @@ def responses(p, s, closed=True, loop_at_a_time=False, output=None, modes=None,
             stage = steps[k]
             d = 1.0 if position == 0 else z_inverse ** _samples(stage.tau, group.period)
             b = parts.polyval(stage.b, x)
-            f = parts.polyval(stage.f, x) if len(stage.f) > 1 else stage.f[0]
+            f = _value(sensor_denominators[k], x)
             beta = b * f
             if closed and g == top:
                 command = command * b
@@ -360,7 +455,7 @@ def responses(p, s, closed=True, loop_at_a_time=False, output=None, modes=None,
                                 * _value(product(block.numerator for block in loop.path), x))
                     command = command + gain * injected * d
             gain = gain * parts.polyval(stage.a, x) * d
-            c = gain * signals[structure.loops[k].feedback] * _value(sensors[k], x) * sensed
+            c = gain * signals[measured(structure.loops[k])] * _value(sensors[k], x) * sensed
             cascade[structure.names[k]] = _own(c / (beta * e), nu.ndim - omega.ndim)
             inner.append(e)
             terms.append(c)

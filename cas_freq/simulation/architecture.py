@@ -171,54 +171,6 @@ def position(params):
     return Position(p.cp_Kp, p.cp_Ki, p.cp_Kd, p.Tf, p.i_max, ff_v, ff_a, loop.delay)
 
 
-def _block_state_space(block, n):
-    """A (scaled) realisation (A, B, C, D) per run of a proper block of degree 1 or 2.
-
-    Degree 2, denominator a2 s^2 + a1 s + a0 (a0, a2 > 0): w0 = sqrt(a0/a2), the states
-    x1 = w0^2/den u and x2 = (w0 s/den) u (x1' = w0 x2, x2' = -w0 x1 - 2 zeta w0 x2 + w0 u).
-    """
-    num = [_per_run(c, n) for c in block.numerator]
-    den = [_per_run(c, n) for c in block.denominator]
-    order = len(den) - 1
-    num = [np.zeros(n)] * (order + 1 - len(num)) + num
-    lead = den[0]
-    num = [c / lead for c in num]
-    den = [c / lead for c in den]
-    d = num[0]
-    rest = [num[i] - d * den[i] for i in range(1, order + 1)]  # remainder over den (monic)
-    if order == 1:
-        a = -den[1][:, None, None]
-        b = np.ones((n, 1))
-        c = rest[0][:, None]
-        return a, b, c, d
-    if order == 2:
-        w0 = np.sqrt(den[2])
-        two_zeta_w0 = den[1]
-        a = np.zeros((n, 2, 2))
-        a[:, 0, 1] = w0
-        a[:, 1, 0] = -w0
-        a[:, 1, 1] = -two_zeta_w0
-        b = np.zeros((n, 2))
-        b[:, 1] = w0
-        c = np.stack([rest[1] / (w0 * w0), rest[0] / w0], axis=1)
-        return a, b, c, d
-    raise ValueError(f"{block.name}: order {order} (the simulator steps orders 1 and 2)")
-
-
-def _series(first, second):
-    """The state space of ``second`` after ``first`` (per run)."""
-    a1, b1, c1, d1 = first
-    a2, b2, c2, d2 = second
-    n, m1, m2 = a1.shape[0], a1.shape[1], a2.shape[1]
-    a = np.zeros((n, m1 + m2, m1 + m2))
-    a[:, :m1, :m1] = a1
-    a[:, m1:, m1:] = a2
-    a[:, m1:, :m1] = b2[:, :, None] * c1[:, None, :]
-    b = np.concatenate([b1, b2 * d1[:, None]], axis=1)
-    c = np.concatenate([d2[:, None] * c1, c2], axis=1)
-    return a, b, c, d1 * d2
-
-
 def _discretised(a, b, c, d, period, alpha):
     """A chain's realisation discretised over ``period`` [s] by the generalised bilinear
     transform of weight ``alpha`` (module notes), as a :class:`FilterChain` (G_b = 0)."""
@@ -240,10 +192,7 @@ def filter_chain(blocks, n, dt, every=None, method="backward"):
     """
     if not blocks:
         return None
-    spaces = [_block_state_space(block, n) for block in blocks]
-    a, b, c, d = spaces[0]
-    for space in spaces[1:]:
-        a, b, c, d = _series((a, b, c, d), space)
+    a, b, c, d = loop_structure.chain_state_space(blocks, n)
     if every is not None:
         return _discretised(a, b, c, d, every * dt, METHODS[check_method(method)])
     m = a.shape[1]
