@@ -33,8 +33,9 @@ import numpy as np
 from cas_freq.exceptions import ConfigError
 from cas_freq.parameter_record import Parameter
 
-__all__ = ["ANALOG_POINTS", "DEFAULT_DAMPING", "FILTER_NUMBERS", "FILTER_PARAMETERS", "FILTER_POINTS",
-           "FILTER_TYPES", "Filter", "depth_problem", "point_problem", "type_problem"]
+__all__ = ["ANALOG_POINTS", "DEFAULT_DAMPING", "FILTER_NUMBERS", "FILTER_PARAMETERS",
+           "FILTER_POINTS", "FILTER_TYPES", "Filter", "depth_problem", "point_problem",
+           "type_problem"]
 
 #: Where a filter may sit.
 FILTER_POINTS = ("current_command", "velocity_feedback", "current_feedback",

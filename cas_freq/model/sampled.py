@@ -43,6 +43,7 @@ import math
 import types
 
 import numpy as np
+from scipy.linalg import expm
 
 from cas_freq.exceptions import ConfigError
 from cas_freq.filters_config import ANALOG_POINTS, Filter
@@ -57,6 +58,7 @@ from cas_freq.model.structure import (
     product,
     stages,
 )
+from cas_freq.threads import one_blas_thread
 
 #: The discretisations of a sampled controller (docs/model.md).
 METHODS = ("backward", "tustin")
@@ -172,8 +174,7 @@ def _phi(x):
 class PlantModes:
     """The plant of every run as modes: poles (N, n) [rad/s] and, per measured signal, the
     residues (N, n) per volt; ``shape`` is the runs' shape in the parameters. ``filtered``:
-    the measurements through analog filters (:func:`measured`), each its own augmented
-    plant's modes (name -> PlantModes with that one signal)."""
+    the measurements through analog filters (:func:`measured` name -> :class:`AnalogPart`)."""
 
     poles: np.ndarray
     residues: dict
@@ -188,6 +189,32 @@ class PlantModes:
                           np.shape(runs), {k: v.pick(runs) for k, v in self.filtered.items()})
 
 
+@dataclasses.dataclass(frozen=True, eq=False)
+class AnalogPart:
+    r"""A measurement through analog filters F (realisation :math:`A_f, B_f, C_f, D_f` of
+    :func:`cas_freq.model.structure.chain_state_space`) split into the plant's modes and the
+    filter's (:func:`plant_modes`):
+
+    .. math::
+        F(s) \sum_i \frac{w_i}{s - p_i} = \sum_i \frac{w_i F(p_i)}{s - p_i}
+        + C_f (sI - A_f)^{-1} b_H, \qquad b_H = -\sum_i w_i (p_i I - A_f)^{-1} B_f
+
+    (from :math:`F(s) - F(p) = (p - s)\, C_f (sI - A_f)^{-1} (pI - A_f)^{-1} B_f`). The first
+    part takes the plant's modal formula with residues ``residues`` = :math:`w_i F(p_i)` (N, n);
+    the second is held exactly by the filter's own discretisation (any filter, a double pole
+    included): ``a`` :math:`A_f` (N, m, m), ``b`` :math:`b_H` (N, m), ``c`` :math:`C_f` (N, m).
+    """
+
+    residues: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    c: np.ndarray
+
+    def pick(self, runs):
+        """The runs ``runs``."""
+        return AnalogPart(*(getattr(self, k)[runs] for k in ("residues", "a", "b", "c")))
+
+
 def measured(loop):
     """The name of the signal a loop's sampler reads: its plant signal, or, behind analog
     filters (:func:`cas_freq.model.structure.analog_sensor`), ``"<loop name>.measured"``."""
@@ -195,7 +222,8 @@ def measured(loop):
 
 
 def with_analog_filters(a, b, rows, chains):
-    r"""The plant (A, B) with analog measurement filters in series on its signals.
+    r"""The plant (A, B) with analog measurement filters in series on its signals (the sampled
+    loops' state space, :mod:`cas_freq.analysis.sampled_stability`).
 
     A filter chain :math:`(A_f, B_f, C_f, D_f)` on the signal :math:`y = C_y x`:
     :math:`A \to \begin{pmatrix} A & 0 \\ B_f C_y & A_f \end{pmatrix}`,
@@ -231,21 +259,9 @@ def with_analog_filters(a, b, rows, chains):
     return a, b, rows
 
 
-def _modes(a, b, rows, what):
-    """Poles (n, s) and residues (n, r, s) of (A, B) seen through ``rows``."""
-    poles, vectors = np.linalg.eig(a)
-    if np.any(np.linalg.cond(vectors) > _MODAL_CONDITION):
-        raise ConfigError(f"sampling: {what} has (nearly) repeated poles; its sampled "
-                          "responses need distinct poles (change a value slightly, e.g. a "
-                          "lowpass2's damping 1 to 0.999)")
-    inputs = np.linalg.solve(vectors, b[:, :, :1].astype(complex))[..., 0]
-    return poles, (rows @ vectors) * inputs[:, None, :]
-
-
 def plant_modes(p):
     """:class:`PlantModes` of the runs of ``p`` (each distinct plant decomposed once), with
-    the measurements behind analog filters (:func:`with_analog_filters`, one augmented plant
-    per filtered measurement).
+    the measurements behind analog filters (:class:`AnalogPart`).
 
     Parameters
     ----------
@@ -255,7 +271,8 @@ def plant_modes(p):
     Raises
     ------
     ConfigError
-        For a plant whose poles are (nearly) repeated: its modes are not a basis.
+        For a plant whose poles are (nearly) repeated (its modes are not a basis), or an analog
+        filter with a pole at one of the plant's.
     """
     analog = [item for item in getattr(p, "filters", ()) if item.at in ANALOG_POINTS]
     values = [np.asarray(getattr(p, name), dtype=float) for name in PLANT_FIELDS]
@@ -268,34 +285,96 @@ def plant_modes(p):
     inverse = inverse.reshape(-1)
     q = types.SimpleNamespace(**dict(zip(PLANT_FIELDS, distinct.T, strict=False)))
     a, b = parts.plant_matrices(q)
-    b = b[:, :, :1]
+    poles, vectors = np.linalg.eig(a)
+    if np.any(np.linalg.cond(vectors) > _MODAL_CONDITION):
+        raise ConfigError("sampling: the plant has (nearly) repeated poles; its sampled "
+                          "responses need distinct poles (change a drivetrain value slightly)")
+    inputs = np.linalg.solve(vectors, b[:, :, :1].astype(complex))[..., 0]
     states = a.shape[-1]
     rows = np.zeros((distinct.shape[0], len(SIGNALS), states))
     rows[:, 0, 0] = rows[:, 1, 1] = rows[:, 2, 2] = 1.0
     rows[:, 3] = np.stack([parts.fin_output(states, r) for r in q.ratio])
-    poles, residues = _modes(a, b, rows, "the plant")
+    residues = (rows @ vectors) * inputs[:, None, :]  # (U, signals, states)
     filtered = {}
     if analog:
         structure = build(p)
         columns = iter(distinct[:, len(PLANT_FIELDS):].T)
-        blocks = {}
+        chains = {}
         for item in analog:  # the analog filters of the distinct runs, by the loop they are on
             numbers = {number: next(columns) for number in Filter.NUMBERS}
-            blocks.setdefault(ANALOG_POINTS[item.at], []).append(
+            chains.setdefault(ANALOG_POINTS[item.at], []).append(
                 filter_block(types.SimpleNamespace(kind=item.kind, **numbers)))
-        for name, chain in blocks.items():
+        for name, chain in chains.items():
             loop = structure.loop(name)
-            space = chain_state_space(chain, distinct.shape[0])
-            row = list(SIGNALS).index(loop.feedback)
-            a_f, b_f, rows_f = with_analog_filters(a, b, rows[:, row:row + 1], [(0, space)])
-            poles_f, residues_f = _modes(a_f, b_f, rows_f[:, 1:],
-                                         f"the plant with its filters on {name}'s measurement")
-            filtered[measured(loop)] = PlantModes(poles_f[inverse],
-                                                  {measured(loop): residues_f[:, 0][inverse]},
-                                                  shape)
+            part = _analog_part(poles, residues[:, list(SIGNALS).index(loop.feedback)],
+                                chain_state_space(chain, distinct.shape[0]), name)
+            filtered[measured(loop)] = part.pick(inverse)
     return PlantModes(poles[inverse],
                       {name: residues[:, k][inverse] for k, name in enumerate(SIGNALS)},
                       shape, filtered)
+
+
+def _analog_part(poles, residues, chain, name):
+    """:class:`AnalogPart` of the filter ``chain`` (A_f, B_f, C_f, D_f) on a signal of modes
+    ``poles`` and ``residues`` (U, n)."""
+    af, bf, cf, df = chain
+    order = af.shape[-1]
+    shifted = poles[:, :, None, None] * np.eye(order) - af[:, None]  # p_i I - A_f
+    if np.any(np.linalg.cond(shifted) > _MODAL_CONDITION):
+        raise ConfigError(f"sampling: an analog filter on {name}'s measurement has a pole at "
+                          "one of the plant's; change its frequency slightly")
+    solved = np.linalg.solve(shifted, np.broadcast_to(bf[:, None, :, None].astype(complex),
+                                                      (*shifted.shape[:-1], 1)))[..., 0]
+    gains = np.einsum("um,unm->un", cf, solved) + df[:, None]  # F(p_i)
+    b_h = -np.einsum("un,unm->um", residues, solved)
+    return AnalogPart(residues * gains, af, b_h, cf)
+
+
+def _analog_hold(part, shape, fraction, period, lead):
+    r"""The polynomials of the filter part's hold-equivalent per run: with
+    :math:`\Phi = e^{A_f T}`, :math:`G_1 = \int_0^{T-\varepsilon} e^{A_f\eta} d\eta`,
+    :math:`G_0 = e^{A_f (T-\varepsilon)} \int_0^{\varepsilon} e^{A_f\eta} d\eta`,
+    :math:`C_f (zI - \Phi)^{-1} (G_1 + G_0 z^{-1}) b_H` (the shift :math:`z^{-m}` apart) is
+    :math:`\sum_{k<m} z^{-1-k} (\alpha_k + \beta_k z^{-1}) / \sum_{k \le m} c_k z^{-k}`,
+    adj and det of :math:`zI - \Phi` by Faddeev-LeVerrier (exact for a repeated pole).
+
+    ``shape``: the runs' shape of ``part`` (:attr:`PlantModes.shape`); ``fraction``: the
+    delay's fractional part [s]; ``lead``: the shape both broadcast to.
+
+    Returns (alpha, beta, c) of shapes (*lead, m), (*lead, m), (*lead, m + 1).
+    """
+    order = part.a.shape[-1]
+    a = np.broadcast_to(part.a.reshape((*shape, order, order)),
+                        (*lead, order, order)).reshape(-1, order, order)
+    rest = np.broadcast_to(period - fraction, lead).reshape(-1)
+    first = np.broadcast_to(fraction, lead).reshape(-1)
+
+    def integral(h):  # (e^{A h}, int_0^h e^{A eta} d eta)
+        m = np.zeros((a.shape[0], 2 * order, 2 * order))
+        m[:, :order, :order] = a * h[:, None, None]
+        m[:, :order, order:] = np.eye(order) * h[:, None, None]
+        with one_blas_thread():
+            e = expm(m)
+        return e[:, :order, :order], e[:, :order, order:]
+
+    phi_rest, g1 = integral(rest)
+    phi_first, g_first = integral(first)
+    phi = phi_rest @ phi_first
+    g0 = phi_rest @ g_first
+    b = np.broadcast_to(part.b.reshape((*shape, order)), (*lead, order)).reshape(-1, order)
+    c = np.broadcast_to(part.c.reshape((*shape, order)), (*lead, order)).reshape(-1, order)
+    adjugate = np.broadcast_to(np.eye(order), phi.shape)
+    coefficients = [np.ones(a.shape[0])]
+    alpha, beta = [], []
+    for k in range(1, order + 1):
+        alpha.append(np.einsum("rm,rmn,rn->r", c, adjugate @ g1, b))
+        beta.append(np.einsum("rm,rmn,rn->r", c, adjugate @ g0, b))
+        product_ = phi @ adjugate
+        coefficients.append(-np.trace(product_, axis1=1, axis2=2) / k)
+        adjugate = product_ + coefficients[-1][:, None, None] * np.eye(order)
+    return (np.stack(alpha, -1).reshape((*lead, order)),
+            np.stack(beta, -1).reshape((*lead, order)),
+            np.stack(coefficients, -1).reshape((*lead, order + 1)))
 
 
 def hold_equivalent(modes, tau, period, omega):
@@ -335,8 +414,16 @@ def hold_equivalent(modes, tau, period, omega):
     for name, residue in modes.residues.items():
         residue = residue.reshape((*modes.shape, states))
         out[name] = shift * sum(residue[..., i] * kernel for i, kernel in enumerate(kernels))
-    for sub in modes.filtered.values():
-        out.update(hold_equivalent(sub, tau, period, omega))
+    lead = np.broadcast_shapes(modes.shape, fraction.shape[:-1])
+    for name, part in modes.filtered.items():  # the plant's modes, then the filter's
+        residue = part.residues.reshape((*modes.shape, states))
+        plant_part = sum(residue[..., i] * kernel for i, kernel in enumerate(kernels))
+        alpha, beta, c = _analog_hold(part, modes.shape, fraction[..., 0], period, lead)
+        order = alpha.shape[-1]
+        numerator = sum(z_inverse ** (1 + k) * (alpha[..., k] + beta[..., k] * z_inverse)
+                        for k in range(order))
+        denominator = sum(c[..., k] * z_inverse ** k for k in range(order + 1))
+        out[name] = shift * (plant_part + numerator / denominator)
     return out
 
 
