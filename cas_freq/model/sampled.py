@@ -5,9 +5,10 @@ position loop at 2.5 kHz). ``sampling:`` (docs/config.md) declares them; the loo
 declared structure (:mod:`cas_freq.model.structure`) are then evaluated as the drive runs them
 (docs/model.md, "Sampled controllers"):
 
-- every controller, path filter, feedback filter and command path is the continuous block with
-  :math:`s` replaced by :math:`(1 - z^{-1})/T` (``backward``) or :math:`\frac{2}{T}\frac{z -
-  1}{z + 1}` (``tustin``), :math:`z = e^{j\omega T}`, T the period of the loop it belongs to;
+- every controller, path filter, digital feedback filter and command path is the continuous
+  block with :math:`s` replaced by :math:`(1 - z^{-1})/T` (``backward``) or
+  :math:`\frac{2}{T}\frac{z - 1}{z + 1}` (``tustin``), :math:`z = e^{j\omega T}`, T the period
+  of the loop it belongs to;
 - the current controller's output is held (zero-order hold) and reaches the motor after the
   current loop's delay :math:`\tau_c = mT + \varepsilon` (:math:`0 \le \varepsilon < T`): the
   plant's hold-equivalent (modified z-transform) is exact, from the plant's modes
@@ -20,6 +21,10 @@ declared structure (:mod:`cas_freq.model.structure`) are then evaluated as the d
       g_{0,i} = e^{p_i (T - \varepsilon)} \int_0^{\varepsilon} e^{p_i \eta}\, d\eta
 
   (:math:`w_{y,i}` the mode's residue in the measured signal y per volt);
+- an analog filter on a measurement (before its sampler: ``current_feedback``,
+  ``position_feedback``) is part of that hold-equivalent, not discretised: the plant's modes
+  with residues :math:`w_{y,i} F(p_i)` and the filter's own modes held exactly
+  (:class:`AnalogPart`);
 - a delay between two controllers (the held output of one, sampled by the next) is
   :math:`\lceil \tau / T_{inner} \rceil` samples of the inner (faster) controller;
 - where an outer loop runs M times slower than the loops inside it (multirate), the inner

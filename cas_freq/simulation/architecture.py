@@ -20,7 +20,13 @@ stepped exactly for an input linear over the step, as the plant is
 (the right limit ``+`` of the input at the step's start, the left limit ``-`` at its end: a
 step command passes through a filter's direct term at once).
 
-A filter after a **sampled** controller runs at that controller's rate (one at the current
+An **analog measurement filter** (``current_feedback``, ``position_feedback``: a loop's
+``sensor`` blocks with :attr:`~cas_freq.model.structure.Block.analog`) is continuous whatever
+the controllers: its chain is stepped at every step, exactly as above, on the measured current
+or angle, before any controller (sampled or not) reads it (:attr:`Inner.current_sensor`,
+:attr:`Inner.angle_sensor`).
+
+A (digital) filter after a **sampled** controller runs at that controller's rate (one at the current
 command at the rate of the controller that commands the current, one on the velocity feedback
 at the velocity loop's rate; docs/model.md "Sampled controllers"): the same realisation is
 discretised over the period T by the generalised bilinear transform
