@@ -51,6 +51,7 @@ import cas_freq as cf
 from cas_freq.analysis import sampled_stability
 from cas_freq.analysis.response_kernel import grid_responses
 from cas_freq.analysis.stability import closed_loop_poles as our_poles
+from cas_freq.analysis.stability import loop_polynomials
 from cas_freq.config import load_variant
 from cas_freq.exceptions import ConfigError
 from cas_freq.filters_config import ANALOG_POINTS, FILTER_POINTS, Filter
@@ -185,6 +186,11 @@ def test_every_continuous_representation_has_the_measurement_filters(case):
     mine, theirs = np.sort_complex(our_poles(p, 6)), np.sort_complex(closed_loop_poles(drive, 6))
     assert mine.size == theirs.size
     np.testing.assert_allclose(mine, theirs, rtol=1e-7, atol=1e-6)
+    # ... and the characteristic polynomial of the whole loop has them as roots (its degree,
+    # its Routh verdict)
+    whole = np.trim_zeros(list(loop_polynomials(p, 6).values())[-1][0], "f")
+    assert whole.size - 1 == theirs.size
+    assert np.sum(np.roots(whole).real > 0) == np.sum(theirs.real > 0)
     # python-control's systems (state space from the structure) = the responses, Padé-6
     omega = np.geomspace(1.0, 1e5, 40)
     reference = loops.responses(loops.Selector(p)(), 1j * omega, delay=DelayModel(6))
@@ -197,7 +203,7 @@ def test_every_continuous_representation_has_the_measurement_filters(case):
     # the compiled grid responses = numpy's
     compiled = grid_responses(loops.Selector(p)(column=True), omega, 1, EXACT)
     exact = loops.responses(loops.Selector(p)(), 1j * omega)
-    for name in ("position_loop", "closed_loop"):
+    for name in ("current_loop", "position_loop", "closed_loop"):
         np.testing.assert_allclose(np.squeeze(getattr(compiled, name)),
                                    np.squeeze(getattr(exact, name)), rtol=1e-12)
 
