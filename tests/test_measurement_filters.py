@@ -69,6 +69,8 @@ ROOT = Path(__file__).resolve().parents[1]
 QT_CAS = ROOT / "configs" / "qt_cas.yaml"
 AXIS = ROOT / "configs" / "cascade_axis.yaml"
 EPOS4 = (("current_loop", 25e3), ("position_loop", 2.5e3))
+#: cascade_axis's multirate sampling (its step is 10 us: 5, 20 and 40 steps).
+AXIS_RATES = (("current_loop", 20e3), ("velocity_loop", 5e3), ("position_loop", 2.5e3))
 #: A 5 kHz first-order anti-aliasing filter on the angle, a 12 kHz second-order one on the
 #: current [rad/s].
 W_ANGLE, W_CURRENT = 2 * math.pi * 5e3, 2 * math.pi * 12e3
@@ -296,6 +298,26 @@ def test_the_digital_sensor_of_a_sampled_loop_leaves_the_analog_filters_out():
         np.testing.assert_allclose(values, expected, rtol=1e-10)
 
 
+@pytest.mark.parametrize("rates", [(("current_loop", 20e3), ("velocity_loop", 20e3),
+                                    ("position_loop", 20e3)),
+                                   AXIS_RATES], ids=["single-rate", "multirate"])
+def test_a_sampled_cascade_with_measurement_filters_in_state_space(rates):
+    # the velocity loop between them: to_control's discrete systems (the plant augmented with
+    # the filters, matrix exponentials, lifting) against the responses (modal split,
+    # decimation sum), two methods, 1e-10 relative
+    base = _params(AXIS, filters=())
+    p = dataclasses.replace(base, filters=(*base.filters, *MEASUREMENT_FILTERS),
+                            sample_rates=rates, sampling_method="tustin")
+    model = linear_model(p)
+    omega = np.array([3.0, 30.0, 300.0, 3000.0])
+    found = sampled.responses(loops.Selector(p)(), 1j * omega)
+    for name in ("current_loop", "velocity_loop", "position_loop", "closed_loop"):
+        system = getattr(model, name)
+        values = np.squeeze(system(np.exp(1j * omega * system.dt)))
+        expected = found.closed_loop if name == "closed_loop" else found.loops[name]
+        np.testing.assert_allclose(values, expected, rtol=1e-10)
+
+
 def test_a_batch_of_sampled_runs_is_each_run_alone():
     # per-run filter frequencies, plants and current-loop delays (the fractional part of
     # tau_c differs: 1.5, 1.25 and 2 samples): the batch's responses are each run's alone
@@ -316,18 +338,20 @@ def test_a_batch_of_sampled_runs_is_each_run_alone():
 
 # ---------------------------------------------------------------------------- simulation
 
-@pytest.mark.parametrize("config, variant", [(QT_CAS, "base"), (QT_CAS, "sampled"),
-                                             (AXIS, "base")])
-def test_both_engines_agree_with_measurement_filters(config, variant):
+@pytest.mark.parametrize("config, variant, sampling", [
+    (QT_CAS, "base", {}), (QT_CAS, "sampled", {}), (AXIS, "base", {}),
+    (AXIS, "base", dict(sample_rates=AXIS_RATES, sampling_method="tustin"))],
+    ids=["qt_cas", "qt_cas_sampled", "cascade_axis", "cascade_axis_sampled"])
+def test_both_engines_agree_with_measurement_filters(config, variant, sampling):
     shipped = LoopParameters.from_config(load_variant(config, variant).params).filters
-    p = _params(config, variant, filters=(*shipped, *MEASUREMENT_FILTERS))
+    p = _params(config, variant, filters=(*shipped, *MEASUREMENT_FILTERS), **sampling)
     compiled, reference = (simulate_batch(p, Step(math.radians(2.0)), t_end=0.006,
                                           extend=False, engine=engine)
                            for engine in ("compiled", "reference"))
     _assert_same(compiled, reference)
     # the filters act: the same step without them differs
-    plain = simulate_batch(_params(config, variant, filters=shipped), Step(math.radians(2.0)),
-                           t_end=0.006, extend=False)
+    plain = simulate_batch(_params(config, variant, filters=shipped, **sampling),
+                           Step(math.radians(2.0)), t_end=0.006, extend=False)
     assert np.max(np.abs(plain.i - compiled.i)) > 1e-3 * np.max(np.abs(plain.i))
 
 
