@@ -318,6 +318,17 @@ def test_a_sampled_cascade_with_measurement_filters_in_state_space(rates):
         np.testing.assert_allclose(values, expected, rtol=1e-10)
 
 
+def test_a_filter_pole_on_a_plant_pole_is_a_config_error_naming_the_loop():
+    # F's part needs (p_i I - A_f) invertible: a lowpass1 exactly at the plant's real pole
+    p = _params(filters=(), sample_rates=EPOS4, sampling_method="backward")
+    poles = sampled.plant_modes(loops.Selector(p)()).poles.reshape(-1)
+    real = poles[(np.abs(poles.imag) < 1e-9 * np.abs(poles)) & (poles.real < 0)].real
+    p = dataclasses.replace(p, filters=(Filter("current_feedback", "lowpass1", -real[0]),))
+    with pytest.raises(ConfigError, match="an analog filter on current_loop's measurement has "
+                       "a pole at one of the plant's"):
+        sampled.plant_modes(loops.Selector(p)())
+
+
 def test_a_batch_of_sampled_runs_is_each_run_alone():
     # per-run filter frequencies, plants and current-loop delays (the fractional part of
     # tau_c differs: 1.5, 1.25 and 2 samples): the batch's responses are each run's alone
