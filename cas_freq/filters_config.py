@@ -3,7 +3,14 @@
 Each filter sits in series at one point of the loop, ``at``:
 
 - ``current_command``: after the velocity or position controller, before the current loop;
-- ``velocity_feedback``: on the measured velocity (needs a velocity loop).
+- ``velocity_feedback``: on the measured velocity (needs a velocity loop);
+- ``current_feedback``: on the measured current (the current loop's sensor);
+- ``position_feedback``: on the measured angle of the position loop (the motor's or, with
+  ``position_loop.feedback: output``, the output's).
+
+The first two act on the controllers' signals: they are digital where the drive is sampled
+(discretised with their loop's controller). The measurement filters (:data:`ANALOG_POINTS`) act
+on the continuous measurement before the sampler (anti-aliasing): analog whatever the drive.
 
 and is one of three kinds, ``type`` (ω0 = ``frequency`` [rad/s]):
 
@@ -26,11 +33,16 @@ import numpy as np
 from cas_freq.exceptions import ConfigError
 from cas_freq.parameter_record import Parameter
 
-__all__ = ["DEFAULT_DAMPING", "FILTER_NUMBERS", "FILTER_PARAMETERS", "FILTER_POINTS",
-           "FILTER_TYPES", "Filter", "depth_problem", "point_problem", "type_problem"]
+__all__ = ["ANALOG_POINTS", "DEFAULT_DAMPING", "FILTER_NUMBERS", "FILTER_PARAMETERS",
+           "FILTER_POINTS", "FILTER_TYPES", "Filter", "depth_problem", "point_problem",
+           "type_problem"]
 
 #: Where a filter may sit.
-FILTER_POINTS = ("current_command", "velocity_feedback")
+FILTER_POINTS = ("current_command", "velocity_feedback", "current_feedback",
+                 "position_feedback")
+#: The points on a measurement before it is sampled (analog filters, continuous even where the
+#: controllers are sampled): point -> the loop whose measurement it filters.
+ANALOG_POINTS = {"current_feedback": "current_loop", "position_feedback": "position_loop"}
 #: The kinds of filter, each with the numbers it takes (config names; ``frequency`` first).
 FILTER_NUMBERS = {
     "lowpass1": ("frequency",),
@@ -62,7 +74,8 @@ def point_problem(at):
     """What is wrong with a filter point ``at``, or None."""
     if at in FILTER_POINTS:
         return None
-    return f"{at!r} is not a filter point; use current_command or velocity_feedback"
+    return (f"{at!r} is not a filter point; use current_command, velocity_feedback, "
+            "current_feedback or position_feedback")
 
 
 def type_problem(kind):

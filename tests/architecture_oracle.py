@@ -22,8 +22,9 @@ r (position command, motor rad), y_p (measured position), u_p (position controll
 current command [A] for the PID-on-PI, a velocity command [rad/s] for the cascade), w_cmd
 (velocity command), w_meas (measured velocity), u_v (velocity controller output [A]), i_cmd
 (current command after delay and filters), u_i (current controller output [V]), V (motor
-voltage after the delay), i, theta, y_out. Loops are numbered from the inside: current,
-(velocity,) position.
+voltage after the delay), i, theta, y_out; i_meas and y_m: the current and y_p through the
+measurement filters (``current_feedback``, ``position_feedback``), what the controllers read.
+Loops are numbered from the inside: current, (velocity,) position.
 """
 
 import math
@@ -35,7 +36,8 @@ import control
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
-FILTER_POINTS = ("current_command", "velocity_feedback")
+FILTER_POINTS = ("current_command", "velocity_feedback", "current_feedback",
+                 "position_feedback")
 FILTER_TYPES = ("lowpass1", "lowpass2", "notch")
 
 
@@ -274,10 +276,11 @@ def _diagram(eq, d, states, r, delay):
         eq.add([(out, den), (inp, -num)])
 
     _plant_rows(eq, d)
-    # current loop: u_i = C_i (i_cmd - i); V = exp(-s tau_c) u_i
+    # current loop: u_i = C_i (i_cmd - i_meas), i_meas = filters(i); V = exp(-s tau_c) u_i
+    eq.equal("i_meas", eq.chain("fcf", _filters_at(d, "current_feedback"), "i"))
     num, den = _pi(d.ci_Kp, d.ci_Ki)
     eq.add([("u_current", np.polyval(den, s)), ("i_cmd", -np.polyval(num, s)),
-            ("i", np.polyval(num, s))])
+            ("i_meas", np.polyval(num, s))])
     delayed("V", d.tau_c, "u_current_applied")
     # what feeds the current command, through its delay and the current_command filters
     inner = "velocity" if d.structure == "cascade" else "position"
@@ -294,12 +297,14 @@ def _diagram(eq, d, states, r, delay):
         eq.add([("u_velocity", np.polyval(den, s)), ("w_cmd", -np.polyval(num, s)),
                 ("w_meas", np.polyval(num, s))])
         delayed("w_cmd", d.tau_p, "u_position_applied")
-    # position loop: u_p = C_p (r - y_p), or (Kp + Ki/s)(r - y_p) - D(s) y_p
+    # position loop: u_p = C_p (r - y_m), or (Kp + Ki/s)(r - y_m) - D(s) y_m, y_m the
+    # position y_p through the position_feedback filters
     eq.equal("y_p", "theta" if d.feedback == "motor" else "y_out")
+    eq.equal("y_m", eq.chain("fpf", _filters_at(d, "position_feedback"), "y_p"))
     num, den = _position_controller(d)
     num_r = _pi_part_of_pid(d)[0] if (d.structure == "pid"
                                       and d.derivative_on == "measurement") else num
-    eq.add([("u_position", np.polyval(den, s)), ("y_p", np.polyval(num, s))],
+    eq.add([("u_position", np.polyval(den, s)), ("y_m", np.polyval(num, s))],
            np.polyval(num_r, s) * r)
 
 
@@ -393,8 +398,9 @@ def formula_parts(d, omega):
 
     cc = series(_filters_at(d, "current_command"))
     forward = [_at(_tf(*_pi(d.ci_Kp, d.ci_Ki)), s) * np.exp(-s * d.tau_c)]
-    measured = [plant["i"]]
+    measured = [plant["i"] * series(_filters_at(d, "current_feedback"))]
     y_p = plant["theta"] if d.feedback == "motor" else plant["y_out"]
+    y_p = y_p * series(_filters_at(d, "position_feedback"))
     if d.structure == "cascade":
         vf = series(([([1.0], [d.tau_vf, 1.0])] if d.tau_vf else [])
                     + _filters_at(d, "velocity_feedback"))
@@ -489,10 +495,13 @@ def pade_closed_loop(d, order=6):
     python-control StateSpace from ``control.interconnect`` of the explicit blocks."""
     sj = control.summing_junction
     parts = [plant_ss(d),
-             sj(inputs=["i_cmd", "-i"], output="e_i"),
+             sj(inputs=["i_cmd", "-i_meas"], output="e_i"),
              _tf_block(*_pi(d.ci_Kp, d.ci_Ki), "e_i", "u_i"),
              _pade_ss(d.tau_c, order, "u_i", "V")]
-    y_p = "theta" if d.feedback == "motor" else "y_out"
+    parts += _series_blocks(_filters_at(d, "current_feedback"), "i", "i_meas", "fcf")
+    parts += _series_blocks(_filters_at(d, "position_feedback"),
+                            "theta" if d.feedback == "motor" else "y_out", "y_m", "fpf")
+    y_p = "y_m"  # what the position controller reads
     if d.structure == "cascade":
         parts += [_pade_ss(d.tau_v, order, "u_v", "i_pre"),
                   _tf_block(*_pi(d.cv_Kp, d.cv_Ki), "e_v", "u_v"),

@@ -79,6 +79,10 @@ class Drive:
     Tf: float                   # derivative filter [s]
     tau_p: float                # position controller -> current controller [s]
     derivative_on_measurement: bool = False
+    # analog filters on the measured current and angle, before the samplers: (num, den) in s,
+    # highest power first (the anti-aliasing filters of issue 26); (1,)/(1,): none
+    current_filter: tuple = ((1.0,), (1.0,))
+    angle_filter: tuple = ((1.0,), (1.0,))
 
 
 def drive_of(path, variant="base"):
@@ -100,14 +104,27 @@ def drive_of(path, variant="base"):
                  derivative_on_measurement=bool(p.derivative_on_measurement[0]))
 
 
-def plant_matrices(d):
-    """(A, B, C) of the plant: states (i, w, theta), input V, outputs (i, theta)."""
+def plant_matrices(d, output=False):
+    """(A, B, C) of the plant: states (i, w, theta), input V, outputs (i, theta); with analog
+    measurement filters (``current_filter``, ``angle_filter``) the outputs are the filtered
+    current and angle: the plant in series with the diagonal bank of the filters, composed by
+    python-control (``control.series`` of the plant and ``control.append`` of the filters'
+    own realisations). ``output``: a third output, the angle unfiltered (what T reads)."""
     a = np.array([[-d.R / d.L, -d.Ke / d.L, 0.0],
                   [d.Km / d.J, -d.mu_v / d.J, 0.0],
                   [0.0, 1.0, 0.0]])
     b = np.array([[1.0 / d.L], [0.0], [0.0]])
-    c = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
-    return a, b, c
+    c = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]] + ([[0.0, 0.0, 1.0]] if output else []))
+    none = ((1.0,), (1.0,))
+    if d.current_filter == none and d.angle_filter == none:
+        return a, b, c
+    bank = control.append(control.ss(control.tf(*d.current_filter)),
+                          control.ss(control.tf(*d.angle_filter)),
+                          *([control.ss([], [], [], [[1.0]])] if output else []))
+    filtered = control.series(control.ss(a, b, c, np.zeros((c.shape[0], 1))), bank)
+    if np.any(np.asarray(filtered.D) != 0):
+        raise ValueError("the filtered plant has a direct term")  # a strictly proper plant
+    return np.asarray(filtered.A), np.asarray(filtered.B), np.asarray(filtered.C)
 
 
 def plant_ss(d):
@@ -216,6 +233,7 @@ class SampledLoops:
     plant_p: control.StateSpace
     c_p: control.StateSpace
     c_r: control.StateSpace
+    plant_out: control.StateSpace | None = None  # to the unfiltered angle (None: plant_p)
 
     @property
     def position(self):
@@ -235,8 +253,9 @@ class SampledLoops:
         point by point (no cancelling poles and zeros near z = 1 in one realisation)."""
         g = evaluate(self.plant_p, omega)
         l_p = evaluate(self.c_p, omega) * g
+        out = g if self.plant_out is None else evaluate(self.plant_out, omega)
         return {"current_loop": evaluate(self.current, omega), "position_loop": l_p,
-                "closed_loop": evaluate(self.c_r, omega) * g / (1 + l_p)}
+                "closed_loop": evaluate(self.c_r, omega) * out / (1 + l_p)}
 
     def poles(self):
         """The closed-loop poles (z) at the position loop's rate."""
@@ -441,19 +460,20 @@ def issue_position_loop(d, period, method="backward", k_max=2000):
 def _closed_current_loop(d, fast, method):
     """The fast closed current loop as matrices (A, B, C_theta, C_i, A-part for L_i):
     plant hold-equivalent with the exact (fractional) tau_c, PI at ``fast``. Input: the current
-    command the current controller reads; outputs theta and i (no feedthrough).
+    command the current controller reads; outputs theta as measured (through an angle
+    filter) and unfiltered, two rows of C_theta (no feedthrough).
     Also returns the open current loop L_i (broken at the controller's output) as a system."""
-    a, b, c = plant_matrices(d)
+    a, b, c = plant_matrices(d, output=True)
     ap, bp, cp = hold_equivalent(a, b, c, fast, d.tau_c)
     pi = control.ss(pi_controller(d.ci_Kp, d.ci_Ki, fast, method))
     ac, bc, cc, dc = pi.A, pi.B, pi.C, pi.D
-    ci, ct = cp[:1], cp[1:]
+    ci, ct = cp[:1], cp[1:]  # the (filtered) current; the angle measured, then unfiltered
     # u = Cc xc + Dc (r - i);  xp+ = Ap xp + Bp u;  xc+ = Ac xc + Bc (r - i)
     top = np.hstack([ap - bp @ dc @ ci, bp @ cc])
     bottom = np.hstack([-bc @ ci, ac])
     a_cl = np.vstack([top, bottom])
     b_cl = np.vstack([bp @ dc, bc])
-    c_theta = np.hstack([ct, np.zeros((1, ac.shape[0]))])
+    c_theta = np.hstack([ct, np.zeros((2, ac.shape[0]))])
     current = control.series(pi, control.ss(ap, bp, ci, 0, fast))
     return a_cl, b_cl, c_theta, current
 
@@ -462,8 +482,8 @@ def fast_position_plant(d, fast, method="backward"):
     """The position controller's output -> theta at the FAST rate, as a python-control state
     space: a shift register of d_p = ceil(tau_p/T_f) fast samples (the current controller
     reads the command d_p fast samples late) into the fast closed current loop (exact
-    hold-equivalent with tau_c, PI). Also returns L_i (broken at the current controller's
-    output)."""
+    hold-equivalent with tau_c, PI); outputs the angle measured, then unfiltered. Also returns
+    L_i (broken at the current controller's output)."""
     a_cl, b_cl, c_theta, current = _closed_current_loop(d, fast, method)
     n = a_cl.shape[0]
     dp = samples(d.tau_p, fast)
@@ -478,8 +498,8 @@ def fast_position_plant(d, fast, method="backward"):
             a[n + j, n + j - 1] = 1.0
     else:
         b[:n] = b_cl
-    c = np.hstack([c_theta, np.zeros((1, dp))])
-    return control.ss(a, b, c, 0, fast), current
+    c = np.hstack([c_theta, np.zeros((2, dp))])
+    return control.ss(a, b, c, np.zeros((2, 1)), fast), current
 
 
 def lifted(d, fast, ratio, method="backward"):
@@ -501,9 +521,10 @@ def lifted(d, fast, ratio, method="backward"):
         b_s = a @ b_s + b
         a_s = a @ a_s
     slow = ratio * fast
-    plant_p = control.ss(a_s, b_s, fast_plant.C, 0, slow)
+    plant_p = control.ss(a_s, b_s, fast_plant.C[:1], 0, slow)
+    plant_out = control.ss(a_s, b_s, fast_plant.C[1:], 0, slow)
     _, c_p, c_r = controllers(d, fast, slow, method)
-    return SampledLoops(current, plant_p, control.ss(c_p), control.ss(c_r))
+    return SampledLoops(current, plant_p, control.ss(c_p), control.ss(c_r), plant_out)
 
 
 # ----------------------------------------------------------------------------- margins

@@ -11,7 +11,9 @@ discrete time):
   :math:`x^+ = \Phi x + \Gamma_1 v + \Gamma_0 v^-`, :math:`\Phi = e^{AT}`,
   :math:`\Gamma_1 = \int_0^{T-\varepsilon} e^{A\eta} d\eta\, B`,
   :math:`\Gamma_0 = e^{A(T-\varepsilon)} \int_0^{\varepsilon} e^{A\eta} d\eta\, B`
-  (one matrix exponential of an augmented matrix each);
+  (one matrix exponential of an augmented matrix each); analog filters on a measurement
+  (before its sampler) are part of this plant (:func:`cas_freq.model.sampled.with_analog_filters`),
+  a loop then measures the filtered signal;
 - each controller and filter realised as in continuous time and discretised by the
   generalised bilinear transform (:math:`\alpha = 1` backward, :math:`1/2` Tustin), which has
   exactly the transfer function of the block with s replaced (:mod:`cas_freq.model.sampled`);
@@ -37,8 +39,8 @@ from cas_freq.analysis.stability import (
     series,
 )
 from cas_freq.model import parts
-from cas_freq.model.sampled import groups
-from cas_freq.model.structure import build
+from cas_freq.model.sampled import groups, measured, with_analog_filters
+from cas_freq.model.structure import analog_sensor, build, chain_state_space, digital_sensor
 from cas_freq.threads import one_blas_thread
 
 #: The generalised bilinear transform's alpha of each method.
@@ -200,8 +202,9 @@ def loop_systems(p):
     -------
     dict of str to Closing
         Loop name -> its loop broken at its controller's output (inputs error and command;
-        outputs the four measured signals), the row it measures, its sensor, the system
-        with it closed (input the command) and its period [s].
+        outputs the four plant signals, then each measurement behind analog filters), the row
+        it measures, its digital sensor, the system with it closed (input the command) and its
+        period [s].
     """
     return _closed(p, 1, build(p))
 
@@ -217,12 +220,19 @@ def _closed(p, n, structure):
     ratio = np.broadcast_to(np.asarray(p.ratio, dtype=float), (n,))
     rows[:, 3] = np.stack([parts.fin_output(states, float(r)) for r in ratio])
     b = b[:, :, :1]
+    # analog measurement filters: continuous, before the sampler, so in the held plant
+    filtered = [loop for loop in structure.loops if analog_sensor(loop)]
+    a, b, rows = with_analog_filters(
+        a, b, rows, [(SIGNAL_ROWS[loop.feedback], chain_state_space(analog_sensor(loop), n))
+                     for loop in filtered])
+    row_of = {**SIGNAL_ROWS, **{measured(loop): 4 + j for j, loop in enumerate(filtered)}}
+    states, outputs = a.shape[-1], rows.shape[1]
     tau = float(np.asarray(structure.loops[0].delay, dtype=float).reshape(-1)[0])
     system, _ = hold_equivalent(a, b, tau, plan[0].period)
     width = system[0].shape[-1]
-    c = np.zeros((n, 4, width))
+    c = np.zeros((n, outputs, width))
     c[:, :, width - states - 1:width - 1] = rows
-    system = (system[0], system[1], c, np.zeros((n, 4, 1)))
+    system = (system[0], system[1], c, np.zeros((n, outputs, 1)))
     out = {}
     for g, group in enumerate(plan):
         if g:
@@ -238,9 +248,9 @@ def _closed(p, n, structure):
             forward = _forward(loop, group.period, method, samples, n)
             sensor = _sensor(loop, group.period, method, n)
             opened = series(forward, system)
-            system = _feedback(opened, SIGNAL_ROWS[loop.feedback], sensor)
-            out[structure.names[k]] = Closing(opened, SIGNAL_ROWS[loop.feedback], sensor,
-                                              system, group.period)
+            row = row_of[measured(loop)]
+            system = _feedback(opened, row, sensor)
+            out[structure.names[k]] = Closing(opened, row, sensor, system, group.period)
     return out
 
 
@@ -275,8 +285,9 @@ def _forward(loop, period, method, samples, n):
 
 
 def _sensor(loop, period, method, n):
+    """A loop's digital sensor blocks (after its sampler), discretised; None for none."""
     sensor = None
-    for block in loop.sensor:
+    for block in digital_sensor(loop):
         part = discretised(_realize(parts.stacked(block.numerator, n),
                                     parts.stacked(block.denominator, n)), period, method)
         sensor = part if sensor is None else series(sensor, part)

@@ -342,7 +342,18 @@ def _filter_field(name):
 class FilterSpec(_Section):
     """One filter of ``filters:`` (:mod:`cas_freq.filters_config`): its point, its type and its
     numbers (``damping`` of a lowpass2 defaults to 0.7071; a notch needs ``width`` and
-    ``depth``)."""
+    ``depth``).
+
+    Attributes
+    ----------
+    at : str
+        Its point: current_command (after the controller that commands the current),
+        velocity_feedback (on the measured velocity; needs a velocity loop), current_feedback
+        (on the measured current) or position_feedback (on the position loop's measured
+        angle). The last two are analog: before the sampler of a sampled drive (anti-aliasing).
+    type : str
+        lowpass1, lowpass2 or notch.
+    """
 
     at: str
     type: str

@@ -55,6 +55,7 @@ import dataclasses
 
 import numpy as np
 
+from cas_freq.filters_config import ANALOG_POINTS
 from cas_freq.model import parts
 
 #: The plant signals a loop can measure: name -> meaning [unit per volt].
@@ -76,12 +77,17 @@ class Block:
     whose gain is 0, a derivative filter without a derivative): called, it returns
     (numerator, denominator) stacks of shape (n, width); None where the block has none.
     Characteristic polynomials use it, so no spurious pole appears.
+
+    ``analog``: a filter on a measurement before it is sampled
+    (:data:`cas_freq.filters_config.ANALOG_POINTS`); continuous even where the controllers are
+    sampled (:mod:`cas_freq.model.sampled` puts it in the plant's hold-equivalent).
     """
 
     name: str
     numerator: tuple
     denominator: tuple = (1.0,)
     minimal: object = None
+    analog: bool = False
 
 
 @dataclasses.dataclass(frozen=True)
@@ -257,7 +263,18 @@ def filter_block(item):
 
 
 def _filters(p, at):
-    return tuple(filter_block(item) for item in getattr(p, "filters", ()) if item.at == at)
+    return tuple(dataclasses.replace(filter_block(item), analog=at in ANALOG_POINTS)
+                 for item in getattr(p, "filters", ()) if item.at == at)
+
+
+def digital_sensor(loop):
+    """A loop's sensor blocks after its sampler (all of them for a continuous loop)."""
+    return tuple(block for block in loop.sensor if not block.analog)
+
+
+def analog_sensor(loop):
+    """A loop's sensor blocks before its sampler (:attr:`Block.analog`)."""
+    return tuple(block for block in loop.sensor if block.analog)
 
 
 def plant(p):
@@ -283,7 +300,8 @@ def build(p):
     command sit after the controller that commands the current; those on the velocity
     feedback (and the first-order feedback filter) on the velocity loop's measurement. The
     position loop measures the motor angle, or the output angle on the motor's scale with
-    ``p.feedback_output``.
+    ``p.feedback_output``. Filters on the measured current (``current_feedback``) and angle
+    (``position_feedback``) are those loops' sensors (analog blocks, :attr:`Block.analog`).
 
     Parameters
     ----------
@@ -298,7 +316,7 @@ def build(p):
     current = Loop(
         "current_loop", "L_i", "the voltage",
         pi_controller("current PI", p.ci_Kp, p.ci_Ki, n), (), p.tau_c, "current",
-        signals=("e_i", "i"),
+        _filters(p, "current_feedback"), signals=("e_i", "i"),
     )
     at_current_command = _filters(p, "current_command")
     position_feedback = ("output_angle" if getattr(p, "feedback_output", False)
@@ -312,7 +330,8 @@ def build(p):
                 measured, parts.position_controller(p), strict=True))
         position = Loop(
             "position_loop", "L_p", "the current command", pid_controller(p, n),
-            at_current_command, p.tau_p, position_feedback, reference=reference,
+            at_current_command, p.tau_p, position_feedback,
+            _filters(p, "position_feedback"), reference=reference,
             feedforward=(p.ff_a, p.ff_v, 0.0), signals=("e", "theta"),
         )
         return Structure(plant(p), (current, position))
@@ -328,9 +347,72 @@ def build(p):
     position = Loop(
         "position_loop", "L_p", "the velocity command",
         pi_controller("position PI", p.cp_Kp, p.cp_Ki, n), (), p.tau_p, position_feedback,
-        feedforward=(p.ff_v, 0.0), signals=("e", "theta"),
+        _filters(p, "position_feedback"), feedforward=(p.ff_v, 0.0), signals=("e", "theta"),
     )
     return Structure(plant(p), (current, velocity, position))
+
+
+# --- the filters in state space (the simulator and the sampled plant) ---------------------
+
+def block_state_space(block, n):
+    """A (scaled) realisation (A, B, C, D) per run of a proper block of degree 1 or 2.
+
+    Degree 2, denominator a2 s^2 + a1 s + a0 (a0, a2 > 0): w0 = sqrt(a0/a2), the states
+    x1 = w0^2/den u and x2 = (w0 s/den) u (x1' = w0 x2, x2' = -w0 x1 - 2 zeta w0 x2 + w0 u).
+    """
+    num = [_per_run_values(c, n) for c in block.numerator]
+    den = [_per_run_values(c, n) for c in block.denominator]
+    order = len(den) - 1
+    num = [np.zeros(n)] * (order + 1 - len(num)) + num
+    lead = den[0]
+    num = [c / lead for c in num]
+    den = [c / lead for c in den]
+    d = num[0]
+    rest = [num[i] - d * den[i] for i in range(1, order + 1)]  # remainder over den (monic)
+    if order == 1:
+        a = -den[1][:, None, None]
+        b = np.ones((n, 1))
+        c = rest[0][:, None]
+        return a, b, c, d
+    if order == 2:
+        w0 = np.sqrt(den[2])
+        two_zeta_w0 = den[1]
+        a = np.zeros((n, 2, 2))
+        a[:, 0, 1] = w0
+        a[:, 1, 0] = -w0
+        a[:, 1, 1] = -two_zeta_w0
+        b = np.zeros((n, 2))
+        b[:, 1] = w0
+        c = np.stack([rest[1] / (w0 * w0), rest[0] / w0], axis=1)
+        return a, b, c, d
+    raise ValueError(f"{block.name}: order {order} (the simulator steps orders 1 and 2)")
+
+
+def series_state_space(first, second):
+    """The state space of ``second`` after ``first`` (per run)."""
+    a1, b1, c1, d1 = first
+    a2, b2, c2, d2 = second
+    n, m1, m2 = a1.shape[0], a1.shape[1], a2.shape[1]
+    a = np.zeros((n, m1 + m2, m1 + m2))
+    a[:, :m1, :m1] = a1
+    a[:, m1:, m1:] = a2
+    a[:, m1:, :m1] = b2[:, :, None] * c1[:, None, :]
+    b = np.concatenate([b1, b2 * d1[:, None]], axis=1)
+    c = np.concatenate([d2[:, None] * c1, c2], axis=1)
+    return a, b, c, d1 * d2
+
+
+def chain_state_space(blocks, n):
+    """Blocks in series (:func:`block_state_space` each, then :func:`series_state_space`):
+    (A (n, m, m), B (n, m), C (n, m), D (n,))."""
+    space = block_state_space(blocks[0], n)
+    for block in blocks[1:]:
+        space = series_state_space(space, block_state_space(block, n))
+    return space
+
+
+def _per_run_values(value, n):
+    return np.broadcast_to(np.asarray(value, dtype=float), (n,)).astype(float)
 
 
 def total_delay(p):

@@ -20,7 +20,13 @@ stepped exactly for an input linear over the step, as the plant is
 (the right limit ``+`` of the input at the step's start, the left limit ``-`` at its end: a
 step command passes through a filter's direct term at once).
 
-A filter after a **sampled** controller runs at that controller's rate (one at the current
+An **analog measurement filter** (``current_feedback``, ``position_feedback``: a loop's
+``sensor`` blocks with :attr:`~cas_freq.model.structure.Block.analog`) is continuous whatever
+the controllers: its chain is stepped at every step, exactly as above, on the measured current
+or angle, before any controller (sampled or not) reads it (:attr:`Inner.current_sensor`,
+:attr:`Inner.angle_sensor`).
+
+A (digital) filter after a **sampled** controller runs at that controller's rate (one at the current
 command at the rate of the controller that commands the current, one on the velocity feedback
 at the velocity loop's rate; docs/model.md "Sampled controllers"): the same realisation is
 discretised over the period T by the generalised bilinear transform
@@ -43,6 +49,7 @@ import dataclasses
 import numpy as np
 
 from cas_freq.model import structure as loop_structure
+from cas_freq.model.structure import analog_sensor, digital_sensor
 from cas_freq.simulation.controllers import METHODS, check_method
 from cas_freq.simulation.mechanics import distinct_exponentials
 
@@ -105,6 +112,10 @@ class Inner:
         controller, or the position controller without one) where it is sampled; the path
         chain (and the sensor chain, the velocity loop's) is then discretised over it. None
         for a continuous one.
+    current_sensor, angle_sensor : FilterChain or None
+        The analog filters on the measured current and on the position loop's measured angle
+        (``current_feedback``, ``position_feedback``): continuous, stepped at every step
+        before a controller (sampled or not) reads the measurement.
     """
 
     cascade: bool
@@ -117,6 +128,8 @@ class Inner:
     path: FilterChain | None = None
     sensor: FilterChain | None = None
     commander_every: int | None = None
+    current_sensor: FilterChain | None = None
+    angle_sensor: FilterChain | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -171,54 +184,6 @@ def position(params):
     return Position(p.cp_Kp, p.cp_Ki, p.cp_Kd, p.Tf, p.i_max, ff_v, ff_a, loop.delay)
 
 
-def _block_state_space(block, n):
-    """A (scaled) realisation (A, B, C, D) per run of a proper block of degree 1 or 2.
-
-    Degree 2, denominator a2 s^2 + a1 s + a0 (a0, a2 > 0): w0 = sqrt(a0/a2), the states
-    x1 = w0^2/den u and x2 = (w0 s/den) u (x1' = w0 x2, x2' = -w0 x1 - 2 zeta w0 x2 + w0 u).
-    """
-    num = [_per_run(c, n) for c in block.numerator]
-    den = [_per_run(c, n) for c in block.denominator]
-    order = len(den) - 1
-    num = [np.zeros(n)] * (order + 1 - len(num)) + num
-    lead = den[0]
-    num = [c / lead for c in num]
-    den = [c / lead for c in den]
-    d = num[0]
-    rest = [num[i] - d * den[i] for i in range(1, order + 1)]  # remainder over den (monic)
-    if order == 1:
-        a = -den[1][:, None, None]
-        b = np.ones((n, 1))
-        c = rest[0][:, None]
-        return a, b, c, d
-    if order == 2:
-        w0 = np.sqrt(den[2])
-        two_zeta_w0 = den[1]
-        a = np.zeros((n, 2, 2))
-        a[:, 0, 1] = w0
-        a[:, 1, 0] = -w0
-        a[:, 1, 1] = -two_zeta_w0
-        b = np.zeros((n, 2))
-        b[:, 1] = w0
-        c = np.stack([rest[1] / (w0 * w0), rest[0] / w0], axis=1)
-        return a, b, c, d
-    raise ValueError(f"{block.name}: order {order} (the simulator steps orders 1 and 2)")
-
-
-def _series(first, second):
-    """The state space of ``second`` after ``first`` (per run)."""
-    a1, b1, c1, d1 = first
-    a2, b2, c2, d2 = second
-    n, m1, m2 = a1.shape[0], a1.shape[1], a2.shape[1]
-    a = np.zeros((n, m1 + m2, m1 + m2))
-    a[:, :m1, :m1] = a1
-    a[:, m1:, m1:] = a2
-    a[:, m1:, :m1] = b2[:, :, None] * c1[:, None, :]
-    b = np.concatenate([b1, b2 * d1[:, None]], axis=1)
-    c = np.concatenate([d2[:, None] * c1, c2], axis=1)
-    return a, b, c, d1 * d2
-
-
 def _discretised(a, b, c, d, period, alpha):
     """A chain's realisation discretised over ``period`` [s] by the generalised bilinear
     transform of weight ``alpha`` (module notes), as a :class:`FilterChain` (G_b = 0)."""
@@ -240,10 +205,7 @@ def filter_chain(blocks, n, dt, every=None, method="backward"):
     """
     if not blocks:
         return None
-    spaces = [_block_state_space(block, n) for block in blocks]
-    a, b, c, d = spaces[0]
-    for space in spaces[1:]:
-        a, b, c, d = _series((a, b, c, d), space)
+    a, b, c, d = loop_structure.chain_state_space(blocks, n)
     if every is not None:
         return _discretised(a, b, c, d, every * dt, METHODS[check_method(method)])
     m = a.shape[1]
@@ -274,15 +236,18 @@ def inner_blocks(params, dt, every=None, method="backward"):
     output_feedback = loops[-1].feedback == "output_angle"
     commander_every = every.get(commanding.name)
     path = filter_chain(commanding.path, n, dt, commander_every, method)
+    measurements = dict(current_sensor=filter_chain(analog_sensor(loops[0]), n, dt),
+                        angle_sensor=filter_chain(analog_sensor(loops[-1]), n, dt))
     if not p.cascade:
-        return Inner(False, output_feedback, path=path, commander_every=commander_every)
+        return Inner(False, output_feedback, path=path, commander_every=commander_every,
+                     **measurements)
     kp, ki = (_per_run(c, n) for c in commanding.controller.numerator)
     _, ff_a = _feedforward(commanding, n)
     return Inner(True, output_feedback, velocity_kp=kp, velocity_ki=ki,
                  velocity_limit=_per_run(p.i_max, n), velocity_ff_a=ff_a,
                  velocity_delay=commanding.delay, path=path,
-                 sensor=filter_chain(commanding.sensor, n, dt, commander_every, method),
-                 commander_every=commander_every)
+                 sensor=filter_chain(digital_sensor(commanding), n, dt, commander_every, method),
+                 commander_every=commander_every, **measurements)
 
 
 class FilterState:
@@ -318,14 +283,21 @@ class FilterState:
 #: (row-major), G_a, G_b, C and D.
 (CASCADE, OUTPUT, V_KP, V_KI, V_LIMIT, V_FF_A, V_FRACTION, PATH_ORDER, SENSOR_ORDER,
  COMMANDER_EVERY, V_BACKWARD) = range(11)
-PATH = 11  # first column of the path chain (the sensor chain follows it)
+#: Columns of each analog measurement filter (on the current, on the position loop's angle):
+#: its order (0: none), its chain's first column in the table, its states' first column in the
+#: state.
+I_ORDER, I_AT, I_Z, A_ORDER, A_AT, A_Z = range(11, 17)
+PATH = 17  # first column of the path chain (the sensor chain, then the measurements' follow)
 #: Columns of the kernel's state of the inner blocks: the velocity controller (integral,
 #: error, rest, output left and right, clamped), the path filter's last input, the sensor
 #: filter's last input, the current command's left and right limits (held between the
 #: updates of a sampled commander), then the path filter's states and as many scratch
 #: columns, then the sensor filter's.
 S_INT, S_E, S_REST, S_U_LEFT, S_U, S_LIMITED, S_PATH_U, S_SENSOR_U, S_CMD_LEFT, S_CMD = range(10)
-S_PATH = 10
+#: ... and the measured current's and angle's last inputs (their filters' states follow the
+#: sensor filter's).
+S_I_U, S_A_U = 10, 11
+S_PATH = 12
 
 
 def chain_columns(m):
@@ -355,9 +327,17 @@ def kernel_tables(inner, n, dt, position_delay, backward=False):
     The delay lines' ring sizes follow from those steps (:func:`delay_line.ring_size`)."""
     from cas_freq.simulation.delay_line import delay_steps
 
-    m_path = 0 if inner.path is None else inner.path.order
-    m_sensor = 0 if inner.sensor is None else inner.sensor.order
-    table = np.zeros((n, PATH + chain_columns(m_path) + chain_columns(m_sensor)))
+    chains = (inner.path, inner.sensor, inner.current_sensor, inner.angle_sensor)
+    m_path, m_sensor, m_current, m_angle = (0 if c is None else c.order for c in chains)
+    table = np.zeros((n, PATH + sum(chain_columns(m) for m in (m_path, m_sensor, m_current,
+                                                                 m_angle))))
+    table[:, I_ORDER], table[:, A_ORDER] = m_current, m_angle
+    table[:, I_AT] = PATH + chain_columns(m_path) + chain_columns(m_sensor)
+    table[:, A_AT] = table[:, I_AT] + chain_columns(m_current)
+    table[:, I_Z] = S_PATH + 2 * (m_path + m_sensor)
+    table[:, A_Z] = table[:, I_Z] + 2 * m_current
+    _put_chain(table, int(table[0, I_AT]) if n else 0, inner.current_sensor)
+    _put_chain(table, int(table[0, A_AT]) if n else 0, inner.angle_sensor)
     table[:, CASCADE] = inner.cascade
     table[:, OUTPUT] = inner.output_feedback
     table[:, PATH_ORDER], table[:, SENSOR_ORDER] = m_path, m_sensor
@@ -370,5 +350,5 @@ def kernel_tables(inner, n, dt, position_delay, backward=False):
         table[:, V_KP], table[:, V_KI] = inner.velocity_kp, inner.velocity_ki
         table[:, V_LIMIT], table[:, V_FF_A] = inner.velocity_limit, inner.velocity_ff_a
         steps, table[:, V_FRACTION] = delay_steps(np.broadcast_to(position_delay, (n,)), dt)
-    state = np.zeros((n, S_PATH + 2 * (m_path + m_sensor)))  # states and scratch
+    state = np.zeros((n, S_PATH + 2 * (m_path + m_sensor + m_current + m_angle)))  # + scratch
     return table, state, steps

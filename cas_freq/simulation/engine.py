@@ -221,6 +221,9 @@ class Engine:
         self.cp_Ki, self.ff_v, self.ff_a = position.ki, position.ff_v, position.ff_a
         #: The controller whose output is the current command (its clamp is current_limited).
         self.commander = self.position
+        #: The analog filters on the measured current and angle (None: none), stepped at
+        #: every step before the controllers read them (:meth:`_measure`).
+        self.current_sensor = self.angle_sensor = None
         if inner is not None:
             self._setup_inner(p, dt, position.delay)
         self.on_measurement = p.derivative_on_measurement
@@ -241,6 +244,10 @@ class Engine:
         self.ratio, self.loaded = p.ratio, p.loaded
         self.path = None if inner.path is None else architecture.FilterState(inner.path)
         self.sensor = None if inner.sensor is None else architecture.FilterState(inner.sensor)
+        if inner.current_sensor is not None:
+            self.current_sensor = architecture.FilterState(inner.current_sensor)
+        if inner.angle_sensor is not None:
+            self.angle_sensor = architecture.FilterState(inner.angle_sensor)
         if inner.cascade:
             n = p.n_runs
             self.velocity = Controller(
@@ -263,6 +270,18 @@ class Engine:
         if self.inner is None or not self.inner.output_feedback or self.drivetrain is None:
             return theta
         return np.where(self.loaded, self.ratio * self.x[:, 4], theta)
+
+    def _measure(self, start=False):
+        """The measurements the controllers read at this step (``i_meas``, ``theta_meas``):
+        the current and the position loop's angle, each through its analog filters (if any),
+        stepped exactly for a measurement linear over the step."""
+        self.i_meas, self.theta_meas = self.x[:, 0], self._measured_angle()
+        if self.current_sensor is not None:
+            step = self.current_sensor.start if start else self.current_sensor.step
+            self.i_meas = step(self.i_meas, self.i_meas)[1]
+        if self.angle_sensor is not None:
+            step = self.angle_sensor.start if start else self.angle_sensor.step
+            self.theta_meas = step(self.theta_meas, self.theta_meas)[1]
 
     def _command_update(self, k, left, right, start=False):
         """The current command (``u_left``, ``u_cmd``) at step ``k``: the position
@@ -301,7 +320,7 @@ class Engine:
 
     def _errors(self, theta_cmd):
         """Position error and the derivative's input (the error, or -theta)."""
-        theta = self._measured_angle()
+        theta = self.theta_meas
         e = theta_cmd - theta
         on = self._derivative_on
         if on is None:
@@ -346,7 +365,7 @@ class Engine:
 
     def _current_update(self, start=False):
         step = self.current.start if start else self.current.update
-        i = self.x[:, 0]
+        i = self.i_meas
         if self.current_every is None:
             self.i_cmd, i_left = self.current_line.read_limits(self.k)
             e_r = self.i_cmd - i
@@ -363,6 +382,7 @@ class Engine:
         rows, rows_left, _ = self._command_rows(np.zeros(1))
         right, left = self._row(rows, 0), self._row(rows_left, 0)
         self.theta_cmd = right[0]
+        self._measure(start=True)
         self._position_update(left, right, start=True)
         self._command_update(0, left, right, start=True)
         self.current_line.push(0, self.u_cmd, self.u_left)
@@ -493,6 +513,7 @@ class Engine:
         self.k = k = k + 1
         self.v = v_next
         self.theta_cmd = right[0]
+        self._measure()
         if self.position_every is None or k % self.position_every == 0:
             self._position_update(left, right)
         self._command_update(k, left, right)

@@ -526,10 +526,21 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
         if not sampled_p:  # a sampler sees the values from now on
             angle_left, ff_left = _command(p, left, r, 0)
         s[r, _THETA_CMD] = angle
+        # the measurements from rest through their analog filters (Engine._measure): d u
+        i_meas, th_meas = x[r, 0], x[r, 2]
+        if ext is not None:
+            g, gs = ext[0], ext[1]
+            m_i, m_a = int(g[r, arch.I_ORDER]), int(g[r, arch.A_ORDER])
+            if m_i > 0:
+                gs[r, arch.S_I_U] = i_meas
+                i_meas = g[r, int(g[r, arch.I_AT]) + m_i * m_i + 3 * m_i] * i_meas
+            if m_a > 0:
+                gs[r, arch.S_A_U] = th_meas
+                th_meas = g[r, int(g[r, arch.A_AT]) + m_a * m_a + 3 * m_a] * th_meas
         # a sampled controller makes its first update from zero samples before t = 0
         (s[r, _P_INT], s[r, _P_FILTER], s[r, _P_E], s[r, _P_Y], s[r, _P_REST],
          s[r, _P_U_LEFT], s[r, _P_U], s[r, _P_LIMITED]) = _position_update(
-            p, r, x[r, 2], angle_left, angle, ff_left, ff, 0.0, 0.0, 0.0, 0.0, 0.0, sampled_p,
+            p, r, th_meas, angle_left, angle, ff_left, ff, 0.0, 0.0, 0.0, 0.0, 0.0, sampled_p,
             has_derivative, dt * max(every_p, 1), not sampled_p, sampled_p and backward,
         )
         u_left, u_right = s[r, _P_U_LEFT], s[r, _P_U]
@@ -542,7 +553,7 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
         _push(current_right, current_left, r, 0, u_right, u_left, hold_i)
         (s[r, _C_INT], s[r, _C_E], s[r, _C_REST], s[r, _C_V_LEFT], s[r, _C_V],
          s[r, _C_LIMITED], s[r, _I_CMD]) = _current_update(
-            p, r, x[r, 0], 0, current_right, current_left, m[r, 1], hold_i, sampled_c,
+            p, r, i_meas, 0, current_right, current_left, m[r, 1], hold_i, sampled_c,
             0.0, 0.0, 0.0, sampled_c, dt * max(every_c, 1), sampled_c and backward,
         )
         _push(voltage_right, voltage_left, r, 0, s[r, _C_V], s[r, _C_V_LEFT], sampled_c)
@@ -688,6 +699,10 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
     # clamp flag (the velocity controller's in a cascade)
     i_limited = p_limited
     output_feedback = False
+    # the analog filters on the measured current and angle (orders 0: none)
+    m_i = m_a = 0
+    if ext is not None:
+        m_i, m_a = int(ext[0][r, arch.I_ORDER]), int(ext[0][r, arch.A_ORDER])
     if ext is not None:
         output_feedback = ext[0][r, arch.OUTPUT] != 0.0
         if ext[0][r, arch.CASCADE] != 0.0:
@@ -814,7 +829,25 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
             x4 += q[r, h + 9] * tau_l
             i, w, th, w_l, d_l = x0, x1, x2, x3, x4
         k += 1
-        # 3. position controller at t_k+1 (§4), its output into the delay line tau_p
+        # 3. the measurements at t_k+1 through their analog filters (Engine._measure)
+        i_meas = i
+        measured = th
+        if ext is not None:
+            if q is not None and output_feedback:
+                measured = ratio * d_l  # the output angle on the motor's scale
+            if m_i > 0:
+                g, gs = ext[0], ext[1]
+                at = int(g[r, arch.I_AT])
+                y = _chain(g, gs, r, at, m_i, int(g[r, arch.I_Z]), gs[r, arch.S_I_U], i)
+                gs[r, arch.S_I_U] = i
+                i_meas = y + g[r, at + m_i * m_i + 3 * m_i] * i
+            if m_a > 0:
+                g, gs = ext[0], ext[1]
+                at = int(g[r, arch.A_AT])
+                y = _chain(g, gs, r, at, m_a, int(g[r, arch.A_Z]), gs[r, arch.S_A_U], measured)
+                gs[r, arch.S_A_U] = measured
+                measured = y + g[r, at + m_a * m_a + 3 * m_a] * measured
+        # 4. position controller at t_k+1 (§4), its output into the delay line tau_p
         angle = ratio * right[row, 0, col]
         ff = ff_v * (ratio * right[row, 1, col]) + ff_a * (ratio * right[row, 2, col])
         p_due = not sampled_p or k == next_p
@@ -825,9 +858,6 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
             else:
                 angle_left = ratio * left[row, 0, col]
                 ff_left = ff_v * (ratio * left[row, 1, col]) + ff_a * (ratio * left[row, 2, col])
-            measured = th
-            if ext is not None and q is not None and output_feedback:
-                measured = ratio * d_l  # the output angle on the motor's scale
             e_right = angle - measured
             e_left = angle_left - measured
             if on_measurement:  # derivative on the measurement: acts on -theta
@@ -855,7 +885,8 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
             current_right[r, slot] = cmd_right
             if not hold_i:
                 current_left[r, slot] = cmd_left
-        # 4. current controller at t_k+1 (§3), its output into the delay line tau_c
+        # 5. current controller at t_k+1 (§3) on the measured current, its output into the
+        #    delay line tau_c
         if not sampled_c or k == next_c:
             if sampled_c:
                 next_c += every_c
@@ -872,7 +903,7 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
                 else:
                     i_cmd = ((1.0 - f_p) * (current_left[r, j & mask_p] if j >= 0 else 0.0)
                              + f_p * (current_right[r, (j - 1) & mask_p] if j >= 1 else 0.0))
-            e_right = i_cmd - i
+            e_right = i_cmd - i_meas
             e_left = e_right
             if not sampled_c:
                 if hold_i:
@@ -888,7 +919,7 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
                         i_left = ((1.0 - f_p) * (current_left[r, j & mask_p] if j >= 0 else 0.0)
                                   + f_p * (current_right[r, (j - 1) & mask_p] if j >= 1
                                            else 0.0))
-                e_left = i_left - i
+                e_left = i_left - i_meas
             c_int, _, c_e, _, c_rest, v_left, v_c, c_limited = _controller_update(
                 c_int, 0.0, c_e, 0.0, c_rest, e_left, e_right, 0.0, 0.0, 0.0, 0.0,
                 True, ci_kp, ci_ki, 0.0, 0.0, 0.0, 0.0, False, v_max, period_c, not sampled_c,
@@ -900,7 +931,7 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
         voltage_right[r, slot] = v_c
         if not sampled_c:
             voltage_left[r, slot] = v_left
-        # 5. recording (SIGNALS)
+        # 6. recording (SIGNALS)
         if k == next_record:
             rec_theta[out] = th
             rec_omega[out] = w
