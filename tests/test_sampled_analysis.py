@@ -178,8 +178,8 @@ def test_sine_dwell_of_the_sampled_simulation_against_the_sampled_closed_loop():
 
     loaded = load_variant(QT_CAS, "sampled")
     omega = np.array([50.0, 700.0, 2500.0, 3926.0])
-    dwell = sine_dwell(LoopParameters.from_config(loaded.params), [math.radians(0.002)], omega,
-                       current_rate_hz=25e3, position_rate_hz=2.5e3)
+    # the rates come from the variant's sampling: declaration
+    dwell = sine_dwell(LoopParameters.from_config(loaded.params), [math.radians(0.002)], omega)
     assert not dwell.limit_hit.any()
     linear = linear_reference(loaded.params, omega)
     assert np.max(np.abs(dwell.magnitude_db[0] - 20 * np.log10(np.abs(linear)))) < 0.02

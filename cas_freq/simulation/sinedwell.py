@@ -61,7 +61,7 @@ from cas_freq.exceptions import ConfigError
 from cas_freq.formulas import HALF_POWER
 from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.commands import Sine
-from cas_freq.simulation.simulator import loop_time_step, simulate_batch
+from cas_freq.simulation.simulator import loop_sampling, loop_time_step, simulate_batch
 
 #: Half-power level [dB]: 20 log10(1/sqrt(2)) = -3.0103 dB.
 HALF_POWER_DB = 20.0 * math.log10(HALF_POWER)
@@ -412,8 +412,9 @@ def _dwell(runs, amplitudes, frequency_index, frequencies, *, periods_settle, pe
         )
     record_every = max(1, int(periods.min() / (samples_per_period * dt)))
     stride = 1
-    if position_rate_hz:  # sampled: the output as the drive sees it, at its position samples
-        steps = max(1, int(round(1.0 / (position_rate_hz * dt))))
+    sampled_at = loop_sampling(runs, current_rate_hz, position_rate_hz)[0]["position_loop"]
+    if sampled_at:  # sampled: the output as the drive sees it, at its position samples
+        steps = max(1, int(round(1.0 / (sampled_at * dt))))
         record_every = max(k for k in range(1, min(record_every, steps) + 1) if steps % k == 0)
         stride = steps // record_every
     batch = simulate_batch(
