@@ -230,3 +230,26 @@ def _noise(p, params, omega, counts_per_rev, rates, linear, delay):
                if len(structure.loops) > 2 else "the output encoder (position loop)")
     return dataclasses.replace(found, note=(
         f"quantisation noise q^2/12, q = 2*pi/{counts_per_rev:g} rad, on {encoder}, {where}"))
+
+
+def text_lines(stiff, push, noise, fmt):
+    """The analyze text's block of these figures (``fmt(value, unit)`` formats a number)."""
+    if stiff is None:
+        return []
+    per = "m" if stiff.linear else "rad"
+    unit = "N/m" if stiff.linear else "N*m/rad"
+    lines = ["  what the flight-control system sees (every loop closed)"]
+    if stiff.minimum is None:
+        lines.append(f"    not reported: {stiff.note}")
+        return lines
+    lines += [
+        f"    dynamic stiffness  min {fmt(stiff.minimum, unit)} at "
+        f"{fmt(stiff.min_at_rad_s, 'rad/s')}",
+        f"    control effort     peak {fmt(push.peak, f'A/{per}')} at "
+        f"{fmt(push.peak_at_rad_s, 'rad/s')}",
+        "    encoder noise      " + (f"{fmt(noise.current_rms_A * 1e3, 'mA')} RMS"
+                                     if noise.current_rms_A is not None else "not reported"),
+    ]
+    notes = [stiff.note, push.note, noise.note]
+    lines += [f"    ({note})" for note in dict.fromkeys(notes) if note]
+    return lines
