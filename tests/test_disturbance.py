@@ -168,8 +168,8 @@ def test_noise_rms_equals_a_direct_integration(variant, band):
         return abs(_rigid_noise_reference(p, 1j * max(w, 1e-2))) ** 2
 
     edges = np.geomspace(1e-2, band, 60)
-    integral = power(1e-2) * 1e-2 + sum(
-        quad(power, a, b, limit=200, epsrel=1e-10)[0] for a, b in zip(edges[:-1], edges[1:], strict=True))
+    integral = power(1e-2) * 1e-2 + sum(quad(power, a, b, limit=200, epsrel=1e-10)[0]
+                                        for a, b in zip(edges[:-1], edges[1:], strict=True))
     q = 2.0 * math.pi / counts
     reference = q / math.sqrt(12.0) * math.sqrt(integral / band)
     # 400 points per decade by the trapezoid rule: ~1e-5 relative on these smooth curves
