@@ -325,7 +325,7 @@ _OTHER_FIGURES = (
      {"output": "length", "twin": "effort.peak_A_per_rad"}),
     ("effort.peak_at_rad_s", "analyze", "rad/s", "frequency of the peak effort", "rad/s", 1.0,
      "where |i/δ_cmd| is largest", _UNSTABLE_T),
-    ("noise.current_rms_A", "analyze", "A", "RMS current of encoder noise", "mA", 1e3,
+    ("noise.current_rms_A", "analyze", "A", "RMS current of encoder noise", "A", 1.0,
      "RMS motor current from the encoder's quantisation noise (q²/12) through the loops",
      f"no sensors.counts_per_rev, or {_UNSTABLE_T}"),
     # verdicts of the analysis (text)
