@@ -15,12 +15,14 @@ Tolerances: the two exact-delay computations agree to ~1e-12 (rounding); 1e-9 re
 catches any modelling slip (an efficiency, a sign, a sensor move them by far more).
 """
 
+import json
 import math
 
 import numpy as np
 import pytest
 import yaml
 from architecture_oracle import _diagram, _Equations, example_cascade, qt_cas_drive, replace
+from clirun import run_cli
 from scipy.integrate import quad
 
 import cas_freq as cf
@@ -239,3 +241,17 @@ def test_disturbance_figures_honour_the_grid_ends():
     one, two = noise(p, 1.0, 1e4, 1000.0), noise(p, 1.0, 1e4, 2000.0)
     assert one.quantum_rad == pytest.approx(2 * math.pi / 1000.0)
     assert one.current_rms_A == pytest.approx(2.0 * two.current_rms_A, rel=1e-12)
+
+
+def test_analyze_prints_and_refuses_on_the_command_line():
+    code, out, _ = run_cli(["analyze", QT, "--variant", "fitted",
+                            "--set", "sensors.counts_per_rev=2048"])
+    assert code == 0
+    assert "dynamic stiffness  min 18.5 N*m/rad at 55.9" in out
+    assert "encoder noise      8.7" in out or "encoder noise      8.8" in out
+    code, out, _ = run_cli(["analyze", QT, "--variant", "fitted", "--json"])
+    data = json.loads(out)
+    assert data["stiffness"]["min_N_m_per_rad"] == pytest.approx(18.496, abs=1e-3)
+    assert data["noise"]["current_rms_A"] is None
+    code, _, err = run_cli(["analyze", QT, "--set", "sensors.counts_per_rev=0.5"])
+    assert code == 2 and "sensors.counts_per_rev" in err and "0.5" in err
