@@ -72,7 +72,7 @@ LOOPS.update({f"{key}.loop_at_a_time": Loop(loop.name, loop.symbol,
 #: How each unit (pint spelling, as :attr:`Figure.unit`) is shown.
 UNIT_LABELS = {"rad/s": "rad/s", "deg": "deg", "dB": "dB", "percent": "%", "s": "s", "A": "A",
                "V": "V", "rad": "rad", "": "", "kg*m^2": "kg·m²", "N*m*s/rad": "N·m·s/rad",
-               "N*m/rad": "N·m/rad", "mm": "mm"}
+               "N*m/rad": "N·m/rad", "mm": "mm", "N/m": "N/m", "A/rad": "A/rad", "A/m": "A/m"}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -308,6 +308,38 @@ _OTHER_FIGURES = (
      {"requirement": False}),
     ("drivetrain.hinge_stiffness_n_m_rad", "analyze", "N*m/rad", "load spring K_h", "N·m/rad",
      1.0, "the config's load spring at the output", "", {"requirement": False}),
+    # what the flight-control system sees (docs/model.md §15), of the continuous loops
+    ("stiffness.min_N_m_per_rad", "analyze", "N*m/rad", "minimum dynamic stiffness",
+     "N·m/rad", 1.0, "min over frequency of 1/|δ/M_load(jω)|, every loop closed", _UNSTABLE_T,
+     {"output": "angle", "twin": "stiffness.min_N_per_m"}),
+    ("stiffness.min_N_per_m", "analyze", "N/m", "minimum dynamic stiffness", "N/m", 1.0,
+     "min over frequency of 1/|x/F_load(jω)| at a linear output, every loop closed",
+     _UNSTABLE_T, {"output": "length", "twin": "stiffness.min_N_m_per_rad"}),
+    ("stiffness.min_at_rad_s", "analyze", "rad/s", "frequency of the minimum stiffness",
+     "rad/s", 1.0, "where 1/|δ/M_load| is least", _UNSTABLE_T),
+    ("effort.peak_A_per_rad", "analyze", "A/rad", "peak control effort", "A/rad", 1.0,
+     "max over frequency of |i/δ_cmd(jω)| (no feed-forward)", _UNSTABLE_T,
+     {"output": "angle", "twin": "effort.peak_A_per_m"}),
+    ("effort.peak_A_per_m", "analyze", "A/m", "peak control effort", "A/m", 1.0,
+     "max over frequency of |i/x_cmd(jω)| at a linear output (no feed-forward)", _UNSTABLE_T,
+     {"output": "length", "twin": "effort.peak_A_per_rad"}),
+    ("effort.peak_at_rad_s", "analyze", "rad/s", "frequency of the peak effort", "rad/s", 1.0,
+     "where |i/δ_cmd| is largest", _UNSTABLE_T),
+    ("stiffness.min_at_range_edge", "analyze", "", "minimum stiffness at the range edge", "",
+     1.0, "whether the least 1/|δ/M_load| lies at an end of the analysed range", _UNSTABLE_T,
+     {"requirement": False}),
+    ("noise.counts_per_rev", "analyze", "", "encoder counts per revolution", "", 1.0,
+     "the config's sensors.counts_per_rev", "no sensors.counts_per_rev",
+     {"requirement": False}),
+    ("noise.quantum_rad", "analyze", "rad", "encoder quantum q", "rad", 1.0,
+     "2π/counts_per_rev, of the angle the position loop's encoder reads",
+     "no sensors.counts_per_rev", {"requirement": False}),
+    ("noise.band_rad_s", "analyze", "rad/s", "band of the white quantisation noise", "rad/s",
+     1.0, "the noise is white over 0..band: the position loop's Nyquist frequency, or the top "
+     "of the analysed range", "no sensors.counts_per_rev", {"requirement": False}),
+    ("noise.current_rms_A", "analyze", "A", "RMS current of encoder noise", "A", 1.0,
+     "RMS motor current from the encoder's quantisation noise (q²/12) through the loops",
+     f"no sensors.counts_per_rev, or {_UNSTABLE_T}"),
     # verdicts of the analysis (text)
     ("stable", "analyze", "", "stable", "", 1.0,
      "whether the closed loop is stable (poles of the Padé model)", "",

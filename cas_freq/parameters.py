@@ -214,13 +214,17 @@ PARAMETERS = _table(
      "sample rate of the velocity controller of a cascade (absent: continuous), 1..1e9 [Hz]"),
     ("sampling.position_loop", None, "Hz", 1.0, False, 1e9,
      "sample rate of the position controller (absent: continuous), 1..1e9 [Hz]"),
+    # the sensors (docs/model.md §15, "Disturbance and noise"): read by analyze's noise figure
+    ("sensors.counts_per_rev", None, "dimensionless", 1.0, False, 1e12,
+     "counts per revolution of the encoder the position loop reads (the motor's, or the "
+     "output's with position_loop.feedback: output), default none, 1..1e12 [dimensionless]"),
 )
 
 #: Keys a sweep or a Monte Carlo run can change per sample: every key that reaches the loop
 #: parameters (the sample rates are static, the same for a whole batch, not of a sample), and
 #: the numbers of the config's filters (``filters.0.frequency``, :func:`variable_keys`).
 VARIABLE_KEYS = tuple(key for key in PARAMETERS
-                      if not key.startswith(("simulation.", "sampling.")))
+                      if not key.startswith(("simulation.", "sampling.", "sensors.")))
 
 _CASCADE_HINT = ("with a velocity_loop the position controller's output is a velocity command: "
                  "{key} is in {unit} (e.g. {example})")

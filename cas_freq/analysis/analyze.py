@@ -26,6 +26,7 @@ from cas_freq.analysis.closed_loop import (
     closed_loop_figures,
     figures_of_run,
 )
+from cas_freq.analysis.disturbance import disturbance_figures
 from cas_freq.analysis.drivetrain import drivetrain, drivetrain_notes
 from cas_freq.analysis.frequency import (
     DEFAULT_POINTS_PER_DECADE,
@@ -436,6 +437,11 @@ class Analysis(Summary):
     continuous: dict | None = None
     #: With sampled controllers: {"method", "rates_hz": {loop: Hz}, "nyquist_rad_s": {...}}.
     sampling: dict | None = None
+    #: What the flight-control system sees (:mod:`cas_freq.analysis.disturbance`): the
+    #: dynamic stiffness, the control effort and the encoder noise's current.
+    stiffness: object = None
+    effort: object = None
+    noise: object = None
     #: The analysed variant (:class:`cas_freq.config.LoadedVariant`), which :meth:`plot`
     #: evaluates the loops of; not part of the JSON.
     loaded: object = dataclasses.field(default=None, compare=False)
@@ -608,6 +614,9 @@ def analyze(
         unit = output_unit(loaded.params)
         notes.extend(drivetrain_notes(load, loaded.params.output_label,
                                       (unit.spring, unit.spring_unit)))
+    stiff, push, noise = disturbance_figures(
+        params, omega, getattr(getattr(loaded.params, "sensors", None), "counts_per_rev", None),
+        output_unit(loaded.params).linear, stability.stable, delay)
     rows = pade_study(params, pade_orders, omega) if pade_orders > 0 else ()
     edges = _range_edges(figures, omega, stability.stable, sampled)
     for section, figure, at_edge in edges:
@@ -634,6 +643,9 @@ def analyze(
         drivetrain=load,
         continuous=continuous,
         sampling=sampling,
+        stiffness=stiff,
+        effort=push,
+        noise=noise,
         loaded=loaded,
     )
 
@@ -730,6 +742,12 @@ def to_dict(analysis):
     data = dataclasses.asdict(dataclasses.replace(analysis, loaded=None))
     del data["loaded"]
     edges = data.pop("range_edges")
+    for section in ("stiffness", "effort", "noise"):
+        part = getattr(analysis, section)
+        if part is None:
+            del data[section]
+        else:
+            data[section] = part.to_json()
     if data["drivetrain"] is None:
         del data["drivetrain"]
     if data["velocity_loop"] is None:

@@ -443,6 +443,17 @@ class Sampling(_Section):
         return sample_rates(self.rates)
 
 
+class Sensors(_Section):
+    """The sensors' resolution (docs/model.md §15, "Disturbance and noise").
+
+    ``counts_per_rev``: counts per revolution of the encoder the position loop reads (the
+    motor's, or the output's with ``position_loop.feedback: output``); its quantisation noise
+    gives analyze's ``noise.current_rms_A``. Absent: no noise figure.
+    """
+
+    counts_per_rev: param("sensors.counts_per_rev") | None = None
+
+
 class Simulation(_Section):
     """The older spelling of ``sampling:``, for the current and position loops.
 
@@ -592,6 +603,7 @@ class ActuatorConfig(_Section):
     position_loop: PositionLoop | CascadePositionLoop
     filters: tuple[FilterSpec, ...] = ()
     sampling: Sampling = Sampling()
+    sensors: Sensors = Sensors()
     simulation: Simulation = Simulation()
     requirements: tuple[Requirement, ...] = ()
     reference: Reference | None = None

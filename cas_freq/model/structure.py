@@ -45,7 +45,10 @@ and every figure is a ratio of these terms:
   with :math:`\varphi_k = (\rho_k + \Phi_k\, b^c_k)\, a^{path}_k e^{-s\tau_k}` (:math:`b^c_k` the
   controller's denominator, :math:`a^{path}_k` the filters' numerators);
 - the characteristic polynomial of the whole loop is :math:`E_{top}` with Padé delays, and
-  :math:`E_k` that of loops 0..k alone.
+  :math:`E_k` that of loops 0..k alone;
+- a load torque :math:`M` at the output (:attr:`Plant.load`, :attr:`Plant.coupling`) and a
+  noise on a measurement are further inputs over the same terms
+  (:mod:`cas_freq.model.disturbance`).
 
 A block is added by declaring it here (:func:`build`) with its equations: the evaluators need no
 change.
@@ -145,10 +148,20 @@ class Plant:
         :math:`\\Delta` [polynomial].
     signals : dict of str to tuple
         :data:`SIGNALS` name -> numerator polynomial.
+    load : dict of str to tuple
+        The same signals per load torque M at the output (a force at a linear output) over
+        :math:`\\Delta` [per N*m], the voltage held at 0.
+    coupling : dict of str to tuple
+        Per signal y the polynomial :math:`(n^M_{out} n^V_y - n^V_{out} n^M_y)/\\Delta`
+        (exact: the minors of the plant's two inputs), with :math:`n^V` the numerators per
+        voltage and :math:`n^M` per load torque, out = ``output_angle``
+        (docs/model.md, "Dynamic stiffness").
     """
 
     denominator: tuple
     signals: dict
+    load: dict = dataclasses.field(default_factory=dict)
+    coupling: dict = dataclasses.field(default_factory=dict)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -283,12 +296,50 @@ def plant(p):
     delta = polyadd(polymul(parts.electrical(p), d),
                     polymul((parts.back_emf_coupling(p), 0.0), n_theta))
     angle = tuple(p.Km * c for c in n_theta)
+    load, coupling = _load_terms(p, n_out)
     return Plant(delta, {
         "current": d,
         "motor_velocity": (*angle, 0.0),
         "motor_angle": angle,
         "output_angle": tuple(p.Km * c for c in n_out),
-    })
+    }, load, coupling)
+
+
+def _load_terms(p, g):
+    r"""The plant's signals per load torque M at the output over :math:`\Delta`, and their
+    couplings (:class:`Plant`), from the two-mass equations (docs/model.md, "Dynamic
+    stiffness"): with :math:`Q = e/N` (:math:`e = 1/\eta`, the load reflected as the model
+    reflects it), :math:`g` the gear's impedance over K_g (``n_out``), :math:`c = 1/K_g` and
+    :math:`P_m = J s^2 + \mu_v s`:
+
+    .. math::
+        \theta = Q Z_e g, \quad i = -K_e Q s g, \quad
+        N\delta = Q Z_e g + c N (Z_e P_m + K_e K_m s);
+        \qquad
+        \text{coupling: } \theta \to K_m c N, \ \omega \to K_m c N s, \
+        N\delta \to 0, \ i \to Q g + c N P_m
+    """
+    q = 1.0 / (p.eta * p.ratio)
+    c = parts.compliance(p) if len(g) > 1 else 0.0
+    cn = c * p.ratio
+    z_e = parts.electrical(p)
+    angle = tuple(q * x for x in polymul(z_e, g))
+    motor = polyadd(polymul(z_e, (p.J, p.mu_v, 0.0)), (parts.back_emf_coupling(p), 0.0))
+    output = polyadd(angle, tuple(cn * x for x in motor))
+    load = {
+        "current": tuple(-p.Ke * q * x for x in (*g, 0.0)),
+        "motor_velocity": (*angle, 0.0),
+        "motor_angle": angle,
+        "output_angle": output,
+    }
+    coupling_angle = (p.Km * cn,)
+    coupling = {
+        "current": polyadd(tuple(q * x for x in g), (cn * p.J, cn * p.mu_v, 0.0)),
+        "motor_velocity": (*coupling_angle, 0.0),
+        "motor_angle": coupling_angle,
+        "output_angle": (0.0,),
+    }
+    return load, coupling
 
 
 def build(p):

@@ -39,6 +39,8 @@ from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_sv
 )
 from cas_freq.plots.common import figure as _figure
 from cas_freq.plots.common import rounded as _r
+from cas_freq.plots.stiffness import CAPTION as STIFFNESS_CAPTION
+from cas_freq.plots.stiffness import stiffness as stiffness_figure
 from cas_freq.report.data import current_limit
 from cas_freq.simulation.second_order import second_order_step
 
@@ -729,6 +731,7 @@ VARIANT_FIGURES = {
         "contours (constant ∠T, deg)" + _dashed_words(data.curves))),
     "nyquist": (loci.nyquist, loci.nyquist_caption),
     "pole_zero": (loci.pole_zero, loci.pole_zero_caption),
+    "stiffness": (stiffness_figure, STIFFNESS_CAPTION),
     "steps": (steps, "Step responses, linear vs nonlinear, limits shaded"),
     "step_fit": (step_fit, "Second-order fit over the simulated step"),
     "bandwidth_vs_amplitude": (bandwidth_vs_amplitude, "Bandwidth versus amplitude"),
@@ -739,4 +742,4 @@ VARIANT_FIGURES = {
 #: no simulation, no verdicts and no python-control): they can be drawn from
 #: :func:`cas_freq.report.data.gather_frequency`'s data while the variant is simulated. (The
 #: pole-zero map takes T's zeros, which the time-domain part computes with python-control.)
-FREQUENCY_FIGURES = ("bode_loops", "sensitivity", "nichols", "nyquist")
+FREQUENCY_FIGURES = ("bode_loops", "sensitivity", "nichols", "nyquist", "stiffness")

@@ -433,6 +433,9 @@ def variant_blocks(data, figure_blocks, settings):
                crossings_table(a, data.curve_range_rad_s), closed_loop_table(a)]
     blocks += [figure_blocks[n] for n in ("bode_loops", "closed_loop", "sensitivity", "nichols",
                                           "nyquist", "pole_zero")]
+    from cas_freq.report.disturbance import disturbance_blocks
+
+    blocks += disturbance_blocks(data, figure_blocks.get("stiffness"))
     blocks += [Heading(3, f"Padé vs exact delays ({data.loaded.variant})"), pade_table(a)]
     blocks += [Heading(3, f"Step responses ({data.loaded.variant})"),
                Paragraph(small_signal_sentence(data)), step_table(data), figure_blocks["steps"],

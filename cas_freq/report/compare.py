@@ -381,6 +381,8 @@ def flat_figures(results):
     out = {}
     analysis = {k: v for k, v in results["analyze"].items() if k not in _NOT_FIGURES}
     _flatten("analyze", analysis, out)
+    for key in [key for key in out if key.endswith(".note")]:  # words, not figures (§15's)
+        del out[key]
     for run in results["simulate"]:
         a = size(run["step"])
         _flatten(f"step {a}", {k: v for k, v in run["step"].items() if k != amplitude},

@@ -163,6 +163,10 @@ def analysis_table(analysis):
         ]
     if analysis.drivetrain is not None:
         lines += _drivetrain_lines(analysis.drivetrain, analysis.loaded)
+    from cas_freq.analysis.disturbance import text_lines
+
+    lines += text_lines(getattr(analysis, "stiffness", None), getattr(analysis, "effort", None),
+                        getattr(analysis, "noise", None), _fmt)
     if analysis.pade_vs_exact:
         lines.append(
             "  Padé vs exact      PM_p [deg]  GM_p [dB]  PM_i [deg]  w_BW [rad/s]  max|dT|"

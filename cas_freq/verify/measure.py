@@ -18,11 +18,12 @@ def figure(result, metric):
     ``closed_loop.bandwidth_rad_s``) of a typed result (:class:`~cas_freq.analysis.Analysis`,
     :class:`~cas_freq.simulation.run.StepRun`): the same names, read as attributes. None where
     the figure does not exist. A linear output's quantity (``profile.tracking_error_max_mm``)
-    is its rotary twin's attribute in mm (:mod:`cas_freq.output`)."""
+    is its rotary twin's attribute in mm (:mod:`cas_freq.output`); one in its own unit
+    (``stiffness.min_N_per_m``) is read as it is."""
     from cas_freq.figures import FIGURES
 
     record = FIGURES.get(metric)
-    if record is not None and record.output == "length":
+    if record is not None and record.output == "length" and record.unit == "mm":
         from cas_freq.output import LENGTH
 
         value = figure(result, record.twin)

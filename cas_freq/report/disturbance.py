@@ -1,0 +1,34 @@
+"""The "What the flight-control system sees" part of a variant's report section: the dynamic
+stiffness, the control effort and the encoder noise's current (docs/model.md §15) as a small
+table, with the stiffness figure."""
+
+from cas_freq.report.numbers import number
+
+
+def disturbance_blocks(data, figure=None):
+    """The heading, the table and (when drawn) the stiffness figure of one variant."""
+    from cas_freq.report.document import Heading, Paragraph, Table
+
+    a = data.analysis
+    stiff, push, noise = a.stiffness, a.effort, a.noise
+    if stiff is None:
+        return []
+    per, unit = ("m", "N/m") if stiff.linear else ("rad", "N·m/rad")
+    blocks = [Heading(3, f"What the flight-control system sees ({data.loaded.variant})")]
+    if stiff.minimum is None:
+        blocks.append(Paragraph(f"Not reported: {stiff.note}."))
+        return blocks
+    rows = (
+        ("minimum dynamic stiffness 1/|δ/M_load|", unit, number(stiff.minimum, 4)),
+        ("  at", "rad/s", number(stiff.min_at_rad_s, 4)),
+        ("peak control effort |i/δ_cmd|", f"A/{per}", number(push.peak, 4)),
+        ("  at", "rad/s", number(push.peak_at_rad_s, 4)),
+        ("RMS current of encoder quantisation noise", "mA",
+         "—" if noise.current_rms_A is None else number(noise.current_rms_A * 1e3, 4)),
+    )
+    notes = [note for note in dict.fromkeys((stiff.note, push.note, noise.note)) if note]
+    blocks.append(Table(("figure", "unit", "value"), rows,
+                        f"every loop closed, {data.loaded.variant}: " + "; ".join(notes)))
+    if figure is not None:
+        blocks.append(figure)
+    return blocks
