@@ -1,0 +1,422 @@
+r"""Limit cycles predicted by describing functions, each checked by a nonlinear simulation
+(docs/model.md, "15. What the flight-control system sees", "Limit cycles").
+
+For each nonlinearity the config has (:mod:`cas_freq.analysis.describing`: the gear's backlash,
+Coulomb friction on the motor, the clamp of each controller's output) the harmonic balance
+1 + N(A) G(jω) = 0 is solved: all three describing functions are real and positive, so a cycle
+sits where G(jω) crosses the negative real axis (found on a log grid, refined by root finding
+on Im G), at the amplitude where N(A) = −1/G(jω). Its stability is Loeb's criterion on
+F(A, ω) = G(jω) + 1/N(A) = X + jY: the cycle is stable when
+∂X/∂A · ∂Y/∂ω − ∂X/∂ω · ∂Y/∂A > 0 (here ∂Y/∂A = 0).
+
+The describing function keeps only the first harmonic. Its low-pass hypothesis is checked at
+each cycle: the nonlinearity's output harmonics k = 2, 3 (from the waveform, relative to the
+first) passed back through |G(jkω)/G(jω)| estimate the harmonic at the nonlinearity's input
+relative to the first; above :data:`HARMONIC_LIMIT` the prediction is marked as outside the
+method's assumptions. So is a cycle whose nonlinearity is biased (a hinge moment preloads the
+play) or shares the loop with another nonlinearity the prediction leaves out.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+from scipy.optimize import brentq
+
+from cas_freq.analysis import describing
+from cas_freq.model.loops import Selector, responses
+
+#: Largest estimated harmonic at the nonlinearity's input, relative to the first, for which the
+#: describing function's low-pass hypothesis is taken to hold [-].
+HARMONIC_LIMIT = 0.1
+#: Frequencies searched for cycles [rad/s].
+SEARCH_RANGE_RAD_S = (0.01, 1e5)
+#: Grid points per decade of the search.
+POINTS_PER_DECADE = 400
+#: A simulated oscillation within this relative error of the prediction (amplitude and
+#: frequency) confirms it.
+CONFIRM_TOLERANCE = 0.25
+#: Periods of the predicted cycle simulated, and measured at the end.
+SIMULATED_PERIODS, MEASURED_PERIODS = 40, 10
+#: Longest simulation of a check [s] (the measured periods shrink to a quarter of it).
+MAX_SIMULATED_S = 3.0
+
+#: What each clamp limits, per loop: parameter field, signal, unit.
+CLAMPS = {
+    "current_loop": ("v_max", "voltage V", "V"),
+    "velocity_loop": ("i_max", "current command", "A"),
+    "position_loop": ("i_max", "current command", "A"),
+}
+CASCADE_POSITION_CLAMP = ("omega_max", "velocity command", "rad/s")
+
+
+@dataclasses.dataclass(frozen=True)
+class Simulated:
+    """The nonlinear simulation started near a predicted cycle.
+
+    Attributes
+    ----------
+    command_rad : float
+        The output step that started it [rad].
+    sustained : bool
+        Whether an oscillation lasted to the end (its amplitude over the last
+        ``MEASURED_PERIODS`` periods at least half that of the ten before).
+    amplitude : float or None
+        First-harmonic amplitude of the nonlinearity's input over the last periods.
+    frequency_rad_s : float or None
+        Its frequency from the zero crossings [rad/s].
+    output_amplitude_rad : float or None
+        First-harmonic amplitude of the output [rad].
+    verdict : str
+        ``confirmed`` (amplitude and frequency within ``CONFIRM_TOLERANCE``), ``refuted``
+        (no sustained oscillation, or one elsewhere: the numbers say where).
+    """
+
+    command_rad: float
+    sustained: bool
+    amplitude: float | None
+    frequency_rad_s: float | None
+    output_amplitude_rad: float | None
+    verdict: str
+
+
+@dataclasses.dataclass(frozen=True)
+class LimitCycle:
+    """One predicted limit cycle.
+
+    Attributes
+    ----------
+    nonlinearity : str
+        ``backlash``, ``coulomb_friction`` or ``saturation.<loop>``.
+    where : str
+        Where it sits, in words.
+    input_name, unit : str
+        The nonlinearity's input (whose amplitude is given) and its SI unit.
+    amplitude : float
+        Predicted amplitude of the input.
+    frequency_rad_s : float
+        Predicted frequency [rad/s].
+    stability : str
+        ``stable`` or ``unstable`` (Loeb).
+    describing_function : float
+        N(A) at the cycle [output per input].
+    loop_value : float
+        G(jω), real at the cycle [input per output].
+    output_amplitude_rad : float or None
+        The output's first harmonic [rad] (None where not derived).
+    harmonics : tuple of float
+        Estimated 2nd and 3rd harmonics at the input relative to the first [-].
+    assumptions_hold : bool
+        The low-pass hypothesis holds and nothing below breaks the method's assumptions.
+    notes : tuple of str
+        Why the assumptions do not hold, or other remarks.
+    simulated : Simulated or None
+        The check by simulation (None: not run).
+    """
+
+    nonlinearity: str
+    where: str
+    input_name: str
+    unit: str
+    amplitude: float
+    frequency_rad_s: float
+    stability: str
+    describing_function: float
+    loop_value: float
+    output_amplitude_rad: float | None
+    harmonics: tuple
+    assumptions_hold: bool
+    notes: tuple = ()
+    simulated: Simulated | None = None
+
+
+@dataclasses.dataclass(frozen=True)
+class LimitCycles:
+    """The limit cycles of one variant: ``cycles`` (possibly empty), ``checked`` (the
+    nonlinearities looked at), ``reason`` (why the list is empty, else None) and ``notes``."""
+
+    cycles: tuple
+    checked: tuple
+    reason: str | None
+    notes: tuple = ()
+
+    def to_dict(self):
+        """JSON-ready: the list of ``limit_cycles`` with the reason and what was checked."""
+        return {"cycles": [dataclasses.asdict(cycle) for cycle in self.cycles],
+                "checked": list(self.checked), "reason": self.reason,
+                "notes": list(self.notes)}
+
+
+# --- harmonic balance ------------------------------------------------------------------------
+
+def negative_real_crossings(function, low, high, points_per_decade=POINTS_PER_DECADE):
+    """Frequencies in [low, high] where ``function(omega)`` (complex, vectorised) crosses the
+    negative real axis, refined by Brent's method on its imaginary part [rad/s]."""
+    omega = np.geomspace(low, high, int(points_per_decade * math.log10(high / low)) + 1)
+    value = function(omega)
+    imag = value.imag
+    found = []
+    for k in np.nonzero(np.signbit(imag[:-1]) != np.signbit(imag[1:]))[0]:
+        if not (np.isfinite(value[k]) and np.isfinite(value[k + 1])):
+            continue
+        root = brentq(lambda w: float(function(np.array([w]))[0].imag), omega[k], omega[k + 1],
+                      xtol=1e-14 * omega[k], rtol=1e-12)
+        at = complex(function(np.array([root]))[0])
+        if at.real < 0 and abs(at.imag) <= 1e-6 * abs(at):
+            found.append((root, at.real))
+    return found
+
+
+def _slope_imag(function, omega):
+    """d Im G / d omega by a central difference."""
+    h = 1e-6 * omega
+    return float((function(np.array([omega + h]))[0] - function(np.array([omega - h]))[0]).imag
+                 / (2 * h))
+
+
+def loeb_stable(function, omega, inverse_n_slope):
+    """Loeb's criterion for F = G(jω) + 1/N(A): stable when d(1/N)/dA · dIm G/dω > 0."""
+    return inverse_n_slope * _slope_imag(function, omega) > 0
+
+
+def harmonics(nonlinearity, amplitude, function, omega):
+    """Estimated 2nd and 3rd harmonics at the nonlinearity's input relative to the first:
+    the output's harmonics of ``nonlinearity(A sin)`` (256 samples a period) times
+    |G(jkω)/G(jω)|."""
+    phase = 2 * np.pi * np.arange(256) / 256
+    spectrum = np.abs(np.fft.rfft(nonlinearity(amplitude * np.sin(phase))))
+    first = spectrum[1]
+    g = np.abs(function(np.array([omega, 2 * omega, 3 * omega])))
+    if first == 0:
+        return (0.0, 0.0)
+    return tuple(float(spectrum[k] / first * g[k - 1] / g[0]) for k in (2, 3))
+
+
+# --- the nonlinearities ----------------------------------------------------------------------
+
+def _one_run(params):
+    return Selector(params)()
+
+
+def _backlash_cycles(params, p, label):
+    half = 0.5 * float(params.backlash[0])
+
+    def g(omega):
+        return describing.twist_loop(p, 1j * omega)[0]
+
+    out = []
+    for omega, real in negative_real_crossings(g, *SEARCH_RANGE_RAD_S):
+        n = -1.0 / real
+        if not 0 < n < 1:
+            continue
+        amplitude = float(describing.dead_zone_amplitude(n, half))
+        delta_per_y = abs(describing.twist_loop(p, 1j * np.array([omega]))[1][0])
+        notes = []
+        if float(params.tau_h[0]) != 0:
+            notes.append(f"the hinge moment preloads the play (tau_h/K_g = "
+                         f"{abs(float(params.tau_h[0])) / float(params.K_g[0]):.3g} rad against "
+                         f"a half-play of {half:.3g} rad): the twist does not oscillate about "
+                         f"the play's centre, as the describing function assumes")
+        out.append(_cycle(
+            "backlash", f"the gear's play ({label})", "gear twist theta/N - delta", "rad",
+            amplitude, omega, n, real, delta_per_y * n * amplitude,
+            lambda x: x - np.clip(x, -half, half), g,
+            # 1/N falls as A grows (N rises from 0 to 1)
+            -1.0, notes))
+    return out
+
+
+def _friction_cycles(params, p):
+    level = float(params.F_c[0])
+
+    def g(omega):
+        return describing.speed_loop(p, 1j * omega)[0]
+
+    out = []
+    for omega, real in negative_real_crossings(g, *SEARCH_RANGE_RAD_S):
+        amplitude = -real * 4.0 * level / np.pi  # N(A) = 4 F_c/(pi A) = -1/G
+        delta_per_torque = abs(describing.speed_loop(p, 1j * np.array([omega]))[1][0])
+        out.append(_cycle(
+            "coulomb_friction", "Coulomb friction on the motor shaft", "motor speed omega",
+            "rad/s", amplitude, omega, -1.0 / real, real,
+            delta_per_torque * level * 4.0 / np.pi, lambda x: level * np.sign(x), g, 1.0, []))
+    return out
+
+
+def _saturation_cycles(params, p):
+    structure_names = _loop_names(params)
+    out = []
+    for name in structure_names:
+        field, signal, unit = CLAMPS[name]
+        if name == "position_loop" and params.cascade:
+            field, signal, unit = CASCADE_POSITION_CLAMP
+        limit = float(getattr(params, field)[0])
+        if not math.isfinite(limit):
+            continue
+
+        def g(omega, name=name):
+            return responses(p, 1j * omega, closed=False, loop_at_a_time=True
+                             ).loop_at_a_time[name]
+
+        for omega, real in negative_real_crossings(g, *SEARCH_RANGE_RAD_S):
+            n = -1.0 / real
+            if not 0 < n < 1:
+                continue
+            amplitude = float(describing.saturation_amplitude(n, limit))
+            out.append(_cycle(
+                f"saturation.{name}", f"the clamp ±{limit:.4g} {unit} of the {signal}",
+                f"{signal} before the clamp", unit, amplitude, omega, n, real, None,
+                lambda x, limit=limit: np.clip(x, -limit, limit), g, 1.0,
+                ["the clamp's anti-windup (the integrator holds while clamped) is not in the "
+                 "describing function"]))
+    return out
+
+
+def _loop_names(params):
+    return (("current_loop", "velocity_loop", "position_loop") if params.cascade
+            else ("current_loop", "position_loop"))
+
+
+def _cycle(key, where, input_name, unit, amplitude, omega, n, real, output_amplitude,
+           nonlinearity, g, inverse_n_slope, notes):
+    stable = loeb_stable(g, omega, inverse_n_slope)
+    ratios = harmonics(nonlinearity, amplitude, g, omega)
+    notes = list(notes)
+    if max(ratios) > HARMONIC_LIMIT:
+        notes.append(f"low-pass hypothesis fails: the harmonics at the input are estimated at "
+                     f"{ratios[0]:.2g} (2nd) and {ratios[1]:.2g} (3rd) of the first "
+                     f"(limit {HARMONIC_LIMIT:g})")
+    return LimitCycle(
+        nonlinearity=key, where=where, input_name=input_name, unit=unit,
+        amplitude=float(amplitude), frequency_rad_s=float(omega),
+        stability="stable" if stable else "unstable", describing_function=float(n),
+        loop_value=float(real),
+        output_amplitude_rad=None if output_amplitude is None else float(output_amplitude),
+        harmonics=ratios, assumptions_hold=not notes, notes=tuple(notes))
+
+
+def _other_nonlinearities(params, key):
+    """The notes for the nonlinearities in the loop besides ``key``."""
+    others = []
+    if key != "backlash" and float(params.backlash[0]) > 0:
+        others.append("backlash")
+    if key != "coulomb_friction" and float(params.F_c[0]) > 0:
+        others.append("Coulomb friction")
+    if float(params.eta_b[0]) != float(params.eta[0]):
+        others.append("a backdrive efficiency unlike the forward one")
+    return others
+
+
+def limit_cycles(params, simulate=False):
+    """The limit cycles of one variant (a batch of one).
+
+    Parameters
+    ----------
+    params : cas_freq.parameters.LoopParameters
+        One run.
+    simulate : bool
+        Check each cycle of the backlash and the friction by a nonlinear simulation.
+
+    Returns
+    -------
+    LimitCycles
+    """
+    p = _one_run(params)
+    notes = []
+    if params.sample_rates:
+        notes.append("of the continuous loops: the sampled controllers are not modelled here")
+        p.sample_rates = ()
+    checked, cycles = [], []
+    if float(params.backlash[0]) > 0 and float(params.K_g[0]) > 0:
+        checked.append("backlash")
+        label = ("inside the position loop: it measures the output" if params.feedback_output
+                 else "outside the position loop's measurement: it measures the motor")
+        cycles += _backlash_cycles(params, p, label)
+    if float(params.F_c[0]) > 0:
+        checked.append("coulomb_friction")
+        cycles += _friction_cycles(params, p)
+    checked += [f"saturation.{name}" for name in _loop_names(params)]
+    cycles += _saturation_cycles(params, p)
+    finished = []
+    for cycle in cycles:
+        others = _other_nonlinearities(params, cycle.nonlinearity)
+        if others and not cycle.nonlinearity.startswith("saturation"):
+            cycle = dataclasses.replace(
+                cycle, assumptions_hold=False, notes=cycle.notes + (
+                    "the loop has other nonlinearities the prediction leaves out: "
+                    + ", ".join(others),))
+        if simulate and not cycle.nonlinearity.startswith("saturation"):
+            cycle = judged(dataclasses.replace(cycle, simulated=simulate_cycle(params, cycle)))
+        finished.append(cycle)
+    reason = None
+    if not finished:
+        reason = ("no loop seen by " + ", ".join(checked) + " crosses the negative real axis "
+                  "where its describing function reaches (1 + N(A) G(jω) = 0 has no solution "
+                  f"over {SEARCH_RANGE_RAD_S[0]:g}..{SEARCH_RANGE_RAD_S[1]:g} rad/s)")
+    return LimitCycles(tuple(finished), tuple(checked), reason, tuple(notes))
+
+
+# --- the check by simulation -----------------------------------------------------------------
+
+def simulate_cycle(params, cycle):
+    """Start the nonlinear simulation near ``cycle`` (an output step of twice its predicted
+    output amplitude, at least a hundredth of a degree) and measure the oscillation it settles
+    into: the first harmonic of the nonlinearity's input and of the output over the last
+    :data:`MEASURED_PERIODS` periods, its frequency from the zero crossings."""
+    from cas_freq.simulation.commands import Step
+    from cas_freq.simulation.simulator import simulate_batch
+
+    period = 2 * np.pi / cycle.frequency_rad_s
+    step = max(2.0 * (cycle.output_amplitude_rad or 0.0), math.radians(0.01))
+    t_end = min(max(SIMULATED_PERIODS * period, 0.2), MAX_SIMULATED_S)
+    result = simulate_batch(params, Step(step), t_end=t_end, extend=False).run(0)
+    if cycle.nonlinearity == "backlash":
+        signal = result.theta / params.ratio[0] - result.delta
+    else:
+        signal = result.omega
+    return measure(result.t, signal, result.delta, period, step)
+
+
+def measure(t, signal, output, period, command_rad):
+    """The oscillation at the end of a run (see :func:`simulate_cycle`)."""
+    span = min(MEASURED_PERIODS * period, 0.25 * (t[-1] - t[0]))
+    last = t >= t[-1] - span
+    before = (t >= t[-1] - 2 * span) & ~last
+    x = signal[last] - signal[last].mean()
+    spread_last = np.ptp(signal[last])
+    spread_before = np.ptp(signal[before]) if before.any() else spread_last
+    crossings = np.nonzero((x[:-1] < 0) & (x[1:] >= 0))[0]
+    tl = t[last]
+    sustained = bool(len(crossings) >= 3 and spread_last >= 0.5 * spread_before
+                     and spread_last > 0)
+    if not sustained:
+        return Simulated(float(command_rad), False, None, None, None, "refuted")
+    # the crossing instants, interpolated
+    times = tl[crossings] - x[crossings] * (tl[crossings + 1] - tl[crossings]) / (
+        x[crossings + 1] - x[crossings])
+    omega = 2 * np.pi * (len(times) - 1) / (times[-1] - times[0])
+    window = (tl >= times[0]) & (tl <= times[-1])
+    amplitude = _first_harmonic(tl[window], signal[last][window], omega)
+    out_amplitude = _first_harmonic(tl[window], output[last][window], omega)
+    return Simulated(float(command_rad), True, amplitude, float(omega), out_amplitude,
+                     "pending")
+
+
+def _first_harmonic(t, x, omega):
+    """Amplitude of the first harmonic at ``omega`` over whole periods (least squares with an
+    offset)."""
+    basis = np.column_stack([np.sin(omega * t), np.cos(omega * t), np.ones_like(t)])
+    coefficients = np.linalg.lstsq(basis, x, rcond=None)[0]
+    return float(np.hypot(coefficients[0], coefficients[1]))
+
+
+def judged(cycle):
+    """``cycle`` with its simulation's verdict: confirmed when the simulated amplitude and
+    frequency are both within :data:`CONFIRM_TOLERANCE` of the prediction."""
+    sim = cycle.simulated
+    if sim is None or not sim.sustained:
+        return cycle
+    close = (abs(sim.amplitude / cycle.amplitude - 1) <= CONFIRM_TOLERANCE
+             and abs(sim.frequency_rad_s / cycle.frequency_rad_s - 1) <= CONFIRM_TOLERANCE)
+    return dataclasses.replace(cycle, simulated=dataclasses.replace(
+        sim, verdict="confirmed" if close else "refuted"))
