@@ -21,14 +21,16 @@ import dataclasses
 import math
 
 import numpy as np
-from scipy.optimize import brentq
 
 from cas_freq.analysis import describing
 from cas_freq.model.loops import Selector, responses
 
 #: Largest estimated harmonic at the nonlinearity's input, relative to the first, for which the
 #: describing function's low-pass hypothesis is taken to hold [-].
-HARMONIC_LIMIT = 0.1
+HARMONIC_LIMIT = 0.15
+#: A backlash cycle whose twist amplitude is below this multiple of the half-play barely
+#: engages the gear (its describing function is below ~1e-3): outside the assumptions.
+BARELY = 1.01
 #: Frequencies searched for cycles [rad/s].
 SEARCH_RANGE_RAD_S = (0.01, 1e5)
 #: Grid points per decade of the search.
@@ -151,20 +153,27 @@ class LimitCycles:
 
 def negative_real_crossings(function, low, high, points_per_decade=POINTS_PER_DECADE):
     """Frequencies in [low, high] where ``function(omega)`` (complex, vectorised) crosses the
-    negative real axis, refined by Brent's method on its imaginary part [rad/s]."""
+    negative real axis, with its (real) value there: ``[(omega [rad/s], value), ...]``.
+
+    The sign changes of its imaginary part on a log grid are bisected together (60 halvings:
+    2^-60 of a grid interval); a change through infinity (a pole) is not a crossing.
+    """
     omega = np.geomspace(low, high, int(points_per_decade * math.log10(high / low)) + 1)
     value = function(omega)
-    imag = value.imag
-    found = []
-    for k in np.nonzero(np.signbit(imag[:-1]) != np.signbit(imag[1:]))[0]:
-        if not (np.isfinite(value[k]) and np.isfinite(value[k + 1])):
-            continue
-        root = brentq(lambda w: float(function(np.array([w]))[0].imag), omega[k], omega[k + 1],
-                      xtol=1e-14 * omega[k], rtol=1e-12)
-        at = complex(function(np.array([root]))[0])
-        if at.real < 0 and abs(at.imag) <= 1e-6 * abs(at):
-            found.append((root, at.real))
-    return found
+    k = np.nonzero((np.signbit(value.imag[:-1]) != np.signbit(value.imag[1:]))
+                   & np.isfinite(value[:-1]) & np.isfinite(value[1:]))[0]
+    if not len(k):
+        return []
+    left, right = omega[k], omega[k + 1]
+    left_sign = np.signbit(value.imag[k])
+    for _ in range(60):
+        mid = 0.5 * (left + right)
+        same = np.signbit(function(mid).imag) == left_sign
+        left, right = np.where(same, mid, left), np.where(same, right, mid)
+    root = 0.5 * (left + right)
+    at = function(root)
+    keep = (at.real < 0) & (np.abs(at.imag) <= 1e-6 * np.abs(at))
+    return [(float(w), float(g.real)) for w, g in zip(root[keep], at[keep], strict=True)]
 
 
 def _slope_imag(function, omega):
@@ -212,6 +221,11 @@ def _backlash_cycles(params, p, label):
         amplitude = float(describing.dead_zone_amplitude(n, half))
         delta_per_y = abs(describing.twist_loop(p, 1j * np.array([omega]))[1][0])
         notes = []
+        if amplitude < BARELY * half:
+            notes.append(f"the cycle barely engages the gear (the twist passes the half-play by "
+                         f"{100 * (amplitude / half - 1):.2g} %): the output floats in the play "
+                         f"and what the describing function leaves out (friction, the first "
+                         f"contact's damping) decides whether it exists")
         if float(params.tau_h[0]) != 0:
             notes.append(f"the hinge moment preloads the play (tau_h/K_g = "
                          f"{abs(float(params.tau_h[0])) / float(params.K_g[0]):.3g} rad against "
@@ -420,3 +434,73 @@ def judged(cycle):
              and abs(sim.frequency_rad_s / cycle.frequency_rad_s - 1) <= CONFIRM_TOLERANCE)
     return dataclasses.replace(cycle, simulated=dataclasses.replace(
         sim, verdict="confirmed" if close else "refuted"))
+
+
+# --- output ----------------------------------------------------------------------------------
+
+def to_json(result):
+    """The ``limit_cycles`` list of ``analyze``'s JSON (output amplitudes in degrees, as
+    ``*_deg`` keys that a linear output turns into mm) and its companions: ``{"limit_cycles":
+    [...], "limit_cycles_reason": ..., "limit_cycles_checked": [...], "limit_cycles_notes":
+    [...]}``."""
+    cycles = []
+    for cycle in result.cycles:
+        sim = cycle.simulated
+        cycles.append({
+            "nonlinearity": cycle.nonlinearity, "where": cycle.where,
+            "input": cycle.input_name, "unit": cycle.unit, "amplitude": cycle.amplitude,
+            "frequency_rad_s": cycle.frequency_rad_s, "stability": cycle.stability,
+            "describing_function": cycle.describing_function, "loop_value": cycle.loop_value,
+            "output_amplitude_deg": _degrees(cycle.output_amplitude_rad),
+            "harmonics": {"second": cycle.harmonics[0], "third": cycle.harmonics[1]},
+            "assumptions_hold": cycle.assumptions_hold, "notes": list(cycle.notes),
+            "simulated": None if sim is None else {
+                "command_step_deg": _degrees(sim.command_rad), "sustained": sim.sustained,
+                "amplitude": sim.amplitude, "frequency_rad_s": sim.frequency_rad_s,
+                "output_amplitude_deg": _degrees(sim.output_amplitude_rad),
+                "verdict": sim.verdict},
+        })
+    return {"limit_cycles": cycles, "limit_cycles_reason": result.reason,
+            "limit_cycles_checked": list(result.checked),
+            "limit_cycles_notes": list(result.notes)}
+
+
+def _degrees(value):
+    return None if value is None else math.degrees(value)
+
+
+def text_lines(result, unit=None):
+    """The ``analyze`` table's lines for ``result`` (``unit``: the output's
+    :class:`cas_freq.output.OutputUnit`, default degrees)."""
+    lines = ["  limit cycles (describing functions: " + ", ".join(result.checked) + ")"]
+    if not result.cycles:
+        lines.append(f"    none: {result.reason}")
+    for cycle in result.cycles:
+        output = ""
+        if cycle.output_amplitude_rad is not None:
+            output = f", output ±{_shown(cycle.output_amplitude_rad, unit)}"
+        lines.append(
+            f"    {cycle.nonlinearity}: {cycle.stability} cycle at "
+            f"{cycle.frequency_rad_s:.4g} rad/s, {cycle.input_name} ±{cycle.amplitude:.4g} "
+            f"{cycle.unit}{output} (N = {cycle.describing_function:.3g}; harmonics "
+            f"{cycle.harmonics[1]:.2g}; assumptions {'hold' if cycle.assumptions_hold else 'do not hold'})")
+        sim = cycle.simulated
+        if sim is not None:
+            if sim.sustained:
+                lines.append(
+                    f"      simulated ({_shown(sim.command_rad, unit)} step): "
+                    f"{sim.frequency_rad_s:.4g} rad/s, ±{sim.amplitude:.4g} {cycle.unit}, "
+                    f"output ±{_shown(sim.output_amplitude_rad, unit)}: {sim.verdict.upper()}")
+            else:
+                lines.append(f"      simulated ({_shown(sim.command_rad, unit)} step): no "
+                             f"sustained oscillation: {sim.verdict.upper()}")
+        lines += [f"      - {note}" for note in cycle.notes]
+    lines += [f"    ({note})" for note in result.notes]
+    return lines
+
+
+def _shown(value_si, unit):
+    """An output quantity [rad or m] as text in the output's unit (deg or mm)."""
+    if unit is None:
+        return f"{math.degrees(value_si):.4g} deg"
+    return f"{float(unit.from_si(value_si)):.4g} {unit.shown}"
