@@ -190,3 +190,19 @@ def speed_loop(p, s):
         return s * theta, follows * theta
     theta = 1.0 / (q_theta + load / (p.eta * n * n) + c_ey)
     return s * theta, theta / n
+
+
+def clamp_to_output(p, s, loop_at_a_time):
+    r"""The output per unit of the outermost controller's (clamped) output, every loop closed
+    but that one: :math:`\delta/u = (L_{top}/C_{top}) (N\delta/y_p)/N`, with L_top the loop
+    broken at that controller's output (``loop_at_a_time``, evaluated at ``s``), C_top the
+    controller and y_p what it measures (N δ, or θ with N δ/θ = n_out/n_θ of the compliant
+    gear) [rad per unit of the clamped signal]."""
+    loop = build(p).loops[-1]
+    controller = (parts.polyval(loop.controller.numerator, s)
+                  / parts.polyval(loop.controller.denominator, s))
+    seen = 1.0
+    if loop.feedback == "motor_angle" and p.K_g > 0:
+        _, n_theta, n_out = parts.mechanics(p)
+        seen = parts.polyval(n_out, s) / parts.polyval(n_theta, s)
+    return loop_at_a_time / controller * seen / p.ratio

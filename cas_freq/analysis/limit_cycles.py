@@ -23,6 +23,7 @@ import math
 import numpy as np
 
 from cas_freq.analysis import describing
+from cas_freq.exceptions import CasFreqError
 from cas_freq.model.loops import Selector, responses
 
 #: Largest estimated harmonic at the nonlinearity's input, relative to the first, for which the
@@ -72,6 +73,11 @@ class Simulated:
     verdict : str
         ``confirmed`` (amplitude and frequency within ``CONFIRM_TOLERANCE``), ``refuted``
         (no sustained oscillation, or one elsewhere: the numbers say where).
+    method : str
+        ``settles`` (a stable cycle: one run, measured at its end) or ``threshold`` (an
+        unstable cycle: runs of growing steps; the cycle is the amplitude between the runs
+        whose oscillation dies out and those whose oscillation grows, ``sustained`` then
+        meaning such a threshold was found, ``command_rad`` the smallest step that grew).
     """
 
     command_rad: float
@@ -80,6 +86,7 @@ class Simulated:
     frequency_rad_s: float | None
     output_amplitude_rad: float | None
     verdict: str
+    method: str = "settles"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -258,9 +265,9 @@ def _friction_cycles(params, p):
 
 
 def _saturation_cycles(params, p):
-    structure_names = _loop_names(params)
+    names = _loop_names(params)
     out = []
-    for name in structure_names:
+    for name in names:
         field, signal, unit = CLAMPS[name]
         if name == "position_loop" and params.cascade:
             field, signal, unit = CASCADE_POSITION_CLAMP
@@ -277,12 +284,19 @@ def _saturation_cycles(params, p):
             if not 0 < n < 1:
                 continue
             amplitude = float(describing.saturation_amplitude(n, limit))
+            output = None
+            notes = ["the clamp's anti-windup (the integrator holds while clamped) is not in "
+                     "the describing function"]
+            if name == names[-1]:
+                s = np.array([1j * omega])
+                output = n * amplitude * abs(describing.clamp_to_output(p, s, g(s.imag))[0])
+            else:
+                notes.append("an inner loop's clamp: the outer loops' clamps act first on a "
+                             "cycle this large; not checked by simulation")
             out.append(_cycle(
                 f"saturation.{name}", f"the clamp ±{limit:.4g} {unit} of the {signal}",
-                f"{signal} before the clamp", unit, amplitude, omega, n, real, None,
-                lambda x, limit=limit: np.clip(x, -limit, limit), g, 1.0,
-                ["the clamp's anti-windup (the integrator holds while clamped) is not in the "
-                 "describing function"]))
+                f"{signal} before the clamp", unit, amplitude, omega, n, real, output,
+                lambda x, limit=limit: np.clip(x, -limit, limit), g, 1.0, notes))
     return out
 
 
@@ -359,8 +373,13 @@ def limit_cycles(params, simulate=False):
                 cycle, assumptions_hold=False, notes=cycle.notes + (
                     "the loop has other nonlinearities the prediction leaves out: "
                     + ", ".join(others),))
-        if simulate and not cycle.nonlinearity.startswith("saturation"):
-            cycle = judged(dataclasses.replace(cycle, simulated=simulate_cycle(params, cycle)))
+        if simulate and cycle.output_amplitude_rad is not None:
+            try:
+                cycle = judged(dataclasses.replace(cycle,
+                                                   simulated=simulate_cycle(params, cycle)))
+            except CasFreqError as error:  # a cycle beyond the simulation's budget
+                cycle = dataclasses.replace(cycle, notes=cycle.notes + (
+                    f"not checked by simulation: {error}",))
         finished.append(cycle)
     reason = None
     if not finished:
@@ -373,22 +392,109 @@ def limit_cycles(params, simulate=False):
 # --- the check by simulation -----------------------------------------------------------------
 
 def simulate_cycle(params, cycle):
-    """Start the nonlinear simulation near ``cycle`` (an output step of twice its predicted
-    output amplitude, at least a hundredth of a degree) and measure the oscillation it settles
-    into: the first harmonic of the nonlinearity's input and of the output over the last
-    :data:`MEASURED_PERIODS` periods, its frequency from the zero crossings."""
+    """Start the nonlinear simulation near ``cycle`` and measure it. A stable cycle: an output
+    step of twice its predicted output amplitude (at least a hundredth of a degree), and the
+    oscillation it settles into: the first harmonic of the nonlinearity's input and of the
+    output over the last :data:`MEASURED_PERIODS` periods, its frequency from the zero
+    crossings. An unstable cycle: :func:`simulate_threshold`."""
+    from cas_freq.simulation.commands import Step
+    from cas_freq.simulation.simulator import simulate_batch
+
+    def signal_of(result, k):
+        if cycle.nonlinearity == "backlash":
+            return result.theta[k] / params.ratio[0] - result.delta[k]
+        if cycle.nonlinearity == "coulomb_friction":
+            return result.omega[k]
+        return result.delta[k]  # a clamp's input is not recorded: its output is measured
+
+    if cycle.stability == "unstable":
+        return simulate_threshold(params, cycle, signal_of)
+    period = 2 * np.pi / cycle.frequency_rad_s
+    step = max(2.0 * (cycle.output_amplitude_rad or 0.0), math.radians(0.01))
+    t_end = min(max(SIMULATED_PERIODS * period, 0.2), MAX_SIMULATED_S)
+    result = simulate_batch(params, Step(step), t_end=t_end, extend=False,
+                            record_every=_record_every(period))
+    found = measure(result.t, signal_of(result, 0), result.delta[0], period, step)
+    if cycle.nonlinearity.startswith("saturation"):  # the output was measured
+        found = dataclasses.replace(found, amplitude=None)
+    return found
+
+
+#: The output steps of a threshold check, relative to twice the predicted output amplitude.
+THRESHOLD_STEPS = 2.0 ** (np.arange(-6, 7) / 3.0)
+#: Periods of a threshold check; a run whose oscillation over the last periods is more than
+#: twice that of its first period grows.
+THRESHOLD_PERIODS = 30
+
+
+def simulate_threshold(params, cycle, signal_of):
+    """Check an unstable cycle: steps of the output over :data:`THRESHOLD_STEPS` (in one
+    batch), each run's oscillation of the nonlinearity's input over its first period (its
+    first harmonic at the predicted frequency) and whether it grows. The simulated cycle is
+    the geometric mean of the first-period amplitudes of the largest run that does not grow
+    and the smallest that does (every larger one growing too); its frequency is that of the
+    growing run's zero crossings while its amplitude stays below three times that."""
     from cas_freq.simulation.commands import Step
     from cas_freq.simulation.simulator import simulate_batch
 
     period = 2 * np.pi / cycle.frequency_rad_s
-    step = max(2.0 * (cycle.output_amplitude_rad or 0.0), math.radians(0.01))
-    t_end = min(max(SIMULATED_PERIODS * period, 0.2), MAX_SIMULATED_S)
-    result = simulate_batch(params, Step(step), t_end=t_end, extend=False).run(0)
-    if cycle.nonlinearity == "backlash":
-        signal = result.theta / params.ratio[0] - result.delta
-    else:
-        signal = result.omega
-    return measure(result.t, signal, result.delta, period, step)
+    steps = max(2.0 * cycle.output_amplitude_rad, math.radians(0.01)) * THRESHOLD_STEPS
+    runs = params.take(np.zeros(len(steps), dtype=int))
+    result = simulate_batch(runs, Step(steps), t_end=THRESHOLD_PERIODS * period, extend=False,
+                            record_every=_record_every(period))
+    first, grows = [], []
+    for k in range(len(steps)):
+        x = signal_of(result, k)
+        early = result.t < period
+        late = result.t >= result.t[-1] - 3 * period
+        a0 = _first_harmonic(result.t[early], x[early], cycle.frequency_rad_s)
+        finite = bool(np.all(np.isfinite(x)))
+        first.append(a0)
+        grows.append(not finite or np.ptp(x[late]) > 4.0 * a0)
+    grows = np.array(grows)
+    # the smallest step from which every larger one grows
+    start = next((k for k in range(len(steps)) if grows[k:].all()), None)
+    if start is None or start == 0:
+        return Simulated(float(steps[0] if start == 0 else steps[-1]), False, None, None, None,
+                         "refuted", "threshold")
+    amplitude = math.sqrt(first[start - 1] * first[start])
+    x = signal_of(result, start)
+    periods = 1
+    while periods < 8 and _first_harmonic(
+            *_period(result.t, x, periods, period), cycle.frequency_rad_s) < 3.0 * amplitude:
+        periods += 1
+    window = result.t <= periods * period
+    omega = _crossing_frequency(result.t[window], x[window])
+    if cycle.nonlinearity.startswith("saturation"):  # the output was measured
+        return Simulated(float(steps[start]), True, None, omega, float(amplitude), "pending",
+                         "threshold")
+    out = result.delta[start]
+    output = _first_harmonic(result.t[result.t < period], out[result.t < period],
+                             cycle.frequency_rad_s)
+    return Simulated(float(steps[start]), True, float(amplitude), omega, output, "pending",
+                     "threshold")
+
+
+def _period(t, x, index, period):
+    """The samples of period ``index`` (from 0) of a run."""
+    inside = (t >= index * period) & (t < (index + 1) * period)
+    return t[inside], x[inside]
+
+
+def _record_every(period):
+    """Keep about 400 samples a period at the default step (5 us; at most 20 us)."""
+    return max(1, int(period / 5e-6 / 400))
+
+
+def _crossing_frequency(t, x):
+    """Frequency of the upward zero crossings of ``x`` less its mean [rad/s] (None for fewer
+    than three)."""
+    x = x - x.mean()
+    k = np.nonzero((x[:-1] < 0) & (x[1:] >= 0))[0]
+    if len(k) < 3:
+        return None
+    times = t[k] - x[k] * (t[k + 1] - t[k]) / (x[k + 1] - x[k])
+    return float(2 * np.pi * (len(times) - 1) / (times[-1] - times[0]))
 
 
 def measure(t, signal, output, period, command_rad):
@@ -430,7 +536,10 @@ def judged(cycle):
     sim = cycle.simulated
     if sim is None or not sim.sustained:
         return cycle
-    close = (abs(sim.amplitude / cycle.amplitude - 1) <= CONFIRM_TOLERANCE
+    measured, predicted = sim.amplitude, cycle.amplitude
+    if measured is None:  # a clamp's input is not recorded: its output was measured
+        measured, predicted = sim.output_amplitude_rad, cycle.output_amplitude_rad
+    close = sim.frequency_rad_s is not None and (abs(measured / predicted - 1) <= CONFIRM_TOLERANCE
              and abs(sim.frequency_rad_s / cycle.frequency_rad_s - 1) <= CONFIRM_TOLERANCE)
     return dataclasses.replace(cycle, simulated=dataclasses.replace(
         sim, verdict="confirmed" if close else "refuted"))
@@ -458,7 +567,7 @@ def to_json(result):
                 "command_step_deg": _degrees(sim.command_rad), "sustained": sim.sustained,
                 "amplitude": sim.amplitude, "frequency_rad_s": sim.frequency_rad_s,
                 "output_amplitude_deg": _degrees(sim.output_amplitude_rad),
-                "verdict": sim.verdict},
+                "verdict": sim.verdict, "method": sim.method},
         })
     return {"limit_cycles": cycles, "limit_cycles_reason": result.reason,
             "limit_cycles_checked": list(result.checked),
@@ -485,11 +594,21 @@ def text_lines(result, unit=None):
             f"{cycle.unit}{output} (N = {cycle.describing_function:.3g}; harmonics "
             f"{cycle.harmonics[1]:.2g}; assumptions {'hold' if cycle.assumptions_hold else 'do not hold'})")
         sim = cycle.simulated
-        if sim is not None:
+        if sim is not None and sim.method == "threshold":
+            if sim.sustained:
+                lines.append(
+                    f"      simulated (output steps, the smallest that grew "
+                    f"{_shown(sim.command_rad, unit)}): oscillations below "
+                    f"{_measured(sim, cycle, unit)} die out, larger ones grow, at "
+                    f"{_rate(sim.frequency_rad_s)}: {sim.verdict.upper()}")
+            else:
+                lines.append("      simulated (output steps): no amplitude divides runs that "
+                             f"die out from runs that grow: {sim.verdict.upper()}")
+        elif sim is not None:
             if sim.sustained:
                 lines.append(
                     f"      simulated ({_shown(sim.command_rad, unit)} step): "
-                    f"{sim.frequency_rad_s:.4g} rad/s, ±{sim.amplitude:.4g} {cycle.unit}, "
+                    f"{_rate(sim.frequency_rad_s)}, {_measured(sim, cycle, unit)}, "
                     f"output ±{_shown(sim.output_amplitude_rad, unit)}: {sim.verdict.upper()}")
             else:
                 lines.append(f"      simulated ({_shown(sim.command_rad, unit)} step): no "
@@ -497,6 +616,17 @@ def text_lines(result, unit=None):
         lines += [f"      - {note}" for note in cycle.notes]
     lines += [f"    ({note})" for note in result.notes]
     return lines
+
+
+def _measured(sim, cycle, unit):
+    """The simulated amplitude: of the nonlinearity's input, else of the output."""
+    if sim.amplitude is None:
+        return f"output ±{_shown(sim.output_amplitude_rad, unit)}"
+    return f"±{sim.amplitude:.4g} {cycle.unit}"
+
+
+def _rate(omega):
+    return "an unmeasured frequency" if omega is None else f"{omega:.4g} rad/s"
 
 
 def _shown(value_si, unit):
