@@ -199,7 +199,7 @@ def harmonics(nonlinearity, amplitude, function, omega):
     """Estimated 2nd and 3rd harmonics at the nonlinearity's input relative to the first:
     the output's harmonics of ``nonlinearity(A sin)`` (256 samples a period) times
     |G(jkω)/G(jω)|."""
-    phase = 2 * np.pi * np.arange(256) / 256
+    phase = 2 * np.pi * (np.arange(256) + 0.5) / 256  # no sample on a zero of the sine
     spectrum = np.abs(np.fft.rfft(nonlinearity(amplitude * np.sin(phase))))
     first = spectrum[1]
     g = np.abs(function(np.array([omega, 2 * omega, 3 * omega])))
