@@ -235,3 +235,13 @@ def test_cli_text_and_json():
     # sampled controllers: the figure is of the continuous loops, and says so
     sampled = json.loads(_stdout(["analyze", "--variant", "sampled", "--json"]))
     assert any("continuous loops" in note for note in sampled["limit_cycles_notes"])
+
+
+def test_report_sentence():
+    from cas_freq.analysis.limit_cycles import report_sentence
+
+    none = report_sentence(limit_cycles(_params("loaded", [])))
+    assert none.startswith("Limit cycles (describing functions of coulomb_friction")
+    assert "none: no loop seen by" in none
+    some = report_sentence(limit_cycles(_params("base", [])))
+    assert "saturation.position_loop unstable at 40.04 rad/s, output ±804.5 deg" in some

@@ -634,3 +634,24 @@ def _shown(value_si, unit):
     if unit is None:
         return f"{math.degrees(value_si):.4g} deg"
     return f"{float(unit.from_si(value_si)):.4g} {unit.shown}"
+
+
+def report_sentence(result, unit=None):
+    """One sentence for a variant's report section: each predicted cycle in brief (the
+    simulation's verdict where it ran), or none and why."""
+    head = f"Limit cycles (describing functions of {', '.join(result.checked)}"
+    head += "; the continuous loops): " if result.notes else "): "
+    if not result.cycles:
+        return head + f"none: {result.reason}."
+    parts = []
+    for cycle in result.cycles:
+        text = f"{cycle.nonlinearity} {cycle.stability} at {cycle.frequency_rad_s:.4g} rad/s"
+        if cycle.output_amplitude_rad is not None:
+            text += f", output ±{_shown(cycle.output_amplitude_rad, unit)}"
+        text += (", assumptions hold" if cycle.assumptions_hold
+                 else ", outside the method's assumptions")
+        if cycle.simulated is not None:
+            text += f", {cycle.simulated.verdict} by simulation"
+        parts.append(text)
+    return (head + "; ".join(parts) + " (`cas-freq analyze --limit-cycles` checks them by "
+            "simulation and says why an assumption fails).")
