@@ -245,3 +245,19 @@ def test_report_sentence():
     assert "none: no loop seen by" in none
     some = report_sentence(limit_cycles(_params("base", [])))
     assert "saturation.position_loop unstable at 40.04 rad/s, output ±804.5 deg" in some
+
+
+def test_linear_output_backlash_in_metres():
+    # ball_screw with a compliant screw, play and the loop closed on the rod (figures of
+    # 2026-11-26: a stable cycle at 817.5 rad/s, twist ±1.43e-5 m, output ±0.0165 mm;
+    # simulated 735.4 rad/s, ±1.27e-5 m, ±0.0151 mm: confirmed)
+    sets = ["gear.backlash=0.02 mm", "gear.stiffness=2e7 N/m", "load.mass=5 kg",
+            "position_loop.feedback=output"]
+    data = json.loads(_stdout(["analyze", "configs/ball_screw.yaml", "--json",
+                               *(x for item in sets for x in ("--set", item))]))
+    backlash = [c for c in data["limit_cycles"] if c["nonlinearity"] == "backlash"]
+    assert {c["unit"] for c in backlash} == {"m"}
+    held = [c for c in backlash if c["assumptions_hold"]]
+    assert len(held) == 1 and held[0]["frequency_rad_s"] == pytest.approx(817.5, rel=0.01)
+    assert held[0]["output_amplitude_mm"] == pytest.approx(0.0165, rel=0.02)
+    assert "output_amplitude_deg" not in held[0]

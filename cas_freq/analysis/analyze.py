@@ -643,7 +643,8 @@ def analyze(
         drivetrain=load,
         continuous=continuous,
         sampling=sampling,
-        limit_cycles=limit_cycles(params, simulate=limit_cycle_check),
+        limit_cycles=limit_cycles(params, simulate=limit_cycle_check,
+                                  linear=bool(getattr(loaded.params, "linear", False))),
         loaded=loaded,
     )
 

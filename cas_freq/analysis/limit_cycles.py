@@ -214,7 +214,7 @@ def _one_run(params):
     return Selector(params)()
 
 
-def _backlash_cycles(params, p, label):
+def _backlash_cycles(params, p, label, unit):
     half = 0.5 * float(params.backlash[0])
 
     def g(omega):
@@ -235,11 +235,11 @@ def _backlash_cycles(params, p, label):
                          f"contact's damping) decides whether it exists")
         if float(params.tau_h[0]) != 0:
             notes.append(f"the hinge moment preloads the play (tau_h/K_g = "
-                         f"{abs(float(params.tau_h[0])) / float(params.K_g[0]):.3g} rad against "
-                         f"a half-play of {half:.3g} rad): the twist does not oscillate about "
+                         f"{abs(float(params.tau_h[0])) / float(params.K_g[0]):.3g} {unit} against "
+                         f"a half-play of {half:.3g} {unit}): the twist does not oscillate about "
                          f"the play's centre, as the describing function assumes")
         out.append(_cycle(
-            "backlash", f"the gear's play ({label})", "gear twist theta/N - delta", "rad",
+            "backlash", f"the gear's play ({label})", "gear twist theta/N - delta", unit,
             amplitude, omega, n, real, delta_per_y * n * amplitude,
             lambda x: x - np.clip(x, -half, half), g,
             # 1/N falls as A grows (N rises from 0 to 1)
@@ -335,7 +335,7 @@ def _other_nonlinearities(params, key):
     return others
 
 
-def limit_cycles(params, simulate=False):
+def limit_cycles(params, simulate=False, linear=False):
     """The limit cycles of one variant (a batch of one).
 
     Parameters
@@ -343,7 +343,9 @@ def limit_cycles(params, simulate=False):
     params : cas_freq.parameters.LoopParameters
         One run.
     simulate : bool
-        Check each cycle of the backlash and the friction by a nonlinear simulation.
+        Check each cycle with an output amplitude by a nonlinear simulation.
+    linear : bool
+        The output is linear (the gear's twist in m, not rad).
 
     Returns
     -------
@@ -359,7 +361,7 @@ def limit_cycles(params, simulate=False):
         checked.append("backlash")
         label = ("inside the position loop: it measures the output" if params.feedback_output
                  else "outside the position loop's measurement: it measures the motor")
-        cycles += _backlash_cycles(params, p, label)
+        cycles += _backlash_cycles(params, p, label, "m" if linear else "rad")
     if float(params.F_c[0]) > 0:
         checked.append("coulomb_friction")
         cycles += _friction_cycles(params, p)
@@ -393,7 +395,7 @@ def limit_cycles(params, simulate=False):
 
 def simulate_cycle(params, cycle):
     """Start the nonlinear simulation near ``cycle`` and measure it. A stable cycle: an output
-    step of twice its predicted output amplitude (at least a hundredth of a degree), and the
+    step of twice its predicted output amplitude, and the
     oscillation it settles into: the first harmonic of the nonlinearity's input and of the
     output over the last :data:`MEASURED_PERIODS` periods, its frequency from the zero
     crossings. An unstable cycle: :func:`simulate_threshold`."""
@@ -410,7 +412,7 @@ def simulate_cycle(params, cycle):
     if cycle.stability == "unstable":
         return simulate_threshold(params, cycle, signal_of)
     period = 2 * np.pi / cycle.frequency_rad_s
-    step = max(2.0 * (cycle.output_amplitude_rad or 0.0), math.radians(0.01))
+    step = 2.0 * cycle.output_amplitude_rad
     t_end = min(max(SIMULATED_PERIODS * period, 0.2), MAX_SIMULATED_S)
     result = simulate_batch(params, Step(step), t_end=t_end, extend=False,
                             record_every=_record_every(period))
@@ -438,7 +440,7 @@ def simulate_threshold(params, cycle, signal_of):
     from cas_freq.simulation.simulator import simulate_batch
 
     period = 2 * np.pi / cycle.frequency_rad_s
-    steps = max(2.0 * cycle.output_amplitude_rad, math.radians(0.01)) * THRESHOLD_STEPS
+    steps = 2.0 * cycle.output_amplitude_rad * THRESHOLD_STEPS
     runs = params.take(np.zeros(len(steps), dtype=int))
     result = simulate_batch(runs, Step(steps), t_end=THRESHOLD_PERIODS * period, extend=False,
                             record_every=_record_every(period))
