@@ -261,3 +261,31 @@ def test_linear_output_backlash_in_metres():
     assert len(held) == 1 and held[0]["frequency_rad_s"] == pytest.approx(817.5, rel=0.01)
     assert held[0]["output_amplitude_mm"] == pytest.approx(0.0165, rel=0.02)
     assert "output_amplitude_deg" not in held[0]
+
+
+def test_speed_loop_of_the_cascade_against_the_oracle():
+    # The cascade (P-PI-PI, notch at the current command, low-passes on the measured speed,
+    # compliant coupling): every signal equation of tests/architecture_oracle.py (written
+    # without cas_freq) solved per frequency with a unit torque on the motor shaft (the
+    # right-hand side of its motor row) gives the speed and the output per unit torque.
+    import architecture_oracle as oracle
+
+    p = Selector(_params("base", [], "configs/cascade_axis.yaml"))()
+    drive = oracle.Drive(
+        R=p.R, L=p.L, Km=p.Km, Ke=p.Ke, J=p.J, mu_v=p.mu_v, N=p.ratio, eta=p.eta, J_L=p.J_L,
+        b_L=p.b_L, K_h=p.K_h, K_g=p.K_g, c_g=p.c_g, ci_Kp=p.ci_Kp, ci_Ki=p.ci_Ki,
+        tau_c=p.tau_c, structure="cascade", cp_Kp=p.cp_Kp, cp_Ki=p.cp_Ki, cv_Kp=p.cv_Kp,
+        cv_Ki=p.cv_Ki, tau_v=p.tau_v, tau_vf=p.tau_vf, tau_p=p.tau_p,
+        filters=(oracle.Filter("current_command", "notch", 800.0, width=400.0, depth_db=-20.0),
+                 oracle.Filter("velocity_feedback", "lowpass2", 3000.0, damping=0.7)))
+    omega = np.geomspace(0.5, 2e4, 30)
+    eq = oracle._Equations(1j * omega)
+    oracle._diagram(eq, drive, {loop: "closed" for loop in drive.loops}, 0.0, "exact")
+    motor_row = len(drive.loops) + 1  # after the loops' rows and the winding's
+    terms, _ = eq.rows[motor_row]
+    assert any(eq.index["theta"] == j for j, _ in terms)
+    eq.rows[motor_row] = (terms, 1.0)
+    x = eq.solve()
+    speed, delta = describing.speed_loop(p, 1j * omega)
+    np.testing.assert_allclose(speed, 1j * omega * x["theta"], rtol=1e-8)
+    np.testing.assert_allclose(delta, x["y_out"] / p.ratio, rtol=1e-8)
