@@ -56,11 +56,10 @@ def test_describing_functions_closed_forms_and_fourier():
     assert describing.dead_zone(2.0, 1.0) == pytest.approx(2 / 3 - math.sqrt(3) / (2 * math.pi),
                                                            rel=1e-14)
     assert describing.saturation(0.5, 1.0) == 1.0 and describing.dead_zone(0.5, 1.0) == 0.0
+    a, d = 1.0, 0.7  # a clamp at ±1; half of a play b = 1.4
     for amplitude in (1.01, 1.5, 3.0, 30.0):
-        a = 1.0
         assert describing.saturation(amplitude, a) == pytest.approx(
             _first_harmonic(lambda x: np.clip(x, -a, a), amplitude), abs=1e-7)
-        d = 0.7  # half of a play b = 1.4
         assert describing.dead_zone(amplitude, d) == pytest.approx(
             _first_harmonic(lambda x: x - np.clip(x, -d, d), amplitude), abs=1e-7)
         assert describing.relay(amplitude, 0.3) == pytest.approx(

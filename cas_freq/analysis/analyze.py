@@ -27,13 +27,13 @@ from cas_freq.analysis.closed_loop import (
     figures_of_run,
 )
 from cas_freq.analysis.drivetrain import drivetrain, drivetrain_notes
-from cas_freq.analysis.limit_cycles import limit_cycles
-from cas_freq.analysis.limit_cycles import to_json as limit_cycles_json
 from cas_freq.analysis.frequency import (
     DEFAULT_POINTS_PER_DECADE,
     DEFAULT_RANGE_RAD_S,
     frequency_grid,
 )
+from cas_freq.analysis.limit_cycles import limit_cycles
+from cas_freq.analysis.limit_cycles import to_json as limit_cycles_json
 from cas_freq.analysis.margins import (
     LOOP_FIGURES,
     LoopMargins,

@@ -593,8 +593,8 @@ def text_lines(result, unit=None):
         lines.append(
             f"    {cycle.nonlinearity}: {cycle.stability} cycle at "
             f"{cycle.frequency_rad_s:.4g} rad/s, {cycle.input_name} ±{cycle.amplitude:.4g} "
-            f"{cycle.unit}{output} (N = {cycle.describing_function:.3g}; harmonics "
-            f"{cycle.harmonics[1]:.2g}; assumptions {'hold' if cycle.assumptions_hold else 'do not hold'})")
+            f"{cycle.unit}{output} (N = {cycle.describing_function:.3g}; 3rd harmonic "
+            f"{cycle.harmonics[1]:.2g} of the 1st; assumptions {_hold(cycle)})")
         sim = cycle.simulated
         if sim is not None and sim.method == "threshold":
             if sim.sustained:
@@ -618,6 +618,10 @@ def text_lines(result, unit=None):
         lines += [f"      - {note}" for note in cycle.notes]
     lines += [f"    ({note})" for note in result.notes]
     return lines
+
+
+def _hold(cycle):
+    return "hold" if cycle.assumptions_hold else "do not hold"
 
 
 def _measured(sim, cycle, unit):
