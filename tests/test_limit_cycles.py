@@ -25,9 +25,11 @@ from cas_freq.model.loops import Selector
 from cas_freq.parameters import LoopParameters
 
 #: fin_encoder with the play and nothing else nonlinear in the gear: no hinge bias preloading
-#: it, no friction, the backdrive efficiency equal to the forward one.
+#: it, no friction, efficiencies 1 (below 1 the load's reflection depends on the direction of
+#: power: a nonlinearity too).
 CLEAN_BACKLASH = ["gear.backlash=0.1 deg", "load.hinge_bias=0 N*m",
-                  "motor.coulomb_friction=0 N*m", "gear.backdrive_efficiency=0.7"]
+                  "motor.coulomb_friction=0 N*m", "gear.efficiency=1",
+                  "gear.backdrive_efficiency=1"]
 
 
 def _stdout(argv):
@@ -164,10 +166,10 @@ def test_backlash_in_the_output_encoder_loop(clean_backlash):
     # the low one barely touches the flanks: outside the assumptions, and not what a run does
     assert not barely.assumptions_hold and "barely engages" in barely.notes[0]
     assert barely.simulated.verdict == "refuted"
-    # the high one (figures of 2026-11-26: predicted 1380 rad/s, twist 9.54e-4 rad; simulated
-    # 1099 rad/s, 7.80e-4 rad, output 0.0535 vs 0.0560 deg)
+    # the high one (figures of 2026-11-26: predicted 1390 rad/s, twist 9.60e-4 rad, output
+    # 0.0614 deg; simulated 1166 rad/s, 7.90e-4 rad, 0.0549 deg)
     assert engaged.assumptions_hold and engaged.stability == "stable"
-    assert engaged.frequency_rad_s == pytest.approx(1380, rel=0.01)
+    assert engaged.frequency_rad_s == pytest.approx(1390, rel=0.01)
     sim = engaged.simulated
     assert sim.sustained and sim.verdict == "confirmed"
     assert abs(sim.frequency_rad_s / engaged.frequency_rad_s - 1) <= CONFIRM_TOLERANCE
@@ -247,17 +249,17 @@ def test_report_sentence():
 
 
 def test_linear_output_backlash_in_metres():
-    # ball_screw with a compliant screw, play and the loop closed on the rod (figures of
-    # 2026-11-26: a stable cycle at 817.5 rad/s, twist ±1.43e-5 m, output ±0.0165 mm;
-    # simulated 735.4 rad/s, ±1.27e-5 m, ±0.0151 mm: confirmed)
+    # ball_screw with a compliant screw, play, efficiencies 1 and the loop closed on the rod
+    # (figures of 2026-11-26: a stable cycle at 818.5 rad/s, twist ±1.43e-5 m, output
+    # ±0.0166 mm; simulated 788.8 rad/s, ±1.33e-5 m, ±0.0156 mm: confirmed)
     sets = ["gear.backlash=0.02 mm", "gear.stiffness=2e7 N/m", "load.mass=5 kg",
-            "position_loop.feedback=output"]
+            "position_loop.feedback=output", "gear.efficiency=1", "gear.backdrive_efficiency=1"]
     data = json.loads(_stdout(["analyze", "configs/ball_screw.yaml", "--json",
                                *(x for item in sets for x in ("--set", item))]))
     backlash = [c for c in data["limit_cycles"] if c["nonlinearity"] == "backlash"]
     assert {c["unit"] for c in backlash} == {"m"}
     held = [c for c in backlash if c["assumptions_hold"]]
-    assert len(held) == 1 and held[0]["frequency_rad_s"] == pytest.approx(817.5, rel=0.01)
+    assert len(held) == 1 and held[0]["frequency_rad_s"] == pytest.approx(818.5, rel=0.01)
     assert held[0]["output_amplitude_mm"] == pytest.approx(0.0165, rel=0.02)
     assert "output_amplitude_deg" not in held[0]
 

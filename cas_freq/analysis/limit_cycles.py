@@ -149,11 +149,6 @@ class LimitCycles:
     reason: str | None
     notes: tuple = ()
 
-    def to_dict(self):
-        """JSON-ready: the list of ``limit_cycles`` with the reason and what was checked."""
-        return {"cycles": [dataclasses.asdict(cycle) for cycle in self.cycles],
-                "checked": list(self.checked), "reason": self.reason,
-                "notes": list(self.notes)}
 
 
 # --- harmonic balance ------------------------------------------------------------------------
@@ -330,8 +325,10 @@ def _other_nonlinearities(params, key):
         others.append("backlash")
     if key != "coulomb_friction" and float(params.F_c[0]) > 0:
         others.append("Coulomb friction")
-    if float(params.eta_b[0]) != float(params.eta[0]):
-        others.append("a backdrive efficiency unlike the forward one")
+    eta, eta_b = float(params.eta[0]), float(params.eta_b[0])
+    if eta != 1 or eta_b != 1:  # the load reflects by 1/eta or by eta_b by the power's direction
+        others.append(f"the gear's efficiency (eta = {eta:g}, eta_b = {eta_b:g}: it depends "
+                      "on the direction of power)")
     return others
 
 
