@@ -41,8 +41,9 @@ POINTS_PER_DECADE = 400
 CONFIRM_TOLERANCE = 0.25
 #: Periods of the predicted cycle simulated, and measured at the end.
 SIMULATED_PERIODS, MEASURED_PERIODS = 40, 10
-#: Longest simulation of a check [s] (the measured periods shrink to a quarter of it).
-MAX_SIMULATED_S = 3.0
+#: Longest simulation of a check [s] (the simulator's step budget at 5 us; the measured periods
+#: shrink to 40 % of it), and the fewest periods of the cycle it must hold to check it.
+MAX_SIMULATED_S, MIN_SIMULATED_PERIODS = 10.0, 6
 
 #: What each clamp limits, per loop: parameter field, signal, unit.
 CLAMPS = {
@@ -406,9 +407,13 @@ def simulate_cycle(params, cycle):
             return result.omega[k]
         return result.delta[k]  # a clamp's input is not recorded: its output is measured
 
+    period = 2 * np.pi / cycle.frequency_rad_s
+    periods = THRESHOLD_PERIODS if cycle.stability == "unstable" else SIMULATED_PERIODS
+    if min(periods * period, MAX_SIMULATED_S) < MIN_SIMULATED_PERIODS * period:
+        raise CasFreqError(f"its period ({period:.3g} s) is too long: {MAX_SIMULATED_S:g} s of "
+                           f"simulation hold fewer than {MIN_SIMULATED_PERIODS} periods")
     if cycle.stability == "unstable":
         return simulate_threshold(params, cycle, signal_of)
-    period = 2 * np.pi / cycle.frequency_rad_s
     step = 2.0 * cycle.output_amplitude_rad
     t_end = min(max(SIMULATED_PERIODS * period, 0.2), MAX_SIMULATED_S)
     result = simulate_batch(params, Step(step), t_end=t_end, extend=False,
@@ -439,7 +444,8 @@ def simulate_threshold(params, cycle, signal_of):
     period = 2 * np.pi / cycle.frequency_rad_s
     steps = 2.0 * cycle.output_amplitude_rad * THRESHOLD_STEPS
     runs = params.take(np.zeros(len(steps), dtype=int))
-    result = simulate_batch(runs, Step(steps), t_end=THRESHOLD_PERIODS * period, extend=False,
+    t_end = min(THRESHOLD_PERIODS * period, MAX_SIMULATED_S)
+    result = simulate_batch(runs, Step(steps), t_end=t_end, extend=False,
                             record_every=_record_every(period))
     first, grows = [], []
     for k in range(len(steps)):
@@ -498,7 +504,7 @@ def _crossing_frequency(t, x):
 
 def measure(t, signal, output, period, command_rad):
     """The oscillation at the end of a run (see :func:`simulate_cycle`)."""
-    span = min(MEASURED_PERIODS * period, 0.25 * (t[-1] - t[0]))
+    span = min(MEASURED_PERIODS * period, 0.4 * (t[-1] - t[0]))
     last = t >= t[-1] - span
     before = (t >= t[-1] - 2 * span) & ~last
     x = signal[last] - signal[last].mean()
@@ -506,7 +512,7 @@ def measure(t, signal, output, period, command_rad):
     spread_before = np.ptp(signal[before]) if before.any() else spread_last
     crossings = np.nonzero((x[:-1] < 0) & (x[1:] >= 0))[0]
     tl = t[last]
-    sustained = bool(len(crossings) >= 3 and spread_last >= 0.5 * spread_before
+    sustained = bool(len(crossings) >= 2 and spread_last >= 0.5 * spread_before
                      and spread_last > 0)
     if not sustained:
         return Simulated(float(command_rad), False, None, None, None, "refuted")
