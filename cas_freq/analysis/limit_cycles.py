@@ -589,6 +589,11 @@ def text_lines(result, unit=None):
     lines = ["  limit cycles (describing functions: " + ", ".join(result.checked) + ")"]
     if not result.cycles:
         lines.append(f"    none: {result.reason}")
+    found = {cycle.nonlinearity for cycle in result.cycles}
+    quiet = [name for name in result.checked if name not in found]
+    if result.cycles and quiet:
+        lines.append(f"    no cycle of {', '.join(quiet)}: the loop each sees does not reach "
+                     "the negative real axis where its describing function can")
     for cycle in result.cycles:
         output = ""
         if cycle.output_amplitude_rad is not None:
