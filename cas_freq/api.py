@@ -115,7 +115,7 @@ class Actuator:
         return variant_names(read_config_file(self.loaded.source))
 
     @one_blas_thread()
-    def analyze(self, delay="exact", frequency_range=None):
+    def analyze(self, delay="exact", frequency_range=None, limit_cycle_check=False):
         """Every frequency-domain figure: margins of both loops, closed loop, stability.
 
         Parameters
@@ -124,6 +124,9 @@ class Actuator:
             ``"exact"`` or ``"pade:N"`` delays in every frequency response.
         frequency_range : (float, float), optional
             Analysed range [rad/s]; default 0.01..1e6.
+        limit_cycle_check : bool
+            Check each predicted limit cycle (``limit_cycles``, always predicted) by a
+            nonlinear simulation (``analyze --limit-cycles``).
 
         Returns
         -------
@@ -134,7 +137,8 @@ class Actuator:
         """
         from cas_freq.analysis import analyze
 
-        return analyze(self.loaded, _delay(delay), frequency_range or DEFAULT_RANGE_RAD_S)
+        return analyze(self.loaded, _delay(delay), frequency_range or DEFAULT_RANGE_RAD_S,
+                       limit_cycle_check=limit_cycle_check)
 
     @one_blas_thread()
     def frequency_response(self, omega, delay="exact"):

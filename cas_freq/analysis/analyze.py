@@ -33,6 +33,8 @@ from cas_freq.analysis.frequency import (
     DEFAULT_RANGE_RAD_S,
     frequency_grid,
 )
+from cas_freq.analysis.limit_cycles import limit_cycles
+from cas_freq.analysis.limit_cycles import to_json as limit_cycles_json
 from cas_freq.analysis.margins import (
     LOOP_FIGURES,
     LoopMargins,
@@ -442,6 +444,8 @@ class Analysis(Summary):
     stiffness: object = None
     effort: object = None
     noise: object = None
+    #: The predicted limit cycles (:class:`cas_freq.analysis.limit_cycles.LimitCycles`).
+    limit_cycles: object = None
     #: The analysed variant (:class:`cas_freq.config.LoadedVariant`), which :meth:`plot`
     #: evaluates the loops of; not part of the JSON.
     loaded: object = dataclasses.field(default=None, compare=False)
@@ -550,6 +554,7 @@ def analyze(
     frequency_range=DEFAULT_RANGE_RAD_S,
     points_per_decade=DEFAULT_POINTS_PER_DECADE,
     pade_orders=0,
+    limit_cycle_check=False,
 ):
     """Analyse one loaded config variant (the engine of :func:`batch_analyze` on one variant).
 
@@ -565,6 +570,10 @@ def analyze(
         Grid density before refinement [1/decade].
     pade_orders : int
         If > 0, also tabulate the headline figures at Padé orders 1..pade_orders and exact.
+    limit_cycle_check : bool
+        Check each predicted limit cycle by a nonlinear simulation started near it
+        (:func:`cas_freq.analysis.limit_cycles.limit_cycles`; the prediction itself is always
+        made).
 
     Returns
     -------
@@ -646,6 +655,8 @@ def analyze(
         stiffness=stiff,
         effort=push,
         noise=noise,
+        limit_cycles=limit_cycles(params, simulate=limit_cycle_check,
+                                  linear=bool(getattr(loaded.params, "linear", False))),
         loaded=loaded,
     )
 
@@ -739,8 +750,11 @@ def _range_edges(figures, omega, stable, sampled=False):
 def to_dict(analysis):
     """JSON-ready dict of an :class:`Analysis` (non-finite numbers become None)."""
     unit = output_unit(analysis.loaded.params) if analysis.loaded is not None else None
-    data = dataclasses.asdict(dataclasses.replace(analysis, loaded=None))
+    data = dataclasses.asdict(dataclasses.replace(analysis, loaded=None, limit_cycles=None))
     del data["loaded"]
+    del data["limit_cycles"]
+    if analysis.limit_cycles is not None:
+        data.update(limit_cycles_json(analysis.limit_cycles))
     edges = data.pop("range_edges")
     for section in ("stiffness", "effort", "noise"):
         part = getattr(analysis, section)

@@ -52,6 +52,10 @@ def register(commands):
         "--range", dest="frequency_range", type=frequency_range, default=None,
         metavar="MIN:MAX", help="analysed frequency range in rad/s (default: 0.01:1e6)",
     )
+    parser.add_argument(
+        "--limit-cycles", action="store_true",
+        help="check each predicted limit cycle by a nonlinear simulation started near it",
+    )
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.set_defaults(handler=run)
 
@@ -73,7 +77,8 @@ def run(args):
                            f"--pade-study: must be >= 0, got {shown}")
     frequency_range_rad_s = args.frequency_range or DEFAULT_RANGE_RAD_S
     results = [
-        analyze(loaded, delay, frequency_range_rad_s, pade_orders=args.pade_study)
+        analyze(loaded, delay, frequency_range_rad_s, pade_orders=args.pade_study,
+                limit_cycle_check=args.limit_cycles)
         for loaded in load_variants(args)
     ]
     if args.json:

@@ -429,6 +429,12 @@ def variant_blocks(data, figure_blocks, settings):
     if a.notes:
         blocks.append(Bullets(tuple(a.notes)))
     blocks += drivetrain_blocks(data)
+    if getattr(a, "limit_cycles", None) is not None:
+        from cas_freq.analysis.limit_cycles import report_sentence
+        from cas_freq.output import output_unit
+
+        blocks.append(Paragraph(report_sentence(a.limit_cycles,
+                                                output_unit(data.loaded.params))))
     blocks += [Heading(3, f"Frequency response ({data.loaded.variant})"), margins_table(a),
                crossings_table(a, data.curve_range_rad_s), closed_loop_table(a)]
     blocks += [figure_blocks[n] for n in ("bode_loops", "closed_loop", "sensitivity", "nichols",

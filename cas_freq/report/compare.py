@@ -39,7 +39,7 @@ from cas_freq.units import parse_unit, registry, split_quantity
 
 #: Keys of the analyze JSON that are identity or bookkeeping, not figures.
 _NOT_FIGURES = {"config", "config_path", "variant", "overrides", "delay_model", "notes",
-                "frequency_range_rad_s", "stability_pade_order"}
+                "frequency_range_rad_s", "stability_pade_order", "limit_cycles_reason"}
 
 #: Significant digits of the figures in the every-figure table (the differences are written
 #: with 4, and are 0 below this precision of the figures).

@@ -167,6 +167,12 @@ def analysis_table(analysis):
 
     lines += text_lines(getattr(analysis, "stiffness", None), getattr(analysis, "effort", None),
                         getattr(analysis, "noise", None), _fmt)
+    if getattr(analysis, "limit_cycles", None) is not None:
+        from cas_freq.analysis.limit_cycles import text_lines
+        from cas_freq.output import output_unit
+
+        unit = output_unit(analysis.loaded.params) if analysis.loaded is not None else None
+        lines += text_lines(analysis.limit_cycles, unit)
     if analysis.pade_vs_exact:
         lines.append(
             "  Padé vs exact      PM_p [deg]  GM_p [dB]  PM_i [deg]  w_BW [rad/s]  max|dT|"
