@@ -39,6 +39,7 @@ from cas_freq.analysis.margins import (
     margins_of_run,
 )
 from cas_freq.analysis.probes import Probes
+from cas_freq.analysis.rate_envelope import rate_envelope, sine_frequencies
 from cas_freq.analysis.stability import (
     Stability,
     closed_loop_poles,
@@ -436,6 +437,9 @@ class Analysis(Summary):
     continuous: dict | None = None
     #: With sampled controllers: {"method", "rates_hz": {loop: Hz}, "nyquist_rad_s": {...}}.
     sampling: dict | None = None
+    #: The rate and torque envelope (:mod:`cas_freq.analysis.rate_envelope`); None when the
+    #: analysis was not given its config.
+    envelope: object = None
     #: The analysed variant (:class:`cas_freq.config.LoadedVariant`), which :meth:`plot`
     #: evaluates the loops of; not part of the JSON.
     loaded: object = dataclasses.field(default=None, compare=False)
@@ -609,6 +613,10 @@ def analyze(
         notes.extend(drivetrain_notes(load, loaded.params.output_label,
                                       (unit.spring, unit.spring_unit)))
     rows = pade_study(params, pade_orders, omega) if pade_orders > 0 else ()
+    closed_figures = figures_of_run(_loop(figures, "closed_loop"))
+    envelope = rate_envelope(
+        loaded.params, params,
+        sine_frequencies(closed_figures.bandwidth_rad_s) if stability.stable else ())
     edges = _range_edges(figures, omega, stability.stable, sampled)
     for section, figure, at_edge in edges:
         if at_edge:
@@ -627,13 +635,14 @@ def analyze(
         position_loop=_margins(figures, "position_loop"),
         velocity_loop=(_margins(figures, "velocity_loop") if "velocity_loop" in verdicts
                        else None),
-        closed_loop=figures_of_run(_loop(figures, "closed_loop")),
+        closed_loop=closed_figures,
         pade_vs_exact=rows,
         notes=tuple(notes),
         range_edges=edges,
         drivetrain=load,
         continuous=continuous,
         sampling=sampling,
+        envelope=envelope,
         loaded=loaded,
     )
 
@@ -727,8 +736,12 @@ def _range_edges(figures, omega, stable, sampled=False):
 def to_dict(analysis):
     """JSON-ready dict of an :class:`Analysis` (non-finite numbers become None)."""
     unit = output_unit(analysis.loaded.params) if analysis.loaded is not None else None
-    data = dataclasses.asdict(dataclasses.replace(analysis, loaded=None))
+    data = dataclasses.asdict(dataclasses.replace(analysis, loaded=None, envelope=None))
     del data["loaded"]
+    if analysis.envelope is None or unit is None:
+        del data["envelope"]
+    else:
+        data["envelope"] = analysis.envelope.to_dict(unit)
     edges = data.pop("range_edges")
     if data["drivetrain"] is None:
         del data["drivetrain"]
