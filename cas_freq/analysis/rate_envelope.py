@@ -309,11 +309,17 @@ def envelope_lines(envelope, unit, output="output"):
              + (f", {envelope.supply_resistance_ohm:g} ohm" if envelope.supply_resistance_ohm
                 else "")]
     w = envelope.frequencies_rad_s
+    if not w.size:
+        lines.append("largest sine inside the limits: not reported (the closed loop is not "
+                     "stable)")
+        return lines
     amplitude = envelope.amplitude_rad
     picks = np.unique(np.linspace(0, w.size - 1, 5).round().astype(int))
     shown = ", ".join(f"{w[k]:.4g} rad/s: {unit.from_si(amplitude[k]):.3g} {unit.shown} "
                       f"({envelope.limited_by[k]})" for k in picks)
     lines.append(f"largest sine inside the limits: {shown}")
+    if envelope.basis != "continuous loops":
+        lines.append(f"(sine limits of the {envelope.basis})")
     return lines
 
 

@@ -1,0 +1,95 @@
+"""The rate and torque envelope (docs/model.md §15, cas_freq.analysis.rate_envelope).
+
+Reference values are worked out here by hand from the QT-CAS motor constants of
+configs/qt_cas.yaml (R = 0.361 ohm, Km = Ke = 0.0105, mu_v = Km*I0/n0 with I0 = 0.218 A and
+n0 = 16,300 rpm, N = 20, eta = 1, v_max = 30 V, i_max = 20 A); the sine limits are checked
+against the nonlinear simulator's own clamp flags (the sine-dwell), a second method.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import cas_freq as cf
+from cas_freq.analysis.rate_envelope import limit_responses, rate_envelope
+from cas_freq.parameters import LoopParameters
+from cas_freq.simulation.sinedwell import sine_dwell
+
+R, KM, KE, N, V_MAX, I_MAX = 0.361, 0.0105, 0.0105, 20.0, 30.0, 20.0
+MU = KM * 0.218 / (16300.0 * 2.0 * math.pi / 60.0)  # report §6: 1.341e-6 N*m*s/rad
+
+
+def _envelope(overrides=None, variant="base"):
+    act = cf.load("configs/qt_cas.yaml", variant=variant, set=overrides)
+    analysis = act.analyze()
+    return analysis.envelope, analysis, act
+
+
+def test_no_load_rate_and_stall_torque_by_hand():
+    envelope, _, _ = _envelope()
+    # steady state at 30 V with no load: Km i = mu w and 30 = R i + Ke w, so
+    # w0 = Km V / (Km Ke + R mu) at the motor (V/Ke less what the friction takes), / N at the fin
+    w0 = KM * V_MAX / (KM * KE + R * MU) / N
+    assert w0 == pytest.approx(142.23, abs=0.01)  # the worked number: 2844.6 rad/s / 20
+    assert envelope.no_load_rate_rad_s == pytest.approx(w0, rel=1e-12)
+    # stall at the current limit through the gear: Km i_max N eta = 0.0105 * 20 * 20 * 1
+    assert envelope.stall_torque_N_m == pytest.approx(4.2, rel=1e-12)
+    assert envelope.stall_limited_by == "current"
+    # the curve runs from stall to no load
+    assert envelope.curve_torque_N_m[0] == pytest.approx(4.2, rel=1e-12)
+    assert envelope.curve_rate_rad_s[-1] == pytest.approx(w0, rel=1e-12)
+    assert envelope.curve_torque_N_m[-1] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_supply_resistance_sags_the_envelope():
+    # a 24 V supply behind 1.639 ohm: R + R_s = 2.0 ohm, so stall takes 24/2 = 12 A < i_max
+    envelope, _, _ = _envelope({"supply.voltage": "24 V", "supply.resistance": "1.639 ohm"})
+    assert envelope.stall_torque_N_m == pytest.approx(KM * 12.0 * N, rel=1e-12)  # 2.52 N*m
+    assert envelope.stall_limited_by == "voltage"
+    w0 = KM * 24.0 / (KM * KE + 2.0 * MU) / N  # the sagging supply's line is the lower one
+    assert envelope.no_load_rate_rad_s == pytest.approx(w0, rel=1e-12)
+    # the gear efficiency scales the torque, not the rate (fitted variant: Km 0.0075, mu 1.2e-6)
+    fitted, _, _ = _envelope({"gear.efficiency": 0.7}, variant="fitted")
+    assert fitted.stall_torque_N_m == pytest.approx(0.0075 * I_MAX * N * 0.7, rel=1e-12)
+    assert fitted.no_load_rate_rad_s == pytest.approx(
+        0.0075 * V_MAX / (0.0075 * KE + R * 1.2e-6) / N, rel=1e-12)
+
+
+def test_voltage_per_command_is_the_plant_seen_from_the_current():
+    # V = (L s + R) i + Ke omega: at a frequency far below the electrical pole and with the
+    # current and speed from T itself, the voltage must equal R i + Ke * s * N delta
+    act = cf.load("configs/qt_cas.yaml")
+    p = LoopParameters.from_config(act.params)
+    w = np.array([5.0])
+    _, voltage, current = limit_responses(p, w)
+    from cas_freq.model import ActuatorLoops
+
+    loops = ActuatorLoops(p)
+    output = loops.closed_loop(1j * w, feedforward=True)  # N delta / N delta_cmd (rigid gear)
+    expected = (p.L[0] * 1j * w + R) * current + KE * 1j * w * N * output
+    np.testing.assert_allclose(voltage, expected, rtol=1e-9)
+
+
+def test_sine_inside_the_envelope_does_not_saturate_and_far_outside_does():
+    envelope, analysis, act = _envelope()
+    p = LoopParameters.from_config(act.params)
+    w = np.array([3.0 * analysis.closed_loop.bandwidth_rad_s])  # ~4200 rad/s: short runs
+    limits = rate_envelope(act.params, p, w)
+    a_max = float(limits.amplitude_rad[0])
+    assert limits.limited_by[0] == "current"  # at 3 x w_BW the derivative's current limits
+    result = sine_dwell(p, [0.5 * a_max, 3.0 * a_max], w, periods_settle=3, periods_measure=2,
+                        min_settle_s=0.005)
+    assert not result.limit_hit[0, 0]  # half the largest amplitude: no clamp acts
+    assert result.current_limited[1, 0]  # three times: the current clamp, as predicted
+    # outside, the clamp cuts the first harmonic well below the unclamped one
+    assert result.magnitude_db[1, 0] < result.magnitude_db[0, 0] - 0.5
+
+
+def test_envelope_in_json_at_a_linear_output():
+    act = cf.load("configs/ball_screw.yaml")
+    data = act.analyze().to_dict()["envelope"]
+    assert "no_load_rate_m_s" in data and "stall_force_N" in data
+    assert data["no_load_rate_mm_s"] == pytest.approx(1e3 * data["no_load_rate_m_s"])
+    assert "amplitude_mm" in data["sine_limit"]
+    assert not any("_deg" in key for key in data["sine_limit"])
