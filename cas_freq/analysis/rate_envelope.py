@@ -94,6 +94,9 @@ class RateEnvelope:
         inside its clamp, per frequency.
     basis : str
         ``"continuous loops"`` or, with sampled controllers, what was computed instead.
+    feedforward : bool
+        Whether the config's feed-forward acts in the sine limits (it does in ``analyze``,
+        as in flight and in the simulator; the sine-dwell leaves it off by default).
     """
 
     supply_voltage_v: float
@@ -109,6 +112,7 @@ class RateEnvelope:
     current_amplitude_rad: np.ndarray
     voltage_amplitude_rad: np.ndarray
     basis: str = "continuous loops"
+    feedforward: bool = True
 
     @property
     def amplitude_rad(self):
@@ -147,6 +151,7 @@ class RateEnvelope:
                 "limited_by": list(self.limited_by),
             },
             "basis": self.basis,
+            "feedforward": self.feedforward,
         }
         return out
 
@@ -260,7 +265,7 @@ def sine_frequencies(bandwidth_rad_s):
     return np.array([float(f"{w:.4g}") for w in np.geomspace(low, high, SINE_POINTS)])
 
 
-def rate_envelope(config, params, frequencies_rad_s):
+def rate_envelope(config, params, frequencies_rad_s, feedforward=True):
     """The rate and torque envelope of one actuator.
 
     Parameters
@@ -271,12 +276,16 @@ def rate_envelope(config, params, frequencies_rad_s):
         The same variant's loop parameters (one run).
     frequencies_rad_s : array_like
         Frequencies of the sine limits [rad/s].
+    feedforward : bool
+        Let the config's feed-forward act on the sines (False: as ``sinedwell`` by default).
 
     Returns
     -------
     RateEnvelope
     """
     voltage, resistance = supply_of(config)
+    if not feedforward:
+        params = params.without_feedforward()
     basis = "continuous loops"
     if params.sample_rates:
         params = dataclasses.replace(params, sample_rates=())
@@ -291,7 +300,7 @@ def rate_envelope(config, params, frequencies_rad_s):
         no_load_rate_rad_s=float(rate), stall_torque_N_m=float(stall),
         stall_limited_by=limited_by, curve_rate_rad_s=speeds, curve_torque_N_m=torques,
         frequencies_rad_s=omega, current_amplitude_rad=a_i, voltage_amplitude_rad=a_v,
-        basis=basis,
+        basis=basis, feedforward=feedforward,
     )
 
 

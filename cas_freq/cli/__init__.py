@@ -29,7 +29,7 @@ EXIT_INTERRUPTED = 130
 
 #: Command modules of ``cas_freq.cli``, in the order ``--help`` lists them.
 COMMANDS = ("analyze", "simulate", "sinedwell", "fit", "verify", "report", "compare", "sweep",
-            "montecarlo", "tune", "epos4")
+            "montecarlo", "tune", "epos4", "export_model")
 
 
 def __getattr__(name):
