@@ -39,8 +39,8 @@ LOADER = (
     "import json, numpy as np, control\n"
     "m = json.load(open(PATH))['linear']\n"
     "T = control.ss(m['A'], m['B'], m['C'], m['D'], m['dt'] or 0)\n"
-    "# or: control.zpk([complex(*z) for z in m['zeros']], [complex(*p) for p in m['poles']],\n"
-    "#                 m['gain'], m['dt'] or 0)"
+    "# zeros/poles/gain: T = gain * prod(s - z) / prod(s - p); control.zpk(...) multiplies\n"
+    "# them out into polynomials, accurate at low Pade orders only: prefer the matrices"
 )
 
 
@@ -142,9 +142,9 @@ def _zpk(sys):
     """Zeros, poles (finite, complex) and the gain k of T = k prod(s - z) / prod(s - p)."""
     import control
 
-    poles = np.asarray(control.poles(sys), complex)
+    poles = _conjugate_pairs(np.asarray(control.poles(sys), complex))
     zeros = np.asarray(control.zeros(sys), complex)
-    zeros = zeros[np.isfinite(zeros)]
+    zeros = _conjugate_pairs(zeros[np.isfinite(zeros)])
     # the gain from the response at a point away from the poles and zeros
     s0 = 1.0 if sys.isdtime(strict=True) else 1j * 1e-3
     if sys.isdtime(strict=True):
@@ -152,6 +152,17 @@ def _zpk(sys):
     value = complex(np.squeeze(sys(s0)))
     gain = value * np.prod(s0 - poles) / np.prod(s0 - zeros)
     return zeros, poles, float(gain.real)
+
+
+def _conjugate_pairs(roots):
+    """The roots of a real polynomial with each complex pair made exactly conjugate (the
+    eigenvalue solver leaves them conjugate to ~1e-12 only) and the real ones exactly real."""
+    scale = np.maximum(np.abs(roots), 1.0)
+    real = np.abs(roots.imag) <= 1e-9 * scale
+    upper = roots[~real & (roots.imag > 0)]
+    upper = upper[np.argsort(upper.real)]
+    pairs = np.column_stack([upper, upper.conj()]).ravel()
+    return np.concatenate([np.sort(roots[real].real).astype(complex), pairs])
 
 
 def model_bandwidth(sys, omega, dc_gain=1.0):
@@ -252,7 +263,8 @@ def _accuracy(config, params, system, analysis, pade_order):
            if omega.size else None,
            "bandwidth_rad_s": bandwidth,
            "bandwidth_exact_rad_s": None if closed is None else closed.bandwidth_rad_s,
-           "step_max_error": None, "step_reference": None}
+           "step_max_error": None, "step_reference": None, "step_horizon_s": None,
+           "step_points": None}
     if analysis.stable and bandwidth is not None:
         # a unit step over 20 time constants of the bandwidth, 2000 points
         t = np.linspace(0.0, 20.0 * 2.0 * math.pi / bandwidth, 2001)
@@ -260,5 +272,7 @@ def _accuracy(config, params, system, analysis, pade_order):
         tool = linear_steps(config, [t], [1.0], DEFAULT_PADE_ORDER)[0]
         out["step_max_error"] = float(np.max(np.abs(ours - tool)))
         out["step_reference"] = (f"the tool's linear unit step (Padé order {DEFAULT_PADE_ORDER},"
-                                 f" the report's) over 0..{t[-1]:.4g} s")
+                                 f" the report's) at {t.size} points over 0..{t[-1]:.4g} s")
+        out["step_horizon_s"] = float(t[-1])
+        out["step_points"] = int(t.size)
     return out
