@@ -93,3 +93,29 @@ def test_envelope_in_json_at_a_linear_output():
     assert data["no_load_rate_mm_s"] == pytest.approx(1e3 * data["no_load_rate_m_s"])
     assert "amplitude_mm" in data["sine_limit"]
     assert not any("_deg" in key for key in data["sine_limit"])
+
+
+def test_sinedwell_figure_draws_the_envelope_map():
+    # structure, not pixels: a third panel with the two limit curves (the same numbers as
+    # rate_envelope at the drawn frequencies), the dwell points at their amplitudes
+    from cas_freq.config.loader import load_variant
+    from cas_freq.plots.report import sinedwell
+    from cas_freq.report.data import ReportSettings, gather_variant
+
+    settings = ReportSettings(amplitudes_rad=(math.radians(0.5), math.radians(10.0)),
+                              frequencies_rad_s=(600.0, 2400.0), pade_order=6)
+    data = gather_variant(load_variant(None, "base"), settings, verdicts=[])
+    fig = sinedwell(data)
+    amp = fig.axes[2]
+    assert amp.get_yscale() == "log" and amp.get_ylabel() == "amplitude [deg]"
+    labels = [line.get_label() for line in amp.get_lines()]
+    assert "current limit ±20 A" in labels and "voltage limit ±30 V" in labels
+    current = amp.get_lines()[labels.index("current limit ±20 A")]
+    w, a = current.get_data()
+    p = LoopParameters.from_config(data.loaded.params)
+    expected = np.degrees(rate_envelope(data.loaded.params, p, w[[0, -1]],
+                                        feedforward=False).current_amplitude_rad)
+    np.testing.assert_allclose(a[[0, -1]], expected, rtol=1e-5)  # plotted rounded to 6 digits
+    levels = {round(float(line.get_ydata()[0]), 6) for line in amp.get_lines()
+              if line.get_marker() == "o" and len(line.get_ydata())}
+    assert levels == {0.5, 10.0}
