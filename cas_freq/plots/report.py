@@ -726,8 +726,9 @@ def _envelope_map(ax, data, r, w):
                              dense, feedforward=bool(data.dwell.feedforward))
     ax.plot(dense, _r(unit.from_si(envelope.current_amplitude_rad)), color="C3", lw=1.5,
             label=f"current limit ±{envelope.current_limit_a:g} A")
+    volts = min(envelope.voltage_limit_v, envelope.supply_voltage_v)
     ax.plot(dense, _r(unit.from_si(envelope.voltage_amplitude_rad)), color="C1", lw=1.5,
-            ls="--", label=f"voltage limit ±{min(envelope.voltage_limit_v, envelope.supply_voltage_v):g} V")
+            ls="--", label=f"voltage limit ±{volts:g} V")
     for k, amplitude in enumerate(np.asarray(r.amplitudes_rad)):
         color = f"C{k % 10}"
         hit = np.asarray(r.limit_hit[k], bool)
