@@ -326,7 +326,8 @@ def envelope_lines(envelope, unit, output="output"):
     picks = np.unique(np.linspace(0, w.size - 1, 5).round().astype(int))
     shown = ", ".join(f"{w[k]:.4g} rad/s: {unit.from_si(amplitude[k]):.3g} {unit.shown} "
                       f"({envelope.limited_by[k]})" for k in picks)
-    lines.append(f"largest sine inside the limits: {shown}")
+    with_ff = "with" if envelope.feedforward else "without"
+    lines.append(f"largest sine inside the limits ({with_ff} the feed-forward): {shown}")
     if envelope.basis != "continuous loops":
         lines.append(f"(sine limits of the {envelope.basis})")
     return lines
