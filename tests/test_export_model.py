@@ -95,6 +95,10 @@ def test_sampled_variant_exports_the_discrete_T(tmp_path):
     assert data["linear"]["sampled"] and data["linear"]["dt"] == pytest.approx(1 / 2500)
     system = _reloaded(data)
     assert system.isdtime(strict=True)
+    # the discrete T is the sampled loop itself (no Padé): analyze's sampled ω_BW
+    sampled = cf.load("configs/qt_cas.yaml", variant="sampled").analyze()
+    assert data["accuracy"]["bandwidth_rad_s"] == pytest.approx(
+        sampled.closed_loop.bandwidth_rad_s, rel=1e-6)
     assert data["envelope"]["basis"].startswith("continuous loops (the controllers are sampled")
 
 
@@ -118,3 +122,14 @@ def test_bad_output_path_exits_2(tmp_path, capsys):
     assert "is not a folder" in err and "\n" not in err
     assert main(["export-model", "-o", str(tmp_path), "-q"]) == 2
     assert "is a folder" in capsys.readouterr().err
+
+
+def test_bandwidth_is_taken_from_the_models_own_dc_gain():
+    # the cascade axis carries a load spring without integral action at the output: |T(0)| < 1,
+    # and ω_BW is 3.01 dB below |T(0)| (docs/model.md §7), not below 1 (which gave 41.80 rad/s
+    # for analyze's 42.64 before the fix)
+    act = cf.load("configs/cascade_axis.yaml")
+    model = act.export_model(pade=6, amplitudes=[math.radians(0.5)], frequencies=[100.0])
+    exact = act.analyze().closed_loop.bandwidth_rad_s
+    assert abs(complex(np.squeeze(model.system(0.0)))) == pytest.approx(0.990, abs=1e-3)
+    assert model.accuracy["bandwidth_rad_s"] == pytest.approx(exact, rel=1e-8)

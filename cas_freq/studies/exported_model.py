@@ -165,12 +165,14 @@ def _conjugate_pairs(roots):
     return np.concatenate([np.sort(roots[real].real).astype(complex), pairs])
 
 
-def model_bandwidth(sys, omega, dc_gain=1.0):
-    """ω_BW [rad/s] of ``sys`` (|T| 3.0103 dB below ``dc_gain``): the first grid crossing,
-    refined by bisection on the system's own response; None without one."""
+def model_bandwidth(sys, omega):
+    """ω_BW [rad/s] of ``sys`` (|T| 3.0103 dB below |T(0)|, docs/model.md §7: below 1 with a
+    load spring and no integral action): the first grid crossing, refined by bisection on the
+    system's own response; None without one."""
     from scipy.optimize import brentq
 
-    level = dc_gain * math.sqrt(0.5)
+    zero = 1.0 if sys.isdtime(strict=True) else 0.0
+    level = abs(complex(np.squeeze(sys(zero)))) * math.sqrt(0.5)
 
     def magnitude(w):
         if sys.isdtime(strict=True):
