@@ -229,7 +229,7 @@ def export_model(loaded, pade_order=DEFAULT_EXPORT_PADE, amplitudes_rad=None,
     analysis = analyze(loaded)
     params = LoopParameters.from_config(loaded.params)
     system = linear_model(params, pade_order).closed_loop
-    accuracy = _accuracy(loaded.params, params, system, analysis, pade_order)
+    accuracy = _accuracy(params, system, analysis, pade_order)
     dwell = sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s, feedforward=feedforward,
                           progress=progress, analysis=analysis)
     omega = np.asarray(dwell.frequencies_rad_s if dwell.result is not None
@@ -238,13 +238,26 @@ def export_model(loaded, pade_order=DEFAULT_EXPORT_PADE, amplitudes_rad=None,
     return ExportedModel(loaded, pade_order, system, accuracy, dwell, envelope, feedforward)
 
 
-def _accuracy(config, params, system, analysis, pade_order):
+def _held_step(system, t):
+    """Unit step of a discrete-time ``system`` read at times ``t`` [s], each output sample held
+    until the next (as the report draws a sampled loop's linear step)."""
+    import control
+
+    k = np.floor(t / system.dt + 1e-9).astype(int)
+    samples = np.squeeze(control.step_response(system, T=np.arange(k.max() + 1) * system.dt)
+                         .outputs)
+    return np.atleast_1d(samples)[k]
+
+
+def _accuracy(params, system, analysis, pade_order):
     """How far the exported model is from the exact-delay loop and from the tool's linear
     step (the :class:`ExportedModel` ``accuracy``)."""
+    import control
+
     from cas_freq.analysis.frequency import DEFAULT_POINTS_PER_DECADE, frequency_grid
     from cas_freq.model import DEFAULT_PADE_ORDER, ActuatorLoops
     from cas_freq.model.structure import total_delay
-    from cas_freq.report.data import linear_steps
+    from cas_freq.model.systems import linear_model
 
     low, high = analysis.frequency_range_rad_s
     omega = frequency_grid(low, high, DEFAULT_POINTS_PER_DECADE, total_delay(params))
@@ -270,8 +283,13 @@ def _accuracy(config, params, system, analysis, pade_order):
     if analysis.stable and bandwidth is not None:
         # a unit step over 20 time constants of the bandwidth, 2000 points
         t = np.linspace(0.0, 20.0 * 2.0 * math.pi / bandwidth, 2001)
-        ours = linear_steps(config, [t], [1.0], pade_order)[0]
-        tool = linear_steps(config, [t], [1.0], DEFAULT_PADE_ORDER)[0]
+        tool_system = linear_model(params, DEFAULT_PADE_ORDER).closed_loop
+        if system.isdtime(strict=True):  # the output samples, each held until the next
+            ours = _held_step(system, t)
+            tool = _held_step(tool_system, t)
+        else:
+            ours = np.squeeze(control.step_response(system, T=t).outputs)
+            tool = np.squeeze(control.step_response(tool_system, T=t).outputs)
         out["step_max_error"] = float(np.max(np.abs(ours - tool)))
         out["step_reference"] = (f"the tool's linear unit step (Padé order {DEFAULT_PADE_ORDER},"
                                  f" the report's) at {t.size} points over 0..{t[-1]:.4g} s")
