@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 
+from cas_freq.exceptions import CasFreqError
 from cas_freq.fileio import json_ready
 from cas_freq.output import output_json, output_unit
 
@@ -221,7 +222,7 @@ def export_model(loaded, pade_order=DEFAULT_EXPORT_PADE, amplitudes_rad=None,
     from cas_freq.simulation.sinedwell import dwell_frequencies
 
     if not (isinstance(pade_order, int) and 1 <= pade_order <= MAX_PADE_ORDER):
-        raise ValueError(f"--pade: must be 1..{MAX_PADE_ORDER}, got {pade_order!r}")
+        raise CasFreqError(f"pade: must be an integer 1..{MAX_PADE_ORDER}, got {pade_order!r}")
     unit = output_unit(loaded.params)
     if amplitudes_rad is None:
         amplitudes_rad = ([1e-4, 5e-4, 2e-3] if unit.linear
