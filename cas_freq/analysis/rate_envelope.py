@@ -329,7 +329,8 @@ def envelope_lines(envelope, unit, output="output"):
     with_ff = "with" if envelope.feedforward else "without"
     lines.append(f"largest sine inside the limits ({with_ff} the feed-forward): {shown}")
     if envelope.basis != "continuous loops":
-        lines.append(f"(sine limits of the {envelope.basis})")
+        lines.append("(the controllers are sampled: the sine limits are those of the same "
+                     "loops run continuously)")
     return lines
 
 
