@@ -71,14 +71,20 @@ def test_voltage_per_command_is_the_plant_seen_from_the_current():
     np.testing.assert_allclose(voltage, expected, rtol=1e-9)
 
 
-@pytest.mark.parametrize("frequency, limit", [(100.0, "voltage"), (4156.0, "current")])
-def test_sine_inside_the_envelope_does_not_saturate_and_outside_does(frequency, limit):
+@pytest.mark.parametrize("config, frequency, limit", [
+    ("configs/qt_cas.yaml", 100.0, "voltage"),
+    ("configs/qt_cas.yaml", 4156.0, "current"),
+    # the cascade's notch (800 rad/s, -20 dB) sits between the clamp and the current loop: the
+    # clamped command is 13x the current there (335 vs 25 A/rad), which the simulator confirms
+    ("configs/cascade_axis.yaml", 800.0, "current"),
+])
+def test_sine_inside_the_envelope_does_not_saturate_and_outside_does(config, frequency, limit):
     # the second method: the nonlinear simulator's own clamp flags over the steady state of a
     # sine-dwell (the feed-forward acting in both, as the simulator applies the config's). At
     # 100 rad/s the voltage clamp is predicted first (80.7 deg, the current's at 101.7 deg),
     # at 3 x w_BW the current clamp (the derivative's current); 0.8 x the predicted amplitude
     # touches no clamp, 1.25 x reaches the predicted one: the envelope is sharp to 25 %.
-    act = cf.load("configs/qt_cas.yaml")
+    act = cf.load(config)
     p = LoopParameters.from_config(act.params)
     w = np.array([frequency])
     limits = rate_envelope(act.params, p, w)
@@ -126,3 +132,15 @@ def test_sinedwell_figure_draws_the_envelope_map():
     levels = {round(float(line.get_ydata()[0]), 6) for line in amp.get_lines()
               if line.get_marker() == "o" and len(line.get_ydata())}
     assert levels == {0.5, 10.0}
+
+
+def test_a_cascades_velocity_clamp_limits_the_rate():
+    # the cascade axis: position_loop.omega_max = 100 rad/s at the
+    # motor is below the supply's no-load speed, so the output rate is omega_max / N
+    act = cf.load("configs/cascade_axis.yaml", set={"position_loop.omega_max": "100 rad/s"})
+    envelope = act.analyze().envelope
+    ratio = LoopParameters.from_config(act.params).ratio[0]
+    assert envelope.no_load_rate_rad_s == pytest.approx(100.0 / ratio, rel=1e-12)
+    assert envelope.rate_limited_by == "velocity command"
+    free = cf.load("configs/cascade_axis.yaml").analyze().envelope
+    assert free.rate_limited_by == "supply" and free.no_load_rate_rad_s > 100.0 / ratio

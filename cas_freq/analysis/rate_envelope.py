@@ -85,6 +85,9 @@ class RateEnvelope:
         Output torque (force) at stall [N*m or N].
     stall_limited_by : str
         ``"current"`` (i_max) or ``"voltage"`` (the supply over the resistance).
+    rate_limited_by : str
+        ``"supply"``, or ``"velocity command"`` where a cascade's velocity-command clamp
+        ``position_loop.omega_max`` (over N) is below the supply's no-load rate.
     curve_rate_rad_s, curve_torque_N_m : numpy.ndarray
         The torque-speed curve at the output, from stall to the no-load rate.
     frequencies_rad_s : numpy.ndarray
@@ -106,6 +109,7 @@ class RateEnvelope:
     no_load_rate_rad_s: float
     stall_torque_N_m: float
     stall_limited_by: str
+    rate_limited_by: str
     curve_rate_rad_s: np.ndarray
     curve_torque_N_m: np.ndarray
     frequencies_rad_s: np.ndarray
@@ -141,6 +145,7 @@ class RateEnvelope:
             f"no_load_rate_{unit.shown}_s": self.no_load_rate_rad_s * scale,
             f"stall_{force}_{torque}": self.stall_torque_N_m,
             "stall_limited_by": self.stall_limited_by,
+            "rate_limited_by": self.rate_limited_by,
             "torque_speed": {f"rate_{rate}": self.curve_rate_rad_s.tolist(),
                              f"{force}_{torque}": self.curve_torque_N_m.tolist()},
             "sine_limit": {
@@ -183,9 +188,10 @@ def steady_state(p, supply_voltage, supply_resistance, points=CURVE_POINTS):
 
     Returns
     -------
-    (float, float, str, numpy.ndarray, numpy.ndarray)
+    (float, float, str, numpy.ndarray, numpy.ndarray, str)
         No-load rate [rad/s or m/s], stall torque [N*m or N], what limits the stall current
-        (``"current"`` or ``"voltage"``), the curve's rates and torques.
+        (``"current"`` or ``"voltage"``), the curve's rates and torques, what limits the rate
+        (``"supply"``, or ``"velocity command"``: a cascade's ``position_loop.omega_max``).
     """
     r, ke, km = _scalar(p.R), _scalar(p.Ke), _scalar(p.Km)
     mu, fc = _scalar(p.mu_v), _scalar(getattr(p, "F_c", 0.0))
@@ -196,7 +202,9 @@ def steady_state(p, supply_voltage, supply_resistance, points=CURVE_POINTS):
     speeds = [(km * v - r_e * fc) / (km * ke + r_e * mu) for v, r_e in branches]
     if mu > 0:  # ... and on the current limit, if the friction takes all of it first
         speeds.append((km * i_max - fc) / mu)
-    top = max(0.0, min(speeds))
+    omega_max = _scalar(getattr(p, "omega_max", np.inf))
+    clamped = omega_max < min(speeds)  # a cascade's velocity-command clamp comes first
+    top = max(0.0, min(*speeds, omega_max))
     omega = np.linspace(0.0, top, points)
     current = np.minimum.reduce([np.full(points, i_max),
                                  *((v - ke * omega) / r_e for v, r_e in branches)])
@@ -204,7 +212,8 @@ def steady_state(p, supply_voltage, supply_resistance, points=CURVE_POINTS):
     stall_current = min(i_max, *(v / r_e for v, r_e in branches))
     limited_by = "current" if stall_current == i_max else "voltage"
     stall = max(0.0, eta * n * (km * stall_current - fc))
-    return top / n, stall, limited_by, omega / n, torque
+    return top / n, stall, limited_by, omega / n, torque, ("velocity command" if clamped
+                                                           else "supply")
 
 
 def limit_responses(params, omega):
@@ -291,14 +300,18 @@ def rate_envelope(config, params, frequencies_rad_s, feedforward=True):
         params = dataclasses.replace(params, sample_rates=())
         basis = ("continuous loops (the controllers are sampled: the sine limits are those of "
                  "the same loops run continuously)")
-    rate, stall, limited_by, speeds, torques = steady_state(params, voltage, resistance)
+    if params.cascade and np.isfinite(_scalar(params.omega_max)):
+        basis += ("; the velocity-command clamp position_loop.omega_max is not part of the "
+                  "sine limits")
+    rate, stall, limited_by, speeds, torques, rate_by = steady_state(params, voltage,
+                                                                     resistance)
     omega = np.asarray(frequencies_rad_s, dtype=float)
     a_i, a_v = sine_limits(params, omega, voltage, resistance)
     return RateEnvelope(
         supply_voltage_v=voltage, supply_resistance_ohm=resistance,
         voltage_limit_v=_scalar(params.v_max), current_limit_a=_scalar(params.i_max),
         no_load_rate_rad_s=float(rate), stall_torque_N_m=float(stall),
-        stall_limited_by=limited_by, curve_rate_rad_s=speeds, curve_torque_N_m=torques,
+        stall_limited_by=limited_by, rate_limited_by=rate_by, curve_rate_rad_s=speeds, curve_torque_N_m=torques,
         frequencies_rad_s=omega, current_amplitude_rad=a_i, voltage_amplitude_rad=a_v,
         basis=basis, feedforward=feedforward,
     )
@@ -313,6 +326,8 @@ def envelope_lines(envelope, unit, output="output"):
         rate = (f"{envelope.no_load_rate_rad_s:.4g} rad/s "
                 f"({np.degrees(envelope.no_load_rate_rad_s):.4g} deg/s)")
         stall = f"stall torque {envelope.stall_torque_N_m:.4g} N*m"
+    if envelope.rate_limited_by != "supply":
+        rate += " (the velocity-command clamp)"
     lines = [f"envelope ({output}): no-load rate {rate}; {stall} "
              f"({envelope.stall_limited_by} limit); supply {envelope.supply_voltage_v:g} V"
              + (f", {envelope.supply_resistance_ohm:g} ohm" if envelope.supply_resistance_ohm
@@ -328,9 +343,12 @@ def envelope_lines(envelope, unit, output="output"):
                       f"({envelope.limited_by[k]})" for k in picks)
     with_ff = "with" if envelope.feedforward else "without"
     lines.append(f"largest sine inside the limits ({with_ff} the feed-forward): {shown}")
-    if envelope.basis != "continuous loops":
+    if envelope.basis.startswith("continuous loops ("):
         lines.append("(the controllers are sampled: the sine limits are those of the same "
                      "loops run continuously)")
+    if "omega_max" in envelope.basis:
+        lines.append("(the velocity-command clamp position_loop.omega_max is not part of the "
+                     "sine limits)")
     return lines
 
 
