@@ -65,6 +65,8 @@ class ExportedModel:
     envelope : cas_freq.analysis.rate_envelope.RateEnvelope
     feedforward : bool
         Whether the feed-forward acted on the sine-dwell and the sine limits.
+    stability : str
+        ``"stable"``, ``"marginal"`` or ``"unstable"``: the linear closed loop's verdict.
     """
 
     loaded: object
@@ -74,6 +76,8 @@ class ExportedModel:
     dwell: object
     envelope: object
     feedforward: bool = False
+    #: The linear closed loop's verdict, as ``analyze`` gives it.
+    stability: str = "stable"
 
     def to_dict(self):
         """JSON-ready dict (non-finite numbers become None)."""
@@ -128,6 +132,7 @@ class ExportedModel:
             "overrides": [f"{key}={value}" for key, value in self.loaded.overrides],
             "output": self.loaded.params.output_label,
             "output_unit": unit.si,
+            "stability": self.stability,
             "linear": linear,
             "accuracy": self.accuracy,
             "sine_dwell": (table if table is not None else
@@ -147,9 +152,7 @@ def _zpk(sys):
     zeros = np.asarray(control.zeros(sys), complex)
     zeros = _conjugate_pairs(zeros[np.isfinite(zeros)])
     # the gain from the response at a point away from the poles and zeros
-    s0 = 1.0 if sys.isdtime(strict=True) else 1j * 1e-3
-    if sys.isdtime(strict=True):
-        s0 = 0.5 + 0.5j
+    s0 = (0.5 + 0.5j) if sys.isdtime(strict=True) else 1e-3j
     value = complex(np.squeeze(sys(s0)))
     gain = value * np.prod(s0 - poles) / np.prod(s0 - zeros)
     return zeros, poles, float(gain.real)
@@ -236,7 +239,8 @@ def export_model(loaded, pade_order=DEFAULT_EXPORT_PADE, amplitudes_rad=None,
     omega = np.asarray(dwell.frequencies_rad_s if dwell.result is not None
                        else (dwell_frequencies(analysis) if analysis.stable else ()), float)
     envelope = rate_envelope(loaded.params, params, omega, feedforward=feedforward)
-    return ExportedModel(loaded, pade_order, system, accuracy, dwell, envelope, feedforward)
+    return ExportedModel(loaded, pade_order, system, accuracy, dwell, envelope, feedforward,
+                         analysis.stability.verdict)
 
 
 def _held_step(system, t):
