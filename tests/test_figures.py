@@ -28,6 +28,7 @@ COMMANDS = {
     "profile": ["simulate", "--profile", "10deg", "--velocity", "2000deg/s",
                 "--acceleration", "1e5deg/s^2", "--json"],
     # a linear output (configs/ball_screw.yaml): its output quantities are the twins in mm
+    "analyze linear": ["analyze", "configs/ball_screw.yaml", "--json"],
     "step linear": ["simulate", "configs/ball_screw.yaml", "--step", "5mm", "--json"],
     "sinedwell linear": ["sinedwell", "configs/ball_screw.yaml", "--amplitudes", "2mm",
                          "--frequencies", "50,400", "--json"],
@@ -39,7 +40,8 @@ COMMANDS = {
 #: a list). Not figures: the config's identity, the settings of the run, the time series and
 #: the lists of every crossing or confidence interval (lists are not leaves here).
 GROUPS = {
-    "analyze": ("current_loop", "position_loop", "closed_loop"),
+    "analyze": ("current_loop", "position_loop", "closed_loop", "envelope"),
+    "analyze linear": ("current_loop", "position_loop", "closed_loop", "envelope"),
     "analyze loaded": ("current_loop", "position_loop", "closed_loop", "drivetrain"),
     "analyze cascade": ("current_loop", "velocity_loop", "position_loop", "closed_loop"),
     "step": ("step", "fit"),
