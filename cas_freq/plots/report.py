@@ -768,8 +768,7 @@ VARIANT_FIGURES = {
     "steps": (steps, "Step responses, linear vs nonlinear, limits shaded"),
     "step_fit": (step_fit, "Second-order fit over the simulated step"),
     "bandwidth_vs_amplitude": (bandwidth_vs_amplitude, "Bandwidth versus amplitude"),
-    "sinedwell": (sinedwell, "Sine-dwell response per amplitude; below, the largest sine "
-                  "inside the current and voltage limits (the envelope) with each dwell point"),
+    "sinedwell": (sinedwell, "Sine-dwell response per amplitude"),
 }
 
 #: The figures drawn from the frequency responses alone (``data.curves`` and ``data.analysis``,
