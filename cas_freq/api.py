@@ -315,6 +315,31 @@ class Actuator:
         return ActuatorSet(self, changes, variant_parameters(self.params, changes))
 
     @one_blas_thread()
+    def export_model(self, pade=6, amplitudes=None, frequencies=None, feedforward=False):
+        """The actuator as the flight-control designer uses it (``cas-freq export-model``).
+
+        Parameters
+        ----------
+        pade : int
+            Padé order of both delays of the linear T.
+        amplitudes : sequence of float, optional
+            Sine-dwell and step amplitudes at the output [rad, or m at a linear output];
+            default those of ``cas-freq sinedwell``.
+        frequencies : sequence of float, optional
+            Sine-dwell frequencies [rad/s]; default the ``sinedwell`` grid.
+        feedforward : bool
+            Let the feed-forward act on the sine-dwell and the sine limits.
+
+        Returns
+        -------
+        cas_freq.studies.exported_model.ExportedModel
+            ``system`` is T as a ``control.StateSpace``; ``to_dict()`` is the command's JSON.
+        """
+        from cas_freq.studies.exported_model import export_model
+
+        return export_model(self.loaded, pade, amplitudes, frequencies, feedforward)
+
+    @one_blas_thread()
     def to_control(self, pade=TO_CONTROL_PADE_ORDER):
         """The loops as python-control state-space systems, both delays Padé of order ``pade``.
 

@@ -207,6 +207,14 @@ PARAMETERS = _table(
      "current-controller sample rate with controllers: sampled, 1..1e9 [Hz]"),
     ("simulation.position_loop_rate", None, "Hz", 1.0, False, 1e9,
      "position-controller sample rate with controllers: sampled, 1..1e9 [Hz]"),
+    # the supply of the rate and torque envelope (cas_freq.analysis.rate_envelope): not loop
+    # parameters, read from the config by the envelope alone
+    ("supply.voltage", None, "V", 1e-6, False, 1e6,
+     "supply voltage of the rate and torque envelope, default current_loop.v_max, 1e-6..1e6 "
+     "[V]"),
+    ("supply.resistance", None, "ohm", 0.0, False, 1e6,
+     "supply's source resistance in series with the winding (the voltage sags by it times "
+     "the current), default 0, 0 or 1e-9..1e6 [ohm]", 1e-9),
     # the sampled controllers (cas_freq.sampling_config): static, LoopParameters.sample_rates
     ("sampling.current_loop", None, "Hz", 1.0, False, 1e9,
      "sample rate of the current controller (absent: continuous), 1..1e9 [Hz]"),
@@ -224,7 +232,7 @@ PARAMETERS = _table(
 #: parameters (the sample rates are static, the same for a whole batch, not of a sample), and
 #: the numbers of the config's filters (``filters.0.frequency``, :func:`variable_keys`).
 VARIABLE_KEYS = tuple(key for key in PARAMETERS
-                      if not key.startswith(("simulation.", "sampling.", "sensors.")))
+                      if not key.startswith(("simulation.", "sampling.", "sensors.", "supply.")))
 
 _CASCADE_HINT = ("with a velocity_loop the position controller's output is a velocity command: "
                  "{key} is in {unit} (e.g. {example})")

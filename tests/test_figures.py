@@ -40,10 +40,12 @@ COMMANDS = {
 #: a list). Not figures: the config's identity, the settings of the run, the time series and
 #: the lists of every crossing or confidence interval (lists are not leaves here).
 GROUPS = {
-    "analyze": ("current_loop", "position_loop", "closed_loop", "stiffness", "effort"),
+    "analyze": ("current_loop", "position_loop", "closed_loop", "stiffness", "effort",
+                "envelope"),
+    "analyze linear": ("current_loop", "position_loop", "closed_loop", "envelope",
+                       "stiffness", "effort"),
     "analyze loaded": ("current_loop", "position_loop", "closed_loop", "drivetrain"),
     "analyze cascade": ("current_loop", "velocity_loop", "position_loop", "closed_loop"),
-    "analyze linear": ("stiffness", "effort"),
     "step": ("step", "fit"),
     "sinedwell": ("amplitudes.*",),
     "profile": ("profile",),

@@ -142,9 +142,12 @@ def test_every_row_is_well_formed():
         assert parameter.meaning.endswith(f"[{parameter.unit}]"), key
         assert unit_of(key) == parameter.unit
     # the loop-parameter keys can be varied, the sample rates (static: one per batch) and the
-    # sensors' resolution (read by analyze only) cannot
-    assert set(VARIABLE_KEYS) == {k for k in PARAMETERS
-                                  if not k.startswith(("simulation.", "sampling.", "sensors."))}
+    # sensors' resolution (read by analyze only) and the supply of the rate and torque envelope
+    # (not loop parameters) cannot
+    assert set(VARIABLE_KEYS) == {k for k in PARAMETERS if not k.startswith(
+        ("simulation.", "sampling.", "sensors.", "supply."))}
+    with pytest.raises(ConfigError, match="supply.voltage: cannot be varied"):
+        check_key("supply.voltage")
     with pytest.raises(ConfigError, match="simulation.current_loop_rate: cannot be varied"):
         check_key("simulation.current_loop_rate")
     with pytest.raises(ConfigError, match="sampling.position_loop: cannot be varied"):

@@ -42,6 +42,7 @@ from cas_freq.analysis.margins import (
     margins_of_run,
 )
 from cas_freq.analysis.probes import Probes
+from cas_freq.analysis.rate_envelope import rate_envelope, sine_frequencies
 from cas_freq.analysis.stability import (
     Stability,
     closed_loop_poles,
@@ -446,6 +447,9 @@ class Analysis(Summary):
     noise: object = None
     #: The predicted limit cycles (:class:`cas_freq.analysis.limit_cycles.LimitCycles`).
     limit_cycles: object = None
+    #: The rate and torque envelope (:mod:`cas_freq.analysis.rate_envelope`); None when the
+    #: analysis was not given its config.
+    envelope: object = None
     #: The analysed variant (:class:`cas_freq.config.LoadedVariant`), which :meth:`plot`
     #: evaluates the loops of; not part of the JSON.
     loaded: object = dataclasses.field(default=None, compare=False)
@@ -627,6 +631,10 @@ def analyze(
         params, omega, getattr(getattr(loaded.params, "sensors", None), "counts_per_rev", None),
         output_unit(loaded.params).linear, stability.stable, delay)
     rows = pade_study(params, pade_orders, omega) if pade_orders > 0 else ()
+    closed_figures = figures_of_run(_loop(figures, "closed_loop"))
+    envelope = rate_envelope(
+        loaded.params, params,
+        sine_frequencies(closed_figures.bandwidth_rad_s) if stability.stable else ())
     edges = _range_edges(figures, omega, stability.stable, sampled)
     for section, figure, at_edge in edges:
         if at_edge:
@@ -645,7 +653,7 @@ def analyze(
         position_loop=_margins(figures, "position_loop"),
         velocity_loop=(_margins(figures, "velocity_loop") if "velocity_loop" in verdicts
                        else None),
-        closed_loop=figures_of_run(_loop(figures, "closed_loop")),
+        closed_loop=closed_figures,
         pade_vs_exact=rows,
         notes=tuple(notes),
         range_edges=edges,
@@ -657,6 +665,7 @@ def analyze(
         noise=noise,
         limit_cycles=limit_cycles(params, simulate=limit_cycle_check,
                                   linear=bool(getattr(loaded.params, "linear", False))),
+        envelope=envelope,
         loaded=loaded,
     )
 
@@ -750,11 +759,16 @@ def _range_edges(figures, omega, stable, sampled=False):
 def to_dict(analysis):
     """JSON-ready dict of an :class:`Analysis` (non-finite numbers become None)."""
     unit = output_unit(analysis.loaded.params) if analysis.loaded is not None else None
-    data = dataclasses.asdict(dataclasses.replace(analysis, loaded=None, limit_cycles=None))
+    data = dataclasses.asdict(dataclasses.replace(analysis, loaded=None, limit_cycles=None,
+                                                  envelope=None))
     del data["loaded"]
     del data["limit_cycles"]
     if analysis.limit_cycles is not None:
         data.update(limit_cycles_json(analysis.limit_cycles))
+    if analysis.envelope is None or unit is None:
+        del data["envelope"]
+    else:
+        data["envelope"] = analysis.envelope.to_dict(unit)
     edges = data.pop("range_edges")
     for section in ("stiffness", "effort", "noise"):
         part = getattr(analysis, section)

@@ -27,9 +27,10 @@ __all__ = [
 #: likewise 128 + the signal's number.
 EXIT_INTERRUPTED = 130
 
-#: Command modules of ``cas_freq.cli``, in the order ``--help`` lists them.
+#: The commands, in the order ``--help`` lists them; each lives in the module of its name
+#: (``-`` spelt ``_``: ``export-model`` in ``cas_freq.cli.export_model``).
 COMMANDS = ("analyze", "simulate", "sinedwell", "fit", "verify", "report", "compare", "sweep",
-            "montecarlo", "tune", "epos4")
+            "montecarlo", "tune", "epos4", "export-model")
 
 
 def __getattr__(name):
@@ -51,7 +52,7 @@ def build_parser():
     parser.add_argument("--version", action="version", version=f"cas-freq {__version__}")
     commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     for name in COMMANDS:
-        importlib.import_module(f"cas_freq.cli.{name}").register(commands)
+        importlib.import_module(f"cas_freq.cli.{name.replace('-', '_')}").register(commands)
     for name, sub in commands.choices.items():
         sub.set_defaults(command_name=name)  # simulate's --command shadows args.command
         sub.add_argument("-q", "--quiet", action="store_true",

@@ -454,6 +454,15 @@ class Sensors(_Section):
     counts_per_rev: param("sensors.counts_per_rev") | None = None
 
 
+class Supply(_Section):
+    """The supply behind the drive, for the rate and torque envelope
+    (:mod:`cas_freq.analysis.rate_envelope`): its voltage (default ``current_loop.v_max``)
+    and its source resistance (default 0), which the winding current flows through."""
+
+    voltage: param("supply.voltage") | None = None
+    resistance: param("supply.resistance") = 0.0
+
+
 class Simulation(_Section):
     """The older spelling of ``sampling:``, for the current and position loops.
 
@@ -605,6 +614,7 @@ class ActuatorConfig(_Section):
     sampling: Sampling = Sampling()
     sensors: Sensors = Sensors()
     simulation: Simulation = Simulation()
+    supply: Supply = Supply()
     requirements: tuple[Requirement, ...] = ()
     reference: Reference | None = None
     load_envelope: LoadEnvelopeSpec | None = None

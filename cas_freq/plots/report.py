@@ -686,8 +686,8 @@ def sinedwell(data):
     """Sine-dwell magnitude and phase per amplitude over the linear T; limited points hollow."""
     r = data.dwell.result
     w = _r(r.frequencies_rad_s)
-    fig, axes = _figure(2, 1, (8, 6), sharex=True, margins=Margins())
-    mag, ph = axes[:, 0]
+    fig, axes = _figure(3, 1, (8, 8.6), sharex=True, margins=Margins())
+    mag, ph, amp = axes[:, 0]
     lin = np.asarray(data.dwell.linear_response)
     unit = output_unit(data.loaded.params)
     for k, amplitude in enumerate(np.degrees(np.asarray(r.amplitudes_rad))):
@@ -707,9 +707,45 @@ def sinedwell(data):
     mag.set_ylabel("|δ/δ_cmd| first harmonic [dB]")
     ph.set_ylabel("phase [deg]")
     mag.legend(loc="lower left", ncols=2)
-    _log_axes([mag, ph], w)
+    _envelope_map(amp, data, r, w)
+    _log_axes([mag, ph, amp], w)
     fig.suptitle(f"{data.label}: sine-dwell of the nonlinear loop per amplitude (exact delays)")
     return fig
+
+
+def _envelope_map(ax, data, r, w):
+    """The sine-dwell map in amplitude x frequency: the largest sine inside the current and the
+    voltage limit (:mod:`cas_freq.analysis.rate_envelope`, with the dwell's feed-forward
+    setting), each dwell point (hollow where a limit acted) and each amplitude's sine-dwell
+    bandwidth (a star): where an amplitude's line crosses a limit curve, that limit bends its
+    response."""
+    from cas_freq.analysis.rate_envelope import rate_envelope
+    from cas_freq.parameters import LoopParameters
+
+    unit = output_unit(data.loaded.params)
+    dense = np.geomspace(float(w[0]), float(w[-1]), 200)
+    envelope = rate_envelope(data.loaded.params, LoopParameters.from_config(data.loaded.params),
+                             dense, feedforward=bool(data.dwell.feedforward))
+    ax.plot(dense, _r(unit.from_si(envelope.current_amplitude_rad)), color="C3", lw=1.5,
+            label=f"current limit ±{envelope.current_limit_a:g} A")
+    volts = min(envelope.voltage_limit_v, envelope.supply_voltage_v)
+    ax.plot(dense, _r(unit.from_si(envelope.voltage_amplitude_rad)), color="C1", lw=1.5,
+            ls="--", label=f"voltage limit ±{volts:g} V")
+    for k, amplitude in enumerate(np.asarray(r.amplitudes_rad)):
+        color = f"C{k % 10}"
+        hit = np.asarray(r.limit_hit[k], bool)
+        level = np.full(w.size, _r(unit.from_si(amplitude)))
+        ax.plot(w[hit], level[hit], "o", color=color, mfc="none", ms=5)
+        ax.plot(w[~hit], level[~hit], "o", color=color, ms=4)
+        bandwidth = r.bandwidth_rad_s[k]
+        if bandwidth is not None:
+            ax.plot([bandwidth], [level[0]], "*", color=color, ms=11)
+    ax.plot([], [], "k*", ms=9, label="sine-dwell −3 dB at that amplitude")
+    ax.set_yscale("log")
+    ax.set_ylabel(f"amplitude [{unit.shown}]")
+    basis = "" if envelope.basis == "continuous loops" else " (continuous loops)"
+    ax.set_title(f"largest sine inside the limits{basis}", fontsize="medium")
+    ax.legend(loc="lower left", fontsize="small")
 
 
 def _dashed_words(curves):

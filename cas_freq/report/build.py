@@ -449,6 +449,13 @@ def variant_blocks(data, figure_blocks, settings):
     blocks += [Heading(3, f"Bandwidth versus amplitude ({data.loaded.variant})"),
                bandwidth_table(data), figure_blocks["bandwidth_vs_amplitude"],
                figure_blocks["sinedwell"]]
+    if a.envelope is not None:  # the rate and torque envelope (docs/model.md §15)
+        from cas_freq.analysis.rate_envelope import envelope_lines
+
+        blocks.append(Paragraph("Rate and torque " + "; ".join(envelope_lines(
+            a.envelope, output_unit(data.loaded.params), data.loaded.params.output_label))
+            + ". The sine-dwell figure's lowest panel draws these limits with the dwell's own "
+            "feed-forward setting."))
     return blocks
 
 

@@ -276,6 +276,7 @@ _GROUP_LABELS = {
        for key, loop in LOOPS.items()},
     "analyze.closed_loop": "closed loop",
     "analyze.drivetrain": "drivetrain",
+    "analyze.envelope": "rate and torque envelope",
     "sinedwell": "sine-dwell",
 }
 

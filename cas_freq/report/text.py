@@ -173,6 +173,13 @@ def analysis_table(analysis):
 
         unit = output_unit(analysis.loaded.params) if analysis.loaded is not None else None
         lines += text_lines(analysis.limit_cycles, unit)
+    if analysis.envelope is not None and analysis.loaded is not None:
+        from cas_freq.analysis.rate_envelope import envelope_lines
+        from cas_freq.output import output_unit
+
+        lines += [f"  {line}" for line in envelope_lines(
+            analysis.envelope, output_unit(analysis.loaded.params),
+            analysis.loaded.params.output_label)]
     if analysis.pade_vs_exact:
         lines.append(
             "  Padé vs exact      PM_p [deg]  GM_p [dB]  PM_i [deg]  w_BW [rad/s]  max|dT|"

@@ -1,0 +1,86 @@
+"""``cas-freq export-model``: the actuator as the flight-control designer uses it, as JSON."""
+
+from cas_freq.cli.common import (
+    EXIT_OK,
+    add_config_arguments,
+    load_variants,
+    output_path,
+    terminal_progress,
+    wrote,
+)
+from cas_freq.cli.sinedwell import (
+    DEFAULT_AMPLITUDES,
+    LINEAR_DEFAULT_AMPLITUDES,
+    amplitudes_text,
+    parse_amplitudes,
+    parse_frequencies,
+)
+from cas_freq.exceptions import CasFreqError
+
+
+def register(commands):
+    """Add the ``export-model`` sub-parser."""
+    parser = commands.add_parser(
+        "export-model", help="the actuator model for the autopilot designer, as JSON",
+        description="Write one variant as the flight-control designer uses it: the linear "
+        "closed loop T (Padé delays) as state-space matrices and zeros/poles/gain, the "
+        "sine-dwell gain and phase per amplitude, a second-order-plus-delay fit with a rate "
+        "limit per amplitude, and the rate and torque envelope (docs/model.md §15).",
+    )
+    add_config_arguments(parser)
+    parser.add_argument("--pade", type=int, default=None, metavar="N",
+                        help="Padé order of both delays of the linear T (default: 6)")
+    parser.add_argument(
+        "--amplitudes", default=DEFAULT_AMPLITUDES, metavar="A,B,...",
+        help=f"sine-dwell and step amplitudes with units (default: {DEFAULT_AMPLITUDES}; a "
+        f"linear output: {LINEAR_DEFAULT_AMPLITUDES})",
+    )
+    parser.add_argument(
+        "--frequencies", default=None, metavar="MIN:MAX:N|F1,F2,...",
+        help="sine-dwell frequencies in rad/s (default: 16 log-spaced over 0.1..5 x the linear "
+        "bandwidth, as sinedwell)",
+    )
+    parser.add_argument("--feedforward", action="store_true",
+                        help="let the feed-forward act on the sine-dwell and the sine limits")
+    parser.add_argument("-o", "--output", required=True, type=output_path, metavar="FILE",
+                        help="the JSON file to write (replaced as a whole)")
+    parser.set_defaults(handler=run)
+
+
+def run(args):
+    """Export one variant to ``args.output``."""
+    import json
+
+    from cas_freq.fileio import check_output_file, write_text_atomic
+    from cas_freq.model.delay import MAX_PADE_ORDER
+    from cas_freq.studies.exported_model import DEFAULT_EXPORT_PADE, export_model
+
+    pade = DEFAULT_EXPORT_PADE if args.pade is None else args.pade
+    if not 1 <= pade <= MAX_PADE_ORDER:
+        shown = str(pade) if abs(pade) < 10**12 else "a huge number"
+        raise CasFreqError(f"--pade: must be 1..{MAX_PADE_ORDER}, got {shown}")
+    path = check_output_file(args.output, "-o")
+    variants = load_variants(args)
+    if len(variants) != 1:
+        raise CasFreqError(f"--variant: export-model writes one variant, got {len(variants)}; "
+                           "give one --variant NAME")
+    loaded = variants[0]
+    amplitudes = parse_amplitudes(amplitudes_text(args.amplitudes, variants, DEFAULT_AMPLITUDES,
+                                                  LINEAR_DEFAULT_AMPLITUDES), variants)
+    frequencies = None if args.frequencies is None else parse_frequencies(args.frequencies)
+    progress = terminal_progress(f"sine-dwell {loaded.variant}")
+    from cas_freq.simulation.simulator import BudgetError
+
+    try:
+        model = export_model(loaded, pade, amplitudes, frequencies,
+                             feedforward=args.feedforward, progress=progress)
+    except BudgetError as error:
+        from cas_freq.simulation.run import over_budget_reason
+
+        raise CasFreqError(f"variant {loaded.variant}: "
+                           f"{over_budget_reason(error, frequencies or ())}") from None
+    if progress:
+        progress.done()
+    write_text_atomic(path, json.dumps(model.to_dict(), indent=1, allow_nan=False) + "\n")
+    wrote(path)
+    return EXIT_OK
