@@ -68,6 +68,7 @@ def test_position_loop_is_type_two_with_lower_gain_margin(exact):
     assert exact.current_loop.gain_margin_low_db is None  # type 1: phase starts at -90°
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_disk_margin_matches_python_control(variant, exact):
     # python-control's disk_margins (skew 0) on the Padé-6 model, on a dense log grid around the
     # sensitivity peak; its max is read off the grid (2e5 points over 3 decades -> relative

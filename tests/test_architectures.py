@@ -64,6 +64,7 @@ def _compare(ours, reference):
     return flat
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 @pytest.mark.parametrize("variant", ["base", "no_notch"])
 def test_the_shipped_cascade_axis_equals_the_reference(variant):
     # P -> PI -> PI with a compliant coupling, a spring load, a velocity feedback low-pass, a

@@ -113,6 +113,7 @@ def test_single_variant_output_unchanged_by_the_variant_options(capsys):
     assert outputs[0] == outputs[1] and isinstance(_strict(outputs[0]), dict)
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_several_variants_share_the_draws(tmp_path, capsys):
     report = tmp_path / "mc"
     argv = ["montecarlo", "--samples", "6", "--tolerance", "motor.Km=10%", "--no-step"]

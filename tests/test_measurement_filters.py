@@ -154,6 +154,7 @@ def _oracle_filters(filters):
                  for f in filters)
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 @pytest.mark.parametrize("case", ["qt_loaded_output", "cascade_axis"])
 def test_every_continuous_representation_has_the_measurement_filters(case):
     if case == "qt_loaded_output":  # the fin encoder's angle filtered, the gear inside

@@ -108,6 +108,7 @@ def test_report_is_written_whole_with_the_sinedwell_not_computed(slow_config, tm
     assert "not computed" in (out / "index.html").read_text()
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_report_and_compare_of_a_normal_and_a_slow_variant(datas):
     from cas_freq.report.build import report_files
     from cas_freq.report.compare import compare_files

@@ -82,6 +82,7 @@ def assert_same(compiled, reference, scale_rad):
         assert np.mean(ours != theirs) <= 1e-4, name
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 @pytest.mark.parametrize("path", [None, "configs/dc_servo.yaml"])
 def test_ten_degree_step_of_every_variant(path):
     # every variant of the config on the motor encoder in one batch, default horizon with its

@@ -147,6 +147,7 @@ def test_infeasible_bounds_exit_1_names_bw1(tmp_path):
 REPRO = ["--variant", "fitted", "--required-only", *SMALL]
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_same_seed_same_values_other_seed_still_feasible(tmp_path):
     code_a, a, _ = _json([*REPRO, "--seed", "3"])
     code_b, b, _ = _json([*REPRO, "--seed", "3"])
@@ -162,6 +163,7 @@ def test_same_seed_same_values_other_seed_still_feasible(tmp_path):
 
 # ---- 4. the tuned config verifies; the input is never changed ----------------------------------
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_tuned_config_verifies_and_input_unchanged(tmp_path):
     config = tmp_path / "in.yaml"
     config.write_bytes(QT_CAS.read_bytes())
@@ -255,6 +257,7 @@ def test_robust_corners_two_tolerances_count():
 
 # ---- 6. load cases ------------------------------------------------------------------------------
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_load_cases_multiply_scenarios():
     grid = cf.load(QT_CAS, variant="fitted").params.load_envelope.hinge_stiffness
     size = len(grid)
@@ -349,6 +352,7 @@ def test_pareto_front_hand_made():
     _check_front(evaluation, front)
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_pareto_front_of_a_tune():
     from cas_freq.config import load_variant
     from cas_freq.tuning import tune
@@ -432,6 +436,7 @@ def test_before_is_the_variant_even_outside_the_bounds():
     assert _requirement(data, "BW-1", "before")["nominal"] == pytest.approx(measured, rel=1e-6)
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_a_tune_on_a_local_cluster_is_the_local_tune():
     """--scheduler local:2 evaluates the batches on dask workers; the result is the local one
     to the last digit of the JSON (the chunks are evaluated by the same code, in order). Two
