@@ -254,6 +254,7 @@ def test_report_built_twice_is_byte_identical(two_builds):
     assert any(name.endswith(".svg") for name in first)
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_figures_drawn_in_worker_processes_equal_drawn_here(two_builds, tmp_path):
     # build_report draws the figures in FIGURE_WORKERS forked processes by default; drawn in
     # this process instead, every file is the same byte for byte (the load envelope's figure
