@@ -12,7 +12,7 @@ discrete time):
   :math:`\Gamma_1 = \int_0^{T-\varepsilon} e^{A\eta} d\eta\, B`,
   :math:`\Gamma_0 = e^{A(T-\varepsilon)} \int_0^{\varepsilon} e^{A\eta} d\eta\, B`
   (one matrix exponential of an augmented matrix each); analog filters on a measurement
-  (before its sampler) are part of this plant (:func:`cas_freq.model.sampled.with_analog_filters`),
+  (before its sampler) are part of this plant (:func:`cas_freq.model.hold.with_analog_filters`),
   a loop then measures the filtered signal;
 - each controller and filter realised as in continuous time and discretised by the
   generalised bilinear transform (:math:`\alpha = 1` backward, :math:`1/2` Tustin), which has
@@ -39,7 +39,8 @@ from cas_freq.analysis.stability import (
     series,
 )
 from cas_freq.model import parts
-from cas_freq.model.sampled import groups, measured, with_analog_filters
+from cas_freq.model.hold import measured, with_analog_filters
+from cas_freq.model.sampled import groups
 from cas_freq.model.structure import analog_sensor, build, chain_state_space, digital_sensor
 from cas_freq.threads import one_blas_thread
 
