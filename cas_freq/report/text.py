@@ -212,6 +212,14 @@ def _figure_line(key, value, tail=""):
     return f"    {figure.label:<19} {_fmt(shown, figure.shown_unit)}{tail}"
 
 
+def _sampled_controllers(result):
+    """``; controllers sampled (...)`` for a run with sampled controllers, else nothing."""
+    from cas_freq.simulation.run import controllers_text
+
+    text = controllers_text(result)
+    return "" if text == "continuous" else f"; controllers {text}"
+
+
 def step_table(run):
     """Multi-line summary of a :class:`cas_freq.simulation.run.StepRun`."""
     step, fit, result = run.step, run.fit, run.result
@@ -236,7 +244,8 @@ def step_table(run):
         head,
         *warning,
         f"  nonlinear step of {run.output_unit.show(step.amplitude_deg)} at the {run.output}; "
-        f"dt {result.dt_s * 1e6:g} us, {result.t_end_s * 1e3:g} ms ({settled}{extended})",
+        f"dt {result.dt_s * 1e6:g} us, {result.t_end_s * 1e3:g} ms ({settled}{extended})"
+        + _sampled_controllers(result),
         _figure_line("step.rise_time_s", step.rise_time_s),
         _figure_line("step.overshoot_pct", step.overshoot_pct),
         f"    settling ±2 % / ±5 % {_fmt(_ms(step.settling_time_s), 'ms')} / "

@@ -20,8 +20,8 @@ from cas_freq.simulation.commands import Profile
 from cas_freq.simulation.profile_figures import profile_figures
 from cas_freq.simulation.run import (
     _batch_key,
-    _controllers,
     _identity,
+    controllers_text,
     limit_activity,
     linear_verdict,
 )
@@ -250,7 +250,7 @@ def profile_run_dict(run):
         "limits": on["limits"],
         "without_feedforward": {"profile": off["figures"], "limits": off["limits"],
                                 "simulation": off["simulation"]},
-        "simulation": {"controllers": _controllers(run.result), "dt_s": run.result.dt_s,
+        "simulation": {"controllers": controllers_text(run.result), "dt_s": run.result.dt_s,
                        **on["simulation"]},
     }, run.output_unit))
 

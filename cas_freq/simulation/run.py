@@ -185,7 +185,7 @@ def step_run_dict(run):
             "voltage": limit_activity(result.t, result.voltage_limited),
         },
         "simulation": {
-            "controllers": _controllers(result),
+            "controllers": controllers_text(result),
             "dt_s": result.dt_s,
             "t_end_s": result.t_end_s,
             "extended": result.extended,
@@ -195,7 +195,8 @@ def step_run_dict(run):
     }, run.output_unit))
 
 
-def _controllers(result):
+def controllers_text(result):
+    """How a run's controllers ran, in words: ``continuous`` or ``sampled (...)``."""
     rates = [(name, getattr(result, f"{name}_rate_hz"))
              for name in ("current", "velocity", "position")]
     sampled = [f"{name} loop {rate:g} Hz" for name, rate in rates if rate is not None]
@@ -283,7 +284,7 @@ def command_run_dict(run):
             "current": limit_activity(r.t, r.current_limited),
             "voltage": limit_activity(r.t, r.voltage_limited),
         },
-        "simulation": {"controllers": _controllers(r), "dt_s": r.dt_s, "t_end_s": r.t_end_s,
+        "simulation": {"controllers": controllers_text(r), "dt_s": r.dt_s, "t_end_s": r.t_end_s,
                        "extended": r.extended, "settled": r.settled},
     })
 
@@ -479,7 +480,7 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
         linear_bandwidth = closed_loop_summary(loops.closed_loop, grid).bandwidth_rad_s
     return SineDwellRun(
         **_identity(loaded), feedforward=feedforward,
-        controllers=_controllers(steps[0].result),
+        controllers=controllers_text(steps[0].result),
         result=result, linear_response=linear, linear_bandwidth_rad_s=linear_bandwidth,
         steps=tuple(steps),
         limit_onset_rad=None if result is None else limit_onset_amplitude(result),
