@@ -36,6 +36,7 @@ from cas_freq.analysis.stability import (
     _concatenate,
     _feedback,
     _realize,
+    realised_orders,
     series,
 )
 from cas_freq.model import parts
@@ -176,12 +177,7 @@ def _shapes(p):
         for position, k in enumerate(group.loops):
             inner_period[k] = group.period if position or not g else plan[g - 1].period
     for k, loop in enumerate(structure.loops):
-        controller = loop.controller
-        denominators = [controller.minimal()[1] if controller.minimal else
-                        parts.stacked(controller.denominator, n)]
-        denominators += [parts.stacked(block.denominator, n)
-                         for block in (*loop.path, *loop.sensor)]
-        columns += [np.argmax(d != 0, axis=1) for d in denominators]
+        columns += realised_orders(loop, n)
         tau = np.broadcast_to(np.asarray(loop.delay, dtype=float), (n,))
         samples = (np.floor(tau / period[k] + 1e-9) if k == 0
                    else np.ceil(tau / inner_period[k] - 1e-9))

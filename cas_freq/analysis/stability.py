@@ -494,15 +494,20 @@ def _realization_shapes(p, structure, n):
     each delay being zero; (n, k) integers."""
     columns = [np.broadcast_to(np.asarray(p.K_g) > 0, (n,))]
     for loop in structure.loops:
-        controller = loop.controller
-        denominators = [controller.minimal()[1] if controller.minimal else
-                        parts.stacked(controller.denominator, n)]
-        denominators += [parts.stacked(block.denominator, n)
-                         for block in (*loop.path, *loop.sensor)]
-        columns += [np.argmax(d != 0, axis=1) for d in denominators]
+        columns += realised_orders(loop, n)
         columns.append(np.broadcast_to(np.asarray(loop.delay, dtype=float) == 0,
                                        (n,)).reshape(-1))
     return np.column_stack(columns).astype(int)
+
+
+def realised_orders(loop, n):
+    """Per run, the leading zeros of each denominator a loop's blocks realise (its controller
+    in its minimal form, its path and sensor filters): what sets their state counts."""
+    controller = loop.controller
+    denominators = [controller.minimal()[1] if controller.minimal else
+                    parts.stacked(controller.denominator, n)]
+    denominators += [parts.stacked(block.denominator, n) for block in (*loop.path, *loop.sensor)]
+    return [np.argmax(d != 0, axis=1) for d in denominators]
 
 
 def _roots_of_rows(polynomials):

@@ -51,6 +51,7 @@ import numpy as np
 from cas_freq.exceptions import ConfigError
 from cas_freq.model import parts
 from cas_freq.model.hold import WHOLE, PlantModes, hold_equivalent, measured, plant_modes
+from cas_freq.model.loops import LoopResponses
 from cas_freq.model.structure import build, digital_sensor, product, stages
 
 #: The discretisations of a sampled controller (docs/model.md).
@@ -147,23 +148,11 @@ def equivalent_s(omega, period, method):
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class SampledResponses:
-    """As :class:`cas_freq.model.loops.LoopResponses`, plus each loop's sampling period."""
+class SampledResponses(LoopResponses):
+    """:class:`cas_freq.model.loops.LoopResponses` of sampled loops (each loop's response at
+    its own z = e^(j omega T)), with each loop's sampling period [s]."""
 
-    loops: dict
-    closed_loop: np.ndarray | None
-    loop_at_a_time: dict | None = None
     periods: dict = dataclasses.field(default_factory=dict)
-
-    @property
-    def current_loop(self):
-        """L_i(e^(j w T_i)) [-]."""
-        return self.loops["current_loop"]
-
-    @property
-    def position_loop(self):
-        """L_p(e^(j w T_p)) [-]."""
-        return self.loops["position_loop"]
 
 
 def periods(p):
