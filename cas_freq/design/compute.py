@@ -1,0 +1,222 @@
+"""What the design page shows for one state: the existing engine on the config with overrides.
+
+Every figure is computed by the code the commands use, so the page and the commands agree to
+their printed digits: :func:`cas_freq.analysis.analyze` (exact delays, default range) for the
+margins and the bandwidth, :func:`cas_freq.report.data.curves` for the Bode data (the report's
+curves), :func:`cas_freq.verify.evaluate.verify_variant` for the verdicts of the config's
+analyze-kind requirements (the figures ``verify`` uses), :func:`cas_freq.report.data.linear_steps`
+for the linear step (Padé model, as the report draws it) and :func:`cas_freq.simulation.run.step_run`
+(``simulate --step``) for the nonlinear step.
+"""
+
+import math
+
+import numpy as np
+
+from cas_freq.exceptions import CasFreqError
+
+#: Points per decade of the Bode curves sent to the page.
+CURVE_POINTS_PER_DECADE = 40
+#: Samples of each step curve sent to the page (decimated from the simulation).
+STEP_SAMPLES = 400
+#: Default step at the output when the page gives none [deg].
+DEFAULT_STEP_DEG = 5.0
+#: Digits of the figures shown in the page: those ``cas-freq analyze`` prints.
+DIGITS = 4
+
+
+def _finite(value):
+    return None if value is None or not math.isfinite(value) else float(value)
+
+
+def controls(loaded, keys=None):
+    """The keys the page offers, grouped by loop, with their value, unit and ranges.
+
+    Parameters
+    ----------
+    loaded : cas_freq.config.LoadedVariant
+    keys : sequence of str, optional
+        Default: the free keys of ``tune`` (:func:`cas_freq.tuning.space.default_free`).
+
+    Returns
+    -------
+    list of dict
+        ``{"key", "group", "value" [SI], "unit", "lower", "upper"}``: ``lower``/``upper`` are
+        the slider's log range, tune's default range (value /4 .. x4) within the parameter
+        table's range (:data:`cas_freq.parameters.PARAMETERS`), which bounds the typed entry.
+    """
+    from cas_freq.parameters import check_key, parameter, variant_parameters
+    from cas_freq.tuning.options import DEFAULT_FACTOR
+    from cas_freq.tuning.space import default_free
+    from cas_freq.parameters import loop_values
+
+    params = loaded.params
+    keys = default_free(params) if keys is None else keys
+    loop = variant_parameters(params, {})
+    out = []
+    for key in keys:
+        check_key(key, params)
+        record = parameter(key, params)
+        value = float(np.ravel(loop_values(loop, key, params))[0])
+        low = record.lower if record.lower else (record.smallest or 1e-9)
+        high = record.upper if record.upper is not None else math.inf
+        start = value if value > 0 else low
+        out.append({
+            "key": key, "group": key.split(".")[0], "value": value, "unit": record.unit,
+            "lower": max(start / DEFAULT_FACTOR, low), "upper": min(start * DEFAULT_FACTOR, high),
+            "table_lower": record.lower, "table_upper": record.upper,
+            "meaning": record.meaning,
+        })
+    return out
+
+
+def check_values(values, config):
+    """{key: error text} of the entries of ``values`` (key -> text) that do not parse."""
+    from cas_freq.parameters import check_key, parse_value
+
+    errors = {}
+    for key, text in values.items():
+        try:
+            check_key(key, config)
+            parse_value(key, text, config)
+        except CasFreqError as exc:
+            errors[key] = str(exc)
+    return errors
+
+
+def _bode(omega, response):
+    with np.errstate(divide="ignore", invalid="ignore"):
+        magnitude = 20.0 * np.log10(np.abs(response))
+        phase = np.degrees(np.unwrap(np.angle(response)))
+    # the phase shown in -360..0 at the lowest frequency, as the report draws it
+    if phase.size and np.isfinite(phase[0]):
+        phase -= 360.0 * math.floor((phase[0] + 360.0) / 360.0)
+    return [_finite(v) for v in magnitude], [_finite(v) for v in phase]
+
+
+def _margins(margins):
+    from cas_freq.report.numbers import number
+
+    if margins is None:
+        return None
+    figures = {
+        "crossover_rad_s": margins.crossover_rad_s,
+        "phase_margin_deg": margins.phase_margin_deg,
+        "delay_margin_s": margins.delay_margin_s,
+        "gain_margin_db": margins.gain_margin_db,
+        "phase_crossover_rad_s": margins.phase_crossover_rad_s,
+        "gain_margin_low_db": margins.gain_margin_low_db,
+        "phase_crossover_low_rad_s": margins.phase_crossover_low_rad_s,
+    }
+    out = {name: _finite(value) for name, value in figures.items()}
+    out["text"] = {name: number(value, DIGITS) for name, value in figures.items()}
+    return out
+
+
+def _bandwidth_line(requirements):
+    """The lowest bandwidth the config's requirements ask for [rad/s], or None."""
+    bounds = [r.min for r in requirements
+              if r.kind == "analyze" and r.metric == "closed_loop.bandwidth_rad_s"
+              and r.min is not None]
+    return max(bounds) if bounds else None
+
+
+def _decimated(t, y):
+    step = max(1, len(t) // STEP_SAMPLES)
+    return [float(v) for v in t[::step]], [_finite(v) for v in y[::step]]
+
+
+def steps(loaded, analysis, amplitude_rad, nonlinear=True):
+    """The linear and (with ``nonlinear``) the nonlinear step at the output [deg or mm]."""
+    from cas_freq.model import DEFAULT_PADE_ORDER
+    from cas_freq.output import output_unit
+    from cas_freq.report.data import linear_steps
+    from cas_freq.simulation.run import step_run
+
+    unit = output_unit(loaded.params)
+    out = {"amplitude": unit.value(amplitude_rad) if unit.linear else math.degrees(amplitude_rad),
+           "unit": "mm" if unit.linear else "deg"}
+    scale = (lambda v: unit.value(v)) if unit.linear else np.degrees  # noqa: E731
+    figures = None
+    if nonlinear and analysis.stable:
+        run = step_run(loaded, amplitude_rad)
+        t = np.asarray(run.result.t)
+        out["nonlinear"] = dict(zip(("t", "y"), _decimated(t, scale(np.asarray(run.result.delta)))))
+        step = run.step
+        figures = {name: _finite(getattr(step, name)) for name in
+                   ("rise_time_s", "overshoot_pct", "settling_time_s", "peak_time_s")}
+        t_end = float(t[-1])
+    else:
+        bandwidth = analysis.closed_loop.bandwidth_rad_s if analysis.closed_loop else None
+        t_end = 20.0 / bandwidth if bandwidth else 0.05
+    out["figures"] = figures
+    if analysis.stable:
+        t = np.linspace(0.0, t_end, STEP_SAMPLES)
+        (linear,) = linear_steps(loaded.params, [t], [amplitude_rad], DEFAULT_PADE_ORDER)
+        out["linear"] = dict(zip(("t", "y"), _decimated(t, scale(linear))))
+    return out
+
+
+def design_state(loaded, step_rad=None, nonlinear=True):
+    """Everything the page draws for one loaded variant (JSON-ready dict).
+
+    Parameters
+    ----------
+    loaded : cas_freq.config.LoadedVariant
+        The config variant with the page's values as overrides.
+    step_rad : float, optional
+        The step at the output [rad] (default :data:`DEFAULT_STEP_DEG`).
+    nonlinear : bool
+        Also simulate the nonlinear step.
+
+    Returns
+    -------
+    dict
+    """
+    from cas_freq.analysis import analyze
+    from cas_freq.fileio import json_ready
+    from cas_freq.report.data import curves, loop_frequency_range
+    from cas_freq.verify.evaluate import verdict_dict, verify_variant
+
+    analysis = analyze(loaded)
+    found = curves(loaded.params, loop_frequency_range(analysis), CURVE_POINTS_PER_DECADE)
+    omega = [float(w) for w in found.omega_rad_s]
+    loops = []
+    for described in found.described:
+        magnitude, phase = _bode(found.omega_rad_s, found.loops[described.name])
+        margins = getattr(analysis, described.name, None)
+        loops.append({
+            "name": described.name, "symbol": described.symbol, "words": described.words,
+            "breaks_at": described.breaks_at, "magnitude_db": magnitude, "phase_deg": phase,
+            "margins": _margins(margins),
+            "loop_at_a_time": _margins(margins.loop_at_a_time if margins else None),
+        })
+    closed_magnitude, closed_phase = _bode(found.omega_rad_s, found.closed_loop)
+    closed = analysis.closed_loop
+    requirements = loaded.params.requirements
+    analyze_kind = [r for r in requirements if r.kind == "analyze"]
+    verdicts = (verify_variant(loaded, analyze_kind, known={"analyze": analysis})
+                if analyze_kind else [])
+    from cas_freq.report.numbers import number
+
+    bandwidth = closed.bandwidth_rad_s if closed else None
+    return json_ready({
+        "config": loaded.params.name, "variant": loaded.variant,
+        "overrides": [f"{key}={value}" for key, value in loaded.overrides],
+        "stability": analysis.stability.verdict, "stable": analysis.stable,
+        "omega_rad_s": omega, "loops": loops,
+        "closed_loop": {
+            "magnitude_db": closed_magnitude, "phase_deg": closed_phase,
+            "bandwidth_rad_s": _finite(bandwidth),
+            "bandwidth_text": number(bandwidth, DIGITS),
+            "peak_db": _finite(closed.peak_db) if closed else None,
+            "required_bandwidth_rad_s": _bandwidth_line(requirements),
+        },
+        "verdicts": [verdict_dict(v) for v in verdicts],
+        "step": steps(loaded, analysis, math.radians(DEFAULT_STEP_DEG)
+                      if step_rad is None else step_rad, nonlinear),
+        "notes": list(analysis.notes),
+    })
+
+
+__all__ = ["check_values", "controls", "design_state", "steps"]
