@@ -96,11 +96,12 @@ def _state(url, session, seq, values, **options):
 
 def test_a_gain_change_gives_the_phase_margin_analyze_prints(server):
     printed = _printed_phase_margins("position_loop.Kp=3")
-    status, data = _state(server, "pm", 1, {"position_loop.Kp": "3"}, nonlinear=True)
+    status, data = _state(server, "pm", 1, {"position_loop.Kp": "3"}, nonlinear=True,
+                          step="5deg")
     assert status == 200 and "errors" not in data
     shown = {loop["words"]: loop["margins"]["text"]["phase_margin_deg"] for loop in data["loops"]}
     assert shown == printed and printed["position loop"] == "28.74"
-    # the nonlinear step of the default 5 deg ends near 5 deg (the integrator removes the
+    # the nonlinear step of 5 deg ends near 5 deg (the integrator removes the
     # error); the linear one too
     assert abs(data["step"]["nonlinear"]["y"][-1] - 5.0) < 0.05
     assert abs(data["step"]["linear"]["y"][-1] - 5.0) < 0.05
@@ -220,3 +221,21 @@ def test_the_page_in_headless_chromium_shows_analyze_s_phase_margin(server, tmp_
     assert shown == {"current_loop": printed["current loop"],
                      "position_loop": printed["position loop"]}
     assert 'id="entry-position_loop.Kp"' in done.stdout
+
+
+@pytest.mark.parametrize("config, variant", [("cascade_axis", "base"), ("ball_screw", "base"),
+                                             ("qt_cas", "sampled")])
+def test_every_architecture_and_sampled_controllers_show_analyze_s_margins(config, variant):
+    # the velocity loop's cascade, a linear output (mm) and sampled controllers: the page's
+    # phase margins are analyze's printed ones, every loop
+    from cas_freq.config import load_variant
+    from cas_freq.design.compute import design_state
+
+    path = ROOT / "configs" / f"{config}.yaml"
+    data = design_state(load_variant(path, variant), nonlinear=False)
+    code, out, _ = run_cli(["analyze", str(path), "--variant", variant])
+    printed = dict(re.findall(r"^  (\w+ loop) L_\w+ .*\n(?:    .*\n)*?    phase margin +(\S+) deg",
+                              out, flags=re.M))
+    shown = {loop["words"]: loop["margins"]["text"]["phase_margin_deg"] for loop in data["loops"]}
+    assert shown == printed and len(shown) == len(data["loops"]) >= 2
+    assert data["step"]["unit"] == ("mm" if config == "ball_screw" else "deg")

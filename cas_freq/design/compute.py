@@ -4,9 +4,9 @@ Every figure is computed by the code the commands use, so the page and the comma
 their printed digits: :func:`cas_freq.analysis.analyze` (exact delays, default range) for the
 margins and the bandwidth, :func:`cas_freq.report.data.curves` for the Bode data (the report's
 curves), :func:`cas_freq.verify.evaluate.verify_variant` for the verdicts of the config's
-analyze-kind requirements (the figures ``verify`` uses), :func:`cas_freq.report.data.linear_steps`
-for the linear step (Padé model, as the report draws it) and :func:`cas_freq.simulation.run.step_run`
-(``simulate --step``) for the nonlinear step.
+analyze-kind requirements (the figures ``verify`` uses),
+:func:`cas_freq.report.data.linear_steps` for the linear step (Padé model, as the report draws
+it) and :func:`cas_freq.simulation.run.step_run` (``simulate --step``) for the nonlinear step.
 """
 
 import math
@@ -19,8 +19,6 @@ from cas_freq.exceptions import CasFreqError
 CURVE_POINTS_PER_DECADE = 40
 #: Samples of each step curve sent to the page (decimated from the simulation).
 STEP_SAMPLES = 400
-#: Default step at the output when the page gives none [deg].
-DEFAULT_STEP_DEG = 5.0
 #: Digits of the figures shown in the page: those ``cas-freq analyze`` prints.
 DIGITS = 4
 
@@ -45,10 +43,9 @@ def controls(loaded, keys=None):
         the slider's log range, tune's default range (value /4 .. x4) within the parameter
         table's range (:data:`cas_freq.parameters.PARAMETERS`), which bounds the typed entry.
     """
-    from cas_freq.parameters import check_key, parameter, variant_parameters
+    from cas_freq.parameters import check_key, loop_values, parameter, variant_parameters
     from cas_freq.tuning.options import DEFAULT_FACTOR
     from cas_freq.tuning.space import default_free
-    from cas_freq.parameters import loop_values
 
     params = loaded.params
     keys = default_free(params) if keys is None else keys
@@ -122,39 +119,44 @@ def _bandwidth_line(requirements):
 
 
 def _decimated(t, y):
+    """{"t": times [s], "y": values}, at most ~:data:`STEP_SAMPLES` of them."""
     step = max(1, len(t) // STEP_SAMPLES)
-    return [float(v) for v in t[::step]], [_finite(v) for v in y[::step]]
+    return {"t": [float(v) for v in t[::step]], "y": [_finite(v) for v in y[::step]]}
 
 
-def steps(loaded, analysis, amplitude_rad, nonlinear=True):
-    """The linear and (with ``nonlinear``) the nonlinear step at the output [deg or mm]."""
+def steps(loaded, analysis, amplitude, nonlinear=True):
+    """The linear and (with ``nonlinear``) the nonlinear step at the output, in the output's
+    shown unit (deg, or mm for a linear output); ``amplitude`` [rad or m]."""
     from cas_freq.model import DEFAULT_PADE_ORDER
     from cas_freq.output import output_unit
     from cas_freq.report.data import linear_steps
     from cas_freq.simulation.run import step_run
 
     unit = output_unit(loaded.params)
-    out = {"amplitude": unit.value(amplitude_rad) if unit.linear else math.degrees(amplitude_rad),
-           "unit": "mm" if unit.linear else "deg"}
-    scale = (lambda v: unit.value(v)) if unit.linear else np.degrees  # noqa: E731
-    figures = None
+    out = {"amplitude": float(unit.from_si(amplitude)), "unit": unit.shown, "figures": None}
     if nonlinear and analysis.stable:
-        run = step_run(loaded, amplitude_rad)
+        run = step_run(loaded, amplitude)
         t = np.asarray(run.result.t)
-        out["nonlinear"] = dict(zip(("t", "y"), _decimated(t, scale(np.asarray(run.result.delta)))))
-        step = run.step
-        figures = {name: _finite(getattr(step, name)) for name in
-                   ("rise_time_s", "overshoot_pct", "settling_time_s", "peak_time_s")}
+        out["nonlinear"] = _decimated(t, unit.from_si(np.asarray(run.result.delta)))
+        out["figures"] = {name: _finite(getattr(run.step, name)) for name in
+                          ("rise_time_s", "overshoot_pct", "settling_time_s", "peak_time_s")}
         t_end = float(t[-1])
     else:
         bandwidth = analysis.closed_loop.bandwidth_rad_s if analysis.closed_loop else None
         t_end = 20.0 / bandwidth if bandwidth else 0.05
-    out["figures"] = figures
     if analysis.stable:
         t = np.linspace(0.0, t_end, STEP_SAMPLES)
-        (linear,) = linear_steps(loaded.params, [t], [amplitude_rad], DEFAULT_PADE_ORDER)
-        out["linear"] = dict(zip(("t", "y"), _decimated(t, scale(linear))))
+        (linear,) = linear_steps(loaded.params, [t], [amplitude], DEFAULT_PADE_ORDER)
+        out["linear"] = _decimated(t, unit.from_si(linear))
     return out
+
+
+def default_step(loaded):
+    """The step the page starts with [rad or m]: the output's example (``5deg``... ``5mm``)."""
+    from cas_freq.output import output_unit, read_output
+
+    unit = output_unit(loaded.params)
+    return read_output(unit.example, unit, "step")
 
 
 def design_state(loaded, step_rad=None, nonlinear=True):
@@ -165,7 +167,8 @@ def design_state(loaded, step_rad=None, nonlinear=True):
     loaded : cas_freq.config.LoadedVariant
         The config variant with the page's values as overrides.
     step_rad : float, optional
-        The step at the output [rad] (default :data:`DEFAULT_STEP_DEG`).
+        The step at the output [rad, or m for a linear output] (default
+        :func:`default_step`).
     nonlinear : bool
         Also simulate the nonlinear step.
 
@@ -213,8 +216,8 @@ def design_state(loaded, step_rad=None, nonlinear=True):
             "required_bandwidth_rad_s": _bandwidth_line(requirements),
         },
         "verdicts": [verdict_dict(v) for v in verdicts],
-        "step": steps(loaded, analysis, math.radians(DEFAULT_STEP_DEG)
-                      if step_rad is None else step_rad, nonlinear),
+        "step": steps(loaded, analysis, default_step(loaded) if step_rad is None else step_rad,
+                      nonlinear),
         "notes": list(analysis.notes),
     })
 

@@ -89,8 +89,11 @@ class Design:
 
     def init(self, name):
         """The page's start: config, variant, controls and the session's values."""
+        from cas_freq.output import output_unit
+
         return {"config": str(self.config), "variant": self.variant,
-                "controls": self.controls, "values": self.session(name).values}
+                "controls": self.controls, "values": self.session(name).values,
+                "step": output_unit(self.loaded.params).example}
 
     def state(self, request):
         """Figures for ``request`` (see the module's ``POST /api/state``)."""

@@ -345,6 +345,7 @@
     const init = await api("/api/init?session=" + encodeURIComponent(session));
     controls = init.controls;
     $("title").textContent = `${init.config} / ${init.variant}`;
+    $("step").value = init.step;
     buildControls();
     $("undo").addEventListener("click", () => back(undo, redo));
     $("redo").addEventListener("click", () => back(redo, undo));
