@@ -239,3 +239,137 @@ def test_every_architecture_and_sampled_controllers_show_analyze_s_margins(confi
     shown = {loop["words"]: loop["margins"]["text"]["phase_margin_deg"] for loop in data["loops"]}
     assert shown == printed and len(shown) == len(data["loops"]) >= 2
     assert data["step"]["unit"] == ("mm" if config == "ball_screw" else "deg")
+
+
+class _DevTools:
+    """The smallest client of Chromium's DevTools protocol over its WebSocket (RFC 6455 text
+    frames, client-masked), standard library only: :meth:`evaluate` runs JavaScript in the
+    page and returns its (awaited) value."""
+
+    def __init__(self, ws_url):
+        import base64
+        import socket
+        from urllib.parse import urlparse
+
+        where = urlparse(ws_url)
+        self.sock = socket.create_connection((where.hostname, where.port), timeout=60)
+        key = base64.b64encode(os.urandom(16)).decode()
+        self.sock.sendall((f"GET {where.path} HTTP/1.1\r\nHost: {where.netloc}\r\n"
+                           "Upgrade: websocket\r\nConnection: Upgrade\r\n"
+                           f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n")
+                          .encode())
+        head = b""
+        while b"\r\n\r\n" not in head:
+            head += self.sock.recv(1)
+        assert b" 101 " in head.split(b"\r\n")[0], head
+        self.next_id = 0
+
+    def _exactly(self, n):
+        data = b""
+        while len(data) < n:
+            chunk = self.sock.recv(n - len(data))
+            assert chunk, "DevTools closed the connection"
+            data += chunk
+        return data
+
+    def _send(self, text):
+        payload, mask = text.encode(), os.urandom(4)
+        n = len(payload)
+        head = bytes([0x81]) + (bytes([0x80 | n]) if n < 126 else
+                                bytes([0x80 | 126]) + n.to_bytes(2, "big") if n < 65536 else
+                                bytes([0x80 | 127]) + n.to_bytes(8, "big"))
+        self.sock.sendall(head + mask + bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
+
+    def _receive(self):
+        message = b""
+        while True:
+            first, second = self._exactly(2)
+            n = second & 0x7F
+            if n == 126:
+                n = int.from_bytes(self._exactly(2), "big")
+            elif n == 127:
+                n = int.from_bytes(self._exactly(8), "big")
+            message += self._exactly(n)
+            if first & 0x80:  # the final fragment
+                return json.loads(message)
+
+    def evaluate(self, expression):
+        self.next_id += 1
+        self._send(json.dumps({"id": self.next_id, "method": "Runtime.evaluate", "params": {
+            "expression": expression, "awaitPromise": True, "returnByValue": True}}))
+        while True:
+            answer = self._receive()
+            if answer.get("id") == self.next_id:
+                assert "result" in answer, answer
+                result = answer["result"]
+                assert "exceptionDetails" not in result, result
+                return result["result"].get("value")
+
+
+def test_moving_a_gain_in_chromium_shows_analyze_s_phase_margin_and_undo_goes_back(
+        server, tmp_path):
+    # The page in a real browser, driven through its own function casDesign.setValue (what
+    # the sliders and entries call): three quick moves of a gain (debounced: one request, the
+    # last value), then undo (back to the second value); each time the phase margin the page
+    # shows is what `cas-freq analyze --set` prints for that gain.
+    chromium = chromium_or_skip()
+    browser = subprocess.Popen(
+        [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync",
+         f"--user-data-dir={tmp_path / 'profile'}", "--remote-debugging-port=0",
+         f"{server}"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+        start_new_session=True)
+    try:
+        port = None
+        deadline = time.monotonic() + 60
+        while port is None:
+            line = browser.stderr.readline()
+            assert line and time.monotonic() < deadline, "Chromium gave no DevTools address"
+            found = re.search(r"DevTools listening on ws://127\.0\.0\.1:(\d+)/", line)
+            port = found and found.group(1)
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list", timeout=30) as r:
+            (page,) = [t for t in json.loads(r.read()) if t["type"] == "page"]
+        tools = _DevTools(page["webSocketDebuggerUrl"])
+        while True:  # until the page has loaded (its first state shown)
+            try:
+                tools.evaluate("new Promise(r => { const wait = () => window.casDesign ? "
+                               "casDesign.ready.then(() => r(1)) : setTimeout(wait, 50); "
+                               "wait(); })")
+                break
+            except AssertionError as exc:  # the blank page replaced by the design page
+                assert "context was destroyed" in str(exc) and time.monotonic() < deadline
+        shown = tools.evaluate(
+            "Promise.all(['5', '4', '3'].map(v => casDesign.setValue('position_loop.Kp', v)))"
+            ".then(() => [document.getElementById('pm-position_loop').textContent,"
+            " document.getElementById('entry-position_loop.Kp').value,"
+            " document.body.dataset.seq])")
+        assert shown[:2] == [_printed_phase_margins("position_loop.Kp=3")["position loop"], "3"]
+        seq = int(shown[2])
+        undone = tools.evaluate(
+            "casDesign.undo().then(() => [document.getElementById('pm-position_loop')"
+            ".textContent, document.body.dataset.seq])")
+        assert undone[0] == _printed_phase_margins("position_loop.Kp=4")["position loop"]
+        assert int(undone[1]) == seq + 1  # one request for the three moves, one for undo
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(browser.pid, signal.SIGKILL)
+        browser.communicate()
+
+
+def test_analyze_without_the_hinge_scan_gives_every_other_figure_unchanged():
+    # what the page skips per change: a loaded variant's stable hinge-stiffness scan; every
+    # other figure is analyze's (the two analyses compared field by field)
+    import dataclasses
+
+    from cas_freq.analysis import analyze
+    from cas_freq.config import load_variant
+
+    loaded = load_variant(SHIPPED, "loaded")
+    full, quick = analyze(loaded), analyze(loaded, hinge_range=False)
+    assert full.drivetrain.stable_hinge_stiffness_n_m_rad[0] is not None
+    assert quick.drivetrain.stable_hinge_stiffness_n_m_rad is None
+    assert dataclasses.replace(full.drivetrain, stable_hinge_stiffness_n_m_rad=None) == \
+        quick.drivetrain
+    for name in ("current_loop", "position_loop", "closed_loop", "stability"):
+        assert getattr(full, name) == getattr(quick, name)
+    assert [n for n in full.notes if "load spring" not in n] == list(quick.notes)
