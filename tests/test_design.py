@@ -373,3 +373,22 @@ def test_analyze_without_the_hinge_scan_gives_every_other_figure_unchanged():
     for name in ("current_loop", "position_loop", "closed_loop", "stability"):
         assert getattr(full, name) == getattr(quick, name)
     assert [n for n in full.notes if "load spring" not in n] == list(quick.notes)
+
+
+def test_tune_from_here_returns_feasible_values_and_a_pareto_front(server):
+    # a small search (the tune's own code; its figures are tune's tests'): the tuned values
+    # are of the page's keys, within tune's default range around the session's values, and
+    # each Pareto row carries the three trade-off figures
+    _state(server, "tune", 1, {"position_loop.Kp": "3"})
+    status, data = _post(server, "/api/tune", {"session": "tune", "candidates": 16,
+                                               "rounds": 0})
+    assert status == 200, data
+    assert set(data["tuned"]["values"]) == {"position_loop.Kp", "position_loop.Ki",
+                                            "position_loop.Kd"}
+    assert 3.0 / 4 <= data["tuned"]["values"]["position_loop.Kp"] <= 3.0 * 4
+    assert data["candidates"] == 16 + 1  # the search's 16 and the session's own values
+    for row in data["pareto"]:
+        assert {"closed_loop.bandwidth_rad_s", "position_loop.phase_margin_deg",
+                "step.overshoot_pct"} <= set(row)
+    status, data = _post(server, "/api/tune", {"session": "tune", "candidates": 0})
+    assert status == 400 and "candidates" in data["error"]

@@ -16,6 +16,8 @@ Endpoints (JSON in and out):
   (:func:`cas_freq.design.compute.design_state`), or ``{"errors": {key: message}}`` for a
   value the config refuses (the session keeps its previous values). A request older than the
   session's newest (``seq``) is answered ``{"stale": true}`` without computing.
+- ``POST /api/tune`` ``{"session", "candidates", "rounds"}``: ``cas-freq tune`` of the page's
+  keys from the session's values: the tuned values and the Pareto front.
 - ``POST /api/save`` ``{"session", "name", "file", "force"}``: the config with the session's
   values as a new variant (:func:`cas_freq.drive.variant_text.config_with_variant`, written
   atomically; the input config is never overwritten) and the ``cas-freq verify`` command
@@ -129,6 +131,31 @@ class Design:
 
         return output_step(str(text), "step", [self.loaded])
 
+    def tune(self, request):
+        """``cas-freq tune`` of the page's keys from the session's values (the tune's default
+        objective, bounds and search; ``candidates``/``rounds`` as its options): the tuned
+        values and the Pareto front of bandwidth, phase margin and overshoot."""
+        from cas_freq.config import load_variant
+        from cas_freq.tuning.options import GLOBAL_COUNT, ROUNDS
+        from cas_freq.tuning.run import tune_variant
+        from cas_freq.tuning.summary import tune_dict
+
+        session = self.session(request.get("session"))
+        candidates, rounds = (int(default if request.get(name) is None else request[name])
+                              for name, default in (("candidates", GLOBAL_COUNT),
+                                                    ("rounds", ROUNDS)))
+        if not (1 <= candidates <= 2000 and 0 <= rounds <= 20):
+            raise CasFreqError(f"tune: candidates 1..2000 and rounds 0..20, got {candidates} "
+                               f"and {rounds}")
+        loaded = load_variant(self.config, self.variant, tuple(session.values.items()))
+        free = ",".join(control["key"] for control in self.controls)
+        result = tune_variant(loaded, free, candidates=candidates, rounds=rounds)
+        from cas_freq.fileio import json_ready
+
+        data = json_ready(tune_dict(result, loaded.params.name, loaded.variant, 0.0))
+        return {key: data[key] for key in ("objective", "feasible", "tuned", "pareto", "free",
+                                           "candidates", "feasible_candidates")}
+
     def save(self, request):
         """Write the config with the session's values as variant ``name``."""
         from cas_freq.config import load_variant
@@ -188,7 +215,9 @@ class Handler(BaseHTTPRequestHandler):
 
     def do_POST(self):  # noqa: N802
         url = urlparse(self.path)
-        actions = {"/api/state": self.server.design.state, "/api/save": self.server.design.save}
+        design = self.server.design
+        actions = {"/api/state": design.state, "/api/save": design.save,
+                   "/api/tune": design.tune}
         if url.path not in actions:
             return self._send(404, {"error": f"no such endpoint: {url.path}"})
         try:

@@ -15,7 +15,7 @@
   let accepted = {};        // the values of the state shown
   const undo = [], redo = [];
   let seq = 0, timer = null, waiting = [];
-  let shown = null, previous = null;
+  let shown = null, previous = null, variantState = null;
 
   const $ = (id) => document.getElementById(id);
   const el = (tag, attrs, text) => {
@@ -198,7 +198,8 @@
     (spec.hlines || []).forEach((h) => svg.appendChild(svgEl("line",
       {x1: M.l, x2: W - M.r, y1: Y(h.y), y2: Y(h.y), stroke: h.color, "stroke-dasharray": h.dash || ""})));
     (spec.vlines || []).forEach((v) => {
-      if (!(v.x > 0) || fx(v.x) < x0 || fx(v.x) > x1) return;
+      if (v.x === null || v.x === undefined || (spec.xlog && !(v.x > 0)) ||
+          fx(v.x) < x0 || fx(v.x) > x1) return;
       svg.appendChild(svgEl("line", {x1: X(v.x), x2: X(v.x), y1: M.t, y2: H - M.b,
         stroke: v.color, "stroke-dasharray": v.dash || "4 3"}));
       if (v.label) svg.appendChild(svgEl("text", {x: X(v.x) + 3, y: M.t + 10 + (v.row || 0) * 12,
@@ -227,10 +228,10 @@
   function text(t) { return t === null || t === undefined ? "–" : t; }
 
   function render() {
-    const s = shown, p = faint(previous);
+    const s = shown, p = faint(previous), v = $("compare").checked ? variantState : null;
     renderMargins(s);
     const bode = $("bode"); bode.replaceChildren();
-    const mag = [], phase = [], vm = [], vp = [];
+    const mag = [], phase = [], vm = [], vp = [], nichols = [];
     s.loops.forEach((loop, k) => {
       const color = COLORS[k % COLORS.length];
       mag.push({x: s.omega_rad_s, y: loop.magnitude_db, color, label: loop.symbol});
@@ -240,6 +241,14 @@
         mag.push({x: p.omega_rad_s, y: old.magnitude_db, color, faint: true});
         phase.push({x: p.omega_rad_s, y: old.phase_deg, color, faint: true});
       }
+      const base = v && v.loops.find((l) => l.name === loop.name);
+      if (base) {
+        mag.push({x: v.omega_rad_s, y: base.magnitude_db, color, dash: "6 3"});
+        phase.push({x: v.omega_rad_s, y: base.phase_deg, color, dash: "6 3"});
+        nichols.push({x: base.phase_deg, y: base.magnitude_db, color, dash: "6 3"});
+      }
+      nichols.push({x: loop.phase_deg, y: loop.magnitude_db, color, label: loop.symbol});
+      if (old) nichols.push({x: old.phase_deg, y: old.magnitude_db, color, faint: true});
       const m = loop.margins || {}, t = m.text || {};
       vm.push({x: m.crossover_rad_s, color, row: k,
                label: `${loop.symbol} ωc ${text(t.crossover_rad_s)}, PM ${text(t.phase_margin_deg)}°`});
@@ -251,10 +260,14 @@
       yclip: [-80, 80]}));
     bode.appendChild(plot({title: "Open loops phase [deg]", xlog: true, xlabel: "ω [rad/s]",
       series: phase, vlines: vp, hlines: [{y: -180, color: "#888"}]}));
+    $("nichols").replaceChildren(plot({title: "Nichols: |L| [dB] against phase [deg]",
+      xlabel: "phase [deg]", series: nichols, vlines: [{x: -180, color: "#888", dash: "2 2"}],
+      hlines: [{y: 0, color: "#888", dash: "2 2"}], yclip: [-60, 60]}));
 
     const c = s.closed_loop;
     const cs = [{x: s.omega_rad_s, y: c.magnitude_db, color: "#000", label: "T"}];
     if (p) cs.push({x: p.omega_rad_s, y: p.closed_loop.magnitude_db, color: "#000", faint: true});
+    if (v) cs.push({x: v.omega_rad_s, y: v.closed_loop.magnitude_db, color: "#000", dash: "6 3"});
     const lines = [{x: c.bandwidth_rad_s, color: "#000", label: `ω_BW ${text(c.bandwidth_text)} rad/s`}];
     if (c.required_bandwidth_rad_s) lines.push({x: c.required_bandwidth_rad_s, color: "#b00", row: 1,
       label: `required ≥ ${c.required_bandwidth_rad_s} rad/s`, dash: "2 2"});
@@ -267,6 +280,8 @@
     if (st.nonlinear) ss.push({x: st.nonlinear.t, y: st.nonlinear.y, color: "#d62728", label: "nonlinear"});
     if (p && p.step.linear) ss.push({x: p.step.linear.t, y: p.step.linear.y, color: "#1f77b4", faint: true});
     if (p && p.step.nonlinear) ss.push({x: p.step.nonlinear.t, y: p.step.nonlinear.y, color: "#d62728", faint: true});
+    if (v && v.step.linear) ss.push({x: v.step.linear.t, y: v.step.linear.y, color: "#1f77b4", dash: "6 3"});
+    if (v && v.step.nonlinear) ss.push({x: v.step.nonlinear.t, y: v.step.nonlinear.y, color: "#d62728", dash: "6 3"});
     const f = st.figures;
     const title = `Step of ${+st.amplitude.toPrecision(4)} ${st.unit}` + (f ?
       ` (nonlinear: overshoot ${text(f.overshoot_pct && +f.overshoot_pct.toPrecision(3))} %, ` +
@@ -340,6 +355,49 @@
       $("save-result").textContent = String(error.message || error);
     }
   }
+  async function compare() {
+    if ($("compare").checked && !variantState) {
+      // the variant as the config gives it: a session of its own with no values
+      variantState = await api("/api/state", {session: session + "-variant", seq: 0, values: {},
+        step: $("step").value, nonlinear: $("nonlinear").checked});
+    }
+    if (shown) render();
+  }
+  async function tune() {
+    $("tune-status").textContent = "tuning (a few seconds)";
+    try {
+      const data = await api("/api/tune", {session});
+      $("tune-status").textContent = `${data.feasible ? "feasible" : "INFEASIBLE"}, ` +
+        `${data.feasible_candidates} of ${data.candidates} candidates feasible; ` +
+        `objective ${data.objective.name}`;
+      const keys = data.free.map((f) => f.key);
+      const table = el("table", {id: "tune-table"});
+      const head = el("tr");
+      [...keys.map((k) => k.split(".").pop()), "ω_BW", "PM", "OS %", ""].forEach((h) =>
+        head.appendChild(el("th", {}, h)));
+      table.appendChild(head);
+      const rows = [Object.assign({label: "tuned"}, data.tuned.values), ...data.pareto];
+      rows.forEach((row) => {
+        const tr = el("tr");
+        keys.forEach((k) => tr.appendChild(el("td", {}, formatValue(row[k]))));
+        ["closed_loop.bandwidth_rad_s", "position_loop.phase_margin_deg", "step.overshoot_pct"]
+          .forEach((m, i) => tr.appendChild(el("td", {}, row[m] === undefined
+            ? (i === 0 ? row.label : "") : row[m] === null ? "–" : +row[m].toPrecision(4))));
+        const use = el("button", {type: "button"}, "use");
+        use.addEventListener("click", () => {
+          undo.push(Object.assign({}, values)); redo.length = 0;
+          const next = Object.assign({}, values);
+          keys.forEach((k) => { next[k] = formatValue(row[k]); });
+          setValues(next);
+        });
+        const cell = el("td"); cell.appendChild(use); tr.appendChild(cell);
+        table.appendChild(tr);
+      });
+      $("tune-result").replaceChildren(table);
+    } catch (error) {
+      $("tune-status").textContent = String(error.message || error);
+    }
+  }
   async function start() {
     $("session").textContent = session;
     const init = await api("/api/init?session=" + encodeURIComponent(session));
@@ -350,7 +408,13 @@
     $("undo").addEventListener("click", () => back(undo, redo));
     $("redo").addEventListener("click", () => back(redo, undo));
     $("save").addEventListener("click", save);
-    ["step", "nonlinear"].forEach((id) => $(id).addEventListener("change", schedule));
+    $("tune").addEventListener("click", tune);
+    $("compare").addEventListener("change", compare);
+    ["step", "nonlinear"].forEach((id) => $(id).addEventListener("change", () => {
+      variantState = null;
+      if ($("compare").checked) compare();
+      schedule();
+    }));
     $("overlay").addEventListener("change", () => shown && render());
     document.addEventListener("keydown", (e) => {
       if (!(e.ctrlKey || e.metaKey) || e.target.tagName === "INPUT" && e.target.type === "text") return;
@@ -364,7 +428,7 @@
     return setValues(Object.assign({}, init.values, fromUrl));
   }
 
-  window.casDesign = {setValue, setValues, session, ready: null,
+  window.casDesign = {setValue, setValues, session, ready: null, tune, compare,
                       undo: () => back(undo, redo), redo: () => back(redo, undo),
                       state: () => shown};
   window.casDesign.ready = start();
