@@ -392,3 +392,15 @@ def test_tune_from_here_returns_feasible_values_and_a_pareto_front(server):
                 "step.overshoot_pct"} <= set(row)
     status, data = _post(server, "/api/tune", {"session": "tune", "candidates": 0})
     assert status == 400 and "candidates" in data["error"]
+
+
+def test_the_limited_spans_of_the_step_are_the_runs_of_the_clamp_flags():
+    # worked by hand: flags 0 1 1 0 0 1 0 1 at t = 0..7 are clamped over [1, 2], [5, 5], [7, 7]
+    import numpy as np
+
+    from cas_freq.design.compute import limited_spans
+
+    t = np.arange(8.0)
+    assert limited_spans(t, [0, 1, 1, 0, 0, 1, 0, 1]) == [(1.0, 2.0), (5.0, 5.0), (7.0, 7.0)]
+    assert limited_spans(t, [0] * 8) == []
+    assert limited_spans(t, [1] * 8) == [(0.0, 7.0)]

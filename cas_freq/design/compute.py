@@ -124,6 +124,17 @@ def _decimated(t, y):
     return {"t": [float(v) for v in t[::step]], "y": [_finite(v) for v in y[::step]]}
 
 
+def limited_spans(t, flags):
+    """[(start, end) [s], ...] of the runs of True in ``flags`` (full resolution: a short
+    clamp is not lost to the curves' decimation)."""
+    flags = np.asarray(flags, dtype=bool)
+    if not flags.any():
+        return []
+    edges = np.flatnonzero(np.diff(np.concatenate([[False], flags, [False]]).astype(int)))
+    starts, ends = edges[::2], edges[1::2] - 1
+    return [(float(t[a]), float(t[b])) for a, b in zip(starts, ends, strict=True)]
+
+
 def steps(loaded, analysis, amplitude, nonlinear=True):
     """The linear and (with ``nonlinear``) the nonlinear step at the output, in the output's
     shown unit (deg, or mm for a linear output); ``amplitude`` [rad or m]."""
@@ -138,6 +149,8 @@ def steps(loaded, analysis, amplitude, nonlinear=True):
         run = step_run(loaded, amplitude)
         t = np.asarray(run.result.t)
         out["nonlinear"] = _decimated(t, unit.from_si(np.asarray(run.result.delta)))
+        out["limited"] = {name: limited_spans(t, getattr(run.result, f"{name}_limited"))
+                          for name in ("current", "voltage")}
         out["figures"] = {name: _finite(getattr(run.step, name)) for name in
                           ("rise_time_s", "overshoot_pct", "settling_time_s", "peak_time_s")}
         t_end = float(t[-1])

@@ -165,8 +165,10 @@
     const svg = svgEl("svg", {class: "plot", viewBox: `0 0 ${W} ${H}`});
     const fx = spec.xlog ? Math.log10 : (v) => v;
     let xs = [], ys = [];
+    const inX = (x) => x !== null && x > (spec.xlog ? 0 : -Infinity) &&
+      (!spec.xclip || (x >= spec.xclip[0] && x <= spec.xclip[1]));
     spec.series.forEach((s) => s.x.forEach((x, i) => {
-      if (s.y[i] !== null && Number.isFinite(s.y[i]) && x > (spec.xlog ? 0 : -Infinity)) {
+      if (s.y[i] !== null && Number.isFinite(s.y[i]) && inX(x)) {
         xs.push(fx(x)); ys.push(s.y[i]);
       }
     }));
@@ -195,6 +197,14 @@
     });
     svg.appendChild(svgEl("text", {x: M.l, y: 13, "font-weight": "bold"}, spec.title));
     svg.appendChild(svgEl("text", {x: W - M.r, y: H - 3, "text-anchor": "end"}, spec.xlabel || ""));
+    (spec.spans || []).forEach((b) => {
+      const a = Math.max(fx(b.from), x0), z = Math.min(fx(b.to), x1);
+      if (z < a) return;
+      const left = M.l + (a - x0) / (x1 - x0 || 1) * (W - M.l - M.r);
+      const right = M.l + (z - x0) / (x1 - x0 || 1) * (W - M.l - M.r);
+      svg.appendChild(svgEl("rect", {x: left, y: M.t, width: Math.max(right - left, 1),
+        height: H - M.t - M.b, fill: b.color, "fill-opacity": 0.15}));
+    });
     (spec.hlines || []).forEach((h) => svg.appendChild(svgEl("line",
       {x1: M.l, x2: W - M.r, y1: Y(h.y), y2: Y(h.y), stroke: h.color, "stroke-dasharray": h.dash || ""})));
     (spec.vlines || []).forEach((v) => {
@@ -209,16 +219,17 @@
       let d = "", pen = "M";
       s.x.forEach((x, i) => {
         const y = s.y[i];
-        if (y === null || !Number.isFinite(y) || (spec.xlog && !(x > 0))) { pen = "M"; return; }
+        if (y === null || !Number.isFinite(y) || !inX(x) ||
+            (spec.yclip && (y < spec.yclip[0] || y > spec.yclip[1]))) { pen = "M"; return; }
         d += `${pen}${X(x).toFixed(1)},${Y(y).toFixed(1)}`; pen = "L";
       });
       svg.appendChild(svgEl("path", {d, fill: "none", stroke: s.color, "stroke-width": s.faint ? 1 : 1.6,
         "stroke-opacity": s.faint ? 0.25 : 1, "stroke-dasharray": s.dash || ""}));
     });
-    let lx = M.l + 200;
+    let lx = M.l;  // the legend, under the plot on the left (the axis label is on the right)
     spec.series.filter((s) => s.label && !s.faint).forEach((s) => {
-      svg.appendChild(svgEl("text", {x: lx, y: 13, fill: s.color}, s.label));
-      lx += 9 * s.label.length + 12;
+      svg.appendChild(svgEl("text", {x: lx, y: H - 3, fill: s.color}, s.label));
+      lx += 6.5 * s.label.length + 14;
     });
     return svg;
   }
@@ -234,7 +245,8 @@
     const mag = [], phase = [], vm = [], vp = [], nichols = [];
     s.loops.forEach((loop, k) => {
       const color = COLORS[k % COLORS.length];
-      mag.push({x: s.omega_rad_s, y: loop.magnitude_db, color, label: loop.symbol});
+      mag.push({x: s.omega_rad_s, y: loop.magnitude_db, color,
+                label: `${loop.symbol} (broken at ${loop.breaks_at})`});
       phase.push({x: s.omega_rad_s, y: loop.phase_deg, color, label: loop.symbol});
       const old = p && p.loops.find((l) => l.name === loop.name);
       if (old) {
@@ -255,14 +267,14 @@
       vp.push({x: m.phase_crossover_rad_s, color, row: k,
                label: `${loop.symbol} GM ${text(t.gain_margin_db)} dB`});
     });
-    bode.appendChild(plot({title: "Open loops |L| [dB] (each broken at its controller's output)",
+    bode.appendChild(plot({title: "Open loops |L| [dB]",
       xlog: true, xlabel: "ω [rad/s]", series: mag, vlines: vm, hlines: [{y: 0, color: "#888"}],
       yclip: [-80, 80]}));
     bode.appendChild(plot({title: "Open loops phase [deg]", xlog: true, xlabel: "ω [rad/s]",
-      series: phase, vlines: vp, hlines: [{y: -180, color: "#888"}]}));
+      series: phase, vlines: vp, hlines: [{y: -180, color: "#888"}], yclip: [-720, 90]}));
     $("nichols").replaceChildren(plot({title: "Nichols: |L| [dB] against phase [deg]",
       xlabel: "phase [deg]", series: nichols, vlines: [{x: -180, color: "#888", dash: "2 2"}],
-      hlines: [{y: 0, color: "#888", dash: "2 2"}], yclip: [-60, 60]}));
+      hlines: [{y: 0, color: "#888", dash: "2 2"}], yclip: [-60, 60], xclip: [-540, 0]}));
 
     const c = s.closed_loop;
     const cs = [{x: s.omega_rad_s, y: c.magnitude_db, color: "#000", label: "T"}];
@@ -286,7 +298,14 @@
     const title = `Step of ${+st.amplitude.toPrecision(4)} ${st.unit}` + (f ?
       ` (nonlinear: overshoot ${text(f.overshoot_pct && +f.overshoot_pct.toPrecision(3))} %, ` +
       `settling ${f.settling_time_s ? +(f.settling_time_s * 1e3).toPrecision(3) : "–"} ms)` : "");
-    $("steps").replaceChildren(plot({title, xlabel: "t [s]", series: ss,
+    const spans = [];
+    const shades = {current: "#ff7f0e", voltage: "#9467bd"};
+    Object.entries(st.limited || {}).forEach(([name, list]) => list.forEach(([from, to]) =>
+      spans.push({from, to, color: shades[name]})));
+    const limitedWords = Object.entries(st.limited || {}).filter(([, l]) => l.length)
+      .map(([name]) => `${name} limit (${name === "current" ? "orange" : "purple"})`);
+    $("steps").replaceChildren(plot({title: title + (limitedWords.length ? "; shaded: " +
+      limitedWords.join(", ") : ""), xlabel: "t [s]", series: ss, spans,
       hlines: [{y: st.amplitude, color: "#888", dash: "3 3"}]}));
     renderVerdicts(s);
     $("notes").replaceChildren(...s.notes.map((n) => el("li", {}, n)));
