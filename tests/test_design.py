@@ -404,3 +404,18 @@ def test_the_limited_spans_of_the_step_are_the_runs_of_the_clamp_flags():
     assert limited_spans(t, [0, 1, 1, 0, 0, 1, 0, 1]) == [(1.0, 2.0), (5.0, 5.0), (7.0, 7.0)]
     assert limited_spans(t, [0] * 8) == []
     assert limited_spans(t, [1] * 8) == [(0.0, 7.0)]
+
+
+def test_a_key_added_to_a_session_gets_its_control_there_only(server):
+    status, control = _post(server, "/api/control", {"session": "add", "key": "current_loop.Kp"})
+    assert status == 200
+    assert control["group"] == "current_loop" and control["unit"] == "V/A"
+    # tune's default range around the config's value, within the parameter table's range
+    assert control["lower"] == pytest.approx(control["value"] / 4)
+    assert control["upper"] == pytest.approx(control["value"] * 4)
+    keys = [c["key"] for c in _get(server, "/api/init?session=add")["controls"]]
+    assert keys[-1] == "current_loop.Kp"
+    assert "current_loop.Kp" not in [c["key"] for c in _get(server, "/api/init?session=other")
+                                     ["controls"]]
+    status, data = _post(server, "/api/control", {"session": "add", "key": "motor.X"})
+    assert status == 400 and "motor.X" in data["error"] and "\n" not in data["error"]

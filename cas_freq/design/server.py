@@ -16,6 +16,7 @@ Endpoints (JSON in and out):
   (:func:`cas_freq.design.compute.design_state`), or ``{"errors": {key: message}}`` for a
   value the config refuses (the session keeps its previous values). A request older than the
   session's newest (``seq``) is answered ``{"stale": true}`` without computing.
+- ``POST /api/control`` ``{"key"}``: a control for one more numeric key of the config.
 - ``POST /api/tune`` ``{"session", "candidates", "rounds"}``: ``cas-freq tune`` of the page's
   keys from the session's values: the tuned values and the Pareto front.
 - ``POST /api/save`` ``{"session", "name", "file", "force"}``: the config with the session's
@@ -51,6 +52,7 @@ class Session:
 
     def __init__(self):
         self.values = {}
+        self.extra = []  # controls the page added (POST /api/control)
         self.newest = -1
         self.lock = threading.Lock()
 
@@ -94,7 +96,8 @@ class Design:
         from cas_freq.output import output_unit
 
         return {"config": str(self.config), "variant": self.variant,
-                "controls": self.controls, "values": self.session(name).values,
+                "controls": self.controls + self.session(name).extra,
+                "values": self.session(name).values,
                 "step": output_unit(self.loaded.params).example}
 
     def state(self, request):
@@ -131,6 +134,19 @@ class Design:
 
         return output_step(str(text), "step", [self.loaded])
 
+    def control(self, request):
+        """The control of one more key (any numeric key of the config :func:`controls`
+        accepts), added to the session's."""
+        from cas_freq.design.compute import controls
+
+        session = self.session(request.get("session"))
+        key = str(request.get("key") or "").strip()
+        (control,) = controls(self.loaded, [key])
+        with session.lock:
+            if all(item["key"] != key for item in self.controls + session.extra):
+                session.extra.append(control)
+        return control
+
     def tune(self, request):
         """``cas-freq tune`` of the page's keys from the session's values (the tune's default
         objective, bounds and search; ``candidates``/``rounds`` as its options): the tuned
@@ -148,7 +164,7 @@ class Design:
             raise CasFreqError(f"tune: candidates 1..2000 and rounds 0..20, got {candidates} "
                                f"and {rounds}")
         loaded = load_variant(self.config, self.variant, tuple(session.values.items()))
-        free = ",".join(control["key"] for control in self.controls)
+        free = ",".join(control["key"] for control in self.controls + session.extra)
         result = tune_variant(loaded, free, candidates=candidates, rounds=rounds)
         from cas_freq.fileio import json_ready
 
@@ -217,7 +233,7 @@ class Handler(BaseHTTPRequestHandler):
         url = urlparse(self.path)
         design = self.server.design
         actions = {"/api/state": design.state, "/api/save": design.save,
-                   "/api/tune": design.tune}
+                   "/api/tune": design.tune, "/api/control": design.control}
         if url.path not in actions:
             return self._send(404, {"error": f"no such endpoint: {url.path}"})
         try:

@@ -43,33 +43,45 @@
   function fromSlider(c, position) {
     return c.lower * Math.pow(c.upper / c.lower, position / SLIDER_STEPS);
   }
-  function buildControls() {
+  const groups = {};
+  function buildControls() { controls.forEach(addControl); }
+  function addControl(c) {
     const box = $("controls");
-    const groups = {};
-    controls.forEach((c) => {
-      if (!groups[c.group]) {
-        groups[c.group] = el("fieldset");
-        groups[c.group].appendChild(el("legend", {}, c.group.replace(/_/g, " ")));
-        box.appendChild(groups[c.group]);
-      }
-      const row = el("div", {class: "control", title: c.meaning});
-      const label = el("label");
-      label.appendChild(el("span", {class: "name"}, c.key.split(".").slice(1).join(".") + " "));
-      const entry = el("input", {type: "text", size: 10, id: "entry-" + c.key});
-      entry.value = formatValue(c.value);
-      label.appendChild(entry);
-      label.appendChild(el("span", {}, " " + c.unit));
-      const slider = el("input", {type: "range", min: 0, max: SLIDER_STEPS,
-                                  id: "slider-" + c.key});
-      slider.value = toSlider(c, c.value);
-      row.appendChild(label);
-      row.appendChild(slider);
-      row.appendChild(el("span", {class: "error", id: "error-" + c.key}));
-      groups[c.group].appendChild(row);
-      slider.addEventListener("input", () =>
-        setValue(c.key, formatValue(fromSlider(c, +slider.value))));
-      entry.addEventListener("change", () => setValue(c.key, entry.value));
-    });
+    if (!groups[c.group]) {
+      groups[c.group] = el("fieldset");
+      groups[c.group].appendChild(el("legend", {}, c.group.replace(/_/g, " ")));
+      box.appendChild(groups[c.group]);
+    }
+    const row = el("div", {class: "control", title: c.meaning});
+    const label = el("label");
+    label.appendChild(el("span", {class: "name"}, c.key.split(".").slice(1).join(".") + " "));
+    const entry = el("input", {type: "text", size: 10, id: "entry-" + c.key});
+    entry.value = formatValue(c.value);
+    label.appendChild(entry);
+    label.appendChild(el("span", {}, " " + c.unit));
+    const slider = el("input", {type: "range", min: 0, max: SLIDER_STEPS,
+                                id: "slider-" + c.key});
+    slider.value = toSlider(c, c.value);
+    row.appendChild(label);
+    row.appendChild(slider);
+    row.appendChild(el("span", {class: "error", id: "error-" + c.key}));
+    groups[c.group].appendChild(row);
+    slider.addEventListener("input", () =>
+      setValue(c.key, formatValue(fromSlider(c, +slider.value))));
+    entry.addEventListener("change", () => setValue(c.key, entry.value));
+  }
+  async function addKey() {
+    const key = $("add-key").value.trim();
+    $("error-add").textContent = "";
+    if (controls.some((c) => c.key === key)) return;
+    try {
+      const c = await api("/api/control", {session, key});
+      controls.push(c);
+      addControl(c);
+      showValues(values);
+    } catch (error) {
+      $("error-add").textContent = String(error.message || error);
+    }
   }
   function formatValue(v) { return Number(v.toPrecision(4)).toString(); }
   function showValues(which) {
@@ -417,10 +429,20 @@
       $("tune-status").textContent = String(error.message || error);
     }
   }
+  function parseHash() {
+    const fromUrl = {};
+    location.hash.slice(1).split("&").filter(Boolean).forEach((part) => {
+      const [k, v] = part.split("=");
+      fromUrl[decodeURIComponent(k)] = decodeURIComponent(v || "");
+    });
+    return fromUrl;
+  }
   async function start() {
     $("session").textContent = session;
     const init = await api("/api/init?session=" + encodeURIComponent(session));
     controls = init.controls;
+    const unknown = Object.keys(Object.assign({}, init.values, parseHash()))
+      .filter((key) => !controls.some((c) => c.key === key));
     $("title").textContent = `${init.config} / ${init.variant}`;
     $("step").value = init.step;
     buildControls();
@@ -428,6 +450,7 @@
     $("redo").addEventListener("click", () => back(redo, undo));
     $("save").addEventListener("click", save);
     $("tune").addEventListener("click", tune);
+    $("add").addEventListener("click", addKey);
     $("compare").addEventListener("change", compare);
     ["step", "nonlinear"].forEach((id) => $(id).addEventListener("change", () => {
       variantState = null;
@@ -439,15 +462,14 @@
       if (!(e.ctrlKey || e.metaKey) || e.target.tagName === "INPUT" && e.target.type === "text") return;
       if (e.key === "z") back(undo, redo); else if (e.key === "y") back(redo, undo);
     });
-    const fromUrl = {};
-    location.hash.slice(1).split("&").filter(Boolean).forEach((part) => {
-      const [k, v] = part.split("=");
-      fromUrl[decodeURIComponent(k)] = decodeURIComponent(v || "");
-    });
-    return setValues(Object.assign({}, init.values, fromUrl));
+    for (const key of unknown) {  // a key of the URL or of the session gets its control
+      $("add-key").value = key;
+      await addKey();
+    }
+    return setValues(Object.assign({}, init.values, parseHash()));
   }
 
-  window.casDesign = {setValue, setValues, session, ready: null, tune, compare,
+  window.casDesign = {setValue, setValues, session, ready: null, tune, compare, addKey,
                       undo: () => back(undo, redo), redo: () => back(redo, undo),
                       state: () => shown};
   window.casDesign.ready = start();
