@@ -419,3 +419,28 @@ def test_a_key_added_to_a_session_gets_its_control_there_only(server):
                                      ["controls"]]
     status, data = _post(server, "/api/control", {"session": "add", "key": "motor.X"})
     assert status == 400 and "motor.X" in data["error"] and "\n" not in data["error"]
+
+
+def test_a_sample_rate_has_a_control_and_multirate_errors_name_it():
+    # the server's Design without HTTP (the endpoints call these methods): a sampled
+    # variant's position-loop rate, its phase margin as analyze --set prints it, and a rate
+    # that is not the current loop's divided by an integer refused naming the key
+    from cas_freq.design.server import Design
+
+    design = Design(SHIPPED, "sampled", ["position_loop.Kp", "sampling.position_loop"])
+    assert design.controls[1]["value"] == 2500.0 and design.controls[1]["unit"] == "Hz"
+    data = design.state({"session": "s", "seq": 1, "nonlinear": False,
+                         "values": {"sampling.position_loop": "5 kHz"}})
+    code, out, _ = run_cli(["analyze", str(SHIPPED), "--variant", "sampled", "--set",
+                            "sampling.position_loop=5 kHz"])
+    printed = dict(re.findall(r"^  (\w+ loop) L_\w+ .*\n(?:    .*\n)*?    phase margin +(\S+) deg",
+                              out, flags=re.M))
+    assert {loop["words"]: loop["margins"]["text"]["phase_margin_deg"]
+            for loop in data["loops"]} == printed
+    data = design.state({"session": "s", "seq": 2, "nonlinear": False,
+                         "values": {"sampling.position_loop": "3 kHz"}})
+    assert "multirate must be exact" in data["errors"]["sampling.position_loop"]
+    from cas_freq.exceptions import ConfigError
+
+    with pytest.raises(ConfigError, match="continuously"):
+        Design(SHIPPED, "base", ["sampling.position_loop"])

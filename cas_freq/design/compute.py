@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from cas_freq.exceptions import CasFreqError
+from cas_freq.exceptions import CasFreqError, ConfigError
 
 #: Points per decade of the Bode curves sent to the page.
 CURVE_POINTS_PER_DECADE = 40
@@ -27,6 +27,28 @@ def _finite(value):
     return None if value is None or not math.isfinite(value) else float(value)
 
 
+def _sample_rate(key, params):
+    """The variant's rate [Hz] of sample-rate key ``sampling.<loop>``; ConfigError for a loop
+    the variant runs continuously (the page changes a rate, it does not make a loop
+    sampled: that is the config's architecture)."""
+    value = getattr(getattr(params, "sampling", None), key.split(".", 1)[1], None)
+    if value is None:
+        raise ConfigError(f"{key}: the variant runs this loop continuously; a sample rate is "
+                          "changed here, not introduced (give it in the config's sampling:)")
+    return float(value)
+
+
+def _check(key, params):
+    """ConfigError unless ``key`` can have a control: a key a sweep can vary, or a sample
+    rate of a sampled loop (static for a batch, but one variant at a time here)."""
+    from cas_freq.parameters import PARAMETERS, check_key
+
+    if key.startswith("sampling.") and key in PARAMETERS and key != "sampling.method":
+        return _sample_rate(key, params)
+    check_key(key, params)
+    return None
+
+
 def controls(loaded, keys=None):
     """The keys the page offers, grouped by loop, with their value, unit and ranges.
 
@@ -35,15 +57,17 @@ def controls(loaded, keys=None):
     loaded : cas_freq.config.LoadedVariant
     keys : sequence of str, optional
         Default: the free keys of ``tune`` (:func:`cas_freq.tuning.space.default_free`).
+        Any key a sweep can vary, and the sample rates of a sampled variant's loops.
 
     Returns
     -------
     list of dict
-        ``{"key", "group", "value" [SI], "unit", "lower", "upper"}``: ``lower``/``upper`` are
-        the slider's log range, tune's default range (value /4 .. x4) within the parameter
-        table's range (:data:`cas_freq.parameters.PARAMETERS`), which bounds the typed entry.
+        ``{"key", "group", "value" [SI], "unit", "lower", "upper", ...}``: ``lower``/``upper``
+        are the slider's log range, tune's default range (value /4 .. x4) within the
+        parameter table's range (:data:`cas_freq.parameters.PARAMETERS`), which bounds the
+        typed entry.
     """
-    from cas_freq.parameters import check_key, loop_values, parameter, variant_parameters
+    from cas_freq.parameters import loop_values, parameter, variant_parameters
     from cas_freq.tuning.options import DEFAULT_FACTOR
     from cas_freq.tuning.space import default_free
 
@@ -52,9 +76,9 @@ def controls(loaded, keys=None):
     loop = variant_parameters(params, {})
     out = []
     for key in keys:
-        check_key(key, params)
+        rate = _check(key, params)
         record = parameter(key, params)
-        value = float(np.ravel(loop_values(loop, key, params))[0])
+        value = rate if rate is not None else float(np.ravel(loop_values(loop, key, params))[0])
         low = record.lower if record.lower else (record.smallest or 1e-9)
         high = record.upper if record.upper is not None else math.inf
         start = value if value > 0 else low
@@ -69,12 +93,12 @@ def controls(loaded, keys=None):
 
 def check_values(values, config):
     """{key: error text} of the entries of ``values`` (key -> text) that do not parse."""
-    from cas_freq.parameters import check_key, parse_value
+    from cas_freq.parameters import parse_value
 
     errors = {}
     for key, text in values.items():
         try:
-            check_key(key, config)
+            _check(key, config)
             parse_value(key, text, config)
         except CasFreqError as exc:
             errors[key] = str(exc)

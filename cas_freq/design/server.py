@@ -120,8 +120,11 @@ class Design:
             try:
                 loaded = load_variant(self.config, self.variant, tuple(values.items()))
             except CasFreqError as exc:
-                key = next((k for k in values if str(exc).startswith(k)), "_")
-                return {"errors": {key: str(exc)}, "seq": seq}
+                message = str(exc)  # the key it names: after the file's "--set ...:" part
+                key = next((k for k in values if f": {k}:" in message
+                            or message.startswith(f"{k}:")), None) or \
+                    next((k for k in values if k in message), "_")
+                return {"errors": {key: message}, "seq": seq}
             data = design_state(loaded, step_rad, bool(request.get("nonlinear", True)))
             session.values = values
             data["seq"] = seq
