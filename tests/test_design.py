@@ -444,3 +444,24 @@ def test_a_sample_rate_has_a_control_and_multirate_errors_name_it():
 
     with pytest.raises(ConfigError, match="continuously"):
         Design(SHIPPED, "base", ["sampling.position_loop"])
+
+
+def test_concurrent_sessions_get_their_own_answers(server):
+    # four browsers at once (threads), two gains each: every answer is the one its values give
+    # alone (the sequential answers of the same values are the reference)
+    from concurrent.futures import ThreadPoolExecutor
+
+    gains = ["2", "3", "4", "5"]
+    alone = {kp: _state(server, f"alone-{kp}", 1, {"position_loop.Kp": kp})[1]
+             for kp in gains}
+
+    def ask(index):
+        kp = gains[index % len(gains)]
+        status, data = _state(server, f"busy-{index}", 1, {"position_loop.Kp": kp})
+        return kp, data
+
+    with ThreadPoolExecutor(4) as pool:
+        answers = list(pool.map(ask, range(8)))
+    for kp, data in answers:
+        assert data["loops"] == alone[kp]["loops"] and data["overrides"] == [
+            f"position_loop.Kp={kp}"]
