@@ -465,3 +465,17 @@ def test_concurrent_sessions_get_their_own_answers(server):
     for kp, data in answers:
         assert data["loops"] == alone[kp]["loops"] and data["overrides"] == [
             f"position_loop.Kp={kp}"]
+
+
+def test_a_port_in_use_or_out_of_range_is_bad_input():
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        code, out, err = run_cli(["design", str(SHIPPED), "--no-browser", "--port", str(port)])
+    assert code == 2 and out == ""
+    assert err.startswith(f"cas-freq design: error: --port {port}: cannot listen on 127.0.0.1")
+    code, _, err = run_cli(["design", str(SHIPPED), "--no-browser", "--port", "70000"])
+    assert code == 2 and "--port: must be 0..65535, got 70000" in err
