@@ -54,7 +54,8 @@ class Session:
         self.values = {}
         self.extra = []  # controls the page added (POST /api/control)
         self.newest = -1
-        self.lock = threading.Lock()
+        self.newest_lock = threading.Lock()  # held for an instant: never behind a computation
+        self.lock = threading.Lock()  # one computation of the session at a time
 
 
 class Design:
@@ -108,7 +109,7 @@ class Design:
         session = self.session(request.get("session"))
         seq = int(request.get("seq", 0))
         values = {str(k): str(v).strip() for k, v in (request.get("values") or {}).items()}
-        with session.lock:
+        with session.newest_lock:
             session.newest = max(session.newest, seq)
         with session.lock:  # one computation per session at a time; a newer request wins
             if seq < session.newest:
