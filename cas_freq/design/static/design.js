@@ -6,9 +6,9 @@
 (function () {
   const COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e"];
   const DEBOUNCE_MS = 60;
-  const session = sessionStorage.getItem("cas-design-session") ||
-    Math.random().toString(36).slice(2, 12);
-  sessionStorage.setItem("cas-design-session", session);
+  // a session per page load (a duplicated tab or a reload is a session of its own; the URL's
+  // #key=value&... carries the values over)
+  const session = Math.random().toString(36).slice(2, 12) + Date.now().toString(36);
 
   let controls = [];
   let values = {};          // key -> text, the values asked for (not yet accepted maybe)
