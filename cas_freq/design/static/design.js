@@ -94,8 +94,13 @@
   }
 
   // ---- requests: debounced, only the newest counts ----------------------------------------
+  let lastChange = {key: null, time: 0};
   function setValue(key, text, record) {
-    if (record !== false) {
+    // one undo step per gesture: a slider drag's many moves of one key within a moment are one
+    const now = Date.now();
+    const sameGesture = lastChange.key === key && now - lastChange.time < 700;
+    lastChange = {key, time: now};
+    if (record !== false && !sameGesture) {
       undo.push(Object.assign({}, values));
       redo.length = 0;
     }
