@@ -352,6 +352,13 @@ def test_moving_a_gain_in_chromium_shows_analyze_s_phase_margin_and_undo_goes_ba
         # before it, the config's own gain
         assert undone[0] == _printed_phase_margins()["position loop"]
         assert int(undone[1]) == seq + 1  # one request for the three moves, one for undo
+        # a bad value: the config's one-line error next to the field, the figures kept
+        shown = tools.evaluate(
+            "casDesign.setValue('position_loop.Kp', '-3').then(() => ["
+            "document.getElementById('error-position_loop.Kp').textContent,"
+            " document.getElementById('pm-position_loop').textContent])")
+        assert shown[0].startswith("position_loop.Kp: must be 0 or within 1e-09..1e+09 A/rad")
+        assert "'-3'" in shown[0] and shown[1] == undone[0]
     finally:
         with contextlib.suppress(ProcessLookupError):
             os.killpg(browser.pid, signal.SIGKILL)
