@@ -491,3 +491,15 @@ def test_a_port_in_use_or_out_of_range_is_bad_input():
     assert err.startswith(f"cas-freq design: error: --port {port}: cannot listen on 127.0.0.1")
     code, _, err = run_cli(["design", str(SHIPPED), "--no-browser", "--port", "70000"])
     assert code == 2 and "--port: must be 0..65535, got 70000" in err
+
+
+def test_keys_that_cannot_have_a_control_are_bad_input():
+    code, _, err = run_cli(["design", str(SHIPPED), "--no-browser", "--port", "0", "--keys",
+                            "position_loop.Kp,motor.X"])
+    assert code == 2 and err.count("\n") == 1 and "motor.X" in err
+    code, _, err = run_cli(["design", str(SHIPPED), "--no-browser", "--port", "0", "--keys",
+                            "position_loop.Kp,,"])
+    assert code == 2 and "expected KEY,KEY" in err
+    code, _, err = run_cli(["design", str(SHIPPED), "--no-browser", "--port", "0", "--keys",
+                            "sampling.current_loop"])
+    assert code == 2 and "continuously" in err

@@ -26,7 +26,8 @@ def register(commands):
     parser.add_argument("--variant", default="base", metavar="NAME",
                         help="the variant to start from (default: base)")
     parser.add_argument("--keys", metavar="KEY,KEY,...",
-                        help="the keys with controls (default: the free keys of tune)")
+                        help="the keys with controls: any numeric key of the config, the sample "
+                        "rates of a sampled variant's loops (default: the free keys of tune)")
     parser.add_argument("--port", type=int, default=8765, metavar="N",
                         help="TCP port (default 8765; 0: any free port)")
     parser.add_argument("--no-browser", action="store_true", help="do not open a browser")
@@ -43,10 +44,11 @@ def run(args):
     if not 0 <= args.port <= 65535:
         raise CasFreqError(f"--port: must be 0..65535, got {args.port}")
     keys = None
-    if args.keys:
-        from cas_freq.tuning.space import parse_free
-
-        keys = parse_free(args.keys)
+    if args.keys is not None:  # each key checked with the config (a sample rate too)
+        keys = [key.strip() for key in args.keys.split(",")]
+        if not all(keys) or len(set(keys)) != len(keys):
+            raise CasFreqError(f"--keys {args.keys!r}: expected KEY,KEY,... each once, e.g. "
+                               "position_loop.Kp,current_loop.Kp")
     config = config_path(args.config)
     say_shipped_config(args.config)
     design = Design(config, args.variant, keys)
