@@ -106,16 +106,20 @@ def check_values(values, config):
 
 
 def _bode(omega, response):
+    """(magnitude [dB], unwrapped phase [deg]) lists of a response on ``omega`` [rad/s];
+    non-finite values (above a sampled loop's Nyquist frequency) as None."""
     with np.errstate(divide="ignore", invalid="ignore"):
         magnitude = 20.0 * np.log10(np.abs(response))
         phase = np.degrees(np.unwrap(np.angle(response)))
-    # the phase shown in -360..0 at the lowest frequency, as the report draws it
+    # the phase unwrapped from a start within -360..0 deg at the lowest frequency
     if phase.size and np.isfinite(phase[0]):
         phase -= 360.0 * math.floor((phase[0] + 360.0) / 360.0)
     return [_finite(v) for v in magnitude], [_finite(v) for v in phase]
 
 
 def _margins(margins):
+    """A loop's margins [SI, deg, dB] and their texts as ``analyze`` prints them (None for
+    None)."""
     from cas_freq.report.numbers import number
 
     if margins is None:
@@ -135,7 +139,8 @@ def _margins(margins):
 
 
 def _bandwidth_line(requirements):
-    """The lowest bandwidth the config's requirements ask for [rad/s], or None."""
+    """The bandwidth [rad/s] the config's analyze-kind requirements ask for at least (the
+    largest of their minimums), or None."""
     bounds = [r.min for r in requirements
               if r.kind == "analyze" and r.metric == "closed_loop.bandwidth_rad_s"
               and r.min is not None]
@@ -216,6 +221,7 @@ def design_state(loaded, step_rad=None, nonlinear=True):
     from cas_freq.analysis import analyze
     from cas_freq.fileio import json_ready
     from cas_freq.report.data import curves, loop_frequency_range
+    from cas_freq.report.numbers import number
     from cas_freq.verify.evaluate import verdict_dict, verify_variant
 
     # every figure as analyze gives it, but the loaded variant's stable hinge-stiffness scan
@@ -239,7 +245,6 @@ def design_state(loaded, step_rad=None, nonlinear=True):
     analyze_kind = [r for r in requirements if r.kind == "analyze"]
     verdicts = (verify_variant(loaded, analyze_kind, known={"analyze": analysis})
                 if analyze_kind else [])
-    from cas_freq.report.numbers import number
 
     bandwidth = closed.bandwidth_rad_s if closed else None
     return json_ready({
@@ -261,4 +266,4 @@ def design_state(loaded, step_rad=None, nonlinear=True):
     })
 
 
-__all__ = ["check_values", "controls", "design_state", "steps"]
+__all__ = ["check_values", "controls", "default_step", "design_state", "limited_spans", "steps"]
