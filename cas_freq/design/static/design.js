@@ -232,7 +232,11 @@
       if (v.label) svg.appendChild(svgEl("text", {x: X(v.x) + 3, y: M.t + 10 + (v.row || 0) * 12,
         fill: v.color}, v.label));
     });
-    spec.series.forEach((s) => {
+    spec.series.filter((s) => s.points).forEach((s) => s.x.forEach((x, i) => {
+      if (s.y[i] === null || !Number.isFinite(s.y[i]) || !inX(x)) return;
+      svg.appendChild(svgEl("circle", {cx: X(x), cy: Y(s.y[i]), r: 3, fill: s.color}));
+    }));
+    spec.series.filter((s) => !s.points).forEach((s) => {
       let d = "", pen = "M";
       s.x.forEach((x, i) => {
         const y = s.y[i];
@@ -429,7 +433,11 @@
         const cell = el("td"); cell.appendChild(use); tr.appendChild(cell);
         table.appendChild(tr);
       });
-      $("tune-result").replaceChildren(table);
+      const bw = "closed_loop.bandwidth_rad_s", pm = "position_loop.phase_margin_deg";
+      const front = plot({title: "Pareto front: phase margin [deg] against ω_BW [rad/s]",
+        xlabel: "ω_BW [rad/s]", series: [{x: data.pareto.map((r) => r[bw]),
+          y: data.pareto.map((r) => r[pm]), color: "#2ca02c", points: true, label: "feasible"}]});
+      $("tune-result").replaceChildren(front, table);
     } catch (error) {
       $("tune-status").textContent = String(error.message || error);
     }
