@@ -362,6 +362,21 @@ def test_moving_a_gain_in_chromium_shows_analyze_s_phase_margin_and_undo_goes_ba
             " document.getElementById('pm-position_loop').textContent])")
         assert shown[0].startswith("position_loop.Kp: must be 0 or within 1e-09..1e+09 A/rad")
         assert "'-3'" in shown[0] and shown[1] == undone[0]
+        # compare with the variant: each loop's magnitude and phase once more, dashed
+        dashed = tools.evaluate(
+            "casDesign.setValue('position_loop.Kp', '3').then(() => {"
+            " document.getElementById('compare').checked = true; return casDesign.compare(); })"
+            ".then(() => Array.from(document.querySelectorAll('#bode path')).filter(p =>"
+            " p.getAttribute('stroke-dasharray') === '6 3').length)")
+        assert dashed == 2 * 2
+        # tune from here (a small search): a row per Pareto point and the tuned row, a dot
+        # per point
+        rows, dots, front = tools.evaluate(
+            "casDesign.tune({candidates: 12, rounds: 0}).then(() => ["
+            " document.querySelectorAll('#tune-table tr').length,"
+            " document.querySelectorAll('#tune-result circle').length,"
+            " document.getElementById('tune-status').textContent])")
+        assert rows == dots + 2 and "of 13 candidates feasible" in front
     finally:
         with contextlib.suppress(ProcessLookupError):
             os.killpg(browser.pid, signal.SIGKILL)

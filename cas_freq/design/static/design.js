@@ -403,10 +403,10 @@
     }
     if (shown) render();
   }
-  async function tune() {
+  async function tune(options) {  // options: {candidates, rounds}, as cas-freq tune's
     $("tune-status").textContent = "tuning (a few seconds)";
     try {
-      const data = await api("/api/tune", {session});
+      const data = await api("/api/tune", Object.assign({session}, options || {}));
       $("tune-status").textContent = `${data.feasible ? "feasible" : "INFEASIBLE"}, ` +
         `${data.feasible_candidates} of ${data.candidates} candidates feasible; ` +
         `objective ${data.objective.name}`;
@@ -462,7 +462,7 @@
     $("undo").addEventListener("click", () => back(undo, redo));
     $("redo").addEventListener("click", () => back(redo, undo));
     $("save").addEventListener("click", save);
-    $("tune").addEventListener("click", tune);
+    $("tune").addEventListener("click", () => tune());
     $("add").addEventListener("click", addKey);
     $("compare").addEventListener("change", compare);
     ["step", "nonlinear"].forEach((id) => $(id).addEventListener("change", () => {
