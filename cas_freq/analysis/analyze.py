@@ -560,6 +560,7 @@ def analyze(
     points_per_decade=DEFAULT_POINTS_PER_DECADE,
     pade_orders=0,
     limit_cycle_check=False,
+    hinge_range=True,
 ):
     """Analyse one loaded config variant (the engine of :func:`batch_analyze` on one variant).
 
@@ -579,6 +580,9 @@ def analyze(
         Check each predicted limit cycle by a nonlinear simulation started near it
         (:func:`cas_freq.analysis.limit_cycles.limit_cycles`; the prediction itself is always
         made).
+    hinge_range : bool
+        Scan a loaded variant's stable hinge-stiffness range
+        (:func:`cas_freq.analysis.drivetrain.drivetrain`; no requirement refers to it).
 
     Returns
     -------
@@ -623,7 +627,7 @@ def analyze(
     if not stability.stable:
         notes.append("sensitivity peak and disk margin are not reported for a loop that is "
                      "not stable")
-    load = drivetrain(params, order) if params.loaded[0] else None
+    load = drivetrain(params, order, hinge_range) if params.loaded[0] else None
     if load is not None:
         unit = output_unit(loaded.params)
         notes.extend(drivetrain_notes(load, loaded.params.output_label,

@@ -87,7 +87,7 @@ def _modes(coefficients):
     return tuple(sorted(modes, key=lambda m: m.frequency_rad_s))
 
 
-def drivetrain(params, pade_order=DEFAULT_PADE_ORDER):
+def drivetrain(params, pade_order=DEFAULT_PADE_ORDER, hinge_range=True):
     """The drivetrain figures of one variant.
 
     Parameters
@@ -96,6 +96,10 @@ def drivetrain(params, pade_order=DEFAULT_PADE_ORDER):
         One variant.
     pade_order : int
         Padé order of the stability verdicts of the hinge-stiffness scan.
+    hinge_range : bool
+        Scan the stable hinge-stiffness range (~80 stability verdicts, most of the time of
+        a loaded variant's analysis); without, ``stable_hinge_stiffness_n_m_rad`` is None
+        (``cas-freq design``, which does not show it, per change).
 
     Returns
     -------
@@ -117,7 +121,8 @@ def drivetrain(params, pade_order=DEFAULT_PADE_ORDER):
         plant_unstable_pole_rad_s=float(unstable.max()) if unstable.size else None,
         resonances=_modes(d) if compliant else (),
         anti_resonances=_modes([float(np.squeeze(c)) for c in n_theta]) if compliant else (),
-        stable_hinge_stiffness_n_m_rad=stable_hinge_range(p, pade_order),
+        stable_hinge_stiffness_n_m_rad=(stable_hinge_range(p, pade_order) if hinge_range
+                                        else None),
         hinge_stiffness_n_m_rad=float(p.K_h[0]),
     )
 
@@ -180,6 +185,8 @@ def drivetrain_notes(load, output="output", spring=("K_h", "N*m/rad")):
             f"{own:.4g} {unit} puts a mechanical pole at +{load.plant_unstable_pole_rad_s:.4g} "
             f"rad/s; only feedback can hold the {output}"
         )
+    if load.stable_hinge_stiffness_n_m_rad is None:  # not scanned
+        return notes
     low, high = load.stable_hinge_stiffness_n_m_rad
     if low is None and high is None:
         notes.append(f"the closed loop is unstable for every load spring {symbol} scanned")

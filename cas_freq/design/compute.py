@@ -1,0 +1,269 @@
+"""What the design page shows for one state: the existing engine on the config with overrides.
+
+Every figure is computed by the code the commands use, so the page and the commands agree to
+their printed digits: :func:`cas_freq.analysis.analyze` (exact delays, default range) for the
+margins and the bandwidth, :func:`cas_freq.report.data.curves` for the Bode data (the report's
+curves), :func:`cas_freq.verify.evaluate.verify_variant` for the verdicts of the config's
+analyze-kind requirements (the figures ``verify`` uses),
+:func:`cas_freq.report.data.linear_steps` for the linear step (Padé model, as the report draws
+it) and :func:`cas_freq.simulation.run.step_run` (``simulate --step``) for the nonlinear step.
+"""
+
+import math
+
+import numpy as np
+
+from cas_freq.exceptions import CasFreqError, ConfigError
+
+#: Points per decade of the Bode curves sent to the page.
+CURVE_POINTS_PER_DECADE = 40
+#: Samples of each step curve sent to the page (decimated from the simulation).
+STEP_SAMPLES = 400
+#: Digits of the figures shown in the page: those ``cas-freq analyze`` prints.
+DIGITS = 4
+
+
+def _finite(value):
+    return None if value is None or not math.isfinite(value) else float(value)
+
+
+def _sample_rate(key, params):
+    """The variant's rate [Hz] of sample-rate key ``sampling.<loop>``; ConfigError for a loop
+    the variant runs continuously (the page changes a rate, it does not make a loop
+    sampled: that is the config's architecture)."""
+    value = getattr(getattr(params, "sampling", None), key.split(".", 1)[1], None)
+    if value is None:
+        raise ConfigError(f"{key}: the variant runs this loop continuously; a sample rate is "
+                          "changed here, not introduced (give it in the config's sampling:)")
+    return float(value)
+
+
+def _check(key, params):
+    """ConfigError unless ``key`` can have a control: a key a sweep can vary, or a sample
+    rate of a sampled loop (static for a batch, but one variant at a time here)."""
+    from cas_freq.parameters import PARAMETERS, check_key
+
+    if key.startswith("sampling.") and key in PARAMETERS and key != "sampling.method":
+        return _sample_rate(key, params)
+    check_key(key, params)
+    return None
+
+
+def controls(loaded, keys=None):
+    """The keys the page offers, grouped by loop, with their value, unit and ranges.
+
+    Parameters
+    ----------
+    loaded : cas_freq.config.LoadedVariant
+    keys : sequence of str, optional
+        Default: the free keys of ``tune`` (:func:`cas_freq.tuning.space.default_free`).
+        Any key a sweep can vary, and the sample rates of a sampled variant's loops.
+
+    Returns
+    -------
+    list of dict
+        ``{"key", "group", "value" [SI], "unit", "lower", "upper", ...}``: ``lower``/``upper``
+        are the slider's log range, tune's default range (value /4 .. x4) within the
+        parameter table's range (:data:`cas_freq.parameters.PARAMETERS`), which bounds the
+        typed entry.
+    """
+    from cas_freq.parameters import loop_values, parameter, variant_parameters
+    from cas_freq.tuning.options import DEFAULT_FACTOR
+    from cas_freq.tuning.space import default_free
+
+    params = loaded.params
+    keys = default_free(params) if keys is None else keys
+    loop = variant_parameters(params, {})
+    out = []
+    for key in keys:
+        rate = _check(key, params)
+        record = parameter(key, params)
+        value = rate if rate is not None else float(np.ravel(loop_values(loop, key, params))[0])
+        low = record.lower if record.lower else (record.smallest or 1e-9)
+        high = record.upper if record.upper is not None else math.inf
+        start = value if value > 0 else low
+        out.append({
+            "key": key, "group": key.split(".")[0], "value": value, "unit": record.unit,
+            "lower": max(start / DEFAULT_FACTOR, low), "upper": min(start * DEFAULT_FACTOR, high),
+            "table_lower": record.lower, "table_upper": record.upper,
+            "meaning": record.meaning,
+        })
+    return out
+
+
+def check_values(values, config):
+    """{key: error text} of the entries of ``values`` (key -> text) that do not parse."""
+    from cas_freq.parameters import parse_value
+
+    errors = {}
+    for key, text in values.items():
+        try:
+            _check(key, config)
+            parse_value(key, text, config)
+        except CasFreqError as exc:
+            errors[key] = str(exc)
+    return errors
+
+
+def _bode(omega, response):
+    """(magnitude [dB], unwrapped phase [deg]) lists of a response on ``omega`` [rad/s];
+    non-finite values (above a sampled loop's Nyquist frequency) as None."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        magnitude = 20.0 * np.log10(np.abs(response))
+        phase = np.degrees(np.unwrap(np.angle(response)))
+    # the phase unwrapped from a start within -360..0 deg at the lowest frequency
+    if phase.size and np.isfinite(phase[0]):
+        phase -= 360.0 * math.floor((phase[0] + 360.0) / 360.0)
+    return [_finite(v) for v in magnitude], [_finite(v) for v in phase]
+
+
+def _margins(margins):
+    """A loop's margins [SI, deg, dB] and their texts as ``analyze`` prints them (None for
+    None)."""
+    from cas_freq.report.numbers import number
+
+    if margins is None:
+        return None
+    figures = {
+        "crossover_rad_s": margins.crossover_rad_s,
+        "phase_margin_deg": margins.phase_margin_deg,
+        "delay_margin_s": margins.delay_margin_s,
+        "gain_margin_db": margins.gain_margin_db,
+        "phase_crossover_rad_s": margins.phase_crossover_rad_s,
+        "gain_margin_low_db": margins.gain_margin_low_db,
+        "phase_crossover_low_rad_s": margins.phase_crossover_low_rad_s,
+    }
+    out = {name: _finite(value) for name, value in figures.items()}
+    out["text"] = {name: number(value, DIGITS) for name, value in figures.items()}
+    return out
+
+
+def _bandwidth_line(requirements):
+    """The bandwidth [rad/s] the config's analyze-kind requirements ask for at least (the
+    largest of their minimums), or None."""
+    bounds = [r.min for r in requirements
+              if r.kind == "analyze" and r.metric == "closed_loop.bandwidth_rad_s"
+              and r.min is not None]
+    return max(bounds) if bounds else None
+
+
+def _decimated(t, y):
+    """{"t": times [s], "y": values}, at most ~:data:`STEP_SAMPLES` of them."""
+    step = max(1, len(t) // STEP_SAMPLES)
+    return {"t": [float(v) for v in t[::step]], "y": [_finite(v) for v in y[::step]]}
+
+
+def limited_spans(t, flags):
+    """[(start, end) [s], ...] of the runs of True in ``flags`` (full resolution: a short
+    clamp is not lost to the curves' decimation)."""
+    flags = np.asarray(flags, dtype=bool)
+    if not flags.any():
+        return []
+    edges = np.flatnonzero(np.diff(np.concatenate([[False], flags, [False]]).astype(int)))
+    starts, ends = edges[::2], edges[1::2] - 1
+    return [(float(t[a]), float(t[b])) for a, b in zip(starts, ends, strict=True)]
+
+
+def steps(loaded, analysis, amplitude, nonlinear=True):
+    """The linear and (with ``nonlinear``) the nonlinear step at the output, in the output's
+    shown unit (deg, or mm for a linear output); ``amplitude`` [rad or m]."""
+    from cas_freq.model import DEFAULT_PADE_ORDER
+    from cas_freq.output import output_unit
+    from cas_freq.report.data import linear_steps
+    from cas_freq.simulation.run import step_run
+
+    unit = output_unit(loaded.params)
+    out = {"amplitude": float(unit.from_si(amplitude)), "unit": unit.shown, "figures": None}
+    if nonlinear and analysis.stable:
+        run = step_run(loaded, amplitude)
+        t = np.asarray(run.result.t)
+        out["nonlinear"] = _decimated(t, unit.from_si(np.asarray(run.result.delta)))
+        out["limited"] = {name: limited_spans(t, getattr(run.result, f"{name}_limited"))
+                          for name in ("current", "voltage")}
+        out["figures"] = {name: _finite(getattr(run.step, name)) for name in
+                          ("rise_time_s", "overshoot_pct", "settling_time_s", "peak_time_s")}
+        t_end = float(t[-1])
+    else:
+        bandwidth = analysis.closed_loop.bandwidth_rad_s if analysis.closed_loop else None
+        t_end = 20.0 / bandwidth if bandwidth else 0.05
+    if analysis.stable:
+        t = np.linspace(0.0, t_end, STEP_SAMPLES)
+        (linear,) = linear_steps(loaded.params, [t], [amplitude], DEFAULT_PADE_ORDER)
+        out["linear"] = _decimated(t, unit.from_si(linear))
+    return out
+
+
+def default_step(loaded):
+    """The step the page starts with [rad or m]: the output's example (``5deg``... ``5mm``)."""
+    from cas_freq.output import output_unit, read_output
+
+    unit = output_unit(loaded.params)
+    return read_output(unit.example, unit, "step")
+
+
+def design_state(loaded, step_rad=None, nonlinear=True):
+    """Everything the page draws for one loaded variant (JSON-ready dict).
+
+    Parameters
+    ----------
+    loaded : cas_freq.config.LoadedVariant
+        The config variant with the page's values as overrides.
+    step_rad : float, optional
+        The step at the output [rad, or m for a linear output] (default
+        :func:`default_step`).
+    nonlinear : bool
+        Also simulate the nonlinear step.
+
+    Returns
+    -------
+    dict
+    """
+    from cas_freq.analysis import analyze
+    from cas_freq.fileio import json_ready
+    from cas_freq.report.data import curves, loop_frequency_range
+    from cas_freq.report.numbers import number
+    from cas_freq.verify.evaluate import verdict_dict, verify_variant
+
+    # every figure as analyze gives it, but the loaded variant's stable hinge-stiffness scan
+    # (most of the time of a loaded variant; no requirement and nothing on the page uses it)
+    analysis = analyze(loaded, hinge_range=False)
+    found = curves(loaded.params, loop_frequency_range(analysis), CURVE_POINTS_PER_DECADE)
+    omega = [float(w) for w in found.omega_rad_s]
+    loops = []
+    for described in found.described:
+        magnitude, phase = _bode(found.omega_rad_s, found.loops[described.name])
+        margins = getattr(analysis, described.name, None)
+        loops.append({
+            "name": described.name, "symbol": described.symbol, "words": described.words,
+            "breaks_at": described.breaks_at, "magnitude_db": magnitude, "phase_deg": phase,
+            "margins": _margins(margins),
+            "loop_at_a_time": _margins(margins.loop_at_a_time if margins else None),
+        })
+    closed_magnitude, closed_phase = _bode(found.omega_rad_s, found.closed_loop)
+    closed = analysis.closed_loop
+    requirements = loaded.params.requirements
+    analyze_kind = [r for r in requirements if r.kind == "analyze"]
+    verdicts = (verify_variant(loaded, analyze_kind, known={"analyze": analysis})
+                if analyze_kind else [])
+
+    bandwidth = closed.bandwidth_rad_s if closed else None
+    return json_ready({
+        "config": loaded.params.name, "variant": loaded.variant,
+        "overrides": [f"{key}={value}" for key, value in loaded.overrides],
+        "stability": analysis.stability.verdict, "stable": analysis.stable,
+        "omega_rad_s": omega, "loops": loops,
+        "closed_loop": {
+            "magnitude_db": closed_magnitude, "phase_deg": closed_phase,
+            "bandwidth_rad_s": _finite(bandwidth),
+            "bandwidth_text": number(bandwidth, DIGITS),
+            "peak_db": _finite(closed.peak_db) if closed else None,
+            "required_bandwidth_rad_s": _bandwidth_line(requirements),
+        },
+        "verdicts": [verdict_dict(v) for v in verdicts],
+        "step": steps(loaded, analysis, default_step(loaded) if step_rad is None else step_rad,
+                      nonlinear),
+        "notes": list(analysis.notes),
+    })
+
+
+__all__ = ["check_values", "controls", "default_step", "design_state", "limited_spans", "steps"]
