@@ -122,6 +122,7 @@ def test_single_variant_output_unchanged_by_the_variant_options(capsys):
     assert isinstance(_strict(outputs[0]), dict)
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_several_variants_json_text_csv_and_report(tmp_path, capsys):
     assert main([*GRID, "--variant", "relaxed", "--variant", "base", "--json"]) == 0
     data = _strict(capsys.readouterr().out)

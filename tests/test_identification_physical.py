@@ -232,6 +232,7 @@ def test_recorded_command_rate_and_acceleration():
     assert (angle[2], rate[2], accel[2]) == (pytest.approx(1.0), 0.0, 0.0)
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_profile_recording_from_simulate_is_replayed_with_its_feedforward(tmp_path):
     """What `simulate --profile --csv` writes is a recording of a move (not a step): replayed
     from its first sample with the spline's rate and acceleration feeding the feed-forward, the

@@ -136,6 +136,7 @@ def test_cli_profile_move_in_mm():
     assert "tracking_error_max_mm" in data["profile"] and "_deg" not in json.dumps(data)
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_cli_report_in_mm(tmp_path):
     code, out, err = run_cli(["report", CONFIG, "-o", str(tmp_path / "r"), "-q",
                               "--amplitudes", "0.1mm,5mm", "--frequencies", "100:1000:3"])
@@ -148,6 +149,7 @@ def test_cli_report_in_mm(tmp_path):
     assert "amplitude_mm" in results and "amplitude_deg" not in results
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_cli_compare_of_two_linear_actuators_in_mm(tmp_path):
     heavy = tmp_path / "heavy.yaml"
     text = open(CONFIG, encoding="utf-8").read()

@@ -200,6 +200,7 @@ def _executed(monkeypatch, tmp_path):
     return notebook
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_first_steps_notebook_shows_the_table_and_the_plot_without_magics(monkeypatch,
                                                                          tmp_path):
     notebook = _executed(monkeypatch, tmp_path)

@@ -315,6 +315,7 @@ def test_verdicts_not_evaluated_are_said_so(data, tmp_path):
     assert "were not evaluated for variant(s) base" in (target / "report.md").read_text()
 
 
+@pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_same_input_gives_byte_identical_files(base, tmp_path):
     one = build_report([base], tmp_path / "one", settings=FAST, verdicts=VERDICTS)
     two = build_report([base], tmp_path / "two", settings=FAST, verdicts=VERDICTS)
