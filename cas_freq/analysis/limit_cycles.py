@@ -24,7 +24,7 @@ import numpy as np
 
 from cas_freq.analysis import describing
 from cas_freq.exceptions import CasFreqError
-from cas_freq.model.loops import Selector, responses
+from cas_freq.model.loops import PreparedResponses, Selector
 
 #: Largest estimated harmonic at the nonlinearity's input, relative to the first, for which the
 #: describing function's low-pass hypothesis is taken to hold [-].
@@ -262,6 +262,7 @@ def _friction_cycles(params, p):
 
 def _saturation_cycles(params, p):
     names = _loop_names(params)
+    prepared = PreparedResponses(p)  # the structure built once for the searches below
     out = []
     for name in names:
         field, signal, unit = CLAMPS[name]
@@ -272,8 +273,9 @@ def _saturation_cycles(params, p):
             continue
 
         def g(omega, name=name):
-            return responses(p, 1j * omega, closed=False, loop_at_a_time=True
-                             ).loop_at_a_time[name]
+            omega = np.asarray(omega, dtype=float)
+            return prepared.responses(np.zeros(omega.shape, dtype=int), 1j * omega,
+                                      closed=False, loop_at_a_time=True).loop_at_a_time[name]
 
         for omega, real in negative_real_crossings(g, *SEARCH_RANGE_RAD_S):
             n = -1.0 / real
