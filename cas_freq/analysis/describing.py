@@ -93,7 +93,7 @@ def saturation_amplitude(n, limit):
 
 # --- the linear parts ------------------------------------------------------------------------
 
-def controller_law(p, s):
+def controller_law(p, s, structure=None):
     r"""The loops as one law V = −(C_i i + C_θ θ + C_y N δ) at the complex frequencies ``s``.
 
     From the declared structure (:func:`cas_freq.model.structure.build`): loop k's forward path
@@ -108,6 +108,8 @@ def controller_law(p, s):
         One run's parameters, scalars (:class:`cas_freq.model.loops.Selector`).
     s : numpy.ndarray
         Complex frequencies [rad/s].
+    structure : cas_freq.model.structure.Structure, optional
+        ``build(p)``, if already built (a search evaluates the law many times).
 
     Returns
     -------
@@ -116,7 +118,7 @@ def controller_law(p, s):
     """
     law = {"current": 0j, "motor_angle": 0j, "output_angle": 0j}
     path = 1.0 + 0j
-    for loop in build(p).loops:
+    for loop in (structure or build(p)).loops:
         for block in (loop.controller, *loop.path):
             path = path * parts.polyval(block.numerator, s) / parts.polyval(block.denominator, s)
         path = path * np.exp(-s * loop.delay)
@@ -131,17 +133,17 @@ def controller_law(p, s):
     return law["current"], law["motor_angle"], law["output_angle"]
 
 
-def _motor_side(p, s):
+def _motor_side(p, s, structure=None):
     r"""The motor shaft with the loops closed through the winding: Q_θ = P_m + C_e (K_e s + C_θ)
     and C_e C_y, with C_e = K_m/(Z_e + C_i), P_m = J s² + μ_v s (the torque per motor angle
     the shaft needs, the loops' share included; the output-angle feedback's share separate)."""
-    c_i, c_theta, c_y = controller_law(p, s)
+    c_i, c_theta, c_y = controller_law(p, s, structure)
     c_e = p.Km / (p.L * s + p.R + c_i)
     q_theta = p.J * s * s + p.mu_v * s + c_e * (p.Ke * s + c_theta)
     return q_theta, c_e * c_y
 
 
-def twist_loop(p, s):
+def twist_loop(p, s, structure=None):
     r"""G of the backlash: the twist x = θ/N − δ per unit dead-zone output y, negated, with the
     gear's spring and damper acting only through y (τ_g = (K_g + c_g s) y) and every loop
     closed. With P_L = J_L s² + b_L s + K_h, the motor shaft :func:`_motor_side`, η the gear's
@@ -157,7 +159,7 @@ def twist_loop(p, s):
     (numpy.ndarray, numpy.ndarray)
         G [-] and the output per unit dead-zone output δ/y [-].
     """
-    q_theta, c_ey = _motor_side(p, s)
+    q_theta, c_ey = _motor_side(p, s, structure)
     n = p.ratio
     gear = p.K_g + p.c_g * s
     delta = gear / (p.J_L * s * s + p.b_L * s + p.K_h)
@@ -165,7 +167,7 @@ def twist_loop(p, s):
     return -(theta / n - delta), delta
 
 
-def speed_loop(p, s):
+def speed_loop(p, s, structure=None):
     r"""G of the Coulomb friction: the motor speed per unit torque applied to the motor shaft,
     every loop closed (the friction −F_c sign ω is that torque, so x = ω = −G y).
 
@@ -179,7 +181,7 @@ def speed_loop(p, s):
 
     and G = s θ/τ. Returns G [rad/(s·N·m)] and the output per unit torque δ/τ [rad/(N·m)].
     """
-    q_theta, c_ey = _motor_side(p, s)
+    q_theta, c_ey = _motor_side(p, s, structure)
     n = p.ratio
     load = p.J_L * s * s + p.b_L * s + p.K_h
     if p.K_g > 0:

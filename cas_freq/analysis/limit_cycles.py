@@ -25,6 +25,7 @@ import numpy as np
 from cas_freq.analysis import describing
 from cas_freq.exceptions import CasFreqError
 from cas_freq.model.loops import PreparedResponses, Selector
+from cas_freq.model.structure import build
 
 #: Largest estimated harmonic at the nonlinearity's input, relative to the first, for which the
 #: describing function's low-pass hypothesis is taken to hold [-].
@@ -212,9 +213,10 @@ def _one_run(params):
 
 def _backlash_cycles(params, p, label, unit):
     half = 0.5 * float(params.backlash[0])
+    structure = build(p)  # once for the search below
 
     def g(omega):
-        return describing.twist_loop(p, 1j * omega)[0]
+        return describing.twist_loop(p, 1j * omega, structure)[0]
 
     out = []
     for omega, real in negative_real_crossings(g, *SEARCH_RANGE_RAD_S):
@@ -222,7 +224,7 @@ def _backlash_cycles(params, p, label, unit):
         if not 0 < n < 1:
             continue
         amplitude = float(describing.dead_zone_amplitude(n, half))
-        delta_per_y = abs(describing.twist_loop(p, 1j * np.array([omega]))[1][0])
+        delta_per_y = abs(describing.twist_loop(p, 1j * np.array([omega]), structure)[1][0])
         notes = []
         if amplitude < BARELY * half:
             notes.append(f"the cycle barely engages the gear (the twist passes the half-play by "
@@ -245,14 +247,16 @@ def _backlash_cycles(params, p, label, unit):
 
 def _friction_cycles(params, p):
     level = float(params.F_c[0])
+    structure = build(p)  # once for the search below
 
     def g(omega):
-        return describing.speed_loop(p, 1j * omega)[0]
+        return describing.speed_loop(p, 1j * omega, structure)[0]
 
     out = []
     for omega, real in negative_real_crossings(g, *SEARCH_RANGE_RAD_S):
         amplitude = -real * 4.0 * level / np.pi  # N(A) = 4 F_c/(pi A) = -1/G
-        delta_per_torque = abs(describing.speed_loop(p, 1j * np.array([omega]))[1][0])
+        delta_per_torque = abs(describing.speed_loop(p, 1j * np.array([omega]),
+                                                     structure)[1][0])
         out.append(_cycle(
             "coulomb_friction", "Coulomb friction on the motor shaft", "motor speed omega",
             "rad/s", amplitude, omega, -1.0 / real, real,
