@@ -30,8 +30,7 @@ import shlex
 from pathlib import Path
 
 import pytest
-
-from cas_freq.cli import main
+from clirun import run_cli
 
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
@@ -119,16 +118,6 @@ def _argv(words, folder):
     return argv
 
 
-def _run_cli(argv):
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            code = main(argv)
-        except SystemExit as exc:
-            code = exc.code
-    return code, out.getvalue(), err.getvalue()
-
-
 def _check_excerpt(expected, printed, what):
     """Each line of the excerpt ``expected`` appears in ``printed`` in order, whitespace runs
     read as one blank; ``...`` lines skip any number of lines."""
@@ -175,7 +164,7 @@ def _run_page(page, folder, slow):
                 ran += 1
             elif language in ("bash", "console", "sh", "shell", "indented"):
                 for words, expected in _commands(body):
-                    code, printed, err = _run_cli(_argv(words, folder))
+                    code, printed, err = run_cli(_argv(words, folder))
                     assert code in (0, 1), f"{where}: cas-freq {' '.join(words)} -> {code}: {err}"
                     if expected:
                         _check_excerpt(expected, printed, f"{where}: cas-freq {' '.join(words)}")
