@@ -11,6 +11,7 @@ from cas_freq.cli.common import (
 from cas_freq.cli.sinedwell import (
     DEFAULT_AMPLITUDES,
     LINEAR_DEFAULT_AMPLITUDES,
+    add_dwell_arguments,
     amplitudes_text,
     parse_amplitudes,
     parse_frequencies,
@@ -30,18 +31,7 @@ def register(commands):
     add_config_arguments(parser)
     parser.add_argument("--pade", type=int, default=None, metavar="N",
                         help="Padé order of both delays of the linear T (default: 6)")
-    parser.add_argument(
-        "--amplitudes", default=DEFAULT_AMPLITUDES, metavar="A,B,...",
-        help=f"sine-dwell and step amplitudes with units (default: {DEFAULT_AMPLITUDES}; a "
-        f"linear output: {LINEAR_DEFAULT_AMPLITUDES})",
-    )
-    parser.add_argument(
-        "--frequencies", default=None, metavar="MIN:MAX:N|F1,F2,...",
-        help="sine-dwell frequencies in rad/s (default: 16 log-spaced over 0.1..5 x the linear "
-        "bandwidth, as sinedwell)",
-    )
-    parser.add_argument("--feedforward", action="store_true",
-                        help="let the feed-forward act on the sine-dwell and the sine limits")
+    add_dwell_arguments(parser)  # the sine-dwell table's; the steps' amplitudes too
     parser.add_argument("-o", "--output", required=True, type=output_path, metavar="FILE",
                         help="the JSON file to write (replaced as a whole)")
     parser.set_defaults(handler=run)

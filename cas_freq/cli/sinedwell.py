@@ -24,6 +24,14 @@ def register(commands):
         "linear, sine-dwell and step-fit bandwidths side by side.",
     )
     add_config_arguments(parser)
+    add_dwell_arguments(parser)
+    parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    parser.set_defaults(handler=run)
+
+
+def add_dwell_arguments(parser):
+    """The sine dwell's ``--amplitudes``, ``--frequencies`` and ``--feedforward`` (sinedwell,
+    export-model)."""
     parser.add_argument(
         "--amplitudes", default=DEFAULT_AMPLITUDES, metavar="A,B,...",
         help=f"output amplitudes with units (default: {DEFAULT_AMPLITUDES}; a linear output: "
@@ -39,8 +47,6 @@ def register(commands):
         help="let the velocity/acceleration feed-forward act on the sines (default: off, as in "
         "docs/model.md's T)",
     )
-    parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    parser.set_defaults(handler=run)
 
 
 #: The defaults at a linear output (``gear.screw_lead``): lengths.
