@@ -156,3 +156,60 @@ def test_roots_of_rows_are_numpys_roots_and_verdicts_agree_run_by_run():
     for run in range(p.n_runs):
         alone = loop_verdicts(p.run(run), 6)
         assert {k: v[run] for k, v in together.items()} == {k: v[0] for k, v in alone.items()}
+
+
+def _poles_verdicts(polynomials):
+    return [pole_verdict(np.roots(np.trim_zeros(row, "f"))) for row in polynomials]
+
+
+def test_routh_with_error_bounds_agrees_with_the_roots_or_defers_to_them():
+    # The Routh verdict decides only where every first-column sign is clear of its running
+    # error bound. Reference: the verdict of numpy's roots of polynomials built from known
+    # roots: well separated (decided by Routh, and equal to the roots' verdict), spread over
+    # five decades like the cascade's (decided or deferred, never wrong), and with a pair
+    # exactly on the imaginary axis (marginal: the first column has an exact zero there, which
+    # rounding turns into noise within the bound, so Routh must defer).
+    from cas_freq.analysis.stability import verdicts
+
+    rng = np.random.default_rng(25)
+    cases = []
+    for spread in (1.0, 5.0):
+        for _ in range(200):
+            magnitude = 10.0 ** rng.uniform(0, spread, 5)
+            angle = rng.uniform(0.05, 0.95, 5) * np.pi / 2
+            sign = np.where(rng.uniform(size=5) < 0.1, 1.0, -1.0)  # one in ten unstable
+            pairs = magnitude * (sign * np.cos(angle) + 1j * np.sin(angle))
+            cases.append(np.real(np.poly(np.concatenate([pairs, pairs.conj(), [-1.0]]))))
+    on_axis = np.real(np.poly([1j * 30.0, -1j * 30.0, -2.0, -5.0 + 40j, -5.0 - 40j,
+                               -7.0 + 9j, -7.0 - 9j, -50.0, -60.0, -70.0, -80.0]))
+    polynomials = np.vstack(cases + [on_axis])
+    deferred = []
+
+    def fallback(rows):
+        deferred.extend(rows)
+        return _poles_verdicts(polynomials[rows])
+
+    got = verdicts(polynomials, fallback)
+    expected = _poles_verdicts(polynomials)
+    assert list(got) == expected
+    assert len(polynomials) - 1 in deferred  # the pair on the axis
+    assert expected[-1] == "marginal"
+    assert not set(deferred) & set(range(200))  # one decade apart: Routh decides them all
+    assert {"stable", "unstable"} <= set(expected[:200])
+
+
+def test_cascade_inner_loop_verdicts_are_decided_by_routh():
+    # The velocity loop of configs/cascade_axis.yaml (degree 24, poles from 17 rad/s to
+    # 3e5 rad/s) has first-column entries 1e-16 of their row's largest, which the former
+    # relative test (1e-8 of the row) sent to the roots for every run, yet each is clear of its
+    # rounding-error bound by a factor of over 1e5. Now Routh decides it, and agrees with the
+    # roots (the former fallback) run by run.
+    from cas_freq.analysis.stability import loop_polynomial_bounds, verdicts
+
+    p = variant_parameters(load_variant("configs/cascade_axis.yaml").params,
+                           {"velocity_loop.Kp": np.linspace(0.5, 3.0, 12)})
+    e, m = loop_polynomial_bounds(p, 6)["velocity_loop"]
+    deferred = []
+    got = verdicts(e, lambda rows: deferred.extend(rows) or _poles_verdicts(e[rows]), m)
+    assert deferred == []
+    assert list(got) == _poles_verdicts(e)

@@ -17,9 +17,10 @@ arithmetic (:func:`loop_polynomials`) with the Padé approximant
 
 :math:`Q_c` decides the current loop alone, :math:`Q` the whole actuator (either derivative
 placement: the feedback path is :math:`C_p` in both). The verdict is read from the Routh array
-of the scaled polynomial (no root finding). Where the array is ambiguous (a first-column entry
-within :data:`ROUTH_TOLERANCE` of zero, or a root near s = 0) the poles are computed and judged
-by :func:`pole_verdict`.
+of the scaled polynomial (no root finding), with a running bound on each entry's rounding error
+(from the coefficients' own, :func:`loop_polynomial_bounds`). Where the array is ambiguous (a
+first-column entry not clear of zero by :data:`ROUTH_SAFETY` times its bound, or a root near
+s = 0) the poles are computed and judged by :func:`pole_verdict`.
 
 Poles (:func:`closed_loop_poles`): the eigenvalues of the closed-loop state matrix that
 :func:`loop_system` assembles from the declared structure: the plant states (i, omega, theta)
@@ -50,8 +51,16 @@ from cas_freq.model.structure import SIGNALS, build, stages
 MARGINAL_TOLERANCE = 1e-9
 
 
-#: A Routh first-column entry below this (relative to its row) counts as ambiguous.
-ROUTH_TOLERANCE = 1e-8
+#: Unit roundoff of float64 (half the machine epsilon).
+UNIT_ROUNDOFF = np.finfo(float).eps / 2
+#: A characteristic-polynomial coefficient's rounding error, in unit roundoffs of the sum of
+#: the absolute values of its terms: products and sums of polynomials of degree up to ~40
+#: nested a few times per loop (each coefficient at most ~2 x 40 x 4 roundings deep: 320; a
+#: factor 3 beyond).
+COEFFICIENT_ROUNDOFFS = 1000.0
+#: A Routh first-column entry not farther from zero than this many times its running error
+#: bound counts as ambiguous (the bound is first order: a factor for what it leaves out).
+ROUTH_SAFETY = 10.0
 #: A root |s| below this [rad/s] (estimated -a_N/a_(N-1)) sends the run to the eigenvalues.
 NEAR_ZERO_RAD_S = 1e-4
 
@@ -109,23 +118,57 @@ def loop_polynomials(p, order=DEFAULT_PADE_ORDER):
         Loop name (innermost first) -> stack of coefficients (highest power first; leading
         zeros where a delay or Tf is 0): that loop closed with every loop inside it.
     """
+    return {name: e for name, (e, _) in _loop_recurrence(p, order, magnitudes=False).items()}
+
+
+def loop_polynomial_bounds(p, order=DEFAULT_PADE_ORDER):
+    """:func:`loop_polynomials` with, beside each stack, the same recurrence in the absolute
+    values of every coefficient: each coefficient of that magnitude polynomial bounds the sum
+    of the absolute values of the terms its coefficient was summed from, so a coefficient's
+    rounding error is at most a few unit roundoffs per operation times it (Higham, *Accuracy
+    and Stability of Numerical Algorithms*, 2nd ed., section 5.1 and problem 3.7).
+
+    Returns
+    -------
+    dict of str to (numpy.ndarray, numpy.ndarray)
+        Loop name -> (coefficients, magnitudes), both deflated alike.
+    """
+    return _loop_recurrence(p, order, magnitudes=True)
+
+
+def _loop_recurrence(p, order, magnitudes):
     n = p.n_runs
     structure = build(p)
-    e = parts.stacked(structure.plant.denominator, n)
-    gain = sensed = np.ones((n, 1))
-    out = {}
     steps = stages(structure, minimal=True)
-    for k, (loop, stage) in enumerate(zip(structure.loops, steps, strict=True)):
-        tau = np.broadcast_to(np.asarray(stage.tau, dtype=float), (n,))
-        delay_den, delay_num = pade_polynomials(tau, order)
-        gain = polymul(polymul(gain, _stacked(stage.a, n)), delay_num)
-        b = polymul(_stacked(stage.b, n), delay_den)
-        f = _stacked(stage.f, n)
-        e = polyadd(polymul(polymul(b, f), e),
-                    polymul(polymul(gain, _stacked(stage.g, n)), sensed))
-        sensed = polymul(sensed, f)
-        out[loop.name] = e if k == len(steps) - 1 else _without_roots_at_zero(e)
-    return out
+    results = []
+    for transform in (_identity, np.abs) if magnitudes else (_identity,):
+        e = transform(parts.stacked(structure.plant.denominator, n))
+        gain = sensed = np.ones((n, 1))
+        out = {}
+        for loop, stage in zip(structure.loops, steps, strict=True):
+            tau = np.broadcast_to(np.asarray(stage.tau, dtype=float), (n,))
+            delay_den, delay_num = map(transform, pade_polynomials(tau, order))
+            gain = polymul(polymul(gain, transform(_stacked(stage.a, n))), delay_num)
+            b = polymul(transform(_stacked(stage.b, n)), delay_den)
+            f = transform(_stacked(stage.f, n))
+            e = polyadd(polymul(polymul(b, f), e),
+                        polymul(polymul(gain, transform(_stacked(stage.g, n))), sensed))
+            sensed = polymul(sensed, f)
+            out[loop.name] = e
+        results.append(out)
+    names = [loop.name for loop in structure.loops]
+    paired = {}
+    for k, name in enumerate(names):
+        e = results[0][name]
+        m = results[1][name] if magnitudes else None
+        if k < len(names) - 1:
+            e, m = _without_roots_at_zero(e, m)
+        paired[name] = (e, m)
+    return paired
+
+
+def _identity(x):
+    return x
 
 
 def characteristic_polynomials(p, order=DEFAULT_PADE_ORDER):
@@ -152,15 +195,19 @@ def _stacked(polynomial, n):
     return polynomial if isinstance(polynomial, np.ndarray) else parts.stacked(polynomial, n)
 
 
-def _without_roots_at_zero(polynomials):
-    """The polynomials with every factor s divided out (trailing zero coefficients)."""
+def _without_roots_at_zero(polynomials, magnitudes=None):
+    """The polynomials with every factor s divided out (trailing zero coefficients), and
+    ``magnitudes`` (if given) shifted alike."""
     out = polynomials.copy()
+    bounds = None if magnitudes is None else magnitudes.copy()
     for _ in range(polynomials.shape[1] - 1):
         rows = (out[:, -1] == 0) & np.any(out != 0, axis=1)
         if not rows.any():
             break
         out = _deflated(out, rows)
-    return out
+        if bounds is not None:
+            bounds = _deflated(bounds, rows)
+    return out, bounds
 
 
 def _deflated(polynomials, rows):
@@ -171,53 +218,68 @@ def _deflated(polynomials, rows):
     return out
 
 
-def _routh_unstable_count(a):
+def _routh_unstable_count(a, error):
     """(number of sign changes of the Routh first column, ambiguous flag) per row of ``a``.
 
-    ``a``: stack of polynomials of one degree, leading coefficients nonzero, scaled.
+    ``a``: stack of polynomials of one degree, leading coefficients nonzero, scaled;
+    ``error``: a bound on each coefficient's absolute error. The bound is carried through
+    every entry of the array to first order (a running error bound: the perturbation of each
+    new entry by its operands' bounds, plus a unit roundoff for each of its operations), and a
+    row is ambiguous where a first-column entry is not farther from zero than its bound times
+    :data:`ROUTH_SAFETY`: its sign, and so the count, could be rounding's.
     """
     n_rows, width = a.shape
     degree = width - 1
     cols = degree // 2 + 1
-    previous = np.zeros((n_rows, cols))
-    current = np.zeros((n_rows, cols))
-    even = a[:, 0::2]
-    odd = a[:, 1::2]
-    previous[:, : even.shape[1]] = even
-    current[:, : odd.shape[1]] = odd
-    first = [previous[:, 0], current[:, 0]]
-    ambiguous = np.zeros(n_rows, dtype=bool)
+    previous, current = np.zeros((2, n_rows, cols))
+    previous_error, current_error = np.zeros((2, n_rows, cols))
+    previous[:, : (degree + 2) // 2] = a[:, 0::2]
+    current[:, : (degree + 1) // 2] = a[:, 1::2]
+    previous_error[:, : (degree + 2) // 2] = error[:, 0::2]
+    current_error[:, : (degree + 1) // 2] = error[:, 1::2]
+    first, bound = [previous[:, 0], current[:, 0]], [previous_error[:, 0], current_error[:, 0]]
     for _ in range(degree - 1):
-        scale = np.max(np.abs(current), axis=1)
-        scale = np.where(scale > 0, scale, 1.0)
-        ambiguous |= np.abs(current[:, 0]) <= ROUTH_TOLERANCE * scale
-        pivot = np.where(current[:, 0] != 0, current[:, 0], 1.0)
+        pivot = current[:, :1]
+        size = np.abs(np.where(pivot != 0, pivot, 1.0))
+        ratio = previous[:, :1] * current[:, 1:] / np.where(pivot != 0, pivot, 1.0)
         nxt = np.zeros_like(current)
-        nxt[:, :-1] = (
-            current[:, :1] * previous[:, 1:] - previous[:, :1] * current[:, 1:]
-        ) / pivot[:, None]
+        nxt_error = np.zeros_like(current)
+        # entry j: p_(j+1) - p_0 c_(j+1) / c_0, perturbed by each operand's bound
+        nxt[:, :-1] = previous[:, 1:] - ratio
+        nxt_error[:, :-1] = (
+            previous_error[:, 1:]
+            + (np.abs(current[:, 1:]) * previous_error[:, :1]
+               + np.abs(previous[:, :1]) * current_error[:, 1:]
+               + np.abs(ratio) * current_error[:, :1]) / size
+            + 4 * UNIT_ROUNDOFF * (np.abs(previous[:, 1:]) + np.abs(ratio))
+        )
         norm = np.max(np.abs(nxt), axis=1)
-        norm = np.where(norm > 0, norm, 1.0)
-        previous, current = current / scale[:, None], nxt / norm[:, None]
+        norm = np.where(norm > 0, norm, 1.0)[:, None]
+        previous, previous_error = current, current_error
+        current, current_error = nxt / norm, nxt_error / norm + UNIT_ROUNDOFF * np.abs(nxt / norm)
         first.append(current[:, 0])
-    column = np.column_stack(first)
+        bound.append(current_error[:, 0])
+    column, bound = np.column_stack(first), np.column_stack(bound)
+    ambiguous = np.any(np.abs(column) <= ROUTH_SAFETY * bound, axis=1)
     ambiguous |= np.any(column == 0, axis=1)
     signs = np.sign(column)
     return np.sum(signs[:, 1:] != signs[:, :-1], axis=1), ambiguous
 
 
 def _scaled(a):
-    """Coefficients of a(w0 x) / max, with w0 balancing the constant and leading terms."""
+    """Coefficients of a(w0 x) / max, with w0 balancing the constant and leading terms, and
+    the multipliers applied (per coefficient: w0^power / max)."""
     degree = a.shape[1] - 1
     lead, const = np.abs(a[:, 0]), np.abs(a[:, -1])
     w0 = np.where(const > 0, (const / lead) ** (1.0 / max(degree, 1)), 1.0)
     powers = np.arange(degree, -1, -1)
-    scaled = a * w0[:, None] ** powers
-    scaled /= np.max(np.abs(scaled), axis=1, keepdims=True)
-    return scaled, w0
+    multipliers = w0[:, None] ** powers
+    scaled = a * multipliers
+    multipliers /= np.max(np.abs(scaled), axis=1, keepdims=True)
+    return a * multipliers, multipliers
 
 
-def verdicts(polynomials, fallback):
+def verdicts(polynomials, fallback, magnitudes=None):
     """``"stable"``, ``"marginal"`` or ``"unstable"`` for each polynomial (row).
 
     Parameters
@@ -226,6 +288,10 @@ def verdicts(polynomials, fallback):
         Stack of characteristic polynomials, highest power first (leading zeros allowed).
     fallback : callable
         ``fallback(rows) -> verdicts`` from the poles, for rows whose Routh array is ambiguous.
+    magnitudes : numpy.ndarray, optional
+        Per coefficient, the sum of the absolute values of the terms it was computed from
+        (:func:`loop_polynomial_bounds`): each coefficient's error is taken as at most
+        :data:`COEFFICIENT_ROUNDOFFS` unit roundoffs of it. Without it, of the coefficient.
 
     Returns
     -------
@@ -235,6 +301,8 @@ def verdicts(polynomials, fallback):
     out = np.empty(n, dtype=object)
     nonzero = polynomials != 0
     leading = np.argmax(nonzero, axis=1)
+    if magnitudes is None:
+        magnitudes = np.abs(polynomials)
     for lead in np.unique(leading):
         rows = np.flatnonzero(leading == lead)
         a = polynomials[rows, lead:]
@@ -243,10 +311,13 @@ def verdicts(polynomials, fallback):
             continue
         with np.errstate(divide="ignore", invalid="ignore"):
             near_zero = np.abs(a[:, -1]) <= NEAR_ZERO_RAD_S * np.abs(a[:, -2])
-        scaled, _ = _scaled(a)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            changes, ambiguous = _routh_unstable_count(scaled)
+            scaled, multipliers = _scaled(a)
+            error = (COEFFICIENT_ROUNDOFFS * UNIT_ROUNDOFF * magnitudes[rows, lead:] * multipliers
+                     + UNIT_ROUNDOFF * np.abs(scaled))
+            changes, ambiguous = _routh_unstable_count(scaled, error)
         ambiguous |= near_zero | ~np.all(np.isfinite(scaled), axis=1)
+        ambiguous |= ~np.all(np.isfinite(error), axis=1)
         out[rows] = np.where(changes > 0, "unstable", "stable")
         hard = np.flatnonzero(ambiguous)
         if hard.size:
@@ -270,7 +341,8 @@ def loop_verdicts(p, order=DEFAULT_PADE_ORDER):
         Loop name (innermost first) -> ``"stable"``, ``"marginal"`` or ``"unstable"`` per run
         (object arrays); the last is the whole actuator's.
     """
-    polynomials = loop_polynomials(p, order)
+    bounded = loop_polynomial_bounds(p, order)
+    polynomials = {name: e for name, (e, _) in bounded.items()}
     names = list(polynomials)
 
     def fallback(name):
@@ -282,7 +354,7 @@ def loop_verdicts(p, order=DEFAULT_PADE_ORDER):
         return lambda rows: [pole_verdict(poles) for poles in
                              _roots_of_rows(polynomials[name][rows])]
 
-    return {name: verdicts(polynomial, fallback(name))
+    return {name: verdicts(polynomial, fallback(name), bounded[name][1])
             for name, polynomial in polynomials.items()}
 
 
