@@ -341,6 +341,29 @@ def test_moving_a_gain_in_chromium_shows_analyze_s_phase_margin_and_undo_goes_ba
                 break
             except AssertionError as exc:  # the blank page replaced by the design page
                 assert "context was destroyed" in str(exc) and time.monotonic() < deadline
+        # the figures are uPlot charts (served by the page's server, no other host): five of
+        # them, each a canvas with the state's curves in it
+        figures = tools.evaluate(
+            "(() => { const c = casDesign.charts, s = casDesign.state();"
+            " const m = c.magnitude.ctx.getImageData(0, 0, c.magnitude.ctx.canvas.width,"
+            "  c.magnitude.ctx.canvas.height).data; let blue = 0;"
+            " for (let i = 0; i < m.length; i += 4) blue += Math.abs(m[i] - 31) < 40 &&"
+            "  Math.abs(m[i + 1] - 119) < 40 && Math.abs(m[i + 2] - 180) < 40;"
+            " return [document.querySelectorAll('#figures .uplot').length,"
+            "  document.querySelectorAll('#figures .uplot canvas').length,"
+            "  Object.keys(c).sort(), c.magnitude.series.slice(1).map(x => x.label),"
+            "  c.magnitude.data[1][0].length, s.omega_rad_s.length, blue,"
+            "  c.step.series.slice(1).map(x => x.label),"
+            "  performance.getEntriesByType('resource').map(e => e.name)]; })()")
+        count, canvases, names, labels, points, omega, blue, step, loaded = figures
+        assert count == canvases == len(names) == 5
+        assert names == ["closed", "magnitude", "nichols", "phase", "step"]
+        assert labels == ["L_i (broken at the voltage)", "L_p (broken at the current command)"]
+        assert points == omega > 100 and blue > 200  # L_i's curve drawn, in its colour
+        assert step == ["linear", "nonlinear"]
+        assert {name.rsplit("/", 3)[-1] for name in loaded} >= {
+            "uPlot.iife.min.js", "uPlot.min.css", "design.js", "design.css"}
+        assert all(name.startswith(server) for name in loaded), loaded
         shown = tools.evaluate(
             "Promise.all(['5', '4', '3'].map(v => casDesign.setValue('position_loop.Kp', v)))"
             ".then(() => [document.getElementById('pm-position_loop').textContent,"
@@ -362,19 +385,21 @@ def test_moving_a_gain_in_chromium_shows_analyze_s_phase_margin_and_undo_goes_ba
             " document.getElementById('pm-position_loop').textContent])")
         assert shown[0].startswith("position_loop.Kp: must be 0 or within 1e-09..1e+09 A/rad")
         assert "'-3'" in shown[0] and shown[1] == undone[0]
-        # compare with the variant: each loop's magnitude and phase once more, dashed
-        dashed = tools.evaluate(
+        # the previous state faint behind, and compare with the variant: each loop's
+        # magnitude and phase once more, dashed
+        faint, dashed = tools.evaluate(
             "casDesign.setValue('position_loop.Kp', '3').then(() => {"
             " document.getElementById('compare').checked = true; return casDesign.compare(); })"
-            ".then(() => Array.from(document.querySelectorAll('#bode path')).filter(p =>"
-            " p.getAttribute('stroke-dasharray') === '6 3').length)")
-        assert dashed == 2 * 2
+            ".then(() => [casDesign.charts.magnitude.series.filter(s => s.alpha < 1)"
+            " .map(s => s.label), ['magnitude', 'phase'].map(n =>"
+            " casDesign.charts[n].series.filter(s => s.dash && s.dash.length).length)])")
+        assert faint == ["L_i previous", "L_p previous"] and dashed == [2, 2]
         # tune from here (a small search): a row per Pareto point and the tuned row, a dot
         # per point
         rows, dots, front = tools.evaluate(
             "casDesign.tune({candidates: 12, rounds: 0}).then(() => ["
             " document.querySelectorAll('#tune-table tr').length,"
-            " document.querySelectorAll('#tune-result circle').length,"
+            " casDesign.charts.pareto.data[1][0].length,"
             " document.getElementById('tune-status').textContent])")
         assert rows == dots + 2 and "of 13 candidates feasible" in front
     finally:
@@ -518,3 +543,39 @@ def test_keys_that_cannot_have_a_control_are_bad_input():
     code, _, err = run_cli(["design", str(SHIPPED), "--no-browser", "--port", "0", "--keys",
                             "sampling.current_loop"])
     assert code == 2 and "continuously" in err
+
+
+def test_the_page_and_its_scripts_reference_no_other_host(server):
+    # the page works offline: every file it loads is one the server serves from the package
+    # (the plots' library, uPlot, vendored), and no served file names another host (the only
+    # URL in them is the licence banner comment opening uPlot's file: a credit, not a load)
+    from cas_freq.design.server import STATIC
+
+    with urllib.request.urlopen(server, timeout=60) as response:
+        page = response.read().decode()
+    loads = re.findall(r'(?:src|href)="([^"]*)"', page)
+    assert sorted("/" + name for name in loads) == sorted(path for path in STATIC if path != "/")
+    for path in STATIC:
+        with urllib.request.urlopen(server + path.lstrip("/"), timeout=60) as response:
+            assert response.status == 200
+            text = response.read().decode()
+        if path.endswith("uPlot.iife.min.js"):
+            banner = "/*! https://github.com/leeoniya/uPlot (v1.6.32) */\n"
+            assert text.startswith(banner)
+            text = text[len(banner):]
+        assert re.findall(r"https?://[^\s\"'`)]*", text) == [], path
+
+
+def test_the_vendored_plot_library_is_the_recorded_release():
+    # uPlot's files are the release its README records (version, commit, sha256 per file),
+    # unchanged
+    folder = ROOT / "cas_freq" / "design" / "static" / "vendor" / "uplot"
+    note = (folder / "README.md").read_text(encoding="utf-8")
+    recorded = dict(re.findall(r"^\| `([^`]+)` \| `[^`]+` \| `([0-9a-f]{64})` \|$", note,
+                               flags=re.M))
+    assert set(recorded) == {"uPlot.iife.min.js", "uPlot.min.css", "LICENSE"}
+    for name, digest in recorded.items():
+        assert hashlib.sha256((folder / name).read_bytes()).hexdigest() == digest, name
+    assert "1.6.32" in note and "dd3ffc568903c905ae5ba8d310e37216fd597404" in note
+    assert "(v1.6.32)" in (folder / "uPlot.iife.min.js").read_text(encoding="utf-8")[:60]
+    assert (folder / "LICENSE").read_text(encoding="utf-8").startswith("The MIT License")

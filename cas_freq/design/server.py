@@ -1,11 +1,12 @@
 """The design page's server: one HTML page, its script, and JSON endpoints.
 
-Why this stack: the Python standard library's :class:`http.server.ThreadingHTTPServer` and a
-small SVG plotter of our own in ``static/design.js``. Nothing new to install or pin, nothing
-fetched from a CDN (the page works offline), no vendored minified file with its own licence;
-the plots the page needs (Bode lines with markers, step curves, an overlay) are a few lines
-of SVG each. The engine's latency per change (~50 ms for the frequency figures on this
-machine, benchmarks/design.py) is far above a threaded standard-library server's overhead.
+Why this stack: the Python standard library's :class:`http.server.ThreadingHTTPServer` and
+uPlot 1.6.32 (MIT, ~50 kB, a well-kept canvas plotting library: log axes, faceted x/y series
+for the Nichols chart, draw hooks for the margins' markers) vendored in
+``static/vendor/uplot`` (its README names the source commit and the files' sha256) and served
+by this server from the installed package: nothing new to install, nothing fetched from a CDN
+(the page works offline). The engine's latency per change (~70 ms for the frequency figures on
+this machine, benchmarks/design.py) is far above a threaded standard-library server's overhead.
 
 Endpoints (JSON in and out):
 
@@ -44,7 +45,10 @@ MAX_SESSIONS = 64
 #: The files of the page, served from the installed package.
 STATIC = {"/": ("index.html", "text/html; charset=utf-8"),
           "/design.js": ("design.js", "text/javascript; charset=utf-8"),
-          "/design.css": ("design.css", "text/css; charset=utf-8")}
+          "/design.css": ("design.css", "text/css; charset=utf-8"),
+          "/vendor/uplot/uPlot.iife.min.js": ("vendor/uplot/uPlot.iife.min.js",
+                                              "text/javascript; charset=utf-8"),
+          "/vendor/uplot/uPlot.min.css": ("vendor/uplot/uPlot.min.css", "text/css; charset=utf-8")}
 
 
 class Session:
@@ -226,7 +230,8 @@ class Handler(BaseHTTPRequestHandler):
         url = urlparse(self.path)
         if url.path in STATIC:
             name, content_type = STATIC[url.path]
-            data = resources.files("cas_freq.design").joinpath("static", name).read_bytes()
+            data = resources.files("cas_freq.design").joinpath("static", *name.split("/"))\
+                .read_bytes()
             return self._send(200, data, content_type)
         if url.path == "/api/init":
             session = parse_qs(url.query).get("session", ["default"])[0]
