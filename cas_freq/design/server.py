@@ -36,6 +36,7 @@ from importlib import resources
 from pathlib import Path
 from urllib.parse import parse_qs, urlparse
 
+from cas_freq.design.compute import CHOICES
 from cas_freq.exceptions import CasFreqError
 
 #: Largest request body accepted [bytes].
@@ -172,7 +173,8 @@ class Design:
             raise CasFreqError(f"tune: candidates 1..2000 and rounds 0..20, got {candidates} "
                                f"and {rounds}")
         loaded = load_variant(self.config, self.variant, tuple(session.values.items()))
-        free = ",".join(control["key"] for control in self.controls + session.extra)
+        free = ",".join(control["key"] for control in self.controls + session.extra
+                        if "choices" not in control)  # tune varies numbers only
         result = tune_variant(loaded, free, candidates=candidates, rounds=rounds)
         from cas_freq.fileio import json_ready
 
@@ -191,14 +193,20 @@ class Design:
         name = str(request.get("name") or "designed")
         values = dict(session.values)
         loaded = load_variant(self.config, self.variant, tuple(values.items()))
-        got = base_values(loaded.params)
+        got = {**base_values(loaded.params), **_sampling_values(loaded.params)}
         base = load_variant(self.config, self.variant)
-        changed = {key: (si_text(key, got[key], loaded.params), "cas-freq design")
-                   for key in values}
-        text, _ = config_with_variant(
+        changed = {key: (got[key] if key in CHOICES else si_text(key, got[key], loaded.params),
+                         "cas-freq design") for key in values}
+        text, saved = config_with_variant(
             self.config, name, variant_entries(base, changed),
-            f"cas-freq design from variant {self.variant}", {key: got[key] for key in values},
+            f"cas-freq design from variant {self.variant}",
+            {key: got[key] for key in values if not key.startswith("sampling.")},
             "the designed values", force=bool(request.get("force")), tolerance=1e-5)
+        for key, value in _sampling_values(saved.params).items():  # what base_values lacks
+            if key in values and value != got[key]:
+                raise CasFreqError(f"{self.config}: variant {name!r} loads {key} = {value!r}, "
+                                   f"not {got[key]!r}; the variants block was not read as "
+                                   "expected")
         file = Path(request.get("file") or f"{self.config.stem}-{name}.yaml")
         if file.exists() and file.resolve() == self.config.resolve():
             raise CasFreqError(f"{file}: is the input config; the design page never "
@@ -207,6 +215,14 @@ class Design:
         write_text_atomic(file, text)
         command = f"cas-freq verify {shlex.quote(str(file))} --variant {shlex.quote(name)}"
         return {"written": str(file), "variant": name, "command": command}
+
+
+def _sampling_values(params):
+    """{key: value} of the sampling keys of ``params`` (rates [Hz] or None, the method's
+    word), which :func:`cas_freq.parameters.base_values` (the loop parameters) leaves out."""
+    sampling = params.sampling
+    return {f"sampling.{name}": getattr(sampling, name)
+            for name in (*sampling.rates, "method")}
 
 
 class Handler(BaseHTTPRequestHandler):

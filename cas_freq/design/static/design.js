@@ -35,13 +35,27 @@
   }
 
   // ---- controls ---------------------------------------------------------------------------
+  // A slider's log scale spans the magnitudes c.lower..c.upper (the server's controls()):
+  // "log" on one side of zero (c.sign), "zero-log" with zero at its start (a key at zero),
+  // "signed-log" with zero at its centre and both signs either side.
   const SLIDER_STEPS = 1000;
+  function logPosition(c, magnitude) {  // 0..1 along the log scale
+    const p = Math.log(magnitude / c.lower) / Math.log(c.upper / c.lower);
+    return Number.isNaN(p) ? 0 : Math.min(1, Math.max(0, p));  // NaN: a magnitude < 0
+  }
   function toSlider(c, value) {
-    const p = Math.log(value / c.lower) / Math.log(c.upper / c.lower);
-    return Math.round(Math.min(1, Math.max(0, p)) * SLIDER_STEPS);
+    if (c.slider === "log") return Math.round(logPosition(c, value * c.sign) * SLIDER_STEPS);
+    if (!(value !== 0 && (c.slider === "signed-log" || value > 0))) return 0;
+    return Math.sign(value) *
+      (1 + Math.round(logPosition(c, Math.abs(value)) * (SLIDER_STEPS - 1)));
   }
   function fromSlider(c, position) {
-    return c.lower * Math.pow(c.upper / c.lower, position / SLIDER_STEPS);
+    if (c.slider === "log") {
+      return c.sign * c.lower * Math.pow(c.upper / c.lower, position / SLIDER_STEPS);
+    }
+    if (position === 0) return 0;
+    return Math.sign(position) * c.lower *
+      Math.pow(c.upper / c.lower, (Math.abs(position) - 1) / (SLIDER_STEPS - 1));
   }
   const groups = {};
   function buildControls() { controls.forEach(addControl); }
@@ -55,20 +69,28 @@
     const row = el("div", {class: "control", title: c.meaning});
     const label = el("label");
     label.appendChild(el("span", {class: "name"}, c.key.split(".").slice(1).join(".") + " "));
-    const entry = el("input", {type: "text", size: 10, id: "entry-" + c.key});
-    entry.value = formatValue(c.value);
-    label.appendChild(entry);
-    label.appendChild(el("span", {}, " " + c.unit));
-    const slider = el("input", {type: "range", min: 0, max: SLIDER_STEPS,
-                                id: "slider-" + c.key});
-    slider.value = toSlider(c, c.value);
     row.appendChild(label);
-    row.appendChild(slider);
+    if (c.choices) {  // a word of a few (sampling.method): a choice, no slider
+      const choice = el("select", {id: "entry-" + c.key});
+      c.choices.forEach((word) => choice.appendChild(el("option", {value: word}, word)));
+      choice.value = c.value;
+      label.appendChild(choice);
+      choice.addEventListener("change", () => setValue(c.key, choice.value));
+    } else {
+      const entry = el("input", {type: "text", size: 10, id: "entry-" + c.key});
+      entry.value = formatValue(c.value);
+      label.appendChild(entry);
+      label.appendChild(el("span", {}, " " + c.unit));
+      const slider = el("input", {type: "range", min: c.slider === "signed-log" ?
+        -SLIDER_STEPS : 0, max: SLIDER_STEPS, id: "slider-" + c.key});
+      slider.value = toSlider(c, c.value);
+      row.appendChild(slider);
+      slider.addEventListener("input", () =>
+        setValue(c.key, formatValue(fromSlider(c, +slider.value))));
+      entry.addEventListener("change", () => setValue(c.key, entry.value));
+    }
     row.appendChild(el("span", {class: "error", id: "error-" + c.key}));
     groups[c.group].appendChild(row);
-    slider.addEventListener("input", () =>
-      setValue(c.key, formatValue(fromSlider(c, +slider.value))));
-    entry.addEventListener("change", () => setValue(c.key, entry.value));
   }
   async function addKey() {
     const key = $("add-key").value.trim();
@@ -83,13 +105,17 @@
       $("error-add").textContent = String(error.message || error);
     }
   }
-  function formatValue(v) { return Number(v.toPrecision(4)).toString(); }
+  function formatValue(v) {
+    return typeof v === "number" ? Number(v.toPrecision(4)).toString() : String(v);
+  }
   function showValues(which) {
     controls.forEach((c) => {
       const text = which[c.key] !== undefined ? which[c.key] : formatValue(c.value);
       $("entry-" + c.key).value = text;
       const number = Number(text);
-      if (Number.isFinite(number) && number > 0) $("slider-" + c.key).value = toSlider(c, number);
+      if (!c.choices && text.trim() !== "" && Number.isFinite(number)) {
+        $("slider-" + c.key).value = toSlider(c, number);
+      }
     });
   }
 
@@ -528,6 +554,7 @@
   }
 
   window.casDesign = {setValue, setValues, session, ready: null, tune, compare, addKey,
+                      slider: {toSlider, fromSlider, controls: () => controls},
                       undo: () => back(undo, redo), redo: () => back(redo, undo),
                       state: () => shown, charts};
   window.casDesign.ready = start();
