@@ -636,6 +636,13 @@ def test_a_sampled_variant_s_discretisation_is_a_choice_that_moves_the_figures_a
     saved = design.save({"session": "m", "name": "tustin", "file": str(tmp_path / "t.yaml")})
     sampling = load_variant(saved["written"], "tustin").params.sampling
     assert (sampling.method, sampling.position_loop) == ("tustin", 5000.0)
+    # tune varies the loop parameters, not the sampling keys (static for its batch)
+    design = Design(SHIPPED, "sampled", ["position_loop.Kp", "sampling.position_loop",
+                                         "sampling.method"])
+    design.state({"session": "t", "seq": 1, "nonlinear": False,
+                  "values": {"sampling.method": "tustin"}})
+    tuned = design.tune({"session": "t", "candidates": 3, "rounds": 0})
+    assert [item["key"] for item in tuned["free"]] == ["position_loop.Kp"]
     # a continuous variant has no discretisation to choose
     assert "sampling.method" not in [c["key"] for c in Design(SHIPPED).controls]
     code, _, err = run_cli(["design", str(SHIPPED), "--no-browser", "--port", "0", "--keys",

@@ -173,8 +173,9 @@ class Design:
             raise CasFreqError(f"tune: candidates 1..2000 and rounds 0..20, got {candidates} "
                                f"and {rounds}")
         loaded = load_variant(self.config, self.variant, tuple(session.values.items()))
+        # tune varies the loop parameters: not the sampling keys (static in a batch)
         free = ",".join(control["key"] for control in self.controls + session.extra
-                        if "choices" not in control)  # tune varies numbers only
+                        if not control["key"].startswith("sampling."))
         result = tune_variant(loaded, free, candidates=candidates, rounds=rounds)
         from cas_freq.fileio import json_ready
 
