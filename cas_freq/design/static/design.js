@@ -284,7 +284,8 @@
     const box = $("figures");
     const opts = {
       mode: 2, title: spec.title, width: Math.max(360, Math.min(box.clientWidth - 8, 760)),
-      height: HEIGHT, legend: {live: false}, cursor: {points: {show: false}},
+      height: HEIGHT, cursor: {points: {show: false}},
+      legend: {live: false, markers: {dash: (u, i) => u.series[i].dash ? "dashed" : "solid"}},
       scales: {
         x: {time: false, distr: spec.xlog ? 3 : 1, log: 10,
             range: spec.xlog ? undefined : range([], spec.xclip, false)},
@@ -322,6 +323,9 @@
         phase.push({x: p.omega_rad_s, y: old.phase_deg, color, faint: true,
                     label: `${loop.symbol} previous`});
       }
+      nichols.push({x: loop.phase_deg, y: loop.magnitude_db, color, label: loop.symbol});
+      if (old) nichols.push({x: old.phase_deg, y: old.magnitude_db, color, faint: true,
+                             label: `${loop.symbol} previous`});
       const base = v && v.loops.find((l) => l.name === loop.name);
       if (base) {
         mag.push({x: v.omega_rad_s, y: base.magnitude_db, color, dash: DASH,
@@ -331,9 +335,6 @@
         nichols.push({x: base.phase_deg, y: base.magnitude_db, color, dash: DASH,
                       label: `${loop.symbol} variant`});
       }
-      nichols.push({x: loop.phase_deg, y: loop.magnitude_db, color, label: loop.symbol});
-      if (old) nichols.push({x: old.phase_deg, y: old.magnitude_db, color, faint: true,
-                             label: `${loop.symbol} previous`});
       // the margins: a dashed line at each crossover, labelled, and the margin itself as a
       // bar (the phase margin from -180 deg at the gain crossover, the gain margin below
       // 0 dB at the phase crossover)
