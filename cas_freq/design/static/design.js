@@ -543,6 +543,11 @@
       schedule();
     }));
     $("overlay").addEventListener("change", () => shown && render());
+    let resized = null;  // the charts' width follows the window's
+    window.addEventListener("resize", () => {
+      clearTimeout(resized);
+      resized = setTimeout(() => shown && render(), 200);
+    });
     document.addEventListener("keydown", (e) => {
       if (!(e.ctrlKey || e.metaKey) || e.target.tagName === "INPUT" && e.target.type === "text") return;
       if (e.key === "z") back(undo, redo); else if (e.key === "y") back(redo, undo);
