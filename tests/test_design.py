@@ -341,6 +341,29 @@ def test_moving_a_gain_in_chromium_shows_analyze_s_phase_margin_and_undo_goes_ba
                 break
             except AssertionError as exc:  # the blank page replaced by the design page
                 assert "context was destroyed" in str(exc) and time.monotonic() < deadline
+        # the figures are uPlot charts (served by the page's server, no other host): five of
+        # them, each a canvas with the state's curves in it
+        figures = tools.evaluate(
+            "(() => { const c = casDesign.charts, s = casDesign.state();"
+            " const m = c.magnitude.ctx.getImageData(0, 0, c.magnitude.ctx.canvas.width,"
+            "  c.magnitude.ctx.canvas.height).data; let blue = 0;"
+            " for (let i = 0; i < m.length; i += 4) blue += Math.abs(m[i] - 31) < 40 &&"
+            "  Math.abs(m[i + 1] - 119) < 40 && Math.abs(m[i + 2] - 180) < 40;"
+            " return [document.querySelectorAll('#figures .uplot').length,"
+            "  document.querySelectorAll('#figures .uplot canvas').length,"
+            "  Object.keys(c).sort(), c.magnitude.series.slice(1).map(x => x.label),"
+            "  c.magnitude.data[1][0].length, s.omega_rad_s.length, blue,"
+            "  c.step.series.slice(1).map(x => x.label),"
+            "  performance.getEntriesByType('resource').map(e => e.name)]; })()")
+        count, canvases, names, labels, points, omega, blue, step, loaded = figures
+        assert count == canvases == len(names) == 5
+        assert names == ["closed", "magnitude", "nichols", "phase", "step"]
+        assert labels == ["L_i (broken at the voltage)", "L_p (broken at the current command)"]
+        assert points == omega > 100 and blue > 200  # L_i's curve drawn, in its colour
+        assert step == ["linear", "nonlinear"]
+        assert {name.rsplit("/", 3)[-1] for name in loaded} >= {
+            "uPlot.iife.min.js", "uPlot.min.css", "design.js", "design.css"}
+        assert all(name.startswith(server) for name in loaded), loaded
         shown = tools.evaluate(
             "Promise.all(['5', '4', '3'].map(v => casDesign.setValue('position_loop.Kp', v)))"
             ".then(() => [document.getElementById('pm-position_loop').textContent,"
@@ -362,21 +385,37 @@ def test_moving_a_gain_in_chromium_shows_analyze_s_phase_margin_and_undo_goes_ba
             " document.getElementById('pm-position_loop').textContent])")
         assert shown[0].startswith("position_loop.Kp: must be 0 or within 1e-09..1e+09 A/rad")
         assert "'-3'" in shown[0] and shown[1] == undone[0]
-        # compare with the variant: each loop's magnitude and phase once more, dashed
-        dashed = tools.evaluate(
+        # the previous state faint behind, and compare with the variant: each loop's
+        # magnitude and phase once more, dashed
+        faint, dashed = tools.evaluate(
             "casDesign.setValue('position_loop.Kp', '3').then(() => {"
             " document.getElementById('compare').checked = true; return casDesign.compare(); })"
-            ".then(() => Array.from(document.querySelectorAll('#bode path')).filter(p =>"
-            " p.getAttribute('stroke-dasharray') === '6 3').length)")
-        assert dashed == 2 * 2
+            ".then(() => [casDesign.charts.magnitude.series.filter(s => s.alpha < 1)"
+            " .map(s => s.label), ['magnitude', 'phase'].map(n =>"
+            " casDesign.charts[n].series.filter(s => s.dash && s.dash.length).length)])")
+        assert faint == ["L_i previous", "L_p previous"] and dashed == [2, 2]
         # tune from here (a small search): a row per Pareto point and the tuned row, a dot
         # per point
         rows, dots, front = tools.evaluate(
             "casDesign.tune({candidates: 12, rounds: 0}).then(() => ["
             " document.querySelectorAll('#tune-table tr').length,"
-            " document.querySelectorAll('#tune-result circle').length,"
+            " casDesign.charts.pareto.data[1][0].length,"
             " document.getElementById('tune-status').textContent])")
         assert rows == dots + 2 and "of 13 candidates feasible" in front
+        # a key at zero (the base's gear backlash): its slider starts at zero, then runs
+        # log over the table's 1e-12..1 rad; the slider's end shows the table's bound
+        ends = tools.evaluate(
+            "(() => { document.getElementById('add-key').value = 'gear.backlash';"
+            " return casDesign.addKey(); })().then(() => {"
+            " const c = casDesign.slider.controls().find(c => c.key === 'gear.backlash');"
+            " const {toSlider, fromSlider} = casDesign.slider;"
+            " const slider = document.getElementById('slider-gear.backlash');"
+            " return [slider.min, slider.max, slider.value,"
+            "  [0, 1, 1000].map(p => fromSlider(c, p)), toSlider(c, 1e-6),"
+            "  document.getElementById('entry-gear.backlash').value]; })")
+        assert ends[:3] == ["0", "1000", "0"] and ends[5] == "0"
+        assert ends[3] == [0, pytest.approx(1e-12), pytest.approx(1.0)]
+        assert ends[4] == 1 + round(999 * 0.5)  # 1e-6 rad: half-way along the 12 decades
     finally:
         with contextlib.suppress(ProcessLookupError):
             os.killpg(browser.pid, signal.SIGKILL)
@@ -518,3 +557,161 @@ def test_keys_that_cannot_have_a_control_are_bad_input():
     code, _, err = run_cli(["design", str(SHIPPED), "--no-browser", "--port", "0", "--keys",
                             "sampling.current_loop"])
     assert code == 2 and "continuously" in err
+
+
+def test_the_page_and_its_scripts_reference_no_other_host(server):
+    # the page works offline: every file it loads is one the server serves from the package
+    # (the plots' library, uPlot, vendored), and no served file names another host (the only
+    # URL in them is the licence banner comment opening uPlot's file: a credit, not a load)
+    from cas_freq.design.server import STATIC
+
+    with urllib.request.urlopen(server, timeout=60) as response:
+        page = response.read().decode()
+    loads = re.findall(r'(?:src|href)="([^"]*)"', page)
+    assert sorted("/" + name for name in loads) == sorted(path for path in STATIC if path != "/")
+    for path in STATIC:
+        with urllib.request.urlopen(server + path.lstrip("/"), timeout=60) as response:
+            assert response.status == 200
+            text = response.read().decode()
+        if path.endswith("uPlot.iife.min.js"):
+            banner = "/*! https://github.com/leeoniya/uPlot (v1.6.32) */\n"
+            assert text.startswith(banner)
+            text = text[len(banner):]
+        assert re.findall(r"https?://[^\s\"'`)]*", text) == [], path
+
+
+def test_the_vendored_plot_library_is_the_recorded_release():
+    # uPlot's files are the release its README records (version, commit, sha256 per file),
+    # unchanged
+    folder = ROOT / "cas_freq" / "design" / "static" / "vendor" / "uplot"
+    note = (folder / "README.md").read_text(encoding="utf-8")
+    recorded = dict(re.findall(r"^\| `([^`]+)` \| `[^`]+` \| `([0-9a-f]{64})` \|$", note,
+                               flags=re.M))
+    assert set(recorded) == {"uPlot.iife.min.js", "uPlot.min.css", "LICENSE"}
+    for name, digest in recorded.items():
+        assert hashlib.sha256((folder / name).read_bytes()).hexdigest() == digest, name
+    assert "1.6.32" in note and "dd3ffc568903c905ae5ba8d310e37216fd597404" in note
+    assert "(v1.6.32)" in (folder / "uPlot.iife.min.js").read_text(encoding="utf-8")[:60]
+    assert (folder / "LICENSE").read_text(encoding="utf-8").startswith("The MIT License")
+
+
+def _printed(argv):
+    """({loop words: phase margin text}, bandwidth text) as ``cas-freq analyze`` prints them."""
+    code, out, _ = run_cli(["analyze", *argv])
+    assert code == 0
+    margins = dict(re.findall(
+        r"^  (\w+ loop) L_\w+ .*\n(?:    .*\n)*?    phase margin +(\S+) deg", out, flags=re.M))
+    (bandwidth,) = re.findall(r"^    bandwidth \(-3 dB\) +(\S+) rad/s", out, flags=re.M)
+    return margins, bandwidth
+
+
+def test_a_sampled_variant_s_discretisation_is_a_choice_that_moves_the_figures_as_set_does(
+        tmp_path):
+    # sampling.method of the sampled variant: a choice (backward | tustin) among the default
+    # controls; tustin's figures are those `analyze --set sampling.method=tustin` prints
+    # (the reference: the command's text, to its printed digits), and differ from backward's
+    from cas_freq.config import load_variant
+    from cas_freq.design.server import Design
+
+    design = Design(SHIPPED, "sampled")
+    (choice,) = [c for c in design.controls if c["key"] == "sampling.method"]
+    assert choice["choices"] == ["backward", "tustin"] and choice["value"] == "backward"
+    shown = {}
+    for seq, method in enumerate(("backward", "tustin")):
+        data = design.state({"session": "m", "seq": seq, "nonlinear": False,
+                             "values": {"sampling.method": method}})
+        shown[method] = ({loop["words"]: loop["margins"]["text"]["phase_margin_deg"]
+                          for loop in data["loops"]}, data["closed_loop"]["bandwidth_text"])
+        assert shown[method] == _printed([str(SHIPPED), "--variant", "sampled", "--set",
+                                          f"sampling.method={method}"])
+    assert shown["tustin"] != shown["backward"]
+    # a word it does not take: analyze --set's message, next to the field
+    data = design.state({"session": "m", "seq": 5, "values": {"sampling.method": "zoh"}})
+    assert data["errors"] == {"sampling.method": "sampling.method: must be one of 'backward' "
+                                                 "or 'tustin', got 'zoh'"}
+    # saved as a variant with a changed rate: both load back (the sampling keys are not loop
+    # parameters: the save checks them itself); tune varies the numbers only
+    design.state({"session": "m", "seq": 6, "nonlinear": False, "values": {
+        "sampling.method": "tustin", "sampling.position_loop": "5 kHz"}})
+    saved = design.save({"session": "m", "name": "tustin", "file": str(tmp_path / "t.yaml")})
+    sampling = load_variant(saved["written"], "tustin").params.sampling
+    assert (sampling.method, sampling.position_loop) == ("tustin", 5000.0)
+    # tune varies the loop parameters, not the sampling keys (static for its batch)
+    design = Design(SHIPPED, "sampled", ["position_loop.Kp", "sampling.position_loop",
+                                         "sampling.method"])
+    design.state({"session": "t", "seq": 1, "nonlinear": False,
+                  "values": {"sampling.method": "tustin"}})
+    tuned = design.tune({"session": "t", "candidates": 3, "rounds": 0})
+    assert [item["key"] for item in tuned["free"]] == ["position_loop.Kp"]
+    # a continuous variant has no discretisation to choose
+    assert "sampling.method" not in [c["key"] for c in Design(SHIPPED).controls]
+    code, _, err = run_cli(["design", str(SHIPPED), "--no-browser", "--port", "0", "--keys",
+                            "sampling.method"])
+    assert code == 2 and "sampling.method: the variant's controllers are continuous" in err
+
+
+def test_a_key_at_zero_gets_a_slider_over_the_table_s_range_with_zero_on_it():
+    # tune's range around the value (x/4..x4) is empty at zero: the slider spans the
+    # parameter table's non-zero magnitudes instead, zero at its start, or at its centre for
+    # a key that also takes negative values (the hinge spring); a negative value gets a log
+    # slider on its own side of zero. The bounds are the table's (cas_freq/parameter_keys.py)
+    from cas_freq.config import load_variant
+    from cas_freq.design.compute import controls
+
+    loaded = load_variant(SHIPPED, "base", (("position_loop.Kd", "0"),))
+    kd, backlash, hinge = controls(loaded, ["position_loop.Kd", "gear.backlash",
+                                            "load.hinge_stiffness"])
+    assert (kd["value"], kd["slider"], kd["lower"], kd["upper"]) == (0.0, "zero-log", 1e-9, 1e9)
+    assert (backlash["slider"], backlash["lower"], backlash["upper"]) == ("zero-log", 1e-12, 1.0)
+    assert (hinge["slider"], hinge["lower"], hinge["upper"]) == ("signed-log", 1e-12, 1e9)
+    loaded = load_variant(SHIPPED, "base", (("load.hinge_stiffness", "-50"),))
+    (hinge,) = controls(loaded, ["load.hinge_stiffness"])
+    assert (hinge["slider"], hinge["sign"], hinge["lower"], hinge["upper"]) == (
+        "log", -1.0, 12.5, 200.0)
+
+
+def test_a_session_computes_its_newest_request_only_while_one_is_in_flight(monkeypatch):
+    # latest wins: while a session's computation runs, its newer requests wait without
+    # computing, and when it ends only the newest of them is computed (the others are
+    # answered stale); another session is computed meanwhile. The engine is replaced by a
+    # recorder that holds session "a"'s first computation until released.
+    import threading
+
+    from cas_freq.design import compute
+    from cas_freq.design.server import Design
+
+    release, computed = threading.Event(), []
+
+    def recorded(loaded, step_rad=None, nonlinear=True):
+        computed.append(dict(loaded.overrides))
+        if dict(loaded.overrides) == {"position_loop.Kp": "1"}:
+            assert release.wait(30)
+        return {}
+
+    monkeypatch.setattr(compute, "design_state", recorded)
+    design = Design(SHIPPED)
+    answers = {}
+
+    def ask(session, seq, kp=None):
+        answers[session, seq] = design.state({"session": session, "seq": seq, "values": {
+            "position_loop.Kp": kp or str(seq)}})
+
+    first = threading.Thread(target=ask, args=("a", 1))
+    first.start()
+    while not computed:
+        time.sleep(0.005)
+    later = [threading.Thread(target=ask, args=("a", seq)) for seq in (2, 3, 4)]
+    for thread in later:
+        thread.start()
+    while design.session("a").newest != 4:
+        time.sleep(0.005)
+    ask("b", 1, "7")  # another session is not behind session a's computation
+    assert answers["b", 1] == {"seq": 1} and len(computed) == 2
+    release.set()
+    for thread in (first, *later):
+        thread.join(30)
+    assert computed == [{"position_loop.Kp": "1"}, {"position_loop.Kp": "7"},
+                        {"position_loop.Kp": "4"}]
+    assert answers["a", 1] == {"seq": 1} and answers["a", 4] == {"seq": 4}
+    assert answers["a", 2] == {"stale": True, "seq": 2}
+    assert answers["a", 3] == {"stale": True, "seq": 3}

@@ -42,7 +42,8 @@ def test_pyproject_lists_every_package_and_maps_the_configs():
     assert set(settings["setuptools"]["packages"]) == on_disk | {"cas_freq.configs"}
     assert settings["setuptools"]["package-dir"] == {"cas_freq.configs": "configs"}
     assert settings["setuptools"]["package-data"] == {"cas_freq.configs": ["*.yaml"],
-                                                      "cas_freq.design": ["static/*"]}
+                                                      "cas_freq.design": [
+                                                          "static/*", "static/vendor/uplot/*"]}
     assert {p.name for p in (ROOT / "configs").glob("*.yaml")} == {
         "qt_cas.yaml", "dc_servo.yaml", "cascade_axis.yaml", "ball_screw.yaml"}
 
@@ -131,8 +132,10 @@ def test_the_wheel_installed_offline_runs_report_and_load_from_another_folder(tm
     assert Path(where[1]) == installed / "configs" / "qt_cas.yaml"
     assert where[2] == "qt_cas"
     # the design page's files (cas-freq design serves them from the installed package)
-    assert {p.name for p in (installed / "design" / "static").iterdir()} == {
-        "index.html", "design.js", "design.css"}
+    static = installed / "design" / "static"
+    assert {p.relative_to(static).as_posix() for p in static.rglob("*") if p.is_file()} == {
+        "index.html", "design.js", "design.css", "vendor/uplot/uPlot.iife.min.js",
+        "vendor/uplot/uPlot.min.css", "vendor/uplot/LICENSE", "vendor/uplot/README.md"}
 
     # the main job from another folder: into -o, and by default into ./reports/qt_cas/
     cli = env_dir / scripts / ("cas-freq.exe" if os.name == "nt" else "cas-freq")

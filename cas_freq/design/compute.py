@@ -38,15 +38,60 @@ def _sample_rate(key, params):
     return float(value)
 
 
+#: The keys that take one of a few words, not a number: the page shows a choice for them.
+CHOICES = {"sampling.method": ("backward", "tustin")}
+#: Decades the slider of a key at zero spans below the table's upper bound when the table has
+#: no smallest magnitude.
+ZERO_DECADES = 12
+
+
 def _check(key, params):
     """ConfigError unless ``key`` can have a control: a key a sweep can vary, or a sample
-    rate of a sampled loop (static for a batch, but one variant at a time here)."""
+    rate of a sampled loop, or the discretisation of a sampled variant (static for a batch,
+    but one variant at a time here). Returns the sample rate [Hz] of a rate key, else None."""
     from cas_freq.parameters import PARAMETERS, check_key
 
-    if key.startswith("sampling.") and key in PARAMETERS and key != "sampling.method":
+    if key in CHOICES:
+        if not params.sampling.sample_rates:
+            raise ConfigError(f"{key}: the variant's controllers are continuous; the "
+                              "discretisation is chosen for sampled ones (give their rates in "
+                              "the config's sampling:)")
+        return None
+    if key.startswith("sampling.") and key in PARAMETERS:
         return _sample_rate(key, params)
     check_key(key, params)
     return None
+
+
+def _slider(value, record):
+    """The slider of a key at ``value`` [SI] whose parameter-table record is ``record``:
+    ``{"slider", "sign", "lower", "upper"}``, ``lower``/``upper`` the magnitudes [SI] its log
+    scale spans.
+
+    ``"log"``: tune's default range around the value (|value| /4 .. x4, ``sign`` that of the
+    value) within the table's range. A key at zero has no such range: its slider spans the
+    table's non-zero magnitudes (its smallest accepted one .. its largest) with zero at its
+    start (``"zero-log"``), or on both sides of a zero at its centre for a key that takes
+    negative values too (``"signed-log"``, e.g. ``load.hinge_stiffness``).
+    """
+    from cas_freq.tuning.options import DEFAULT_FACTOR
+
+    low = record.lower if record.lower is not None else -math.inf
+    high = record.upper if record.upper is not None else math.inf
+    smallest = record.smallest or (low if low > 0 else -high if high < 0 else None)
+    if value != 0:
+        sign = 1.0 if value > 0 else -1.0
+        # the magnitudes the table accepts on the value's side of zero
+        near, far = sorted((abs(low), abs(high))) if low * high > 0 else (0.0, max(
+            high * sign, low * sign))
+        return {"slider": "log", "sign": sign,
+                "lower": max(abs(value) / DEFAULT_FACTOR, near, smallest or 0.0),
+                "upper": min(abs(value) * DEFAULT_FACTOR, far)}
+    top = max(high, -low)
+    if not math.isfinite(top):
+        top = (smallest or 1.0) * 10.0 ** ZERO_DECADES
+    return {"slider": "signed-log" if low < 0 else "zero-log", "sign": 1.0,
+            "lower": smallest or top * 10.0 ** -ZERO_DECADES, "upper": top}
 
 
 def controls(loaded, keys=None):
@@ -56,35 +101,40 @@ def controls(loaded, keys=None):
     ----------
     loaded : cas_freq.config.LoadedVariant
     keys : sequence of str, optional
-        Default: the free keys of ``tune`` (:func:`cas_freq.tuning.space.default_free`).
-        Any key a sweep can vary, and the sample rates of a sampled variant's loops.
+        Default: the free keys of ``tune`` (:func:`cas_freq.tuning.space.default_free`), and
+        ``sampling.method`` for a sampled variant. Any key a sweep can vary, the sample rates
+        of a sampled variant's loops and its ``sampling.method``.
 
     Returns
     -------
     list of dict
-        ``{"key", "group", "value" [SI], "unit", "lower", "upper", ...}``: ``lower``/``upper``
-        are the slider's log range, tune's default range (value /4 .. x4) within the
-        parameter table's range (:data:`cas_freq.parameters.PARAMETERS`), which bounds the
-        typed entry.
+        ``{"key", "group", "value" [SI], "unit", "slider", "sign", "lower", "upper", ...}``
+        (the slider: :func:`_slider`, within the parameter table's range
+        (:data:`cas_freq.parameters.PARAMETERS`), which bounds the typed entry); a key of
+        :data:`CHOICES` has ``"choices"`` and its word as ``value`` instead.
     """
     from cas_freq.parameters import loop_values, parameter, variant_parameters
-    from cas_freq.tuning.options import DEFAULT_FACTOR
     from cas_freq.tuning.space import default_free
 
     params = loaded.params
-    keys = default_free(params) if keys is None else keys
+    if keys is None:
+        keys = (*default_free(params), *(CHOICES if params.sampling.sample_rates else ()))
     loop = variant_parameters(params, {})
     out = []
     for key in keys:
         rate = _check(key, params)
+        if key in CHOICES:
+            out.append({"key": key, "group": key.split(".")[0],
+                        "value": getattr(params.sampling, key.split(".", 1)[1]), "unit": "",
+                        "choices": list(CHOICES[key]),
+                        "meaning": "discretisation of the sampled controllers: backward "
+                                   "(s -> (1 - 1/z)/T) or tustin (s -> (2/T)(z - 1)/(z + 1))"})
+            continue
         record = parameter(key, params)
         value = rate if rate is not None else float(np.ravel(loop_values(loop, key, params))[0])
-        low = record.lower if record.lower else (record.smallest or 1e-9)
-        high = record.upper if record.upper is not None else math.inf
-        start = value if value > 0 else low
         out.append({
             "key": key, "group": key.split(".")[0], "value": value, "unit": record.unit,
-            "lower": max(start / DEFAULT_FACTOR, low), "upper": min(start * DEFAULT_FACTOR, high),
+            **_slider(value, record),
             "table_lower": record.lower, "table_upper": record.upper,
             "meaning": record.meaning,
         })
@@ -99,6 +149,11 @@ def check_values(values, config):
     for key, text in values.items():
         try:
             _check(key, config)
+            if key in CHOICES:
+                if text not in CHOICES[key]:
+                    raise ConfigError(f"{key}: must be one of "
+                                      f"{' or '.join(map(repr, CHOICES[key]))}, got {text!r}")
+                continue
             parse_value(key, text, config)
         except CasFreqError as exc:
             errors[key] = str(exc)
@@ -266,4 +321,5 @@ def design_state(loaded, step_rad=None, nonlinear=True):
     })
 
 
-__all__ = ["check_values", "controls", "default_step", "design_state", "limited_spans", "steps"]
+__all__ = ["CHOICES", "check_values", "controls", "default_step", "design_state", "limited_spans",
+           "steps"]

@@ -1,11 +1,12 @@
 """The design page's server: one HTML page, its script, and JSON endpoints.
 
-Why this stack: the Python standard library's :class:`http.server.ThreadingHTTPServer` and a
-small SVG plotter of our own in ``static/design.js``. Nothing new to install or pin, nothing
-fetched from a CDN (the page works offline), no vendored minified file with its own licence;
-the plots the page needs (Bode lines with markers, step curves, an overlay) are a few lines
-of SVG each. The engine's latency per change (~50 ms for the frequency figures on this
-machine, benchmarks/design.py) is far above a threaded standard-library server's overhead.
+Why this stack: the Python standard library's :class:`http.server.ThreadingHTTPServer` and
+uPlot 1.6.32 (MIT, ~50 kB, a well-kept canvas plotting library: log axes, faceted x/y series
+for the Nichols chart, draw hooks for the margins' markers) vendored in
+``static/vendor/uplot`` (its README names the source commit and the files' sha256) and served
+by this server from the installed package: nothing new to install, nothing fetched from a CDN
+(the page works offline). The engine's latency per change (~70 ms for the frequency figures on
+this machine, benchmarks/design.py) is far above a threaded standard-library server's overhead.
 
 Endpoints (JSON in and out):
 
@@ -35,6 +36,7 @@ from importlib import resources
 from pathlib import Path
 from urllib.parse import parse_qs, urlparse
 
+from cas_freq.design.compute import CHOICES
 from cas_freq.exceptions import CasFreqError
 
 #: Largest request body accepted [bytes].
@@ -44,7 +46,10 @@ MAX_SESSIONS = 64
 #: The files of the page, served from the installed package.
 STATIC = {"/": ("index.html", "text/html; charset=utf-8"),
           "/design.js": ("design.js", "text/javascript; charset=utf-8"),
-          "/design.css": ("design.css", "text/css; charset=utf-8")}
+          "/design.css": ("design.css", "text/css; charset=utf-8"),
+          "/vendor/uplot/uPlot.iife.min.js": ("vendor/uplot/uPlot.iife.min.js",
+                                              "text/javascript; charset=utf-8"),
+          "/vendor/uplot/uPlot.min.css": ("vendor/uplot/uPlot.min.css", "text/css; charset=utf-8")}
 
 
 class Session:
@@ -168,7 +173,9 @@ class Design:
             raise CasFreqError(f"tune: candidates 1..2000 and rounds 0..20, got {candidates} "
                                f"and {rounds}")
         loaded = load_variant(self.config, self.variant, tuple(session.values.items()))
-        free = ",".join(control["key"] for control in self.controls + session.extra)
+        # tune varies the loop parameters: not the sampling keys (static in a batch)
+        free = ",".join(control["key"] for control in self.controls + session.extra
+                        if not control["key"].startswith("sampling."))
         result = tune_variant(loaded, free, candidates=candidates, rounds=rounds)
         from cas_freq.fileio import json_ready
 
@@ -187,14 +194,20 @@ class Design:
         name = str(request.get("name") or "designed")
         values = dict(session.values)
         loaded = load_variant(self.config, self.variant, tuple(values.items()))
-        got = base_values(loaded.params)
+        got = {**base_values(loaded.params), **_sampling_values(loaded.params)}
         base = load_variant(self.config, self.variant)
-        changed = {key: (si_text(key, got[key], loaded.params), "cas-freq design")
-                   for key in values}
-        text, _ = config_with_variant(
+        changed = {key: (got[key] if key in CHOICES else si_text(key, got[key], loaded.params),
+                         "cas-freq design") for key in values}
+        text, saved = config_with_variant(
             self.config, name, variant_entries(base, changed),
-            f"cas-freq design from variant {self.variant}", {key: got[key] for key in values},
+            f"cas-freq design from variant {self.variant}",
+            {key: got[key] for key in values if not key.startswith("sampling.")},
             "the designed values", force=bool(request.get("force")), tolerance=1e-5)
+        for key, value in _sampling_values(saved.params).items():  # what base_values lacks
+            if key in values and value != got[key]:
+                raise CasFreqError(f"{self.config}: variant {name!r} loads {key} = {value!r}, "
+                                   f"not {got[key]!r}; the variants block was not read as "
+                                   "expected")
         file = Path(request.get("file") or f"{self.config.stem}-{name}.yaml")
         if file.exists() and file.resolve() == self.config.resolve():
             raise CasFreqError(f"{file}: is the input config; the design page never "
@@ -203,6 +216,14 @@ class Design:
         write_text_atomic(file, text)
         command = f"cas-freq verify {shlex.quote(str(file))} --variant {shlex.quote(name)}"
         return {"written": str(file), "variant": name, "command": command}
+
+
+def _sampling_values(params):
+    """{key: value} of the sampling keys of ``params`` (rates [Hz] or None, the method's
+    word), which :func:`cas_freq.parameters.base_values` (the loop parameters) leaves out."""
+    sampling = params.sampling
+    return {f"sampling.{name}": getattr(sampling, name)
+            for name in (*sampling.rates, "method")}
 
 
 class Handler(BaseHTTPRequestHandler):
@@ -226,7 +247,8 @@ class Handler(BaseHTTPRequestHandler):
         url = urlparse(self.path)
         if url.path in STATIC:
             name, content_type = STATIC[url.path]
-            data = resources.files("cas_freq.design").joinpath("static", name).read_bytes()
+            data = resources.files("cas_freq.design").joinpath("static", *name.split("/"))\
+                .read_bytes()
             return self._send(200, data, content_type)
         if url.path == "/api/init":
             session = parse_qs(url.query).get("session", ["default"])[0]

@@ -1,5 +1,5 @@
-// cas-freq design: the page's controls, requests and SVG plots (no library, no network but
-// the page's own server). window.casDesign.setValue(key, text) is the one way a value
+// cas-freq design: the page's controls, requests and plots (uPlot, vendored and served by the
+// page's own server: no network but that server). window.casDesign.setValue(key, text) is the one way a value
 // changes (sliders, typed entries, undo/redo, the URL's #key=value&... all call it); it
 // returns a promise of the state shown after it.
 "use strict";
@@ -35,13 +35,27 @@
   }
 
   // ---- controls ---------------------------------------------------------------------------
+  // A slider's log scale spans the magnitudes c.lower..c.upper (the server's controls()):
+  // "log" on one side of zero (c.sign), "zero-log" with zero at its start (a key at zero),
+  // "signed-log" with zero at its centre and both signs either side.
   const SLIDER_STEPS = 1000;
+  function logPosition(c, magnitude) {  // 0..1 along the log scale
+    const p = Math.log(magnitude / c.lower) / Math.log(c.upper / c.lower);
+    return Number.isNaN(p) ? 0 : Math.min(1, Math.max(0, p));  // NaN: a magnitude < 0
+  }
   function toSlider(c, value) {
-    const p = Math.log(value / c.lower) / Math.log(c.upper / c.lower);
-    return Math.round(Math.min(1, Math.max(0, p)) * SLIDER_STEPS);
+    if (c.slider === "log") return Math.round(logPosition(c, value * c.sign) * SLIDER_STEPS);
+    if (!(value !== 0 && (c.slider === "signed-log" || value > 0))) return 0;
+    return Math.sign(value) *
+      (1 + Math.round(logPosition(c, Math.abs(value)) * (SLIDER_STEPS - 1)));
   }
   function fromSlider(c, position) {
-    return c.lower * Math.pow(c.upper / c.lower, position / SLIDER_STEPS);
+    if (c.slider === "log") {
+      return c.sign * c.lower * Math.pow(c.upper / c.lower, position / SLIDER_STEPS);
+    }
+    if (position === 0) return 0;
+    return Math.sign(position) * c.lower *
+      Math.pow(c.upper / c.lower, (Math.abs(position) - 1) / (SLIDER_STEPS - 1));
   }
   const groups = {};
   function buildControls() { controls.forEach(addControl); }
@@ -55,20 +69,28 @@
     const row = el("div", {class: "control", title: c.meaning});
     const label = el("label");
     label.appendChild(el("span", {class: "name"}, c.key.split(".").slice(1).join(".") + " "));
-    const entry = el("input", {type: "text", size: 10, id: "entry-" + c.key});
-    entry.value = formatValue(c.value);
-    label.appendChild(entry);
-    label.appendChild(el("span", {}, " " + c.unit));
-    const slider = el("input", {type: "range", min: 0, max: SLIDER_STEPS,
-                                id: "slider-" + c.key});
-    slider.value = toSlider(c, c.value);
     row.appendChild(label);
-    row.appendChild(slider);
+    if (c.choices) {  // a word of a few (sampling.method): a choice, no slider
+      const choice = el("select", {id: "entry-" + c.key});
+      c.choices.forEach((word) => choice.appendChild(el("option", {value: word}, word)));
+      choice.value = c.value;
+      label.appendChild(choice);
+      choice.addEventListener("change", () => setValue(c.key, choice.value));
+    } else {
+      const entry = el("input", {type: "text", size: 10, id: "entry-" + c.key});
+      entry.value = formatValue(c.value);
+      label.appendChild(entry);
+      label.appendChild(el("span", {}, " " + c.unit));
+      const slider = el("input", {type: "range", min: c.slider === "signed-log" ?
+        -SLIDER_STEPS : 0, max: SLIDER_STEPS, id: "slider-" + c.key});
+      slider.value = toSlider(c, c.value);
+      row.appendChild(slider);
+      slider.addEventListener("input", () =>
+        setValue(c.key, formatValue(fromSlider(c, +slider.value))));
+      entry.addEventListener("change", () => setValue(c.key, entry.value));
+    }
     row.appendChild(el("span", {class: "error", id: "error-" + c.key}));
     groups[c.group].appendChild(row);
-    slider.addEventListener("input", () =>
-      setValue(c.key, formatValue(fromSlider(c, +slider.value))));
-    entry.addEventListener("change", () => setValue(c.key, entry.value));
   }
   async function addKey() {
     const key = $("add-key").value.trim();
@@ -83,13 +105,17 @@
       $("error-add").textContent = String(error.message || error);
     }
   }
-  function formatValue(v) { return Number(v.toPrecision(4)).toString(); }
+  function formatValue(v) {
+    return typeof v === "number" ? Number(v.toPrecision(4)).toString() : String(v);
+  }
   function showValues(which) {
     controls.forEach((c) => {
       const text = which[c.key] !== undefined ? which[c.key] : formatValue(c.value);
       $("entry-" + c.key).value = text;
       const number = Number(text);
-      if (Number.isFinite(number) && number > 0) $("slider-" + c.key).value = toSlider(c, number);
+      if (!c.choices && text.trim() !== "" && Number.isFinite(number)) {
+        $("slider-" + c.key).value = toSlider(c, number);
+      }
     });
   }
 
@@ -159,100 +185,121 @@
     node.className = "status " + (kind || "");
   }
 
-  // ---- plots ------------------------------------------------------------------------------
-  const W = 640, H = 210, M = {l: 52, r: 12, t: 20, b: 30};
-  const SVG = "http://www.w3.org/2000/svg";
-  function svgEl(tag, attrs, text) {
-    const node = document.createElementNS(SVG, tag);
-    Object.entries(attrs).forEach(([k, v]) => node.setAttribute(k, v));
-    if (text !== undefined) node.textContent = text;
-    return node;
+  // ---- plots: uPlot (vendored in static/vendor/uplot, served by the page's own server) -----
+  // Every chart is uPlot's faceted mode (mode 2): each series carries its own x, so the
+  // previous state and the variant (each on its own frequency grid) and the Nichols chart
+  // (phase, not monotonic) are series like the others. Marker lines, their labels and the
+  // shaded spans are drawn by the chart's hooks, in the chart's scales.
+  const HEIGHT = 220;
+  const charts = {};  // name -> the uPlot instance shown (replaced at each render)
+  const finite = (v) => v !== null && v !== undefined && Number.isFinite(v);
+
+  // [x, y] of a series for uPlot: x kept where it can be drawn (> 0 on a log axis), y null
+  // where not finite (a gap: above a sampled loop's Nyquist frequency)
+  function xy(s, xlog) {
+    const x = [], y = [];
+    s.x.forEach((xv, i) => {
+      if (!finite(xv) || (xlog && xv <= 0)) return;
+      x.push(xv);
+      y.push(finite(s.y[i]) ? s.y[i] : null);
+    });
+    return [x, y];
   }
-  function niceTicks(lo, hi, n) {
-    const span = hi - lo || 1, raw = span / n;
-    const step = [1, 2, 5, 10].map((m) => m * Math.pow(10, Math.floor(Math.log10(raw))))
-      .find((s) => s >= raw);
-    const ticks = [];
-    for (let v = Math.ceil(lo / step) * step; v <= hi + 1e-9 * span; v += step) ticks.push(v);
-    return ticks;
+  // the scale's range: the data's (and the lines', for the y axis) within clip, padded 5 %
+  function range(lines, clip, pad) {
+    return (u, min, max) => {
+      lines.forEach((v) => { if (finite(v)) { min = Math.min(min, v); max = Math.max(max, v); } });
+      if (clip) { min = Math.max(min, clip[0]); max = Math.min(max, clip[1]); }
+      if (!finite(min) || !finite(max)) { min = clip ? clip[0] : 0; max = clip ? clip[1] : 1; }
+      if (max - min < 1e-9) { min -= 1; max += 1; }
+      const margin = pad ? 0.05 * (max - min) : 0;
+      return [min - margin, max + margin];
+    };
   }
-  // spec: {title, xlog, xlabel, ylabel, series: [{x, y, color, faint, dash, label}],
-  //        vlines: [{x, color, label, dash}], hlines: [{y, color, dash}]}
-  function plot(spec) {
-    const svg = svgEl("svg", {class: "plot", viewBox: `0 0 ${W} ${H}`});
-    const fx = spec.xlog ? Math.log10 : (v) => v;
-    let xs = [], ys = [];
-    const inX = (x) => x !== null && x > (spec.xlog ? 0 : -Infinity) &&
-      (!spec.xclip || (x >= spec.xclip[0] && x <= spec.xclip[1]));
-    spec.series.forEach((s) => s.x.forEach((x, i) => {
-      if (s.y[i] !== null && Number.isFinite(s.y[i]) && inX(x)) {
-        xs.push(fx(x)); ys.push(s.y[i]);
-      }
-    }));
-    (spec.hlines || []).forEach((h) => ys.push(h.y));
-    if (!xs.length) { svg.appendChild(svgEl("text", {x: W / 2, y: H / 2}, "no data")); return svg; }
-    let [x0, x1] = [Math.min(...xs), Math.max(...xs)];
-    let [y0, y1] = [Math.min(...ys), Math.max(...ys)];
-    if (spec.yclip) { y0 = Math.max(y0, spec.yclip[0]); y1 = Math.min(y1, spec.yclip[1]); }
-    if (y1 - y0 < 1e-9) { y0 -= 1; y1 += 1; }
-    const pad = 0.05 * (y1 - y0); y0 -= pad; y1 += pad;
-    const X = (v) => M.l + (fx(v) - x0) / (x1 - x0 || 1) * (W - M.l - M.r);
-    const Y = (v) => H - M.b - (Math.min(Math.max(v, y0), y1) - y0) / (y1 - y0) * (H - M.t - M.b);
-    const grid = "#e4e4e4";
-    const xticks = spec.xlog
-      ? Array.from({length: Math.floor(x1) - Math.ceil(x0) + 1}, (_, i) => Math.pow(10, Math.ceil(x0) + i))
-      : niceTicks(x0, x1, 6);
-    xticks.forEach((t) => {
-      svg.appendChild(svgEl("line", {x1: X(t), x2: X(t), y1: M.t, y2: H - M.b, stroke: grid}));
-      svg.appendChild(svgEl("text", {x: X(t), y: H - M.b + 13, "text-anchor": "middle"},
-        spec.xlog ? "1e" + Math.round(Math.log10(t)) : +t.toPrecision(3)));
-    });
-    niceTicks(y0, y1, 5).forEach((t) => {
-      svg.appendChild(svgEl("line", {x1: M.l, x2: W - M.r, y1: Y(t), y2: Y(t), stroke: grid}));
-      svg.appendChild(svgEl("text", {x: M.l - 4, y: Y(t) + 4, "text-anchor": "end"},
-        +t.toPrecision(3)));
-    });
-    svg.appendChild(svgEl("text", {x: M.l, y: 13, "font-weight": "bold"}, spec.title));
-    svg.appendChild(svgEl("text", {x: W - M.r, y: H - 3, "text-anchor": "end"}, spec.xlabel || ""));
-    (spec.spans || []).forEach((b) => {
-      const a = Math.max(fx(b.from), x0), z = Math.min(fx(b.to), x1);
-      if (z < a) return;
-      const left = M.l + (a - x0) / (x1 - x0 || 1) * (W - M.l - M.r);
-      const right = M.l + (z - x0) / (x1 - x0 || 1) * (W - M.l - M.r);
-      svg.appendChild(svgEl("rect", {x: left, y: M.t, width: Math.max(right - left, 1),
-        height: H - M.t - M.b, fill: b.color, "fill-opacity": 0.15}));
-    });
-    (spec.hlines || []).forEach((h) => svg.appendChild(svgEl("line",
-      {x1: M.l, x2: W - M.r, y1: Y(h.y), y2: Y(h.y), stroke: h.color, "stroke-dasharray": h.dash || ""})));
-    (spec.vlines || []).forEach((v) => {
-      if (v.x === null || v.x === undefined || (spec.xlog && !(v.x > 0)) ||
-          fx(v.x) < x0 || fx(v.x) > x1) return;
-      svg.appendChild(svgEl("line", {x1: X(v.x), x2: X(v.x), y1: M.t, y2: H - M.b,
-        stroke: v.color, "stroke-dasharray": v.dash || "4 3"}));
-      if (v.label) svg.appendChild(svgEl("text", {x: X(v.x) + 3, y: M.t + 10 + (v.row || 0) * 12,
-        fill: v.color}, v.label));
-    });
-    spec.series.filter((s) => s.points).forEach((s) => s.x.forEach((x, i) => {
-      if (s.y[i] === null || !Number.isFinite(s.y[i]) || !inX(x)) return;
-      svg.appendChild(svgEl("circle", {cx: X(x), cy: Y(s.y[i]), r: 3, fill: s.color}));
-    }));
-    spec.series.filter((s) => !s.points).forEach((s) => {
-      let d = "", pen = "M";
-      s.x.forEach((x, i) => {
-        const y = s.y[i];
-        if (y === null || !Number.isFinite(y) || !inX(x) ||
-            (spec.yclip && (y < spec.yclip[0] || y > spec.yclip[1]))) { pen = "M"; return; }
-        d += `${pen}${X(x).toFixed(1)},${Y(y).toFixed(1)}`; pen = "L";
+  // spec: {title, xlog, xlabel, ylabel, series: [{x, y, color, faint, dash, label, points}],
+  //        vlines: [{x, color, label, dash, row}], hlines: [{y, color, dash}],
+  //        bars: [{x, y0, y1, color}] (a margin), spans: [{from, to, color}] (shaded),
+  //        yclip: [lo, hi], xclip: [lo, hi], xsorted (x ascending in every series)}
+  function chart(name, spec) {
+    if (charts[name]) charts[name].destroy();
+    const px = uPlot.pxRatio;
+    const inPlot = (u, x) => finite(x) && x >= u.scales.x.min && x <= u.scales.x.max;
+    const X = (u, x) => u.valToPos(x, "x", true), Y = (u, y) => u.valToPos(y, "y", true);
+    const line = (u, x0, y0, x1, y1, color, dash) => {
+      const ctx = u.ctx;
+      ctx.save();
+      ctx.strokeStyle = color; ctx.lineWidth = px;
+      ctx.setLineDash((dash || []).map((d) => d * px));
+      ctx.beginPath(); ctx.moveTo(x0, y0); ctx.lineTo(x1, y1); ctx.stroke();
+      ctx.restore();
+    };
+    const under = (u) => {  // the shaded spans, under the grid and the curves
+      const {top, height} = u.bbox, ctx = u.ctx;
+      (spec.spans || []).forEach((b) => {
+        const a = X(u, Math.max(b.from, u.scales.x.min)), z = X(u, Math.min(b.to, u.scales.x.max));
+        if (!(z >= a)) return;
+        ctx.save();
+        ctx.fillStyle = b.color; ctx.globalAlpha = 0.15;
+        ctx.fillRect(a, top, Math.max(z - a, px), height);
+        ctx.restore();
       });
-      svg.appendChild(svgEl("path", {d, fill: "none", stroke: s.color, "stroke-width": s.faint ? 1 : 1.6,
-        "stroke-opacity": s.faint ? 0.25 : 1, "stroke-dasharray": s.dash || ""}));
-    });
-    let lx = M.l;  // the legend, under the plot on the left (the axis label is on the right)
-    spec.series.filter((s) => s.label && !s.faint).forEach((s) => {
-      svg.appendChild(svgEl("text", {x: lx, y: H - 3, fill: s.color}, s.label));
-      lx += 6.5 * s.label.length + 14;
-    });
-    return svg;
+    };
+    const over = (u) => {  // the marker lines and their labels
+      const {left, top, width, height} = u.bbox, ctx = u.ctx;
+      (spec.hlines || []).forEach((h) => {
+        if (h.y >= u.scales.y.min && h.y <= u.scales.y.max) {
+          line(u, left, Y(u, h.y), left + width, Y(u, h.y), h.color, h.dash);
+        }
+      });
+      (spec.bars || []).forEach((b) => {
+        if (!inPlot(u, b.x)) return;
+        const y0 = Math.min(Math.max(b.y0, u.scales.y.min), u.scales.y.max);
+        const y1 = Math.min(Math.max(b.y1, u.scales.y.min), u.scales.y.max);
+        ctx.save();
+        ctx.strokeStyle = b.color; ctx.lineWidth = 3 * px; ctx.lineCap = "butt";
+        ctx.beginPath(); ctx.moveTo(X(u, b.x), Y(u, y0)); ctx.lineTo(X(u, b.x), Y(u, y1));
+        ctx.stroke(); ctx.restore();
+      });
+      (spec.vlines || []).forEach((v) => {
+        if (!inPlot(u, v.x)) return;
+        const x = X(u, v.x);
+        line(u, x, top, x, top + height, v.color, v.dash || [4, 3]);
+        if (!v.label) return;
+        ctx.save();
+        ctx.fillStyle = v.color; ctx.font = `${11 * px}px sans-serif`; ctx.textBaseline = "top";
+        // right of the line, or left of it where the label would leave the plot
+        const right = x + (3 * px) + ctx.measureText(v.label).width <= left + width;
+        ctx.textAlign = right ? "left" : "right";
+        ctx.fillText(v.label, x + (right ? 3 : -3) * px, top + (3 + 13 * (v.row || 0)) * px);
+        ctx.restore();
+      });
+    };
+    const series = spec.series.map((s) => ({
+      label: s.label, stroke: s.color, width: s.faint ? 1 : 1.6, alpha: s.faint ? 0.3 : 1,
+      dash: s.dash, points: s.points ? {show: true, size: 6, fill: s.color, stroke: s.color}
+        : {show: false},
+      paths: s.points ? () => null : undefined,
+      facets: [{scale: "x", auto: true, sorted: spec.xsorted ? 1 : 0}, {scale: "y", auto: true}],
+    }));
+    const box = $("figures");
+    const opts = {
+      mode: 2, title: spec.title, width: Math.max(360, Math.min(box.clientWidth - 8, 760)),
+      height: HEIGHT, cursor: {points: {show: false}},
+      legend: {live: false, markers: {dash: (u, i) => u.series[i].dash ? "dashed" : "solid"}},
+      scales: {
+        x: {time: false, distr: spec.xlog ? 3 : 1, log: 10,
+            range: spec.xlog ? undefined : range([], spec.xclip, false)},
+        y: {range: range((spec.hlines || []).map((h) => h.y), spec.yclip, true)},
+      },
+      axes: [{label: spec.xlabel, size: 34, labelSize: 16},
+             {label: spec.ylabel, size: 48, labelSize: 16}],
+      series: [{}, ...series],
+      hooks: {drawClear: [under], draw: [over]},
+    };
+    const holder = el("div", {class: "chart", id: "chart-" + name});
+    const u = new uPlot(opts, [null, ...spec.series.map((s) => xy(s, spec.xlog))], holder);
+    charts[name] = u;
+    return holder;
   }
 
   // ---- rendering --------------------------------------------------------------------------
@@ -262,8 +309,8 @@
   function render() {
     const s = shown, p = faint(previous), v = $("compare").checked ? variantState : null;
     renderMargins(s);
-    const bode = $("bode"); bode.replaceChildren();
-    const mag = [], phase = [], vm = [], vp = [], nichols = [];
+    const DASH = [6, 3];
+    const mag = [], phase = [], vm = [], vp = [], sm = [], sp = [], nichols = [];
     s.loops.forEach((loop, k) => {
       const color = COLORS[k % COLORS.length];
       mag.push({x: s.omega_rad_s, y: loop.magnitude_db, color,
@@ -271,50 +318,75 @@
       phase.push({x: s.omega_rad_s, y: loop.phase_deg, color, label: loop.symbol});
       const old = p && p.loops.find((l) => l.name === loop.name);
       if (old) {
-        mag.push({x: p.omega_rad_s, y: old.magnitude_db, color, faint: true});
-        phase.push({x: p.omega_rad_s, y: old.phase_deg, color, faint: true});
-      }
-      const base = v && v.loops.find((l) => l.name === loop.name);
-      if (base) {
-        mag.push({x: v.omega_rad_s, y: base.magnitude_db, color, dash: "6 3"});
-        phase.push({x: v.omega_rad_s, y: base.phase_deg, color, dash: "6 3"});
-        nichols.push({x: base.phase_deg, y: base.magnitude_db, color, dash: "6 3"});
+        mag.push({x: p.omega_rad_s, y: old.magnitude_db, color, faint: true,
+                  label: `${loop.symbol} previous`});
+        phase.push({x: p.omega_rad_s, y: old.phase_deg, color, faint: true,
+                    label: `${loop.symbol} previous`});
       }
       nichols.push({x: loop.phase_deg, y: loop.magnitude_db, color, label: loop.symbol});
-      if (old) nichols.push({x: old.phase_deg, y: old.magnitude_db, color, faint: true});
+      if (old) nichols.push({x: old.phase_deg, y: old.magnitude_db, color, faint: true,
+                             label: `${loop.symbol} previous`});
+      const base = v && v.loops.find((l) => l.name === loop.name);
+      if (base) {
+        mag.push({x: v.omega_rad_s, y: base.magnitude_db, color, dash: DASH,
+                  label: `${loop.symbol} variant`});
+        phase.push({x: v.omega_rad_s, y: base.phase_deg, color, dash: DASH,
+                    label: `${loop.symbol} variant`});
+        nichols.push({x: base.phase_deg, y: base.magnitude_db, color, dash: DASH,
+                      label: `${loop.symbol} variant`});
+      }
+      // the margins: a dashed line at each crossover, labelled, and the margin itself as a
+      // bar (the phase margin from -180 deg at the gain crossover, the gain margin below
+      // 0 dB at the phase crossover)
       const m = loop.margins || {}, t = m.text || {};
       vm.push({x: m.crossover_rad_s, color, row: k,
                label: `${loop.symbol} ωc ${text(t.crossover_rad_s)}, PM ${text(t.phase_margin_deg)}°`});
       vp.push({x: m.phase_crossover_rad_s, color, row: k,
                label: `${loop.symbol} GM ${text(t.gain_margin_db)} dB`});
+      if (finite(m.crossover_rad_s) && finite(m.phase_margin_deg)) {
+        sp.push({x: m.crossover_rad_s, y0: -180, y1: -180 + m.phase_margin_deg, color});
+      }
+      if (finite(m.phase_crossover_rad_s) && finite(m.gain_margin_db)) {
+        sm.push({x: m.phase_crossover_rad_s, y0: 0, y1: -m.gain_margin_db, color});
+      }
     });
-    bode.appendChild(plot({title: "Open loops |L| [dB]",
-      xlog: true, xlabel: "ω [rad/s]", series: mag, vlines: vm, hlines: [{y: 0, color: "#888"}],
-      yclip: [-80, 80]}));
-    bode.appendChild(plot({title: "Open loops phase [deg]", xlog: true, xlabel: "ω [rad/s]",
-      series: phase, vlines: vp, hlines: [{y: -180, color: "#888"}], yclip: [-720, 90]}));
-    $("nichols").replaceChildren(plot({title: "Nichols: |L| [dB] against phase [deg]",
-      xlabel: "phase [deg]", series: nichols, vlines: [{x: -180, color: "#888", dash: "2 2"}],
-      hlines: [{y: 0, color: "#888", dash: "2 2"}], yclip: [-60, 60], xclip: [-540, 0]}));
+    $("bode").replaceChildren(
+      chart("magnitude", {title: "Open loops |L| [dB]", xlog: true, xsorted: true,
+        xlabel: "ω [rad/s]", series: mag, vlines: vm, bars: sm,
+        hlines: [{y: 0, color: "#888"}], yclip: [-80, 80]}),
+      chart("phase", {title: "Open loops phase [deg]", xlog: true, xsorted: true,
+        xlabel: "ω [rad/s]", series: phase, vlines: vp, bars: sp,
+        hlines: [{y: -180, color: "#888"}], yclip: [-720, 90]}));
+    $("nichols").replaceChildren(chart("nichols", {title: "Nichols: |L| [dB] against phase [deg]",
+      xlabel: "phase [deg]", series: nichols, vlines: [{x: -180, color: "#888", dash: [2, 2]}],
+      hlines: [{y: 0, color: "#888", dash: [2, 2]}], yclip: [-60, 60], xclip: [-540, 0]}));
 
     const c = s.closed_loop;
     const cs = [{x: s.omega_rad_s, y: c.magnitude_db, color: "#000", label: "T"}];
-    if (p) cs.push({x: p.omega_rad_s, y: p.closed_loop.magnitude_db, color: "#000", faint: true});
-    if (v) cs.push({x: v.omega_rad_s, y: v.closed_loop.magnitude_db, color: "#000", dash: "6 3"});
+    if (p) cs.push({x: p.omega_rad_s, y: p.closed_loop.magnitude_db, color: "#000", faint: true,
+                    label: "T previous"});
+    if (v) cs.push({x: v.omega_rad_s, y: v.closed_loop.magnitude_db, color: "#000", dash: DASH,
+                    label: "T variant"});
     const lines = [{x: c.bandwidth_rad_s, color: "#000", label: `ω_BW ${text(c.bandwidth_text)} rad/s`}];
     if (c.required_bandwidth_rad_s) lines.push({x: c.required_bandwidth_rad_s, color: "#b00", row: 1,
-      label: `required ≥ ${c.required_bandwidth_rad_s} rad/s`, dash: "2 2"});
-    $("closed").replaceChildren(plot({title: "Closed loop |T| [dB]", xlog: true,
-      xlabel: "ω [rad/s]", series: cs, vlines: lines, hlines: [{y: -3, color: "#888", dash: "3 3"}],
-      yclip: [-60, 30]}));
+      label: `required ≥ ${c.required_bandwidth_rad_s} rad/s`, dash: [2, 2]});
+    $("closed").replaceChildren(chart("closed", {title: "Closed loop |T| [dB]", xlog: true,
+      xsorted: true, xlabel: "ω [rad/s]", series: cs, vlines: lines,
+      hlines: [{y: -3, color: "#888", dash: [3, 3]}], yclip: [-60, 30]}));
 
     const st = s.step, ss = [];
-    if (st.linear) ss.push({x: st.linear.t, y: st.linear.y, color: "#1f77b4", label: "linear"});
-    if (st.nonlinear) ss.push({x: st.nonlinear.t, y: st.nonlinear.y, color: "#d62728", label: "nonlinear"});
-    if (p && p.step.linear) ss.push({x: p.step.linear.t, y: p.step.linear.y, color: "#1f77b4", faint: true});
-    if (p && p.step.nonlinear) ss.push({x: p.step.nonlinear.t, y: p.step.nonlinear.y, color: "#d62728", faint: true});
-    if (v && v.step.linear) ss.push({x: v.step.linear.t, y: v.step.linear.y, color: "#1f77b4", dash: "6 3"});
-    if (v && v.step.nonlinear) ss.push({x: v.step.nonlinear.t, y: v.step.nonlinear.y, color: "#d62728", dash: "6 3"});
+    const steps = [["linear", "#1f77b4"], ["nonlinear", "#d62728"]];
+    steps.forEach(([kind, color]) => {
+      if (st[kind]) ss.push({x: st[kind].t, y: st[kind].y, color, label: kind});
+    });
+    steps.forEach(([kind, color]) => {
+      if (p && p.step[kind]) ss.push({x: p.step[kind].t, y: p.step[kind].y, color, faint: true,
+                                      label: `${kind} previous`});
+    });
+    steps.forEach(([kind, color]) => {
+      if (v && v.step[kind]) ss.push({x: v.step[kind].t, y: v.step[kind].y, color, dash: DASH,
+                                      label: `${kind} variant`});
+    });
     const f = st.figures;
     const title = `Step of ${+st.amplitude.toPrecision(4)} ${st.unit}` + (f ?
       ` (nonlinear: overshoot ${text(f.overshoot_pct && +f.overshoot_pct.toPrecision(3))} %, ` +
@@ -325,9 +397,9 @@
       spans.push({from, to, color: shades[name]})));
     const limitedWords = Object.entries(st.limited || {}).filter(([, l]) => l.length)
       .map(([name]) => `${name} limit (${name === "current" ? "orange" : "purple"})`);
-    $("steps").replaceChildren(plot({title: title + (limitedWords.length ? "; shaded: " +
-      limitedWords.join(", ") : ""), xlabel: "t [s]", series: ss, spans,
-      hlines: [{y: st.amplitude, color: "#888", dash: "3 3"}]}));
+    $("steps").replaceChildren(chart("step", {title: title + (limitedWords.length ? "; shaded: " +
+      limitedWords.join(", ") : ""), xlabel: "t [s]", ylabel: st.unit, xsorted: true,
+      series: ss, spans, hlines: [{y: st.amplitude, color: "#888", dash: [3, 3]}]}));
     renderVerdicts(s);
     $("notes").replaceChildren(...s.notes.map((n) => el("li", {}, n)));
   }
@@ -434,8 +506,8 @@
         table.appendChild(tr);
       });
       const bw = "closed_loop.bandwidth_rad_s", pm = "position_loop.phase_margin_deg";
-      const front = plot({title: "Pareto front: phase margin [deg] against ω_BW [rad/s]",
-        xlabel: "ω_BW [rad/s]", series: [{x: data.pareto.map((r) => r[bw]),
+      const front = chart("pareto", {title: "Pareto front: phase margin [deg] against ω_BW",
+        xlabel: "ω_BW [rad/s]", ylabel: "PM [deg]", series: [{x: data.pareto.map((r) => r[bw]),
           y: data.pareto.map((r) => r[pm]), color: "#2ca02c", points: true, label: "feasible"}]});
       $("tune-result").replaceChildren(front, table);
     } catch (error) {
@@ -471,6 +543,11 @@
       schedule();
     }));
     $("overlay").addEventListener("change", () => shown && render());
+    let resized = null;  // the charts' width follows the window's
+    window.addEventListener("resize", () => {
+      clearTimeout(resized);
+      resized = setTimeout(() => shown && render(), 200);
+    });
     document.addEventListener("keydown", (e) => {
       if (!(e.ctrlKey || e.metaKey) || e.target.tagName === "INPUT" && e.target.type === "text") return;
       if (e.key === "z") back(undo, redo); else if (e.key === "y") back(redo, undo);
@@ -483,7 +560,8 @@
   }
 
   window.casDesign = {setValue, setValues, session, ready: null, tune, compare, addKey,
+                      slider: {toSlider, fromSlider, controls: () => controls},
                       undo: () => back(undo, redo), redo: () => back(redo, undo),
-                      state: () => shown};
+                      state: () => shown, charts};
   window.casDesign.ready = start();
 })();
