@@ -239,7 +239,7 @@ VIEW_SPAN = 2.5
 
 def closed_loop_zeros(data):
     """Zeros [rad/s] of T of a variant's data: those computed with its time-domain part
-    (:func:`cas_freq.report.data.gather_time`), else computed here (python-control)."""
+    (:func:`cas_freq.report.data.gather_time`), else computed here."""
     known = getattr(data, "closed_loop_zeros", None)  # data of the figure API may lack them
     if known is not None:
         return np.asarray(known, dtype=complex)
