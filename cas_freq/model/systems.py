@@ -201,7 +201,7 @@ class ClosedLoopMatrices:
     Attributes
     ----------
     a, b, c, d : numpy.ndarray
-        State-space matrices, one input (δ_cmd on the motor's scale) and one output.
+        State-space matrices of one input (the command) and one output (the output angle).
     period : float or None
         Sampling period [s] of sampled controllers (a discrete-time system), None when the
         controllers are continuous.
