@@ -1,33 +1,48 @@
 """cas_freq against python-control, measured in one run on one machine (``python
 benchmarks/run.py``; not part of the test suite).
 
-1. margins + bandwidth of 10,000 variants (a 100 x 100 grid of Kp and Kd; and random
-   gains and motor values, ±10 % around the shipped config): cas_freq's batch (exact delays,
-   Padé-6 stability) vs two python-control loops, both with Padé-6 delays: the naive one
-   (transfer-function arithmetic, ``stability_margins`` of both loops, ``bandwidth`` of T,
-   timed on a sample of 100 and extrapolated) and an improved one (benchmarks/baselines.py:
-   numpy polynomials, the current loop cached, a fixed-grid bandwidth; timed on 1,000);
-2. a 10 deg nonlinear step of 60 ms: cas_freq's simulator (the compiled kernel, and the numpy
-   reference engine) in batch mode (per run) and alone vs python-control
-   ``input_output_response`` of an ``nlsys`` of the same loop (Padé-8 delays, LSODA rtol 1e-9,
-   the cross-check of tests/test_simulation_nlsys.py), with the RMS difference of the two fin
-   angles; the step at the default horizon, and ``cas-freq simulate --step 10deg`` as a whole
-   process with either engine (after a first run, so the kernel loads from numba's cache);
-3. a sine-dwell map of 8 amplitudes x 30 frequencies (cas_freq);
-4. ``cas-freq verify`` of the shipped config as a whole process; ``cas-freq montecarlo`` of
-   10,000 samples with the shipped requirements (steps and fits) as a whole process;
-5. peak memory (tracemalloc) of the frequency-domain batch for 100,000 variants.
+Every time is a median (of 3 unless the row says otherwise) and every row logs the load
+average (``os.getloadavg()``, 1 minute) before and after it: the machine may be shared. Whole
+processes are timed after a warm-up run (numba's cache filled), with their CPU time (user +
+system of the process and the workers it waits for) beside the wall time.
 
-Options: ``--quick`` (fewer variants, for a smoke run), ``--skip-memory``.
+1. issue 30's table (the README's rows): ``cas-freq montecarlo --samples 10000`` with the
+   shipped requirements (a step and a fit per sample) and ``cas-freq report`` of the shipped
+   config as whole processes (wall and CPU); one 10 deg step of 60 ms in-process (the compiled
+   kernel, median of 21) against python-control's ``input_output_response`` of an ``nlsys`` of
+   the same loop (tests/nlsys_reference.py; Padé-8 delays at LSODA rtol 1e-9, atol 1e-10, the
+   cross-check of tests/test_simulation_nlsys.py, and its fastest run, Padé-1 at LSODA's
+   default tolerances), with the RMS difference of the output angles; the sine-dwell map of 8
+   amplitudes x 30 frequencies; each beside the issue's goal;
+2. margins + bandwidth of 10,000 variants (a 100 x 100 grid of Kp and Kd; and random
+   gains and motor values, ±10 % around the shipped config), one run each: cas_freq's batch
+   (exact delays, Padé-6 stability) vs two python-control loops, both with Padé-6 delays: the
+   naive one (transfer-function arithmetic, ``stability_margins`` of both loops, ``bandwidth``
+   of T, timed on a sample of 100 and extrapolated) and an improved one
+   (benchmarks/baselines.py: numpy polynomials, the current loop cached, a fixed-grid
+   bandwidth; timed on 1,000);
+3. the 10 deg step in a batch of 256 (per run), with the numpy reference engine, at the
+   default horizon, and ``cas-freq simulate --step 10deg`` as a whole process with either
+   engine; ``cas-freq report`` of base, fitted and relaxed; ``cas-freq verify``;
+4. peak memory (tracemalloc) of the frequency-domain batch for 100,000 variants.
+
+Options: ``--quick`` (fewer variants, for a smoke run), ``--skip-memory``, ``--only CASE``
+(repeatable: ``issue``, ``margins``, ``step``, ``sinedwell``, ``verify``, ``montecarlo``,
+``report``), ``--write-docs`` (the table, as printed, replaces the one between the
+``speed-table`` markers of README.md and docs/speed.md: the one source of both).
 """
 
 import argparse
+import dataclasses
 import math
 import os
 import platform
+import resource
 import shutil
+import statistics
 import subprocess
 import sys
+import tempfile
 import time
 import tracemalloc
 from pathlib import Path
@@ -47,6 +62,11 @@ from cas_freq.config import load_variant  # noqa: E402
 from cas_freq.parameters import variant_parameters  # noqa: E402
 
 SEED = 20261122
+ROOT = Path(__file__).resolve().parents[1]
+#: The files whose speed table ``--write-docs`` replaces (between these markers), each with
+#: whether it shows issue 30's rows only (the README) or every row.
+DOCS = {ROOT / "README.md": True, ROOT / "docs" / "speed.md": False}
+TABLE_START, TABLE_END = "<!-- speed-table:start -->", "<!-- speed-table:end -->"
 KEYS = ("position_loop.Kp", "position_loop.Ki", "position_loop.Kd", "current_loop.Kp",
         "motor.Km", "motor.J")
 
@@ -64,6 +84,82 @@ def machine():
         pass
     return (f"{cpu}, {os.cpu_count()} CPUs, {platform.system()} {platform.release()}, "
             f"Python {platform.python_version()}, numpy {np.__version__}")
+
+
+@dataclasses.dataclass
+class Row:
+    """One row of the table: what cas_freq took, the baseline, their ratio, the goal, the load
+    average before and after; ``headline``: a row of issue 30's table (the README's)."""
+
+    case: str
+    ours: str
+    theirs: str = "–"
+    ratio: float | None = None
+    goal: str = "–"
+    load: str = ""
+    headline: bool = False
+
+
+class Load:
+    """The 1-minute load average before and after a block (``with Load() as load: ...``;
+    ``load.text``)."""
+
+    def __enter__(self):
+        self.before = os.getloadavg()[0]
+        return self
+
+    def __exit__(self, *exc):
+        self.after = os.getloadavg()[0]
+        return False
+
+    @property
+    def text(self):
+        return f"{self.before:.1f}–{self.after:.1f}"
+
+
+def cas_freq_command():
+    """The CLI as a command line: ``cas-freq`` if installed, else ``python -m cas_freq``."""
+    executable = shutil.which("cas-freq")
+    return [executable] if executable else [sys.executable, "-m", "cas_freq"]
+
+
+def _median(function, repeats):
+    """Median wall time of ``repeats`` calls [s] and the last call's result."""
+    wall, _, result = _timed(function, repeats)
+    return wall, result
+
+
+def _timed(function, repeats):
+    """Median wall time and median CPU time (every thread of this process) of ``repeats``
+    calls [s], and the last call's result."""
+    walls, cpus = [], []
+    for _ in range(repeats):
+        cpu, start = time.process_time(), time.perf_counter()
+        result = function()
+        walls.append(time.perf_counter() - start)
+        cpus.append(time.process_time() - cpu)
+    return statistics.median(walls), statistics.median(cpus), result
+
+
+def process_times(argv, repeats=3, engine=None):
+    """Median wall and median CPU time [s] of ``argv`` run as a process ``repeats`` times after
+    one warm-up run (which may compile the kernels into numba's cache); CPU is user + system
+    time of the process and of the children it waited for (``RUSAGE_CHILDREN``); ``engine``
+    sets ``CAS_FREQ_ENGINE``. None when a run fails."""
+    env = {**os.environ, **({"CAS_FREQ_ENGINE": engine} if engine else {})}
+    walls, cpus = [], []
+    for attempt in range(repeats + 1):
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        start = time.perf_counter()
+        done = subprocess.run(argv, capture_output=True, text=True, check=False, env=env)
+        wall = time.perf_counter() - start
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        if done.returncode != 0:
+            return None
+        if attempt:
+            walls.append(wall)
+            cpus.append(after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
+    return statistics.median(walls), statistics.median(cpus)
 
 
 def variants(params, n, rng):
@@ -120,6 +216,13 @@ def gain_grid(params, n):
 
 
 def bench_margins(params, changes, label, sample, rows):
+    with Load() as load:
+        differences = _margins(params, changes, label, sample, rows)
+    rows[-1].load = rows[-2].load = load.text
+    return differences
+
+
+def _margins(params, changes, label, sample, rows):
     n = len(next(iter(changes.values())))
     loop = variant_parameters(params, changes)
     # the figures python-control computes: each loop's margins with the loops outside it open
@@ -142,9 +245,9 @@ def bench_margins(params, changes, label, sample, rows):
                   for k, i in enumerate(picks))
         for name in theirs[0]
     }
-    rows.append((f"margins + bandwidth, {n:,} variants ({label})", f"{ours:.2f} s",
-                 f"{extrapolated:.0f} s ({per_variant * 1e3:.1f} ms x {n:,})",
-                 extrapolated / ours))
+    rows.append(Row(f"margins + bandwidth, {n:,} variants ({label}; one run)", f"{ours:.2f} s",
+                    f"naive {extrapolated:.0f} s ({per_variant * 1e3:.1f} ms × {n:,})",
+                    extrapolated / ours, "≥ 100×"))
     # the improved baseline (benchmarks/baselines.py): numpy polynomials, the current loop
     # cached, a fixed-grid bandwidth; timed on 10x the sample (it is faster)
     improved = ImprovedBaseline(params)
@@ -157,24 +260,61 @@ def bench_margins(params, changes, label, sample, rows):
         differences[f"{name} (improved)"] = max(
             abs(better[k][name] - result.figures[name][i]) / abs(result.figures[name][i])
             for k, i in enumerate(picks))
-    rows.append(("  same, against the improved python-control loop", f"{ours:.2f} s",
-                 f"{per_variant * n:.0f} s ({per_variant * 1e3:.2f} ms x {n:,})",
-                 per_variant * n / ours))
+    rows.append(Row("same", f"{ours:.2f} s",
+                    f"improved {per_variant * n:.0f} s ({per_variant * 1e3:.2f} ms × {n:,})",
+                    per_variant * n / ours, "≥ 10×"))
     return differences
 
 
-def _best(function, repeats):
-    """Shortest wall time of ``repeats`` calls [s] and the last call's result."""
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        result = function()
-        times.append(time.perf_counter() - start)
-    return min(times), result
+def _ms(seconds):
+    return f"{seconds * 1e3:.2f} ms" if seconds < 0.01 else f"{seconds * 1e3:.0f} ms"
+
+
+def _control_step(params, t, amplitude, pade_order, **solver):
+    """python-control's ``input_output_response`` of the loop's ``nlsys`` (Padé delays of
+    ``pade_order``) to a step of ``amplitude`` [rad] at the output on the grid ``t``: the
+    output angle [rad]."""
+    import control
+
+    system = actuator_nlsys(params, pade_order)
+    theta_cmd = np.full(t.size, params.gear.ratio * amplitude)
+    response = control.input_output_response(
+        system, t, theta_cmd, np.zeros(system.nstates), t_eval=t, solve_ivp_method="LSODA",
+        **({"solve_ivp_kwargs": solver} if solver else {}))
+    return response.states[2] / params.gear.ratio
+
+
+def bench_issue_step(params, rows, repeats):
+    """Issue 30's third row: one 10 deg step of 60 ms at the default 5 us, in-process (the
+    compiled kernel, median of ``repeats``), against python-control's nlsys with Padé-8 delays
+    (LSODA rtol 1e-9, atol 1e-10: the cross-check of tests/test_simulation_nlsys.py) and its
+    fastest run (Padé-1, LSODA at its default tolerances), medians of 3."""
+    from cas_freq.parameters import LoopParameters
+    from cas_freq.simulation import Step, simulate_batch
+
+    amplitude = math.radians(10.0)
+    one = LoopParameters.from_config(params)
+
+    def step():
+        return simulate_batch(one, Step(amplitude), engine="compiled", t_end=0.06, extend=False)
+
+    with Load() as load:
+        step()  # warm-up (loads the kernel from numba's cache)
+        ours, result = _median(step, repeats)
+        t, delta = result.t, result.delta[0]
+        accurate, theirs = _median(
+            lambda: _control_step(params, t, amplitude, 8, rtol=1e-9, atol=1e-10), 3)
+        fastest, rough = _median(lambda: _control_step(params, t, amplitude, 1), 3)
+    rms = [float(np.sqrt(np.mean((other - delta) ** 2)) / amplitude) for other in (theirs, rough)]
+    case = f"one 10° step in-process, 60 ms at 5 µs (median of {repeats})"
+    rows.append(Row(case, _ms(ours), f"nlsys Padé-8 {_ms(accurate)} (RMS diff {rms[0]:.0e})",
+                    accurate / ours, "≤ 0.3 ms, ≥ 1,000×", load.text, headline=True))
+    rows.append(Row("same", _ms(ours), f"nlsys Padé-1 {_ms(fastest)} (RMS diff {rms[1]:.0e})",
+                    fastest / ours, "≥ 50×", load.text, headline=True))
 
 
 def bench_step(params, runs, rows, notes):
-    """10 deg steps: the compiled kernel and the numpy reference engine vs python-control."""
+    """10 deg steps: the compiled kernel and the numpy reference engine (batch and one run)."""
     from cas_freq.parameters import LoopParameters
     from cas_freq.simulation import Step, simulate_batch
 
@@ -186,53 +326,41 @@ def bench_step(params, runs, rows, notes):
         options = {"t_end": 0.06, "extend": False, **options}
         return simulate_batch(loop, Step(amplitude), engine=engine, **options)
 
-    step(one, "compiled", t_end=0.002)  # warm-up (loads the kernel from numba's cache)
-    step(batch, "compiled", t_end=0.002)
-    ours_batch, result = _best(lambda: step(batch, "compiled"), 3)
-    ours_batch /= runs
-    ours_single, single = _best(lambda: step(one, "compiled"), 5)
-    ref_single, reference = _best(lambda: step(one, "reference"), 2)
-    ref_batch = _best(lambda: step(batch, "reference"), 1)[0] / runs
-    # the default horizon with its extension, as cas-freq simulate runs it
-    ours_default = _best(lambda: step(one, "compiled", t_end=None, extend=True), 5)[0]
-    ref_default = _best(lambda: step(one, "reference", t_end=None, extend=True), 1)[0]
-
-    import control
-
-    system = actuator_nlsys(params, 8)
-    t = result.t
-    theta_cmd = np.full(t.size, params.gear.ratio * amplitude)
-    start = time.perf_counter()
-    response = control.input_output_response(
-        system, t, theta_cmd, np.zeros(system.nstates), t_eval=t,
-        solve_ivp_method="LSODA", solve_ivp_kwargs={"rtol": 1e-9, "atol": 1e-10},
-    )
-    theirs = time.perf_counter() - start
-    delta = response.states[2] / params.gear.ratio
-    rms = float(np.sqrt(np.mean((delta - single.delta[0]) ** 2)) / amplitude)
-    rows.append((f"10 deg step, 60 ms (batch of {runs}, per run)", f"{ours_batch * 1e3:.2f} ms",
-                 f"{theirs:.2f} s", theirs / ours_batch))
-    rows.append((f"  same, numpy reference engine (batch of {runs}, per run)",
-                 f"{ref_batch * 1e3:.1f} ms", f"{theirs:.2f} s", theirs / ref_batch))
-    rows.append(("10 deg step, 60 ms (one run alone)", f"{ours_single * 1e3:.1f} ms",
-                 f"{theirs:.2f} s", theirs / ours_single))
-    rows.append(("  same, numpy reference engine", f"{ref_single * 1e3:.0f} ms",
-                 f"{theirs:.2f} s", theirs / ref_single))
-    rows.append(("10 deg step, default horizon (0.1 s + extension, one run)",
-                 f"{ours_default * 1e3:.1f} ms", "-", None))
-    rows.append(("  same, numpy reference engine", f"{ref_default * 1e3:.0f} ms", "-", None))
-    for engine in ("compiled", "reference"):
-        elapsed = bench_simulate_process(engine)
-        rows.append((f"cas-freq simulate --step 10deg (whole process, {engine})",
-                     elapsed, "-", None))
+    with Load() as load:
+        step(one, "compiled", t_end=0.002)  # warm-up (loads the kernel from numba's cache)
+        step(batch, "compiled", t_end=0.002)
+        ours_batch = _median(lambda: step(batch, "compiled"), 3)[0] / runs
+        ours_single, single = _median(lambda: step(one, "compiled"), 5)
+        ref_single, reference = _median(lambda: step(one, "reference"), 3)
+        ref_batch = _median(lambda: step(batch, "reference"), 1)[0] / runs
+        # the default horizon with its extension, as cas-freq simulate runs it
+        ours_default = _median(lambda: step(one, "compiled", t_end=None, extend=True), 5)[0]
+        ref_default = _median(lambda: step(one, "reference", t_end=None, extend=True), 1)[0]
+    rows.append(Row(f"10° step, 60 ms, batch of {runs} (per run; median of 3)",
+                    _ms(ours_batch), load=load.text))
+    rows.append(Row("same, numpy reference engine (per run; one batch)", _ms(ref_batch),
+                    load=load.text))
+    rows.append(Row("10° step, 60 ms, numpy reference engine (one run)", _ms(ref_single),
+                    load=load.text))
+    rows.append(Row("10° step, default horizon (0.1 s + extension, one run; median of 5)",
+                    _ms(ours_default), load=load.text))
+    rows.append(Row("same, numpy reference engine (one run)", _ms(ref_default), load=load.text))
+    with Load() as load:
+        for engine in ("compiled", "reference"):
+            times = process_times([*cas_freq_command(), "simulate", "--step", "10deg"],
+                                  engine=engine)
+            rows.append(Row(f"`cas-freq simulate --step 10deg` (whole process, {engine})",
+                            _process_text(times), goal="< 0.5 s" if engine == "compiled"
+                            else "–"))
+    for row in rows[-2:]:
+        row.load = load.text
     difference = float(np.max(np.abs(single.delta - reference.delta)) / amplitude)
     notes.append(
-        f"10 deg step, compiled kernel vs numpy reference engine: {ref_single / ours_single:.0f}x "
-        f"(one run), {ref_batch / ours_batch:.0f}x (batch of {runs}, per run), "
-        f"{ref_default / ours_default:.0f}x (default horizon); largest difference of the fin "
-        f"angle {difference:.1e} of the step; numba threads {_numba_threads()}"
+        f"10° step, compiled kernel vs numpy reference engine: {ref_single / ours_single:.0f}× "
+        f"(one run), {ref_batch / ours_batch:.0f}× (batch of {runs}, per run), "
+        f"{ref_default / ours_default:.0f}× (default horizon); largest difference of the "
+        f"output angle {difference:.1e} of the step; numba threads {_numba_threads()}"
     )
-    return rms
 
 
 def _numba_threads():
@@ -243,98 +371,65 @@ def _numba_threads():
     return numba.get_num_threads()
 
 
-def bench_simulate_process(engine):
-    """Best of 3 of ``cas-freq simulate --step 10deg`` as a process (after one warm run)."""
-    executable = shutil.which("cas-freq")
-    command = [executable] if executable else [sys.executable, "-m", "cas_freq"]
-    env = {**os.environ, "CAS_FREQ_ENGINE": engine}
-    times = []
-    for attempt in range(4):  # the first run may compile the kernel into numba's cache
-        start = time.perf_counter()
-        done = subprocess.run([*command, "simulate", "--step", "10deg"], capture_output=True,
-                              text=True, check=False, env=env)
-        if done.returncode != 0:
-            return "failed"
-        if attempt:
-            times.append(time.perf_counter() - start)
-    return f"{min(times):.2f} s"
+def _process_text(times):
+    """``"1.23 s (CPU 2.34 s)"`` of :func:`process_times`' result; "failed" for None."""
+    if times is None:
+        return "failed"
+    wall, cpu = times
+    return f"{wall:.2f} s (CPU {cpu:.2f} s)"
 
 
 def bench_sinedwell(params, rows):
+    """Issue 30's fourth row: the sine-dwell map of 8 amplitudes x 30 frequencies (100..5000
+    rad/s) of the shipped config, median of 3 after a warm-up of the kernel."""
     from cas_freq.parameters import LoopParameters
     from cas_freq.simulation.sinedwell import sine_dwell
 
     amplitudes = np.radians([0.25, 0.5, 1, 2, 4, 6, 8, 10])
     frequencies = np.geomspace(100.0, 5000.0, 30)
-    start = time.perf_counter()
-    sine_dwell(LoopParameters.from_config(params), amplitudes, frequencies)
-    ours = time.perf_counter() - start
-    rows.append(("sine-dwell map 8 x 30", f"{ours:.2f} s", "-", None))
+    loop = LoopParameters.from_config(params)
+    with Load() as load:
+        sine_dwell(loop, amplitudes[:1], frequencies[-1:])  # warm-up
+        wall, cpu, _ = _timed(lambda: sine_dwell(loop, amplitudes, frequencies), 3)
+    rows.append(Row("sine-dwell map 8 × 30 (median of 3)", f"{wall:.2f} s (CPU {cpu:.2f} s)",
+                    goal="≤ 1.5 s", load=load.text, headline=True))
 
 
 def bench_verify(rows):
-    executable = shutil.which("cas-freq")
-    command = [executable] if executable else [sys.executable, "-m", "cas_freq"]
-    probe = subprocess.run([*command, "verify", "--help"], capture_output=True, text=True,
-                           check=False)
-    if probe.returncode != 0:
-        rows.append(("cas-freq verify (whole process)", "not available", "-", None))
-        return
-    times = []
-    for _ in range(3):
-        start = time.perf_counter()
-        subprocess.run([*command, "verify"], capture_output=True, text=True, check=False)
-        times.append(time.perf_counter() - start)
-    rows.append(("cas-freq verify (whole process, best of 3)", f"{min(times):.2f} s", "-",
-                 None))
+    with Load() as load:
+        times = process_times([*cas_freq_command(), "verify"])
+    rows.append(Row("`cas-freq verify` (whole process; the shipped config)",
+                    _process_text(times), goal="< 1.5 s", load=load.text))
 
 
 def bench_montecarlo(rows, samples):
-    """``cas-freq montecarlo`` with the shipped requirements (each sample: the analysis, the
-    nonlinear 10 deg step and its second-order fit), whole process, once."""
-    executable = shutil.which("cas-freq")
-    command = [executable] if executable else [sys.executable, "-m", "cas_freq"]
-    argv = [*command, "montecarlo", "--samples", str(samples), "--tolerance", "motor.Km=10%",
-            "--tolerance", "motor.J=10%", "--tolerance", "current_loop.delay=0.01ms",
-            "--seed", "1", "-q"]
-    start = time.perf_counter()
-    done = subprocess.run(argv, capture_output=True, text=True, check=False)
-    elapsed = time.perf_counter() - start
-    shown = f"{elapsed:.1f} s" if done.returncode == 0 else f"exit {done.returncode}"
-    rows.append((f"cas-freq montecarlo --samples {samples:,} (steps + fits)", shown, "-", None))
+    """Issue 30's first row: ``cas-freq montecarlo`` with the shipped requirements (each sample:
+    the analysis, the nonlinear 10 deg step and its second-order fit), whole process."""
+    argv = [*cas_freq_command(), "montecarlo", "--samples", str(samples), "--tolerance",
+            "motor.Km=10%", "--tolerance", "motor.J=10%", "--tolerance",
+            "current_loop.delay=0.01ms", "--seed", "1", "-q"]
+    with Load() as load:
+        times = process_times(argv)
+    rows.append(Row(f"`cas-freq montecarlo --samples {samples}` (steps and fits; whole process)",
+                    _process_text(times), goal="≤ 10 s" if samples == 10_000 else "–",
+                    load=load.text, headline=True))
 
 
 def bench_report(rows):
-    """Best and median of 3 of ``cas-freq report`` as a whole process, after one warm-up run
-    (the kernel loads from numba's cache): the issue's three variants (base, fitted, relaxed;
-    the report includes the fitted variant's load envelope) and the whole shipped config (four
-    variants, the load envelopes of fitted and loaded)."""
-    import statistics
-    import tempfile
-
-    executable = shutil.which("cas-freq")
-    command = [executable] if executable else [sys.executable, "-m", "cas_freq"]
+    """Issue 30's second row: ``cas-freq report`` of the shipped config (every variant, the load
+    envelopes), whole process, wall and CPU; and of base, fitted and relaxed."""
     cases = (
-        ("cas-freq report (base, fitted, relaxed), whole process",
-         ["--variant", "base", "--variant", "fitted", "--variant", "relaxed"]),
-        ("cas-freq report (shipped config: 4 variants, 2 envelopes)", []),
+        ("`cas-freq report` (shipped config: all variants, load envelopes; whole process)", [],
+         "≤ 6 s wall, ≤ 7 s CPU", True),
+        ("`cas-freq report --variant base --variant fitted --variant relaxed`",
+         ["--variant", "base", "--variant", "fitted", "--variant", "relaxed"], "–", False),
     )
-    for label, options in cases:
-        times = []
-        with tempfile.TemporaryDirectory() as folder:
-            for attempt in range(4):  # the first run may compile the kernel into numba's cache
-                start = time.perf_counter()
-                done = subprocess.run([*command, "report", *options, "-o",
-                                       str(Path(folder) / "report"), "-q"],
-                                      capture_output=True, text=True, check=False)
-                if done.returncode != 0:
-                    rows.append((label, "failed", "-", None))
-                    break
-                if attempt:
-                    times.append(time.perf_counter() - start)
-        if times:
-            rows.append((label, f"{min(times):.2f}/{statistics.median(times):.2f} s",
-                         "best/median of 3", None))
+    for label, options, goal, headline in cases:
+        with Load() as load, tempfile.TemporaryDirectory() as folder:
+            times = process_times([*cas_freq_command(), "report", *options, "-o",
+                                   str(Path(folder) / "report"), "-q"])
+        rows.append(Row(label, _process_text(times), goal=goal, load=load.text,
+                        headline=headline))
 
 
 def bench_memory(params, n):
@@ -358,45 +453,93 @@ def actuator_nlsys(config, pade_order):
     return reference(config, pade_order)
 
 
+def table(rows):
+    """The rows as a Markdown table (what ``--write-docs`` puts in the docs)."""
+    lines = ["| case | cas_freq | python-control | ratio | goal | load |",
+             "| --- | --- | --- | --- | --- | --- |"]
+    for row in rows:
+        ratio = f"{row.ratio:,.0f}×" if row.ratio else "–"
+        lines.append(f"| {row.case} | {row.ours} | {row.theirs} | {ratio} | {row.goal} | "
+                     f"{row.load} |")
+    return "\n".join(lines)
+
+
+def write_docs(rows, heading, paths=DOCS):
+    """Replace the text between :data:`TABLE_START` and :data:`TABLE_END` in each of ``paths``
+    (path -> headline rows only) with ``heading`` and the table; a file without both markers is
+    an error (nothing is written then)."""
+    contents = {}
+    for path, headline in paths.items():
+        text = heading + table([row for row in rows if row.headline or not headline])
+        old = path.read_text(encoding="utf-8")
+        if old.count(TABLE_START) != 1 or old.count(TABLE_END) != 1:
+            raise SystemExit(f"{path}: need one {TABLE_START} and one {TABLE_END} line")
+        before, rest = old.split(TABLE_START)
+        contents[path] = before + TABLE_START + "\n" + text + "\n" + TABLE_END + \
+            rest.split(TABLE_END, 1)[1]
+    for path, new in contents.items():
+        path.write_text(new, encoding="utf-8")
+
+
+CASES = ("issue", "margins", "step", "sinedwell", "verify", "montecarlo", "report")
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="smaller sizes (smoke run)")
     parser.add_argument("--skip-memory", action="store_true")
+    parser.add_argument("--only", action="append", choices=CASES,
+                        help="run only these cases (repeatable; 'issue': issue 30's four rows)")
+    parser.add_argument("--write-docs", action="store_true",
+                        help="put the table into README.md and docs/speed.md (between the "
+                             "speed-table markers)")
     args = parser.parse_args(argv)
+    chosen = set(args.only or CASES)
+    if "issue" in chosen:
+        chosen |= {"montecarlo", "report", "sinedwell"}
     params = load_variant().params
     n = 1000 if args.quick else 10_000
-    rows = []
-    sample = 20 if args.quick else 100
-    differences = bench_margins(params, gain_grid(params, n), "Kp x Kd grid", sample, rows)
-    tolerance = variants(params, n, np.random.default_rng(SEED))
-    bench_margins(params, tolerance, "6 keys ±10 %", sample, rows)
-    notes = []
-    rms = bench_step(params, 16 if args.quick else 256, rows, notes)
-    bench_sinedwell(params, rows)
-    bench_verify(rows)
-    bench_montecarlo(rows, 1000 if args.quick else 10_000)
-    bench_report(rows)
-    print(f"machine: {machine()}")
+    rows, notes, differences = [], [], {}
+    started = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
+    # issue 30's table first
+    if "montecarlo" in chosen:
+        bench_montecarlo(rows, 1000 if args.quick else 10_000)
+    if "report" in chosen:
+        bench_report(rows)
+    if {"issue", "step"} & chosen:
+        bench_issue_step(params, rows, 5 if args.quick else 21)
+    if "sinedwell" in chosen:
+        bench_sinedwell(params, rows)
+    if "margins" in chosen:
+        sample = 20 if args.quick else 100
+        differences = bench_margins(params, gain_grid(params, n), "Kp × Kd grid", sample, rows)
+        tolerance = variants(params, n, np.random.default_rng(SEED))
+        bench_margins(params, tolerance, "6 keys ±10 %", sample, rows)
+    if "step" in chosen:
+        bench_step(params, 16 if args.quick else 256, rows, notes)
+    if "verify" in chosen:
+        bench_verify(rows)
+    text = table(rows)
+    print(f"machine: {machine()}; {started}; BLAS at one thread")
     print()
-    print(f"| {'case':56s} | {'cas_freq':>14s} | {'python-control':>28s} | {'ratio':>7s} |")
-    print(f"|{'-' * 58}|{'-' * 16}|{'-' * 30}|{'-' * 9}|")
-    for case, ours, theirs, ratio in rows:
-        shown = f"{ratio:.0f}x" if ratio else "-"
-        print(f"| {case:56s} | {ours:>14s} | {theirs:>28s} | {shown:>7s} |")
+    print(text)
     print()
-    print("agreement, python-control (Padé-6) vs cas_freq (exact delays), largest relative "
-          "difference over the sample:")
-    for name, value in differences.items():
-        print(f"  {name}: {value:.1e}")
-    print(f"10 deg step: RMS difference of the fin angle, python-control nlsys (Padé-8, LSODA "
-          f"rtol 1e-9) vs cas_freq: {rms:.1e} of the step")
+    if differences:
+        print("agreement, python-control (Padé-6) vs cas_freq (exact delays), largest relative "
+              "difference over the sample:")
+        for name, value in differences.items():
+            print(f"  {name}: {value:.1e}")
     for note in notes:
         print(note)
-    if not args.skip_memory:
+    if not args.skip_memory and "margins" in chosen:
         count = 10_000 if args.quick else 100_000
         peak, elapsed = bench_memory(params, count)
         print(f"frequency-domain batch of {count:,} variants (chunk {DEFAULT_CHUNK}): "
               f"{elapsed:.1f} s under tracemalloc, peak traced memory {peak / 2**20:.0f} MiB")
+    if args.write_docs:
+        write_docs(rows, f"Measured {started} by `python benchmarks/run.py` on {machine()} "
+                   "(BLAS at one thread; load: the 1-minute load average before–after each "
+                   "row; whole processes after a warm-up run).\n\n")
 
 
 if __name__ == "__main__":

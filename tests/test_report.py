@@ -90,13 +90,14 @@ def test_linear_step_equals_python_controls(base):
     # exact discretisation one sample at a time; the two differ only by round-off, ~1e-13)
     import control
 
-    from cas_freq.model.systems import linear_model
+    from cas_freq.model.systems import closed_loop_matrices, linear_model
     from cas_freq.report.data import linear_steps, unit_step_response
 
     closed = linear_model(base.params, 6).closed_loop
     t = np.arange(3001) * 5e-6
     expected = np.asarray(control.step_response(closed, t).outputs, dtype=float)
-    assert np.max(np.abs(unit_step_response(closed, t.size, 5e-6) - expected)) < 1e-10
+    ours = unit_step_response(closed_loop_matrices(base.params, 6), t.size, 5e-6)
+    assert np.max(np.abs(ours - expected)) < 1e-10
     # several steps share one response when their grids are prefixes of the longest
     short, odd = t[:1001], np.arange(11) * 1e-5
     responses = linear_steps(base.params, [short, t, odd], [0.5, 2.0, 1.0], 6)
@@ -104,6 +105,53 @@ def test_linear_step_equals_python_controls(base):
     assert np.max(np.abs(responses[1] - 2.0 * expected)) < 1e-10
     other = np.asarray(control.step_response(closed, odd).outputs, dtype=float)
     assert np.max(np.abs(responses[2] - other)) < 1e-10
+
+
+@pytest.mark.parametrize("variant", ["base", "loaded", "sampled"])
+def test_closed_loop_matrices_and_zeros_are_python_controls(variant):
+    # T's matrices built without python-control are linear_model's T (python-control's
+    # StateSpace of the same matrices) to the bit, and its zeros are python-control's
+    # StateSpace.zeros (the same QZ call without slycot; sampled: mapped by ln z / T)
+    import control
+
+    from cas_freq.analysis.sampled_stability import z_to_s
+    from cas_freq.model.systems import closed_loop_matrices, closed_loop_zeros, linear_model
+
+    params = load_variant(None, variant).params
+    expected = linear_model(params, 8).closed_loop
+    closed = closed_loop_matrices(params, 8)
+    for ours, theirs in zip((closed.a, closed.b, closed.c, closed.d),
+                            (expected.A, expected.B, expected.C, expected.D), strict=True):
+        assert np.array_equal(ours, theirs)
+    assert closed.period == (expected.dt if expected.isdtime(strict=True) else None)
+    zeros = np.asarray(control.zeros(expected), complex)
+    zeros = zeros[np.isfinite(zeros)]
+    if closed.period is not None:
+        zeros = z_to_s(zeros, closed.period)
+    zeros = zeros[np.lexsort((zeros.imag, zeros.real))]
+    assert zeros.size > 0 and np.array_equal(closed_loop_zeros(params, 8), zeros)
+
+
+def test_linear_steps_and_zeros_do_not_import_python_control():
+    # the report's linear steps and zeros of T are numpy and scipy: python-control's import
+    # (~1 s, scipy.signal) is not paid by `cas-freq report`
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "import numpy as np\n"
+        "from cas_freq.config import load_variant\n"
+        "from cas_freq.model.systems import closed_loop_zeros\n"
+        "from cas_freq.report.data import linear_steps\n"
+        "for variant in ('base', 'sampled'):\n"
+        "    params = load_variant(None, variant).params\n"
+        "    (step,) = linear_steps(params, [np.arange(2001) * 5e-5], [0.1], 10)\n"
+        "    assert abs(step[-1] - 0.1) < 1e-3, step[-1]\n"
+        "    assert closed_loop_zeros(params, 10).size\n"
+        "assert 'control' not in sys.modules\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
 
 
 def test_reference_rows_show_the_configs_bench_numbers(data):

@@ -1,5 +1,10 @@
 """The actuator as python-control systems: Padé delays, composed in state space.
 
+python-control is imported by the functions that build its systems, not with this module:
+T's matrices and zeros (:func:`closed_loop_matrices`, :func:`closed_loop_zeros`), which the
+report and the design page need, are numpy and scipy only (importing python-control costs
+about 1 s: scipy.signal).
+
 Use these where a rational model is needed (poles, state space, linear time responses);
 frequency-domain figures come from :mod:`cas_freq.model.loops`, which this module also wraps as
 :class:`control.FrequencyResponseData` for exact delays. The plant and the controllers are those
@@ -12,14 +17,19 @@ eigenvalues are the closed-loop poles). The Padé delays are cascades of low-ord
 still give finite, accurate models.
 """
 
-import dataclasses
+from __future__ import annotations  # the annotations name control's classes
 
-import control
+import dataclasses
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from cas_freq.model import parts
 from cas_freq.model.delay import DEFAULT_PADE_ORDER
 from cas_freq.model.structure import build
+
+if TYPE_CHECKING:
+    import control
 
 
 def plant_system(params):
@@ -30,6 +40,8 @@ def plant_system(params):
     and ``output``, N delta [rad] (the output angle on the motor's scale: theta for a rigid
     gear).
     """
+    import control
+
     p = parts.one_variant(params)
     a, b = parts.plant_matrices(p)
     states = a.shape[1]
@@ -105,6 +117,8 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
     -------
     LinearModel
     """
+    import control
+
     from cas_freq.analysis import stability
     from cas_freq.model.sampled import is_sampled
 
@@ -130,9 +144,8 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
     top = loops[structure.loops[-1].name]
     loops["current_closed_loop"] = control.feedback(loops["current_loop"], 1)
     loops["sensitivity"] = control.feedback(control.ss([], [], [], [[1.0]]), top)
-    a, b, c, d = stability.loop_system(p, pade_order)
-    output = stability.SIGNAL_ROWS[structure.output]
-    loops["closed_loop"] = control.ss(a, b, c[output:output + 1], d[output:output + 1])
+    closed = closed_loop_matrices(p, pade_order)
+    loops["closed_loop"] = control.ss(closed.a, closed.b, closed.c, closed.d)
     named = {key: control.ss(system, name=name, inputs=signal_in, outputs=signal_out)
              for key, system in loops.items()
              for name, signal_in, signal_out in [LOOP_NAMES[key]]}
@@ -144,6 +157,8 @@ def _sampled_model(p, pade_order):
     at its own period (the inner loops of a multirate drive at theirs, broken with the slower
     loops open), T and S at the outermost loop's; the delays exact (whole samples and the
     hold-equivalent's fractional part, :mod:`cas_freq.analysis.sampled_stability`)."""
+    import control
+
     from cas_freq.analysis import sampled_stability, stability
 
     structure = build(p)
@@ -178,8 +193,89 @@ def _sampled_model(p, pade_order):
     return LinearModel(pade_order, held, **named)
 
 
-def closed_loop_zeros(params, pade_order):
-    """Zeros [rad/s] of python-control's T = δ/δ_cmd with Padé delays of ``pade_order``.
+@dataclasses.dataclass(frozen=True, eq=False)
+class ClosedLoopMatrices:
+    """T = δ/δ_cmd with Padé delays as state-space matrices (numpy; the matrices of
+    :func:`linear_model`'s ``closed_loop``).
+
+    Attributes
+    ----------
+    a, b, c, d : numpy.ndarray
+        State-space matrices of one input (the command) and one output (the output angle).
+    period : float or None
+        Sampling period [s] of sampled controllers (a discrete-time system), None when the
+        controllers are continuous.
+    """
+
+    a: np.ndarray
+    b: np.ndarray
+    c: np.ndarray
+    d: np.ndarray
+    period: float | None = None
+
+
+def closed_loop_matrices(params, pade_order=DEFAULT_PADE_ORDER):
+    """T's state-space matrices with Padé delays of ``pade_order`` (numpy only).
+
+    Continuous controllers: the declared structure closed
+    (:func:`cas_freq.analysis.stability.loop_system`); sampled ones: the outermost loop's
+    closed discrete-time system at its period
+    (:func:`cas_freq.analysis.sampled_stability.loop_systems`, delays exact). Read at the
+    output in both cases.
+
+    Parameters
+    ----------
+    params : cas_freq.config.ActuatorConfig or cas_freq.parameters.LoopParameters
+        One variant (SI).
+    pade_order : int
+        Padé order n >= 1 of every delay (continuous controllers).
+
+    Returns
+    -------
+    ClosedLoopMatrices
+    """
+    from cas_freq.analysis import stability
+    from cas_freq.model.sampled import is_sampled
+
+    p = parts.one_variant(params)
+    structure = build(p)
+    output = stability.SIGNAL_ROWS[structure.output]
+    if is_sampled(p):
+        from cas_freq.analysis import sampled_stability
+
+        top = sampled_stability.loop_systems(p)[structure.names[-1]]
+        a, b, c, d = (m[0] for m in top.closed)
+        period = top.period
+    else:
+        a, b, c, d = stability.loop_system(p, pade_order)
+        period = None
+    return ClosedLoopMatrices(a, b, c[output:output + 1], d[output:output + 1], period)
+
+
+def transmission_zeros(a, b, c, d):
+    """Finite zeros of a square system (A, B, C, D): the generalised eigenvalues of
+    ``[[A, B], [C, D]]`` against ``[[I, 0], [0, 0]]`` (the QZ algorithm), as python-control's
+    ``StateSpace.zeros`` computes them without slycot (the same scipy call, so the same numbers).
+
+    Returns
+    -------
+    numpy.ndarray
+        Complex zeros, in the order scipy gives them (infinite ones left out).
+    """
+    from scipy.linalg import eigvals
+
+    states = a.shape[0]
+    if not states:
+        return np.array([], dtype=complex)
+    pencil = np.block([[a, b], [c, d]]).astype(float)
+    identity = np.zeros_like(pencil)
+    identity[:states, :states] = np.eye(states)
+    zeros = np.asarray(eigvals(pencil, identity, overwrite_a=True), dtype=complex)
+    return zeros[~np.isinf(zeros)]
+
+
+def closed_loop_zeros(params, pade_order, closed=None):
+    """Zeros [rad/s] of T = δ/δ_cmd with Padé delays of ``pade_order`` (numpy and scipy).
 
     Parameters
     ----------
@@ -187,6 +283,8 @@ def closed_loop_zeros(params, pade_order):
         One variant.
     pade_order : int
         Padé order of both delays (that of the engine's poles).
+    closed : ClosedLoopMatrices, optional
+        :func:`closed_loop_matrices` of ``params`` at ``pade_order``, when already built.
 
     Returns
     -------
@@ -194,13 +292,14 @@ def closed_loop_zeros(params, pade_order):
         Complex zeros [rad/s], sorted by real part then imaginary part (sampled controllers:
         the z-plane zeros mapped by ln z / T, those at z = 0 left out).
     """
-    closed = linear_model(params, pade_order).closed_loop
-    zeros = np.asarray(control.zeros(closed), complex)
+    if closed is None:
+        closed = closed_loop_matrices(params, pade_order)
+    zeros = transmission_zeros(closed.a, closed.b, closed.c, closed.d)
     zeros = zeros[np.isfinite(zeros)]
-    if closed.isdtime(strict=True):  # sampled controllers: z-plane zeros, as the poles
+    if closed.period is not None:  # sampled controllers: z-plane zeros, as the poles
         from cas_freq.analysis.sampled_stability import z_to_s
 
-        zeros = z_to_s(zeros, closed.dt)
+        zeros = z_to_s(zeros, closed.period)
     return zeros[np.lexsort((zeros.imag, zeros.real))]
 
 
@@ -220,6 +319,8 @@ def exact_frequency_responses(loops, omega):
         Keys ``current_loop``, ``current_closed_loop``, ``position_loop``, ``sensitivity``,
         ``closed_loop``.
     """
+    import control
+
     omega = np.asarray(omega, dtype=float)
     s = 1j * omega
     names = ("current_loop", "current_closed_loop", "position_loop", "sensitivity", "closed_loop")

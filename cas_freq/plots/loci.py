@@ -18,8 +18,8 @@ the engine's, read from ``data.analysis``. What is drawn from them:
   (:func:`disk_margin_circle`). For :math:`\alpha \ge 2` the region is a half-plane or the
   outside of a circle; it is then not drawn (and said so).
 - **Pole-zero map**: the engine's poles of T (:attr:`cas_freq.analysis.Stability.poles`, the
-  Padé model of the stability verdict) and the zeros of python-control's T of the same Padé
-  order (:func:`cas_freq.model.systems.linear_model`).
+  Padé model of the stability verdict) and the zeros of T of the same Padé order
+  (:func:`cas_freq.model.systems.closed_loop_zeros`, python-control's ``zeros`` of that T).
 """
 
 import math
@@ -239,7 +239,7 @@ VIEW_SPAN = 2.5
 
 def closed_loop_zeros(data):
     """Zeros [rad/s] of T of a variant's data: those computed with its time-domain part
-    (:func:`cas_freq.report.data.gather_time`), else computed here (python-control)."""
+    (:func:`cas_freq.report.data.gather_time`), else computed here."""
     known = getattr(data, "closed_loop_zeros", None)  # data of the figure API may lack them
     if known is not None:
         return np.asarray(known, dtype=complex)

@@ -215,8 +215,8 @@ class VariantData:
     verdicts : tuple of dict or None
         Requirement verdicts of this variant; None when they were not evaluated.
     closed_loop_zeros : numpy.ndarray or None
-        Zeros of T [rad/s] with Padé delays of the stability verdict's order (python-control,
-        :func:`cas_freq.model.systems.closed_loop_zeros`), computed with the time-domain part
+        Zeros of T [rad/s] with Padé delays of the stability verdict's order
+        (:func:`cas_freq.model.systems.closed_loop_zeros`), computed with the time-domain part
         (None before it).
     """
 
@@ -352,7 +352,7 @@ def loop_frequency_range(analysis, margin=3.0):
 
 
 def unit_step_response(system, n_steps, dt):
-    r"""Output of a single-input single-output ``control.StateSpace`` to a unit step from rest,
+    r"""Output of a single-input single-output state-space system to a unit step from rest,
     at the times :math:`k\,\Delta t`, :math:`k = 0 \dots n-1`.
 
     The same discretisation as ``control.step_response`` on a uniform grid (the matrix
@@ -365,9 +365,10 @@ def unit_step_response(system, n_steps, dt):
 
     Parameters
     ----------
-    system : control.StateSpace
-        One input and one output; continuous-time, or discrete-time (sampled controllers:
-        its output samples, each held until the next, on the grid).
+    system : cas_freq.model.systems.ClosedLoopMatrices
+        One input and one output (``a, b, c, d``); continuous-time (``period`` None), or
+        discrete-time (sampled controllers: its output samples, each held until the next, on
+        the grid).
     n_steps : int
         Number of samples (>= 1).
     dt : float
@@ -382,12 +383,12 @@ def unit_step_response(system, n_steps, dt):
 
     from cas_freq.threads import one_blas_thread
 
-    a, b, c, d = (np.asarray(m, dtype=float) for m in (system.A, system.B, system.C, system.D))
+    a, b, c, d = (np.asarray(m, dtype=float) for m in (system.a, system.b, system.c, system.d))
     n = a.shape[0]
     if n == 0:
         return np.full(n_steps, float(d[0, 0]))
-    if system.isdtime(strict=True):  # sampled controllers: the output's samples, held
-        period = float(system.dt)
+    if system.period is not None:  # sampled controllers: the output's samples, held
+        period = float(system.period)
         count = int(np.floor((n_steps - 1) * dt / period + 1e-9)) + 1
         samples = _doubled(a, b[:, 0].copy(), c, d, count)
         return samples[np.floor(np.arange(n_steps) * dt / period + 1e-9).astype(int)]
@@ -416,7 +417,7 @@ def _doubled(power, offset, c, d, n_steps):
         return (c[0] @ states) + d[0, 0]
 
 
-def linear_steps(params, times, amplitudes_rad, pade_order):
+def linear_steps(params, times, amplitudes_rad, pade_order, closed=None):
     """Output-angle step responses [rad] of the linear closed loop T with Padé delays.
 
     One Padé model and one response per variant: every step is the unit step response on the
@@ -432,14 +433,18 @@ def linear_steps(params, times, amplitudes_rad, pade_order):
         Each step's size at the output [rad].
     pade_order : int
         Padé order of both delays.
+    closed : cas_freq.model.systems.ClosedLoopMatrices, optional
+        T of ``params`` at ``pade_order`` (:func:`~cas_freq.model.systems.closed_loop_matrices`)
+        when already built.
 
     Returns
     -------
     list of numpy.ndarray
     """
-    from cas_freq.model.systems import linear_model
+    from cas_freq.model.systems import closed_loop_matrices
 
-    closed = linear_model(params, pade_order).closed_loop
+    if closed is None:
+        closed = closed_loop_matrices(params, pade_order)
     times = [np.asarray(t, dtype=float) for t in times]
     longest = max(times, key=len)
     cache = {}
@@ -530,7 +535,7 @@ def gather_time(data, settings=ReportSettings(), verdicts=None, progress=None):
     """``data`` of :func:`gather_frequency` completed: **one** sine-dwell batch (with the
     nonlinear step of every amplitude), the linear steps, the requirement verdicts (parameters
     as :func:`gather_variant`)."""
-    from cas_freq.model.systems import closed_loop_zeros
+    from cas_freq.model.systems import closed_loop_matrices, closed_loop_zeros
     from cas_freq.simulation.run import sinedwell_run
     from cas_freq.simulation.step_figures import step_figures
 
@@ -541,8 +546,11 @@ def gather_time(data, settings=ReportSettings(), verdicts=None, progress=None):
     dwell = sinedwell_run(loaded, settings.amplitudes_rad, settings.frequencies_rad_s,
                           progress=progress, analysis=analysis, over_budget="skip")
     amplitudes = [math.radians(run.step.amplitude_deg) for run in dwell.steps]
+    # T with Padé delays, built once for the linear steps and the zeros when their orders agree
+    closed = {order: closed_loop_matrices(loaded.params, order)
+              for order in {settings.pade_order, analysis.stability.pade_order}}
     linear = linear_steps(loaded.params, [run.result.t for run in dwell.steps], amplitudes,
-                          settings.pade_order)
+                          settings.pade_order, closed[settings.pade_order])
     linear_figures = [step_figures(run.result.t, response, amplitude)
                       for run, response, amplitude in zip(dwell.steps, linear, amplitudes,
                                                           strict=True)]
@@ -552,7 +560,8 @@ def gather_time(data, settings=ReportSettings(), verdicts=None, progress=None):
         chosen = None if found is None else tuple(dict(v) for v in found)
     else:
         chosen = select_verdicts(verdicts, loaded)
-    zeros = closed_loop_zeros(loaded.params, analysis.stability.pade_order)
+    zeros = closed_loop_zeros(loaded.params, analysis.stability.pade_order,
+                              closed[analysis.stability.pade_order])
     return dataclasses.replace(data, dwell=dwell, linear_steps=tuple(linear),
                                linear_step_figures=tuple(linear_figures), verdicts=chosen,
                                closed_loop_zeros=zeros)
