@@ -415,6 +415,10 @@ class Engine:
         """How many samples the next ``n_steps`` steps record."""
         return recorded_rows(self.k + 1, n_steps, record_every)
 
+    def record_only(self, names):
+        """The compiled engine's choice of recorded signals; this engine computes and records
+        every signal anyway (the simulator keeps only ``names``)."""
+
     def advance_into(self, n_steps, record_every, floats, flags, offset):
         """:meth:`advance`, its samples copied into ``floats`` (the float signals of
         :attr:`signals` in order, n_runs, capacity) and ``flags`` (current_limited,

@@ -128,6 +128,20 @@ _FORWARD, _BACKDRIVE, _GAP, _HELD = mech.FORWARD, mech.BACKDRIVE, mech.GAP, mech
 
 # Rows of the float recordings (the bool ones are current_limited, voltage_limited).
 FLOAT_SIGNALS = SIGNALS[:7]
+#: The signals of the kernel's record mask, bit j for RECORDED[j] (:func:`record_mask`).
+RECORDED = SIGNALS
+
+
+def record_mask(names, loaded=False):
+    """The kernel's bit mask of the recorded signals ``names`` (None: every one).
+
+    theta is always recorded (the output angle, the settling check's); a loaded batch also
+    records omega (:func:`rigid_fin` derives the unloaded runs' fin rate from it).
+    """
+    names = set(RECORDED if names is None else names) | {"theta"}
+    if loaded:
+        names.add("omega")
+    return sum(1 << j for j, name in enumerate(RECORDED) if name in names)
 
 
 # --- delay lines (delay_line.py) --------------------------------------------------------------
@@ -564,27 +578,27 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
 @_jit(parallel=True, nogil=True)
 def advance_parallel(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                      right, left, k0, record_every, record_base, floats, flags,
-                     every_c, every_p, has_derivative, dt, q, ext):
+                     every_c, every_p, has_derivative, dt, q, ext, record):
     """:func:`advance_serial` with the runs shared among numba's threads (NUMBA_NUM_THREADS)."""
     for run in prange(x.shape[0]):
         if q is None:
             _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None, ext)
+                         flags, every_c, every_p, has_derivative, dt, None, ext, record)
         elif q[run, _Q_LOADED] != 0.0:
             _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, q, ext)
+                         flags, every_c, every_p, has_derivative, dt, q, ext, record)
         else:
             _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None, ext)
+                         flags, every_c, every_p, has_derivative, dt, None, ext, record)
 
 
 @_jit(nogil=True)
 def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                    right, left, k0, record_every, record_base, floats, flags,
-                   every_c, every_p, has_derivative, dt, q, ext):
+                   every_c, every_p, has_derivative, dt, q, ext, record):
     """Advance every run from step ``k0`` by ``len(right)`` steps (Engine._step, per run).
 
     Parameters
@@ -610,26 +624,30 @@ def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, curre
         as a batch without ``q``: numba prunes the loaded branches where ``q`` is None).
     ext : tuple or None
         The inner blocks, as for :func:`start_batch` (None: pruned likewise).
+    record : int
+        Bit mask of the signals written (bit j: :data:`RECORDED` [j], :func:`record_mask`);
+        the rows of the others are left as they were (recording every signal is about 40 %
+        of a step's time).
     """
     for r in range(x.shape[0]):
         if q is None:
             _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None, ext)
+                         flags, every_c, every_p, has_derivative, dt, None, ext, record)
         elif q[r, _Q_LOADED] != 0.0:
             _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, q, ext)
+                         flags, every_c, every_p, has_derivative, dt, q, ext, record)
         else:
             _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None, ext)
+                         flags, every_c, every_p, has_derivative, dt, None, ext, record)
 
 
 @_jit()
 def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                  right, left, k0, record_every, record_base, floats, flags,
-                 every_c, every_p, has_derivative, dt, q, ext):
+                 every_c, every_p, has_derivative, dt, q, ext, record):
     """Advance run ``r`` (arguments of :func:`advance_serial`).
 
     The run's states are held in local variables over the steps and written back at the end.
@@ -682,6 +700,12 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
     rec_theta, rec_omega, rec_i, rec_v = floats[0, r], floats[1, r], floats[2, r], floats[3, r]
     rec_angle, rec_i_cmd, rec_integral = floats[4, r], floats[5, r], floats[6, r]
     rec_p_limited, rec_c_limited = flags[0, r], flags[1, r]
+    # the signals asked for (record_mask; theta always, and theta, omega, delta and omega_L in
+    # a loaded batch)
+    want_omega, want_i, want_v = (record & 2) != 0, (record & 4) != 0, (record & 8) != 0
+    want_angle, want_i_cmd = (record & 16) != 0, (record & 32) != 0
+    want_integral, want_p_limited = (record & 64) != 0, (record & 128) != 0
+    want_c_limited = (record & 256) != 0
     # a loaded run (q given): fin states, constants and recordings (mechanics.py)
     w_l = d_l = w_before = 0.0
     compliant = False
@@ -933,15 +957,23 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
             voltage_left[r, slot] = v_left
         # 6. recording (SIGNALS)
         if k == next_record:
-            rec_theta[out] = th
-            rec_omega[out] = w
-            rec_i[out] = i
-            rec_v[out] = v
-            rec_angle[out] = angle
-            rec_i_cmd[out] = i_cmd
-            rec_integral[out] = cp_ki * p_int
-            rec_p_limited[out] = i_limited != 0.0
-            rec_c_limited[out] = c_limited != 0.0
+            rec_theta[out] = th  # always: the output angle
+            if want_omega:
+                rec_omega[out] = w
+            if want_i:
+                rec_i[out] = i
+            if want_v:
+                rec_v[out] = v
+            if want_angle:
+                rec_angle[out] = angle
+            if want_i_cmd:
+                rec_i_cmd[out] = i_cmd
+            if want_integral:
+                rec_integral[out] = cp_ki * p_int
+            if want_p_limited:
+                rec_p_limited[out] = i_limited != 0.0
+            if want_c_limited:
+                rec_c_limited[out] = c_limited != 0.0
             if q is not None:
                 rec_delta[out] = d_l
                 rec_omega_l[out] = w_l
