@@ -419,6 +419,10 @@ class Engine:
         """The compiled engine's choice of recorded signals; this engine computes and records
         every signal anyway (the simulator keeps only ``names``)."""
 
+    def stop(self, runs):
+        """The compiled engine stops advancing the runs where ``runs`` is True; this engine
+        advances every run anyway (the simulator blanks the stopped runs' samples)."""
+
     def advance_into(self, n_steps, record_every, floats, flags, offset):
         """:meth:`advance`, its samples copied into ``floats`` (the float signals of
         :attr:`signals` in order, n_runs, capacity) and ``flags`` (current_limited,

@@ -578,9 +578,11 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
 @_jit(parallel=True, nogil=True)
 def advance_parallel(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                      right, left, k0, record_every, record_base, floats, flags,
-                     every_c, every_p, has_derivative, dt, q, ext, record):
+                     every_c, every_p, has_derivative, dt, q, ext, record, active):
     """:func:`advance_serial` with the runs shared among numba's threads (NUMBA_NUM_THREADS)."""
     for run in prange(x.shape[0]):
+        if not active[run]:
+            continue
         if q is None:
             _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
@@ -598,7 +600,7 @@ def advance_parallel(p, m, x, s, voltage_right, voltage_left, current_right, cur
 @_jit(nogil=True)
 def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                    right, left, k0, record_every, record_base, floats, flags,
-                   every_c, every_p, has_derivative, dt, q, ext, record):
+                   every_c, every_p, has_derivative, dt, q, ext, record, active):
     """Advance every run from step ``k0`` by ``len(right)`` steps (Engine._step, per run).
 
     Parameters
@@ -628,8 +630,13 @@ def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, curre
         Bit mask of the signals written (bit j: :data:`RECORDED` [j], :func:`record_mask`);
         the rows of the others are left as they were (recording every signal is about 40 %
         of a step's time).
+    active : numpy.ndarray
+        Bool (n_runs,): the runs advanced; the others keep their states and recordings as
+        they were (a run that has stopped, :meth:`CompiledEngine.stop`).
     """
     for r in range(x.shape[0]):
+        if not active[r]:
+            continue
         if q is None:
             _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
