@@ -155,3 +155,21 @@ def test_recording_only_some_signals_keeps_them_exact(gains_batch):
     assert theta.i is None and theta.V is None and theta.voltage_limited is None
     with pytest.raises(ConfigError, match="signals: unknown signal 'current'"):
         simulate_batch(one, Step(AMPLITUDE), t_end=0.01, signals=("theta", "current"))
+
+
+@pytest.mark.parametrize("hinge", [0.0, 50.0])  # N*m/rad: unloaded, and loaded (the 5-state
+def test_a_held_command_row_gives_the_same_run(hinge, monkeypatch):  # plant's branch)
+    # after its start a step holds its value: the compiled engine passes one command row for
+    # all the steps of a call instead of one per step; every signal must be the same to the bit
+    from cas_freq.parameters import LoopParameters
+    from cas_freq.simulation.engine import CommandSet
+
+    runs = LoopParameters.from_config(load_variant().params).take([0, 0])
+    runs = dataclasses.replace(runs, K_h=np.array([0.0, hinge]))
+    held = simulate_batch(runs, Step(AMPLITUDE), t_end=0.02, extend=False, engine="compiled")
+    monkeypatch.setattr(CommandSet, "held_from", lambda self: math.inf)
+    rows = simulate_batch(runs, Step(AMPLITUDE), t_end=0.02, extend=False, engine="compiled")
+    for name in ("delta", "theta", "omega", "i", "V", "command", "current_command",
+                 "position_integral", "current_limited", "voltage_limited"):
+        np.testing.assert_array_equal(getattr(held, name), getattr(rows, name), err_msg=name)
+    assert np.isfinite(held.delta).all()

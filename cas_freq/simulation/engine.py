@@ -27,6 +27,8 @@ sampling method (:mod:`~cas_freq.simulation.controllers`); the filters after a s
 controller at its rate (:mod:`~cas_freq.simulation.architecture`).
 """
 
+import math
+
 import numpy as np
 
 from cas_freq.simulation import architecture
@@ -136,6 +138,14 @@ class CommandSet:
             return tuple(np.stack([np.broadcast_to(p[j], t.shape) for p in parts], axis=1)
                          for j in range(3))
         return self._shaped(self.commands.fin(t[:, None], left), t)
+
+    def held_from(self):
+        """The time [s] after which every command holds its value (both limits; a step after
+        its start), inf where it is not known to."""
+        if isinstance(self.commands, (list, tuple)):
+            return math.inf
+        held = getattr(self.commands, "held_from", None)
+        return math.inf if held is None else held()
 
     def fin_limits(self, t):
         """``(fin(t), fin(t, left=True))``, from one evaluation of the command where it can."""

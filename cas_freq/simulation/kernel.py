@@ -247,7 +247,7 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
 @_jit(parallel=True, nogil=True)
 def advance_parallel(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                      right, left, k0, record_every, record_base, floats, flags,
-                     every_c, every_p, has_derivative, dt, q, ext, record, active):
+                     every_c, every_p, has_derivative, dt, q, ext, record, active, n_steps):
     """:func:`advance_serial` with the runs shared among numba's threads (NUMBA_NUM_THREADS)."""
     for run in prange(x.shape[0]):
         if not active[run]:
@@ -255,22 +255,22 @@ def advance_parallel(p, m, x, s, voltage_right, voltage_left, current_right, cur
         if q is None:
             _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None, ext, record)
+                         flags, every_c, every_p, has_derivative, dt, None, ext, record, n_steps)
         elif q[run, _Q_LOADED] != 0.0:
             _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, q, ext, record)
+                         flags, every_c, every_p, has_derivative, dt, q, ext, record, n_steps)
         else:
             _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None, ext, record)
+                         flags, every_c, every_p, has_derivative, dt, None, ext, record, n_steps)
 
 
 @_jit(nogil=True)
 def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                    right, left, k0, record_every, record_base, floats, flags,
-                   every_c, every_p, has_derivative, dt, q, ext, record, active):
-    """Advance every run from step ``k0`` by ``len(right)`` steps (Engine._step, per run).
+                   every_c, every_p, has_derivative, dt, q, ext, record, active, n_steps):
+    """Advance every run from step ``k0`` by ``n_steps`` steps (Engine._step, per run).
 
     Parameters
     ----------
@@ -278,7 +278,8 @@ def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, curre
         As for :func:`start_batch`; the states are updated in place.
     right, left : numpy.ndarray
         Fin command (angle [rad], rate [rad/s], acceleration [rad/s^2]) at steps k0 + 1, ...,
-        right and left limits, shape (n_steps, 3, 1 or n_runs).
+        right and left limits, shape (n_steps, 3, 1 or n_runs), or (1, 3, 1 or n_runs) for a
+        command that holds its value over these steps (a step after its start).
     k0 : int
         Step index at the start.
     record_every, record_base : int
@@ -302,6 +303,8 @@ def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, curre
     active : numpy.ndarray
         Bool (n_runs,): the runs advanced; the others keep their states and recordings as
         they were (a run that has stopped, :meth:`CompiledEngine.stop`).
+    n_steps : int
+        Steps to advance.
     """
     for r in range(x.shape[0]):
         if not active[r]:
@@ -309,21 +312,21 @@ def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, curre
         if q is None:
             _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None, ext, record)
+                         flags, every_c, every_p, has_derivative, dt, None, ext, record, n_steps)
         elif q[r, _Q_LOADED] != 0.0:
             _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, q, ext, record)
+                         flags, every_c, every_p, has_derivative, dt, q, ext, record, n_steps)
         else:
             _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None, ext, record)
+                         flags, every_c, every_p, has_derivative, dt, None, ext, record, n_steps)
 
 
 @_jit()
 def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                  right, left, k0, record_every, record_base, floats, flags,
-                 every_c, every_p, has_derivative, dt, q, ext, record):
+                 every_c, every_p, has_derivative, dt, q, ext, record, n_steps):
     """Advance run ``r`` (arguments of :func:`advance_serial`).
 
     The run's states are held in local variables over the steps and written back at the end.
@@ -335,7 +338,7 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
     :func:`_current_update`) are written out here on scalars and on the run's rows, with the
     same operations in the same order (the same numbers to the bit).
     """
-    n_steps = right.shape[0]
+    one_row = right.shape[0] == 1  # the command's rows: one for every step
     sampled_p, sampled_c = every_p > 0, every_c > 0
     period_p, period_c = dt * max(every_p, 1), dt * max(every_c, 1)
     m_c, m_p, f_c, f_p = m[r, 0], m[r, 1], p[r, _F_C], p[r, _F_P]
@@ -409,6 +412,7 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
             i_limited = ext[1][r, arch.S_LIMITED]
     for row in range(n_steps):
         k = k0 + row
+        c_row = 0 if one_row else row
         # 1. voltage at the terminals over [t_k, t_k+1]: the current controller's output
         #    delayed by tau_c, linear over the step (held for a sampled controller)
         if sampled_c:
@@ -548,16 +552,17 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
                 gs[r, arch.S_A_U] = measured
                 measured = y + g[r, at + m_a * m_a + 3 * m_a] * measured
         # 4. position controller at t_k+1 (§4), its output into the delay line tau_p
-        angle = ratio * right[row, 0, col]
-        ff = ff_v * (ratio * right[row, 1, col]) + ff_a * (ratio * right[row, 2, col])
+        angle = ratio * right[c_row, 0, col]
+        ff = ff_v * (ratio * right[c_row, 1, col]) + ff_a * (ratio * right[c_row, 2, col])
         p_due = not sampled_p or k == next_p
         if p_due:
             angle_left, ff_left = angle, ff
             if sampled_p:
                 next_p += every_p
             else:
-                angle_left = ratio * left[row, 0, col]
-                ff_left = ff_v * (ratio * left[row, 1, col]) + ff_a * (ratio * left[row, 2, col])
+                angle_left = ratio * left[c_row, 0, col]
+                ff_left = (ff_v * (ratio * left[c_row, 1, col])
+                           + ff_a * (ratio * left[c_row, 2, col]))
             e_right = angle - measured
             e_left = angle_left - measured
             if on_measurement:  # derivative on the measurement: acts on -theta
@@ -576,8 +581,8 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
             if not sampled_p:
                 current_left[r, slot] = u_left
         else:  # velocity loop and filters
-            acc_right = right[row, 2, col]
-            acc_left = acc_right if sampled_p else left[row, 2, col]
+            acc_right = right[c_row, 2, col]
+            acc_left = acc_right if sampled_p else left[c_row, 2, col]
             cmd_left, cmd_right, limited = _inner(ext, r, k, ratio, w, u_left, u_p, acc_left,
                                                   acc_right, p_due, sampled_p, dt, False)
             if ext[0][r, arch.CASCADE] != 0.0:
