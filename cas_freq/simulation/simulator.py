@@ -792,8 +792,9 @@ def simulate(params, command, **options):
 
 def prepare_kernels(params):
     """Have the compiled simulation kernels in this process: batches of ``params`` (an
-    ActuatorConfig) without a load and with a load spring, a few steps each, and a step fit
-    (the kernels' signatures of steps and fits, loaded and not); nothing with the reference
+    ActuatorConfig) without a load and with a load spring, a few steps each, a step fit and
+    the step figures of a batch (the kernels' signatures of steps, figures and fits, loaded
+    and not); nothing with the reference
     engine.
 
     For a process about to fork workers that simulate (``cas-freq report``'s load envelope):
@@ -816,3 +817,11 @@ def prepare_kernels(params):
         simulate_batch(batch, Step(1e-3), t_end=1e-4, extend=False)
     t = np.linspace(0.0, 0.1, 101)
     fit_second_order(t, 1.0 - np.exp(-50.0 * t), 1.0)
+    # the step figures of a batch (studies.steps.chunk_step_figures): its recorded signals
+    # are the whole buffers (C-contiguous) or views of their first columns
+    from cas_freq.simulation.figure_kernel import step_figures_batch
+
+    y, flags = np.ones((2, t.size)), np.zeros((2, t.size), dtype=bool)
+    sizes = np.full(2, t.size - 1)
+    for cut in (slice(None), slice(0, t.size - 1)):
+        step_figures_batch(t, y, sizes, 1.0, y[:, cut], y[:, cut], flags[:, cut], flags[:, cut])
