@@ -72,12 +72,12 @@ from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.architecture import LOOPS
 from cas_freq.simulation.controllers import METHODS
 from cas_freq.simulation.engine import (
-    FLAG_SIGNALS,
     LOAD_SIGNALS,
     SIGNALS,
     CommandSet,
     Engine,
 )
+from cas_freq.simulation.recording import Recording, RecordingBuffers  # noqa: F401 (re-exported)
 
 #: Largest default step [s].
 MAX_DEFAULT_STEP_S = 20e-6
@@ -503,114 +503,6 @@ def _settled(t, delta, command, final, t_from, compiled=False):
     return np.all(np.abs(delta[:, window] - final[:, None]) <= band[:, None], axis=1)
 
 
-class RecordingBuffers:
-    """Memory that successive batches record into, kept between them (a study's chunks).
-
-    A batch of 32 runs over the extended 0.2 s horizon records about 75 MB. Fresh memory for
-    every chunk costs the operating system's page faults and zeroing, and the horizon's
-    extension a copy into a buffer twice as large; kept here, the next chunk writes into
-    memory already mapped, sized from the start for the longest horizon seen. A result's
-    signals are views into this memory, valid until the next batch that records into the same
-    buffers: take what is needed (figures, copies) before starting it.
-    """
-
-    def __init__(self):
-        self._blocks = {}  # dtype -> the largest flat block handed out
-        self.capacity = 0  # most columns a batch has recorded
-
-    def array(self, shape, dtype):
-        """A C-contiguous array of ``shape`` in the kept block of ``dtype`` (grown if needed)."""
-        dtype = np.dtype(dtype)
-        size = math.prod(shape)
-        block = self._blocks.get(dtype)
-        if block is None or block.size < size:
-            block = self._blocks[dtype] = np.empty(size, dtype=dtype)
-        return block[:size].reshape(shape)
-
-
-class _Recording:
-    """The recorded signals of a batch, in buffers the compiled kernel writes into directly.
-
-    Floats (n_float_signals, n_runs, capacity) and flags (2, n_runs, capacity); ``size``
-    columns filled. A horizon extension grows the buffers (doubling, so every sample is copied
-    at most about once more). With :class:`RecordingBuffers`, the buffers come from there,
-    sized for the longest horizon that they have recorded.
-    """
-
-    def __init__(self, names, n_runs, capacity, buffers=None, limit=None):
-        self.names = names
-        self.limit = limit  # most columns the batch can record (its horizon's cap)
-        self.floats_names = [name for name in names if name not in FLAG_SIGNALS]
-        self.buffers = buffers
-        if buffers is not None:
-            capacity = buffers.capacity = max(capacity, buffers.capacity)
-        self.floats = self._array((len(self.floats_names), n_runs, capacity), float)
-        self.flags = self._array((len(FLAG_SIGNALS), n_runs, capacity), bool)
-        self.times = []
-        self.size = 0
-
-    def _array(self, shape, dtype):
-        if self.buffers is None:
-            return np.empty(shape, dtype=dtype)
-        return self.buffers.array(shape, dtype)
-
-    def reserve(self, capacity):
-        """Make room for ``capacity`` columns in all."""
-        if capacity <= self.floats.shape[2]:
-            return
-        doubled = 2 * self.floats.shape[2]
-        capacity = max(capacity, doubled if self.limit is None else min(doubled, self.limit))
-        for attr in ("floats", "flags"):
-            old = getattr(self, attr)
-            new = np.empty(old.shape[:2] + (capacity,), dtype=old.dtype)
-            new[:, :, :self.size] = old[:, :, :self.size]
-            setattr(self, attr, new)
-        if self.buffers is not None:
-            self.buffers.capacity = max(self.buffers.capacity, capacity)
-
-    def append(self, t, signals):
-        """Copy in the samples at times ``t`` [s], ``signals`` name -> (n_runs, len(t))."""
-        count = len(t)
-        self.reserve(self.size + count)
-        end = self.size + count
-        for row, name in enumerate(self.floats_names):
-            self.floats[row, :, self.size:end] = signals[name]
-        for row, name in enumerate(FLAG_SIGNALS):
-            self.flags[row, :, self.size:end] = signals[name]
-        self.times.append(np.asarray(t, dtype=float))
-        self.size = end
-
-    def advance(self, engine, steps, record_every):
-        """Advance ``engine`` by ``steps``, its samples written here (the compiled kernel
-        writes them itself, the reference engine copies them in)."""
-        rows = engine.recorded_rows(steps, record_every)
-        self.reserve(self.size + rows)
-        self.times.append(engine.advance_into(steps, record_every, self.floats, self.flags,
-                                              self.size))
-        self.size += rows
-
-    def blank(self, runs, start, names):
-        """NaN (False for the flags) in the signals ``names`` of ``runs`` (bool, n_runs) from
-        column ``start`` on: the samples of runs that stopped."""
-        if not runs.any() or start >= self.size:
-            return
-        for row, name in enumerate(self.floats_names):
-            if name in names:
-                self.floats[row, runs, start:self.size] = np.nan
-        for row, name in enumerate(FLAG_SIGNALS):
-            if name in names:
-                self.flags[row, runs, start:self.size] = False
-
-    def signals(self):
-        """(times [s], name -> (n_runs, size) views) of everything recorded."""
-        if len(self.times) > 1:
-            self.times = [np.concatenate(self.times)]
-        out = {name: self.floats[row, :, :self.size]
-               for row, name in enumerate(self.floats_names)}
-        out.update({name: self.flags[row, :, :self.size] for row, name in enumerate(FLAG_SIGNALS)})
-        return self.times[0], {name: out[name] for name in self.names}
-
-
 def _advance(engine, recording, done, target, record_every, progress):
     """Advance the engine from step ``done`` to ``target``, reporting progress in pieces."""
     pieces = 50 if progress else 1
@@ -722,7 +614,7 @@ def simulate_batch(
     first = dict(zip(names, engine.start(), strict=True))
     # every signal (n_runs, n_samples): the engines record run by run
     columns = [1 + int(round(end / dt)) // record_every + 1 for end in (t_end, cap)]
-    recording = _Recording(names, n, columns[0], buffers, limit=columns[1])
+    recording = Recording(names, n, columns[0], buffers, limit=columns[1])
     recording.append([0.0], {name: value[:, None] for name, value in first.items()})
     steps_done, horizon = 0, t_end
     extended = False
