@@ -173,3 +173,23 @@ def test_a_held_command_row_gives_the_same_run(hinge, monkeypatch):  # plant's b
                  "position_integral", "current_limited", "voltage_limited"):
         np.testing.assert_array_equal(getattr(held, name), getattr(rows, name), err_msg=name)
     assert np.isfinite(held.delta).all()
+
+
+def test_fit_sums_of_chosen_rows_equal_those_of_copied_rows():
+    # the Levenberg-Marquardt iteration passes the rows of the runs still iterating instead of
+    # copies of their data: the same sums to the bit (each run's sums are its own)
+    from cas_freq.jit import use_compiled
+
+    if not use_compiled():
+        pytest.skip("numba is not importable: the numpy reference copies the rows")
+    from cas_freq.simulation.fit_kernel import normal_equations, normal_equations_of
+
+    t = np.tile(np.linspace(0.0, 0.05, 400), (4, 1))
+    unit = np.array([_second_order(t[0], zeta) for zeta in (0.3, 0.6, 0.8, 0.95)])
+    rows = np.array([3, 1, 1, 0])
+    p = np.array([[1.0, 0.5, 0.1], [0.9, 0.6, 0.0], [1.1, 0.7, 0.2], [1.0, 1.3, 0.05]])
+    scale = np.tile([300.0, 1.0, 1e-3], (4, 1))
+    got = normal_equations_of(t, unit, rows, p, scale)
+    expected = normal_equations(t[rows], unit[rows], p, scale)
+    for a, b in zip(got, expected, strict=True):
+        np.testing.assert_array_equal(a, b)
