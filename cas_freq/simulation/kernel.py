@@ -24,7 +24,8 @@ one machine-code loop, ``prange`` over the runs. Per step :math:`t_k \to t_{k+1}
    filters at the current command (:func:`_inner`) before the delay line read in step 4.
 4. **Current controller** (§3): PI on the delayed current command, clamp to ±v_max,
    anti-windup; its output enters the delay line τc.
-5. Every ``record_every`` steps the signals of :data:`~cas_freq.simulation.engine.SIGNALS`.
+5. Every ``record_every`` steps the signals of :data:`~cas_freq.simulation.engine.SIGNALS`
+   asked for (:func:`record_mask`; theta always).
 
 Sampled controllers (§9 item 8) update every ``n`` steps and are held in between, each loop at
 its own period (the velocity controller's and the filters after a sampled controller in the

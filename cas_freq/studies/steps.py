@@ -20,7 +20,8 @@ from cas_freq.simulation.second_order import fit_second_order_batch
 from cas_freq.simulation.simulator import RecordingBuffers, simulate_batch
 from cas_freq.simulation.step_figures import simulation_step_figures
 
-#: Runs simulated together: memory is about 10 signals x 8 B x samples (up to 80,001) per run.
+#: Runs simulated together: memory is about 10 signals x 8 B x samples (up to 80,001) per run
+#: (the kernel writes only :data:`STEP_SIGNALS` of them).
 DEFAULT_STEP_CHUNK = 32
 
 #: Figure names (as in ``simulate --json``: ``step.*`` and ``fit.*``).
