@@ -147,10 +147,10 @@ def _signatures():
     process (compiled, or loaded from numba's cache)."""
     from numba.core.registry import CPUDispatcher
 
-    from cas_freq.simulation import fit_kernel, kernel
+    from cas_freq.simulation import figure_kernel, fit_kernel, kernel
 
     return {(module.__name__, name, signature)
-            for module in (kernel, fit_kernel)
+            for module in (kernel, fit_kernel, figure_kernel)
             for name, function in vars(module).items() if isinstance(function, CPUDispatcher)
             for signature in function.overloads}
 

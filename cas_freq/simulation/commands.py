@@ -59,6 +59,10 @@ class Step:
         """The value the command holds at the end [rad]."""
         return np.asarray(self.amplitude_rad, dtype=float)
 
+    def held_from(self):
+        """The time [s] after which the command holds its value (the latest start)."""
+        return float(np.max(self.start_s))
+
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class Ramp:

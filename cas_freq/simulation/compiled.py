@@ -71,6 +71,20 @@ class CompiledEngine:
         self.voltage = (np.zeros((n, slots_c)), np.zeros((n, slots_c)))
         self.current = (np.zeros((n, slots_p)), np.zeros((n, slots_p)))
         self.k = 0
+        self.record = kernel.record_mask(None, loaded)
+        self.active = np.ones(n, dtype=np.bool_)
+        #: After this time [s] the commands hold their values (CommandSet.held_from).
+        self.held_from = commands.held_from()
+
+    def record_only(self, names):
+        """Record only the signals ``names`` (and theta; theta and omega in a loaded batch)
+        from now on; the other rows of the recordings are not written."""
+        self.record = kernel.record_mask(names, self.q is not None)
+
+    def stop(self, runs):
+        """Advance the runs where ``runs`` (bool, n_runs) is True no further: their states and
+        recordings stay as they are."""
+        self.active &= ~np.asarray(runs, dtype=bool)
 
     def _rows(self, times):
         """Fin command rows at ``times``: right and left limits, each (len(t), 3, columns)."""
@@ -133,11 +147,14 @@ class CompiledEngine:
         try:
             for start in range(first, first + n_steps, block):
                 stop = min(start + block, first + n_steps)
-                right, left = self._rows(np.arange(start, stop) * self.dt)
+                times = np.arange(start, stop) * self.dt
+                if times[0] > self.held_from:  # one row holds for every step of the call
+                    times = times[:1]
+                right, left = self._rows(times)
                 # the kernel writes sample j of this call at column j - (base - offset)
                 advance(*self._args(), right, left, start - 1, record_every, base - offset,
                         floats, flags, self.every_c, self.every_p, self.has_derivative,
-                        self.dt, q, self.ext)
+                        self.dt, q, self.ext, self.record, self.active, stop - start)
                 self.k = stop - 1
         finally:
             if parallel:

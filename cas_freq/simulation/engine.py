@@ -27,6 +27,8 @@ sampling method (:mod:`~cas_freq.simulation.controllers`); the filters after a s
 controller at its rate (:mod:`~cas_freq.simulation.architecture`).
 """
 
+import math
+
 import numpy as np
 
 from cas_freq.simulation import architecture
@@ -136,6 +138,14 @@ class CommandSet:
             return tuple(np.stack([np.broadcast_to(p[j], t.shape) for p in parts], axis=1)
                          for j in range(3))
         return self._shaped(self.commands.fin(t[:, None], left), t)
+
+    def held_from(self):
+        """The time [s] after which every command holds its value (both limits; a step after
+        its start), inf where it is not known to."""
+        if isinstance(self.commands, (list, tuple)):
+            return math.inf
+        held = getattr(self.commands, "held_from", None)
+        return math.inf if held is None else held()
 
     def fin_limits(self, t):
         """``(fin(t), fin(t, left=True))``, from one evaluation of the command where it can."""
@@ -414,6 +424,14 @@ class Engine:
     def recorded_rows(self, n_steps, record_every=1):
         """How many samples the next ``n_steps`` steps record."""
         return recorded_rows(self.k + 1, n_steps, record_every)
+
+    def record_only(self, names):
+        """The compiled engine's choice of recorded signals; this engine computes and records
+        every signal anyway (the simulator keeps only ``names``)."""
+
+    def stop(self, runs):
+        """The compiled engine stops advancing the runs where ``runs`` is True; this engine
+        advances every run anyway (the simulator blanks the stopped runs' samples)."""
 
     def advance_into(self, n_steps, record_every, floats, flags, offset):
         """:meth:`advance`, its samples copied into ``floats`` (the float signals of

@@ -35,13 +35,25 @@ def _series(x, coefficients):
 
 @cached_jit(nogil=True)
 def normal_equations(t, unit, p, scale):
-    """Sum of squares, J^T J and J^T r of the unit-step residuals of k runs.
+    """Sum of squares, J^T J and J^T r of the unit-step residuals of k runs
+    (:func:`normal_equations_of` of every row of ``t`` and ``unit``)."""
+    return normal_equations_of(t, unit, np.arange(t.shape[0]), p, scale)
+
+
+@cached_jit(nogil=True)
+def normal_equations_of(t, unit, rows, p, scale):
+    """Sum of squares, J^T J and J^T r of the unit-step residuals of k runs, run i on the
+    data of row ``rows[i]`` (no copy of the data of the runs still iterating).
 
     Parameters
     ----------
-    t, unit, p, scale : numpy.ndarray
+    t, unit : numpy.ndarray
         As in :func:`~cas_freq.simulation.second_order._residuals_and_jacobian`: times [s] and
-        unit responses (k, m), scaled variables and their scales (k, 3).
+        unit responses, shape (rows, m).
+    rows : numpy.ndarray
+        The data row of each run, shape (k,).
+    p, scale : numpy.ndarray
+        Scaled variables and their scales (k, 3).
 
     Returns
     -------
@@ -52,7 +64,7 @@ def normal_equations(t, unit, p, scale):
     gradient : numpy.ndarray
         J^T r, shape (k, 3).
     """
-    k, m = t.shape
+    k, m = rows.shape[0], t.shape[1]
     cost = np.zeros(k)
     normal = np.zeros((k, 3, 3))
     gradient = np.zeros((k, 3))
@@ -65,8 +77,9 @@ def normal_equations(t, unit, p, scale):
         d_wn = scale[run, 0]
         d_td = -(wn * scale[run, 2])
         rr = a00 = a01 = a02 = a11 = a12 = a22 = g0 = g1 = g2 = 0.0
+        row = rows[run]
         for j in range(m):
-            tau = max(t[run, j] - td, 0.0)
+            tau = max(t[row, j] - td, 0.0)
             s = wn * tau
             x = q * s * s
             if abs(x) < 1.0:  # near s = 0 (all of a run at zeta = 1): the series
@@ -86,7 +99,7 @@ def normal_equations(t, unit, p, scale):
                 ec = 0.5 * (slow + fast)
                 es = (0.5 / root) * (slow - fast)
                 ed = (s * ec - es) / q
-            r = (1.0 - (ec + zeta * es)) - unit[run, j]
+            r = (1.0 - (ec + zeta * es)) - unit[row, j]
             j0 = es * tau * d_wn
             j1 = ed
             j2 = es * d_td

@@ -24,7 +24,8 @@ one machine-code loop, ``prange`` over the runs. Per step :math:`t_k \to t_{k+1}
    filters at the current command (:func:`_inner`) before the delay line read in step 4.
 4. **Current controller** (§3): PI on the delayed current command, clamp to ±v_max,
    anti-windup; its output enters the delay line τc.
-5. Every ``record_every`` steps the signals of :data:`~cas_freq.simulation.engine.SIGNALS`.
+5. Every ``record_every`` steps the signals of :data:`~cas_freq.simulation.engine.SIGNALS`
+   asked for (:func:`record_mask`; theta always).
 
 Sampled controllers (§9 item 8) update every ``n`` steps and are held in between, each loop at
 its own period (the velocity controller's and the filters after a sampled controller in the
@@ -33,6 +34,9 @@ operation is written in the order of the reference, so that a single run gives t
 numbers to the last bit or nearly (the clamp flags where an output rests exactly at its limit
 depend on the last bit); in a batch the reference's shortcuts are taken for the whole batch at
 once and may round a run differently by an ulp.
+
+The columns of the tables and the blocks the loop inlines (delay lines, controllers, inner
+blocks) are in :mod:`~cas_freq.simulation.kernel_blocks`.
 
 The state lives in numpy arrays between calls (the engine of :mod:`cas_freq.simulation.compiled`
 builds the tables with :func:`parameter_table`), so the simulator can
@@ -62,6 +66,81 @@ from cas_freq.simulation.engine import (
     SIGNALS,
     plant_step_matrices,
 )
+from cas_freq.simulation.kernel_blocks import (
+    _BACKDRIVE,
+    _BACKWARD,
+    _C_E,
+    _C_INT,
+    _C_LIMITED,
+    _C_REST,
+    _C_V,
+    _C_V_LEFT,
+    _CI_KI,
+    _CI_KP,
+    _CP_A,
+    _CP_B,
+    _CP_C,
+    _CP_GD,
+    _CP_KI,
+    _CP_KP,
+    _F_C,
+    _F_P,
+    _FF_A,
+    _FF_V,
+    _FORWARD,
+    _GA,
+    _GAP,
+    _GB,
+    _HELD,
+    _I_CMD,
+    _I_MAX,
+    _M_A1,
+    _M_B1,
+    _M_GA,
+    _M_GB,
+    _M_H,
+    _M_PHI,
+    _NP,
+    _NS,
+    _ON_MEASUREMENT,
+    _P_E,
+    _P_FILTER,
+    _P_INT,
+    _P_LIMITED,
+    _P_REST,
+    _P_U,
+    _P_U_LEFT,
+    _P_Y,
+    _PER_MODE,
+    _PHI,
+    _Q_B_L,
+    _Q_C_G,
+    _Q_COMPLIANT,
+    _Q_E_BACK,
+    _Q_E_FORWARD,
+    _Q_F_C,
+    _Q_HALF,
+    _Q_J_L,
+    _Q_K_G,
+    _Q_K_H,
+    _Q_LOADED,
+    _Q_TAU_H,
+    _RATIO,
+    _THETA_CMD,
+    _V,
+    _V_MAX,
+    _W_BEFORE,
+    _chain,
+    _command,
+    _controller_update,
+    _current_update,
+    _from_rest,
+    _inner,
+    _position_update,
+    _push,
+    _read,
+    _sign,
+)
 
 # numba's threading layer: workqueue unless NUMBA_THREADING_LAYER chooses. The default order
 # picks GNU OpenMP where present, and a process forked after a parallel kernel ran (a
@@ -72,420 +151,25 @@ if "NUMBA_THREADING_LAYER" not in os.environ:
     numba.config.THREADING_LAYER = "workqueue"
 
 
-# Columns of the parameter table ``p`` (n_runs, _NP), one row per run.
-_PHI = 0  # Phi, row-major, 9 columns
-_GA = 9  # G_a, 3 columns
-_GB = 12  # G_b, 3 columns
-_RATIO = 15  # gear ratio N [-]
-_FF_V = 16  # feed-forward of the command rate [A*s/rad]
-_FF_A = 17  # feed-forward of the command acceleration [A*s^2/rad]
-_CP_KP = 18  # position loop Kp [A/rad]
-_CP_KI = 19  # position loop Ki [A/(rad*s)]
-_CP_GD = 20  # derivative gain Kd/Tf [A/rad] (0 without derivative)
-_CP_A = 21  # derivative filter coefficients a, b, c (controllers.py)
-_CP_B = 22
-_CP_C = 23
-_I_MAX = 24  # current command limit [A]
-_CI_KP = 25  # current loop Kp [V/A]
-_CI_KI = 26  # current loop Ki [V/(A*s)]
-_V_MAX = 27  # voltage limit [V]
-_F_C = 28  # fractional part of tau_c / dt
-_F_P = 29  # fractional part of tau_p / dt
-_ON_MEASUREMENT = 30  # 1.0 where the derivative acts on -theta
-_BACKWARD = 31  # 1.0 where sampled controllers integrate by the backward difference
-_NP = 32
-
-# Columns of the controller state ``s`` (n_runs, _NS).
-_P_INT = 0  # position controller: integral of the error [rad*s]
-_P_FILTER = 1  # derivative filter state x_f [rad]
-_P_E = 2  # error at the last update (right limit) [rad]
-_P_Y = 3  # derivative input at the last update (right limit) [rad]
-_P_REST = 4  # output without the integral term at the last update (right limit) [A]
-_P_U_LEFT = 5  # output (current command), left and right limits [A]
-_P_U = 6
-_P_LIMITED = 7  # 1.0 where the right-limit output was clamped
-_C_INT = 8  # current controller: integral of the error [A*s]
-_C_E = 9  # error at the last update [A]
-_C_REST = 10  # output without the integral term at the last update [V]
-_C_V_LEFT = 11  # output (voltage command), left and right limits [V]
-_C_V = 12
-_C_LIMITED = 13  # 1.0 where the right-limit output was clamped
-_I_CMD = 14  # current command read at the current controller [A]
-_V = 15  # voltage at the motor terminals at the present step (right limit) [V]
-_THETA_CMD = 16  # motor-angle command at the present step [rad]
-_W_BEFORE = 17  # motor speed one step earlier [rad/s] (loaded runs)
-_NS = 18
-
-# The loaded plant's table (mechanics.table): per mode, the matrices; then the run's constants.
-_PER_MODE = mech._PER_MODE
-_M_PHI, _M_GA, _M_GB, _M_H, _M_A1, _M_B1 = mech.PHI, mech.GA, mech.GB, mech.H, mech.A1, mech.B1
-_Q_COMPLIANT, _Q_K_G, _Q_HALF, _Q_TAU_H = (mech.COMPLIANT, mech.K_G, mech.HALF_PLAY,
-                                           mech.TAU_H)
-_Q_J_L, _Q_B_L, _Q_K_H, _Q_F_C = mech.J_LOAD, mech.B_LOAD, mech.K_HINGE, mech.F_COULOMB
-_Q_E_FORWARD, _Q_E_BACK, _Q_LOADED = mech.E_FORWARD, mech.E_BACK, mech.LOADED
-_Q_C_G, _Q_RATIO = mech.C_G, mech.RATIO
-_FORWARD, _BACKDRIVE, _GAP, _HELD = mech.FORWARD, mech.BACKDRIVE, mech.GAP, mech.HELD
-
 # Rows of the float recordings (the bool ones are current_limited, voltage_limited).
 FLOAT_SIGNALS = SIGNALS[:7]
+#: The signals of the kernel's record mask, bit j for RECORDED[j] (:func:`record_mask`).
+RECORDED = SIGNALS
 
 
-# --- delay lines (delay_line.py) --------------------------------------------------------------
+def record_mask(names, loaded=False):
+    """The kernel's bit mask of the recorded signals ``names`` (None: every one).
 
-@_jit(inline="always")  # numba-level: array arguments cost a call
-def _sample(buffer, r, j):
-    """Sample ``j`` of run ``r`` from a ring buffer of 2**n slots (0 before t = 0)."""
-    if j < 0:
-        return 0.0
-    return buffer[r, j & (buffer.shape[1] - 1)]
-
-
-@_jit(inline="always")  # numba-level: array arguments cost a call
-def _read(right, left, r, m, f, q, latest, want_left, hold):
-    """Delayed signal at t_q, delay (m + f) dt, newest sample ``latest`` (DelayLine.read).
-
-    Interpolating line: ``(1 - f) u^-[q - m] + f u^+[q - m - 1]`` (for f = 0 the right or left
-    limit of sample q - m); a read ahead of the newest sample holds it. Holding line:
-    ``u[q - m - 1]`` if f > 0 or for the left limit, else ``u[q - m]``.
+    theta is always recorded (the output angle, the settling check's); a loaded batch also
+    records omega (:func:`rigid_fin` derives the unloaded runs' fin rate from it).
     """
-    if hold:
-        shift = 1 if (want_left or f > 0.0) else 0
-        return _sample(right, r, min(q - m - shift, latest))
-    j = q - m
-    if j > latest:  # ahead of the newest sample (a delay below one step): hold it
-        return _sample(right, r, latest)
-    if f == 0.0:
-        return _sample(left if want_left else right, r, j)
-    return (1.0 - f) * _sample(left, r, j) + f * _sample(right, r, j - 1)
-
-
-@_jit(inline="always")  # numba-level: array arguments cost a call
-def _push(right, left, r, k, u_right, u_left, hold):
-    """Store sample ``k`` of run ``r``: right and left limits (DelayLine.push)."""
-    slot = k & (right.shape[1] - 1)
-    right[r, slot] = u_right
-    if not hold:
-        left[r, slot] = u_left
-
-
-# --- controllers (controllers.py) -------------------------------------------------------------
-
-@_jit()
-def _clip_unit(x):
-    """``x`` clipped to [0, 1]; NaN stays NaN (as np.minimum(np.maximum(x, 0), 1))."""
-    if x < 0.0:
-        return 0.0
-    if x > 1.0:
-        return 1.0
-    return x
-
-
-@_jit()
-def _sign(x):
-    if x > 0.0:
-        return 1.0
-    if x < 0.0:
-        return -1.0
-    return x  # 0 (or NaN)
-
-
-@_jit()
-def _clamp(u, limit):
-    return min(max(u, -limit), limit)
-
-
-@_jit(inline="always")
-def _acceleration(q, r, mode, i, w, th, w_l, d_l, tau_m, tau_l):
-    """The motor's acceleration [rad/s^2] in ``mode`` (mechanics.Drivetrain._acceleration)."""
-    a1, b1 = mode * _PER_MODE + _M_A1, mode * _PER_MODE + _M_B1
-    return (q[r, a1] * i + q[r, a1 + 1] * w + q[r, a1 + 2] * th + q[r, a1 + 3] * w_l
-            + q[r, a1 + 4] * d_l + q[r, b1] * tau_m + q[r, b1 + 1] * tau_l)
-
-
-@_jit(inline="always")
-def _from_rest(q, r, mode, i, w, th, w_l, d_l, dz, c, tau_l, dt):
-    """The mode of a shaft at rest, ``mode`` elsewhere (mechanics.Drivetrain._from_rest)."""
-    ratio = q[r, _Q_RATIO]
-    compliant = q[r, _Q_COMPLIANT] != 0.0
-    k_g, c_g = q[r, _Q_K_G], q[r, _Q_C_G]
-    j_l, b_l, k_h, tau_h = q[r, _Q_J_L], q[r, _Q_B_L], q[r, _Q_K_H], q[r, _Q_TAU_H]
-    delta = th / ratio
-    acc = _acceleration(q, r, _FORWARD, i, w, th, w_l, d_l, -(q[r, _Q_E_FORWARD] * c) / ratio,
-                        tau_l)
-    if not abs(w) <= abs(acc) * dt:
-        return mode
-    rate = acc * dt / ratio
-    if compliant:
-        power = (k_g * dz + c_g * (rate - w_l)) * rate
-    else:
-        power = (j_l * acc / ratio + b_l * rate + k_h * delta - tau_h) * rate
-    if power >= 0.0:
-        return _FORWARD
-    acc = _acceleration(q, r, _BACKDRIVE, i, w, th, w_l, d_l, -(q[r, _Q_E_BACK] * c) / ratio,
-                        tau_l)
-    rate = acc * dt / ratio
-    if compliant:
-        power = (k_g * dz + c_g * (rate - w_l)) * rate
-    else:
-        power = (j_l * acc / ratio + b_l * rate + k_h * delta - tau_h) * rate
-    return _BACKDRIVE if power < 0.0 else _HELD
-
-
-@_jit(inline="always")
-def _anti_windup(integral, e_start, e_end, rest_start, rest_end, ki, limit, period, locate,
-                 backward):
-    """New integral, conditional integration (controllers.integrate_with_anti_windup).
-
-    With ``locate`` (continuous controllers) the instants where the clamp starts or ends inside
-    the update are located on the output held at the old integral, and only the unclamped part
-    is integrated; then an increment that would carry the output beyond the limit integrates
-    only up to it (docs/model.md §3, anti-windup). ``backward``: a sampled controller's
-    increment ``period * e_end`` instead of the trapezoidal rule.
-    """
-    if backward:
-        increment = period * e_end
-    else:
-        increment = 0.5 * period * (e_start + e_end)
-    trial = integral + increment
-    u_trial = rest_end + ki * trial
-    if locate:
-        held = ki * integral
-        held_start = rest_start + held
-        held_end = rest_end + held
-        if abs(u_trial) > limit or abs(held_start) > limit or abs(held_end) > limit:
-            side = _sign(e_start + e_end)  # the direction the integral moves the output
-            u_start, u_end = side * held_start, side * held_end
-            over_start, over_end = u_start > limit, u_end > limit
-            cross = _clip_unit((limit - u_start) / (u_end - u_start))
-            steady = e_start * e_end >= 0  # else: the error changes sign; decide at the end
-            s0 = cross if (steady and over_start and not over_end) else 0.0
-            s1 = 1.0
-            if steady and over_end:
-                s1 = 0.0 if over_start else cross
-            s0 = min(s0, s1)
-            slope = e_end - e_start
-            increment = 0.5 * period * (s1 - s0) * (2 * e_start + slope * (s0 + s1))
-            trial = integral + increment
-            u_trial = rest_end + ki * trial
-    if abs(u_trial) > limit and increment * u_trial > 0:
-        # only the fraction of the increment that brings the output to the limit
-        step = ki * increment
-        if step == 0.0:
-            return integral
-        edge = _sign(u_trial) * limit
-        fraction = _clip_unit((edge - rest_end - ki * integral) / step)
-        return integral + fraction * increment
-    return trial
-
-
-@_jit(inline="always")
-def _controller_update(
-    integral, state, e_before, y_before, rest_before, e_left, e_right, y_left, y_right,
-    ff_left, ff_right, advance, kp, ki, gain_d, a, b, c, has_derivative, limit, period, locate,
-    backward,
-):
-    r"""One update of a PI(D) controller with clamp and anti-windup (Controller.update).
-
-    :math:`u = K_p e + K_i \int e + (K_d/T_f)(y - x_f) + u_{ff}`, the filter state advanced by
-    :math:`x_f^+ = a x_f + b y^- + c (y^+ - y^-)`, the integral by the trapezoidal rule with
-    anti-windup (``backward``: a sampled controller's backward difference, ``T e_n``); from the
-    inputs' left limits (end of the interval) and right limits (from now on). ``advance``
-    False: the first outputs of a continuous controller (states stay).
-
-    Returns
-    -------
-    tuple of float
-        integral, filter state, error, derivative input, rest (right limits, for the next
-        update), clamped output's left and right limits, and 1.0 if the right one was clamped.
-    """
-    rest_left = kp * e_left
-    rest_right = kp * e_right
-    if has_derivative:
-        if advance:
-            state = a * state + b * y_before + c * (y_left - y_before)
-        rest_left = rest_left + gain_d * (y_left - state)
-        rest_right = rest_right + gain_d * (y_right - state)
-        y_before = y_right
-    rest_left = rest_left + ff_left
-    rest_right = rest_right + ff_right
-    if advance:
-        integral = _anti_windup(
-            integral, e_before, e_left, rest_before, rest_left, ki, limit, period, locate,
-            backward,
-        )
-    ki_integral = ki * integral
-    u_left = _clamp(rest_left + ki_integral, limit)
-    u_right = rest_right + ki_integral
-    limited = 0.0
-    if abs(u_right) > limit:
-        limited = 1.0
-        u_right = _clamp(u_right, limit)
-    return integral, state, e_right, y_before, rest_right, u_left, u_right, limited
-
-
-# --- the inner blocks: velocity loop and filters (architecture.py) ----------------------------
-
-@_jit(inline="always")  # numba-level: array arguments cost a call
-def _chain(g, gs, r, start, m, z, u_a, u_b):
-    """Step the filter chain of order ``m`` whose table starts at column ``start`` of ``g``
-    (its states at columns ``z`` .. ``z + m`` of ``gs``, scratch after them) over one step
-    for an input linear from ``u_a`` to ``u_b`` (FilterState.step); returns C z_k+1."""
-    g_a, g_b, c = start + m * m, start + m * m + m, start + m * m + 2 * m
-    for i in range(m):
-        acc = 0.0
-        for j in range(m):
-            acc += g[r, start + i * m + j] * gs[r, z + j]
-        acc += g[r, g_a + i] * u_a
-        acc += g[r, g_b + i] * u_b
-        gs[r, z + m + i] = acc
-    y = 0.0
-    for i in range(m):
-        gs[r, z + i] = gs[r, z + m + i]
-        y += g[r, c + i] * gs[r, z + i]
-    return y
-
-
-@_jit(inline="always")  # numba-level: array arguments cost a call
-def _inner(ext, r, k, ratio, w, u_left, u_right, acc_left, acc_right, p_due, hold_p, dt,
-           first):
-    """The blocks between the position controller and the current loop at step ``k``
-    (Engine._inner_update): the position controller's output limits (``u_left``,
-    ``u_right``) through the velocity loop (a cascade: delay line tau_p, PI on the filtered
-    motor speed ``w`` with its feed-forward of the command's acceleration ``acc`` [rad/s^2 at
-    the output]) and the filters at the current command. ``p_due``: the position controller
-    updated at this step; ``hold_p``: it is sampled (the velocity line holds). A sampled
-    commander (the velocity controller, or the position controller without one) and the
-    filters after it update every ``g[r, COMMANDER_EVERY]`` steps and hold in between.
-    ``first``: the outputs at t = 0.
-
-    Returns
-    -------
-    tuple of float
-        The current command's left and right limits [A], and 1.0 where the velocity
-        controller's right-limit output was clamped (else the value passed in the state).
-    """
-    g, gs, m_v, line_right, line_left = ext
-    m_path, m_sensor = int(g[r, arch.PATH_ORDER]), int(g[r, arch.SENSOR_ORDER])
-    cascade = g[r, arch.CASCADE] != 0.0
-    if cascade:
-        _push(line_right, line_left, r, k, u_right, u_left, hold_p)
-    every = int(g[r, arch.COMMANDER_EVERY])  # the commander's period (0: continuous)
-    if cascade:
-        due = every == 0 or k % every == 0
-    else:
-        due = p_due
-    if not (first or due):  # a sampled commander's output (and the filters after it) held
-        return gs[r, arch.S_CMD_LEFT], gs[r, arch.S_CMD], gs[r, arch.S_LIMITED]
-    if cascade:
-        f_v = g[r, arch.V_FRACTION]
-        sampled_v = every > 0
-        w_cmd = _read(line_right, line_left, r, m_v[r], f_v, k, k, False, hold_p)
-        w_cmd_left = w_cmd
-        if not (hold_p or sampled_v):
-            w_cmd_left = _read(line_right, line_left, r, m_v[r], f_v, k, k, True, hold_p)
-        measured = w
-        if m_sensor > 0:
-            start = arch.PATH + m_path * m_path + 3 * m_path + 1  # arch.chain_columns
-            d = g[r, start + m_sensor * m_sensor + 3 * m_sensor]
-            y = 0.0
-            if not first:
-                y = _chain(g, gs, r, start, m_sensor, arch.S_PATH + 2 * m_path,
-                           gs[r, arch.S_SENSOR_U], w)
-            gs[r, arch.S_SENSOR_U] = w
-            measured = y + d * w
-        ff_a = g[r, arch.V_FF_A]
-        if sampled_v:  # a sampler sees the values from now on
-            acc_left = acc_right
-        (gs[r, arch.S_INT], _, gs[r, arch.S_E], _, gs[r, arch.S_REST], u_left, u_right,
-         gs[r, arch.S_LIMITED]) = _controller_update(
-            gs[r, arch.S_INT], 0.0, gs[r, arch.S_E], 0.0, gs[r, arch.S_REST],
-            w_cmd_left - measured, w_cmd - measured, 0.0, 0.0, ff_a * (ratio * acc_left),
-            ff_a * (ratio * acc_right), (not first) or sampled_v, g[r, arch.V_KP],
-            g[r, arch.V_KI], 0.0, 0.0, 0.0, 0.0, False, g[r, arch.V_LIMIT],
-            dt * max(every, 1), not sampled_v, sampled_v and g[r, arch.V_BACKWARD] != 0.0,
-        )
-        if sampled_v:  # held: no jump within an update
-            u_left = u_right
-    if m_path > 0:
-        d = g[r, arch.PATH + m_path * m_path + 3 * m_path]
-        y = 0.0
-        if not first:
-            y = _chain(g, gs, r, arch.PATH, m_path, arch.S_PATH, gs[r, arch.S_PATH_U], u_left)
-        gs[r, arch.S_PATH_U] = u_right
-        u_left, u_right = y + d * u_left, y + d * u_right
-    gs[r, arch.S_CMD_LEFT], gs[r, arch.S_CMD] = u_left, u_right
-    return u_left, u_right, gs[r, arch.S_LIMITED]
+    names = set(RECORDED if names is None else names) | {"theta"}
+    if loaded:
+        names.add("omega")
+    return sum(1 << j for j, name in enumerate(RECORDED) if name in names)
 
 
 # --- one run: start and steps -----------------------------------------------------------------
-
-@_jit(inline="always")  # numba-level: array arguments cost a call
-def _position_update(p, r, theta, angle_left, angle_right, ff_left, ff_right, integral, state,
-                     e_before, y_before, rest_before, advance, has_derivative, period, locate,
-                     backward):
-    """Position controller of run ``r`` on the motor angle ``theta`` (docs/model.md §4).
-
-    Returns the outputs of :func:`_controller_update` (the output is the current command [A]).
-    """
-    e_right = angle_right - theta
-    e_left = angle_left - theta
-    if p[r, _ON_MEASUREMENT] != 0.0:  # derivative on the measurement: acts on -theta
-        y_left = y_right = -theta
-    else:
-        y_left, y_right = e_left, e_right
-    return _controller_update(
-        integral, state, e_before, y_before, rest_before,
-        e_left, e_right, y_left, y_right, ff_left, ff_right, advance,
-        p[r, _CP_KP], p[r, _CP_KI], p[r, _CP_GD], p[r, _CP_A], p[r, _CP_B], p[r, _CP_C],
-        has_derivative, p[r, _I_MAX], period, locate, backward,
-    )
-
-
-@_jit(inline="always")  # numba-level: array arguments cost a call
-def _current_update(p, r, i, k, current_right, current_left, m_p, hold_p, sampled, integral,
-                    e_before, rest_before, advance, period, backward):
-    """Current controller of run ``r`` on the command delayed by tau_p (docs/model.md §3).
-
-    Returns
-    -------
-    tuple of float
-        integral, error and rest (for the next update), the output's left and right limits
-        [V], 1.0 if clamped, and the current command read [A].
-    """
-    f_p = p[r, _F_P]
-    i_cmd = _read(current_right, current_left, r, m_p, f_p, k, k, False, hold_p)
-    e_right = i_cmd - i
-    e_left = e_right
-    if not sampled:
-        e_left = _read(current_right, current_left, r, m_p, f_p, k, k, True, hold_p) - i
-    integral, _, e, _, rest, v_left, v_right, limited = _controller_update(
-        integral, 0.0, e_before, 0.0, rest_before, e_left, e_right, 0.0, 0.0, 0.0, 0.0,
-        advance, p[r, _CI_KP], p[r, _CI_KI], 0.0, 0.0, 0.0, 0.0, False, p[r, _V_MAX], period,
-        not sampled, backward,
-    )
-    if sampled:  # held: no jump within an update
-        v_left = v_right
-    return integral, e, rest, v_left, v_right, limited, i_cmd
-
-
-@_jit(inline="always")  # numba-level: array arguments cost a call
-def _command(p, commands, r, row):
-    """Motor-angle command and feed-forward [rad], [A] of run ``r`` from a row of fin values.
-
-    ``commands[row]`` holds the fin angle, rate and acceleration (one column for every run, or
-    one per run) [rad], [rad/s], [rad/s^2]; feed-forward i_ff = FFv d(theta_cmd)/dt +
-    FFa d2(theta_cmd)/dt2 (docs/model.md §4).
-    """
-    col = 0
-    if commands.shape[2] > 1:
-        col = r
-    ratio = p[r, _RATIO]
-    angle = ratio * commands[row, 0, col]
-    ff = p[r, _FF_V] * (ratio * commands[row, 1, col]) + p[r, _FF_A] * (
-        ratio * commands[row, 2, col]
-    )
-    return angle, ff
-
 
 @_jit()
 def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
@@ -564,28 +248,30 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
 @_jit(parallel=True, nogil=True)
 def advance_parallel(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                      right, left, k0, record_every, record_base, floats, flags,
-                     every_c, every_p, has_derivative, dt, q, ext):
+                     every_c, every_p, has_derivative, dt, q, ext, record, active, n_steps):
     """:func:`advance_serial` with the runs shared among numba's threads (NUMBA_NUM_THREADS)."""
     for run in prange(x.shape[0]):
+        if not active[run]:
+            continue
         if q is None:
             _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None, ext)
+                         flags, every_c, every_p, has_derivative, dt, None, ext, record, n_steps)
         elif q[run, _Q_LOADED] != 0.0:
             _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, q, ext)
+                         flags, every_c, every_p, has_derivative, dt, q, ext, record, n_steps)
         else:
             _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None, ext)
+                         flags, every_c, every_p, has_derivative, dt, None, ext, record, n_steps)
 
 
 @_jit(nogil=True)
 def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                    right, left, k0, record_every, record_base, floats, flags,
-                   every_c, every_p, has_derivative, dt, q, ext):
-    """Advance every run from step ``k0`` by ``len(right)`` steps (Engine._step, per run).
+                   every_c, every_p, has_derivative, dt, q, ext, record, active, n_steps):
+    """Advance every run from step ``k0`` by ``n_steps`` steps (Engine._step, per run).
 
     Parameters
     ----------
@@ -593,7 +279,8 @@ def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, curre
         As for :func:`start_batch`; the states are updated in place.
     right, left : numpy.ndarray
         Fin command (angle [rad], rate [rad/s], acceleration [rad/s^2]) at steps k0 + 1, ...,
-        right and left limits, shape (n_steps, 3, 1 or n_runs).
+        right and left limits, shape (n_steps, 3, 1 or n_runs), or (1, 3, 1 or n_runs) for a
+        command that holds its value over these steps (a step after its start).
     k0 : int
         Step index at the start.
     record_every, record_base : int
@@ -610,26 +297,37 @@ def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, curre
         as a batch without ``q``: numba prunes the loaded branches where ``q`` is None).
     ext : tuple or None
         The inner blocks, as for :func:`start_batch` (None: pruned likewise).
+    record : int
+        Bit mask of the signals written (bit j: :data:`RECORDED` [j], :func:`record_mask`);
+        the rows of the others are left as they were (recording every signal is about 40 %
+        of a step's time).
+    active : numpy.ndarray
+        Bool (n_runs,): the runs advanced; the others keep their states and recordings as
+        they were (a run that has stopped, :meth:`CompiledEngine.stop`).
+    n_steps : int
+        Steps to advance.
     """
     for r in range(x.shape[0]):
+        if not active[r]:
+            continue
         if q is None:
             _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None, ext)
+                         flags, every_c, every_p, has_derivative, dt, None, ext, record, n_steps)
         elif q[r, _Q_LOADED] != 0.0:
             _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, q, ext)
+                         flags, every_c, every_p, has_derivative, dt, q, ext, record, n_steps)
         else:
             _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
                          current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None, ext)
+                         flags, every_c, every_p, has_derivative, dt, None, ext, record, n_steps)
 
 
 @_jit()
 def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, current_left,
                  right, left, k0, record_every, record_base, floats, flags,
-                 every_c, every_p, has_derivative, dt, q, ext):
+                 every_c, every_p, has_derivative, dt, q, ext, record, n_steps):
     """Advance run ``r`` (arguments of :func:`advance_serial`).
 
     The run's states are held in local variables over the steps and written back at the end.
@@ -641,7 +339,7 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
     :func:`_current_update`) are written out here on scalars and on the run's rows, with the
     same operations in the same order (the same numbers to the bit).
     """
-    n_steps = right.shape[0]
+    one_row = right.shape[0] == 1  # the command's rows: one for every step
     sampled_p, sampled_c = every_p > 0, every_c > 0
     period_p, period_c = dt * max(every_p, 1), dt * max(every_c, 1)
     m_c, m_p, f_c, f_p = m[r, 0], m[r, 1], p[r, _F_C], p[r, _F_P]
@@ -682,6 +380,12 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
     rec_theta, rec_omega, rec_i, rec_v = floats[0, r], floats[1, r], floats[2, r], floats[3, r]
     rec_angle, rec_i_cmd, rec_integral = floats[4, r], floats[5, r], floats[6, r]
     rec_p_limited, rec_c_limited = flags[0, r], flags[1, r]
+    # the signals asked for (record_mask; theta always, and theta, omega, delta and omega_L in
+    # a loaded batch)
+    want_omega, want_i, want_v = (record & 2) != 0, (record & 4) != 0, (record & 8) != 0
+    want_angle, want_i_cmd = (record & 16) != 0, (record & 32) != 0
+    want_integral, want_p_limited = (record & 64) != 0, (record & 128) != 0
+    want_c_limited = (record & 256) != 0
     # a loaded run (q given): fin states, constants and recordings (mechanics.py)
     w_l = d_l = w_before = 0.0
     compliant = False
@@ -709,6 +413,7 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
             i_limited = ext[1][r, arch.S_LIMITED]
     for row in range(n_steps):
         k = k0 + row
+        c_row = 0 if one_row else row
         # 1. voltage at the terminals over [t_k, t_k+1]: the current controller's output
         #    delayed by tau_c, linear over the step (held for a sampled controller)
         if sampled_c:
@@ -848,16 +553,17 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
                 gs[r, arch.S_A_U] = measured
                 measured = y + g[r, at + m_a * m_a + 3 * m_a] * measured
         # 4. position controller at t_k+1 (§4), its output into the delay line tau_p
-        angle = ratio * right[row, 0, col]
-        ff = ff_v * (ratio * right[row, 1, col]) + ff_a * (ratio * right[row, 2, col])
+        angle = ratio * right[c_row, 0, col]
+        ff = ff_v * (ratio * right[c_row, 1, col]) + ff_a * (ratio * right[c_row, 2, col])
         p_due = not sampled_p or k == next_p
         if p_due:
             angle_left, ff_left = angle, ff
             if sampled_p:
                 next_p += every_p
             else:
-                angle_left = ratio * left[row, 0, col]
-                ff_left = ff_v * (ratio * left[row, 1, col]) + ff_a * (ratio * left[row, 2, col])
+                angle_left = ratio * left[c_row, 0, col]
+                ff_left = (ff_v * (ratio * left[c_row, 1, col])
+                           + ff_a * (ratio * left[c_row, 2, col]))
             e_right = angle - measured
             e_left = angle_left - measured
             if on_measurement:  # derivative on the measurement: acts on -theta
@@ -876,8 +582,8 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
             if not sampled_p:
                 current_left[r, slot] = u_left
         else:  # velocity loop and filters
-            acc_right = right[row, 2, col]
-            acc_left = acc_right if sampled_p else left[row, 2, col]
+            acc_right = right[c_row, 2, col]
+            acc_left = acc_right if sampled_p else left[c_row, 2, col]
             cmd_left, cmd_right, limited = _inner(ext, r, k, ratio, w, u_left, u_p, acc_left,
                                                   acc_right, p_due, sampled_p, dt, False)
             if ext[0][r, arch.CASCADE] != 0.0:
@@ -933,15 +639,23 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
             voltage_left[r, slot] = v_left
         # 6. recording (SIGNALS)
         if k == next_record:
-            rec_theta[out] = th
-            rec_omega[out] = w
-            rec_i[out] = i
-            rec_v[out] = v
-            rec_angle[out] = angle
-            rec_i_cmd[out] = i_cmd
-            rec_integral[out] = cp_ki * p_int
-            rec_p_limited[out] = i_limited != 0.0
-            rec_c_limited[out] = c_limited != 0.0
+            rec_theta[out] = th  # always: the output angle
+            if want_omega:
+                rec_omega[out] = w
+            if want_i:
+                rec_i[out] = i
+            if want_v:
+                rec_v[out] = v
+            if want_angle:
+                rec_angle[out] = angle
+            if want_i_cmd:
+                rec_i_cmd[out] = i_cmd
+            if want_integral:
+                rec_integral[out] = cp_ki * p_int
+            if want_p_limited:
+                rec_p_limited[out] = i_limited != 0.0
+            if want_c_limited:
+                rec_c_limited[out] = c_limited != 0.0
             if q is not None:
                 rec_delta[out] = d_l
                 rec_omega_l[out] = w_l

@@ -138,7 +138,11 @@ def distinct_exponentials(matrices):
     """
     shape = matrices.shape
     size = shape[-1]
-    unique, inverse = np.unique(matrices.reshape(-1, size * size), axis=0, return_inverse=True)
+    flat = matrices.reshape(-1, size * size)
+    if flat.shape[0] == 1:  # one matrix (a single run): nothing to share
+        unique, inverse = flat, np.zeros(1, dtype=int)
+    else:
+        unique, inverse = np.unique(flat, axis=0, return_inverse=True)
     with one_blas_thread():
         exponentials = expm(unique.reshape(-1, size, size))
     return exponentials[inverse.reshape(-1)].reshape(shape)

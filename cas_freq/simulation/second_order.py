@@ -369,20 +369,25 @@ def _normal_equations(residuals, jacobian):
             np.einsum("kim,km->ki", jacobian, residuals))
 
 
-def _normal_equations_at(t, unit, p, scale):
+def _normal_equations_at(t, unit, p, scale, rows=None):
     """Sum of squares (k,), J^T J (k, 3, 3) and J^T r (k, 3) at the scaled variables ``p``.
 
-    Computed by the compiled :func:`cas_freq.simulation.fit_kernel.normal_equations`, in one
-    pass over the samples; ``_normal_equations(*_residuals_and_jacobian(...))`` is its numpy
-    reference (the same to ~1e-15 relative), used with ``CAS_FREQ_ENGINE=reference`` or
+    Computed by the compiled :func:`cas_freq.simulation.fit_kernel.normal_equations_of`, in
+    one pass over the samples; ``_normal_equations(*_residuals_and_jacobian(...))`` is its
+    numpy reference (the same to ~1e-15 relative), used with ``CAS_FREQ_ENGINE=reference`` or
     without numba (:func:`cas_freq.jit.use_compiled`). Arguments as in
-    :func:`_residuals_and_jacobian`.
+    :func:`_residuals_and_jacobian`; with ``rows`` (k,), run i is fitted to the data of row
+    ``rows[i]`` of ``t`` and ``unit`` (default: row i).
     """
     if not use_compiled():
+        if rows is not None:
+            t, unit = t[rows], unit[rows]
         return _normal_equations(*_residuals_and_jacobian(t, unit, p, scale))
-    from cas_freq.simulation.fit_kernel import normal_equations
+    from cas_freq.simulation.fit_kernel import normal_equations_of
 
-    return normal_equations(*(np.ascontiguousarray(a, dtype=float) for a in (t, unit, p, scale)))
+    t, unit, p, scale = (np.ascontiguousarray(a, dtype=float) for a in (t, unit, p, scale))
+    rows = np.arange(t.shape[0]) if rows is None else np.asarray(rows, dtype=np.int64)
+    return normal_equations_of(t, unit, rows, p, scale)
 
 
 def _levenberg_marquardt(t, unit, p, scale, upper, max_iterations):
@@ -438,8 +443,8 @@ def _levenberg_marquardt(t, unit, p, scale, upper, max_iterations):
         delta, stuck = _solve_steps(system, np.where(held, 0.0, -g))
         trial = np.clip(x + delta, _LOWER, hi)
         step = trial - x
-        cost_new, normal_new, gradient_new = _normal_equations_at(t[active], unit[active], trial,
-                                                                  scale[active])
+        cost_new, normal_new, gradient_new = _normal_equations_at(t, unit, trial, scale[active],
+                                                                  rows=active)
         predicted = -(2.0 * np.einsum("ki,ki->k", g, step)
                       + np.einsum("ki,kij,kj->k", step, A, step))
         old = cost[active]
@@ -621,8 +626,8 @@ def _refine(t, unit, p, scale, upper, iterations=4):
     # the gradient alone).
     h = 1e-6 * np.maximum(np.abs(p), 1.0)
     probes = (p[:, None, :] + np.eye(3)[None] * h[:, None, :]).reshape(3 * k, 3)
-    _, _, g3 = _normal_equations_at(np.repeat(t, 3, axis=0), np.repeat(unit, 3, axis=0),
-                                    probes, np.repeat(scale, 3, axis=0))
+    _, _, g3 = _normal_equations_at(t, unit, probes, np.repeat(scale, 3, axis=0),
+                                    rows=np.repeat(np.arange(k), 3))
     g3 = g3.reshape(k, 3, 3)  # [run, probe j, component i]
     hessian = ((g3 - gradient[:, None, :]) / h[:, :, None]).transpose(0, 2, 1)
     hessian = 0.5 * (hessian + hessian.transpose(0, 2, 1))

@@ -71,7 +71,13 @@ from cas_freq.jit import ENGINE_ENV, ENGINES, engine_name  # noqa: F401 (re-expo
 from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.architecture import LOOPS
 from cas_freq.simulation.controllers import METHODS
-from cas_freq.simulation.engine import FLAG_SIGNALS, CommandSet, Engine
+from cas_freq.simulation.engine import (
+    LOAD_SIGNALS,
+    SIGNALS,
+    CommandSet,
+    Engine,
+)
+from cas_freq.simulation.recording import Recording, RecordingBuffers  # noqa: F401 (re-exported)
 
 #: Largest default step [s].
 MAX_DEFAULT_STEP_S = 20e-6
@@ -192,6 +198,12 @@ class BatchResult(_Signals):
     def __len__(self):
         return self.delta.shape[0]
 
+    def sizes(self):
+        """Samples of each run cut at its own horizon (:meth:`run`), shape (n_runs,)."""
+        if self.t_end_runs is None:
+            return np.full(len(self), self.t.size)
+        return np.searchsorted(self.t, self.t_end_runs + 0.5 * self.dt_s, side="right")
+
     def run(self, index):
         """Run ``index`` as a :class:`SimulationResult`."""
         t, t_end, extended = self.t, self.t_end_s, self.extended
@@ -201,7 +213,8 @@ class BatchResult(_Signals):
             keep = slice(0, int(np.searchsorted(t, t_end + 0.5 * self.dt_s, side="right")))
             t = t[keep]
             extended = t_end > self.first_t_end_s * (1 + 1e-12)
-        fields = {name: getattr(self, name)[index][keep] for name in _ARRAYS}
+        fields = {name: None if getattr(self, name) is None else getattr(self, name)[index][keep]
+                  for name in _ARRAYS}
         settled = None if self.settled is None else bool(self.settled[index])
         omega_l = None if self.omega_L is None else self.omega_L[index][keep]
         return SimulationResult(
@@ -457,112 +470,37 @@ def _settling_facts(commands, n_runs):
     return True, float(end), np.concatenate(finals) if listed else finals[0]
 
 
-def _settled(t, delta, command, final, t_from):
+def _kept_signals(names, asked):
+    """The recorded signals of ``names``: those ``asked`` (None: all) and the output's."""
+    if asked is None:
+        return set(names)
+    asked = set(asked)
+    unknown = sorted(asked - set(SIGNALS))
+    if unknown:
+        raise ConfigError(f"signals: unknown signal {unknown[0]!r} (the signals: "
+                          f"{', '.join(SIGNALS)})")
+    return (asked | {"theta", "theta_cmd"} | set(LOAD_SIGNALS)) & set(names)
+
+
+def _settled(t, delta, command, final, t_from, compiled=False):
     """Per run: delta within the band around ``final`` for every sample at t >= t_from.
 
-    ``delta`` and ``command`` are (n_runs, n_samples) [rad], ``final`` (n_runs,) [rad].
+    ``delta`` and ``command`` are (n_runs, n_samples) [rad], ``final`` (n_runs,) [rad];
+    ``compiled``: by :func:`~cas_freq.simulation.figure_kernel.settled_runs` (the same
+    verdicts, scanning each run back from its end), else in numpy.
     """
+    if compiled:
+        from cas_freq.simulation.figure_kernel import settled_runs
+
+        start = int(np.searchsorted(t, t_from, side="left"))
+        return settled_runs(np.ascontiguousarray(delta, dtype=float),
+                            np.ascontiguousarray(command, dtype=float),
+                            np.ascontiguousarray(final, dtype=float), start, SETTLE_BAND)
     window = t >= t_from
     if not window.any():
         return np.zeros(delta.shape[0], dtype=bool)
     band = SETTLE_BAND * np.max(np.abs(command), axis=1)
     return np.all(np.abs(delta[:, window] - final[:, None]) <= band[:, None], axis=1)
-
-
-class RecordingBuffers:
-    """Memory that successive batches record into, kept between them (a study's chunks).
-
-    A batch of 32 runs over the extended 0.2 s horizon records about 75 MB. Fresh memory for
-    every chunk costs the operating system's page faults and zeroing, and the horizon's
-    extension a copy into a buffer twice as large; kept here, the next chunk writes into
-    memory already mapped, sized from the start for the longest horizon seen. A result's
-    signals are views into this memory, valid until the next batch that records into the same
-    buffers: take what is needed (figures, copies) before starting it.
-    """
-
-    def __init__(self):
-        self._blocks = {}  # dtype -> the largest flat block handed out
-        self.capacity = 0  # most columns a batch has recorded
-
-    def array(self, shape, dtype):
-        """A C-contiguous array of ``shape`` in the kept block of ``dtype`` (grown if needed)."""
-        dtype = np.dtype(dtype)
-        size = math.prod(shape)
-        block = self._blocks.get(dtype)
-        if block is None or block.size < size:
-            block = self._blocks[dtype] = np.empty(size, dtype=dtype)
-        return block[:size].reshape(shape)
-
-
-class _Recording:
-    """The recorded signals of a batch, in buffers the compiled kernel writes into directly.
-
-    Floats (n_float_signals, n_runs, capacity) and flags (2, n_runs, capacity); ``size``
-    columns filled. A horizon extension grows the buffers (doubling, so every sample is copied
-    at most about once more). With :class:`RecordingBuffers`, the buffers come from there,
-    sized for the longest horizon that they have recorded.
-    """
-
-    def __init__(self, names, n_runs, capacity, buffers=None, limit=None):
-        self.names = names
-        self.limit = limit  # most columns the batch can record (its horizon's cap)
-        self.floats_names = [name for name in names if name not in FLAG_SIGNALS]
-        self.buffers = buffers
-        if buffers is not None:
-            capacity = buffers.capacity = max(capacity, buffers.capacity)
-        self.floats = self._array((len(self.floats_names), n_runs, capacity), float)
-        self.flags = self._array((len(FLAG_SIGNALS), n_runs, capacity), bool)
-        self.times = []
-        self.size = 0
-
-    def _array(self, shape, dtype):
-        if self.buffers is None:
-            return np.empty(shape, dtype=dtype)
-        return self.buffers.array(shape, dtype)
-
-    def reserve(self, capacity):
-        """Make room for ``capacity`` columns in all."""
-        if capacity <= self.floats.shape[2]:
-            return
-        doubled = 2 * self.floats.shape[2]
-        capacity = max(capacity, doubled if self.limit is None else min(doubled, self.limit))
-        for attr in ("floats", "flags"):
-            old = getattr(self, attr)
-            new = np.empty(old.shape[:2] + (capacity,), dtype=old.dtype)
-            new[:, :, :self.size] = old[:, :, :self.size]
-            setattr(self, attr, new)
-        if self.buffers is not None:
-            self.buffers.capacity = max(self.buffers.capacity, capacity)
-
-    def append(self, t, signals):
-        """Copy in the samples at times ``t`` [s], ``signals`` name -> (n_runs, len(t))."""
-        count = len(t)
-        self.reserve(self.size + count)
-        end = self.size + count
-        for row, name in enumerate(self.floats_names):
-            self.floats[row, :, self.size:end] = signals[name]
-        for row, name in enumerate(FLAG_SIGNALS):
-            self.flags[row, :, self.size:end] = signals[name]
-        self.times.append(np.asarray(t, dtype=float))
-        self.size = end
-
-    def advance(self, engine, steps, record_every):
-        """Advance ``engine`` by ``steps``, its samples written here (the compiled kernel
-        writes them itself, the reference engine copies them in)."""
-        rows = engine.recorded_rows(steps, record_every)
-        self.reserve(self.size + rows)
-        self.times.append(engine.advance_into(steps, record_every, self.floats, self.flags,
-                                              self.size))
-        self.size += rows
-
-    def signals(self):
-        """(times [s], name -> (n_runs, size) views) of everything recorded."""
-        if len(self.times) > 1:
-            self.times = [np.concatenate(self.times)]
-        out = {name: self.floats[row, :, :self.size]
-               for row, name in enumerate(self.floats_names)}
-        out.update({name: self.flags[row, :, :self.size] for row, name in enumerate(FLAG_SIGNALS)})
-        return self.times[0], {name: out[name] for name in self.names}
 
 
 def _advance(engine, recording, done, target, record_every, progress):
@@ -579,7 +517,7 @@ def _advance(engine, recording, done, target, record_every, progress):
 def simulate_batch(
     params, commands, *, dt=None, t_end=None, max_t_end=None, extend=True,
     current_rate_hz=None, position_rate_hz=None, record_every=1, progress=None, engine=None,
-    buffers=None, velocity_rate_hz=None,
+    buffers=None, velocity_rate_hz=None, signals=None, stop_settled=False,
 ):
     """Simulate a batch of runs at once.
 
@@ -619,6 +557,19 @@ def simulate_batch(
         are then views into it, valid until the next batch recorded into it.
     velocity_rate_hz : float, optional
         Sample rate of a sampled velocity controller [Hz] (a cascade); continuous if None.
+    signals : iterable of str, optional
+        The signals to record, names of :data:`~cas_freq.simulation.engine.SIGNALS`
+        (``theta``, ``omega``, ``i``, ``V``, ``theta_cmd``, ``current_command``,
+        ``position_integral``, ``current_limited``, ``voltage_limited``); the result's other
+        signals are None. ``theta`` and ``theta_cmd`` (the output and its command) are always
+        recorded. Default: every signal. Recording costs about 40 % of the compiled kernel's
+        time when every signal is kept.
+    stop_settled : bool
+        Stop each run of a settling command at the first horizon at which it has settled
+        (its ``t_end_runs``, where it would have stopped alone) while the batch goes on for the
+        others; its samples after that are NaN (the flags False). :meth:`BatchResult.run` and
+        everything computed from it are unchanged; the batch saves the steps of the runs that
+        settled before its slowest, and their ``settled`` is True.
 
     Returns
     -------
@@ -658,17 +609,22 @@ def simulate_batch(
     command_set = CommandSet(commands, p.ratio)
     engine = engine_class(engine)(p, command_set, dt, every, method)
     names = engine.signals  # SIGNALS, and LOAD_SIGNALS where some run is loaded
+    kept = _kept_signals(names, signals)
+    engine.record_only(kept)
     first = dict(zip(names, engine.start(), strict=True))
     # every signal (n_runs, n_samples): the engines record run by run
     columns = [1 + int(round(end / dt)) // record_every + 1 for end in (t_end, cap)]
-    recording = _Recording(names, n, columns[0], buffers, limit=columns[1])
+    recording = Recording(names, n, columns[0], buffers, limit=columns[1])
     recording.append([0.0], {name: value[:, None] for name, value in first.items()})
     steps_done, horizon = 0, t_end
     extended = False
     run_end = np.full(n, np.nan)
+    stopped = np.zeros(n, dtype=bool)
     while True:
         target = int(round(horizon / dt))
+        previous = recording.size  # the stopped runs' samples end before this column
         _advance(engine, recording, steps_done, target, record_every, progress)
+        recording.blank(stopped, previous, kept)
         steps_done = target
         t, signals = recording.signals()
         ratio = p.ratio[:, None]
@@ -681,12 +637,18 @@ def simulate_batch(
         command = signals["theta_cmd"] / ratio
         settled = None
         if settles:
-            settled = _settled(t, delta, command, final, max(0.5 * horizon, last_change))
-            run_end[settled & np.isnan(run_end)] = steps_done * dt
+            settled = _settled(t, delta, command, final, max(0.5 * horizon, last_change),
+                               compiled=not isinstance(engine, Engine)) | stopped
+            newly = settled & np.isnan(run_end)
+            run_end[newly] = steps_done * dt
+            if stop_settled:
+                engine.stop(newly)
+                stopped |= newly
         if not (extend and settles) or settled.all() or horizon >= cap * (1 - 1e-12):
             break
         horizon = min(2.0 * horizon, cap)
         extended = True
+    signals = {name: signals[name] if name in kept else None for name in names}
     return BatchResult(
         t=t, delta=delta, theta=signals["theta"], omega=signals["omega"], i=signals["i"],
         V=signals["V"], command=command, current_command=signals["current_command"],
@@ -722,8 +684,9 @@ def simulate(params, command, **options):
 
 def prepare_kernels(params):
     """Have the compiled simulation kernels in this process: batches of ``params`` (an
-    ActuatorConfig) without a load and with a load spring, a few steps each, and a step fit
-    (the kernels' signatures of steps and fits, loaded and not); nothing with the reference
+    ActuatorConfig) without a load and with a load spring, a few steps each, a step fit and
+    the step figures of a batch (the kernels' signatures of steps, figures and fits, loaded
+    and not); nothing with the reference
     engine.
 
     For a process about to fork workers that simulate (``cas-freq report``'s load envelope):
@@ -746,3 +709,11 @@ def prepare_kernels(params):
         simulate_batch(batch, Step(1e-3), t_end=1e-4, extend=False)
     t = np.linspace(0.0, 0.1, 101)
     fit_second_order(t, 1.0 - np.exp(-50.0 * t), 1.0)
+    # the step figures of a batch (studies.steps.chunk_step_figures): its recorded signals
+    # are the whole buffers (C-contiguous) or views of their first columns
+    from cas_freq.simulation.figure_kernel import step_figures_batch
+
+    y, flags = np.ones((2, t.size)), np.zeros((2, t.size), dtype=bool)
+    sizes = np.full(2, t.size - 1)
+    for cut in (slice(None), slice(0, t.size - 1)):
+        step_figures_batch(t, y, sizes, 1.0, y[:, cut], y[:, cut], flags[:, cut], flags[:, cut])

@@ -1,9 +1,11 @@
 """Nonlinear output steps of many variants, with the figures and fit of ``simulate`` for each.
 
 The runs go through :func:`cas_freq.simulation.simulate_batch` in chunks. The batch extends its
-horizon until every run of the chunk has settled; :meth:`BatchResult.run` cuts each run at the
-horizon it would have had alone, so figures and the second-order fit match ``simulate --json``
-for the same variant.
+horizon until every run of the chunk has settled; each run stops at the horizon it would have
+had alone (``stop_settled``) and its figures and fit are taken there, so they match
+``simulate --json`` for the same variant. The chunk records only what the figures and the fit
+need (:data:`STEP_SIGNALS`), and its step figures are computed in one compiled pass
+(:func:`chunk_step_figures`).
 """
 
 import concurrent.futures
@@ -12,12 +14,14 @@ import math
 
 import numpy as np
 
+from cas_freq.jit import use_compiled
 from cas_freq.simulation.commands import Step
 from cas_freq.simulation.second_order import fit_second_order_batch
 from cas_freq.simulation.simulator import RecordingBuffers, simulate_batch
 from cas_freq.simulation.step_figures import simulation_step_figures
 
-#: Runs simulated together: memory is about 10 signals x 8 B x samples (up to 80,001) per run.
+#: Runs simulated together: memory is about 10 signals x 8 B x samples (up to 80,001) per run
+#: (the kernel writes only :data:`STEP_SIGNALS` of them).
 DEFAULT_STEP_CHUNK = 32
 
 #: Figure names (as in ``simulate --json``: ``step.*`` and ``fit.*``).
@@ -26,6 +30,8 @@ STEP_FIGURES = (
     "step.settling_time_5pct_s", "step.peak_time_s", "step.max_current_a", "step.max_voltage_v",
     "step.current_limited", "step.voltage_limited",
 )
+#: The signals a step batch records: what the step figures need.
+STEP_SIGNALS = ("theta", "i", "V", "current_limited", "voltage_limited")
 FIT_FIGURES = (
     "fit.wn_rad_s", "fit.zeta", "fit.td_s", "fit.rms_residual", "fit.bandwidth_closed_form_rad_s",
 )
@@ -79,25 +85,61 @@ def batch_steps(params, amplitude_rad, *, fit=True, rates_hz=(None, None),
             stop = min(start + chunk_size, n)
             chunk = params.take(slice(start, stop))
             result = simulate_batch(chunk, Step(amplitude_rad), current_rate_hz=current_rate,
-                                    position_rate_hz=position_rate, buffers=buffers)
-            runs = [result.run(index) for index in range(stop - start)]
-            for run, alone in enumerate(runs, start):
-                figures = simulation_step_figures(alone, amplitude_rad)
-                for key, value in dataclasses.asdict(figures).items():
-                    name = f"step.{key}"
-                    if name in out:
-                        out[name][run] = math.nan if value is None else float(value)
+                                    position_rate_hz=position_rate, buffers=buffers,
+                                    signals=STEP_SIGNALS, stop_settled=True)
+            sizes = result.sizes()  # each run cut at the horizon it would have had alone
+            for name, values in chunk_step_figures(result, amplitude_rad, sizes).items():
+                out[name][start:stop] = values
             if pending is not None:
                 done = _store_fits(out, *pending, done, n, progress)
             pending = None
-            if fit:
+            if fit:  # result.t and result.delta are arrays of their own, not the buffers
                 pending = (start, fitter.submit(
-                    fit_second_order_batch, [alone.t for alone in runs],
-                    [alone.delta for alone in runs], amplitude_rad))
+                    fit_second_order_batch, [result.t[:size] for size in sizes],
+                    [result.delta[run, :size] for run, size in enumerate(sizes)],
+                    amplitude_rad))
             else:
-                done = _count(done, len(runs), n, progress)
+                done = _count(done, stop - start, n, progress)
         if pending is not None:
             done = _store_fits(out, *pending, done, n, progress)
+    return out
+
+
+def chunk_step_figures(result, amplitude_rad, sizes):
+    """The :data:`STEP_FIGURES` of every run of a step batch, each run cut at ``sizes``.
+
+    Compiled (:func:`~cas_freq.simulation.figure_kernel.step_figures_batch`) with the compiled
+    engine, else run by run by :func:`~cas_freq.simulation.step_figures.step_figures`: the
+    same numbers.
+
+    Parameters
+    ----------
+    result : cas_freq.simulation.simulator.BatchResult
+        The batch, with at least the signals of :data:`STEP_SIGNALS` recorded.
+    amplitude_rad : float
+        Output step [rad].
+    sizes : numpy.ndarray
+        Samples of each run (:meth:`BatchResult.sizes`).
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        Each figure of :data:`STEP_FIGURES`, shape (n_runs,).
+    """
+    if use_compiled():
+        from cas_freq.simulation.figure_kernel import FIGURE_COLUMNS, step_figures_batch
+
+        table = step_figures_batch(result.t, np.ascontiguousarray(result.delta), sizes,
+                                   float(amplitude_rad), result.i, result.V,
+                                   result.current_limited, result.voltage_limited)
+        return {f"step.{name}": table[:, column] for column, name in enumerate(FIGURE_COLUMNS)}
+    out = {name: np.full(len(sizes), np.nan) for name in STEP_FIGURES}
+    for run in range(len(sizes)):
+        figures = simulation_step_figures(result.run(run), amplitude_rad)
+        for key, value in dataclasses.asdict(figures).items():
+            name = f"step.{key}"
+            if name in out:
+                out[name][run] = math.nan if value is None else float(value)
     return out
 
 
