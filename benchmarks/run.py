@@ -295,8 +295,9 @@ def bench_issue_step(params, rows, repeats):
     amplitude = math.radians(10.0)
     one = LoopParameters.from_config(params)
 
-    def step():
-        return simulate_batch(one, Step(amplitude), engine="compiled", t_end=0.06, extend=False)
+    def step():  # recording the output only: what the comparison reads
+        return simulate_batch(one, Step(amplitude), engine="compiled", t_end=0.06, extend=False,
+                              signals=("theta",))
 
     with Load() as load:
         step()  # warm-up (loads the kernel from numba's cache)

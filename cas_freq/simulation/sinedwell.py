@@ -421,6 +421,7 @@ def _dwell(runs, amplitudes, frequency_index, frequencies, *, periods_settle, pe
         runs, Sine(amplitudes, frequencies[frequency_index]), t_end=t_end, dt=dt,
         record_every=record_every, current_rate_hz=current_rate_hz,
         position_rate_hz=position_rate_hz, progress=progress,
+        signals=("theta", "theta_cmd", "current_limited", "voltage_limited"),  # what it reads
     )
     t = batch.t
     response = np.empty(runs.n_runs, dtype=complex)
