@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from cas_freq.jit import cached_jit
-from cas_freq.simulation.second_order import C_SERIES, D_SERIES, S_SERIES
+from cas_freq.simulation.second_order import _FTOL, _LOWER, _MOVE, C_SERIES, D_SERIES, S_SERIES
 
 
 @cached_jit(inline="always")
@@ -31,6 +31,67 @@ def _series(x, coefficients):
     for k in range(coefficients.size - 2, -1, -1):
         total = total * -x + coefficients[k]
     return total
+
+
+@cached_jit(inline="always")
+def _run_sums(t, unit, row, p, scale, normal, gradient):
+    """Sum of squares of one run (returned), its J^T J into ``normal`` (3, 3) and J^T r into
+    ``gradient`` (3), at the scaled variables ``p`` (3) with scales ``scale`` (3), on the data
+    of row ``row`` of ``t`` and ``unit`` (see :func:`normal_equations_of`)."""
+    m = t.shape[1]
+    wn = p[0] * scale[0]
+    zeta = p[1]
+    td = p[2] * scale[2]
+    q = 1.0 - zeta * zeta
+    root = math.sqrt(abs(q))
+    d_wn = scale[0]
+    d_td = -(wn * scale[2])
+    rr = a00 = a01 = a02 = a11 = a12 = a22 = g0 = g1 = g2 = 0.0
+    for j in range(m):
+        tau = max(t[row, j] - td, 0.0)
+        s = wn * tau
+        x = q * s * s
+        if abs(x) < 1.0:  # near s = 0 (all of a run at zeta = 1): the series
+            decay = math.exp(-zeta * s)
+            ec = decay * _series(x, C_SERIES)
+            es = decay * s * _series(x, S_SERIES)
+            ed = decay * s**3 * _series(x, D_SERIES)
+        elif q > 0.0:  # underdamped
+            decay = math.exp(-zeta * s)
+            ws = root * s
+            ec = decay * math.cos(ws)
+            es = decay * math.sin(ws) / root
+            ed = (s * ec - es) / q
+        else:  # overdamped, without overflow for large s: e^{(beta - zeta) s} exactly
+            slow = math.exp(s * (-1.0 / (root + zeta)))
+            fast = math.exp(-(root + zeta) * s)
+            ec = 0.5 * (slow + fast)
+            es = (0.5 / root) * (slow - fast)
+            ed = (s * ec - es) / q
+        r = (1.0 - (ec + zeta * es)) - unit[row, j]
+        j0 = es * tau * d_wn
+        j1 = ed
+        j2 = es * d_td
+        rr += r * r
+        a00 += j0 * j0
+        a01 += j0 * j1
+        a02 += j0 * j2
+        a11 += j1 * j1
+        a12 += j1 * j2
+        a22 += j2 * j2
+        g0 += j0 * r
+        g1 += j1 * r
+        g2 += j2 * r
+    normal[0, 0] = a00
+    normal[0, 1] = normal[1, 0] = a01
+    normal[0, 2] = normal[2, 0] = a02
+    normal[1, 1] = a11
+    normal[1, 2] = normal[2, 1] = a12
+    normal[2, 2] = a22
+    gradient[0] = g0
+    gradient[1] = g1
+    gradient[2] = g2
+    return rr
 
 
 @cached_jit(nogil=True)
@@ -64,63 +125,259 @@ def normal_equations_of(t, unit, rows, p, scale):
     gradient : numpy.ndarray
         J^T r, shape (k, 3).
     """
-    k, m = rows.shape[0], t.shape[1]
+    k = rows.shape[0]
     cost = np.zeros(k)
     normal = np.zeros((k, 3, 3))
     gradient = np.zeros((k, 3))
     for run in range(k):
-        wn = p[run, 0] * scale[run, 0]
-        zeta = p[run, 1]
-        td = p[run, 2] * scale[run, 2]
-        q = 1.0 - zeta * zeta
-        root = math.sqrt(abs(q))
-        d_wn = scale[run, 0]
-        d_td = -(wn * scale[run, 2])
-        rr = a00 = a01 = a02 = a11 = a12 = a22 = g0 = g1 = g2 = 0.0
-        row = rows[run]
-        for j in range(m):
-            tau = max(t[row, j] - td, 0.0)
-            s = wn * tau
-            x = q * s * s
-            if abs(x) < 1.0:  # near s = 0 (all of a run at zeta = 1): the series
-                decay = math.exp(-zeta * s)
-                ec = decay * _series(x, C_SERIES)
-                es = decay * s * _series(x, S_SERIES)
-                ed = decay * s**3 * _series(x, D_SERIES)
-            elif q > 0.0:  # underdamped
-                decay = math.exp(-zeta * s)
-                ws = root * s
-                ec = decay * math.cos(ws)
-                es = decay * math.sin(ws) / root
-                ed = (s * ec - es) / q
-            else:  # overdamped, without overflow for large s: e^{(beta - zeta) s} exactly
-                slow = math.exp(s * (-1.0 / (root + zeta)))
-                fast = math.exp(-(root + zeta) * s)
-                ec = 0.5 * (slow + fast)
-                es = (0.5 / root) * (slow - fast)
-                ed = (s * ec - es) / q
-            r = (1.0 - (ec + zeta * es)) - unit[row, j]
-            j0 = es * tau * d_wn
-            j1 = ed
-            j2 = es * d_td
-            rr += r * r
-            a00 += j0 * j0
-            a01 += j0 * j1
-            a02 += j0 * j2
-            a11 += j1 * j1
-            a12 += j1 * j2
-            a22 += j2 * j2
-            g0 += j0 * r
-            g1 += j1 * r
-            g2 += j2 * r
-        cost[run] = rr
-        normal[run, 0, 0] = a00
-        normal[run, 0, 1] = normal[run, 1, 0] = a01
-        normal[run, 0, 2] = normal[run, 2, 0] = a02
-        normal[run, 1, 1] = a11
-        normal[run, 1, 2] = normal[run, 2, 1] = a12
-        normal[run, 2, 2] = a22
-        gradient[run, 0] = g0
-        gradient[run, 1] = g1
-        gradient[run, 2] = g2
+        cost[run] = _run_sums(t, unit, rows[run], p[run], scale[run], normal[run], gradient[run])
     return cost, normal, gradient
+
+
+# --- The iteration of the fit, compiled ---------------------------------------------------------
+#
+# The Levenberg-Marquardt iteration and the Newton refinement of
+# cas_freq.simulation.second_order (_levenberg_marquardt, _refine), run by run: each run's
+# operations are those of the numpy iteration, in the same order and with numpy's rounding
+# (np.clip's and np.maximum's NaN rules, einsum's and np.linalg.norm's order of summation,
+# np.linalg.solve and eigvalsh from LAPACK), so the fits are the numpy iteration's to the
+# last bit. The one operation left to numpy is the cube of Nielsen's damping update: numpy's
+# power uses a vectorised pow whose last bit differs from libm's in ~3 % of cases
+# (second_order._levenberg_marquardt_compiled computes it between lm_trials and lm_update).
+
+
+@cached_jit(inline="always")
+def _maximum(a, b):
+    """np.maximum of two floats (NaN if either is NaN)."""
+    if a != a or b != b:
+        return a + b
+    return a if a >= b else b
+
+
+@cached_jit(inline="always")
+def _minimum(a, b):
+    """np.minimum of two floats (NaN if either is NaN)."""
+    if a != a or b != b:
+        return a + b
+    return a if a <= b else b
+
+
+@cached_jit(inline="always")
+def _clip(x, low, high):
+    """np.clip of a float between array bounds: min(max(x, low), high), NaN kept."""
+    if x != x:
+        return x
+    x = x if x > low else low
+    return x if x < high else high
+
+
+@cached_jit(inline="always")
+def _norm(v):
+    """np.linalg.norm of a 3-vector (its sum of squares in numpy's order)."""
+    return math.sqrt((v[0] * v[0] + v[1] * v[1]) + v[2] * v[2])
+
+
+@cached_jit(nogil=True)
+def lm_trials(t, unit, active, p, cost, normal, gradient, damping, scale, upper,
+              trial, step, normal_new, gradient_new):
+    """One Levenberg-Marquardt trial step of each active run (the first half of an iteration
+    of :func:`~cas_freq.simulation.second_order._levenberg_marquardt`).
+
+    Parameters
+    ----------
+    t, unit : numpy.ndarray
+        Padded times [s] and unit responses, shape (k, m).
+    active : numpy.ndarray
+        The runs still iterating (int, shape (n,)).
+    p, cost, normal, gradient : numpy.ndarray
+        Each run's scaled variables (k, 3), sum of squares (k,), J^T J (k, 3, 3) and J^T r
+        (k, 3) there.
+    damping : numpy.ndarray
+        Each run's λ (k,).
+    scale, upper : numpy.ndarray
+        Scales and upper bounds of the scaled variables (k, 3); the lower bounds are
+        ``second_order._LOWER``.
+    trial, step, normal_new, gradient_new : numpy.ndarray
+        Written, row a for active run a: the trial point, the step to it (n, 3), J^T J
+        (n, 3, 3) and J^T r (n, 3) there.
+
+    Returns
+    -------
+    cost_new, ratio : numpy.ndarray
+        Sum of squares at the trial point and the ratio of its actual to predicted decrease
+        (-1 where none is predicted), shape (n,).
+    accept, stuck, flat : numpy.ndarray
+        Bool (n,): the trial lowers the sum of squares; the damped system was not finite or
+        singular (a zero step); no free variable has a nonzero gradient.
+    """
+    n = active.size
+    cost_new, ratio = np.empty(n), np.empty(n)
+    accept, stuck, flat = (np.zeros(n, dtype=np.bool_), np.zeros(n, dtype=np.bool_),
+                           np.zeros(n, dtype=np.bool_))
+    held = np.zeros(3, dtype=np.bool_)
+    diag, rhs, delta = np.empty(3), np.empty(3), np.empty(3)
+    system = np.empty((3, 3))
+    for a in range(n):
+        r = active[a]
+        A, g, x, hi = normal[r], gradient[r], p[r], upper[r]
+        flat[a] = True
+        for i in range(3):
+            held[i] = (x[i] <= _LOWER[i] and g[i] > 0) or (x[i] >= hi[i] and g[i] < 0)
+            flat[a] = flat[a] and not (not held[i] and g[i] != 0)
+            diag[i] = A[i, i]
+        floor = 1e-30 * _maximum(_maximum(diag[0], diag[1]), diag[2]) + 1e-300
+        finite = True
+        for i in range(3):
+            diag[i] = _maximum(diag[i], floor)
+        for i in range(3):
+            for j in range(3):
+                e = 1.0 if i == j else 0.0
+                value = A[i, j] + damping[r] * (diag[i] * e)
+                both_free = 1.0 if not held[i] and not held[j] else 0.0
+                value = value * both_free + (1.0 if held[i] else 0.0) * e
+                system[i, j] = value
+                finite = finite and math.isfinite(value)
+            rhs[i] = 0.0 if held[i] else -g[i]
+            finite = finite and math.isfinite(rhs[i])
+        stuck[a] = not finite
+        if finite:
+            try:
+                delta[:] = np.linalg.solve(system, rhs)
+            except Exception:  # noqa: BLE001  (singular: numba's LinAlgError)
+                stuck[a] = True
+            for i in range(3):
+                stuck[a] = stuck[a] or not math.isfinite(delta[i])
+        if stuck[a]:
+            delta[:] = 0.0
+        for i in range(3):
+            trial[a, i] = _clip(x[i] + delta[i], _LOWER[i], hi[i])
+            step[a, i] = trial[a, i] - x[i]
+        cost_new[a] = _run_sums(t, unit, r, trial[a], scale[r], normal_new[a], gradient_new[a])
+        # einsum("ki,ki->k") and einsum("ki,kij,kj->k") in numpy's order of summation
+        dot = 0.0 + ((g[0] * step[a, 0] + g[2] * step[a, 2]) + g[1] * step[a, 1])
+        quad = 0.0
+        for i in range(3):
+            for j in range(3):
+                quad += (step[a, i] * A[i, j]) * step[a, j]
+        predicted = -(2.0 * dot + quad)
+        accept[a] = cost_new[a] < cost[r]
+        ratio[a] = (cost[r] - cost_new[a]) / predicted if predicted > 0 else -1.0
+    return cost_new, ratio, accept, stuck, flat
+
+
+@cached_jit(nogil=True)
+def lm_update(active, p, cost, normal, gradient, damping, growth, converged, trial, step,
+              cost_new, normal_new, gradient_new, ratio, cube, accept, stuck, flat):
+    """The second half of an iteration: Nielsen's update of λ, the convergence tests and the
+    accepted steps (arguments as in :func:`lm_trials`, with ``growth`` (k,), ``converged``
+    (k,) and ``cube`` = (2 ratio - 1)^3 (n,)); updates the per-run arrays in place and
+    returns the runs still iterating."""
+    n = active.size
+    going = np.zeros(n, dtype=np.bool_)
+    for a in range(n):
+        r = active[a]
+        good = accept[a] and ratio[a] > 0
+        if good:
+            lam = damping[r] * _maximum(1.0 / 3.0, 1.0 - cube[a])
+        else:
+            lam = damping[r] * growth[r]
+        growth[r] = 2.0 if good else growth[r] * 2.0
+        damping[r] = _minimum(lam, 1e300)
+        done = _norm(step[a]) <= 1e-14 * (1e-14 + _norm(p[r]))
+        done = done or (accept[a] and cost[r] - cost_new[a] <= _FTOL * cost[r])
+        done = done or flat[a] or damping[r] >= 1e300
+        if accept[a] and not stuck[a]:
+            p[r] = trial[a]
+            cost[r] = cost_new[a]
+            normal[r] = normal_new[a]
+            gradient[r] = gradient_new[a]
+        if done and not stuck[a]:
+            converged[r] = True
+        going[a] = not (done or stuck[a])
+    return active[going]
+
+
+@cached_jit(nogil=True)
+def refine(t, unit, p, scale, upper, cost, normal, gradient, iterations):
+    """:func:`~cas_freq.simulation.second_order._refine`, run by run, from the converged fits.
+
+    Parameters
+    ----------
+    t, unit : numpy.ndarray
+        Padded times [s] and unit responses, shape (k, m).
+    p, scale, upper : numpy.ndarray
+        Scaled variables of the converged fits, their scales and upper bounds (k, 3).
+    cost, normal, gradient : numpy.ndarray
+        Sum of squares (k,), J^T J (k, 3, 3) and J^T r (k, 3) at ``p`` (the iteration's).
+    iterations : int
+        Newton steps.
+
+    Returns
+    -------
+    p, cost, normal : numpy.ndarray
+        The refined scaled variables (k, 3), and the sum of squares and J^T J there.
+    """
+    k = p.shape[0]
+    out, out_cost, out_normal = p.copy(), cost.copy(), normal.copy()
+    g, h, probe, rhs, ceiling, q, delta = (np.empty(3), np.empty(3), np.empty(3), np.empty(3),
+                                           np.empty(3), np.empty(3), np.empty(3))
+    free = np.zeros(3, dtype=np.bool_)
+    g3, raw, hessian = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    system, scratch, normal_q = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
+    for r in range(k):
+        x, hi = p[r], upper[r]
+        g[:] = gradient[r]
+        for i in range(3):
+            h[i] = 1e-6 * _maximum(abs(x[i]), 1.0)
+        # Hessian by forward differences: column j from the gradient at x + h_j e_j
+        for j in range(3):
+            for i in range(3):
+                probe[i] = x[i] + (1.0 if i == j else 0.0) * h[i]
+            _run_sums(t, unit, r, probe, scale[r], scratch, g3[j])
+        for i in range(3):
+            for j in range(3):
+                raw[i, j] = (g3[j, i] - g[i]) / h[j]
+        for i in range(3):
+            for j in range(3):
+                hessian[i, j] = 0.5 * (raw[i, j] + raw[j, i])
+            if math.isfinite(hi[i]):
+                ceiling[i] = hi[i] - 1e-10 * _maximum(abs(hi[i]), 1.0)
+            else:
+                ceiling[i] = math.inf
+        usable = True
+        q[:] = x
+        after = cost[r]
+        for _ in range(iterations):
+            for i in range(3):
+                at_lower = q[i] <= _LOWER[i] + 1e-10 and g[i] > 0
+                at_upper = q[i] >= ceiling[i] and g[i] < 0
+                if at_lower:
+                    q[i] = _LOWER[i]
+                elif at_upper:
+                    q[i] = hi[i]
+                free[i] = not (at_lower or at_upper)
+            for i in range(3):
+                for j in range(3):
+                    e = 1.0 if i == j else 0.0
+                    value = hessian[i, j] if free[i] and free[j] else 0.0
+                    system[i, j] = value + (0.0 if free[i] else 1.0) * e
+                    usable = usable and math.isfinite(system[i, j])
+                rhs[i] = -(g[i] if free[i] else 0.0)
+            if usable:
+                usable = np.linalg.eigvalsh(system)[0] > 0
+            if usable:
+                try:
+                    delta[:] = np.linalg.solve(system, rhs)
+                except Exception:  # noqa: BLE001  (a gradient not finite: q is lost, kept p)
+                    delta[:] = math.nan
+                for i in range(3):
+                    q[i] = _clip(q[i] + delta[i], _LOWER[i], hi[i])
+            after = _run_sums(t, unit, r, q, scale[r], normal_q, g)
+        for i in range(3):
+            delta[i] = q[i] - x[i]
+        moved = _norm(delta) <= _MOVE * _norm(x)
+        if usable and moved and after <= cost[r] * (1.0 + 1e-12):
+            out[r] = q
+            out_cost[r] = after
+            out_normal[r] = normal_q
+    return out, out_cost, out_normal
