@@ -150,3 +150,69 @@ def test_a_fit_that_does_not_converge_reports_it():
     fit, = fit_second_order_batch([t], [unit * 0.2], 0.2, max_iterations=3)
     assert not fit.success
     assert all(math.isfinite(v) for v in (fit.wn_rad_s, fit.zeta, fit.td_s, fit.rms_residual))
+
+
+def _sums_in_python(t, unit, p, scale):
+    """The compiled kernel's sums of one run, in plain Python floats (IEEE doubles, libm's exp,
+    cos and sin, as numba's), in its order, but computing the overdamped step's fast decay
+    e^{-(beta + zeta) s} at every sample (the kernel leaves it out where it cannot count)."""
+    wn, zeta, td = p[0] * scale[0], p[1], p[2] * scale[2]
+    q = 1.0 - zeta * zeta
+    root = math.sqrt(abs(q))
+    d_wn, d_td = scale[0], -(wn * scale[2])
+    sums = [0.0] * 10  # r r, J J^T (00 01 02 11 12 22), J r (0 1 2)
+    for tj, uj in zip(t, unit, strict=True):
+        tau = max(tj - td, 0.0)
+        s = wn * tau
+        x = q * s * s
+        if abs(x) < 1.0:
+            series = []
+            for coefficients in (second_order.C_SERIES, second_order.S_SERIES,
+                                 second_order.D_SERIES):
+                total = float(coefficients[-1])
+                for c in coefficients[-2::-1]:
+                    total = total * -x + float(c)
+                series.append(total)
+            decay = math.exp(-zeta * s)
+            ec, es, ed = decay * series[0], decay * s * series[1], decay * (s * s * s) * series[2]
+        elif q > 0.0:
+            decay = math.exp(-zeta * s)
+            ec = decay * math.cos(root * s)
+            es = decay * math.sin(root * s) / root
+            ed = (s * ec - es) / q
+        else:
+            slow = math.exp(s * (-1.0 / (root + zeta)))
+            fast = math.exp(-(root + zeta) * s)
+            ec = 0.5 * (slow + fast)
+            es = (0.5 / root) * (slow - fast)
+            ed = (s * ec - es) / q
+        r = (1.0 - (ec + zeta * es)) - uj
+        j = (es * tau * d_wn, ed, es * d_td)
+        terms = (r * r, j[0] * j[0], j[0] * j[1], j[0] * j[2], j[1] * j[1], j[1] * j[2],
+                 j[2] * j[2], j[0] * r, j[1] * r, j[2] * r)
+        sums = [total + term for total, term in zip(sums, terms, strict=True)]
+    return sums
+
+
+def test_the_kernels_sums_leave_out_only_what_cannot_count():
+    # The overdamped step's fast decay is left out where it is below 2^-54 of the slow one
+    # (fit_kernel.FAST_NEGLIGIBLE): the sums must equal, bit for bit, those computing it at
+    # every sample. Runs over zeta from just above 1 (the decays close: never left out) to 5,
+    # with s = wn (t - td) up to ~300 (left out from s = 40 / (beta + zeta - 1 / (beta + zeta)),
+    # 3 to 40), one underdamped run, td > 0 (the first samples at s = 0: the series).
+    from cas_freq.simulation.fit_kernel import normal_equations_of
+
+    rng = np.random.default_rng(5)
+    zetas = [1.02, 1.3, 2.0, 5.0, 0.6]
+    t = np.linspace(0.0, 0.3, 500)
+    k = len(zetas)
+    p = np.column_stack([np.ones(k), zetas, np.full(k, 1.0)])
+    scale = np.column_stack([np.full(k, 1000.0), np.ones(k), np.full(k, 1.5e-3)])
+    unit = np.array([second_order_step(t, 1000.0 * (1 + 0.05 * rng.standard_normal()), zeta,
+                                       1.4e-3) for zeta in zetas])
+    t_all = np.tile(t, (k, 1))
+    cost, normal, gradient = normal_equations_of(t_all, unit, np.arange(k), p, scale)
+    for run in range(k):
+        sums = _sums_in_python(t, unit[run], p[run], scale[run])
+        got = [cost[run], *normal[run][np.triu_indices(3)], *gradient[run]]
+        assert got == sums, zetas[run]
