@@ -199,11 +199,13 @@ def test_the_kernels_sums_leave_out_only_what_cannot_count():
     # (fit_kernel.FAST_NEGLIGIBLE): the sums must equal, bit for bit, those computing it at
     # every sample. Runs over zeta from just above 1 (the decays close: never left out) to 5,
     # with s = wn (t - td) up to ~300 (left out from s = 40 / (beta + zeta - 1 / (beta + zeta)),
-    # 3 to 40), one underdamped run, td > 0 (the first samples at s = 0: the series).
+    # 3 to 40), one underdamped run, td > 0 (the first samples at s = 0: the series, whose
+    # value the kernel takes without Horner's steps there), and zeta = 1 (the series at every
+    # sample, at x = 0).
     from cas_freq.simulation.fit_kernel import normal_equations_of
 
     rng = np.random.default_rng(5)
-    zetas = [1.02, 1.3, 2.0, 5.0, 0.6]
+    zetas = [1.02, 1.3, 2.0, 5.0, 0.6, 1.0]
     t = np.linspace(0.0, 0.3, 500)
     k = len(zetas)
     p = np.column_stack([np.ones(k), zetas, np.full(k, 1.0)])

@@ -36,7 +36,11 @@ FAST_NEGLIGIBLE = 40.0
 
 @cached_jit(inline="always")
 def _series(x, coefficients):
-    """Horner evaluation of sum coefficients[k] (-x)^k."""
+    """Horner evaluation of sum coefficients[k] (-x)^k (at x = 0 exactly coefficients[0],
+    as Horner's steps give it: every product is then a zero: all of a run at zeta = 1, as
+    the fit's starting guess often is, and the samples before the delay)."""
+    if x == 0.0:
+        return coefficients[0]
     total = coefficients[-1]
     for k in range(coefficients.size - 2, -1, -1):
         total = total * -x + coefficients[k]
