@@ -99,7 +99,7 @@ def _run(args, cache, *, code=None):
 
 @pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
 def test_the_first_run_says_once_that_it_compiles_and_how_long_it_took(tmp_path):
-    # the smallest command with a compiled kernel: a step fit (fit_kernel, ~2 s to compile)
+    # the smallest command with a compiled kernel: a step fit (fit_kernel, ~5 s to compile)
     t = np.linspace(0.0, 0.2, 201)
     response = 10.0 * (1.0 - np.exp(-60.0 * t))
     np.savetxt(tmp_path / "step.csv", np.c_[t, response], delimiter=",",

@@ -24,9 +24,15 @@ iteration's operations run by run, which give its estimates to the last bit
 import math
 
 import numpy as np
+from numba import types
+from numba.np.linalg import _LAPACK, F_INT_nptype
 
 from cas_freq.jit import cached_jit
 from cas_freq.simulation.second_order import _FTOL, _LOWER, _MOVE, C_SERIES, D_SERIES, S_SERIES
+
+#: LAPACK's dgesv through numba's helper (the one its np.linalg.solve calls), for doubles.
+_GESV = _LAPACK().numba_xgesv(types.float64)
+_DOUBLE = ord("d")
 
 #: Exponent gap beyond which the fast decay of the overdamped step is below 2^-54 of the slow
 #: one (e^-40 = 4e-18 < 2^-54 = 5.6e-17, with room for the rounding of the exponents and of
@@ -34,7 +40,7 @@ from cas_freq.simulation.second_order import _FTOL, _LOWER, _MOVE, C_SERIES, D_S
 FAST_NEGLIGIBLE = 40.0
 
 
-@cached_jit(inline="always")
+@cached_jit()
 def _series(x, coefficients):
     """Horner evaluation of sum coefficients[k] (-x)^k (at x = 0 exactly coefficients[0],
     as Horner's steps give it: every product is then a zero: all of a run at zeta = 1, as
@@ -47,7 +53,7 @@ def _series(x, coefficients):
     return total
 
 
-@cached_jit(inline="always")
+@cached_jit()
 def _run_sums(t, unit, row, p, scale, normal, gradient):
     """Sum of squares of one run (returned), its J^T J into ``normal`` (3, 3) and J^T r into
     ``gradient`` (3), at the scaled variables ``p`` (3) with scales ``scale`` (3), on the data
@@ -159,13 +165,14 @@ def normal_equations_of(t, unit, rows, p, scale):
 # cas_freq.simulation.second_order (_levenberg_marquardt, _refine), run by run: each run's
 # operations are those of the numpy iteration, in the same order and with numpy's rounding
 # (np.clip's and np.maximum's NaN rules, einsum's and np.linalg.norm's order of summation,
-# np.linalg.solve and eigvalsh from LAPACK), so the fits are the numpy iteration's to the
-# last bit. The one operation left to numpy is the cube of Nielsen's damping update: numpy's
-# power uses a vectorised pow whose last bit differs from libm's in ~3 % of cases
-# (second_order._levenberg_marquardt_compiled computes it between lm_trials and lm_update).
+# LAPACK's dgesv and dsyevd for np.linalg.solve and eigvalsh), so the fits are the numpy
+# iteration's to the last bit. The one operation left to numpy is the cube of Nielsen's
+# damping update: numpy's power uses a vectorised pow whose last bit differs from libm's in
+# ~3 % of cases (second_order._levenberg_marquardt_compiled computes it between lm_trials and
+# lm_update).
 
 
-@cached_jit(inline="always")
+@cached_jit()
 def _maximum(a, b):
     """np.maximum of two floats (NaN if either is NaN)."""
     if a != a or b != b:
@@ -173,7 +180,7 @@ def _maximum(a, b):
     return a if a >= b else b
 
 
-@cached_jit(inline="always")
+@cached_jit()
 def _minimum(a, b):
     """np.minimum of two floats (NaN if either is NaN)."""
     if a != a or b != b:
@@ -181,7 +188,7 @@ def _minimum(a, b):
     return a if a <= b else b
 
 
-@cached_jit(inline="always")
+@cached_jit()
 def _clip(x, low, high):
     """np.clip of a float between array bounds: min(max(x, low), high), NaN kept."""
     if x != x:
@@ -190,7 +197,21 @@ def _clip(x, low, high):
     return x if x < high else high
 
 
-@cached_jit(inline="always")
+@cached_jit(nogil=True)
+def _solve(system, rhs, out):
+    """np.linalg.solve of a 3 x 3 system into ``out`` (3,): LAPACK's dgesv, as numpy and numba
+    call it (the same solution to the bit), without numba's np.linalg.solve, which takes ~3 s
+    to compile. Returns dgesv's info: 0, or > 0 where the system is singular."""
+    a = np.empty((3, 3))  # column-major copy: a[j, i] = system[i, j]
+    for i in range(3):
+        for j in range(3):
+            a[j, i] = system[i, j]
+        out[i] = rhs[i]
+    pivots = np.empty(3, dtype=F_INT_nptype)
+    return _GESV(_DOUBLE, 3, 1, a.ctypes, 3, pivots.ctypes, out.ctypes, 3)
+
+
+@cached_jit()
 def _norm(v):
     """np.linalg.norm of a 3-vector (its sum of squares in numpy's order)."""
     return math.sqrt((v[0] * v[0] + v[1] * v[1]) + v[2] * v[2])
@@ -260,14 +281,11 @@ def lm_trials(t, unit, active, p, cost, normal, gradient, damping, scale, upper,
             finite = finite and math.isfinite(rhs[i])
         stuck[a] = not finite
         if finite:
-            try:
-                delta[:] = np.linalg.solve(system, rhs)
-            except Exception:  # noqa: BLE001  (singular: numba's LinAlgError)
-                stuck[a] = True
+            stuck[a] = _solve(system, rhs, delta) != 0  # singular
             for i in range(3):
                 stuck[a] = stuck[a] or not math.isfinite(delta[i])
         if stuck[a]:
-            delta[:] = 0.0
+            delta[0] = delta[1] = delta[2] = 0.0
         for i in range(3):
             trial[a, i] = _clip(x[i] + delta[i], _LOWER[i], hi[i])
             step[a, i] = trial[a, i] - x[i]
@@ -292,7 +310,8 @@ def lm_update(active, p, cost, normal, gradient, damping, growth, converged, tri
     (k,) and ``cube`` = (2 ratio - 1)^3 (n,)); updates the per-run arrays in place and
     returns the runs still iterating."""
     n = active.size
-    going = np.zeros(n, dtype=np.bool_)
+    going = np.empty(n, dtype=active.dtype)  # (loops, not fancy indexing: 3 s less to compile)
+    kept = 0
     for a in range(n):
         r = active[a]
         good = accept[a] and ratio[a] > 0
@@ -306,14 +325,18 @@ def lm_update(active, p, cost, normal, gradient, damping, growth, converged, tri
         done = done or (accept[a] and cost[r] - cost_new[a] <= _FTOL * cost[r])
         done = done or flat[a] or damping[r] >= 1e300
         if accept[a] and not stuck[a]:
-            p[r] = trial[a]
             cost[r] = cost_new[a]
-            normal[r] = normal_new[a]
-            gradient[r] = gradient_new[a]
+            for i in range(3):
+                p[r, i] = trial[a, i]
+                gradient[r, i] = gradient_new[a, i]
+                for j in range(3):
+                    normal[r, i, j] = normal_new[a, i, j]
         if done and not stuck[a]:
             converged[r] = True
-        going[a] = not (done or stuck[a])
-    return active[going]
+        if not (done or stuck[a]):
+            going[kept] = r
+            kept += 1
+    return going[:kept]
 
 
 @cached_jit(nogil=True)
@@ -345,7 +368,8 @@ def refine(t, unit, p, scale, upper, cost, normal, gradient, iterations):
     system, scratch, normal_q = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
     for r in range(k):
         x, hi = p[r], upper[r]
-        g[:] = gradient[r]
+        for i in range(3):  # (element loops here: slices take seconds longer to compile)
+            g[i] = gradient[r, i]
         for i in range(3):
             h[i] = 1e-6 * _maximum(abs(x[i]), 1.0)
         # Hessian by forward differences: column j from the gradient at x + h_j e_j
@@ -364,7 +388,8 @@ def refine(t, unit, p, scale, upper, cost, normal, gradient, iterations):
             else:
                 ceiling[i] = math.inf
         usable = True
-        q[:] = x
+        for i in range(3):
+            q[i] = x[i]
         after = cost[r]
         for _ in range(iterations):
             for i in range(3):
@@ -385,10 +410,8 @@ def refine(t, unit, p, scale, upper, cost, normal, gradient, iterations):
             if usable:
                 usable = np.linalg.eigvalsh(system)[0] > 0
             if usable:
-                try:
-                    delta[:] = np.linalg.solve(system, rhs)
-                except Exception:  # noqa: BLE001  (a gradient not finite: q is lost, kept p)
-                    delta[:] = math.nan
+                if _solve(system, rhs, delta) != 0:  # (positive definite: not singular)
+                    delta[0] = delta[1] = delta[2] = math.nan  # (numpy would raise) p kept
                 for i in range(3):
                     q[i] = _clip(q[i] + delta[i], _LOWER[i], hi[i])
             after = _run_sums(t, unit, r, q, scale[r], normal_q, g)
@@ -396,7 +419,9 @@ def refine(t, unit, p, scale, upper, cost, normal, gradient, iterations):
             delta[i] = q[i] - x[i]
         moved = _norm(delta) <= _MOVE * _norm(x)
         if usable and moved and after <= cost[r] * (1.0 + 1e-12):
-            out[r] = q
             out_cost[r] = after
-            out_normal[r] = normal_q
+            for i in range(3):
+                out[r, i] = q[i]
+                for j in range(3):
+                    out_normal[r, i, j] = normal_q[i, j]
     return out, out_cost, out_normal
