@@ -8,6 +8,7 @@ need (:data:`STEP_SIGNALS`), and its step figures are computed in one compiled p
 (:func:`chunk_step_figures`).
 """
 
+import collections
 import concurrent.futures
 import dataclasses
 import math
@@ -23,6 +24,12 @@ from cas_freq.simulation.step_figures import simulation_step_figures
 #: Runs simulated together: memory is about 10 signals x 8 B x samples (up to 80,001) per run
 #: (the kernel writes only :data:`STEP_SIGNALS` of them).
 DEFAULT_STEP_CHUNK = 32
+
+#: Threads fitting the second-order model (the machine's two cores, shared with the
+#: simulation of the next chunks), and the chunks whose fits may wait at once (memory: each
+#: holds its output angles, 32 x 40,001 x 8 B = 10 MB).
+FIT_THREADS = 2
+FITS_IN_FLIGHT = 2
 
 #: Figure names (as in ``simulate --json``: ``step.*`` and ``fit.*``).
 STEP_FIGURES = (
@@ -51,7 +58,7 @@ def batch_steps(params, amplitude_rad, *, fit=True, rates_hz=(None, None),
         Also fit the second-order model to each response, all runs of a chunk at once
         (:func:`~cas_freq.simulation.second_order.fit_second_order_batch`: the estimates of
         ``simulate``'s :func:`~cas_freq.simulation.second_order.fit_second_order` to ~1e-12;
-        2-5 ms per run on a loaded 2-core machine, against 25-35 ms for one
+        1.2-1.7 ms of CPU per run on a loaded 2-core machine, against 25-35 ms for one
         :func:`scipy.optimize.least_squares` per run).
     rates_hz : (float or None, float or None)
         Sampled-controller rates (current, position) [Hz], or None for continuous.
@@ -77,10 +84,13 @@ def batch_steps(params, amplitude_rad, *, fit=True, rates_hz=(None, None),
     # Every chunk records into the same memory; its figures are taken before the next starts,
     # and its fits get the output angle and times, arrays of their own (BatchResult.delta, .t).
     buffers = RecordingBuffers() if buffers is None else buffers
-    # The fits of a chunk (numpy, which releases the GIL in its array loops) run in a
-    # background thread while the next chunk is simulated; the results do not depend on it.
-    with concurrent.futures.ThreadPoolExecutor(max_workers=1) as fitter:
-        pending = None
+    # The fits of a chunk run in background threads while the next chunks are simulated
+    # (their compiled work releases the GIL, as the simulation kernel does): each chunk's
+    # runs in :data:`FIT_THREADS` parts, so that the fits, the larger share of the work, use
+    # both cores while the main thread waits or Python holds the GIL. A fit does not depend on
+    # the other runs fitted with it, so neither the parts nor the threads change a number.
+    with concurrent.futures.ThreadPoolExecutor(max_workers=FIT_THREADS) as fitter:
+        pending = collections.deque()
         for start in range(0, n, chunk_size):
             stop = min(start + chunk_size, n)
             chunk = params.take(slice(start, stop))
@@ -90,18 +100,21 @@ def batch_steps(params, amplitude_rad, *, fit=True, rates_hz=(None, None),
             sizes = result.sizes()  # each run cut at the horizon it would have had alone
             for name, values in chunk_step_figures(result, amplitude_rad, sizes).items():
                 out[name][start:stop] = values
-            if pending is not None:
-                done = _store_fits(out, *pending, done, n, progress)
-            pending = None
-            if fit:  # result.t and result.delta are arrays of their own, not the buffers
-                pending = (start, fitter.submit(
-                    fit_second_order_batch, [result.t[:size] for size in sizes],
-                    [result.delta[run, :size] for run, size in enumerate(sizes)],
-                    amplitude_rad))
-            else:
+            if not fit:
                 done = _count(done, stop - start, n, progress)
-        if pending is not None:
-            done = _store_fits(out, *pending, done, n, progress)
+                continue
+            # result.t and result.delta are arrays of their own, not the buffers
+            times = [result.t[:size] for size in sizes]
+            outputs = [result.delta[run, :size] for run, size in enumerate(sizes)]
+            part = -(-len(sizes) // FIT_THREADS)
+            pending.extend((start + first, fitter.submit(
+                fit_second_order_batch, times[first:first + part],
+                outputs[first:first + part], amplitude_rad))
+                for first in range(0, len(sizes), part))
+            while len(pending) > FIT_THREADS * FITS_IN_FLIGHT:
+                done = _store_fits(out, *pending.popleft(), done, n, progress)
+        while pending:
+            done = _store_fits(out, *pending.popleft(), done, n, progress)
     return out
 
 
