@@ -218,3 +218,21 @@ def test_the_kernels_sums_leave_out_only_what_cannot_count():
         sums = _sums_in_python(t, unit[run], p[run], scale[run])
         got = [cost[run], *normal[run][np.triu_indices(3)], *gradient[run]]
         assert got == sums, zetas[run]
+
+
+def test_the_public_solve_fallback_gives_the_helpers_solution():
+    # fit_kernel reaches LAPACK's dgesv through numba's private helper; a numba without it
+    # takes numba's public np.linalg.solve instead (the same dgesv). Reference: the helper's
+    # solution, to the bit, and both report a singular system.
+    from cas_freq.jit import cached_jit
+    from cas_freq.simulation import fit_kernel
+
+    fallback = cached_jit(nogil=True)(fit_kernel._solve_by_numpy)
+    rng = np.random.default_rng(30)
+    for system in [*rng.standard_normal((4, 3, 3)), np.ones((3, 3))]:
+        rhs = rng.standard_normal(3)
+        ours, theirs = np.empty(3), np.empty(3)
+        info = fit_kernel._solve(system, rhs, ours)
+        assert (fallback(system, rhs, theirs) != 0) == (info != 0)
+        if info == 0:
+            np.testing.assert_array_equal(theirs, ours)

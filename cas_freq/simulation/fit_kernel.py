@@ -25,13 +25,17 @@ import math
 
 import numpy as np
 from numba import types
-from numba.np.linalg import _LAPACK, F_INT_nptype
 
 from cas_freq.jit import cached_jit
 from cas_freq.simulation.second_order import _FTOL, _LOWER, _MOVE, C_SERIES, D_SERIES, S_SERIES
 
-#: LAPACK's dgesv through numba's helper (the one its np.linalg.solve calls), for doubles.
-_GESV = _LAPACK().numba_xgesv(types.float64)
+try:  # numba's own helper for LAPACK's dgesv (what its np.linalg.solve calls): not public API
+    from numba.np.linalg import _LAPACK, F_INT_nptype
+
+    #: LAPACK's dgesv for doubles, or None where this numba has no such helper.
+    _GESV = _LAPACK().numba_xgesv(types.float64)
+except (ImportError, AttributeError):  # pragma: no cover (another numba)
+    _GESV = F_INT_nptype = None
 _DOUBLE = ord("d")
 
 #: Exponent gap beyond which the fast decay of the overdamped step is below 2^-54 of the slow
@@ -197,8 +201,7 @@ def _clip(x, low, high):
     return x if x < high else high
 
 
-@cached_jit(nogil=True)
-def _solve(system, rhs, out):
+def _solve_by_helper(system, rhs, out):
     """np.linalg.solve of a 3 x 3 system into ``out`` (3,): LAPACK's dgesv, as numpy and numba
     call it (the same solution to the bit), without numba's np.linalg.solve, which takes ~3 s
     to compile. Returns dgesv's info: 0, or > 0 where the system is singular."""
@@ -209,6 +212,19 @@ def _solve(system, rhs, out):
         out[i] = rhs[i]
     pivots = np.empty(3, dtype=F_INT_nptype)
     return _GESV(_DOUBLE, 3, 1, a.ctypes, 3, pivots.ctypes, out.ctypes, 3)
+
+
+def _solve_by_numpy(system, rhs, out):
+    """:func:`_solve_by_helper` through numba's public np.linalg.solve (the same dgesv; slower
+    to compile): for a numba without the helper."""
+    try:
+        out[:] = np.linalg.solve(system, rhs)
+    except Exception:  # noqa: BLE001 (numba: LinAlgError of a singular system)
+        return 1
+    return 0
+
+
+_solve = cached_jit(nogil=True)(_solve_by_numpy if _GESV is None else _solve_by_helper)
 
 
 @cached_jit()
