@@ -169,7 +169,7 @@ def test_routh_with_error_bounds_agrees_with_the_roots_or_defers_to_them():
     # five decades like the cascade's (decided or deferred, never wrong), and with a pair
     # exactly on the imaginary axis (marginal: the first column has an exact zero there, which
     # rounding turns into noise within the bound, so Routh must defer).
-    from cas_freq.analysis.stability import verdicts
+    from cas_freq.analysis.routh import verdicts
 
     rng = np.random.default_rng(25)
     cases = []
@@ -204,7 +204,8 @@ def test_cascade_inner_loop_verdicts_are_decided_by_routh():
     # relative test (1e-8 of the row) sent to the roots for every run, yet each is clear of its
     # rounding-error bound by a factor of over 1e5. Now Routh decides it, and agrees with the
     # roots (the former fallback) run by run.
-    from cas_freq.analysis.stability import loop_polynomial_bounds, verdicts
+    from cas_freq.analysis.routh import verdicts
+    from cas_freq.analysis.stability import loop_polynomial_bounds
 
     p = variant_parameters(load_variant("configs/cascade_axis.yaml").params,
                            {"velocity_loop.Kp": np.linspace(0.5, 3.0, 12)})
