@@ -316,25 +316,16 @@
       mag.push({x: s.omega_rad_s, y: loop.magnitude_db, color,
                 label: `${loop.symbol} (broken at ${loop.breaks_at})`});
       phase.push({x: s.omega_rad_s, y: loop.phase_deg, color, label: loop.symbol});
-      const old = p && p.loops.find((l) => l.name === loop.name);
-      if (old) {
-        mag.push({x: p.omega_rad_s, y: old.magnitude_db, color, faint: true,
-                  label: `${loop.symbol} previous`});
-        phase.push({x: p.omega_rad_s, y: old.phase_deg, color, faint: true,
-                    label: `${loop.symbol} previous`});
-      }
       nichols.push({x: loop.phase_deg, y: loop.magnitude_db, color, label: loop.symbol});
-      if (old) nichols.push({x: old.phase_deg, y: old.magnitude_db, color, faint: true,
-                             label: `${loop.symbol} previous`});
-      const base = v && v.loops.find((l) => l.name === loop.name);
-      if (base) {
-        mag.push({x: v.omega_rad_s, y: base.magnitude_db, color, dash: DASH,
-                  label: `${loop.symbol} variant`});
-        phase.push({x: v.omega_rad_s, y: base.phase_deg, color, dash: DASH,
-                    label: `${loop.symbol} variant`});
-        nichols.push({x: base.phase_deg, y: base.magnitude_db, color, dash: DASH,
-                      label: `${loop.symbol} variant`});
-      }
+      // the same loop in the previous state (faint) and in the variant (dashed)
+      [[p, {faint: true}, "previous"], [v, {dash: DASH}, "variant"]].forEach(([other, look, name]) => {
+        const same = other && other.loops.find((l) => l.name === loop.name);
+        if (!same) return;
+        const label = `${loop.symbol} ${name}`;
+        mag.push({x: other.omega_rad_s, y: same.magnitude_db, color, ...look, label});
+        phase.push({x: other.omega_rad_s, y: same.phase_deg, color, ...look, label});
+        nichols.push({x: same.phase_deg, y: same.magnitude_db, color, ...look, label});
+      });
       // the margins: a dashed line at each crossover, labelled, and the margin itself as a
       // bar (the phase margin from -180 deg at the gain crossover, the gain margin below
       // 0 dB at the phase crossover)
