@@ -2,7 +2,9 @@
 (found on PATH; never installed here: tests do not change the machine)."""
 
 import copy
+import math
 import shutil
+import threading
 from pathlib import Path
 
 import pytest
@@ -20,6 +22,48 @@ def _no_compile_messages_in_process():
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr("cas_freq.cli._say", lambda text: None)
         yield
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _kernels_compiled_in_a_thread_of_their_own(_no_compile_messages_in_process):
+    """The simulation's numba kernels loaded, or compiled where numba's cache has none, at the
+    session's start in a new thread, before any test runs them.
+
+    Where the cache is cold (a fresh clone) the tests would compile them in pytest's main
+    thread, deep in its call stack. On CPython 3.11 numba's recursive compiler then keeps
+    crossing a boundary of the interpreter's frame-stack chunks, and every crossing maps and
+    unmaps a chunk: 1.2 million mmap/munmap calls, 15 s of system time on top of 20 s of
+    compiling for one test (``strace -c``, ``perf``). A new thread has a stack of its own, and
+    the same compilation takes 21 s with 1.7 s of system time. Every kernel specialisation
+    the shipped configs' variants need is compiled here: one run (the serial kernel), two
+    runs of each variant (the parallel kernel), step figures and second-order fits. With a
+    warm cache this loads the machine code, about 1 s.
+    """
+    from cas_freq.jit import use_compiled
+
+    if not use_compiled():
+        yield
+        return
+    from cas_freq.config import load_all_variants
+    from cas_freq.simulation import LoopParameters
+    from cas_freq.simulation.run import step_run
+    from cas_freq.studies.steps import batch_steps
+
+    def compile_kernels():
+        try:
+            for path in sorted(default_config_path().parent.glob("*.yaml")):
+                for loaded in load_all_variants(path):
+                    step_run(loaded, math.radians(1.0))
+                    pair = LoopParameters.from_configs([loaded.params] * 2)
+                    batch_steps(pair, math.radians(1.0),
+                                rates_hz=loaded.params.simulation.rates_hz)
+        except Exception:  # noqa: BLE001 - a failing kernel fails the tests that run it
+            pass
+
+    thread = threading.Thread(target=compile_kernels, name="compile-kernels")
+    thread.start()
+    thread.join()
+    yield
 
 
 @pytest.fixture(scope="session")

@@ -250,6 +250,32 @@ def test_stable_hinge_range_brackets_the_stability_boundary():
     assert verdict == "unstable"
 
 
+@pytest.mark.parametrize("path, variant", [
+    ("configs/qt_cas.yaml", "loaded"), ("configs/qt_cas.yaml", "fin_encoder"),
+    ("configs/cascade_axis.yaml", "base"), ("configs/ball_screw.yaml", "base"),
+])
+def test_batched_bisection_is_the_one_step_bisection_to_the_bit(path, variant, monkeypatch):
+    # The hinge range's boundaries come from batches of verdicts that decide four halvings
+    # each (drivetrain._boundary); here one halving per verdict, as written before: the same
+    # midpoints and verdicts, so the same floats.
+    from cas_freq.analysis import drivetrain as module
+
+    def one_halving_per_verdict(p, unstable, stable, pade_order):
+        for _ in range(module._BISECTIONS):
+            middle = 0.5 * (unstable + stable)
+            if module._stable(p, [middle], pade_order)[0]:
+                stable = middle
+            else:
+                unstable = middle
+        return float(0.5 * (unstable + stable))
+
+    p = LoopParameters.from_config(load_variant(path, variant).params)
+    batched = module.stable_hinge_range(p)
+    assert any(bound is not None for bound in batched)
+    monkeypatch.setattr(module, "_boundary", one_halving_per_verdict)
+    assert module.stable_hinge_range(p) == batched
+
+
 @pytest.mark.parametrize("sets, words", [
     (["gear.stiffness=300"], "a compliant gear needs load.inertia > 0"),
     (["gear.backlash=0.01"], "needs gear.stiffness > 0"),
