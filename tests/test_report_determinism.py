@@ -238,36 +238,34 @@ def _floats(value):
 
 
 @pytest.fixture(scope="module")
-def two_builds(tmp_path_factory):
-    """The fitted variant (its 0.5° step fits a delay of 7e-52 s, i.e. 0) built twice."""
-    fitted = load_variant(None, "fitted")
+def one_build(tmp_path_factory):
+    """The fitted variant's report (its 0.5° step fits a delay of 7e-52 s, i.e. 0)."""
     root = tmp_path_factory.mktemp("determinism")
-    return (build_report([fitted], root / "one", settings=FAST),
-            build_report([fitted], root / "two", settings=FAST))
+    return build_report([load_variant(None, "fitted")], root / "one", settings=FAST)
 
 
-def test_report_built_twice_is_byte_identical(two_builds):
-    one, two = two_builds
-    first = _files(one)
+@pytest.mark.slow  # run by .ci/run, which also builds the shipped reports twice and compares
+def test_report_built_twice_is_byte_identical(one_build, tmp_path):
+    two = build_report([load_variant(None, "fitted")], tmp_path / "two", settings=FAST)
+    first = _files(one_build)
     assert first == _files(two)
     assert {"index.html", "report.md", "results.json"} <= set(first)
     assert any(name.endswith(".svg") for name in first)
 
 
 @pytest.mark.slow  # run by .ci/run (the suite keeps its CPU budget)
-def test_figures_drawn_in_worker_processes_equal_drawn_here(two_builds, tmp_path):
+def test_figures_drawn_in_worker_processes_equal_drawn_here(one_build, tmp_path):
     # build_report draws the figures in FIGURE_WORKERS forked processes by default; drawn in
     # this process instead, every file is the same byte for byte (the load envelope's figure
     # included: a worker draws it while the report is computed)
-    one, _ = two_builds
     here = build_report([load_variant(None, "fitted")], tmp_path / "here", settings=FAST,
                         workers=1)
-    assert _files(here) == _files(one)
-    assert "figures/fitted/load_envelope.svg" in _files(one)
+    assert _files(here) == _files(one_build)
+    assert "figures/fitted/load_envelope.svg" in _files(one_build)
 
 
-def test_report_is_written_at_the_stated_precision(two_builds):
-    folder, _ = two_builds
+def test_report_is_written_at_the_stated_precision(one_build):
+    folder = one_build
     results = json.loads((folder / "results.json").read_text())
     for value in _floats(results):
         assert value == round_significant(value, JSON_DIGITS)  # at most 6 significant digits

@@ -220,6 +220,7 @@ def test_the_kernels_sums_leave_out_only_what_cannot_count():
         assert got == sums, zetas[run]
 
 
+@pytest.mark.slow  # run by .ci/run: numba compiles the fallback in every process (~4 s)
 def test_the_public_solve_fallback_gives_the_helpers_solution():
     # fit_kernel reaches LAPACK's dgesv through numba's private helper; a numba without it
     # takes numba's public np.linalg.solve instead (the same dgesv). Reference: the helper's

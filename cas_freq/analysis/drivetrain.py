@@ -100,8 +100,9 @@ def drivetrain(params, pade_order=DEFAULT_PADE_ORDER, hinge_range=True):
         Padé order of the stability verdicts of the hinge-stiffness scan.
     hinge_range : bool
         Scan the stable hinge-stiffness range (a batch of ~68 stability verdicts and 10
-        batches of 15 per boundary, most of the time of a loaded variant's analysis); without, ``stable_hinge_stiffness_n_m_rad`` is None
-        (``cas-freq design``, which does not show it, per change).
+        batches of 15 per boundary, most of the time of a loaded variant's analysis);
+        without, ``stable_hinge_stiffness_n_m_rad`` is None (``cas-freq design``, which does
+        not show it, per change).
 
     Returns
     -------

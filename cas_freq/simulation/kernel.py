@@ -136,6 +136,7 @@ from cas_freq.simulation.kernel_blocks import (
     _current_update,
     _from_rest,
     _inner,
+    _inner_call,
     _position_update,
     _push,
     _read,
@@ -230,7 +231,7 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
         u_left, u_right = s[r, _P_U_LEFT], s[r, _P_U]
         if ext is not None:  # the position loop measures the same at rest (theta = N delta)
             col = r if right.shape[2] > 1 else 0
-            u_left, u_right, _ = _inner(
+            u_left, u_right, _ = _inner_call(
                 ext, r, 0, p[r, _RATIO], x[r, 1], u_left, u_right,
                 right[0, 2, col] if sampled_p else left[0, 2, col], right[0, 2, col],
                 True, sampled_p, dt, True)

@@ -354,7 +354,7 @@ def _inner(ext, r, k, ratio, w, u_left, u_right, acc_left, acc_right, p_due, hol
 
 
 
-@_jit(inline="always")  # numba-level: array arguments cost a call
+@_jit()  # start_batch only, once per batch: a call (inlining costs compile time)
 def _position_update(p, r, theta, angle_left, angle_right, ff_left, ff_right, integral, state,
                      e_before, y_before, rest_before, advance, has_derivative, period, locate,
                      backward):
@@ -376,7 +376,7 @@ def _position_update(p, r, theta, angle_left, angle_right, ff_left, ff_right, in
     )
 
 
-@_jit(inline="always")  # numba-level: array arguments cost a call
+@_jit()  # start_batch only, once per batch: a call (inlining costs compile time)
 def _current_update(p, r, i, k, current_right, current_left, m_p, hold_p, sampled, integral,
                     e_before, rest_before, advance, period, backward):
     """Current controller of run ``r`` on the command delayed by tau_p (docs/model.md §3).
@@ -420,3 +420,12 @@ def _command(p, commands, r, row):
         ratio * commands[row, 2, col]
     )
     return angle, ff
+
+
+# --- the inner blocks as a call, for start_batch -------------------------------------------------
+# numba's inline="always" copies a block's IR into every caller, and typing and lowering that
+# copy is most of a caller's compile time. In the step loop it saves a call (and the reference
+# counts of its array arguments) every step; :func:`cas_freq.simulation.kernel.start_batch` runs
+# once per batch, so it calls this twin, compiled once as a function of its own: the same code
+# and numbers.
+_inner_call = _jit()(_inner.py_func)
