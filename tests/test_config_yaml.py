@@ -4,6 +4,7 @@ and a bare number where datasheets give another unit than SI."""
 import math
 
 import pytest
+import yaml
 
 from cas_freq.config import load_variant, parse_set_option, read_config_file
 from cas_freq.config.loader import default_config_path
@@ -95,3 +96,41 @@ def test_a_bare_tolerance_width_of_the_no_load_speed_is_refused():
     with pytest.raises(ConfigError, match=r"'100 rpm'\?"):
         parse_tolerance("motor.no_load.speed=100")
     assert parse_tolerance("motor.no_load.speed=60 rpm").absolute == pytest.approx(2 * math.pi)
+
+
+# The same data, and the same errors, from libyaml's parser (what _Loader uses where PyYAML has
+# it) and from PyYAML's pure-Python one (what it falls back to): the constructors and resolvers
+# are the same Python code on both, so only the scanning and parsing differ.
+SNIPPETS = [
+    "a: 020\nb: 0o17\nc: 0x1f\nd: yes\ne: .inf\nf: -.Inf\ng: 1e-6\nh: 20:1\ni: ~\nj: True\n",
+    "base: &b {x: 1, y: [1, 2.5, null]}\nother:\n  <<: *b\n  y: 3\n",
+    "a: !!float 1.5\nb: !!int 0x10\nc: !!str 12\n",
+    "key: 1\nother: 2\nkey: 3\n",  # duplicate key
+    "a: !!int 1:30\n",  # an explicit tag needs the core form
+    "a: [1, 2\n",  # not YAML
+    "a: 1\n b: 2\n",  # bad indentation
+]
+
+
+@pytest.mark.skipif(not getattr(yaml, "__with_libyaml__", False), reason="PyYAML without libyaml")
+@pytest.mark.parametrize("text", [*SNIPPETS, "shipped"])
+def test_libyaml_and_the_pure_python_parser_read_the_same(text, monkeypatch):
+    from cas_freq.config import loader
+
+    if text == "shipped":
+        text = default_config_path().read_text(encoding="utf-8")
+
+    def outcome():
+        try:
+            return "data", loader._load_yaml(text, "x.yaml")
+        except ConfigError as error:
+            return "refused", str(error)
+        except yaml.YAMLError as error:  # read_config_file says "not valid YAML at line ..."
+            mark = error.problem_mark
+            return "not YAML", (mark.line, mark.column)
+
+    assert loader._Loader.__mro__[2] is yaml.CSafeLoader
+    with_libyaml = outcome()
+    monkeypatch.setattr(loader, "_Loader", loader._core_schema_loader(yaml.SafeLoader))
+    pure = outcome()
+    assert repr(with_libyaml) == repr(pure)  # repr: nan == nan

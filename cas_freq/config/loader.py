@@ -72,19 +72,9 @@ _CORE_FLOAT = re.compile(r"[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9
 _SafeBase = yaml.CSafeLoader if getattr(yaml, "__with_libyaml__", False) else yaml.SafeLoader
 
 
-class _Loader(_SafeBase):
-    """yaml.SafeLoader (on libyaml's parser where present) with YAML 1.2 core-schema scalars
-    that refuses duplicate keys, naming the key and both lines.
-
-    Only the core schema's plain scalars are implicitly typed (null, bool, decimal, ``0o``
-    octal and ``0x`` hex integers, floats); everything else is a string. A leading zero is
-    decimal (``020`` is 20), explicitly tagged ``!!int``/``!!float``/``!!bool`` values must
-    have the core form too (``!!int 1:30`` and ``!!bool yes`` are errors). YAML merge keys
-    (``<<: *anchor``) are kept.
-    """
-
-    # a class attribute of its own: SafeLoader's YAML 1.1 resolvers are not inherited
-    yaml_implicit_resolvers = {}
+class _CoreSchema:
+    """The constructors of :func:`_core_schema_loader`'s loaders (mixed in before the safe
+    loader they extend)."""
 
     def construct_yaml_int(self, node):
         """An integer of the core schema's form (decimal, ``0o``, ``0x``); never base 60 or 8."""
@@ -133,18 +123,38 @@ class _Loader(_SafeBase):
         return super().construct_mapping(node, deep=deep)
 
 
-_Loader.add_constructor("tag:yaml.org,2002:int", _Loader.construct_yaml_int)
-_Loader.add_constructor("tag:yaml.org,2002:float", _Loader.construct_yaml_float)
-_Loader.add_constructor("tag:yaml.org,2002:bool", _Loader.construct_yaml_bool)
-for _tag, _pattern, _first in (
-    ("tag:yaml.org,2002:null", _CORE_NULL, ["~", "n", "N", ""]),
-    ("tag:yaml.org,2002:bool", _CORE_BOOL, list("tTfF")),
-    ("tag:yaml.org,2002:int", _CORE_INT, list("-+0123456789")),
-    ("tag:yaml.org,2002:float", _CORE_FLOAT, list("-+.0123456789")),
-    ("tag:yaml.org,2002:merge", re.compile(r"<<"), ["<"]),
-):
-    # resolvers match with .match(): anchor the end, as the core schema means the whole scalar
-    _Loader.add_implicit_resolver(_tag, re.compile(f"(?:{_pattern.pattern})$"), _first)
+def _core_schema_loader(base):
+    """A loader on ``base`` (yaml.SafeLoader or yaml.CSafeLoader) with YAML 1.2 core-schema
+    scalars that refuses duplicate keys, naming the key and both lines.
+
+    Only the core schema's plain scalars are implicitly typed (null, bool, decimal, ``0o``
+    octal and ``0x`` hex integers, floats); everything else is a string. A leading zero is
+    decimal (``020`` is 20), explicitly tagged ``!!int``/``!!float``/``!!bool`` values must
+    have the core form too (``!!int 1:30`` and ``!!bool yes`` are errors). YAML merge keys
+    (``<<: *anchor``) are kept.
+    """
+
+    class Loader(_CoreSchema, base):
+        # a class attribute of its own: SafeLoader's YAML 1.1 resolvers are not inherited
+        yaml_implicit_resolvers = {}
+
+    Loader.add_constructor("tag:yaml.org,2002:int", Loader.construct_yaml_int)
+    Loader.add_constructor("tag:yaml.org,2002:float", Loader.construct_yaml_float)
+    Loader.add_constructor("tag:yaml.org,2002:bool", Loader.construct_yaml_bool)
+    for tag, pattern, first in (
+        ("tag:yaml.org,2002:null", _CORE_NULL, ["~", "n", "N", ""]),
+        ("tag:yaml.org,2002:bool", _CORE_BOOL, list("tTfF")),
+        ("tag:yaml.org,2002:int", _CORE_INT, list("-+0123456789")),
+        ("tag:yaml.org,2002:float", _CORE_FLOAT, list("-+.0123456789")),
+        ("tag:yaml.org,2002:merge", re.compile(r"<<"), ["<"]),
+    ):
+        # resolvers match with .match(): anchor the end, as the core schema means the whole
+        # scalar
+        Loader.add_implicit_resolver(tag, re.compile(f"(?:{pattern.pattern})$"), first)
+    return Loader
+
+
+_Loader = _core_schema_loader(_SafeBase)
 
 
 def _check_depth(text, path):
