@@ -24,8 +24,13 @@ def _no_compile_messages_in_process():
         yield
 
 
+#: Sessions of this many tests or more compile the simulation kernels first, in a thread of
+#: their own (the whole suite has ~2,200).
+WARM_UP_FROM = 200
+
+
 @pytest.fixture(scope="session", autouse=True)
-def _kernels_compiled_in_a_thread_of_their_own(_no_compile_messages_in_process):
+def _kernels_compiled_in_a_thread_of_their_own(_no_compile_messages_in_process, request):
     """The simulation's numba kernels loaded, or compiled where numba's cache has none, at the
     session's start in a new thread, before any test runs them.
 
@@ -37,11 +42,12 @@ def _kernels_compiled_in_a_thread_of_their_own(_no_compile_messages_in_process):
     the same compilation takes 21 s with 1.7 s of system time. Every kernel specialisation
     the shipped configs' variants need is compiled here: one run (the serial kernel), two
     runs of each variant (the parallel kernel), step figures and second-order fits. With a
-    warm cache this loads the machine code, about 1 s.
+    warm cache this loads the machine code, about 1 s. A session of fewer than
+    :data:`WARM_UP_FROM` tests (one file, one test) skips this and compiles only what it runs.
     """
     from cas_freq.jit import use_compiled
 
-    if not use_compiled():
+    if not use_compiled() or len(request.session.items) < WARM_UP_FROM:
         yield
         return
     from cas_freq.config import load_all_variants
