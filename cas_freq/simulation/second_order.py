@@ -474,7 +474,6 @@ def _levenberg_marquardt(t, unit, p, scale, upper, max_iterations):
     return p, converged
 
 
-
 def _levenberg_marquardt_compiled(t, unit, p, scale, upper, max_iterations):
     """:func:`_levenberg_marquardt` with each iteration's work compiled
     (:func:`cas_freq.simulation.fit_kernel.lm_trials` and
@@ -508,6 +507,7 @@ def _levenberg_marquardt_compiled(t, unit, p, scale, upper, max_iterations):
                            trial, step, cost_new, normal_new, gradient_new, ratio, cube, accept,
                            stuck, flat)
     return p, converged, cost, normal, gradient
+
 
 #: Largest condition number of the normalised J^T J (unit diagonal) at which the three
 #: parameters are still told apart; beyond it the data determine only a combination of them
