@@ -2,9 +2,7 @@
 (found on PATH; never installed here: tests do not change the machine)."""
 
 import copy
-import math
 import shutil
-import threading
 from pathlib import Path
 
 import pytest
@@ -24,51 +22,27 @@ def _no_compile_messages_in_process():
         yield
 
 
-#: Sessions of this many tests or more compile the simulation kernels first, in a thread of
-#: their own (the whole suite has ~2,200).
+#: Sessions of this many tests or more get the simulation kernels first (the whole suite has
+#: ~2,200).
 WARM_UP_FROM = 200
 
 
 @pytest.fixture(scope="session", autouse=True)
-def _kernels_compiled_in_a_thread_of_their_own(_no_compile_messages_in_process, request):
-    """The simulation's numba kernels loaded, or compiled where numba's cache has none, at the
-    session's start in a new thread, before any test runs them.
-
-    Where the cache is cold (a fresh clone) the tests would compile them in pytest's main
-    thread, deep in its call stack. On CPython 3.11 numba's recursive compiler then keeps
-    crossing a boundary of the interpreter's frame-stack chunks, and every crossing maps and
-    unmaps a chunk: 1.2 million mmap/munmap calls, 15 s of system time on top of 20 s of
-    compiling for one test (``strace -c``, ``perf``). A new thread has a stack of its own, and
-    the same compilation takes 21 s with 1.7 s of system time. Every kernel specialisation
-    the shipped configs' variants need is compiled here: one run (the serial kernel), two
-    runs of each variant (the parallel kernel), step figures and second-order fits. With a
-    warm cache this loads the machine code, about 1 s. A session of fewer than
-    :data:`WARM_UP_FROM` tests (one file, one test) skips this and compiles only what it runs.
+def _kernels_prepared_first(_no_compile_messages_in_process, request):
+    """The simulation's numba kernels of every shipped config's variants loaded, or compiled
+    where numba's cache has none, at the session's start, before any test runs them
+    (:func:`~cas_freq.simulation.simulator.prepare_kernels`, which compiles them in a thread of
+    its own, not deep in pytest's call stack: see its docstring). With a warm cache this loads
+    the machine code, about 1 s. A session
+    of fewer than :data:`WARM_UP_FROM` tests (one file, one test) compiles only what it runs.
     """
-    from cas_freq.jit import use_compiled
+    if len(request.session.items) >= WARM_UP_FROM:
+        from cas_freq.config import load_all_variants
+        from cas_freq.simulation.simulator import prepare_kernels
 
-    if not use_compiled() or len(request.session.items) < WARM_UP_FROM:
-        yield
-        return
-    from cas_freq.config import load_all_variants
-    from cas_freq.simulation import LoopParameters
-    from cas_freq.simulation.run import step_run
-    from cas_freq.studies.steps import batch_steps
-
-    def compile_kernels():
-        try:
-            for path in sorted(default_config_path().parent.glob("*.yaml")):
-                for loaded in load_all_variants(path):
-                    step_run(loaded, math.radians(1.0))
-                    pair = LoopParameters.from_configs([loaded.params] * 2)
-                    batch_steps(pair, math.radians(1.0),
-                                rates_hz=loaded.params.simulation.rates_hz)
-        except Exception:  # noqa: BLE001 - a failing kernel fails the tests that run it
-            pass
-
-    thread = threading.Thread(target=compile_kernels, name="compile-kernels")
-    thread.start()
-    thread.join()
+        for path in sorted(default_config_path().parent.glob("*.yaml")):
+            for loaded in load_all_variants(path):
+                prepare_kernels(loaded.params)
     yield
 
 

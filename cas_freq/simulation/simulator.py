@@ -62,6 +62,7 @@ its 10 x cap (the run is then reported as not settled). The environment variable
 import dataclasses
 import math
 import os
+import threading
 import warnings
 
 import numpy as np
@@ -684,29 +685,55 @@ def simulate(params, command, **options):
 
 def prepare_kernels(params):
     """Have the compiled simulation kernels in this process: batches of ``params`` (an
-    ActuatorConfig) without a load and with a load spring, a few steps each, a step fit and
-    the step figures of a batch (the kernels' signatures of steps, figures and fits, loaded
-    and not); nothing with the reference
-    engine.
+    ActuatorConfig) without a load and with a load spring, of one run and of two (the serial
+    and the parallel kernel), a few steps each, a step fit and the step figures of a batch
+    (the kernels' signatures of steps, figures and fits, loaded and not); nothing with the
+    reference engine.
 
     For a process about to fork workers that simulate (``cas-freq report``'s load envelope):
     on a first run (no kernel in numba's cache) the report's process and the worker compiled
     the same kernels at once, ~25 s of CPU each (issue 28: the first report took 74 s against
     ~15 s warm); compiled here once, the forked workers inherit them. In later runs this
     loads them from the cache (~0.4 s), as the process would anyway.
+
+    The work runs in a new thread, joined before this returns. numba's compiler recurses
+    deeply, and where the caller is itself deep in a call stack (pytest, a notebook) CPython
+    3.11 can keep crossing a boundary of its frame-stack chunks, mapping and unmapping one at
+    every crossing: compiling for one test took 22.8 s of user and 15.6 s of system time there
+    against 20.8 s and 1.7 s in a new thread, which starts a stack of its own (``strace -c``:
+    1.2 million mmap/munmap calls).
     """
     from cas_freq.jit import use_compiled
-    from cas_freq.simulation.commands import Step
-    from cas_freq.simulation.second_order import fit_second_order
 
     if not use_compiled():
         return
+    failures = []
+
+    def prepare():
+        try:
+            _prepare_kernels(params)
+        except BaseException as error:  # noqa: BLE001 - raised again in the caller's thread
+            failures.append(error)
+
+    thread = threading.Thread(target=prepare, name="cas_freq-prepare-kernels")
+    thread.start()
+    thread.join()
+    if failures:
+        raise failures[0]
+
+
+def _prepare_kernels(params):
+    """The work of :func:`prepare_kernels`, in its thread."""
+    from cas_freq.simulation.commands import Step
+    from cas_freq.simulation.second_order import fit_second_order
+
     runs = LoopParameters.from_configs([params]).take([0, 0])
     unloaded = dict(F_c=0.0, eta=1.0, eta_b=1.0, K_g=0.0, c_g=0.0, backlash=0.0, J_L=0.0,
                     b_L=0.0, K_h=0.0, tau_h=0.0)  # LoopParameters.loaded is then False
     for load in (unloaded, {"K_h": 1.0}):  # the kernels' two signatures (table q or None)
         batch = dataclasses.replace(runs, **{key: np.full(2, value) for key, value in load.items()})
-        simulate_batch(batch, Step(1e-3), t_end=1e-4, extend=False)
+        for runs_of_batch in (batch.take([0]), batch):  # the serial and the parallel kernel
+            simulate_batch(runs_of_batch, Step(1e-3), t_end=1e-4, extend=False)
     t = np.linspace(0.0, 0.1, 101)
     fit_second_order(t, 1.0 - np.exp(-50.0 * t), 1.0)
     # the step figures of a batch (studies.steps.chunk_step_figures): its recorded signals
