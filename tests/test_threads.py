@@ -54,3 +54,25 @@ def test_the_simulators_exponentials_run_on_one_blas_thread(monkeypatch):
     # expm of [[0, 1], [-1, 0]] is the rotation [[cos 1, sin 1], [-sin 1, cos 1]]
     rotation = [[np.cos(1.0), np.sin(1.0)], [-np.sin(1.0), np.cos(1.0)]]
     np.testing.assert_allclose(result, [rotation] * 3, rtol=0, atol=1e-14)
+
+
+def test_where_blas_runs_one_thread_already_nothing_is_limited_or_restored(monkeypatch):
+    """The CLI's setting (every BLAS library at one thread): entering only reads the counts.
+    threadpoolctl's limit (a set and a restore per call, ~60 us of a single run's ~0.6 ms
+    simulation) is refused here, so a call to it fails the test."""
+    from cas_freq import threads
+
+    controller = threads._controller()
+
+    def refused(*args, **kwargs):
+        raise AssertionError("limited although every BLAS library runs one thread")
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        monkeypatch.setattr(controller, "limit", refused)
+        with threads.one_blas_thread():
+            assert set(_blas_threads().values()) == {1}
+        monkeypatch.undo()
+    with threadpool_limits(limits=CALLER_THREADS, user_api="blas"):  # and otherwise it limits
+        with threads.one_blas_thread():
+            assert set(_blas_threads().values()) == {1}
+        assert set(_blas_threads().values()) == {CALLER_THREADS}

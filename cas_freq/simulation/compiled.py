@@ -147,9 +147,10 @@ class CompiledEngine:
         try:
             for start in range(first, first + n_steps, block):
                 stop = min(start + block, first + n_steps)
-                times = np.arange(start, stop) * self.dt
-                if times[0] > self.held_from:  # one row holds for every step of the call
-                    times = times[:1]
+                if start * self.dt > self.held_from:  # one row holds for every step of the call
+                    times = np.array([start * self.dt])
+                else:
+                    times = np.arange(start, stop) * self.dt
                 right, left = self._rows(times)
                 # the kernel writes sample j of this call at column j - (base - offset)
                 advance(*self._args(), right, left, start - 1, record_every, base - offset,

@@ -156,10 +156,10 @@ class CommandSet:
     @staticmethod
     def _shaped(out, t):
         """The (angle, rate, acceleration) of one command broadcast to (len(t), columns)."""
-        shape = np.broadcast_shapes(*(np.shape(a) for a in out))
+        shape = np.broadcast(*out).shape
         if len(shape) < 2:
             shape = (t.shape[0], 1)
-        return tuple(np.broadcast_to(a, shape) for a in out)
+        return tuple(a if np.shape(a) == shape else np.broadcast_to(a, shape) for a in out)
 
     def motor_limits(self, t):
         """Right and left limits of (angle [rad], rate [rad/s], acceleration [rad/s^2]) at
