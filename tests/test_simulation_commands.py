@@ -138,13 +138,15 @@ def test_csv_missing_file(tmp_path):
 
 def test_fin_limits_are_the_right_and_left_limits_of_fin():
     # The compiled engine asks for both limits at once; the sine computes its sine and cosine
-    # once for both. Each limit must be fin's, bit for bit, also at the start (where the left
-    # limit is still 0) and for per-run amplitudes and frequencies.
+    # once for both, the step shares its zero rate and acceleration. Each limit must be fin's,
+    # bit for bit, also at the start (where the left limit is still 0) and for per-run
+    # amplitudes, frequencies and starts.
     from cas_freq.simulation.commands import Sine, Step, fin_limits
 
     t = np.array([-1e-3, 0.0, 0.5e-3, 1e-3, 2e-3])[:, None]
     for command in (Sine(np.array([0.1, 0.2]), np.array([50.0, 900.0]), start_s=1e-3),
-                    Sine(0.1, 300.0), Step(0.2, start_s=1e-3)):
+                    Sine(0.1, 300.0), Step(0.2, start_s=1e-3),
+                    Step(np.array([0.1, -0.3]), start_s=np.array([0.0, 1e-3]))):
         right, left = fin_limits(command, t)
         for got, expected in ((right, command.fin(t)), (left, command.fin(t, left=True))):
             for part, reference in zip(got, expected, strict=True):

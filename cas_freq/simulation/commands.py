@@ -55,13 +55,23 @@ class Step:
         angle = np.where(_after(t, self.start_s, left), self.amplitude_rad, 0.0)
         return angle, np.zeros_like(angle), np.zeros_like(angle)
 
+    def fin_limits(self, t):
+        """``(fin(t), fin(t, left=True))``, the two limits sharing their zero rate and
+        acceleration (one array, read only)."""
+        t = np.asarray(t, dtype=float)
+        right = np.where(t >= self.start_s, self.amplitude_rad, 0.0)
+        left = np.where(t > self.start_s, self.amplitude_rad, 0.0)
+        zero = np.zeros_like(right)
+        zero.flags.writeable = False
+        return (right, zero, zero), (left, zero, zero)
+
     def final_rad(self):
         """The value the command holds at the end [rad]."""
         return np.asarray(self.amplitude_rad, dtype=float)
 
     def held_from(self):
         """The time [s] after which the command holds its value (the latest start)."""
-        return float(np.max(self.start_s))
+        return float(np.asarray(self.start_s, dtype=float).max())
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

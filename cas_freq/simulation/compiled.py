@@ -88,8 +88,12 @@ class CompiledEngine:
 
     def _rows(self, times):
         """Fin command rows at ``times``: right and left limits, each (len(t), 3, columns)."""
-        return tuple(np.ascontiguousarray(np.stack(limit, axis=1))
-                     for limit in self.commands.fin_limits(times))
+        rows = []
+        for limit in self.commands.fin_limits(times):
+            row = np.empty((times.shape[0], 3, limit[0].shape[1]))
+            row[:, 0], row[:, 1], row[:, 2] = limit
+            rows.append(row)
+        return tuple(rows)
 
     def _args(self):
         return (self.p, self.m, self.x, self.s, *self.voltage, *self.current)
