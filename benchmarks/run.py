@@ -292,7 +292,7 @@ def bench_issue_step(params, rows, repeats, rounds=3):
     fastest run (Padé-1, LSODA at its default tolerances).
 
     ``rounds`` rounds, each timing ours and then one run of each python-control case: a shared
-    machine's speed changes over seconds (this one's has a slow state, in which the kernel
+    machine's speed changes over seconds (this one's has a slow state, in which our step
     takes ~1.9 times as long), so each round's ratio compares the two in the same state; the
     row shows the median times and the median of the rounds' ratios.
     """
