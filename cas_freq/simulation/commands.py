@@ -58,9 +58,8 @@ class Step:
     def fin_limits(self, t):
         """``(fin(t), fin(t, left=True))``, the two limits sharing their zero rate and
         acceleration (one array, read only)."""
-        t = np.asarray(t, dtype=float)
-        right = np.where(t >= self.start_s, self.amplitude_rad, 0.0)
-        left = np.where(t > self.start_s, self.amplitude_rad, 0.0)
+        right, left = (np.where(_after(t, self.start_s, side), self.amplitude_rad, 0.0)
+                       for side in (False, True))
         zero = np.zeros_like(right)
         zero.flags.writeable = False
         return (right, zero, zero), (left, zero, zero)
