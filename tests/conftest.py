@@ -33,8 +33,8 @@ def _kernels_prepared_first(_no_compile_messages_in_process, request):
     where numba's cache has none, at the session's start, before any test runs them
     (:func:`~cas_freq.simulation.simulator.prepare_kernels`, which compiles them in a thread of
     its own, not deep in pytest's call stack: see its docstring). With a warm cache this loads
-    the machine code, about 1 s. A session
-    of fewer than :data:`WARM_UP_FROM` tests (one file, one test) compiles only what it runs.
+    the machine code, about 1 s. A session of fewer than :data:`WARM_UP_FROM` tests (one file,
+    one test) compiles only what it runs.
     """
     if len(request.session.items) >= WARM_UP_FROM:
         from cas_freq.config import load_all_variants

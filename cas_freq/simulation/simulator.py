@@ -59,10 +59,10 @@ its 10 x cap (the run is then reported as not settled). The environment variable
 ``CAS_FREQ_BUDGET=N`` multiplies the three budgets by N.
 """
 
+import concurrent.futures
 import dataclasses
 import math
 import os
-import threading
 import warnings
 
 import numpy as np
@@ -707,19 +707,9 @@ def prepare_kernels(params):
 
     if not use_compiled():
         return
-    failures = []
-
-    def prepare():
-        try:
-            _prepare_kernels(params)
-        except BaseException as error:  # noqa: BLE001 - raised again in the caller's thread
-            failures.append(error)
-
-    thread = threading.Thread(target=prepare, name="cas_freq-prepare-kernels")
-    thread.start()
-    thread.join()
-    if failures:
-        raise failures[0]
+    with concurrent.futures.ThreadPoolExecutor(
+            max_workers=1, thread_name_prefix="cas_freq-prepare-kernels") as thread:
+        thread.submit(_prepare_kernels, params).result()  # its failure raised again here
 
 
 def _prepare_kernels(params):
