@@ -2,26 +2,19 @@
 installed offline into a fresh virtual environment, it runs ``cas-freq report`` and
 ``cas_freq.load()`` from another folder, on the shipped config it carries as package data.
 
-The install test is slow (the installed package compiles its numba kernels afresh: 18-32 s,
-~18 s of CPU here): it is marked ``slow`` (deselected by pyproject's addopts) and .ci/run
-runs it explicitly.
-It changes nothing outside pytest's tmp_path: the wheel is built from a copy of the source
-tree (a build writes build/ and *.egg-info next to pyproject.toml), without build isolation,
-network or pip's cache; the environment has no pip of its own and no system site-packages: the
-test's own site-packages (numpy, numba, ...) are on its path through a .pth file, after its
-own site-packages, so ``cas_freq`` can only come from the wheel; its numba cache lands in the
-environment, the unit and matplotlib caches in tmp_path.
+Tests never install anything: ``.ci/run`` builds and installs the wheel first
+(``python .ci/install_wheel.py DIR``: offline, without build isolation or pip's cache, into a
+fresh environment under DIR) and runs the check of the installed package with its Python as
+``CAS_FREQ_WHEEL_PYTHON``; without that variable the check skips, saying so. It is slow (the
+installed package compiles its numba kernels afresh: 18-32 s, ~18 s of CPU here): it is marked
+``slow`` (deselected by pyproject's addopts). Its numba cache, unit cache and matplotlib cache
+land in tmp_path.
 """
 
 import importlib.resources
-import importlib.util
 import os
-import site
 import subprocess
-import sys
-import sysconfig
 import tomllib
-import venv
 from pathlib import Path
 
 import pytest
@@ -29,8 +22,6 @@ import pytest
 from cas_freq.config import loader
 
 ROOT = Path(__file__).resolve().parents[1]
-#: What a build reads: the package, the configs it maps in, the metadata's files.
-SOURCES = ("pyproject.toml", "README.md", "LICENSE", "cas_freq", "configs")
 
 
 def test_pyproject_lists_every_package_and_maps_the_configs():
@@ -61,19 +52,6 @@ def test_the_shipped_configs_are_package_data_when_installed_else_the_repository
     assert loader.default_config_path() == installed / "configs" / "qt_cas.yaml"
 
 
-def _copy_sources(target):
-    import shutil
-
-    for name in SOURCES:
-        source = ROOT / name
-        if source.is_dir():
-            shutil.copytree(source, target / name,
-                            ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.nbi",
-                                                          "*.nbc"))
-        else:
-            shutil.copy2(source, target / name)
-
-
 def _child_environment(tmp_path):
     environment = {key: value for key, value in os.environ.items()
                    if key not in ("PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV")}
@@ -81,9 +59,6 @@ def _child_environment(tmp_path):
     environment["MPLCONFIGDIR"] = str(tmp_path / "matplotlib")
     environment["NUMBA_CACHE_DIR"] = str(tmp_path / "numba")  # not the user's cache either
     environment["MPLBACKEND"] = "Agg"
-    environment["PIP_NO_INDEX"] = "1"  # never the network
-    environment["PIP_DISABLE_PIP_VERSION_CHECK"] = "1"
-    environment["PIP_NO_CACHE_DIR"] = "1"
     return environment
 
 
@@ -94,34 +69,22 @@ def _run(args, cwd, environment):
     return result
 
 
+#: The environment variable naming the Python of the environment the wheel is installed in.
+WHEEL_PYTHON = "CAS_FREQ_WHEEL_PYTHON"
+
+
 @pytest.mark.slow
 def test_the_wheel_installed_offline_runs_report_and_load_from_another_folder(tmp_path):
-    for module in ("setuptools", "wheel", "pip"):
-        if importlib.util.find_spec(module) is None:
-            pytest.skip(f"{module} is not importable: the wheel cannot be built offline "
-                        f"without build isolation (pip install '.[test]' installs it)")
+    if not os.environ.get(WHEEL_PYTHON):
+        pytest.skip(f"{WHEEL_PYTHON} is not set: .ci/run builds and installs the wheel first "
+                    "(python .ci/install_wheel.py DIR); tests do not install")
+    python = Path(os.environ[WHEEL_PYTHON])
     environment = _child_environment(tmp_path)
-    source, wheels, work = tmp_path / "source", tmp_path / "wheels", tmp_path / "work"
-    for folder in (source, wheels, work):
-        folder.mkdir()
-    _copy_sources(source)
-    _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation",
-          "--no-index", "-q", "-w", str(wheels), str(source)], tmp_path, environment)
-    (wheel,) = wheels.glob("cas_freq-*.whl")
-
-    env_dir = tmp_path / "venv"
-    venv.EnvBuilder(with_pip=False).create(env_dir)
-    scripts = "Scripts" if os.name == "nt" else "bin"
-    python = env_dir / scripts / ("python.exe" if os.name == "nt" else "python")
+    work = tmp_path / "work"
+    work.mkdir()
     purelib = Path(_run([str(python), "-c", "import sysconfig; "
                          "print(sysconfig.get_paths()['purelib'])"],
                         work, environment).stdout.strip())
-    # the dependencies: this interpreter's site-packages, after the environment's own
-    parents = dict.fromkeys([*site.getsitepackages(), sysconfig.get_paths()["purelib"]])
-    (purelib / "_cas_freq_test_dependencies.pth").write_text(
-        "".join(f"{path}\n" for path in parents if Path(path).is_dir()), encoding="utf-8")
-    _run([sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps",
-          "--no-index", "--no-build-isolation", "-q", str(wheel)], work, environment)
 
     # the package and its shipped config come from the environment, not the source tree
     where = _run([str(python), "-c",
@@ -139,7 +102,7 @@ def test_the_wheel_installed_offline_runs_report_and_load_from_another_folder(tm
         "vendor/uplot/uPlot.min.css", "vendor/uplot/LICENSE", "vendor/uplot/README.md"}
 
     # the main job from another folder: into -o, and by default into ./reports/qt_cas/
-    cli = env_dir / scripts / ("cas-freq.exe" if os.name == "nt" else "cas-freq")
+    cli = python.parent / ("cas-freq.exe" if os.name == "nt" else "cas-freq")
     _run([str(cli), "report", "--variant", "base", "-o", str(tmp_path / "out")], work,
          environment)
     report = (tmp_path / "out" / "report.md").read_text(encoding="utf-8")
