@@ -13,12 +13,12 @@ repository linked into it, so the pages' relative paths work as from the reposit
 - a ```` ```yaml ```` block preceded by ``<!-- file: NAME -->`` is written to NAME first (a
   page's config, e.g. docs/getting-started.md's).
 
-Not run: lines of a shell block that do not start with ``cas-freq`` (the README's set-up
-commands: .ci/run runs the test command in a fresh environment, and installs the wheel
-that tests/test_wheel.py checks), ``yaml`` blocks without a file name (config excerpts, the CI job snippets of docs/cli.md and docs/howtos.md), formula blocks of
-docs/model.md, and a block preceded by ``<!-- not run: REASON -->``. A block preceded by
-``<!-- slow -->`` runs only in the slow-marked test (.ci/run runs it), so that the suite stays
-fast; every page's other blocks run in the suite.
+Not run: lines of a shell block that do not start with ``cas-freq`` (the README's set-up commands:
+.ci/run runs the test command in a fresh environment, and installs the wheel that
+tests/test_wheel.py checks), ``yaml`` blocks without a file name (config excerpts, the CI job
+snippets of docs/cli.md and docs/howtos.md), formula blocks of docs/model.md, and a block preceded
+by ``<!-- not run: REASON -->``. A block preceded by ``<!-- slow -->`` runs only in the slow-marked
+test (.ci/run runs it), so that the suite stays fast; every page's other blocks run in the suite.
 """
 
 import contextlib
