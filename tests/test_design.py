@@ -19,6 +19,7 @@ import time
 import urllib.error
 import urllib.request
 from pathlib import Path
+from typing import NamedTuple
 
 import pytest
 from clirun import run_cli
@@ -30,19 +31,32 @@ SHIPPED = ROOT / "configs" / "qt_cas.yaml"
 STOP_WITHIN_S = 1.0
 
 
-def _start(*options):
-    """``cas-freq design --no-browser --port 0 -q`` in a process group of its own (SIGINT at
-    its default action, as from a terminal); returns (process, URL of its first line)."""
+class Served(NamedTuple):
+    """A running ``cas-freq design``: its base URL, the token of the URL it printed, that URL
+    (the page's), and the folder it saves into."""
+
+    base: str
+    token: str
+    page: str
+    save_dir: Path
+
+
+def _start(*options, config=SHIPPED):
+    """``cas-freq design CONFIG --no-browser --port 0 -q`` in a process group of its own
+    (SIGINT at its default action, as from a terminal); returns (process, :class:`Served`
+    read from its first line, the page's URL with its token)."""
     process = subprocess.Popen(
-        [sys.executable, "-m", "cas_freq", "design", str(SHIPPED), "--no-browser", "--port",
+        [sys.executable, "-m", "cas_freq", "design", str(config), "--no-browser", "--port",
          "0", "-q", *options],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT,
         env={**os.environ, "PYTHONPATH": str(ROOT)}, start_new_session=True,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     url = process.stdout.readline().strip()
-    assert url.startswith("http://127.0.0.1:"), (url, process.stderr.read()
-                                                 if process.poll() is not None else "")
-    return process, url
+    found = re.fullmatch(r"(http://127\.0\.0\.1:\d+/)\?token=([\w-]{32,})", url)
+    assert found, (url, process.stderr.read() if process.poll() is not None else "")
+    save_dir = Path(options[options.index("--save-dir") + 1]) if "--save-dir" in options \
+        else Path(config).parent
+    return process, Served(found[1], found[2], url, save_dir)
 
 
 def _stop(process):
@@ -52,18 +66,19 @@ def _stop(process):
 
 
 @pytest.fixture(scope="module")
-def server():
-    process, url = _start()
+def server(tmp_path_factory):
+    process, served = _start("--save-dir", str(tmp_path_factory.mktemp("saved")))
     try:
-        yield url
+        yield served
     finally:
         _stop(process)
 
 
-def _post(url, path, body):
-    """(HTTP status, JSON answer) of POST ``path``."""
-    request = urllib.request.Request(url + path.lstrip("/"), json.dumps(body).encode(),
-                                     {"Content-Type": "application/json"})
+def _post(served, path, body):
+    """(HTTP status, JSON answer) of POST ``path``, as the page sends it (its token)."""
+    request = urllib.request.Request(
+        served.base + path.lstrip("/"), json.dumps(body).encode(),
+        {"Content-Type": "application/json", "X-Cas-Freq-Token": served.token})
     try:
         with urllib.request.urlopen(request, timeout=60) as response:
             return response.status, json.loads(response.read())
@@ -71,8 +86,10 @@ def _post(url, path, body):
         return exc.code, json.loads(exc.read())
 
 
-def _get(url, path):
-    with urllib.request.urlopen(url + path.lstrip("/"), timeout=60) as response:
+def _get(served, path):
+    request = urllib.request.Request(served.base + path.lstrip("/"),
+                                     headers={"X-Cas-Freq-Token": served.token})
+    with urllib.request.urlopen(request, timeout=60) as response:
         return json.loads(response.read())
 
 
@@ -139,10 +156,10 @@ def test_two_sessions_keep_two_states_and_a_stale_request_is_dropped(server):
     assert _get(server, "/api/init?session=one")["values"] == {"position_loop.Kp": "4"}
 
 
-def test_save_as_variant_writes_a_config_verify_accepts(server, tmp_path):
+def test_save_as_variant_writes_a_config_verify_accepts(server):
     before = hashlib.sha256(SHIPPED.read_bytes()).hexdigest()
     _state(server, "save", 1, {"position_loop.Kp": "3", "position_loop.Ki": "50"})
-    target = tmp_path / "designed.yaml"
+    target = (server.save_dir / "designed.yaml").resolve()
     status, data = _post(server, "/api/save", {"session": "save", "name": "mine",
                                                "file": str(target)})
     assert status == 200, data
@@ -155,12 +172,13 @@ def test_save_as_variant_writes_a_config_verify_accepts(server, tmp_path):
     assert loaded.params.position_loop.Kp == pytest.approx(3.0)
     assert loaded.params.position_loop.Ki == pytest.approx(50.0)
     assert hashlib.sha256(SHIPPED.read_bytes()).hexdigest() == before
-    # the input config itself is refused, and so is an existing variant name
+    # the input config, outside the save folder, is refused (tests/test_design_security.py
+    # has every refusal), and so is an existing variant name
     status, data = _post(server, "/api/save", {"session": "save", "name": "mine2",
                                                "file": str(SHIPPED)})
-    assert status == 400 and "input config" in data["error"]
+    assert status == 403 and "saves only directly into" in data["error"]
     status, data = _post(server, "/api/save", {"session": "save", "name": "fitted",
-                                               "file": str(tmp_path / "x.yaml")})
+                                               "file": "x.yaml"})
     assert status == 400 and "exists" in data["error"]
 
 
@@ -178,10 +196,10 @@ def _live_group(pgid):
 
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux's /proc")
 def test_ctrl_c_stops_the_server_within_a_second_with_exit_130():
-    process, url = _start("--allow-remote")
+    process, served = _start("--allow-remote")
     try:
         assert "warning: listening on every interface" in process.stderr.readline()
-        assert _get(url, "/api/init?session=x")["variant"] == "base"
+        assert _get(served, "/api/init?session=x")["variant"] == "base"
         start = time.monotonic()
         os.killpg(process.pid, signal.SIGINT)
         code = process.wait(timeout=10)
@@ -213,7 +231,7 @@ def test_the_page_in_headless_chromium_shows_analyze_s_phase_margin(server, tmp_
         [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync",
          f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=20000",
-         "--dump-dom", f"{server}#position_loop.Kp=3"],
+         "--dump-dom", f"{server.page}#position_loop.Kp=3"],
         capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr[-600:]
     shown = {name: html.unescape(value) for name, value in
@@ -320,7 +338,7 @@ def test_moving_a_gain_in_chromium_shows_analyze_s_phase_margin_and_undo_goes_ba
         [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync",
          f"--user-data-dir={tmp_path / 'profile'}", "--remote-debugging-port=0",
-         f"{server}"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+         server.page], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
         start_new_session=True)
     try:
         port = None
@@ -363,7 +381,7 @@ def test_moving_a_gain_in_chromium_shows_analyze_s_phase_margin_and_undo_goes_ba
         assert step == ["linear", "nonlinear"]
         assert {name.rsplit("/", 3)[-1] for name in loaded} >= {
             "uPlot.iife.min.js", "uPlot.min.css", "design.js", "design.css"}
-        assert all(name.startswith(server) for name in loaded), loaded
+        assert all(name.startswith(server.base) for name in loaded), loaded
         shown = tools.evaluate(
             "Promise.all(['5', '4', '3'].map(v => casDesign.setValue('position_loop.Kp', v)))"
             ".then(() => [document.getElementById('pm-position_loop').textContent,"
@@ -565,12 +583,12 @@ def test_the_page_and_its_scripts_reference_no_other_host(server):
     # URL in them is the licence banner comment opening uPlot's file: a credit, not a load)
     from cas_freq.design.server import STATIC
 
-    with urllib.request.urlopen(server, timeout=60) as response:
+    with urllib.request.urlopen(server.base, timeout=60) as response:
         page = response.read().decode()
     loads = re.findall(r'(?:src|href)="([^"]*)"', page)
     assert sorted("/" + name for name in loads) == sorted(path for path in STATIC if path != "/")
     for path in STATIC:
-        with urllib.request.urlopen(server + path.lstrip("/"), timeout=60) as response:
+        with urllib.request.urlopen(server.base + path.lstrip("/"), timeout=60) as response:
             assert response.status == 200
             text = response.read().decode()
         if path.endswith("uPlot.iife.min.js"):

@@ -1,6 +1,7 @@
 """``cas-freq design``: a local interactive design page (:mod:`cas_freq.design.server`).
 
-Prints the page's URL as its first line, serves until Ctrl-C (exit 130, as every command).
+Prints the page's URL, with its per-launch token, as its first line; serves until Ctrl-C
+(exit 130, as every command). The page saves only into the config's folder or ``--save-dir``.
 """
 
 import sys
@@ -18,8 +19,9 @@ def register(commands):
         "with its crossovers and margins, T with the bandwidth and the requirement's line, the "
         "loop-at-a-time margins, the verdicts of the config's analyze-kind requirements, and "
         "the linear and nonlinear step, the previous state as a faint overlay. 'Save as "
-        "variant' writes the config with a new variant and shows the verify command. Binds "
-        "127.0.0.1 unless --allow-remote; stops with Ctrl-C.",
+        "variant' writes the config with a new variant into the config's folder (or --save-dir) "
+        "and shows the verify command. Binds 127.0.0.1 unless --allow-remote; the API answers "
+        "only the page opened from the printed URL (its token); stops with Ctrl-C.",
     )
     parser.add_argument("config", nargs="?", default=None, metavar="CONFIG",
                         help="config YAML (default: the shipped configs/qt_cas.yaml)")
@@ -30,6 +32,9 @@ def register(commands):
                         "rates of a sampled variant's loops (default: the free keys of tune)")
     parser.add_argument("--port", type=int, default=8765, metavar="N",
                         help="TCP port (default 8765; 0: any free port)")
+    parser.add_argument("--save-dir", metavar="DIR",
+                        help="the folder the page's 'Save as variant' writes into (default: the "
+                        "config's folder); it never writes elsewhere")
     parser.add_argument("--no-browser", action="store_true", help="do not open a browser")
     parser.add_argument("--allow-remote", action="store_true",
                         help="listen on every interface (0.0.0.0), not only 127.0.0.1: anyone "
@@ -39,7 +44,7 @@ def register(commands):
 
 def run(args):
     """Serve the page until interrupted."""
-    from cas_freq.design.server import Design, make_server
+    from cas_freq.design.server import Design, make_server, page_url
 
     if not 0 <= args.port <= 65535:
         raise CasFreqError(f"--port: must be 0..65535, got {args.port}")
@@ -51,7 +56,7 @@ def run(args):
                                "position_loop.Kp,current_loop.Kp")
     config = config_path(args.config)
     say_shipped_config(args.config)
-    design = Design(config, args.variant, keys)
+    design = Design(config, args.variant, keys, args.save_dir)
     host = "0.0.0.0" if args.allow_remote else "127.0.0.1"
     try:
         server = make_server(design, host, args.port)
@@ -59,7 +64,7 @@ def run(args):
         raise CasFreqError(f"--port {args.port}: cannot listen on {host}: {exc.strerror}") \
             from None
     port = server.server_address[1]
-    url = f"http://127.0.0.1:{port}/"
+    url = page_url(server)
     print(url, flush=True)
     if args.allow_remote:
         print(f"cas-freq design: warning: listening on every interface (port {port}); anyone "

@@ -10,6 +10,10 @@ this machine, benchmarks/design.py) is far above a threaded standard-library ser
 
 Endpoints (JSON in and out):
 
+Every request passes :class:`cas_freq.design.guard.Guard` first (the served Host, no
+cross-origin request, the per-launch token on ``/api/...``, JSON bodies); each body is read
+into its model of :mod:`cas_freq.design.requests` (a wrong field: 400 naming it).
+
 - ``GET /api/init?session=ID``: the config, the variant, the controls (:func:`controls`) and
   the session's values.
 - ``POST /api/state`` ``{"session", "seq", "values": {key: text}, "step": "5deg",
@@ -20,16 +24,19 @@ Endpoints (JSON in and out):
 - ``POST /api/control`` ``{"key"}``: a control for one more numeric key of the config.
 - ``POST /api/tune`` ``{"session", "candidates", "rounds"}``: ``cas-freq tune`` of the page's
   keys from the session's values: the tuned values and the Pareto front.
-- ``POST /api/save`` ``{"session", "name", "file", "force"}``: the config with the session's
-  values as a new variant (:func:`cas_freq.drive.variant_text.config_with_variant`, written
-  atomically; the input config is never overwritten) and the ``cas-freq verify`` command
-  that checks it.
+- ``POST /api/save`` ``{"session", "name", "file", "overwrite", "force"}``: the config with
+  the session's values as a new variant (:func:`cas_freq.drive.variant_text.config_with_variant`,
+  written atomically) and the ``cas-freq verify`` command that checks it. It writes only
+  directly into the save folder (the config's, or ``--save-dir``), never the input config,
+  and an existing file only with ``overwrite`` (409 without: the page asks the user first);
+  see :func:`cas_freq.design.saving.save_target`.
 
 Every session (an id the page makes) has its own values: two browsers are independent.
 """
 
 import json
 import shlex
+import sys
 import threading
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib import resources
@@ -37,10 +44,20 @@ from pathlib import Path
 from urllib.parse import parse_qs, urlparse
 
 from cas_freq.design.compute import CHOICES
+from cas_freq.design.guard import Guard, Refused, new_token
+from cas_freq.design.requests import ControlRequest, SaveRequest, StateRequest, TuneRequest, parsed
+from cas_freq.design.saving import save_target
 from cas_freq.exceptions import CasFreqError
 
 #: Largest request body accepted [bytes].
 MAX_BODY = 1 << 20
+#: A connection's socket timeout [s]: a client that stops sending (a body shorter than its
+#: Content-Length, an idle keep-alive connection) frees its thread after this.
+READ_TIMEOUT_S = 10.0
+#: Connections the listening socket queues while every thread is busy.
+BACKLOG = 64
+#: What a client that went away raises when its answer is written.
+HUNG_UP = (BrokenPipeError, ConnectionResetError, ConnectionAbortedError, TimeoutError)
 #: Most sessions kept (the oldest is forgotten beyond).
 MAX_SESSIONS = 64
 #: The files of the page, served from the installed package.
@@ -74,13 +91,18 @@ class Design:
         The variant the page starts from.
     keys : sequence of str, optional
         The keys of the controls (default: tune's free keys).
+    save_dir : str or Path, optional
+        The one folder saves write into (default: the config's folder).
     """
 
-    def __init__(self, config, variant="base", keys=None):
+    def __init__(self, config, variant="base", keys=None, save_dir=None):
         from cas_freq.config import load_variant
         from cas_freq.design.compute import controls
 
         self.config = Path(config)
+        self.save_dir = Path(self.config.parent if save_dir is None else save_dir).resolve()
+        if not self.save_dir.is_dir():
+            raise CasFreqError(f"--save-dir {save_dir}: is not an existing folder")
         self.variant = variant
         self.loaded = load_variant(self.config, variant)
         self.controls = controls(self.loaded, keys)
@@ -89,7 +111,6 @@ class Design:
 
     def session(self, name):
         """The session called ``name`` (made on first use)."""
-        name = str(name or "default")[:64]
         with self.lock:
             if name not in self.sessions:
                 if len(self.sessions) >= MAX_SESSIONS:
@@ -102,6 +123,7 @@ class Design:
         from cas_freq.output import output_unit
 
         return {"config": str(self.config), "variant": self.variant,
+                "save_dir": str(self.save_dir),
                 "controls": self.controls + self.session(name).extra,
                 "values": self.session(name).values,
                 "step": output_unit(self.loaded.params).example}
@@ -111,9 +133,10 @@ class Design:
         from cas_freq.config import load_variant
         from cas_freq.design.compute import check_values, design_state
 
-        session = self.session(request.get("session"))
-        seq = int(request.get("seq", 0))
-        values = {str(k): str(v).strip() for k, v in (request.get("values") or {}).items()}
+        request = parsed(StateRequest, request)
+        session = self.session(request.session)
+        seq = request.seq
+        values = {k: str(v).strip() for k, v in request.values.items()}
         with session.newest_lock:
             session.newest = max(session.newest, seq)
         with session.lock:  # one computation per session at a time; a newer request wins
@@ -122,7 +145,7 @@ class Design:
             errors = check_values(values, self.loaded.params)
             if errors:
                 return {"errors": errors, "seq": seq}
-            step_rad = self._step(request.get("step"))
+            step_rad = self._step(request.step)
             try:
                 loaded = load_variant(self.config, self.variant, tuple(values.items()))
             except CasFreqError as exc:
@@ -131,7 +154,7 @@ class Design:
                             or message.startswith(f"{k}:")), None) or \
                     next((k for k in values if k in message), "_")
                 return {"errors": {key: message}, "seq": seq}
-            data = design_state(loaded, step_rad, bool(request.get("nonlinear", True)))
+            data = design_state(loaded, step_rad, request.nonlinear)
             session.values = values
             data["seq"] = seq
             return data
@@ -148,8 +171,9 @@ class Design:
         accepts), added to the session's."""
         from cas_freq.design.compute import controls
 
-        session = self.session(request.get("session"))
-        key = str(request.get("key") or "").strip()
+        request = parsed(ControlRequest, request)
+        session = self.session(request.session)
+        key = request.key.strip()
         (control,) = controls(self.loaded, [key])
         with session.lock:
             if all(item["key"] != key for item in self.controls + session.extra):
@@ -165,13 +189,10 @@ class Design:
         from cas_freq.tuning.run import tune_variant
         from cas_freq.tuning.summary import tune_dict
 
-        session = self.session(request.get("session"))
-        candidates, rounds = (int(default if request.get(name) is None else request[name])
-                              for name, default in (("candidates", GLOBAL_COUNT),
-                                                    ("rounds", ROUNDS)))
-        if not (1 <= candidates <= 2000 and 0 <= rounds <= 20):
-            raise CasFreqError(f"tune: candidates 1..2000 and rounds 0..20, got {candidates} "
-                               f"and {rounds}")
+        request = parsed(TuneRequest, request)
+        session = self.session(request.session)
+        candidates = GLOBAL_COUNT if request.candidates is None else request.candidates
+        rounds = ROUNDS if request.rounds is None else request.rounds
         loaded = load_variant(self.config, self.variant, tuple(session.values.items()))
         # tune varies the loop parameters: not the sampling keys (static in a batch)
         free = ",".join(control["key"] for control in self.controls + session.extra
@@ -184,14 +205,18 @@ class Design:
                                            "candidates", "feasible_candidates")}
 
     def save(self, request):
-        """Write the config with the session's values as variant ``name``."""
+        """Write the config with the session's values as variant ``name`` (into the save
+        folder only: :func:`cas_freq.design.saving.save_target`)."""
         from cas_freq.config import load_variant
         from cas_freq.drive.variant_text import config_with_variant, si_text, variant_entries
-        from cas_freq.fileio import check_output_file, write_text_atomic
+        from cas_freq.fileio import write_text_atomic
         from cas_freq.parameters import base_values
 
-        session = self.session(request.get("session"))
-        name = str(request.get("name") or "designed")
+        request = parsed(SaveRequest, request)
+        session = self.session(request.session)
+        name = request.name
+        file = save_target(request.file, self.save_dir, self.config,
+                           f"{self.config.stem}-{name}.yaml", request.overwrite)
         values = dict(session.values)
         loaded = load_variant(self.config, self.variant, tuple(values.items()))
         got = {**base_values(loaded.params), **_sampling_values(loaded.params)}
@@ -202,17 +227,12 @@ class Design:
             self.config, name, variant_entries(base, changed),
             f"cas-freq design from variant {self.variant}",
             {key: got[key] for key in values if not key.startswith("sampling.")},
-            "the designed values", force=bool(request.get("force")), tolerance=1e-5)
+            "the designed values", force=request.force, tolerance=1e-5)
         for key, value in _sampling_values(saved.params).items():  # what base_values lacks
             if key in values and value != got[key]:
                 raise CasFreqError(f"{self.config}: variant {name!r} loads {key} = {value!r}, "
                                    f"not {got[key]!r}; the variants block was not read as "
                                    "expected")
-        file = Path(request.get("file") or f"{self.config.stem}-{name}.yaml")
-        if file.exists() and file.resolve() == self.config.resolve():
-            raise CasFreqError(f"{file}: is the input config; the design page never "
-                               "overwrites it (choose another file)")
-        check_output_file(file, "file")
         write_text_atomic(file, text)
         command = f"cas-freq verify {shlex.quote(str(file))} --variant {shlex.quote(name)}"
         return {"written": str(file), "variant": name, "command": command}
@@ -227,61 +247,156 @@ def _sampling_values(params):
 
 
 class Handler(BaseHTTPRequestHandler):
-    """Serves the page and the endpoints of :class:`Design` (``self.server.design``)."""
+    """Serves the page and the endpoints of :class:`Design` (``self.server.design``) to the
+    requests ``self.server.guard`` lets through."""
 
     protocol_version = "HTTP/1.1"
+    timeout = READ_TIMEOUT_S  # the socket's: a silent client frees its thread
 
     def log_message(self, format, *args):  # noqa: A002 - the page's requests are not news
         pass
 
     def _send(self, status, body, content_type="application/json"):
         data = body if isinstance(body, bytes) else json.dumps(body).encode("utf-8")
-        self.send_response(status)
-        self.send_header("Content-Type", content_type)
-        self.send_header("Content-Length", str(len(data)))
-        self.send_header("Cache-Control", "no-store")
-        self.end_headers()
-        self.wfile.write(data)
+        try:
+            self.send_response(status)
+            self.send_header("Content-Type", content_type)
+            self.send_header("Content-Length", str(len(data)))
+            self.send_header("Cache-Control", "no-store")
+            self.send_header("X-Content-Type-Options", "nosniff")
+            self.send_header("X-Frame-Options", "DENY")
+            if self.close_connection:
+                self.send_header("Connection", "close")
+            self.end_headers()
+            self.wfile.write(data)
+        except HUNG_UP:  # the client went away: nobody to answer
+            self.close_connection = True
+
+    def _guarded(self, method):
+        """The URL when the guard serves the request, else None (the refusal answered)."""
+        url = urlparse(self.path)
+        try:
+            self.server.guard.check(method, url.path, self.headers)
+        except Refused as exc:
+            self.close_connection = True
+            self._send(exc.status, {"error": str(exc)})
+            return None
+        return url
 
     def do_GET(self):  # noqa: N802 - http.server's name
-        url = urlparse(self.path)
+        url = self._guarded("GET")
+        if url is None:
+            return None
         if url.path in STATIC:
             name, content_type = STATIC[url.path]
             data = resources.files("cas_freq.design").joinpath("static", *name.split("/"))\
                 .read_bytes()
             return self._send(200, data, content_type)
         if url.path == "/api/init":
-            session = parse_qs(url.query).get("session", ["default"])[0]
+            session = parse_qs(url.query).get("session", ["default"])[0][:64]
             return self._send(200, self.server.design.init(session))
         return self._send(404, {"error": f"no such page: {url.path}"})
 
     def do_POST(self):  # noqa: N802
-        url = urlparse(self.path)
+        url = self._guarded("POST")
+        if url is None:
+            return None
         design = self.server.design
         actions = {"/api/state": design.state, "/api/save": design.save,
                    "/api/tune": design.tune, "/api/control": design.control}
         if url.path not in actions:
             return self._send(404, {"error": f"no such endpoint: {url.path}"})
         try:
-            length = int(self.headers.get("Content-Length") or 0)
-            if not 0 <= length <= MAX_BODY:
-                raise CasFreqError(f"request of {length} bytes; at most {MAX_BODY}")
-            request = json.loads(self.rfile.read(length) or b"{}")
-            if not isinstance(request, dict):
-                raise CasFreqError("expected a JSON object")
+            request = self._body()
+        except TimeoutError:  # fewer bytes than Content-Length said: the connection is closed
+            self.close_connection = True
+            return self._send(408, {"error": f"the request body did not arrive within "
+                                             f"{self.timeout:g} s"})
+        except CasFreqError as exc:
+            self.close_connection = True  # the unread rest of a refused body is not a request
+            return self._send(400, {"error": str(exc)})
+        try:
             return self._send(200, actions[url.path](request))
-        except (CasFreqError, ValueError) as exc:  # bad input: said, never fatal
+        except Refused as exc:
+            return self._send(exc.status, {"error": str(exc)})
+        except CasFreqError as exc:  # bad input: said, never fatal
             return self._send(400, {"error": str(exc)})
         except Exception as exc:  # a bug in one request must not stop the server
             return self._send(500, {"error": f"{type(exc).__name__}: {exc}"})
 
+    def _body(self):
+        """The request's JSON body (at most :data:`MAX_BODY` bytes).
 
-def make_server(design, host="127.0.0.1", port=0):
-    """A :class:`ThreadingHTTPServer` serving ``design`` on ``host``:``port`` (0: a free one)."""
-    server = ThreadingHTTPServer((host, port), Handler)
-    server.daemon_threads = True
+        Raises
+        ------
+        CasFreqError
+            A missing or bad Content-Length, a body that is not JSON or nests too deep.
+        TimeoutError
+            The body's bytes stopped arriving.
+        """
+        text = self.headers.get("Content-Length")
+        try:
+            length = int(text)
+        except (TypeError, ValueError):
+            raise CasFreqError(f"Content-Length {text!r}: expected the body's length in "
+                               "bytes") from None
+        if not 0 <= length <= MAX_BODY:
+            raise CasFreqError(f"Content-Length {length}: expected 0..{MAX_BODY} bytes")
+        data = self.rfile.read(length)
+        if len(data) < length:  # the client closed its side early
+            raise CasFreqError(f"the body ended after {len(data)} of {length} bytes")
+        try:
+            return json.loads(data or b"{}")
+        except RecursionError:
+            raise CasFreqError("the JSON body nests too deep") from None
+        except (UnicodeDecodeError, ValueError) as exc:
+            raise CasFreqError(f"the body is not JSON: {exc}") from None
+
+
+class Server(ThreadingHTTPServer):
+    """A threaded server whose listen queue holds :data:`BACKLOG` connections and whose
+    clients' hang-ups are not errors."""
+
+    request_queue_size = BACKLOG
+    daemon_threads = True
+    block_on_close = False
+
+    def handle_error(self, request, client_address):
+        """A client that went away is not news; anything else one line on stderr."""
+        error = sys.exc_info()[1]
+        if not isinstance(error, HUNG_UP):
+            print(f"cas-freq design: error serving {client_address[0]}: "
+                  f"{type(error).__name__}: {error}", file=sys.stderr, flush=True)
+
+
+def make_server(design, host="127.0.0.1", port=0, token=None, read_timeout=READ_TIMEOUT_S):
+    """A :class:`Server` serving ``design`` on ``host``:``port`` (0: a free one).
+
+    Parameters
+    ----------
+    design : Design
+        What the endpoints compute.
+    host : str
+        The address to listen on (``0.0.0.0``: every interface, any Host accepted).
+    port : int
+        The port (0: a free one).
+    token : str, optional
+        The per-launch token the API requires (default: a new random one); the page's URL is
+        :func:`page_url`.
+    read_timeout : float
+        A connection's socket timeout [s].
+    """
+    handler = type("Handler", (Handler,), {"timeout": read_timeout})
+    server = Server((host, port), handler)
     server.design = design
+    server.guard = Guard(server.server_address[1], token or new_token(),
+                         remote=host not in ("127.0.0.1", "localhost", "::1"))
     return server
 
 
-__all__ = ["Design", "Handler", "make_server"]
+def page_url(server):
+    """The page's URL with its token, as ``cas-freq design`` prints it."""
+    return f"http://127.0.0.1:{server.server_address[1]}/?token={server.guard.token}"
+
+
+__all__ = ["Design", "Handler", "Server", "make_server", "page_url"]

@@ -25,12 +25,21 @@
     return node;
   };
 
+  // The per-launch token of the URL cas-freq design printed: the server answers no API
+  // request without it (a page of another site cannot send it).
+  const token = new URLSearchParams(location.search).get("token") || "";
   async function api(path, body) {
-    const options = body === undefined ? {} :
-      {method: "POST", headers: {"Content-Type": "application/json"}, body: JSON.stringify(body)};
+    const headers = {"X-Cas-Freq-Token": token};
+    const options = body === undefined ? {headers} : {method: "POST",
+      headers: Object.assign(headers, {"Content-Type": "application/json"}),
+      body: JSON.stringify(body)};
     const response = await fetch(path, options);
     const data = await response.json();
-    if (!response.ok) throw new Error(data.error || response.statusText);
+    if (!response.ok) {
+      const error = new Error(data.error || response.statusText);
+      error.status = response.status;
+      throw error;
+    }
     return data;
   }
 
@@ -449,14 +458,21 @@
     to.push(Object.assign({}, values));
     return setValues(from.pop());
   }
-  async function save() {
+  async function save(overwrite) {
+    const request = {session, name: $("save-name").value, file: $("save-file").value || null,
+                     overwrite: overwrite === true};
     try {
-      const data = await api("/api/save", {session, name: $("save-name").value,
-                                           file: $("save-file").value || null});
+      const data = await api("/api/save", request);
       $("save-result").textContent = `wrote ${data.written}\ncheck it with:\n${data.command}`;
     } catch (error) {
+      // 409 for an existing file: replaced only when the user confirms
+      if (error.status === 409 && !request.overwrite && / exists;/.test(error.message) &&
+          window.confirm(`${error.message.replace(/;.*/, "")}. Replace it?`)) {
+        return save(true);
+      }
       $("save-result").textContent = String(error.message || error);
     }
+    return null;
   }
   async function compare() {
     if ($("compare").checked && !variantState) {
@@ -520,11 +536,12 @@
     const unknown = Object.keys(Object.assign({}, init.values, parseHash()))
       .filter((key) => !controls.some((c) => c.key === key));
     $("title").textContent = `${init.config} / ${init.variant}`;
+    $("save-dir").textContent = init.save_dir;
     $("step").value = init.step;
     buildControls();
     $("undo").addEventListener("click", () => back(undo, redo));
     $("redo").addEventListener("click", () => back(redo, undo));
-    $("save").addEventListener("click", save);
+    $("save").addEventListener("click", () => save(false));
     $("tune").addEventListener("click", () => tune());
     $("add").addEventListener("click", addKey);
     $("compare").addEventListener("change", compare);
