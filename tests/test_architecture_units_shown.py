@@ -80,3 +80,30 @@ def test_tune_pareto_columns_name_each_keys_loop():
     row = text.splitlines()[-1].split()
     assert row[:3] == ["1", "2", "3"]  # each value under its own column
     assert column_label("filters.0.frequency") == "filters.0.frequency"
+
+
+def test_fit_params_start_and_unit_are_the_cascades():
+    # a cascade's Kp in 1/s: the start '80 1/s' is read in it (base code: refused as not
+    # A/rad), and the free key says 1/s (base code: A/rad, the PID-on-PI's)
+    from cas_freq.identification.free_keys import free_keys, parse_model_spec
+    from cas_freq.parameters import variant_parameters
+
+    config = load_variant(CASCADE).params
+    spec = parse_model_spec("position_loop.Kp=80 1/s,velocity_loop.Kp", 1)
+    kp, kv = free_keys(spec, variant_parameters(config, {}), "base", config)
+    assert (kp.start, kp.unit) == (80.0, "1/s")
+    assert (kv.start, kv.unit) == (1.3, "A*s/rad")  # the file's value, in the file's SI unit
+
+
+def test_the_profile_feedforward_is_shown_in_the_architectures_units():
+    # a cascade's ff_v feeds the velocity command: dimensionless, not A*s/rad
+    from types import SimpleNamespace
+
+    from cas_freq.parameters import unit_of
+    from cas_freq.report.profile import _feedforward_text
+
+    cascade = load_variant(CASCADE).params
+    units = (unit_of("position_loop.ff_v", cascade), unit_of("position_loop.ff_a", cascade))
+    text = _feedforward_text(SimpleNamespace(ff_v=1.0, ff_a=2e-4, ff_units=units))
+    assert "ff_v = 1," in text and "ff_a = 0.0002 A*s^2/rad" in text
+    assert "A*s/rad" not in text.replace("A*s^2/rad", "")

@@ -361,9 +361,10 @@ def parse_set_option(text):
 
 
 def check_overrides(overrides, origin="--set"):
-    """Raise ConfigError for overrides that would be silently lost: a key given twice (only one
-    value could be used) or a key of the ``variants`` section (the variants are read from the
-    file; an override applies to the selected variant's values).
+    """Raise ConfigError for overrides that would be silently lost: a key of the ``variants``
+    section (the variants are read from the file; an override applies to the selected
+    variant's values). A key given twice is not lost: the last value wins, as for any option
+    given twice.
 
     Parameters
     ----------
@@ -372,7 +373,6 @@ def check_overrides(overrides, origin="--set"):
     origin : str
         What the errors call the overrides (``--set``, ``set=``).
     """
-    seen = {}
     for key, value in overrides:
         if key == "variants" or key.startswith("variants."):
             name, _, rest = key.removeprefix("variants").lstrip(".").partition(".")
@@ -380,10 +380,6 @@ def check_overrides(overrides, origin="--set"):
                      "--variant NAME --set KEY=VALUE")
             raise ConfigError(f"{origin} {one_line(key)[:80]}: {origin} changes the selected "
                               f"variants' values, not the variants section; write {write}")
-        if key in seen:
-            raise ConfigError(f"{origin} {one_line(key)[:80]}: given twice "
-                              f"({shown(seen[key])} and {shown(value)}); give it once")
-        seen[key] = value
 
 
 def _flatten(overrides, prefix=""):
