@@ -376,8 +376,9 @@ def check_overrides(overrides, origin="--set"):
     for key, value in overrides:
         if key == "variants" or key.startswith("variants."):
             name, _, rest = key.removeprefix("variants").lstrip(".").partition(".")
-            write = (f"--variant {name} --set {rest}={value}" if name and rest else
-                     "--variant NAME --set KEY=VALUE")
+            name, rest = (name, rest) if name and rest else ("NAME", "KEY")
+            write = (f"--variant {name} --set {rest}={value}" if origin == "--set" else
+                     f"variant={name!r} with {origin} {{{rest!r}: {value!r}}}")
             raise ConfigError(f"{origin} {one_line(key)[:80]}: {origin} changes the selected "
                               f"variants' values, not the variants section; write {write}")
 

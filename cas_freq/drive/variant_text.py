@@ -154,7 +154,7 @@ def si_text(key, value, config=None):
     from cas_freq.parameters import unit_of
 
     unit = unit_of(key, config)
-    if unit.startswith("1/"):  # "1/s" reads as a number and a stray "/s": write "s^-1"
+    if unit.startswith("1/"):  # written "s^-1", as the shipped configs write it ("1/s" reads too)
         base, _, power = unit[2:].partition("^")
         unit = f"{base}^-{power or 1}"
     return f"{value:.6g}" if unit == "dimensionless" else f"{value:.6g} {unit}"
