@@ -122,7 +122,10 @@ def _writable(path):
 
 
 def _check_parent(path, option):
-    """The nearest existing ancestor of ``path`` must be a folder this process can write."""
+    """The nearest existing ancestor of ``path`` must be a folder this process can write: its
+    permissions allow it and a file can be created there (an empty probe file, removed at
+    once; a read-only or virtual file system such as /proc refuses it whatever the
+    permissions say)."""
     parent = path.parent
     while not os.path.lexists(parent):
         if parent == parent.parent:
@@ -132,6 +135,14 @@ def _check_parent(path, option):
         raise CasFreqError(f"{option} {path}: {parent} is not a folder")
     if not _writable(parent):
         raise CasFreqError(f"{option} {path}: the folder {parent} is not writable")
+    try:
+        handle, probe = tempfile.mkstemp(dir=parent, prefix=".cas-freq-probe.")
+    except OSError as exc:
+        raise CasFreqError(f"{option} {path}: no file can be created in the folder {parent} "
+                           f"({exc.strerror or exc}; a read-only or virtual file system?)"
+                           ) from None
+    os.close(handle)
+    os.unlink(probe)
 
 
 def csv_row(path, number, line):

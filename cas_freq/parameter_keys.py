@@ -152,7 +152,8 @@ PARAMETERS = _table(
     # the sensors (docs/model.md §15, "Disturbance and noise"): read by analyze's noise figure
     ("sensors.counts_per_rev", None, "dimensionless", 1.0, False, 1e12,
      "counts per revolution of the encoder the position loop reads (the motor's, or the "
-     "output's with position_loop.feedback: output), default none, 1..1e12 [dimensionless]"),
+     "output's with position_loop.feedback: output), a whole number, default none, 1..1e12 "
+     "[dimensionless]", None, {"integer": True}),
 )
 
 #: Keys a sweep or a Monte Carlo run can change per sample: every key that reaches the loop

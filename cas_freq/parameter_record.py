@@ -60,6 +60,8 @@ class Parameter:
     hint : str or None
         Appended to the refusal of a value whose unit does not fit (a cascade's position gain
         given in A/rad, the PID-on-PI's unit).
+    integer : bool
+        True for a count (an encoder's counts per revolution): only whole numbers are accepted.
 
     Units: the value's unit must have ``unit``'s dimension, an angle counted as a dimension of
     its own (:func:`cas_freq.units.angle_problem`): a key whose unit carries ``rad`` (a speed,
@@ -78,6 +80,7 @@ class Parameter:
     smallest: float | None = None
     datasheet_unit: str | None = None
     hint: str | None = None
+    integer: bool = False
 
     @property
     def label(self):
@@ -104,7 +107,8 @@ class Parameter:
             parts.append(f"<= {self.upper:g}")
         if not parts:
             return "finite"
-        return f"{' and '.join(parts)} {self.unit}"
+        whole = "a whole number " if self.integer else ""
+        return f"{whole}{' and '.join(parts)} {self.unit}"
 
     def accepts(self, values):
         """Bool (array): finite and within the bounds."""
@@ -117,6 +121,8 @@ class Parameter:
                 good &= values <= self.upper
             if self.smallest is not None:
                 good &= (values == 0) | (np.abs(values) >= self.smallest)
+            if self.integer:
+                good &= values == np.round(values)
         return good
 
     def problem(self, value, given=None):

@@ -20,9 +20,10 @@ import math
 import os
 
 #: Version of the rules a stored factor passed (part of the file name): 2 since an angle must
-#: match (``min^-1`` is no longer read as ``rad/min``), so a factor stored under the old rules
+#: match (``min^-1`` is no longer read as ``rad/min``), 3 since a torque per current counts as
+#: per radian (``V*s`` is no longer read as ``N*m/A``), so a factor stored under older rules
 #: is never read.
-FORMAT = 2
+FORMAT = 3
 
 #: Environment variable: a folder to keep the cache in instead of the user's cache folder, or
 #: ``off`` to keep it in memory only.

@@ -16,7 +16,15 @@ its own (:func:`angle_problem`): the unit given must carry the same power of an 
 ``rpm``, ``rev/s``, ``deg/s``, but not ``Hz``, ``s^-1`` or ``min^-1`` (the error asks "min^-1:
 rpm?"); a frequency (``Hz``) accepts ``kHz`` or ``1/s`` but not ``rad/s`` or ``rpm``; ``V*s/rad``
 accepts ``V/rpm`` but not ``V/Hz`` or ``V*s``; ``A/rad`` does not accept ``A``. ``rev`` is an
-alias of pint's ``revolution``.
+alias of pint's ``revolution``. One unit carries an angle it does not write: a torque per
+current (``N*m/A``, ``mN*m/A``), which in SI equals the back-EMF per angular rate exactly (the
+motor's power balance, torque * rate = Km * i * rate = back-EMF * i), so it counts as per radian:
+``Ke: 26.4 mN*m/A`` reads as 0.0264 V*s/rad and ``Km: 26.4 mV*s/rad`` as 0.0264 N*m/A, while
+``V*s``, ``V/Hz`` and ``V/min^-1`` (per revolution or per radian?) stay refused for either.
+
+Logarithmic units (``dB``, ``Np``, ``octave``) stand alone (``dB/s``, ``dB*s``, ``dB^2`` are
+refused) and are read only where the value wanted is itself logarithmic: ``15 dB`` is not a
+percentage.
 
 A value string is ONE number and ONE unit, nothing else, checked by a strict pattern before pint
 sees it (:func:`split_quantity`): the number is ``[+-]?(\\d+\\.?\\d*|\\.\\d+)([eE][+-]?\\d+)?``, the
@@ -26,7 +34,8 @@ integer exponent (``^2``, ``**-1``, |exponent| <= 4) per factor, and the whole s
 so ``'9**9**9 ohm'`` is refused at once). Decimal commas (``"0,4 ms"``), several numbers
 (``"6 3435 A/rad"``), stray dots (``"0.071.5 mH"``) are refused saying what was read; a percent
 is accepted only where the quantity itself is a percentage (unit ``percent``). A bare number in
-a string (``"0.4"``) is already SI.
+a string (``"0.4"``) is already SI. A factor ``1`` before ``/`` is pint's spelling of a
+reciprocal (``"40 1/s"``, ``"5 1/s^2"``).
 
 pint is imported only when a conversion needs it: the factor of each (unit text, SI unit) pair
 pint has converted before is read from a disk cache (:mod:`cas_freq.unit_cache`) and applied
@@ -50,7 +59,7 @@ MAX_DEPTH = 3
 _NUMBER = r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
 _QUANTITY = re.compile(rf"\s*({_NUMBER})\s*(.*?)\s*", re.DOTALL)
 _TOKEN = re.compile(
-    r"\s*(?:(?P<name>(?:[^\W\d_]|[°Ωµμ%])(?:[^\W\d]|[°Ωµμ])*)"
+    r"\s*(?:(?P<name>(?:[^\W\d_]|[°Ωµμ%])(?:[^\W\d]|[°Ωµμ])*|1(?=\s*/))"
     r"|(?P<exp>(?:\^|\*\*)\s*(?P<power>[+-]?\d+))|(?P<op>[*/·()]))"
 )
 _RATIO = re.compile(r"\s*(\d+\.?\d*|\.\d+)\s*:\s*(\d+\.?\d*|\.\d+)\s*")
@@ -154,15 +163,61 @@ def split_quantity(text):
     return number, unit
 
 
+def _pint_text(unit):
+    """Unit text as pint reads it (``·`` a product, ``µ``/``μ`` the prefix ``u``)."""
+    return unit.replace("·", "*").replace("µ", "u").replace("μ", "u")
+
+
+@functools.cache
+def logarithmic(name):
+    """True if the unit text ``name`` is one of pint's logarithmic units (``dB``, ``Np``,
+    ``octave``, ``dBm``), False otherwise (also for an unknown name or a combination)."""
+    try:
+        units = registry().parse_units(_pint_text(name))._units
+        (only,) = units
+        return bool(getattr(registry()._units[only].converter, "is_logarithmic", False))
+    except Exception:  # noqa: BLE001 - unknown, prefixed offset, several factors: not one
+        return False
+
+
+def _names(unit):
+    """The unit names of checked unit text, in order (without the reciprocal's ``1``)."""
+    names, pos = [], 0
+    while pos < len(unit):
+        match = _TOKEN.match(unit, pos)
+        if match is None or match.end() == pos:
+            break
+        name = match.group("name")
+        if name and name != "1":
+            names.append(name)
+        pos = match.end()
+    return names
+
+
 def parse_unit(unit, text=None):
-    """The pint Unit of checked unit text (``""`` is dimensionless); ValueError if unknown."""
+    """The pint Unit of checked unit text (``""`` is dimensionless).
+
+    Raises
+    ------
+    ValueError
+        If a name is unknown to pint, or a logarithmic unit (``dB``) is combined with another
+        unit or raised to a power (``dB/s``, ``dB^2``).
+    """
     if not unit:
         return registry().dimensionless
+    shown = text if text is not None else unit
+    names = _names(unit)
+    odd = [name for name in names if logarithmic(name)]
+    if odd and unit.strip() != odd[0]:
+        raise _refused(shown, f"{odd[0]} is a logarithmic unit: it stands alone, "
+                              f"not combined with another unit or raised to a power "
+                              f"({_shown(unit)})")
     try:
-        return registry().parse_units(unit.replace("·", "*").replace("µ", "u").replace("μ", "u"))
+        parsed = registry().parse_units(_pint_text(unit))
+        parsed.dimensionality  # noqa: B018 - pint raises here for some unknown combinations
     except Exception as exc:  # noqa: BLE001 - pint raises many kinds (UndefinedUnitError, ...)
-        raise _refused(text if text is not None else unit,
-                       f"unknown unit {_shown(unit)} ({type(exc).__name__})") from None
+        raise _refused(shown, f"unknown unit {_shown(unit)} ({type(exc).__name__})") from None
+    return parsed
 
 
 def has_unit(text):
@@ -237,6 +292,13 @@ def _pint_convert(value, magnitude, unit_text, unit):
 
     source = parse_unit(unit_text, value)
     target = registry().Unit(unit)
+    if logarithmic(unit_text.strip()) != logarithmic(unit):
+        head = f"cannot read {_shown(value)} as a value in {unit}"
+        if logarithmic(unit):
+            raise ValueError(f"{head}: write it in {unit} or as a plain number of {unit}")
+        plain = unit if unit != "dimensionless" else "a plain number"
+        raise ValueError(f"{head}: {unit_text.strip()} is a logarithmic unit, {unit} is not; "
+                         f"write the value in {plain}")
     if source.dimensionality != target.dimensionality:
         raise ValueError(
             f"{_shown(value)} has dimension {source.dimensionality}, expected that of {unit} "
@@ -256,10 +318,36 @@ def _pint_convert(value, magnitude, unit_text, unit):
     return result
 
 
+#: pint's dimension of a force and of a current.
+_FORCE = {"[mass]": 1, "[length]": 1, "[time]": -2}
+_CURRENT = {"[current]": 1}
+
+
+def _power_of(unit, dimension):
+    """Sum of the exponents of the factors of the pint Unit ``unit`` that are of ``dimension``
+    (a dict), e.g. 1 newton in ``mN*m/A`` for a force."""
+    total = 0
+    for name, exponent in unit._units.items():
+        if dict(registry().Unit(name).dimensionality) == dimension:
+            total += exponent
+    return total
+
+
+def torque_per_current(unit):
+    """True if the pint Unit ``unit`` is written as a torque per current (a force times a length
+    over a current: ``N*m/A``, ``mN*m/A``, ``oz*in/A`` with a force ounce), which counts as per
+    radian (module docstring)."""
+    force, current = _power_of(unit, _FORCE), _power_of(unit, _CURRENT)
+    length = _power_of(unit, {"[length]": 1})
+    return force == 1 and length == 1 and current == -1
+
+
 def _angle_power(unit):
-    """The power of an angle in the pint Unit ``unit`` (1 for rpm, 0 for Hz, -1 for V*s/rad):
-    pint keeps ``radian`` among its root units although it is dimensionless."""
-    return dict(registry().get_root_units(unit)[1]._units).get("radian", 0)
+    """The power of an angle in the pint Unit ``unit`` (1 for rpm, 0 for Hz, -1 for V*s/rad
+    and for N*m/A, :func:`torque_per_current`): pint keeps ``radian`` among its root units
+    although it is dimensionless."""
+    power = dict(registry().get_root_units(unit)[1]._units).get("radian", 0)
+    return power - 1 if torque_per_current(unit) else power
 
 
 def _rate_hint(number, source):

@@ -86,6 +86,11 @@ def split_settings(settings, config=None, parse=True):
         else:
             parse_set_option(text)  # refuses a malformed one before any work
             fixed.append(text)
+    for text in fixed:
+        key = text.partition("=")[0].strip()
+        if key in axes:
+            raise CasFreqError(f"--set {key}: both swept and fixed ({text!r}); give it once, "
+                               "as a grid or as one value")
     return fixed, axes
 
 

@@ -26,7 +26,12 @@ import yaml
 from pydantic import BaseModel, ValidationError
 from yaml.events import AliasEvent, CollectionEndEvent, CollectionStartEvent, ScalarEvent
 
-from cas_freq.config.schema import BASE_VARIANT, ActuatorConfig, CascadePositionLoop
+from cas_freq.config.schema import (
+    BASE_VARIANT,
+    VARIANT_NAME,
+    ActuatorConfig,
+    CascadePositionLoop,
+)
 from cas_freq.exceptions import ConfigError, ConfigTypeError, listed
 
 #: Keys that give the same quantity another way: setting the key removes its alternative.
@@ -306,12 +311,30 @@ def read_config_file(path):
 
 
 def variant_names(data):
-    """Names of the variants of raw config ``data``: ``"base"`` first, then the file's order."""
+    """Names of the variants of raw config ``data``: ``"base"`` first, then the file's order.
+
+    Raises
+    ------
+    ConfigTypeError
+        For ``variants`` that is not a mapping.
+    ConfigError
+        For a name that is not :data:`~cas_freq.config.schema.VARIANT_NAME` (it names output
+        files: ``a/b`` or ``../x`` would be a path) or is ``base`` (the file without a
+        variant).
+    """
     variants = data.get("variants") or {}
     if not isinstance(variants, dict):
         raise ConfigTypeError(
             f"variants: must be a mapping of variant names to overrides, got {shown(variants)}"
         )
+    for name in variants:
+        if name == BASE_VARIANT:
+            raise ConfigError("variants.base: base is the file without a variant (reserved); "
+                              "name the variant otherwise")
+        if not isinstance(name, str) or not VARIANT_NAME.fullmatch(name):
+            raise ConfigError(f"variants: name {shown(name)} is not accepted; a variant's name "
+                              "is a letter or _ followed by letters, digits, _ or - (at most 64 "
+                              "characters)")
     return [BASE_VARIANT, *variants]
 
 
@@ -337,6 +360,29 @@ def parse_set_option(text):
     return key, parsed
 
 
+def check_overrides(overrides, origin="--set"):
+    """Raise ConfigError for overrides that would be silently lost: a key of the ``variants``
+    section (the variants are read from the file; an override applies to the selected
+    variant's values). A key given twice is not lost: the last value wins, as for any option
+    given twice.
+
+    Parameters
+    ----------
+    overrides : sequence of (str, object)
+        ``(dotted key, value)`` pairs.
+    origin : str
+        What the errors call the overrides (``--set``, ``set=``).
+    """
+    for key, value in overrides:
+        if key == "variants" or key.startswith("variants."):
+            name, _, rest = key.removeprefix("variants").lstrip(".").partition(".")
+            name, rest = (name, rest) if name and rest else ("NAME", "KEY")
+            write = (f"--variant {name} --set {rest}={value}" if origin == "--set" else
+                     f"variant={name!r} with {origin} {{{rest!r}: {value!r}}}")
+            raise ConfigError(f"{origin} {one_line(key)[:80]}: {origin} changes the selected "
+                              f"variants' values, not the variants section; write {write}")
+
+
 def _flatten(overrides, prefix=""):
     """Turn nested override maps into dotted keys (``{'motor': {'J': 1}}`` -> ``motor.J``)."""
     flat = {}
@@ -360,6 +406,13 @@ def _apply(data, dotted, value, origin):
             node = _item(node, part, ".".join(parts[:i]), dotted, origin)
             continue
         child = node.get(part)
+        if child is None and parts[i + 1].isdigit():  # filters.0.frequency, no filters
+            where = ".".join(parts[: i + 1])
+            example = (" (e.g. --set 'filters=[{at: current_command, type: lowpass1, "
+                       "frequency: 3000 rad/s}]')" if where == "filters" else "")
+            raise ConfigError(f"{origin}: {one_line(dotted)[:80]}: the config has no "
+                              f"{one_line(where)[:80]} list to take item {parts[i + 1][:20]} "
+                              f"of; set the whole list{example}")
         if child is None:
             child = node[part] = {}
         elif not isinstance(child, (dict, list)) or (isinstance(child, list)
@@ -535,6 +588,7 @@ def load_variant(path=None, variant=BASE_VARIANT, overrides=(), overrides_name="
 def _load(data, path, variant, overrides, overrides_name="--set"):
     """One variant of the raw config ``data`` of ``path``, with ``overrides`` (called
     ``overrides_name`` in errors), validated."""
+    check_overrides(overrides, overrides_name)
     resolved = copy.deepcopy(data)
     shown_path = one_line(path)
     origin = shown_path

@@ -55,6 +55,9 @@ from cas_freq.sampling_config import (
 )
 
 BASE_VARIANT = "base"
+#: A variant's name: a plain YAML key that is also safe in a file name (``out.<name>.csv``):
+#: a letter or ``_``, then letters, digits, ``_`` or ``-``, at most 64 characters.
+VARIANT_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_-]{0,63}")
 
 
 def param(key):

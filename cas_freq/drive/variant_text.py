@@ -10,13 +10,15 @@ loader would read differently is never written.
 
 import re
 
+from cas_freq.config.schema import VARIANT_NAME
 from cas_freq.exceptions import ConfigError
 
 __all__ = ["NAME_PATTERN", "config_with_variant", "insert_variant", "si_text",
            "variant_entries"]
 
-#: Variant names this writer accepts (a plain YAML key: no quoting needed).
-NAME_PATTERN = re.compile(r"[A-Za-z_][A-Za-z0-9_-]{0,63}")
+#: Variant names this writer accepts: those the loader accepts (a plain YAML key, no quoting
+#: needed, safe in a file name).
+NAME_PATTERN = VARIANT_NAME
 
 _TOP_VARIANTS = re.compile(r"variants\s*:(?P<rest>.*)")
 
@@ -152,7 +154,7 @@ def si_text(key, value, config=None):
     from cas_freq.parameters import unit_of
 
     unit = unit_of(key, config)
-    if unit.startswith("1/"):  # "1/s" reads as a number and a stray "/s": write "s^-1"
+    if unit.startswith("1/"):  # written "s^-1", as the shipped configs write it ("1/s" reads too)
         base, _, power = unit[2:].partition("^")
         unit = f"{base}^-{power or 1}"
     return f"{value:.6g}" if unit == "dimensionless" else f"{value:.6g} {unit}"

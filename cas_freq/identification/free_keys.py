@@ -18,7 +18,15 @@ import math
 import re
 
 from cas_freq.exceptions import ConfigError
-from cas_freq.parameters import PARAMETERS, VARIABLE_KEYS, check_key, parameter, parse_value
+from cas_freq.parameters import (
+    CASCADE_PARAMETERS,
+    LINEAR_PARAMETERS,
+    PARAMETERS,
+    VARIABLE_KEYS,
+    check_key,
+    parameter,
+    parse_value,
+)
 
 #: How far a fit may move a key from its start: a factor (log keys) or scales (others).
 SEARCH_FACTOR = 1e3
@@ -37,7 +45,9 @@ class ModelSpec:
     keys : tuple of str
         Free dotted keys, in the option's order.
     starts : dict
-        Key -> start value [SI] where the option gives one.
+        Key -> start value [SI] where the option gives one; for a key whose unit depends on
+        the architecture (a cascade's position gains, a linear output's loads) the text as
+        given, read in the config's unit by :func:`free_keys`.
     """
 
     name: str
@@ -77,7 +87,9 @@ def parse_model_spec(text, number=1):
         if key in keys:
             raise ConfigError(f"{option}: {key} is given twice")
         keys.append(key)
-        if equals:
+        if equals and (key in CASCADE_PARAMETERS or key in LINEAR_PARAMETERS):
+            starts[key] = value.strip()  # read in the config's architecture (free_keys)
+        elif equals:
             starts[key] = parse_value(key, value.strip())
     return ModelSpec(name=name, keys=tuple(keys), starts=starts)
 
@@ -99,6 +111,8 @@ class FreeKey:
     lower, upper : float
         Bounds of the coordinate (the key's accepted range within :data:`SEARCH_FACTOR` of
         the start).
+    unit : str
+        The key's SI unit in the config's architecture (default that of :data:`PARAMETERS`).
     """
 
     key: str
@@ -107,11 +121,11 @@ class FreeKey:
     scale: float
     lower: float
     upper: float
+    unit: str = ""
 
-    @property
-    def unit(self):
-        """The key's SI unit."""
-        return PARAMETERS[self.key].unit
+    def __post_init__(self):
+        if not self.unit:
+            object.__setattr__(self, "unit", parameter(self.key).unit)
 
     @property
     def short(self):
@@ -171,7 +185,13 @@ def free_keys(spec, loop, variant="base", config=None):
             raise ConfigError(f"--params: {key} is not a parameter of the simulated loops; "
                               f"free one of: {accepted}")
         if key in spec.starts:
-            start = float(spec.starts[key])
+            start = spec.starts[key]
+            if isinstance(start, str):  # a key whose unit is the architecture's
+                try:
+                    start = parse_value(key, start, config)
+                except ConfigError as exc:
+                    raise ConfigError(f"--params: {exc}") from None
+            start = float(start)
         else:
             value = getattr(loop, record.field)
             start = 0.0 if value is None else float(value[0])
@@ -186,7 +206,7 @@ def free_keys(spec, loop, variant="base", config=None):
         scale = 1.0 if nonnegative else (abs(start) or 1.0)
         low, high = _bounds(record, start, nonnegative, scale)
         free.append(FreeKey(key=key, start=start, log=nonnegative, scale=scale,
-                            lower=low, upper=high))
+                            lower=low, upper=high, unit=record.unit))
     return free
 
 

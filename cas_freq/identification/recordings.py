@@ -5,6 +5,9 @@ The columns (:mod:`cas_freq.identification.columns`): time (required), the comma
 ignored, so what ``cas-freq simulate --step 10deg --csv FILE`` writes is a recording. Lines
 starting with ``#`` are comments. Sampling may be irregular.
 
+The angles are held to the bounds of ``--step``: the step non-zero and within ±90 deg, the
+position within ±180 deg of its pre-trigger level, every sample within 1000 turns.
+
 The trigger (the step's time) is the command's jump when there is a command column: the first
 sample at which the command has moved by half of its change (for a step sampled at the jump, the
 first sample at the new level); without a command column, or when the command holds one level
@@ -28,6 +31,14 @@ from cas_freq.identification.columns import find_columns
 
 #: Fewest samples from the trigger on (a fit of three parameters needs some more than three).
 MIN_SAMPLES = 10
+#: Largest |angle| of a command or position sample as recorded [rad]: 1000 turns, beyond any
+#: output's travel, so the offsets' arithmetic stays finite (a 1e308 column overflowed it).
+MAX_RECORDED_RAD = 2000.0 * math.pi
+#: Largest commanded step [rad]: the bound of ``--step``, ±90 deg at the output.
+MAX_STEP_RAD = math.pi / 2
+#: Largest excursion of the position from its pre-trigger level [rad]: twice the largest step
+#: (an overshoot of 100 %; a second-order step response stays below it).
+MAX_EXCURSION_RAD = 2 * MAX_STEP_RAD
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -150,6 +161,12 @@ def read_columns(path, columns=None):
                               f"header, got {len(cells)}")
         row = {role: _number(path, number, column, cells[column.index]) * column.scale
                for role, column in found.items()}
+        for role, value in row.items():
+            if not math.isfinite(value):  # a finite cell beyond the float range in SI
+                column = found[role]
+                raise ConfigError(f"{path}: line {number}: column {column.header!r}: "
+                                  f"{cells[column.index].strip()[:30]} {column.unit} is not "
+                                  "finite in SI (values must be finite numbers)")
         if lines:
             previous = values["time"][-1]
             if row["time"] == previous:
@@ -187,13 +204,59 @@ def read_recording(path, columns=None):
     ConfigError
         (a ValueError) naming the file and line for what :func:`read_columns` rejects, a
         command that does not step, fewer than :data:`MIN_SAMPLES` samples from the trigger
-        on.
+        on, an angle beyond :data:`MAX_RECORDED_RAD`, a step beyond the bounds of ``--step``
+        (:data:`MAX_STEP_RAD`) or a position beyond :data:`MAX_EXCURSION_RAD` of its
+        pre-trigger level.
     """
     arrays, lines, found = read_columns(path, columns)
     return _triggered(str(path), arrays, lines, found)
 
 
+def _check_angles(path, arrays, lines, found):
+    """Raise ConfigError for a command or position sample beyond :data:`MAX_RECORDED_RAD`
+    (before any arithmetic on them, so no overflow warning precedes the error)."""
+    for role in ("command", "position"):
+        values = arrays.get(role)
+        if values is None:
+            continue
+        beyond = np.flatnonzero(np.abs(values) > MAX_RECORDED_RAD)
+        if beyond.size:
+            index = int(beyond[0])
+            raise ConfigError(
+                f"{path}: line {lines[index]}: column {found[role].header!r}: "
+                f"{math.degrees(values[index]):.6g} deg is not an output angle (accepted: "
+                f"within ±{math.degrees(MAX_RECORDED_RAD):.6g} deg, 1000 turns)")
+
+
+def _check_step(path, recording, lines, found):
+    """Raise ConfigError unless the recording's step is within the bounds ``--step`` has
+    (non-zero, within ±90 deg) and its position within twice that of its pre-trigger level."""
+    step = recording.step_rad
+    if step is not None and not 0 < abs(step) <= MAX_STEP_RAD:
+        raise ConfigError(
+            f"{path}: column {found['command'].header!r}: the command steps by "
+            f"{math.degrees(step):.6g} deg; a step is non-zero and within "
+            f"±{math.degrees(MAX_STEP_RAD):g} deg at the output (as --step)")
+    beyond = np.flatnonzero(np.abs(recording.position_rad) > MAX_EXCURSION_RAD)
+    if beyond.size:
+        index = int(beyond[0])
+        raise ConfigError(
+            f"{path}: line {lines[index]}: column {found['position'].header!r}: the position "
+            f"is {math.degrees(recording.position_rad[index]):.6g} deg from its pre-trigger "
+            f"level; a step response stays within ±{math.degrees(MAX_EXCURSION_RAD):g} deg "
+            "(twice the largest step)")
+
+
 def _triggered(path, arrays, lines, found):
+    """The :class:`Recording` of the columns read: trigger found, offsets removed, its angles
+    within the bounds of a step (:func:`_check_angles`, :func:`_check_step`)."""
+    _check_angles(path, arrays, lines, found)
+    recording = _offsets_removed(path, arrays, lines, found)
+    _check_step(path, recording, lines, found)
+    return recording
+
+
+def _offsets_removed(path, arrays, lines, found):
     """The :class:`Recording` of the columns read: trigger found, offsets removed."""
     t = arrays["time"]
     command = arrays.get("command")
@@ -232,4 +295,5 @@ def _triggered(path, arrays, lines, found):
     )
 
 
-__all__ = ["MIN_SAMPLES", "Recording", "read_columns", "read_recording"]
+__all__ = ["MAX_EXCURSION_RAD", "MAX_RECORDED_RAD", "MAX_STEP_RAD", "MIN_SAMPLES", "Recording",
+           "read_columns", "read_recording"]

@@ -22,7 +22,7 @@ from cas_freq.config import read_config_file
 from cas_freq.config.wording import common_output_label, name_the_output
 from cas_freq.exceptions import CasFreqError
 from cas_freq.figures import FIGURES, LOOPS
-from cas_freq.parameters import PARAMETERS
+from cas_freq.parameters import PARAMETERS, parameter
 from cas_freq.report.build import REPORTS_DIR, results_json
 from cas_freq.report.data import (
     ReportSettings,
@@ -96,12 +96,13 @@ def config_keys():
     return sorted(keys, key=lambda key: sections.index(key.split(".")[0]))
 
 
-def short_meaning(key):
-    """The meaning of a config key without its accepted range and unit (those of
-    :data:`PARAMETERS` end with "..., 1e-6..1e6 [ohm]")."""
+def short_meaning(key, config=None):
+    """The meaning of a config key in ``config``'s architecture (a cascade's position gains,
+    a linear output's loads) without its accepted range and unit (those of :data:`PARAMETERS`
+    end with "..., 1e-6..1e6 [ohm]")."""
     if key in SETTINGS:
         return SETTINGS[key]
-    text = re.sub(r"\s*\[[^\]]*\]\s*$", "", PARAMETERS[key].meaning)
+    text = re.sub(r"\s*\[[^\]]*\]\s*$", "", parameter(key, config).meaning)
     return _RANGE.sub("", text)
 
 
@@ -117,9 +118,9 @@ def effective_value(params, key):
     Returns
     -------
     tuple of (float or str or None, bool)
-        The value (numbers in the key's SI unit of :data:`PARAMETERS`; None when not set and
-        not derived) and True when it is derived (``mu_v`` from the no-load point, ``Tf`` =
-        Kd/(10·Kp)).
+        The value (numbers in the key's SI unit in the architecture of ``params``; None when
+        not set and not derived) and True when it is derived (``mu_v`` from the no-load point,
+        ``Tf`` = Kd/(10·Kp)).
     """
     node = params
     for part in key.split("."):
@@ -168,21 +169,39 @@ def _unit_text(value):
         return ""
 
 
-def display_unit(key, units):
-    """The unit a parameter row is shown in: the first unit the compared variants write it with
-    (``units``: one :func:`written_units` per variant, the baseline first), else its SI unit
-    (seconds as ms)."""
-    for written in units:
-        if written.get(key):
-            return written[key]
-    si = PARAMETERS[key].unit
-    return _UNWRITTEN_UNITS.get(si, si)
+def display_units(key, variants, units):
+    """The unit each variant's value of a parameter row is shown in.
+
+    A variant's value is shown in the first unit that a compared variant of the same SI unit
+    for ``key`` (the same architecture's parameter table: a cascade's position gain is in 1/s,
+    a PID-on-PI's in A/rad) writes it with, else in its own SI unit (seconds as ms).
+
+    Parameters
+    ----------
+    key : str
+        A key of :data:`PARAMETERS`.
+    variants : list of cas_freq.config.LoadedVariant
+        The compared variants, the baseline first.
+    units : list of dict
+        One :func:`written_units` per variant, in the same order.
+
+    Returns
+    -------
+    list of str
+    """
+    si = [parameter(key, loaded.params).unit for loaded in variants]
+    shown = []
+    for own in si:
+        written = [w[key] for w, unit in zip(units, si, strict=True) if unit == own and w.get(key)]
+        shown.append(written[0] if written else _UNWRITTEN_UNITS.get(own, own))
+    return shown
 
 
-def in_unit(value, key, unit):
-    """An SI ``value`` [the SI unit of ``key``] converted to ``unit`` (text as configs write
+def in_unit(value, key, unit, config=None):
+    """An SI ``value`` [the SI unit of ``key`` in ``config``'s architecture,
+    :func:`~cas_freq.parameters.parameter`] converted to ``unit`` (text as configs write
     units)."""
-    quantity = registry().Quantity(value, PARAMETERS[key].unit)
+    quantity = registry().Quantity(value, parameter(key, config).unit)
     return float(quantity.to(parse_unit(unit)).magnitude)
 
 
@@ -199,13 +218,13 @@ def _same(values):
     return True
 
 
-def _parameter_cell(value, derived, key, unit):
+def _parameter_cell(value, derived, key, unit, config):
     """One variant's value of a parameter with its unit: ``"0.06 ms"``, ``"—"`` when not set."""
     if value is None:
         return "—"
     if isinstance(value, str):
         return value
-    text = number(in_unit(value, key, unit), JSON_DIGITS, unit)
+    text = number(in_unit(value, key, unit, config), JSON_DIGITS, unit)
     return f"{text} (derived)" if derived else text
 
 
@@ -222,8 +241,8 @@ def parameter_differences(variants):
     rows : list of tuple of str
         Per differing key (in :func:`config_keys` order): the key, its meaning (the output named
         as the variants' configs name it, :func:`~cas_freq.config.wording.common_output_label`),
-        then each variant's value in the unit the config writes it (:func:`display_unit`), with
-        the unit.
+        then each variant's value in the unit the config writes it (:func:`display_units`, its
+        architecture's), with the unit.
     equal : int
         How many of the :func:`config_keys` are equal in every variant.
     """
@@ -232,12 +251,17 @@ def parameter_differences(variants):
     rows, equal = [], 0
     for key in config_keys():
         values = [effective_value(loaded.params, key) for loaded in variants]
-        if _same([value for value, _ in values]):
+        si = [None if key in SETTINGS else parameter(key, loaded.params).unit
+              for loaded in variants]
+        if _same([value for value, _ in values]) and len(set(si)) == 1:
             equal += 1
             continue
-        unit = "" if key in SETTINGS else display_unit(key, units)
-        rows.append((key, name_the_output(short_meaning(key), output),
-                     *(_parameter_cell(value, derived, key, unit) for value, derived in values)))
+        shown = ([""] * len(variants) if key in SETTINGS else
+                 display_units(key, variants, units))
+        rows.append((key, name_the_output(short_meaning(key, variants[0].params), output),
+                     *(_parameter_cell(value, derived, key, unit, loaded.params)
+                       for (value, derived), unit, loaded in zip(values, shown, variants,
+                                                                 strict=True))))
     return rows, equal
 
 

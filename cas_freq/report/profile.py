@@ -64,8 +64,9 @@ def _feedforward_text(run):
     if not (run.ff_v or run.ff_a):
         return ("the config has no feed-forward (ff_v = ff_a = 0): both columns are the same "
                 "loop")
-    return (f"feed-forward of the config: ff_v = {run.ff_v:g} A*s/rad, ff_a = {run.ff_a:g} "
-            "A*s^2/rad (motor side); 'without': ff_v = ff_a = 0")
+    ff_v, ff_a = (" " + unit if unit != "dimensionless" else "" for unit in run.ff_units)
+    return (f"feed-forward of the config: ff_v = {run.ff_v:g}{ff_v}, ff_a = {run.ff_a:g}{ff_a} "
+            "(motor side); 'without': ff_v = ff_a = 0")
 
 
 def move_text(run):

@@ -15,7 +15,7 @@ import numpy as np
 from cas_freq.exceptions import ConfigError
 from cas_freq.fileio import json_ready
 from cas_freq.output import ANGLE, OutputUnit, output_json
-from cas_freq.parameters import LoopParameters
+from cas_freq.parameters import LoopParameters, unit_of
 from cas_freq.simulation.commands import Profile
 from cas_freq.simulation.profile_figures import profile_figures
 from cas_freq.simulation.run import (
@@ -110,7 +110,7 @@ class ProfileRun:
     ratio : float
         Gear ratio N [-] (the drive's profile limits are N times the fin's).
     ff_v, ff_a : float
-        The config's feed-forward gains [A*s/rad], [A*s^2/rad] (motor side).
+        The config's feed-forward gains [``ff_units``] (motor side).
     result : SimulationResult
         The move with the config's feed-forward.
     profile : ProfileFigures
@@ -121,6 +121,10 @@ class ProfileRun:
         Its figures.
     linear_stability : str
         Verdict of the linear closed loop (Padé poles), as ``analyze`` gives it.
+    ff_units : tuple of str
+        The SI units of ``ff_v`` and ``ff_a`` in the config's architecture (A*s/rad and
+        A*s^2/rad into the current command; a cascade's ff_v is a velocity command per
+        command rate, [-]).
     """
 
     config: str
@@ -139,6 +143,7 @@ class ProfileRun:
     output: str = "output"
     #: How the output is measured and shown (:mod:`cas_freq.output`).
     output_unit: OutputUnit = ANGLE
+    ff_units: tuple = ("A*s/rad", "A*s^2/rad")
 
 
 def profile_runs(variants, move, verdicts=None, progress=None):
@@ -186,6 +191,8 @@ def profile_runs(variants, move, verdicts=None, progress=None):
                 result=on, profile=profile_figures(on, move),
                 result_without_feedforward=off, without_feedforward=profile_figures(off, move),
                 linear_stability=verdicts[id(loaded)],
+                ff_units=(unit_of("position_loop.ff_v", loaded.params),
+                          unit_of("position_loop.ff_a", loaded.params)),
             )
     return runs
 

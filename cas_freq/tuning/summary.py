@@ -182,14 +182,24 @@ def tune_text(data):
                   + (f"; {len(shown)} shown, evenly by bandwidth (all in --json)"
                      if len(shown) < len(front) else "")]
         keys = [free["key"] for free in data["free"]]
-        head = "  " + " ".join(f"{key.rsplit('.', 1)[-1]:>10}" for key in keys)
+        labels = [column_label(key) for key in keys]
+        widths = [max(10, len(label)) for label in labels]
+        head = "  " + " ".join(f"{label:>{width}}" for label, width in zip(labels, widths,
+                                                                          strict=True))
         lines.append(head + f" {'BW rad/s':>9} {'PM deg':>7} {'OS %':>6}")
         for point in shown:
-            lines.append("  " + " ".join(f"{point[key]:>10.4g}" for key in keys)
+            lines.append("  " + " ".join(f"{point[key]:>{width}.4g}"
+                                         for key, width in zip(keys, widths, strict=True))
                          + f" {_cell(point['closed_loop.bandwidth_rad_s'], 9, '.4g')}"
                          f" {_cell(point['position_loop.phase_margin_deg'], 7, '.3g')}"
                          f" {_cell(point['step.overshoot_pct'], 6, '.3g')}")
     return "\n".join(lines)
+
+
+def column_label(key):
+    """The header of a free key's column: the key with its loop named, ``_loop`` dropped
+    (``position.Kp``, ``velocity.Kp``, ``current.Ki``), so two loops' gains are told apart."""
+    return key.replace("_loop.", ".")
 
 
 def _cell(value, width, spec):
