@@ -30,7 +30,13 @@ from scipy import optimize, stats
 
 from cas_freq.exceptions import ConfigError
 from cas_freq.identification.free_keys import free_keys
-from cas_freq.identification.identifiability import UNBOUNDED, identifiability, relative_half_width
+from cas_freq.identification.identifiability import (
+    UNBOUNDED,
+    identifiability,
+    relative_half_width,
+    verdict,
+)
+from cas_freq.identification.probe import NOT_IDENTIFIABLE, limit_of, probe
 from cas_freq.identification.replay import RecordingReplayer
 from cas_freq.parameters import variant_parameters
 
@@ -126,6 +132,10 @@ class PhysicalFit:
         Per key ``"lower"`` or ``"upper"`` where the estimate is at the search bound
         (:data:`~cas_freq.identification.free_keys.SEARCH_FACTOR` from the start, or the key's
         range), else None: the data pull it further than the fit may go.
+    probes : dict
+        ``"keys"``: per key, and ``"combinations"``: combination text ->, the
+        :class:`~cas_freq.identification.probe.Probe` of its interval's ends simulated (the
+        intervals and verdicts of the fitted data are the probed ones).
     """
 
     name: str
@@ -149,6 +159,7 @@ class PhysicalFit:
     masks: list
     noise_ratio: dict
     at_bound: tuple
+    probes: dict
 
     @property
     def n_parameters(self):
@@ -341,7 +352,7 @@ def _result(spec, free, problem, x, x0, fitted, channels, converged):
     error = np.sqrt(np.diag(covariance))
     with np.errstate(invalid="ignore", divide="ignore"):
         correlation = covariance / np.outer(error, error)
-    interval = np.array([_interval(f, c, q * e) for f, c, e in zip(free, x, error, strict=True)])
+    found["fitted"], interval, probes = _probed(problem, x, fitted, found["fitted"], s2, q)
     rss = {(b.recording, b.channel): float(np.sum((b.model(fitted)[0] - b.data) ** 2))
            for b in blocks}
     log_likelihood = -0.5 * sum(b.data.size * (math.log(2 * math.pi * rss[(b.recording,
@@ -362,7 +373,56 @@ def _result(spec, free, problem, x, x0, fitted, channels, converged):
         masks=problem.replayer.masks,
         noise_ratio=_noise_ratios(blocks, rss),
         at_bound=tuple(_bound(f, c) for f, c in zip(free, x, strict=True)),
+        probes=probes,
     )
+
+
+def _probed(problem, x, fitted, found, s2, q):
+    """(Identifiability, key intervals, probes) with every interval of ``found`` checked by
+    simulating its ends (:func:`~cas_freq.identification.probe.probe`): a side that does not
+    move the output is widened to what does, and what nothing moves is not identifiable."""
+    free = problem.free
+    base = problem.stacked(fitted)
+
+    def change(rows):
+        replay = problem.replay(rows)
+        return [float(np.sum((problem.stacked(replay, k) - base) ** 2)) / s2
+                for k in range(len(rows))]
+
+    combinations = found.determined + found.undetermined
+    p = len(free)
+    directions = np.vstack([np.eye(p), *([c.exponents] for c in combinations)])
+    halves = [q * math.sqrt(found.covariance[j, j]) for j in range(p)]
+    halves += [c.half_width for c in combinations]
+    limits = [limit_of(f, c) for f, c in zip(free, x, strict=True)]
+    limits += [UNBOUNDED] * len(combinations)
+    bounds = (np.array([f.lower for f in free]), np.array([f.upper for f in free]))
+    probes = probe(change, x, found.covariance, directions, halves, limits, bounds, q)
+    keys, interval = [], []
+    for j, (f, item, checked) in enumerate(zip(free, found.keys, probes[:p], strict=True)):
+        low, high = (halves[j] * factor for factor in checked.factor)
+        bounded = max(low, high) <= limits[j]
+        interval.append((f.value(x[j] - low) if bounded else math.nan,
+                         f.value(x[j] + high) if bounded else math.nan))
+        keys.append(_reverdict(item, relative_half_width(max(low, high), f, x[j]), checked))
+    kept = {}
+    for c, checked in zip(combinations, probes[p:], strict=True):
+        kept[c.text] = (_reverdict(c, c.half_width * max(checked.factor), checked), checked)
+    determined = [c for c, _ in kept.values() if c.verdict == "well determined"]
+    undetermined = [c for c, _ in kept.values() if c.verdict != "well determined"]
+    found = dataclasses.replace(found, keys=keys, determined=determined,
+                                undetermined=undetermined)
+    return found, np.array(interval), {"keys": probes[:p], "combinations": {
+        text: checked for text, (_, checked) in kept.items()}}
+
+
+def _reverdict(item, half_width, checked):
+    """A KeyVerdict or Combination with its probed half-width and verdict."""
+    if not checked.widened:
+        return item
+    if not checked.identifiable:
+        return dataclasses.replace(item, half_width=math.inf, verdict=NOT_IDENTIFIABLE)
+    return dataclasses.replace(item, half_width=half_width, verdict=verdict(half_width))
 
 
 def _noise_ratios(blocks, rss):
@@ -378,14 +438,6 @@ def _bound(free, coordinate, tolerance=1e-6):
     if coordinate >= free.upper - tolerance:
         return "upper"
     return None
-
-
-def _interval(free, coordinate, half_width):
-    """(low, high) [SI] of a coordinate's interval; (nan, nan) where it is unbounded."""
-    relative = relative_half_width(half_width, free, coordinate)
-    if not math.isfinite(half_width) or relative > UNBOUNDED:
-        return (math.nan, math.nan)
-    return (free.value(coordinate - half_width), free.value(coordinate + half_width))
 
 
 __all__ = ["ASSUMED_CURRENT_NOISE", "LEVEL", "PhysicalFit", "RELATIVE_STEP", "fit_physical"]

@@ -1,0 +1,151 @@
+r"""Whether an interval is what moves the output: each one checked by simulating its ends.
+
+An interval from the Fisher information is a linearisation: it claims that moving a key (or a
+combination :math:`e \cdot x` of the fit coordinates) by its half-width h, the others
+following it the way the data least mind (the direction :math:`d = C e / e^T C e`, C the
+covariance), changes the weighted output by :math:`\Delta\chi^2 = h^2 / e^T C e = q^2`
+(q the interval's quantile), the residual being the yardstick. A Jacobian taken by finite
+differences can be fooled: a key whose effect is quantised (a delay rounded to whole sample
+periods) has a huge difference quotient across a step and none elsewhere; keys that enter only
+as a sum have columns that differ by the simulator's round-off alone. So each end of each
+interval is simulated (:func:`probe`), :math:`\Delta\chi^2 = \|w(x \pm h d) - w(x)\|^2 / s^2`
+of the weighted model w:
+
+- it reaches :data:`SHORTFALL` of :math:`q^2`: the side stands;
+- it does not: the side is widened, by doublings of h, to the first that reaches :math:`q^2`
+  (no interval narrower than what moves the output);
+- no move within a factor 100 (:data:`~cas_freq.identification.identifiability.UNBOUNDED`) or
+  the search bound moves the output that much: that side is unbounded, and a key (or
+  combination) unbounded on both sides is **not identifiable**: changing it does not change the
+  simulation.
+
+An interval the Fisher information already leaves unbounded is simulated at the factor 100
+both ways, to tell "not determined" (the output moves, a little) from "not identifiable".
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+
+from cas_freq.identification.identifiability import UNBOUNDED
+
+#: A side stands when its end moves the output by at least this fraction of what the interval
+#: claims (q^2 in chi^2: a quarter is half the amplitude).
+SHORTFALL = 0.25
+
+#: Most doublings of a side's half-width searched for a move (2^14 = 16384 times).
+DOUBLINGS = 14
+
+#: The verdict of what no change within the search moves.
+NOT_IDENTIFIABLE = "not identifiable"
+
+
+@dataclasses.dataclass(frozen=True)
+class Probe:
+    """What moving one key or combination to its interval's ends does to the output.
+
+    Attributes
+    ----------
+    predicted : float
+        The chi^2 change the interval claims at its ends, q^2 [-].
+    moved : tuple of float
+        (low end, high end): the chi^2 change simulated there [-].
+    factor : tuple of float
+        (low, high): how much each side was widened to move the output by q^2 (1: it stands;
+        inf: nothing within the search does).
+    """
+
+    predicted: float
+    moved: tuple
+    factor: tuple
+
+    @property
+    def widened(self):
+        """Whether a side had to be widened (or is unbounded)."""
+        return any(f != 1.0 for f in self.factor)
+
+    @property
+    def identifiable(self):
+        """False where no change within the search moves the output, either way."""
+        return not all(math.isinf(f) for f in self.factor)
+
+
+def probe(change, x, covariance, directions, half_widths, limits, bounds, q):
+    """Simulate both ends of each interval; widen a side that does not move the output.
+
+    Parameters
+    ----------
+    change : callable
+        ``change(rows)``: the chi^2 change [-] of the weighted output from the estimate's, for
+        each row of coordinates (one simulator batch).
+    x : numpy.ndarray
+        (p,) coordinates of the estimate.
+    covariance : numpy.ndarray
+        (p, p) covariance of the coordinates.
+    directions : numpy.ndarray
+        (m, p) the vectors e of the combinations e.x probed (a key: a unit vector).
+    half_widths : numpy.ndarray
+        (m,) each one's half-width h in coordinate units (inf or beyond ``limits``: unbounded).
+    limits : numpy.ndarray
+        (m,) the largest half-width searched [coordinate units].
+    bounds : tuple of numpy.ndarray
+        (lower, upper) of the coordinates: the probes are kept within them.
+    q : float
+        The intervals' quantile.
+
+    Returns
+    -------
+    list of Probe
+    """
+    directions = np.atleast_2d(np.asarray(directions, dtype=float))
+    lower, upper = bounds
+    predicted = q * q
+    # the covariance without the directions the data leave unbounded: a bounded interval's
+    # direction is taken in it, so that its round-off component along an unbounded direction
+    # (of a huge variance) does not send the probe along that direction
+    w, vectors = np.linalg.eigh(0.5 * (covariance + covariance.T))
+    keep = q * np.sqrt(np.maximum(w, 0.0)) <= UNBOUNDED
+    bounded_part = (vectors[:, keep] * w[keep]) @ vectors[:, keep].T
+    steps = []
+    for e, h, limit in zip(directions, half_widths, limits, strict=True):
+        bounded = math.isfinite(h) and h <= limit
+        spread = float(e @ bounded_part @ e)
+        if not (bounded and spread > 0):
+            bounded_part_used, spread = covariance, float(e @ covariance @ e)
+        else:
+            bounded_part_used = bounded_part
+        d = bounded_part_used @ e / spread if spread > 0 else e / max(float(e @ e), 1e-300)
+        steps.append((d, h if bounded else limit, bounded, limit))
+
+    def rows(points):
+        return np.clip(np.array([x + t * d for d, t in points]), lower, upper)
+
+    first = [(d, sign * h) for d, h, _, _ in steps for sign in (-1.0, 1.0)]
+    moved = np.asarray(change(rows(first)), dtype=float).reshape(len(steps), 2)
+    factor = np.ones((len(steps), 2))
+    search = []
+    for i, (d, h, bounded, limit) in enumerate(steps):
+        for side, sign in enumerate((-1.0, 1.0)):
+            if not bounded:
+                factor[i, side] = 1.0 if moved[i, side] >= predicted else math.inf
+            elif moved[i, side] < SHORTFALL * predicted:
+                scales = [2.0 ** k for k in range(1, DOUBLINGS + 1) if 2.0 ** (k - 1) * h < limit]
+                factor[i, side] = math.inf
+                search += [(i, side, s, (d, sign * min(s * h, limit))) for s in scales]
+    if search:
+        found = np.asarray(change(rows([point for *_, point in search])), dtype=float)
+        for (i, side, scale, _), value in zip(search, found, strict=True):
+            if value >= predicted and scale < factor[i, side]:
+                factor[i, side] = scale
+    return [Probe(predicted=predicted, moved=(float(m[0]), float(m[1])),
+                  factor=(float(f[0]), float(f[1]))) for m, f in zip(moved, factor, strict=True)]
+
+
+def limit_of(free, coordinate):
+    """The largest half-width searched for a key [coordinate units]: a factor 100 of a log key,
+    100 times its magnitude (or scale) otherwise."""
+    return UNBOUNDED if free.log else UNBOUNDED * max(abs(coordinate), 1.0)
+
+
+__all__ = ["DOUBLINGS", "NOT_IDENTIFIABLE", "Probe", "SHORTFALL", "limit_of", "probe"]
