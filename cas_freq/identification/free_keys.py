@@ -21,7 +21,6 @@ import numpy as np
 
 from cas_freq.exceptions import ConfigError
 from cas_freq.parameters import (
-    PARAMETERS,
     base_values,
     check_key,
     loop_values,
@@ -120,7 +119,7 @@ class FreeKey:
     @property
     def unit(self):
         """The key's SI unit."""
-        return PARAMETERS[self.key].unit
+        return parameter(self.key).unit
 
     @property
     def short(self):

@@ -36,7 +36,13 @@ from cas_freq.identification.identifiability import (
     relative_half_width,
     verdict,
 )
-from cas_freq.identification.probe import NOT_IDENTIFIABLE, limit_of, probe
+from cas_freq.identification.probe import (
+    NOT_IDENTIFIABLE,
+    along_sum,
+    limit_of,
+    probe,
+    sum_factors,
+)
 from cas_freq.identification.replay import RecordingReplayer
 from cas_freq.parameters import variant_parameters
 
@@ -398,6 +404,14 @@ def _probed(problem, x, fitted, found, s2, q):
     limits += [UNBOUNDED] * len(combinations)
     bounds = (np.array([f.lower for f in free]), np.array([f.upper for f in free]))
     probes = probe(change, x, found.covariance, directions, halves, limits, bounds, q)
+    for c in combinations:
+        if c.coefficients is None or c.half_width > UNBOUNDED:
+            continue
+        for j in np.flatnonzero(c.coefficients):  # each key of a sum, the sum held
+            points = along_sum(x, c.coefficients, j, halves[j])
+            held = sum_factors(change, points, q * q)
+            probes[j] = dataclasses.replace(probes[j], factor=tuple(
+                max(a, b) for a, b in zip(probes[j].factor, held, strict=True)))
     keys, interval = [], []
     for j, (f, item, checked) in enumerate(zip(free, found.keys, probes[:p], strict=True)):
         low, high = (halves[j] * factor for factor in checked.factor)
