@@ -112,7 +112,9 @@ def sum_fit():
     loaded = load_variant(None, "fitted", [("load.inertia", J_LOAD)])  # rigid gear, eta = 1
     assert loaded.params.gear.ratio == RATIO and loaded.params.gear.efficiency == 1.0
     time = np.arange(-50, 600) * 1e-4  # 10 kHz, 5 ms before the trigger, 60 ms after
-    recording = _simulated(loaded, {}, time, math.radians(0.01), 0.02, 3)
+    # the simulator's own recording without noise, as `simulate --csv` writes it: the residual
+    # is then round-off, where the base code called each key well determined (J +-0.2 %)
+    recording = _simulated(loaded, {}, time, 0.0, 0.0, 3)
     spec = parse_model_spec("motor.J=6e-7,load.inertia=3e-5")
     return physical.fit_physical(loaded, [recording], [STEP], spec, ("position", "current"))
 
@@ -123,9 +125,10 @@ def test_keys_entering_as_a_sum_are_reported_as_their_sum(sum_fit):
     assert [k.verdict for k in found.keys] == ["not identifiable"] * 2
     assert np.isnan(sum_fit.interval).all()
     (total,) = [c for c in found.determined if c.coefficients is not None]
-    # the coefficient of J_L is 1/(eta N^2) = 1/400; the Jacobian's finite differences and the
-    # noise leave it within 1e-3
-    assert total.coefficients == pytest.approx((1.0, 1.0 / RATIO ** 2), rel=1e-3)
+    # the coefficient of J_L is 1/(eta N^2) = 1/400: measured where the output held still
+    # along the sum (F's own estimate is 1e-4 off, the curvature its finite differences see);
+    # noise-free data leave it to the simulator's round-off: 1e-6
+    assert total.coefficients == pytest.approx((1.0, 1.0 / RATIO ** 2), rel=1e-6)
     truth = J_ROTOR + J_LOAD / RATIO ** 2
     assert abs(math.log(total.value / truth)) <= total.half_width, (total.value, truth)
     assert total.verdict == "well determined" and total.text == "J + 0.0025·inertia"
@@ -134,8 +137,9 @@ def test_keys_entering_as_a_sum_are_reported_as_their_sum(sum_fit):
     assert j + j_load / RATIO ** 2 == pytest.approx(truth, rel=3 * total.half_width)
     text = table({"config_path": "c", "variant": "fitted", "recordings": ["r"],
                   "models": [fit_dict(sum_fit, 1.0)], "written": None})
-    assert ("motor.J: not identifiable (trading it for the others at a constant "
-            "J + 0.0025·inertia does not change the simulated output)") in text
+    line = ("motor.J: not identifiable (trading it for the others at a constant "
+            "J + 0.0025·inertia does not change the simulated output)")
+    assert text.count(line) == 2  # from both signals, and from the position alone
 
 
 # --- every numeric key the simulation reads ----------------------------------------------------

@@ -281,21 +281,29 @@ def _sums(fisher, covariance, logs, free, names, values, width):
         keys_alone = min(float(width(np.eye(len(logs))[logs.index(j)])) for j in group)
         if not (h < keys_alone and h <= UNBOUNDED):
             continue
-        exponents = [0.0] * len(free)
-        coefficients = [0.0] * len(free)
-        for k, j in enumerate(group):
-            exponents[j] = float(local[logs.index(j)])
-            coefficients[j] = float(c[k])
-        first = free[group[0]]
-        terms = [names[group[0]]]
-        for k, j in enumerate(group[1:], 1):
-            unit = _unit([1.0, -1.0], [first.unit, free[j].unit])
-            factor = f"{c[k]:.4g}" + (f" {unit}" if unit else "")
-            terms.append(f"{factor}·{names[j]}")
-        found.append((group, Combination(
-            exponents=tuple(exponents), text=" + ".join(terms), value=total, unit=first.unit,
-            half_width=h, verdict=verdict(h), coefficients=tuple(coefficients))))
+        coefficients = np.zeros(len(free))
+        coefficients[list(group)] = c
+        found.append((group, sum_combination(coefficients, free, names, values, h)))
     return found
+
+
+def sum_combination(coefficients, free, names, values, half_width):
+    """The Combination of the sum of ``values`` with ``coefficients`` (0 outside the sum, 1 on
+    its first key), its log half-width ``half_width``."""
+    c = np.asarray(coefficients, dtype=float)
+    group = [int(j) for j in np.flatnonzero(c)]
+    total = float(c @ np.where(c != 0, values, 0.0))
+    first = free[group[0]]
+    terms = [names[group[0]]]
+    for j in group[1:]:
+        unit = _unit([1.0, -1.0], [first.unit, free[j].unit])
+        factor = f"{c[j]:.4g}" + (f" {unit}" if unit else "")
+        terms.append(f"{factor}·{names[j]}")
+    exponents = tuple(float(c[j] * values[j] / total) if c[j] else 0.0
+                      for j in range(len(free)))
+    return Combination(exponents=exponents, text=" + ".join(terms), value=total,
+                       unit=first.unit, half_width=half_width, verdict=verdict(half_width),
+                       coefficients=tuple(float(v) for v in c))
 
 
 def _candidates(n):
@@ -346,4 +354,4 @@ def _combinations(covariance, logs, free, names, values, width):
 
 
 __all__ = ["Combination", "Identifiability", "KeyVerdict", "NOT", "WELL", "identifiability",
-           "monomial", "verdict"]
+           "monomial", "sum_combination", "verdict"]

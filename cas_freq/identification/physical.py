@@ -29,16 +29,18 @@ import numpy as np
 from scipy import optimize, stats
 
 from cas_freq.exceptions import ConfigError
-from cas_freq.identification.free_keys import free_keys
+from cas_freq.identification.free_keys import free_keys, labels
 from cas_freq.identification.identifiability import (
     UNBOUNDED,
     identifiability,
     relative_half_width,
+    sum_combination,
     verdict,
 )
 from cas_freq.identification.probe import (
     NOT_IDENTIFIABLE,
     along_sum,
+    held_coefficient,
     limit_of,
     probe,
     sum_factors,
@@ -48,6 +50,13 @@ from cas_freq.parameters import variant_parameters
 
 #: Central-difference step of the fit coordinates (0.1 % of a positive key).
 RELATIVE_STEP = 1e-3
+
+#: The simulator's own resolution, as a fraction of a block's range: the smallest noise level a
+#: block is given. A recording the simulator made itself, without noise, leaves a residual of
+#: its round-off (~1e-9 of the range); a change of the output below this is not a change, so
+#: that keys entering only as a sum, whose Jacobian columns differ by round-off alone, are not
+#: told apart by it. A real encoder's quantum is ~1e-3 of a step, far above.
+RESOLUTION = 1e-6
 
 #: Reweighting passes at most, and the relative change of every sigma_b that ends them.
 MAX_PASSES = 6
@@ -195,6 +204,11 @@ def _blocks(recordings, channels, masks):
     return blocks
 
 
+def _resolution(block):
+    """The smallest noise level a block is given [rad or A]: :data:`RESOLUTION` of its range."""
+    return RESOLUTION * float(np.ptp(block.data)) or 1e-300
+
+
 def _first_sigma(block):
     """A first noise level: the spread before the fitted samples, else 1 % of the block's
     range."""
@@ -312,8 +326,8 @@ def fit_physical(loaded, recordings, steps_rad, spec, channels=("position",), ma
             method="trf", x_scale=1.0, xtol=1e-10, ftol=1e-12, gtol=1e-12, max_nfev=budget)
         x, converged = solution.x, solution.status > 0
         fitted = problem.replay(x)
-        new = np.array([math.sqrt(np.mean((b.model(fitted)[0] - b.data) ** 2)) or 1e-300
-                        for b in blocks])
+        new = np.array([max(math.sqrt(np.mean((b.model(fitted)[0] - b.data) ** 2)),
+                            _resolution(b)) for b in blocks])
         settled = np.all(np.abs(new / problem.sigma - 1.0) < SIGMA_SETTLED)
         problem.sigma = new
         if settled or problem.batches >= max_batches:
@@ -336,29 +350,33 @@ def _result(spec, free, problem, x, x0, fitted, channels, converged):
     weighted = problem.jacobian(x)
     n, p = weighted.shape
     residual = problem.stacked(fitted)
-    s2 = float(residual @ residual) / max(n - p, 1)
+    # at least 1: a block's sigma is its RMS residual, or the simulator's resolution above it
+    s2 = max(float(residual @ residual) / max(n - p, 1), 1.0)
     q = float(stats.t.ppf(0.5 + LEVEL / 2, max(n - p, 1)))
     found = {"fitted": identifiability(weighted.T @ weighted, free, x, s2, q)}
     assumed = None
     position = [(b, s) for b, s in zip(blocks, problem.sigma, strict=True)
                 if b.channel == "position"]
     if "current" in channels:
-        rows = problem.jacobian(x, *zip(*position, strict=True))
-        found["position"] = identifiability(rows.T @ rows, free, x, s2, q)
-        found["with_current"] = found["fitted"]
+        other = tuple(zip(*position, strict=True))  # the position alone
+        name = "position"
     else:
         # predicted: current blocks of the simulated response with an assumed noise
         peak = max(float(np.max(np.abs(c[0]))) for c in fitted.current)
         assumed = ASSUMED_CURRENT_NOISE * peak
         extra = [Block(b.recording, "current", np.zeros(b.data.size)) for b, _ in position]
-        rows = problem.jacobian(x, blocks + extra,
-                                np.concatenate([problem.sigma, np.full(len(extra), assumed)]))
-        found["with_current"] = identifiability(rows.T @ rows, free, x, s2, q)
+        other = (blocks + extra, np.concatenate([problem.sigma, np.full(len(extra), assumed)]))
+        name = "with_current"
+    rows = problem.jacobian(x, *other)
+    found[name] = identifiability(rows.T @ rows, free, x, s2, q)
     covariance = found["fitted"].covariance
     error = np.sqrt(np.diag(covariance))
     with np.errstate(invalid="ignore", divide="ignore"):
         correlation = covariance / np.outer(error, error)
     found["fitted"], interval, probes = _probed(problem, x, fitted, found["fitted"], s2, q)
+    found[name] = _probed(problem, x, fitted, found[name], s2, q, *other)[0]
+    if "current" in channels:
+        found["with_current"] = found["fitted"]
     rss = {(b.recording, b.channel): float(np.sum((b.model(fitted)[0] - b.data) ** 2))
            for b in blocks}
     log_likelihood = -0.5 * sum(b.data.size * (math.log(2 * math.pi * rss[(b.recording,
@@ -383,17 +401,21 @@ def _result(spec, free, problem, x, x0, fitted, channels, converged):
     )
 
 
-def _probed(problem, x, fitted, found, s2, q):
+def _probed(problem, x, fitted, found, s2, q, blocks=None, sigma=None):
     """(Identifiability, key intervals, probes) with every interval of ``found`` checked by
     simulating its ends (:func:`~cas_freq.identification.probe.probe`): a side that does not
-    move the output is widened to what does, and what nothing moves is not identifiable."""
+    move the output is widened to what does, and what nothing moves is not identifiable.
+    ``blocks`` and their ``sigma``: the data ``found`` is of (default the fitted ones)."""
     free = problem.free
-    base = problem.stacked(fitted)
+    base = problem.stacked(fitted, 0, blocks, sigma)
+
+    def moves(rows):
+        replay = problem.replay(rows)
+        return np.array([(problem.stacked(replay, k, blocks, sigma) - base) / math.sqrt(s2)
+                         for k in range(len(rows))])
 
     def change(rows):
-        replay = problem.replay(rows)
-        return [float(np.sum((problem.stacked(replay, k) - base) ** 2)) / s2
-                for k in range(len(rows))]
+        return np.sum(moves(rows) ** 2, axis=1)
 
     combinations = found.determined + found.undetermined
     p = len(free)
@@ -404,14 +426,22 @@ def _probed(problem, x, fitted, found, s2, q):
     limits += [UNBOUNDED] * len(combinations)
     bounds = (np.array([f.lower for f in free]), np.array([f.upper for f in free]))
     probes = probe(change, x, found.covariance, directions, halves, limits, bounds, q)
-    for c in combinations:
+    values = np.array([f.value(c) for f, c in zip(free, x, strict=True)])
+    for index, c in enumerate(combinations):
         if c.coefficients is None or c.half_width > UNBOUNDED:
             continue
-        for j in np.flatnonzero(c.coefficients):  # each key of a sum, the sum held
+        coefficients = np.array(c.coefficients)
+        group = np.flatnonzero(coefficients)
+        for j in group:  # each key of a sum, the sum held
             points = along_sum(x, c.coefficients, j, halves[j])
-            held = sum_factors(change, points, q * q)
+            factors, held = sum_factors(moves, points, q * q)
             probes[j] = dataclasses.replace(probes[j], factor=tuple(
-                max(a, b) for a, b in zip(probes[j].factor, held, strict=True)))
+                max(a, b) for a, b in zip(probes[j].factor, factors, strict=True)))
+            measured = held_coefficient(x, c.coefficients, j, held) if j != group[0] else None
+            if measured is not None and measured > 0:
+                coefficients[j] = measured  # where the sum held, rather than F's estimate
+        combinations[index] = sum_combination(coefficients, free, labels(free), values,
+                                               c.half_width)
     keys, interval = [], []
     for j, (f, item, checked) in enumerate(zip(free, found.keys, probes[:p], strict=True)):
         low, high = (halves[j] * factor for factor in checked.factor)

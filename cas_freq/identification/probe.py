@@ -40,6 +40,9 @@ DOUBLINGS = 14
 #: Steps per doubling of the refinement of a widened side (2^(1/8) = 1.09 apart).
 REFINE = 8
 
+#: The further scaling of a sum's other keys that linearises their correction [ln].
+HELD_STEP = 1e-4
+
 #: The verdict of what no change within the search moves.
 NOT_IDENTIFIABLE = "not identifiable"
 
@@ -168,7 +171,10 @@ def along_sum(x, coefficients, j, half_width):
     Keys that enter the output only as :math:`S = \sum_k c_k v_k` (every one a log key) can
     trade one for another along a curve a straight probe leaves. Key j's coordinate is moved
     by :math:`\pm 2^k h` (k = 0, 1, ... up to a factor 100, clipped where another key would
-    reach 0), the other keys of the sum scaled together to keep S.
+    reach 0), the other keys of the sum scaled together to keep S. Each point comes with a
+    companion, the others scaled by a further :data:`HELD_STEP`: the coefficients are
+    estimates, and with data of the simulator's resolution their error alone would move S,
+    so :func:`sum_factors` corrects the others' scale by the linearised step the two give.
 
     Parameters
     ----------
@@ -179,12 +185,13 @@ def along_sum(x, coefficients, j, half_width):
     j : int
         The key moved.
     half_width : float
-        Its half-width [ln]; inf or beyond a factor 100: the ladder starts at 1/2^14 of it.
+        Its half-width [ln]; inf or beyond a factor 100: the ladder starts at a factor 100.
 
     Returns
     -------
-    list of (side, scale, row)
-        side 0 (down) or 1 (up), the scale of ``half_width``, the coordinates.
+    list of (side, scale, row, companion)
+        side 0 (down) or 1 (up), the scale of ``half_width``, the coordinates, and the
+        coordinates with the others scaled by ``exp(HELD_STEP)``.
     """
     c = np.asarray(coefficients, dtype=float)
     values = np.exp(np.asarray(x, dtype=float)) * (c != 0)
@@ -202,22 +209,56 @@ def along_sum(x, coefficients, j, half_width):
             row[j] += sign * t
             left = total - c[j] * math.exp(row[j])
             row[others] += math.log(left / rest)
-            points.append((side, 2.0 ** k if t < top else top / h, row))
+            companion = row.copy()
+            companion[others] += HELD_STEP
+            points.append((side, 2.0 ** k if t < top else top / h, row, companion))
             if t >= top:
                 break
     return points
 
 
-def sum_factors(change, points, predicted):
-    """(low, high) widening of a key moved along a sum (:func:`along_sum`): the smallest scale
-    whose point moves the output by ``predicted`` (chi^2), 1 at least; inf where none does."""
-    found = np.asarray(change(np.array([row for *_, row in points])), dtype=float)
+def sum_factors(moves, points, predicted):
+    """((low, high), held): the widening of a key moved along a sum (:func:`along_sum`), the
+    smallest scale whose point moves the output by ``predicted`` (chi^2), 1 at least, inf where
+    none does; and the points (corrected coordinates) that did not move it.
+
+    ``moves(rows)`` gives the (n_rows, n) weighted output changes from the estimate's (over
+    s, so that their sum of squares is the chi^2 change). A point's move is taken after the
+    others' scale is corrected by the least-squares step its companion gives: the part of the
+    move that scaling the others could undo is no move of the key.
+    """
+    rows = [row for _, _, row, _ in points] + [companion for *_, companion in points]
+    found = np.asarray(moves(np.array(rows)), dtype=float)
+    at, companions = found[:len(points)], found[len(points):]
     factor = [math.inf, math.inf]
-    for (side, scale, _), value in zip(points, found, strict=True):
+    held = []
+    for (side, scale, row, companion), u, v in zip(points, at, companions, strict=True):
+        g = v - u  # the output's change per HELD_STEP of the others' scale
+        gg = float(g @ g)
+        step = -float(u @ g) / gg if gg > 0 else 0.0
+        value = float(u @ u) - (float(u @ g) ** 2 / gg if gg > 0 else 0.0)
         if value >= predicted:
             factor[side] = min(factor[side], max(scale, 1.0))
-    return tuple(factor)
+        else:
+            held.append(row + step * (companion - row))
+    return tuple(factor), held
 
 
-__all__ = ["DOUBLINGS", "NOT_IDENTIFIABLE", "Probe", "SHORTFALL", "along_sum", "limit_of", "probe",
-           "sum_factors"]
+def held_coefficient(x, coefficients, j, held):
+    r"""Key j's coefficient in a sum, measured: the farthest of the points ``held`` (rows of
+    coordinates along which the output did not move, :func:`sum_factors`) kept the sum, so
+    :math:`c_j \Delta v_j = -\sum_{k \ne j} c_k \Delta v_k` there. None without such a
+    point."""
+    if not held:
+        return None
+    far = max(held, key=lambda row: abs(row[j] - x[j]))
+    c = np.asarray(coefficients, dtype=float)
+    change = np.exp(far) - np.exp(np.asarray(x, dtype=float))
+    others = (c != 0) & (np.arange(len(c)) != j)
+    if change[j] == 0:
+        return None
+    return float(-(c[others] @ change[others]) / change[j])
+
+
+__all__ = ["DOUBLINGS", "NOT_IDENTIFIABLE", "Probe", "SHORTFALL", "along_sum", "held_coefficient",
+           "limit_of", "probe", "sum_factors"]
