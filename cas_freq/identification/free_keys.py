@@ -1,10 +1,12 @@
 """Which config keys a physical fit frees, from where it starts, and in which coordinate.
 
 A model to fit is written ``[NAME:] KEY[=START],KEY[=START],...`` (the ``--params`` option):
-the dotted keys that are free (any key a sweep can vary, :data:`cas_freq.parameters.VARIABLE_KEYS`,
-load and drivetrain keys included), each starting from the variant's value or from ``START``
-(a number in the key's SI unit or a string with a unit, as ``--set`` takes it). A key the
-variant leaves at 0 or absent (``motor.coulomb_friction``, ``gear.stiffness``) needs a START.
+the dotted keys that are free (any numeric key the simulation reads, as a sweep varies it:
+:data:`cas_freq.parameters.VARIABLE_KEYS`, load and drivetrain keys, the filters' numbers
+``filters.<i>.<name>`` and the no-load point included), each starting from the variant's value
+or from ``START`` (a number in the key's SI unit or a string with a unit, as ``--set`` takes
+it). A key the variant leaves at 0 or absent (``motor.coulomb_friction``, ``gear.stiffness``)
+needs a START.
 
 A positive key (every key whose range is >= 0, started above 0) is fitted as its logarithm: a
 step of the optimiser is a relative change, the intervals are ratios (they stay positive), and
