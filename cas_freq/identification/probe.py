@@ -34,8 +34,9 @@ from cas_freq.identification.identifiability import UNBOUNDED
 #: claims (q^2 in chi^2: a quarter is half the amplitude).
 SHORTFALL = 0.25
 
-#: Most doublings of a side's half-width searched for a move (2^14 = 16384 times).
-DOUBLINGS = 14
+#: Most doublings of a side's half-width searched for a move: the search goes on to the limit
+#: (a factor 100), and 2^60 covers it from any half-width above round-off.
+DOUBLINGS = 60
 
 #: Steps per doubling of the refinement of a widened side (2^(1/8) = 1.09 apart).
 REFINE = 8
