@@ -166,3 +166,31 @@ def test_the_no_load_point_is_a_free_key_where_the_config_reads_it():
     with pytest.raises(ConfigError, match="motor.no_load.speed: the config gives motor.mu_v"):
         free_keys(parse_model_spec("motor.no_load.speed"), variant_parameters(fitted, {}),
                   "fitted", fitted)
+
+
+# --- the probe itself, analytic ---------------------------------------------------------------
+
+def test_the_probe_of_a_linear_model_confirms_its_intervals():
+    """r(x) = A x: the chi^2 change at x + t d is t^2 d^T A^T A d, exactly q^2 at the ends of
+    each interval of C = (A^T A)^-1 (s^2 = 1), for keys and for a combination alike; and a
+    column of zeros (a key the output ignores) is not identifiable."""
+    from cas_freq.identification.probe import probe
+
+    a = np.array([[3.0, 1.0, 0.0], [1.0, 2.0, 0.0], [0.5, -1.0, 0.0], [0.0, 1.0, 0.0]])
+    fisher = a.T @ a
+    covariance = np.linalg.pinv(fisher)
+    covariance[2, 2] = 1e14  # the ignored key: F's floored eigenvalue
+    q = 2.0
+
+    def change(rows):
+        return np.sum((np.atleast_2d(rows) @ a.T) ** 2, axis=1)
+
+    directions = np.array([[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0], [1.0, -1.0, 0]])
+    halves = np.array([q * math.sqrt(e @ covariance @ e) for e in directions])
+    limits = np.full(4, math.log(100.0))
+    bounds = (np.full(3, -50.0), np.full(3, 50.0))
+    found = probe(change, np.zeros(3), covariance, directions, halves, limits, bounds, q)
+    for item in found[:2] + found[3:]:
+        assert item.moved == pytest.approx((q * q, q * q), rel=1e-12)  # round-off only
+        assert not item.widened
+    assert not found[2].identifiable and found[2].moved == (0.0, 0.0)

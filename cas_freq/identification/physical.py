@@ -410,7 +410,12 @@ def _probed(problem, x, fitted, found, s2, q, blocks=None, sigma=None):
     base = problem.stacked(fitted, 0, blocks, sigma)
 
     def moves(rows):
-        replay = problem.replay(rows)
+        try:
+            replay = problem.replay(rows)
+        except ConfigError:  # a row the config refuses (a drivetrain out of range): no model
+            if len(rows) == 1:  # there, so no interval reaches it: an infinite move
+                return np.full((1, base.size), math.inf)
+            return np.vstack([moves(row[None, :]) for row in rows])
         return np.array([(problem.stacked(replay, k, blocks, sigma) - base) / math.sqrt(s2)
                          for k in range(len(rows))])
 

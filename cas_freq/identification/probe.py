@@ -235,6 +235,8 @@ def sum_factors(moves, points, predicted):
     held = []
     for (side, scale, row, companion), u, v in zip(points, at, companions, strict=True):
         g = v - u  # the output's change per HELD_STEP of the others' scale
+        if not np.all(np.isfinite(g)):  # a point the config refuses: no correction
+            g = np.zeros_like(u)
         gg = float(g @ g)
         step = -float(u @ g) / gg if gg > 0 else 0.0
         value = float(u @ u) - (float(u @ g) ** 2 / gg if gg > 0 else 0.0)
