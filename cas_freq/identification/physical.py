@@ -431,22 +431,9 @@ def _probed(problem, x, fitted, found, s2, q, blocks=None, sigma=None):
     limits += [UNBOUNDED] * len(combinations)
     bounds = (np.array([f.lower for f in free]), np.array([f.upper for f in free]))
     probes = probe(change, x, found.covariance, directions, halves, limits, bounds, q)
-    values = np.array([f.value(c) for f, c in zip(free, x, strict=True)])
     for index, c in enumerate(combinations):
-        if c.coefficients is None or c.half_width > UNBOUNDED:
-            continue
-        coefficients = np.array(c.coefficients)
-        group = np.flatnonzero(coefficients)
-        for j in group:  # each key of a sum, the sum held
-            points = along_sum(x, c.coefficients, j, halves[j])
-            factors, held = sum_factors(moves, points, q * q)
-            probes[j] = dataclasses.replace(probes[j], factor=tuple(
-                max(a, b) for a, b in zip(probes[j].factor, factors, strict=True)))
-            measured = held_coefficient(x, c.coefficients, j, held) if j != group[0] else None
-            if measured is not None and measured > 0:
-                coefficients[j] = measured  # where the sum held, rather than F's estimate
-        combinations[index] = sum_combination(coefficients, free, labels(free), values,
-                                               c.half_width)
+        if c.coefficients is not None and c.half_width <= UNBOUNDED:
+            combinations[index] = _probed_sum(moves, free, x, c, halves, probes, q)
     keys, interval = [], []
     for j, (f, item, checked) in enumerate(zip(free, found.keys, probes[:p], strict=True)):
         low, high = (halves[j] * factor for factor in checked.factor)
@@ -463,6 +450,24 @@ def _probed(problem, x, fitted, found, s2, q, blocks=None, sigma=None):
                                 undetermined=undetermined)
     return found, np.array(interval), {"keys": probes[:p], "combinations": {
         text: checked for text, (_, checked) in kept.items()}}
+
+
+def _probed_sum(moves, free, x, combination, halves, probes, q):
+    """The sum ``combination`` with its coefficients measured where the output held still,
+    each of its keys' probe in ``probes`` widened by what moving it along the sum did."""
+    coefficients = np.array(combination.coefficients)
+    group = np.flatnonzero(coefficients)
+    for j in group:  # each key of the sum, the sum held
+        points = along_sum(x, combination.coefficients, j, halves[j])
+        factors, held = sum_factors(moves, points, q * q)
+        probes[j] = dataclasses.replace(probes[j], factor=tuple(
+            max(a, b) for a, b in zip(probes[j].factor, factors, strict=True)))
+        measured = (held_coefficient(x, combination.coefficients, j, held)
+                    if j != group[0] else None)
+        if measured is not None and measured > 0:
+            coefficients[j] = measured  # where the sum held, rather than F's estimate
+    values = np.array([f.value(c) for f, c in zip(free, x, strict=True)])
+    return sum_combination(coefficients, free, labels(free), values, combination.half_width)
 
 
 def _reverdict(item, half_width, checked):
