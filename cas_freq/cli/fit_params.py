@@ -169,7 +169,7 @@ def table(data):
             bound = f", at its {row['at_bound']} search bound" if row["at_bound"] else ""
             lines.append(f"  {row['key']:<24} {row['start']:<10.4g} -> {row['estimate']:.5g} "
                          f"{row['unit']}  95 % {interval}  {row['verdict']}{bound}")
-            widened = [f for f in row["probe"]["widened_by"] if f != 1.0]
+            widened = [f for f in row["probe"]["widened_by"] if f is not None and f != 1.0]
             if widened and row["verdict"] != NOT_IDENTIFIABLE and low is not None:
                 lines.append(f"  {'':<24} (its first interval's ends did not move the output: "
                              f"widened up to x{max(widened):.3g} to what does)")
