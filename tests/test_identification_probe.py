@@ -65,8 +65,8 @@ class _Quantised:
 
 def test_a_quantised_key_gets_no_interval_narrower_than_its_period(monkeypatch):
     """Data of a delay of 0.8 ms (16 whole periods), fitted from there: the difference quotient
-    straddles the step down to 15 periods and claims an interval of +-0.05 % (the base code's
-    [0.7996, 0.8004] ms). Every delay in [0.80, 0.85) ms gives the same output, so the
+    straddles the step down to 15 periods and claims an interval of +-0.006 % (the base code's
+    [0.79995, 0.80005] ms). Every delay in [0.80, 0.85) ms gives the same output, so the
     interval must hold all of them; and a key the output ignores is not identifiable."""
     monkeypatch.setattr(physical, "RecordingReplayer", _Quantised)
     time = np.arange(-100, 400) * 1e-4  # 10 kHz, 10 ms before the trigger, 40 ms after
