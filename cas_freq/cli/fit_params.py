@@ -12,6 +12,7 @@ from pathlib import Path
 from cas_freq.cli.common import angle, write_and_print, wrote
 from cas_freq.exceptions import CasFreqError
 from cas_freq.identification.identifiability import UNBOUNDED
+from cas_freq.identification.probe import NOT_IDENTIFIABLE
 
 #: A residual this many times the pre-trigger noise is reported as a misfit.
 MISFIT = 2.0
@@ -44,8 +45,16 @@ def _key_rows(fit):
             "coordinate": "log" if free.log else "linear",
             "half_width": v.half_width, "half_width_others_known": v.conditional_half_width,
             "verdict": v.verdict, "at_bound": fit.at_bound[index],
+            "probe": _probe_dict(fit.probes["keys"][index]),
         })
     return rows
+
+
+def _probe_dict(probe):
+    """JSON of a Probe: the chi^2 change the interval claims at its ends, the one simulated
+    there, and how much each side was widened (null: unbounded, nothing moves the output)."""
+    return {"chi2_claimed": probe.predicted, "chi2_at_ends": list(probe.moved),
+            "widened_by": list(probe.factor)}
 
 
 def _identifiability_dict(found):
@@ -53,7 +62,8 @@ def _identifiability_dict(found):
     def combination(c):
         return {"combination": c.text, "value": c.value, "unit": c.unit,
                 "half_width": c.half_width, "verdict": c.verdict,
-                "exponents": list(c.exponents)}
+                "exponents": list(c.exponents),
+                "sum_coefficients": None if c.coefficients is None else list(c.coefficients)}
 
     return {
         "keys": [{"key": k.key, "half_width": k.half_width,
@@ -115,7 +125,7 @@ def _number(value, unit=""):
 
 def _half(h):
     """A log half-width as ±x % (or a factor)."""
-    if not math.isfinite(h) or h > UNBOUNDED:
+    if h is None or not math.isfinite(h) or h > UNBOUNDED:
         return "unbounded: beyond ×/÷ 100"
     if h < 0.2:
         return f"±{100 * (math.exp(h) - 1):.2g} %"
@@ -129,7 +139,15 @@ def _ident_lines(found, title, indent="  "):
                      f"{c['unit']} ({_half(c['half_width'])})")
     for c in found["not_well_determined"]:
         lines.append(f"{indent}  {c['verdict']}: {c['combination']} ({_half(c['half_width'])})")
-    for k in found["keys"]:
+    sums = [c for c in found["determined"] if c["sum_coefficients"] is not None]
+    for index, k in enumerate(found["keys"]):
+        if k["verdict"] == NOT_IDENTIFIABLE:
+            only = [c["combination"] for c in sums if c["sum_coefficients"][index]]
+            why = (f"trading it for the others at a constant {only[0]} does not change the "
+                   "simulated output" if only else "changing it does not change the simulated "
+                   "output")
+            lines.append(f"{indent}  {k['key']}: not identifiable ({why})")
+            continue
         lines.append(f"{indent}  {k['key']}: {k['verdict']} ({_half(k['half_width'])}; "
                      f"{_half(k['half_width_others_known'])} if the others were known)")
     return lines
@@ -151,6 +169,10 @@ def table(data):
             bound = f", at its {row['at_bound']} search bound" if row["at_bound"] else ""
             lines.append(f"  {row['key']:<24} {row['start']:<10.4g} -> {row['estimate']:.5g} "
                          f"{row['unit']}  95 % {interval}  {row['verdict']}{bound}")
+            widened = [f for f in row["probe"]["widened_by"] if f is not None and f != 1.0]
+            if widened and row["verdict"] != NOT_IDENTIFIABLE and low is not None:
+                lines.append(f"  {'':<24} (its first interval's ends did not move the output: "
+                             f"widened up to x{max(widened):.3g} to what does)")
         pos = rms["position_deg"]
         lines.append(f"  rms residual: position {pos['fit']:.3g} deg (start {pos['start']:.3g})"
                      + (f", current {rms['current_a']['fit']:.3g} A (start "

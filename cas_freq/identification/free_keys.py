@@ -1,10 +1,12 @@
 """Which config keys a physical fit frees, from where it starts, and in which coordinate.
 
 A model to fit is written ``[NAME:] KEY[=START],KEY[=START],...`` (the ``--params`` option):
-the dotted keys that are free (any key a sweep can vary, :data:`cas_freq.parameters.VARIABLE_KEYS`,
-load and drivetrain keys included), each starting from the variant's value or from ``START``
-(a number in the key's SI unit or a string with a unit, as ``--set`` takes it). A key the
-variant leaves at 0 or absent (``motor.coulomb_friction``, ``gear.stiffness``) needs a START.
+the dotted keys that are free (any numeric key the simulation reads, as a sweep varies it:
+:data:`cas_freq.parameters.VARIABLE_KEYS`, load and drivetrain keys, the filters' numbers
+``filters.<i>.<name>`` and the no-load point included), each starting from the variant's value
+or from ``START`` (a number in the key's SI unit or a string with a unit, as ``--set`` takes
+it). A key the variant leaves at 0 or absent (``motor.coulomb_friction``, ``gear.stiffness``)
+needs a START.
 
 A positive key (every key whose range is >= 0, started above 0) is fitted as its logarithm: a
 step of the optimiser is a relative change, the intervals are ratios (they stay positive), and
@@ -17,13 +19,15 @@ import dataclasses
 import math
 import re
 
+import numpy as np
+
 from cas_freq.exceptions import ConfigError
 from cas_freq.parameters import (
     CASCADE_PARAMETERS,
     LINEAR_PARAMETERS,
-    PARAMETERS,
-    VARIABLE_KEYS,
+    base_values,
     check_key,
+    loop_values,
     parameter,
     parse_value,
 )
@@ -160,6 +164,23 @@ def _bounds(parameter, start, log, scale):
     return low / scale, high / scale
 
 
+def _start(key, loop, config):
+    """The value [SI] ``key`` has in the run ``loop`` (built from ``config``): the loop's field
+    or filter number where one carries it (derived values resolved), else the config's own value
+    (the no-load point, a screw's lead); 0 where neither has one."""
+    values = loop_values(loop, key, config)
+    if values is not None:
+        return float(np.asarray(values).ravel()[0])
+    if config is None:
+        raise ConfigError(f"--params: {key} is carried by no loop field; its start needs the "
+                          "config")
+    if key.startswith("motor.no_load.") and config.motor.mu_v is not None:
+        raise ConfigError(f"--params: {key}: the config gives motor.mu_v directly, so the "
+                          "no-load point is not read; free motor.mu_v instead")
+    value = base_values(config).get(key)
+    return 0.0 if value is None else float(value)
+
+
 def free_keys(spec, loop, variant="base", config=None):
     """The :class:`FreeKey` of each key of ``spec``, started from ``loop`` (one run's
     :class:`~cas_freq.parameters.LoopParameters`, derived values resolved) or the spec's start;
@@ -169,8 +190,9 @@ def free_keys(spec, loop, variant="base", config=None):
     Raises
     ------
     ConfigError
-        For a key the simulator does not read or the config's architecture does not have, or a
-        key that starts at 0 (or absent) where a fit in ratios needs a start above 0.
+        For a key the config's architecture does not have (or the no-load point of a config that
+        gives mu_v), or a key that starts at 0 (or absent) where a fit in ratios needs a start
+        above 0.
     """
     free = []
     for key in spec.keys:
@@ -180,10 +202,6 @@ def free_keys(spec, loop, variant="base", config=None):
             except ConfigError as exc:
                 raise ConfigError(f"--params: {exc}") from None
         record = parameter(key, config)
-        if record.field is None:
-            accepted = ", ".join(k for k in VARIABLE_KEYS if PARAMETERS[k].field)
-            raise ConfigError(f"--params: {key} is not a parameter of the simulated loops; "
-                              f"free one of: {accepted}")
         if key in spec.starts:
             start = spec.starts[key]
             if isinstance(start, str):  # a key whose unit is the architecture's
@@ -193,8 +211,7 @@ def free_keys(spec, loop, variant="base", config=None):
                     raise ConfigError(f"--params: {exc}") from None
             start = float(start)
         else:
-            value = getattr(loop, record.field)
-            start = 0.0 if value is None else float(value[0])
+            start = _start(key, loop, config)
         nonnegative = record.lower is not None and record.lower >= 0
         if nonnegative and not start > 0:
             where = ("given as the start" if key in spec.starts

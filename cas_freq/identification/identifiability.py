@@ -83,9 +83,10 @@ class Combination:
     Attributes
     ----------
     exponents : tuple of float
-        Exponent of each free key (0 for the others).
+        Exponent of each free key (0 for the others); of a sum S, the local exponents
+        d ln S / d ln v_k = c_k v_k / S.
     text : str
-        ``"Km/J"``.
+        ``"Km/J"``, or ``"J + 0.0025·inertia"`` for a sum.
     value : float
         Its value at the estimate [``unit``].
     unit : str
@@ -93,6 +94,10 @@ class Combination:
     half_width : float
         ~95 % half-width of its logarithm (a ratio e^±h).
     verdict : str
+    coefficients : tuple of float or None
+        A sum S = sum of c_k v_k, of keys that enter the output only together: each key's
+        coefficient c_k [unit of the first key / unit of the key] (0 for the others, 1 for the
+        first); None for a product.
     """
 
     exponents: tuple
@@ -101,6 +106,7 @@ class Combination:
     unit: str
     half_width: float
     verdict: str
+    coefficients: tuple | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -189,6 +195,18 @@ def identifiability(fisher, free, x, s2, q):
 
         determined, undetermined = _combinations(covariance[np.ix_(logs, logs)], logs, free,
                                                  names, values, width)
+        sums = _sums(fisher, covariance, logs, free, names, values, width)
+        for group, combination in sums:
+            # the sum replaces the products of its keys alone (the directions F's
+            # eigenvectors give where nothing is determined are kept)
+            def alone(c, group=group):
+                return c.half_width <= UNBOUNDED and all(
+                    j in group for j, e in enumerate(c.exponents) if e)
+
+            determined = [c for c in determined if not alone(c)]
+            undetermined = [c for c in undetermined if not alone(c)]
+            (determined if combination.verdict == "well determined" else undetermined).insert(
+                0, combination)
     condition = float(w[-1] / w[0]) if w[0] > 0 else math.inf
     return Identifiability(covariance=covariance, keys=keys, determined=determined,
                            undetermined=undetermined, condition=condition)
@@ -215,6 +233,77 @@ def _combination(exponents, logs, free, names, values, half_width):
 #: useful of such a direction, given as F's eigenvector rather than as a simple product, and of
 #: a key with such an interval (no interval is printed).
 UNBOUNDED = math.log(100.0)
+
+
+#: Keys whose estimates correlate beyond this (in absolute value), linked in a chain, are a
+#: group whose sum may be what the data determine.
+SUM_CORRELATION = 0.99
+
+
+def _groups(covariance, logs):
+    """Groups (sorted index lists, two keys or more) of log keys linked by a correlation
+    beyond :data:`SUM_CORRELATION`."""
+    error = np.sqrt(np.diag(covariance))
+    linked = {j: {j} for j in logs}
+    for a, b in itertools.combinations(logs, 2):
+        if abs(covariance[a, b]) >= SUM_CORRELATION * error[a] * error[b]:
+            merged = linked[a] | linked[b]
+            for j in merged:
+                linked[j] = merged
+    unique = {tuple(sorted(group)) for group in linked.values() if len(group) > 1}
+    return sorted(unique)
+
+
+def _sums(fisher, covariance, logs, free, names, values, width):
+    r"""(group, Combination) of each group of correlated keys that enter the output as a sum.
+
+    Where the output depends on the keys of a group only through :math:`S = \sum_k c_k v_k`
+    (a rotor's and a reflected load's inertia: :math:`J + J_L/(\eta N^2)`), the Jacobian
+    columns in the keys' own units are proportional, :math:`\partial r/\partial v_k = c_k
+    \partial r/\partial S`: the coefficients are the best-determined direction of the
+    information in those units, :math:`D^{-1} F D^{-1}` (D the values), scaled to 1 on the
+    first key. A group is a sum when every coefficient is positive and the sum is better
+    determined than each of its keys (a ratio, Km/J, has a negative one and stays a product).
+    """
+    found = []
+    for group in _groups(covariance, logs):
+        scale = values[list(group)]
+        block = fisher[np.ix_(group, group)] / np.outer(scale, scale)
+        _, vectors = np.linalg.eigh(0.5 * (block + block.T))
+        c = vectors[:, -1] / vectors[0, -1]
+        if not np.all(c > 0):
+            continue
+        total = float(c @ scale)
+        local = np.zeros(len(logs))
+        for k, j in enumerate(group):
+            local[logs.index(j)] = c[k] * scale[k] / total
+        h = float(width(local))
+        keys_alone = min(float(width(np.eye(len(logs))[logs.index(j)])) for j in group)
+        if not (h < keys_alone and h <= UNBOUNDED):
+            continue
+        coefficients = np.zeros(len(free))
+        coefficients[list(group)] = c
+        found.append((group, sum_combination(coefficients, free, names, values, h)))
+    return found
+
+
+def sum_combination(coefficients, free, names, values, half_width):
+    """The Combination of the sum of ``values`` with ``coefficients`` (0 outside the sum, 1 on
+    its first key), its log half-width ``half_width``."""
+    c = np.asarray(coefficients, dtype=float)
+    group = [int(j) for j in np.flatnonzero(c)]
+    total = float(c @ np.where(c != 0, values, 0.0))
+    first = free[group[0]]
+    terms = [names[group[0]]]
+    for j in group[1:]:
+        unit = _unit([1.0, -1.0], [first.unit, free[j].unit])
+        factor = f"{c[j]:.4g}" + (f" {unit}" if unit else "")
+        terms.append(f"{factor}·{names[j]}")
+    exponents = tuple(float(c[j] * values[j] / total) if c[j] else 0.0
+                      for j in range(len(free)))
+    return Combination(exponents=exponents, text=" + ".join(terms), value=total,
+                       unit=first.unit, half_width=half_width, verdict=verdict(half_width),
+                       coefficients=tuple(float(v) for v in c))
 
 
 def _candidates(n):
@@ -265,4 +354,4 @@ def _combinations(covariance, logs, free, names, values, width):
 
 
 __all__ = ["Combination", "Identifiability", "KeyVerdict", "NOT", "WELL", "identifiability",
-           "monomial", "verdict"]
+           "monomial", "sum_combination", "verdict"]

@@ -29,13 +29,34 @@ import numpy as np
 from scipy import optimize, stats
 
 from cas_freq.exceptions import ConfigError
-from cas_freq.identification.free_keys import free_keys
-from cas_freq.identification.identifiability import UNBOUNDED, identifiability, relative_half_width
+from cas_freq.identification.free_keys import free_keys, labels
+from cas_freq.identification.identifiability import (
+    UNBOUNDED,
+    identifiability,
+    relative_half_width,
+    sum_combination,
+    verdict,
+)
+from cas_freq.identification.probe import (
+    NOT_IDENTIFIABLE,
+    along_sum,
+    held_coefficient,
+    limit_of,
+    probe,
+    sum_factors,
+)
 from cas_freq.identification.replay import RecordingReplayer
 from cas_freq.parameters import variant_parameters
 
 #: Central-difference step of the fit coordinates (0.1 % of a positive key).
 RELATIVE_STEP = 1e-3
+
+#: The simulator's own resolution, as a fraction of a block's range: the smallest noise level a
+#: block is given. A recording the simulator made itself, without noise, leaves a residual of
+#: its round-off (~1e-9 of the range); a change of the output below this is not a change, so
+#: that keys entering only as a sum, whose Jacobian columns differ by round-off alone, are not
+#: told apart by it. A real encoder's quantum is ~1e-3 of a step, far above.
+RESOLUTION = 1e-6
 
 #: Reweighting passes at most, and the relative change of every sigma_b that ends them.
 MAX_PASSES = 6
@@ -126,6 +147,10 @@ class PhysicalFit:
         Per key ``"lower"`` or ``"upper"`` where the estimate is at the search bound
         (:data:`~cas_freq.identification.free_keys.SEARCH_FACTOR` from the start, or the key's
         range), else None: the data pull it further than the fit may go.
+    probes : dict
+        ``"keys"``: per key, and ``"combinations"``: combination text ->, the
+        :class:`~cas_freq.identification.probe.Probe` of its interval's ends simulated (the
+        intervals and verdicts of the fitted data are the probed ones).
     """
 
     name: str
@@ -149,6 +174,7 @@ class PhysicalFit:
     masks: list
     noise_ratio: dict
     at_bound: tuple
+    probes: dict
 
     @property
     def n_parameters(self):
@@ -176,6 +202,11 @@ def _blocks(recordings, channels, masks):
             spread = float(np.std(signal[before])) if np.count_nonzero(before) >= 5 else 0.0
             blocks.append(Block(index, channel, signal[mask], spread or None))
     return blocks
+
+
+def _resolution(block):
+    """The smallest noise level a block is given [rad or A]: :data:`RESOLUTION` of its range."""
+    return RESOLUTION * float(np.ptp(block.data)) or 1e-300
 
 
 def _first_sigma(block):
@@ -295,8 +326,8 @@ def fit_physical(loaded, recordings, steps_rad, spec, channels=("position",), ma
             method="trf", x_scale=1.0, xtol=1e-10, ftol=1e-12, gtol=1e-12, max_nfev=budget)
         x, converged = solution.x, solution.status > 0
         fitted = problem.replay(x)
-        new = np.array([math.sqrt(np.mean((b.model(fitted)[0] - b.data) ** 2)) or 1e-300
-                        for b in blocks])
+        new = np.array([max(math.sqrt(np.mean((b.model(fitted)[0] - b.data) ** 2)),
+                            _resolution(b)) for b in blocks])
         settled = np.all(np.abs(new / problem.sigma - 1.0) < SIGMA_SETTLED)
         problem.sigma = new
         if settled or problem.batches >= max_batches:
@@ -319,29 +350,33 @@ def _result(spec, free, problem, x, x0, fitted, channels, converged):
     weighted = problem.jacobian(x)
     n, p = weighted.shape
     residual = problem.stacked(fitted)
-    s2 = float(residual @ residual) / max(n - p, 1)
+    # at least 1: a block's sigma is its RMS residual, or the simulator's resolution above it
+    s2 = max(float(residual @ residual) / max(n - p, 1), 1.0)
     q = float(stats.t.ppf(0.5 + LEVEL / 2, max(n - p, 1)))
     found = {"fitted": identifiability(weighted.T @ weighted, free, x, s2, q)}
     assumed = None
     position = [(b, s) for b, s in zip(blocks, problem.sigma, strict=True)
                 if b.channel == "position"]
     if "current" in channels:
-        rows = problem.jacobian(x, *zip(*position, strict=True))
-        found["position"] = identifiability(rows.T @ rows, free, x, s2, q)
-        found["with_current"] = found["fitted"]
+        other = tuple(zip(*position, strict=True))  # the position alone
+        name = "position"
     else:
         # predicted: current blocks of the simulated response with an assumed noise
         peak = max(float(np.max(np.abs(c[0]))) for c in fitted.current)
         assumed = ASSUMED_CURRENT_NOISE * peak
         extra = [Block(b.recording, "current", np.zeros(b.data.size)) for b, _ in position]
-        rows = problem.jacobian(x, blocks + extra,
-                                np.concatenate([problem.sigma, np.full(len(extra), assumed)]))
-        found["with_current"] = identifiability(rows.T @ rows, free, x, s2, q)
+        other = (blocks + extra, np.concatenate([problem.sigma, np.full(len(extra), assumed)]))
+        name = "with_current"
+    rows = problem.jacobian(x, *other)
+    found[name] = identifiability(rows.T @ rows, free, x, s2, q)
     covariance = found["fitted"].covariance
     error = np.sqrt(np.diag(covariance))
     with np.errstate(invalid="ignore", divide="ignore"):
         correlation = covariance / np.outer(error, error)
-    interval = np.array([_interval(f, c, q * e) for f, c, e in zip(free, x, error, strict=True)])
+    found["fitted"], interval, probes = _probed(problem, x, fitted, found["fitted"], s2, q)
+    found[name] = _probed(problem, x, fitted, found[name], s2, q, *other)[0]
+    if "current" in channels:
+        found["with_current"] = found["fitted"]
     rss = {(b.recording, b.channel): float(np.sum((b.model(fitted)[0] - b.data) ** 2))
            for b in blocks}
     log_likelihood = -0.5 * sum(b.data.size * (math.log(2 * math.pi * rss[(b.recording,
@@ -362,7 +397,86 @@ def _result(spec, free, problem, x, x0, fitted, channels, converged):
         masks=problem.replayer.masks,
         noise_ratio=_noise_ratios(blocks, rss),
         at_bound=tuple(_bound(f, c) for f, c in zip(free, x, strict=True)),
+        probes=probes,
     )
+
+
+def _probed(problem, x, fitted, found, s2, q, blocks=None, sigma=None):
+    """(Identifiability, key intervals, probes) with every interval of ``found`` checked by
+    simulating its ends (:func:`~cas_freq.identification.probe.probe`): a side that does not
+    move the output is widened to what does, and what nothing moves is not identifiable.
+    ``blocks`` and their ``sigma``: the data ``found`` is of (default the fitted ones)."""
+    free = problem.free
+    base = problem.stacked(fitted, 0, blocks, sigma)
+
+    def moves(rows):
+        try:
+            replay = problem.replay(rows)
+        except ConfigError:  # a row the config refuses (a drivetrain out of range): no model
+            if len(rows) == 1:  # there, so no interval reaches it: an infinite move
+                return np.full((1, base.size), math.inf)
+            return np.vstack([moves(row[None, :]) for row in rows])
+        return np.array([(problem.stacked(replay, k, blocks, sigma) - base) / math.sqrt(s2)
+                         for k in range(len(rows))])
+
+    def change(rows):
+        return np.sum(moves(rows) ** 2, axis=1)
+
+    combinations = found.determined + found.undetermined
+    p = len(free)
+    directions = np.vstack([np.eye(p), *([c.exponents] for c in combinations)])
+    halves = [q * math.sqrt(found.covariance[j, j]) for j in range(p)]
+    halves += [c.half_width for c in combinations]
+    limits = [limit_of(f, c) for f, c in zip(free, x, strict=True)]
+    limits += [UNBOUNDED] * len(combinations)
+    bounds = (np.array([f.lower for f in free]), np.array([f.upper for f in free]))
+    probes = probe(change, x, found.covariance, directions, halves, limits, bounds, q)
+    for index, c in enumerate(combinations):
+        if c.coefficients is not None and c.half_width <= UNBOUNDED:
+            combinations[index] = _probed_sum(moves, free, x, c, halves, probes, q)
+    keys, interval = [], []
+    for j, (f, item, checked) in enumerate(zip(free, found.keys, probes[:p], strict=True)):
+        low, high = (halves[j] * factor for factor in checked.factor)
+        bounded = max(low, high) <= limits[j]
+        interval.append((f.value(x[j] - low) if bounded else math.nan,
+                         f.value(x[j] + high) if bounded else math.nan))
+        keys.append(_reverdict(item, relative_half_width(max(low, high), f, x[j]), checked))
+    kept = {}
+    for c, checked in zip(combinations, probes[p:], strict=True):
+        kept[c.text] = (_reverdict(c, c.half_width * max(checked.factor), checked), checked)
+    determined = [c for c, _ in kept.values() if c.verdict == "well determined"]
+    undetermined = [c for c, _ in kept.values() if c.verdict != "well determined"]
+    found = dataclasses.replace(found, keys=keys, determined=determined,
+                                undetermined=undetermined)
+    return found, np.array(interval), {"keys": probes[:p], "combinations": {
+        text: checked for text, (_, checked) in kept.items()}}
+
+
+def _probed_sum(moves, free, x, combination, halves, probes, q):
+    """The sum ``combination`` with its coefficients measured where the output held still,
+    each of its keys' probe in ``probes`` widened by what moving it along the sum did."""
+    coefficients = np.array(combination.coefficients)
+    group = np.flatnonzero(coefficients)
+    for j in group:  # each key of the sum, the sum held
+        points = along_sum(x, combination.coefficients, j, halves[j])
+        factors, held = sum_factors(moves, points, q * q)
+        probes[j] = dataclasses.replace(probes[j], factor=tuple(
+            max(a, b) for a, b in zip(probes[j].factor, factors, strict=True)))
+        measured = (held_coefficient(x, combination.coefficients, j, held)
+                    if j != group[0] else None)
+        if measured is not None and measured > 0:
+            coefficients[j] = measured  # where the sum held, rather than F's estimate
+    values = np.array([f.value(c) for f, c in zip(free, x, strict=True)])
+    return sum_combination(coefficients, free, labels(free), values, combination.half_width)
+
+
+def _reverdict(item, half_width, checked):
+    """A KeyVerdict or Combination with its probed half-width and verdict."""
+    if not checked.widened:
+        return item
+    if not checked.identifiable:
+        return dataclasses.replace(item, half_width=math.inf, verdict=NOT_IDENTIFIABLE)
+    return dataclasses.replace(item, half_width=half_width, verdict=verdict(half_width))
 
 
 def _noise_ratios(blocks, rss):
@@ -378,14 +492,6 @@ def _bound(free, coordinate, tolerance=1e-6):
     if coordinate >= free.upper - tolerance:
         return "upper"
     return None
-
-
-def _interval(free, coordinate, half_width):
-    """(low, high) [SI] of a coordinate's interval; (nan, nan) where it is unbounded."""
-    relative = relative_half_width(half_width, free, coordinate)
-    if not math.isfinite(half_width) or relative > UNBOUNDED:
-        return (math.nan, math.nan)
-    return (free.value(coordinate - half_width), free.value(coordinate + half_width))
 
 
 __all__ = ["ASSUMED_CURRENT_NOISE", "LEVEL", "PhysicalFit", "RELATIVE_STEP", "fit_physical"]
