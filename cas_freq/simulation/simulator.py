@@ -692,8 +692,8 @@ def prepare_kernels(params):
 
     For a process about to fork workers that simulate (``cas-freq report``'s load envelope):
     on a first run (no kernel in numba's cache) the report's process and the worker compiled
-    the same kernels at once, ~25 s of CPU each (issue 28: the first report took 74 s against
-    ~15 s warm); compiled here once, the forked workers inherit them. In later runs this
+    the same kernels at once, ~25 s of CPU each (the first report took 74 s against ~15 s
+    warm); compiled here once, the forked workers inherit them. In later runs this
     loads them from the cache (~0.4 s), as the process would anyway.
 
     The work runs in a new thread, joined before this returns. numba's compiler recurses
