@@ -13,8 +13,8 @@ system of the process and the workers it waits for) beside the wall time.
    ``input_output_response`` of an ``nlsys`` of the same loop (tests/nlsys_reference.py; Padé-8
    delays at LSODA rtol 1e-9, atol 1e-10, the cross-check of tests/test_simulation_nlsys.py, and
    its fastest run, Padé-1 at LSODA's default tolerances), in three rounds each timing both (the
-   ratio: the median of the rounds'), with the RMS difference of the output angles; the sine-
-   dwell map of 8 amplitudes x 30 frequencies; each beside its goal;
+   ratio: the median of the rounds'), with the RMS difference of the output angles; the
+   sine-dwell map of 8 amplitudes x 30 frequencies; each beside its goal;
 2. margins + bandwidth of 10,000 variants (a 100 x 100 grid of Kp and Kd; and random
    gains and motor values, ±10 % around the shipped config), one run each: cas_freq's batch
    (exact delays, Padé-6 stability) vs two python-control loops, both with Padé-6 delays: the
