@@ -1,4 +1,5 @@
-"""Ctrl-C (and SIGTERM) that lands in Python code Python cannot interrupt is not lost.
+"""Ctrl-C (and SIGTERM) is neither lost nor held up: not where it lands in Python code Python
+cannot interrupt, not while worker threads compile the kernels or analyse a batch.
 
 Python runs a signal's handler at the next instruction of Python code; where that code was
 called from C (llvmlite's object-cache callback while numba compiles a kernel, any ctypes
@@ -6,16 +7,31 @@ callback) or is a finaliser, the KeyboardInterrupt is printed as "Exception igno
 run goes on: a first ``cas-freq report`` interrupted ~2 s in ended with exit 0, a complete
 report and a traceback one time in six. Each case below sends the real signal from inside
 such code, so its handler runs there, as when the signal arrives during the compiler's C code.
+
+A first report compiles its simulation kernels in a worker thread (prepare_kernels) and the
+frequency-domain batch runs its chunks in worker threads; ``with ThreadPoolExecutor()`` waited
+for them on leaving the block, so a Ctrl-C there acted only once a first run's compiling was
+done (minutes on a loaded machine).
 """
 
 import ctypes
+import importlib
 import signal
 import sys
+import threading
 import time
 
 import pytest
 
+import cas_freq.jit as jit
+import cas_freq.simulation.simulator as simulator
 from cas_freq.cli import main
+from cas_freq.config import load_variant
+from cas_freq.parameters import LoopParameters
+from cas_freq.threads import worker_threads
+
+# the module (cas_freq.analysis exports its function analyze under the same name)
+analyze = importlib.import_module("cas_freq.analysis.analyze")
 
 #: Work the command goes on with after the signal was lost: 500 ticks of 10 ms (5 s).
 TICKS = 500
@@ -115,3 +131,73 @@ def test_other_lost_exceptions_still_reach_the_callers_hook(monkeypatch):
     monkeypatch.setattr("cas_freq.cli.verify.run", run)
     assert main(["verify"]) == 0
     assert [str(unraisable.exc_value) for unraisable in lost] == ["a callback's own error"]
+
+
+#: How long a blocked worker thread would hold the caller up [s], and how soon after the
+#: signal the interrupt must reach the caller [s]: at once on an idle machine; 2 s leave room
+#: for a loaded one and are a fifth of the wait.
+BLOCKED_S, ACTED_WITHIN_S = 10.0, 2.0
+
+
+class Blocked:
+    """A worker thread's task that waits (at most :data:`BLOCKED_S`) until released; ``running``
+    is set once one runs."""
+
+    def __init__(self):
+        self.running, self.release = threading.Event(), threading.Event()
+
+    def __call__(self, *args, **kwargs):
+        self.running.set()
+        self.release.wait(BLOCKED_S)
+
+
+@pytest.fixture
+def blocked():
+    task = Blocked()
+    yield task
+    task.release.set()
+
+
+def _interrupted_while(call, blocked):
+    """Run ``call()`` in the main thread with SIGINT sent to it once a worker runs ``blocked``
+    (a real signal, as from a terminal: it wakes the main thread's wait for the worker); the
+    seconds from the signal until its KeyboardInterrupt left ``call``."""
+    main_thread = threading.main_thread().ident
+    sent = []
+
+    def send():
+        if blocked.running.wait(BLOCKED_S):
+            sent.append(time.perf_counter())
+            signal.pthread_kill(main_thread, signal.SIGINT)
+
+    threading.Thread(target=send, daemon=True).start()
+    with pytest.raises(KeyboardInterrupt):
+        call()
+    assert sent, "no worker ran the blocked task"
+    return time.perf_counter() - sent[0]
+
+
+def test_worker_threads_are_not_waited_for_after_an_interrupt(blocked):
+    def work():
+        with worker_threads(2) as pool:
+            futures = [pool.submit(blocked) for _ in range(4)]  # two run, two wait
+            futures[0].result()
+
+    assert _interrupted_while(work, blocked) < ACTED_WITHIN_S
+    with worker_threads(1) as pool:  # ended normally, the tasks are waited for
+        future = pool.submit(time.sleep, 0.2)
+    assert future.done()
+
+
+def test_ctrl_c_while_a_first_run_compiles_the_kernels_in_their_thread(blocked, monkeypatch):
+    monkeypatch.setattr(jit, "use_compiled", lambda: True)
+    monkeypatch.setattr(simulator, "_prepare_kernels", blocked)  # the compiling, held
+    assert _interrupted_while(lambda: simulator.prepare_kernels(None), blocked) < ACTED_WITHIN_S
+
+
+def test_ctrl_c_while_worker_threads_analyse_a_batch(blocked, monkeypatch):
+    params = LoopParameters.from_configs([load_variant().params] * 4)
+    monkeypatch.setattr(analyze, "_chunk_figures", blocked)  # each chunk's work, held
+    took = _interrupted_while(lambda: analyze.batch_analyze(params, chunk_size=1, workers=2),
+                              blocked)
+    assert took < ACTED_WITHIN_S
