@@ -283,8 +283,8 @@ def _listen_to_compilations():
                 _COMPILING["started"] = time.perf_counter()
                 if not _COMPILING["told"] and os.getpid() == _COMPILING["pid"]:
                     _COMPILING["told"] = True
-                    _tell("cas-freq: compiling the numerical kernels (once: later runs load "
-                          f"them from the cache; the time so far every {TICK_S:.0f} s) ...")
+                    _tell("cas-freq: compiling the numerical kernels not in the cache yet (the "
+                          f"time so far every {TICK_S:.0f} s) ...")
                     _start_ticker()
             _COMPILING["depth"] += 1
 

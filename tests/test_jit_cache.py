@@ -23,7 +23,7 @@ import pytest
 from cas_freq import jit
 
 ROOT = Path(__file__).resolve().parents[1]
-NOTE = "cas-freq: compiling the numerical kernels (once"
+NOTE = "cas-freq: compiling the numerical kernels not in the cache yet"
 SUMMARY = "cas-freq: compiled the numerical kernels in"
 
 
