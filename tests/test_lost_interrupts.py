@@ -20,6 +20,7 @@ import signal
 import sys
 import threading
 import time
+from types import SimpleNamespace
 
 import pytest
 
@@ -201,3 +202,24 @@ def test_ctrl_c_while_worker_threads_analyse_a_batch(blocked, monkeypatch):
     took = _interrupted_while(lambda: analyze.batch_analyze(params, chunk_size=1, workers=2),
                               blocked)
     assert took < ACTED_WITHIN_S
+
+
+def test_an_interrupted_compilation_ends_with_the_one_line(monkeypatch, capsys):
+    # the compile summary ("compiled ... in N s; runs that need the same kernels load them from
+    # the cache") is not said after Ctrl-C: the compiling was cut short
+    from numba.core import event
+
+    kernel = SimpleNamespace(py_func=SimpleNamespace(__module__="cas_freq.simulation.kernel"))
+
+    def run(args):
+        with event.trigger_event("numba:compile", data={"dispatcher": kernel}):
+            raise KeyboardInterrupt
+
+    jit._listen_to_compilations()  # as on importing a kernel's module
+    jit.compile_summary()  # nothing left over from an earlier test
+    said = []  # the CLI's compilation lines (silenced in the tests' process by conftest)
+    monkeypatch.setattr("cas_freq.cli._say", said.append)
+    monkeypatch.setattr("cas_freq.cli.verify.run", run)
+    assert main(["verify"]) == 130
+    assert capsys.readouterr().err == "cas-freq verify: interrupted\n"
+    assert len(said) == 1 and said[0].startswith("cas-freq: compiling the numerical kernels")

@@ -109,8 +109,8 @@ def main(argv=None):
                 return EXIT_BAD_INPUT
             except BrokenPipeError:
                 return EXIT_OK
-            finally:
-                _compile_summary()
+            finally:  # after an interrupt its one line only, no summary
+                _compile_summary(say=not isinstance(sys.exc_info()[1], KeyboardInterrupt))
                 set_quiet(False)  # --quiet is per call (main may run more than once)
     except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP
         return _interrupted(command, exc)
@@ -128,13 +128,13 @@ def _say(text):
     print(text, file=sys.stderr, flush=True)
 
 
-def _compile_summary():
+def _compile_summary(say=True):
     """Say how long the kernels compiled, if they did while the messages went to stderr (not
-    with ``--quiet``), and send later messages to the logger again."""
+    with ``--quiet``) and ``say`` is true, and send later messages to the logger again."""
     from cas_freq import jit
 
     summary = jit.compile_summary()
-    if summary is not None and jit._SAY is _say:
+    if say and summary is not None and jit._SAY is _say:
         _say(summary)
     jit.compile_messages(None)
 
