@@ -49,7 +49,7 @@ def main():
         cold, stderr = report(cache, Path(tmp) / "cold")
         warm = [report(cache, Path(tmp) / f"warm{i}")[0] for i in range(args.runs)]
     load_after = os.getloadavg()
-    compiled = re.search(r"compiled the numerical kernels in (\d+) s", stderr)
+    compiled = re.search(r"compiled the numerical kernels in ([\d.]+) s", stderr)
     median = statistics.median(warm)
     goal = 2.5 * median + 10.0
     print(f"load average before: {load_before[0]:.2f} {load_before[1]:.2f} {load_before[2]:.2f},"

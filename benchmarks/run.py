@@ -6,15 +6,15 @@ average (``os.getloadavg()``, 1 minute) before and after it: the machine may be 
 processes are timed after a warm-up run (numba's cache filled), with their CPU time (user +
 system of the process and the workers it waits for) beside the wall time.
 
-1. issue 30's table (the README's rows): ``cas-freq montecarlo --samples 10000`` with the
-   shipped requirements (a step and a fit per sample) and ``cas-freq report`` of the shipped
-   config as whole processes (wall and CPU); one 10 deg step of 60 ms in-process (the compiled
-   kernel, median of 21) against python-control's ``input_output_response`` of an ``nlsys`` of
-   the same loop (tests/nlsys_reference.py; Padé-8 delays at LSODA rtol 1e-9, atol 1e-10, the
-   cross-check of tests/test_simulation_nlsys.py, and its fastest run, Padé-1 at LSODA's
-   default tolerances), in three rounds each timing both (the ratio: the median of the
-   rounds'), with the RMS difference of the output angles; the sine-dwell map of 8
-   amplitudes x 30 frequencies; each beside the issue's goal;
+1. the headline table (the README's rows: the toolbox's speed goals): ``cas-freq montecarlo
+   --samples 10000`` with the shipped requirements (a step and a fit per sample) and ``cas-freq
+   report`` of the shipped config as whole processes (wall and CPU); one 10 deg step of 60 ms
+   in-process (the compiled kernel, median of 21) against python-control's
+   ``input_output_response`` of an ``nlsys`` of the same loop (tests/nlsys_reference.py; Padé-8
+   delays at LSODA rtol 1e-9, atol 1e-10, the cross-check of tests/test_simulation_nlsys.py, and
+   its fastest run, Padé-1 at LSODA's default tolerances), in three rounds each timing both (the
+   ratio: the median of the rounds'), with the RMS difference of the output angles; the
+   sine-dwell map of 8 amplitudes x 30 frequencies; each beside its goal;
 2. margins + bandwidth of 10,000 variants (a 100 x 100 grid of Kp and Kd; and random
    gains and motor values, ±10 % around the shipped config), one run each: cas_freq's batch
    (exact delays, Padé-6 stability) vs two python-control loops, both with Padé-6 delays: the
@@ -28,7 +28,7 @@ system of the process and the workers it waits for) beside the wall time.
 4. peak memory (tracemalloc) of the frequency-domain batch for 100,000 variants.
 
 Options: ``--quick`` (fewer variants, for a smoke run), ``--skip-memory``, ``--only CASE``
-(repeatable: ``issue``, ``margins``, ``step``, ``sinedwell``, ``verify``, ``montecarlo``,
+(repeatable: ``headline``, ``margins``, ``step``, ``sinedwell``, ``verify``, ``montecarlo``,
 ``report``), ``--write-docs`` (the table, as printed, replaces the one between the
 ``speed-table`` markers of README.md and docs/speed.md: the one source of both).
 """
@@ -65,7 +65,7 @@ from cas_freq.parameters import variant_parameters  # noqa: E402
 SEED = 20261122
 ROOT = Path(__file__).resolve().parents[1]
 #: The files whose speed table ``--write-docs`` replaces (between these markers), each with
-#: whether it shows issue 30's rows only (the README) or every row.
+#: whether it shows the headline rows only (the README) or every row.
 DOCS = {ROOT / "README.md": True, ROOT / "docs" / "speed.md": False}
 TABLE_START, TABLE_END = "<!-- speed-table:start -->", "<!-- speed-table:end -->"
 KEYS = ("position_loop.Kp", "position_loop.Ki", "position_loop.Kd", "current_loop.Kp",
@@ -90,7 +90,7 @@ def machine():
 @dataclasses.dataclass
 class Row:
     """One row of the table: what cas_freq took, the baseline, their ratio, the goal, the load
-    average before and after; ``headline``: a row of issue 30's table (the README's)."""
+    average before and after; ``headline``: a row of the headline table (the README's)."""
 
     case: str
     ours: str
@@ -285,8 +285,8 @@ def _control_step(params, t, amplitude, pade_order, **solver):
     return response.states[2] / params.gear.ratio
 
 
-def bench_issue_step(params, rows, repeats, rounds=3):
-    """Issue 30's third row: one 10 deg step of 60 ms at the default 5 us, in-process (the
+def bench_headline_step(params, rows, repeats, rounds=3):
+    """Headline row 3: one 10 deg step of 60 ms at the default 5 us, in-process (the
     compiled kernel, median of ``repeats``), against python-control's nlsys with Padé-8 delays
     (LSODA rtol 1e-9, atol 1e-10: the cross-check of tests/test_simulation_nlsys.py) and its
     fastest run (Padé-1, LSODA at its default tolerances).
@@ -398,7 +398,7 @@ def _process_text(times):
 
 
 def bench_sinedwell(params, rows):
-    """Issue 30's fourth row: the sine-dwell map of 8 amplitudes x 30 frequencies (100..5000
+    """Headline row 4: the sine-dwell map of 8 amplitudes x 30 frequencies (100..5000
     rad/s) of the shipped config, median of 3 after a warm-up of the kernel."""
     from cas_freq.parameters import LoopParameters
     from cas_freq.simulation.sinedwell import sine_dwell
@@ -421,7 +421,7 @@ def bench_verify(rows):
 
 
 def bench_montecarlo(rows, samples):
-    """Issue 30's first row: ``cas-freq montecarlo`` with the shipped requirements (each sample:
+    """Headline row 1: ``cas-freq montecarlo`` with the shipped requirements (each sample:
     the analysis, the nonlinear 10 deg step and its second-order fit), whole process."""
     argv = [*cas_freq_command(), "montecarlo", "--samples", str(samples), "--tolerance",
             "motor.Km=10%", "--tolerance", "motor.J=10%", "--tolerance",
@@ -434,7 +434,7 @@ def bench_montecarlo(rows, samples):
 
 
 def bench_report(rows):
-    """Issue 30's second row: ``cas-freq report`` of the shipped config (every variant, the load
+    """Headline row 2: ``cas-freq report`` of the shipped config (every variant, the load
     envelopes), whole process, wall and CPU; and of base, fitted and relaxed."""
     cases = (
         ("`cas-freq report` (shipped config: all variants, load envelopes; whole process)", [],
@@ -499,7 +499,7 @@ def write_docs(rows, heading, paths=DOCS):
         path.write_text(new, encoding="utf-8")
 
 
-CASES = ("issue", "margins", "step", "sinedwell", "verify", "montecarlo", "report")
+CASES = ("headline", "margins", "step", "sinedwell", "verify", "montecarlo", "report")
 
 
 def main(argv=None):
@@ -507,25 +507,25 @@ def main(argv=None):
     parser.add_argument("--quick", action="store_true", help="smaller sizes (smoke run)")
     parser.add_argument("--skip-memory", action="store_true")
     parser.add_argument("--only", action="append", choices=CASES,
-                        help="run only these cases (repeatable; 'issue': issue 30's four rows)")
+                        help="run only these cases (repeatable; 'headline': the README's rows)")
     parser.add_argument("--write-docs", action="store_true",
                         help="put the table into README.md and docs/speed.md (between the "
                              "speed-table markers)")
     args = parser.parse_args(argv)
     chosen = set(args.only or CASES)
-    if "issue" in chosen:
+    if "headline" in chosen:
         chosen |= {"montecarlo", "report", "sinedwell"}
     params = load_variant().params
     n = 1000 if args.quick else 10_000
     rows, notes, differences = [], [], {}
     started = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
-    # issue 30's table first
+    # the headline table first
     if "montecarlo" in chosen:
         bench_montecarlo(rows, 1000 if args.quick else 10_000)
     if "report" in chosen:
         bench_report(rows)
-    if {"issue", "step"} & chosen:
-        bench_issue_step(params, rows, 5 if args.quick else 21)
+    if {"headline", "step"} & chosen:
+        bench_headline_step(params, rows, 5 if args.quick else 21)
     if "sinedwell" in chosen:
         bench_sinedwell(params, rows)
     if "margins" in chosen:

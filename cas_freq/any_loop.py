@@ -5,8 +5,9 @@ A thin public layer over the engine the actuator figures use (:mod:`cas_freq.ana
 
 1. a continuous-time SISO python-control ``TransferFunction`` or ``StateSpace``, evaluated by
    its own ``__call__`` at :math:`j\omega`, times an exact :math:`e^{-s\tau}` when
-   ``delay=`` :math:`\tau` [s] is given (discrete-time systems are refused: sampled loops are
-   a later issue);
+   ``delay=`` :math:`\tau` [s] is given (discrete-time systems are refused: only continuous
+   loops are evaluated here; an actuator's sampled controllers are modelled by its config's
+   ``sampling:``, docs/model.md section 14);
 2. a callable of s, ``loop(s) -> complex``, vectorised over a complex array;
 3. frequency-response data: a ``control.FrequencyResponseData`` or a pair
    ``(omega [rad/s], response)``. Its margins are found by interpolation on the given data
@@ -154,9 +155,10 @@ def _prepare(loop, delay, omega_range, points_per_decade):
         return _Loop(evaluate, omega, None, delay, True), response
     if _is_lti(loop):
         if loop.isdtime(strict=True):
-            raise TypeError(f"loop: a discrete-time system (dt={loop.dt}) is not accepted yet "
-                            "(sampled loops are issue 26's); accepted: a continuous-time "
-                            "TransferFunction or StateSpace")
+            raise TypeError(f"loop: a discrete-time system (dt={loop.dt}) is not accepted: only "
+                            "continuous loops are (an actuator's sampled controllers: its "
+                            "config's sampling:); accepted: a continuous-time TransferFunction "
+                            "or StateSpace")
         if loop.ninputs != 1 or loop.noutputs != 1:
             raise ValueError(f"loop: a {loop.noutputs}x{loop.ninputs} system; accepted: SISO")
         system = loop

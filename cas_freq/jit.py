@@ -14,7 +14,10 @@ package folder is not writable (a read-only site-packages) and ``NUMBA_CACHE_DIR
 import of this module, so that the kernels compile once per user, not in every process; a
 user's ``NUMBA_CACHE_DIR`` is always respected. The first compilation of a process is told
 once (:func:`compile_messages`): the CLI prints it on stderr, the API logs it on the
-``cas_freq`` logger (silent unless a handler is configured).
+``cas_freq`` logger (silent unless a handler is configured). What is told is measured, not
+estimated (a first run's compiling takes from under 10 s to minutes, with the command, the drive
+architecture and the machine's load): the CLI says every :data:`TICK_S` how long it has compiled
+so far, and at the end how long it took, wall and CPU (:func:`compile_summary`).
 """
 
 import functools
@@ -22,6 +25,7 @@ import logging
 import os
 import pathlib
 import tempfile
+import threading
 import time
 
 from cas_freq.exceptions import ConfigError
@@ -89,13 +93,8 @@ def _numba_installed():
 CACHE_ENV = "NUMBA_CACHE_DIR"
 #: The package's folders holding compiled kernels (numba caches in their ``__pycache__``).
 KERNEL_DIRS = ("simulation", "analysis")
-#: Compilation time of the kernels a command uses on a loaded 2-core machine [s], by the
-#: module compiled first (``kernel``: a first ``cas-freq report``, 12-25 s,
-#: benchmarks/first_run.py; ``fit_kernel``: ``cas-freq fit FILE --step``, 2 s, 4-5 s since
-#: the fit's iteration is compiled too), quoted in the first-run message;
-#: :data:`DEFAULT_ESTIMATE_S` for another.
-COMPILE_ESTIMATE_S = {"kernel": 25, "fit_kernel": 6}
-DEFAULT_ESTIMATE_S = 20
+#: Interval [s] of the CLI's "still compiling" lines while the kernels compile.
+TICK_S = 15.0
 
 _PACKAGE = pathlib.Path(__file__).resolve().parent
 _LOG = logging.getLogger("cas_freq")
@@ -182,11 +181,14 @@ configure_cache()
 #: Where the first-compilation messages go: a callable taking a line (the CLI's stderr), or
 #: None for the ``cas_freq`` logger (:func:`compile_messages`).
 _SAY = None
-#: Seconds spent compiling in this process, whether a compilation is running, whether the
-#: first-run message was given, whether some kernel could not be cached, and the process
-#: that tells (not the report's forked workers, which may compile too).
-_COMPILING = {"seconds": 0.0, "depth": 0, "told": False, "uncached": False, "listener": None,
-              "pid": os.getpid()}
+#: Seconds spent compiling in this process (wall, and CPU of the compiling thread), since when
+#: the running compilation has been (None when none runs: ``depth``, its nesting, is 0),
+#: whether the first-run message was given, whether some kernel could not be cached, and the
+#: process that tells (not the report's forked workers, which may compile too). ``ticker``: the
+#: thread saying "still compiling", stopped by :func:`compile_summary`.
+_COMPILING = {"seconds": 0.0, "cpu_seconds": 0.0, "started": None, "cpu_started": 0.0,
+              "depth": 0, "told": False, "uncached": False, "listener": None,
+              "pid": os.getpid(), "ticker": None}
 
 
 def compile_messages(say=None):
@@ -207,13 +209,58 @@ def _tell(text):
 
 def compile_summary():
     """The line telling how long kernels compiled since the first-run message (or the last
-    summary), or None if they did not; the next compilation is then told again."""
+    summary), wall and CPU, or None if they did not; the next compilation is then told again.
+
+    The CPU time is the compiling thread's: below the wall time where other processes shared
+    the machine's cores.
+    """
+    ticker, _COMPILING["ticker"] = _COMPILING["ticker"], None
+    if ticker is not None:
+        ticker.set()
     if not _COMPILING["told"]:
         return None
     where = ("no writable cache folder: they compile again in the next run"
-             if _COMPILING["uncached"] else "later runs load them from the cache")
-    seconds, _COMPILING["seconds"], _COMPILING["told"] = _COMPILING["seconds"], 0.0, False
-    return f"cas-freq: compiled the numerical kernels in {seconds:.0f} s ({where})"
+             if _COMPILING["uncached"] else
+             "runs that need the same kernels load them from the cache")
+    seconds, cpu = _compiled_seconds()
+    _COMPILING.update(seconds=0.0, cpu_seconds=0.0, told=False)
+    return (f"cas-freq: compiled the numerical kernels in {_seconds(seconds)} s "
+            f"(CPU {_seconds(cpu)} s; {where})")
+
+
+def _seconds(value):
+    """``value`` [s] as said: whole seconds from 10 s, tenths below."""
+    return f"{value:.0f}" if value >= 10 else f"{value:.1f}"
+
+
+def _compiled_seconds():
+    """Wall and CPU seconds compiled so far, the running compilation's wall time included."""
+    seconds, started = _COMPILING["seconds"], _COMPILING["started"]
+    if started is not None:
+        seconds += time.perf_counter() - started
+    return seconds, _COMPILING["cpu_seconds"]
+
+
+def _start_ticker():
+    """A thread saying every :data:`TICK_S` of compiling how long it has compiled so far (only
+    where the messages go to a callable, the CLI's stderr); :func:`compile_summary` stops it."""
+    if _SAY is None or _COMPILING["ticker"] is not None:
+        return
+    stop = threading.Event()
+    _COMPILING["ticker"] = stop
+
+    def tick():
+        said = 0.0
+        while not stop.wait(min(0.5, TICK_S / 5)):
+            seconds = _compiled_seconds()[0]
+            if _COMPILING["started"] is not None and seconds >= said + TICK_S:
+                said = seconds - seconds % TICK_S
+                say = _SAY
+                if say is not None and not stop.is_set():
+                    say(f"cas-freq: still compiling the numerical kernels ({_seconds(said)} s "
+                        "so far) ...")
+
+    threading.Thread(target=tick, daemon=True, name="cas-freq compile ticker").start()
 
 
 def _listen_to_compilations():
@@ -232,13 +279,13 @@ def _listen_to_compilations():
             if not module(event_).startswith("cas_freq."):  # the user's own numba code
                 return
             if _COMPILING["depth"] == 0:
-                self.started = time.perf_counter()
+                _COMPILING["cpu_started"] = time.thread_time()
+                _COMPILING["started"] = time.perf_counter()
                 if not _COMPILING["told"] and os.getpid() == _COMPILING["pid"]:
                     _COMPILING["told"] = True
-                    seconds = COMPILE_ESTIMATE_S.get(module(event_).rsplit(".", 1)[-1],
-                                                     DEFAULT_ESTIMATE_S)
-                    _tell(f"cas-freq: compiling the numerical kernels once (about {seconds} s) "
-                          "...")
+                    _tell("cas-freq: compiling the numerical kernels not in the cache yet (the "
+                          f"time so far every {TICK_S:.0f} s) ...")
+                    _start_ticker()
             _COMPILING["depth"] += 1
 
         def on_end(self, event_):
@@ -246,7 +293,9 @@ def _listen_to_compilations():
                 return
             _COMPILING["depth"] -= 1
             if _COMPILING["depth"] == 0:
-                _COMPILING["seconds"] += time.perf_counter() - self.started
+                _COMPILING["seconds"] += time.perf_counter() - _COMPILING["started"]
+                _COMPILING["cpu_seconds"] += time.thread_time() - _COMPILING["cpu_started"]
+                _COMPILING["started"] = None
 
     _COMPILING["listener"] = _Listener()
     event.register("numba:compile", _COMPILING["listener"])

@@ -1,4 +1,5 @@
-"""One BLAS thread around the toolbox's small dense linear algebra, the caller's setting kept.
+"""Threads: one BLAS thread around the toolbox's small dense linear algebra, the caller's
+setting kept; and worker threads that an interrupt does not wait for (:func:`worker_threads`).
 
 The toolbox's linear algebra is many small matrices (5 x 5 exponentials, eigenvalues of loop
 matrices, 3 x 3 solves), where BLAS's threads only contend: on a loaded machine a 5 x 5
@@ -9,6 +10,7 @@ exponentials run inside :func:`one_blas_thread`, which limits every loaded BLAS 
 threadpoolctl and restores the caller's thread counts on exit.
 """
 
+import concurrent.futures
 import contextlib
 
 _CONTROLLER = None
@@ -43,3 +45,32 @@ def one_blas_thread():
         return
     with controller.limit(limits=1, user_api="blas"):
         yield
+
+
+@contextlib.contextmanager
+def worker_threads(max_workers, thread_name_prefix=""):
+    """Context manager: a ``concurrent.futures.ThreadPoolExecutor`` whose tasks are waited for
+    only when the block ends normally.
+
+    ``with ThreadPoolExecutor()`` waits on leaving the block for every task submitted, also
+    when an interrupt leaves it: Ctrl-C while the threads compiled the kernels (a first run:
+    minutes on a loaded machine) or analysed a large batch acted only once they were done.
+    Here an exception (Ctrl-C, SIGTERM, an error) leaves at once: the tasks not started are
+    cancelled, the running ones end on their own, their results unused (the CLI then ends the
+    process).
+
+    Parameters
+    ----------
+    max_workers : int
+        The number of threads.
+    thread_name_prefix : str, optional
+        Their names' prefix.
+    """
+    pool = concurrent.futures.ThreadPoolExecutor(max_workers=max_workers,
+                                                 thread_name_prefix=thread_name_prefix)
+    try:
+        yield pool
+    except BaseException:
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)

@@ -1,5 +1,5 @@
-"""Where the compiled kernels are cached, and the first run's compilation message (issue 28,
-"First run and read-only installs").
+"""Where the compiled kernels are cached, and the first run's compilation messages (first runs
+and read-only installs).
 
 numba caches next to the kernels' modules; with a read-only package folder and no writable
 home it found no cache folder and compiled in every process (5.8-6.6 s each). The tests run
@@ -8,11 +8,13 @@ as root, which writes anywhere, so the package folder's writability is a stand-i
 """
 
 import os
+import re
 import shutil
 import stat
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +23,7 @@ import pytest
 from cas_freq import jit
 
 ROOT = Path(__file__).resolve().parents[1]
-NOTE = "cas-freq: compiling the numerical kernels once"
+NOTE = "cas-freq: compiling the numerical kernels not in the cache yet"
 SUMMARY = "cas-freq: compiled the numerical kernels in"
 
 
@@ -177,3 +179,53 @@ def test_the_report_has_the_envelope_workers_kernels_before_it_forks():
     assert {name for _, name, _ in before} >= {"advance_parallel", "start_batch",
                                                "normal_equations_of", "lm_trials", "lm_update",
                                                "refine"}
+
+
+def _compiling(seconds, cpu_seconds):
+    """A compilation of a cas_freq kernel as numba announces it (its ``numba:compile`` event),
+    lasting ``seconds`` [s] of which ``cpu_seconds`` [s] busy; returns the wall and CPU time
+    the test measured itself around it."""
+    from types import SimpleNamespace
+
+    from numba.core import event
+
+    kernel = SimpleNamespace(py_func=SimpleNamespace(__module__="cas_freq.simulation.kernel"))
+    wall, cpu = time.perf_counter(), time.thread_time()
+    with event.trigger_event("numba:compile", data={"dispatcher": kernel}):
+        while time.thread_time() - cpu < cpu_seconds:
+            pass
+        time.sleep(max(0.0, seconds - (time.perf_counter() - wall)))
+    return time.perf_counter() - wall, time.thread_time() - cpu
+
+
+def test_the_cli_says_what_compiling_took_so_far_and_in_the_end(monkeypatch):
+    # the first line promised "about 25 s" where a first report compiled for 85-133 s (and
+    # minutes on a loaded machine): now the time is measured, said while it runs and at the end
+    monkeypatch.setattr(jit, "TICK_S", 0.3, raising=False)
+    jit._listen_to_compilations()
+    jit.compile_summary()  # nothing left over from an earlier test
+    lines = []
+    jit.compile_messages(lines.append)
+    try:
+        wall, cpu = _compiling(1.1, 0.3)
+        summary = jit.compile_summary()
+    finally:
+        jit.compile_messages(None)
+    assert lines[0].startswith(NOTE) and "about" not in lines[0]  # no estimate
+    ticks = [float(re.fullmatch(r"cas-freq: still compiling the numerical kernels "
+                                r"\(([\d.]+) s so far\) \.\.\.", line).group(1))
+             for line in lines[1:]]
+    # every 0.3 s of compiling, at multiples of it (one decimal): 0.3, 0.6, 0.9 s when the
+    # ticker is on time; at least two of them on a loaded machine, none beyond the compiling
+    assert len(ticks) >= 2 and ticks == sorted(set(ticks)) and ticks[-1] <= wall
+    assert all(abs(tick / 0.3 - round(tick / 0.3)) < 0.01 for tick in ticks), ticks
+    said = re.fullmatch(r"cas-freq: compiled the numerical kernels in ([\d.]+) s \(CPU "
+                        r"([\d.]+) s; runs that need the same kernels load them from the "
+                        r"cache\)", summary)
+    assert said, summary
+    # the wall and CPU time the test measured around the compilation, to the 0.1 s said (the
+    # rounding, 0.05 s, and the event's own overhead, well below 0.05 s)
+    assert abs(float(said.group(1)) - wall) <= 0.1
+    assert abs(float(said.group(2)) - cpu) <= 0.1 and cpu < wall - 0.5
+    time.sleep(0.4)  # the ticker is stopped: nothing more is said
+    assert len(lines) == 1 + len(ticks)

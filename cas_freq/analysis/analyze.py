@@ -13,7 +13,6 @@ Peak memory grows with the chunk, not with the number of variants: about 112 MiB
 variants at the default chunk of 256 (``benchmarks/run.py``).
 """
 
-import concurrent.futures
 import dataclasses
 import os
 
@@ -58,6 +57,7 @@ from cas_freq.model.sampled import grid_responses as sampled_grid_responses
 from cas_freq.model.structure import build, total_delay
 from cas_freq.output import output_json, output_unit
 from cas_freq.summary import Summary
+from cas_freq.threads import worker_threads
 
 #: Variants per chunk: the grid responses take about 26 kB per variant and response.
 DEFAULT_CHUNK = 256
@@ -365,7 +365,7 @@ def batch_analyze(
                               compiled=compiled, at_a_time=loop_at_a_time)
 
     # numpy releases the GIL inside its array loops, so chunks overlap on several cores
-    with concurrent.futures.ThreadPoolExecutor(max_workers=_workers(workers, len(starts))) as pool:
+    with worker_threads(_workers(workers, len(starts))) as pool:  # Ctrl-C: not waited for
         for start, (values, chunk_verdicts) in zip(starts, pool.map(work, starts), strict=True):
             stop = min(start + chunk_size, n)
             for name in names:

@@ -44,7 +44,7 @@ class Stiffness:
     note: str = ""
 
     @property
-    def min_N_m_per_rad(self):  # noqa: N802 (the issue's figure name)
+    def min_N_m_per_rad(self):  # noqa: N802 (the figure's name, unit included)
         """The minimum at a rotary output [N*m/rad], None at a linear one."""
         return None if self.linear else self.minimum
 

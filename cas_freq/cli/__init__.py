@@ -9,8 +9,9 @@ When CONFIG is omitted, a command that ran says on stderr that it used the shipp
 (one line, not with ``-q``). Exit status: 0 success, 1 a failed requirement, 2 bad input or
 config (one line on stderr, no traceback), 130 interrupted (Ctrl-C: one line on stderr;
 outputs are written atomically, so the previous file or report is left as it was and no
-temporary file remains), 143 terminated (SIGTERM; 129 for SIGHUP: handled as Ctrl-C,
-:mod:`cas_freq.cli.signals`).
+temporary file remains; also where the Ctrl-C landed in code Python cannot interrupt, such as
+numba's compiler calling back from C: it is raised again once that code returns), 143
+terminated (SIGTERM; 129 for SIGHUP: handled as Ctrl-C, :mod:`cas_freq.cli.signals`).
 """
 
 import sys
@@ -89,9 +90,9 @@ def main(argv=None):
             set_quiet,
             shipped_config_note,
         )
-        from cas_freq.cli.signals import terminate_as_interrupt
+        from cas_freq.cli.signals import interrupts_not_lost, terminate_as_interrupt
 
-        with terminate_as_interrupt():
+        with terminate_as_interrupt(), interrupts_not_lost():
             try:
                 parser = build_parser()
                 args = parser.parse_args(join_negative_values(
@@ -108,8 +109,8 @@ def main(argv=None):
                 return EXIT_BAD_INPUT
             except BrokenPipeError:
                 return EXIT_OK
-            finally:
-                _compile_summary()
+            finally:  # after an interrupt its one line only, no summary
+                _compile_summary(say=not isinstance(sys.exc_info()[1], KeyboardInterrupt))
                 set_quiet(False)  # --quiet is per call (main may run more than once)
     except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP
         return _interrupted(command, exc)
@@ -127,13 +128,13 @@ def _say(text):
     print(text, file=sys.stderr, flush=True)
 
 
-def _compile_summary():
+def _compile_summary(say=True):
     """Say how long the kernels compiled, if they did while the messages went to stderr (not
-    with ``--quiet``), and send later messages to the logger again."""
+    with ``--quiet``) and ``say`` is true, and send later messages to the logger again."""
     from cas_freq import jit
 
     summary = jit.compile_summary()
-    if summary is not None and jit._SAY is _say:
+    if say and summary is not None and jit._SAY is _say:
         _say(summary)
     jit.compile_messages(None)
 

@@ -1,4 +1,4 @@
-"""Identification from bench recordings (issue 14): read step recordings
+"""Identification from bench recordings (``cas-freq fit``): read step recordings
 (:mod:`~cas_freq.identification.recordings`, column names and units in
 :mod:`~cas_freq.identification.columns`) and fit the report's second-order-plus-delay model to
 one or several of them (:mod:`~cas_freq.identification.step_fit`); read sweep recordings

@@ -59,7 +59,6 @@ its 10 x cap (the run is then reported as not settled). The environment variable
 ``CAS_FREQ_BUDGET=N`` multiplies the three budgets by N.
 """
 
-import concurrent.futures
 import dataclasses
 import math
 import os
@@ -79,6 +78,7 @@ from cas_freq.simulation.engine import (
     Engine,
 )
 from cas_freq.simulation.recording import Recording, RecordingBuffers  # noqa: F401 (re-exported)
+from cas_freq.threads import worker_threads
 
 #: Largest default step [s].
 MAX_DEFAULT_STEP_S = 20e-6
@@ -692,11 +692,12 @@ def prepare_kernels(params):
 
     For a process about to fork workers that simulate (``cas-freq report``'s load envelope):
     on a first run (no kernel in numba's cache) the report's process and the worker compiled
-    the same kernels at once, ~25 s of CPU each (issue 28: the first report took 74 s against
-    ~15 s warm); compiled here once, the forked workers inherit them. In later runs this
+    the same kernels at once, ~25 s of CPU each (the first report took 74 s against ~15 s
+    warm); compiled here once, the forked workers inherit them. In later runs this
     loads them from the cache (~0.4 s), as the process would anyway.
 
-    The work runs in a new thread, joined before this returns. numba's compiler recurses
+    The work runs in a new thread, waited for before this returns, except after an interrupt
+    (Ctrl-C), raised at once (:func:`cas_freq.threads.worker_threads`). numba's compiler recurses
     deeply, and where the caller is itself deep in a call stack (pytest, a notebook) CPython
     3.11 can keep crossing a boundary of its frame-stack chunks, mapping and unmapping one at
     every crossing: compiling for one test took 22.8 s of user and 15.6 s of system time there
@@ -707,8 +708,7 @@ def prepare_kernels(params):
 
     if not use_compiled():
         return
-    with concurrent.futures.ThreadPoolExecutor(
-            max_workers=1, thread_name_prefix="cas_freq-prepare-kernels") as thread:
+    with worker_threads(1, "cas_freq-prepare-kernels") as thread:
         thread.submit(_prepare_kernels, params).result()  # its failure raised again here
 
 

@@ -9,7 +9,6 @@ need (:data:`STEP_SIGNALS`), and its step figures are computed in one compiled p
 """
 
 import collections
-import concurrent.futures
 import dataclasses
 import math
 
@@ -20,6 +19,7 @@ from cas_freq.simulation.commands import Step
 from cas_freq.simulation.second_order import fit_second_order_batch
 from cas_freq.simulation.simulator import RecordingBuffers, simulate_batch
 from cas_freq.simulation.step_figures import simulation_step_figures
+from cas_freq.threads import worker_threads
 
 #: Runs simulated together: memory is about 10 signals x 8 B x samples (up to 80,001) per run
 #: (the kernel writes only :data:`STEP_SIGNALS` of them).
@@ -89,7 +89,7 @@ def batch_steps(params, amplitude_rad, *, fit=True, rates_hz=(None, None),
     # runs in :data:`FIT_THREADS` parts, so that the fits, the larger share of the work, use
     # both cores while the main thread waits or Python holds the GIL. A fit does not depend on
     # the other runs fitted with it, so neither the parts nor the threads change a number.
-    with concurrent.futures.ThreadPoolExecutor(max_workers=FIT_THREADS) as fitter:
+    with worker_threads(FIT_THREADS) as fitter:
         pending = collections.deque()
         for start in range(0, n, chunk_size):
             stop = min(start + chunk_size, n)
