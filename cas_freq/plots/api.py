@@ -11,6 +11,7 @@ import types
 import numpy as np
 
 from cas_freq.analysis.frequency import continuous_phase
+from cas_freq.config.wording import OutputWords
 from cas_freq.plots.common import NotebookFigure as Figure
 
 #: The loops of the Bode figure: (attribute of FrequencyResponse, legend label).
@@ -71,9 +72,10 @@ def step_figure(response):
     unit = response.run.output_unit  # deg, or mm at a linear output
     command, output = ((response.command_mm, response.output_mm) if unit.linear else
                        (response.command_deg, response.output_angle_deg))
-    angle.plot(t_ms, command, color="k", ls=":", lw=0.9, label="command δ_cmd")
     name = response.run.output
-    angle.plot(t_ms, output, label=f"{name} {unit.quantity} δ")
+    symbol = OutputWords(name, unit.linear).symbol  # δ, or x at a linear output
+    angle.plot(t_ms, command, color="k", ls=":", lw=0.9, label=f"command {symbol}_cmd")
+    angle.plot(t_ms, output, label=f"{name} {unit.quantity} {symbol}")
     angle.set_ylabel(f"{name} {unit.quantity} [{unit.shown}]")
     angle.set_title(f"{unit.symbol(response.step.amplitude_deg)} step (nonlinear, limits and "
                     "delays)")
@@ -110,7 +112,7 @@ def analysis_figure(analysis):
 
     loaded = analysis.loaded
     data = types.SimpleNamespace(
-        label=variant_label(loaded), analysis=analysis,
+        label=variant_label(loaded), analysis=analysis, loaded=loaded,
         curves=curves(loaded.params, loop_frequency_range(analysis),
                       ReportSettings().curve_points_per_decade))
     return bode_loops(data, with_closed_loop=True, figure_class=Figure)
