@@ -287,7 +287,8 @@ def closed_loop_table(analysis):
                   number(_shown(figure.key, getattr(cl, figure.name))))
                  for figure in FIGURES.values()
                  if figure.key.startswith("closed_loop.") and figure.requirement)
-    return Table(("figure", "unit", "T = δ/δ_cmd"), rows,
+    x = OutputWords.of(analysis.loaded.params if analysis.loaded is not None else None).symbol
+    return Table(("figure", "unit", f"T = {x}/{x}_cmd"), rows,
                  f"closed-loop figures ({analysis.delay_model} delays)")
 
 

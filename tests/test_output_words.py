@@ -1,0 +1,155 @@
+"""The words follow the config's output on every shipped architecture: its name (``output_name``,
+else "output"), its kind (an angle δ, or a position x at a linear output, ``gear.screw_lead``) and
+its role: the flight-control words (the flight-control system, delta/delta_cmd, the hinge moment
+M) only where the config says the output is a control surface (``control_surface: true``).
+
+Before, ``analyze`` said "closed loop T = delta/delta_cmd", "(1/|delta/M| ...)" and "what the
+flight-control system sees" on the industrial cascade axis and the ball-screw EMA, the report had
+a section "What the flight-control system sees", ``sinedwell`` said "first harmonic of delta /
+command", and the screw report said "rod angle δ = θ / gear ratio" of a rod whose position is
+x = θ·lead/(2π·N). The slow test of tests/test_output_wording.py runs every command and every
+report file on each shipped architecture.
+"""
+
+import math
+import re
+import types
+from pathlib import Path
+
+import pytest
+import yaml
+from clirun import run_cli
+
+ROOT = Path(__file__).resolve().parents[1]
+CONFIGS = ROOT / "configs"
+
+#: What each shipped config's output is, read by hand from its file: (output_name or "output",
+#: "position" where gear.screw_lead makes it linear else "angle", control_surface).
+SHIPPED = {
+    "qt_cas": ("fin", "angle", True),
+    "dc_servo": ("output", "angle", False),
+    "cascade_axis": ("output", "angle", False),
+    "ball_screw": ("rod", "position", False),
+}
+
+#: "fin" as a word or a part of a name, not inside a longer word (``final``, ``define``).
+FIN = re.compile(r"(?<![a-z])fin(?![a-z])", re.IGNORECASE)
+#: "hinge" is allowed only as the config's key names.
+HINGE_KEYS = re.compile(r"load\.hinge_(stiffness|bias)")
+
+
+def leaks(text, label, quantity, surface):
+    """The words in ``text`` that do not belong to an output named ``label`` of kind
+    ``quantity`` ("angle" or "position") that is (``surface``) or is not a control surface."""
+    found = []
+    if not surface:
+        found += FIN.findall(text)
+        found += re.findall(r"flight|\bdelta\b|deflection|aerodynamic", text, re.IGNORECASE)
+        found += re.findall("hinge", HINGE_KEYS.sub("", text), re.IGNORECASE)
+    if quantity == "position":  # a length is never the output's angle, nor δ
+        found += re.findall(rf"\b(?:{label}|output) angle\b|δ", text)
+    return found
+
+
+def _ok(argv):
+    code, out, err = run_cli(argv)
+    assert code == 0, err
+    return out
+
+
+def test_every_shipped_config_is_covered():
+    assert {path.stem for path in CONFIGS.glob("*.yaml")} == set(SHIPPED)
+
+
+@pytest.mark.parametrize("name", sorted(SHIPPED))
+def test_output_words_follow_each_config(name):
+    from cas_freq.config import load_variant
+    from cas_freq.config.wording import OutputWords
+
+    label, quantity, surface = SHIPPED[name]
+    words = OutputWords.of(load_variant(CONFIGS / f"{name}.yaml", "base").params)
+    assert (words.label, words.quantity, words.control_surface) == (label, quantity, surface)
+    assert words.value == f"{label} {quantity}"
+    assert words.symbol == ("x" if quantity == "position" else "δ")
+
+
+def test_the_linear_output_is_defined_by_the_lead_not_the_gear_ratio_alone():
+    # ball_screw: 2:1 belt, 5 mm lead. The rod moves one lead per screw turn, so a motor angle θ
+    # gives x = θ/(2π·2)·5 mm; the model's ratio N [rad/m] must be 2π·2/0.005 m, the same
+    # relation the text states (1e-12: one float rounding of 2π·2/0.005)
+    from cas_freq.config import load_variant
+    from cas_freq.config.wording import OutputWords
+    from cas_freq.parameters import LoopParameters
+
+    loaded = load_variant(CONFIGS / "ball_screw.yaml", "base")
+    ratio = float(LoopParameters.from_config(loaded.params).ratio[0])
+    assert ratio == pytest.approx(2.0 * math.pi * 2.0 / 0.005, rel=1e-12)
+    assert OutputWords.of(loaded.params).definition == "rod position x = θ·lead / (2π·gear ratio)"
+    assert OutputWords.of(load_variant(CONFIGS / "dc_servo.yaml", "base").params).definition \
+        == "output angle δ = θ / gear ratio"
+
+
+@pytest.fixture(scope="module")
+def analyzed():
+    """name -> (analyze's text, the report's "stiffness, effort and noise" blocks as text) of
+    each shipped config's base variant."""
+    from cas_freq.analysis import analyze
+    from cas_freq.config import load_variant
+    from cas_freq.report.disturbance import disturbance_blocks
+
+    found = {}
+    for name in SHIPPED:
+        path = CONFIGS / f"{name}.yaml"
+        loaded = load_variant(path, "base")
+        blocks = disturbance_blocks(types.SimpleNamespace(analysis=analyze(loaded),
+                                                          loaded=loaded))
+        found[name] = (_ok(["analyze", str(path)]), [repr(block) for block in blocks])
+    return found
+
+
+@pytest.mark.parametrize("name", sorted(SHIPPED))
+def test_analyze_and_the_report_section_speak_of_the_output(analyzed, name):
+    label, quantity, surface = SHIPPED[name]
+    text, blocks = analyzed[name]
+    assert not leaks(text, label, quantity, surface)
+    assert not leaks("\n".join(blocks), label, quantity, surface)
+    if surface:  # the QT-CAS's words, as the README shows them
+        assert "  closed loop T = delta/delta_cmd\n" in text
+        assert "  what the flight-control system sees (every loop closed)\n" in text
+        assert "(1/|delta/M| with every loop closed)" in text
+        assert "What the flight-control system sees (base)" in blocks[0]
+    else:
+        assert f"  closed loop T = {label} {quantity} / its command\n" in text
+        assert "  stiffness, effort and noise (every loop closed)\n" in text
+        load = "load force" if quantity == "position" else "load torque"
+        assert f"(1/|{label} {quantity} per {load}| with every loop closed)" in text
+        assert f"(|current per {label} {quantity} command| without feed-forward)" in text
+        assert "Stiffness, effort and noise (base)" in blocks[0]
+    symbols = ("1/|x/F_load|", "|i/x_cmd|") if quantity == "position" else \
+        ("1/|δ/M_load|", "|i/δ_cmd|")
+    assert all(symbol in blocks[1] for symbol in symbols), blocks[1]
+
+
+@pytest.mark.parametrize(("name", "amplitude"), [("ball_screw", "0.5mm"),
+                                                 ("cascade_axis", "1deg")])
+def test_sinedwell_names_the_output(name, amplitude):
+    label, quantity, surface = SHIPPED[name]
+    text = _ok(["sinedwell", str(CONFIGS / f"{name}.yaml"), "--amplitudes", amplitude,
+                "--frequencies", "100,300"])
+    assert f"first harmonic of the {label} {quantity} / of its command" in text
+    assert not leaks(text, label, quantity, surface)
+
+
+def test_control_surface_is_a_boolean(tmp_path):
+    raw = yaml.safe_load((CONFIGS / "dc_servo.yaml").read_text(encoding="utf-8"))
+    raw["control_surface"] = "yes"
+    path = tmp_path / "dc.yaml"
+    path.write_text(yaml.safe_dump(raw, sort_keys=False), encoding="utf-8")
+    code, out, err = run_cli(["analyze", str(path)])
+    assert code == 2 and out == "" and err.count("\n") == 1, err
+    assert ("control_surface: expected true or false (true: the output is a control surface, "
+            "e.g. a fin), got 'yes'") in err
+    # a config that says so gets the flight-control words, whatever it calls its output
+    raw["control_surface"] = True
+    path.write_text(yaml.safe_dump(raw, sort_keys=False), encoding="utf-8")
+    assert "what the flight-control system sees" in _ok(["analyze", str(path)])
