@@ -232,7 +232,7 @@ class Actuator:
         ----------
         hinge_stiffness : array_like
             Values of ``load.hinge_stiffness`` (the load spring K_h) at the output [N*m/rad]
-            (> 0 opposes deflection, < 0 aids it).
+            (> 0 opposes the motion, < 0 aids it).
         step : str, optional
             Output step of the step figures (``"10 deg"``); default the first step
             requirement's.
