@@ -126,3 +126,25 @@ def test_control_surface_is_a_boolean(tmp_path):
     raw["control_surface"] = True
     path.write_text(yaml.safe_dump(raw, sort_keys=False), encoding="utf-8")
     assert "what the flight-control system sees" in _ok(["analyze", str(path)])
+
+
+def test_the_api_figures_of_a_linear_output_say_x():
+    # before: "T = δ/δ_cmd", "command δ_cmd", "rod position δ" on a rod that moves x [m]
+    import matplotlib
+    import numpy as np
+
+    import cas_freq as cf
+
+    actuator = cf.load(CONFIGS / "ball_screw.yaml")
+    figures = {"frequency_response": actuator.frequency_response(np.geomspace(1.0, 1e4, 50)),
+               "analyze": actuator.analyze(), "simulate": actuator.simulate(step="1 mm")}
+    texts = {}
+    for name, result in figures.items():
+        figure = result.plot()
+        texts[name] = [text.get_text() for text in figure.findobj(matplotlib.text.Text)] + [
+            line.get_label() for axes in figure.axes for line in axes.get_lines()]
+    assert "T = x/x_cmd (closed loop)" in texts["frequency_response"]
+    assert any(label.startswith("T = x/x_cmd (closed loop)") for label in texts["analyze"])
+    assert {"command x_cmd", "rod position x"} <= set(texts["simulate"])
+    assert not {name: found for name, text in texts.items()
+                if (found := leaks("\n".join(text), "rod", "position", False))}
