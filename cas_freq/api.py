@@ -318,7 +318,7 @@ class Actuator:
 
     @one_blas_thread()
     def export_model(self, pade=6, amplitudes=None, frequencies=None, feedforward=False):
-        """The actuator as the flight-control designer uses it (``cas-freq export-model``).
+        """The actuator as the outer loop's designer uses it (``cas-freq export-model``).
 
         Parameters
         ----------

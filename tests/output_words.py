@@ -15,8 +15,8 @@ SHIPPED = {
 
 #: "fin" as a word or a part of a name, not inside a longer word (``final``, ``define``).
 FIN = re.compile(r"(?<![a-z])fin(?![a-z])", re.IGNORECASE)
-#: "hinge" is allowed only as the config's key names.
-HINGE_KEYS = re.compile(r"load\.hinge_(stiffness|bias)")
+#: "hinge" is allowed only as the config's key names (dotted, or in a YAML section).
+HINGE_KEYS = re.compile(r"load\.hinge_(stiffness|bias)|^\s*hinge_(stiffness|bias):", re.MULTILINE)
 
 
 def leaks(text, label, quantity, surface):
