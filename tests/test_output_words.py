@@ -148,3 +148,28 @@ def test_the_api_figures_of_a_linear_output_say_x():
     assert {"command x_cmd", "rod position x"} <= set(texts["simulate"])
     assert not {name: found for name, text in texts.items()
                 if (found := leaks("\n".join(text), "rod", "position", False))}
+
+
+@pytest.mark.parametrize("name", ["ball_screw", "cascade_axis"])
+def test_the_report_closed_loop_figure_names_the_output_symbol(name):
+    # the report's closed-loop figure: its title and |T|'s label in the output's symbol (x at
+    # the screw), and nothing else where the symbol goes (a number there once: the bandwidth)
+    import matplotlib
+
+    from cas_freq.analysis import analyze
+    from cas_freq.config import load_variant
+    from cas_freq.plots.report import closed_loop
+    from cas_freq.report.data import ReportSettings, curves, loop_frequency_range, variant_label
+
+    loaded = load_variant(CONFIGS / f"{name}.yaml", "base")
+    analysis = analyze(loaded)
+    data = types.SimpleNamespace(
+        label=variant_label(loaded), analysis=analysis, loaded=loaded, verdicts=(),
+        curves=curves(loaded.params, loop_frequency_range(analysis),
+                      ReportSettings().curve_points_per_decade))
+    figure = closed_loop(data)
+    texts = [text.get_text() for text in figure.findobj(matplotlib.text.Text)]
+    labels = [line.get_label() for axes in figure.axes for line in axes.get_lines()]
+    x = "x" if SHIPPED[name][1] == "position" else "δ"
+    assert f"{name} / base: closed loop T = {x}/{x}_cmd (exact delays)" in texts
+    assert f"|T| = |{x}/{x}_cmd|" in labels

@@ -217,8 +217,8 @@ def closed_loop(data):
     fig, axes = _figure(2, 1, (8, 6), sharex=True, margins=Margins())
     mag, ph = axes[:, 0]
     m, p = _db(c.closed_loop), _phase_deg(c.closed_loop, c.omega_rad_s)
-    x = _symbol(data)
-    mag.plot(w, m, color="C2", label=f"|T| = |{x}/{x}_cmd|")
+    symbol = _symbol(data)
+    mag.plot(w, m, color="C2", label=f"|T| = |{symbol}/{symbol}_cmd|")
     ph.plot(w, p, color="C2", label="∠T")
     dc = figures.dc_gain_db if figures is not None else 0.0
     mag.axhline(dc + HALF_POWER_DB, color="k", ls="--", lw=0.9, label="−3.01 dB")
@@ -249,7 +249,7 @@ def closed_loop(data):
     mag.legend(loc="lower left")
     ph.legend(loc="lower left")
     _log_axes([mag, ph], w)
-    fig.suptitle(f"{data.label}: closed loop T = {x}/{x}_cmd ({EXACT})")
+    fig.suptitle(f"{data.label}: closed loop T = {symbol}/{symbol}_cmd ({EXACT})")
     return fig
 
 
@@ -713,8 +713,8 @@ def sinedwell(data):
     ph.plot(w, _r(np.degrees(np.unwrap(np.angle(lin)))), color="k", lw=1.2, ls="--", zorder=5)
     mag.plot([], [], "ko", mfc="none", label="a limit acts (hollow)")
     mag.axhline(HALF_POWER_DB, color="C7", ls=":", lw=1, label="−3.01 dB")
-    x = _symbol(data)
-    mag.set_ylabel(f"|{x}/{x}_cmd| first harmonic [dB]")
+    symbol = _symbol(data)
+    mag.set_ylabel(f"|{symbol}/{symbol}_cmd| first harmonic [dB]")
     ph.set_ylabel("phase [deg]")
     mag.legend(loc="lower left", ncols=2)
     _envelope_map(amp, data, r, w)
