@@ -191,6 +191,12 @@ def test_every_output_of_each_architecture_speaks_of_its_output(name, tmp_path):
     definition = ("rod position x = θ·lead / (2π·gear ratio)" if quantity == "position"
                   else "output angle δ = θ / gear ratio")
     assert f"figure definitions: docs/model.md (motor-shaft loops, {definition})" in report
+    x = "x" if quantity == "position" else "δ"  # the output's symbol in the figures
+    figures = "report/figures/base/"
+    assert f"{name} / base: closed loop T = {x}/{x}_cmd (exact delays)" in outputs[
+        f"{figures}closed_loop.svg"]
+    assert f"|{x}/{x}_cmd| first harmonic [dB]" in outputs[f"{figures}sinedwell.svg"]
+    assert f"{label} {quantity} {x} [" in outputs[f"{figures}steps.svg"]
 
 
 def test_the_shipped_config_names_its_output_fin():
