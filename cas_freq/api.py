@@ -28,6 +28,7 @@ import numpy as np
 
 from cas_freq.analysis.frequency import DEFAULT_RANGE_RAD_S
 from cas_freq.config.loader import load_variant, read_config_file, variant_names
+from cas_freq.config.wording import OutputWords
 from cas_freq.model import DelayModel
 from cas_freq.summary import Summary, row, spread
 from cas_freq.threads import one_blas_thread
@@ -161,7 +162,8 @@ class Actuator:
         loops = ActuatorLoops(self.params, _delay(delay))
         s = 1j * omega
         return FrequencyResponse(omega, loops.delay.label,
-                                 **{name: getattr(loops, name)(s) for name in _LOOPS})
+                                 **{name: getattr(loops, name)(s) for name in _LOOPS},
+                                 output_symbol=OutputWords.of(self.loaded.params).symbol)
 
     @one_blas_thread()
     def simulate(self, step=None):
@@ -232,7 +234,7 @@ class Actuator:
         ----------
         hinge_stiffness : array_like
             Values of ``load.hinge_stiffness`` (the load spring K_h) at the output [N*m/rad]
-            (> 0 opposes deflection, < 0 aids it).
+            (> 0 opposes the motion, < 0 aids it).
         step : str, optional
             Output step of the step figures (``"10 deg"``); default the first step
             requirement's.
@@ -316,7 +318,7 @@ class Actuator:
 
     @one_blas_thread()
     def export_model(self, pade=6, amplitudes=None, frequencies=None, feedforward=False):
-        """The actuator as the flight-control designer uses it (``cas-freq export-model``).
+        """The actuator as the outer loop's designer uses it (``cas-freq export-model``).
 
         Parameters
         ----------
@@ -380,6 +382,8 @@ class FrequencyResponse(Summary):
         L_i (broken at the voltage) and T_i = i/i_cmd [-].
     position_loop, sensitivity, closed_loop : numpy.ndarray of complex
         L_p (broken at the current command), S = 1/(1 + L_p) and T = delta/delta_cmd [-].
+    output_symbol : str
+        The output's symbol in the figure's labels: ``"δ"``, ``"x"`` at a linear output.
     """
 
     omega_rad_s: np.ndarray
@@ -389,6 +393,7 @@ class FrequencyResponse(Summary):
     position_loop: np.ndarray
     sensitivity: np.ndarray
     closed_loop: np.ndarray
+    output_symbol: str = "δ"
 
     def _summary(self):
         w = self.omega_rad_s

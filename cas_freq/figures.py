@@ -310,7 +310,7 @@ _OTHER_FIGURES = (
      {"requirement": False}),
     ("drivetrain.hinge_stiffness_n_m_rad", "analyze", "N*m/rad", "load spring K_h", "N·m/rad",
      1.0, "the config's load spring at the output", "", {"requirement": False}),
-    # what the flight-control system sees (docs/model.md §15), of the continuous loops
+    # stiffness, effort and noise (docs/model.md §15), of the continuous loops
     ("stiffness.min_N_m_per_rad", "analyze", "N*m/rad", "minimum dynamic stiffness",
      "N·m/rad", 1.0, "min over frequency of 1/|δ/M_load(jω)|, every loop closed", _UNSTABLE_T,
      {"output": "angle", "twin": "stiffness.min_N_per_m"}),

@@ -95,8 +95,8 @@ PARAMETERS = _table(
     ("load.damping", "b_L", "N*m*s/rad", 0.0, False, 1e6,
      "load viscous damping b_L at the output, 0 or 1e-15..1e6 [N*m*s/rad]", 1e-15),
     ("load.hinge_stiffness", "K_h", "N*m/rad", -1e9, False, 1e9,
-     "load spring K_h at the output: load moment -K_h*delta (> 0 opposes, < 0 aids "
-     "deflection), 0 or |K_h| 1e-12..1e9 [N*m/rad]", 1e-12),
+     "load spring K_h at the output: load moment -K_h*delta (> 0 opposes the motion, < 0 "
+     "aids it), 0 or |K_h| 1e-12..1e9 [N*m/rad]", 1e-12),
     ("load.hinge_bias", "tau_h", "N*m", -1e9, False, 1e9,
      "constant load moment at the output, nonlinear simulation only, 0 or |value| "
      "1e-12..1e9 [N*m]", 1e-12),

@@ -1,4 +1,4 @@
-"""Limit cycles (docs/model.md, "15. What the flight-control system sees", "Limit cycles").
+"""Limit cycles (docs/model.md, "15. Stiffness, effort and noise", "Limit cycles").
 
 The describing functions against their closed forms and a Fourier integral written here; the
 loops each nonlinearity sees against a derivation written here from the signal equations;

@@ -14,6 +14,7 @@ import matplotlib
 import pytest
 import yaml
 from clirun import run_cli
+from output_words import leaks as words_leaks
 
 matplotlib.use("Agg")
 
@@ -115,6 +116,12 @@ def test_every_command_says_output_for_an_actuator_that_does_not_name_it(dc_text
     assert any(name.startswith("compare/figures/") and name.endswith(".svg") for name in written)
     leaks = {name: sorted(set(FIN.findall(text))) for name, text in dc_texts.items()}
     assert not {name: words for name, words in leaks.items() if words}
+    # nor the flight-control words (dc_servo's output is not a control surface), in the texts a
+    # user reads (JSON and CSV keys are the same for every config)
+    flight = {name: sorted(set(words_leaks(text, "output", "angle", False)))
+              for name, text in dc_texts.items()
+              if not name.endswith((".json", "--json", ".csv", ".xml", ".yaml"))}
+    assert not {name: words for name, words in flight.items() if words}
     # the compare report names the output where it names it at all
     assert "amplitudes at the output: 1°" in dc_texts["file compare/report.md"]
     assert "output angle" in dc_texts["file fit_step/fit.svg"]

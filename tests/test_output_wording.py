@@ -6,7 +6,11 @@
 - labels and text say "output" unless the config names its output (``output_name: fin`` in the
   shipped config); data keys (CSV columns, JSON fields) are the same for every config, and the
   former CSV column names are still read;
-- ``tune`` prints the gains in EPOS4 units only for a config whose ``drive:`` is ``epos4``.
+- ``tune`` prints the gains in EPOS4 units only for a config whose ``drive:`` is ``epos4``;
+- the words follow each shipped architecture's output (tests/output_words.py): its name, its kind
+  (an angle, or a position at a linear output) and the flight-control words only where the
+  config says the output is a control surface (the slow test runs every command and report on
+  the cascade axis and the ball screw).
 """
 
 import csv
@@ -20,6 +24,7 @@ import numpy as np
 import pytest
 import yaml
 from clirun import run_cli
+from output_words import SHIPPED, leaks
 
 ROOT = Path(__file__).resolve().parents[1]
 DC_SERVO = ROOT / "configs" / "dc_servo.yaml"
@@ -93,25 +98,23 @@ def loaded_dc_servo(tmp_path_factory):
     return path
 
 
-@pytest.fixture(scope="module")
-def dc_outputs(loaded_dc_servo, tmp_path_factory):
-    """name -> text of every output a user sees for the loaded dc_servo."""
-    folder = tmp_path_factory.mktemp("dc_out")
-    config = str(loaded_dc_servo)
-    profile = ["--profile", "10deg", "--velocity", "500deg/s", "--acceleration", "1e4deg/s^2"]
+def _every_output(config, folder, step, profile, dwell, amplitudes):
+    """name -> text of every output a user sees of ``config``: each command's, the CSV header
+    and every report file (``step``, ``profile``, ``dwell``, ``amplitudes``: the sizes in the
+    output's own unit)."""
     outputs = {}
     for name, argv in {
         "analyze": ["analyze", config],
         "analyze --json": ["analyze", config, "--json"],
-        "simulate": ["simulate", config, "--step", "10deg"],
-        "simulate --json": ["simulate", config, "--step", "10deg", "--json", "--csv",
+        "simulate": ["simulate", config, "--step", step],
+        "simulate --json": ["simulate", config, "--step", step, "--json", "--csv",
                             str(folder / "step.csv")],
         "simulate --profile": ["simulate", config, *profile],
         "simulate --profile --json": ["simulate", config, *profile, "--json"],
-        "sinedwell": ["sinedwell", config, *DWELL],
-        "sinedwell --json": ["sinedwell", config, *DWELL, "--json"],
+        "sinedwell": ["sinedwell", config, *dwell],
+        "sinedwell --json": ["sinedwell", config, *dwell, "--json"],
         "verify": ["verify", config],
-        "report": ["report", config, "--amplitudes", "0.5deg,10deg", "--frequencies",
+        "report": ["report", config, "--amplitudes", amplitudes, "--frequencies",
                    "100,400", "--pade-order", "4", "-o", str(folder / "report"), "-q"],
     }.items():
         outputs[name] = _ok(argv)
@@ -120,6 +123,25 @@ def dc_outputs(loaded_dc_servo, tmp_path_factory):
         if path.is_file() and path.suffix in {".md", ".json", ".svg", ".html"}:
             outputs[str(path.relative_to(folder))] = path.read_text(encoding="utf-8")
     return outputs
+
+
+@pytest.fixture(scope="module")
+def dc_outputs(loaded_dc_servo, tmp_path_factory):
+    """name -> text of every output a user sees for the loaded dc_servo."""
+    profile = ["--profile", "10deg", "--velocity", "500deg/s", "--acceleration", "1e4deg/s^2"]
+    return _every_output(str(loaded_dc_servo), tmp_path_factory.mktemp("dc_out"), "10deg",
+                         profile, DWELL, "0.5deg,10deg")
+
+
+def _text_leaks(outputs, name):
+    """{output: words} of ``outputs`` that do not belong to the shipped config ``name``'s
+    output (:func:`output_words.leaks`), read in the texts a user reads: the data keys (JSON,
+    the CSV header) are the same for every config and keep their names."""
+    label, quantity, surface = SHIPPED[name]
+    found = {key: sorted(set(leaks(text, label, quantity, surface)))
+             for key, text in outputs.items()
+             if not key.endswith((".json", "--json", "csv header"))}
+    return {key: words for key, words in found.items() if words}
 
 
 def test_no_qt_cas_words_for_another_actuator(dc_outputs):
@@ -135,6 +157,46 @@ def test_no_qt_cas_words_for_another_actuator(dc_outputs):
     assert "second-order-plus-delay fit (docs/model.md §7)" in dc_outputs["simulate"]
     assert "second-order-plus-delay fits (docs/model.md §7)" in dc_outputs["report/report.md"]
     assert "load spring K_h at the output" in dc_outputs["report/report.md"]
+    # nor the flight-control words: dc_servo's output is not a control surface
+    assert not _text_leaks(dc_outputs, "dc_servo")
+    assert "### Stiffness, effort and noise (base)" in dc_outputs["report/report.md"]
+
+
+#: The other shipped architectures as shipped: (step, profile move, sine-dwell, report amplitudes)
+#: in their output's unit (small sizes: what is printed, not the numbers, is tested here).
+ARCHITECTURES = {
+    "cascade_axis": ("2deg", ["--profile", "10deg", "--velocity", "500deg/s", "--acceleration",
+                              "1e4deg/s^2"], DWELL, "0.5deg,2deg"),
+    "ball_screw": ("5mm", ["--profile", "5mm", "--velocity", "100mm/s", "--acceleration",
+                           "2000mm/s^2"], ["--amplitudes", "0.5mm", "--frequencies", "100,300"],
+                   "0.5mm,5mm"),
+}
+
+
+@pytest.mark.slow  # every command and a report per architecture (.ci/run runs it)
+@pytest.mark.parametrize("name", sorted(ARCHITECTURES))
+def test_every_output_of_each_architecture_speaks_of_its_output(name, tmp_path):
+    # before: "closed loop T = delta/delta_cmd", "what the flight-control system sees", "first
+    # harmonic of delta", and on the screw "rod angle δ = θ / gear ratio", "rod position δ"
+    step, profile, dwell, amplitudes = ARCHITECTURES[name]
+    outputs = _every_output(str(ROOT / "configs" / f"{name}.yaml"), tmp_path, step, profile,
+                            dwell, amplitudes)
+    assert len(outputs) > 12  # every command, and the report's files and figures
+    assert not _text_leaks(outputs, name)
+    label, quantity, _ = SHIPPED[name]
+    report = outputs["report/report.md"]
+    assert "### Stiffness, effort and noise (base)" in report
+    assert f"closed loop T = {label} {quantity} / its command" in outputs["analyze"]
+    assert f"first harmonic of the {label} {quantity} / of its command" in outputs["sinedwell"]
+    definition = ("rod position x = θ·lead / (2π·gear ratio)" if quantity == "position"
+                  else "output angle δ = θ / gear ratio")
+    assert f"figure definitions: docs/model.md (motor-shaft loops, {definition})" in report
+    x = "x" if quantity == "position" else "δ"  # the output's symbol in the figures
+    figures = "report/figures/base/"
+    assert f"{name} / base: closed loop T = {x}/{x}_cmd (exact delays)" in outputs[
+        f"{figures}closed_loop.svg"]
+    assert f"|{x}/{x}_cmd| first harmonic [dB]" in outputs[f"{figures}sinedwell.svg"]
+    assert f"{label} {quantity} {x} [" in outputs[f"{figures}steps.svg"]
 
 
 def test_the_shipped_config_names_its_output_fin():

@@ -48,6 +48,7 @@ from cas_freq.analysis.stability import (
     closed_loop_poles,
     loop_verdicts,
 )
+from cas_freq.config.wording import OutputWords
 from cas_freq.fileio import json_ready
 from cas_freq.jit import compiled_for, use_compiled
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, EXACT, DelayModel
@@ -441,7 +442,7 @@ class Analysis(Summary):
     continuous: dict | None = None
     #: With sampled controllers: {"method", "rates_hz": {loop: Hz}, "nyquist_rad_s": {...}}.
     sampling: dict | None = None
-    #: What the flight-control system sees (:mod:`cas_freq.analysis.disturbance`): the
+    #: Stiffness, effort and noise (:mod:`cas_freq.analysis.disturbance`): the
     #: dynamic stiffness, the control effort and the encoder noise's current.
     stiffness: object = None
     effort: object = None
@@ -634,7 +635,7 @@ def analyze(
                                       (unit.spring, unit.spring_unit)))
     stiff, push, noise = disturbance_figures(
         params, omega, getattr(getattr(loaded.params, "sensors", None), "counts_per_rev", None),
-        output_unit(loaded.params).linear, stability.stable, delay)
+        OutputWords.of(loaded.params), stability.stable, delay)
     rows = pade_study(params, pade_orders, omega) if pade_orders > 0 else ()
     closed_figures = figures_of_run(_loop(figures, "closed_loop"))
     envelope = rate_envelope(

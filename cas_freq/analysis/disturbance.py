@@ -1,7 +1,7 @@
-r"""The figures of what the flight-control system sees besides the command: the dynamic
-stiffness, the control effort and the current of the encoder's quantisation noise
-(docs/model.md, "15. What the flight-control system sees": "Dynamic stiffness", "Disturbance
-and noise").
+r"""The closed loop's figures besides the command (what the flight-control system sees of a
+control surface): the dynamic stiffness, the control effort and the current of the encoder's
+quantisation noise (docs/model.md, "15. Stiffness, effort and noise": "Dynamic stiffness",
+"Disturbance and noise").
 
 Each is read from the continuous loops' responses of :mod:`cas_freq.model.disturbance` and
 :mod:`cas_freq.model.loops` on the analysis grid, a minimum or a peak refined by a bounded
@@ -16,6 +16,7 @@ import math
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from cas_freq.config.wording import GENERIC
 from cas_freq.model.delay import EXACT
 from cas_freq.model.disturbance import encoder_weights, load_response, noise_current
 from cas_freq.model.loops import Selector, responses
@@ -170,7 +171,7 @@ def noise(p, low, band, counts_per_rev, delay=EXACT):
     return Noise(rms, float(counts_per_rev), quantum, float(band))
 
 
-def disturbance_figures(params, omega, counts_per_rev=None, linear=False, stable=True,
+def disturbance_figures(params, omega, counts_per_rev=None, words=GENERIC, stable=True,
                         delay=EXACT):
     """(Stiffness, Effort, Noise) of one variant.
 
@@ -183,11 +184,12 @@ def disturbance_figures(params, omega, counts_per_rev=None, linear=False, stable
         controllers, the noise's band).
     counts_per_rev : float or None
         ``sensors.counts_per_rev``.
-    linear : bool
-        A linear output (figures per m).
+    words : cas_freq.config.wording.OutputWords
+        The config's output: a linear one has figures per m; the notes name it.
     stable : bool
         The closed loop's verdict: only a stable loop has these figures.
     """
+    linear = words.linear
     rates = dict(getattr(params, "sample_rates", ()) or ())
     p = Selector(params)()
     if rates:
@@ -199,10 +201,10 @@ def disturbance_figures(params, omega, counts_per_rev=None, linear=False, stable
     stiff = stiffness(p, omega, linear, delay)
     stiff = dataclasses.replace(stiff, note=(
         ("the minimum lies at an end of the analysed range; " if stiff.at_range_edge else "")
-        + f"1/|delta/M| with every loop closed{suffix}"))
+        + f"{words.compliance} with every loop closed{suffix}"))
     push = effort(p, omega, linear, delay)
     push = dataclasses.replace(push, note=(push.note + "; " if push.note else "")
-                               + f"|i/delta_cmd| without feed-forward{suffix}")
+                               + f"{words.effort} without feed-forward{suffix}")
     return stiff, push, _noise(p, params, omega, counts_per_rev, rates, linear, delay)
 
 
@@ -232,13 +234,14 @@ def _noise(p, params, omega, counts_per_rev, rates, linear, delay):
         f"quantisation noise q^2/12, q = 2*pi/{counts_per_rev:g} rad, on {encoder}, {where}"))
 
 
-def text_lines(stiff, push, noise, fmt):
-    """The analyze text's block of these figures (``fmt(value, unit)`` formats a number)."""
+def text_lines(stiff, push, noise, fmt, words=GENERIC):
+    """The analyze text's block of these figures (``fmt(value, unit)`` formats a number) under
+    ``words.seen``."""
     if stiff is None:
         return []
     per = "m" if stiff.linear else "rad"
     unit = "N/m" if stiff.linear else "N*m/rad"
-    lines = ["  what the flight-control system sees (every loop closed)"]
+    lines = [f"  {words.seen} (every loop closed)"]
     if stiff.minimum is None:
         lines.append(f"    not reported: {stiff.note}")
         return lines

@@ -1,4 +1,4 @@
-"""``cas-freq export-model``: the actuator as the flight-control designer uses it, as JSON."""
+"""``cas-freq export-model``: the actuator as the outer loop's designer uses it, as JSON."""
 
 from cas_freq.cli.common import (
     EXIT_OK,
@@ -22,8 +22,9 @@ from cas_freq.exceptions import CasFreqError
 def register(commands):
     """Add the ``export-model`` sub-parser."""
     parser = commands.add_parser(
-        "export-model", help="the actuator model for the autopilot designer, as JSON",
-        description="Write one variant as the flight-control designer uses it: the linear "
+        "export-model", help="the actuator model for the outer loop's designer, as JSON",
+        description="Write one variant as the designer of the loop around it (a flight-control "
+        "system, a motion controller) uses it: the linear "
         "closed loop T (Padé delays) as state-space matrices and zeros/poles/gain, the "
         "sine-dwell gain and phase per amplitude, a second-order-plus-delay fit with a rate "
         "limit per amplitude, and the rate and torque envelope (docs/model.md §15).",

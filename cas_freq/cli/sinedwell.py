@@ -89,6 +89,7 @@ def parse_frequencies(text):
 def run(args):
     """Sine-dwell the selected variants; print a table or JSON."""
     from cas_freq.analysis import analyze
+    from cas_freq.config.wording import OutputWords
     from cas_freq.output import output_json, output_unit
     from cas_freq.report.text import sinedwell_table
     from cas_freq.simulation.run import over_budget_reason, sinedwell_run, sinedwell_run_dict
@@ -99,7 +100,7 @@ def run(args):
     amplitudes = parse_amplitudes(amplitudes_text(args.amplitudes, variants, DEFAULT_AMPLITUDES,
                                                   LINEAR_DEFAULT_AMPLITUDES), variants)
     frequencies = None if args.frequencies is None else parse_frequencies(args.frequencies)
-    data = []
+    data, words = [], []
     for loaded in variants:
         progress = terminal_progress(f"sine-dwell {loaded.variant}")
         analysis = analyze(loaded)
@@ -115,8 +116,10 @@ def run(args):
         if progress:
             progress.done()
         data.append(output_json(sinedwell_run_dict(result), output_unit(loaded.params)))
+        words.append(OutputWords.of(loaded.params))
     if args.json:
         print_json(data if several_variants(args) else data[0])
     else:
-        print("\n\n".join(sinedwell_table(item) for item in data))
+        print("\n\n".join(sinedwell_table(item, named)
+                            for item, named in zip(data, words, strict=True)))
     return EXIT_OK

@@ -598,14 +598,17 @@ class ActuatorConfig(_Section):
     """A whole actuator: motor, gear, both loops, and the named variants of the file.
 
     ``output_name`` names what the actuator moves (``fin``) in labels and text; without it they
-    say "output". Data keys (CSV columns, JSON and API fields) never depend on it. ``drive``
-    names the drive the gains are written for (``epos4``: ``tune`` also prints them in its
-    units); without it no drive is assumed.
+    say "output". ``control_surface: true`` says the output is a control surface (a fin, a
+    rudder): text then speaks of the flight-control system and of the deflection δ
+    (:class:`~cas_freq.config.wording.OutputWords`). Data keys (CSV columns, JSON and API
+    fields) never depend on either. ``drive`` names the drive the gains are written for
+    (``epos4``: ``tune`` also prints them in its units); without it no drive is assumed.
     """
 
     name: Annotated[str, Field(min_length=1)]
     description: str = ""
     output_name: str | None = None
+    control_surface: bool = False
     drive: Literal["epos4"] | None = None
     motor: Motor
     gear: Gear | LinearGear
@@ -721,6 +724,15 @@ class ActuatorConfig(_Section):
             raise PydanticCustomError(
                 "cas_value", "expected a name for labels (1 to 40 letters, digits, spaces, '_' "
                 "or '-', starting with a letter, e.g. fin), got {value}", {"value": repr(value)})
+        return value
+
+    @field_validator("control_surface", mode="before")
+    @classmethod
+    def _control_surface(cls, value):
+        if not isinstance(value, bool):
+            raise PydanticCustomError(
+                "cas_value", "expected true or false (true: the output is a control surface, "
+                "e.g. a fin), got {value}", {"value": repr(value)})
         return value
 
     @property

@@ -1,6 +1,6 @@
 r"""What reaches the output and the current from outside the command: a load torque at the
-output and noise on a measurement, with every loop closed (docs/model.md, "15. What the
-flight-control system sees": "Dynamic stiffness", "Disturbance and noise").
+output and noise on a measurement, with every loop closed (docs/model.md, "15. Stiffness,
+effort and noise": "Dynamic stiffness", "Disturbance and noise").
 
 Both come from the declared loop structure (:mod:`cas_freq.model.structure`), over the same
 terms as the loops: with :math:`\tilde A_k = A_k \tilde F_{k-1} \sigma_k` (loop k's forward

@@ -11,13 +11,15 @@ import types
 import numpy as np
 
 from cas_freq.analysis.frequency import continuous_phase
+from cas_freq.config.wording import OutputWords
 from cas_freq.plots.common import NotebookFigure as Figure
 
-#: The loops of the Bode figure: (attribute of FrequencyResponse, legend label).
+#: The loops of the Bode figure: (attribute of FrequencyResponse, legend label; ``{x}`` the
+#: output's symbol).
 BODE_LOOPS = (
     ("current_loop", "L_i (current loop, broken at V)"),
     ("position_loop", "L_p (position loop, broken at i_cmd)"),
-    ("closed_loop", "T = δ/δ_cmd (closed loop)"),
+    ("closed_loop", "T = {x}/{x}_cmd (closed loop)"),
 )
 
 
@@ -38,6 +40,7 @@ def bode_figure(response):
     fig = Figure(figsize=(8, 6), layout="constrained")
     magnitude, phase = fig.subplots(2, 1, sharex=True)
     for name, label in BODE_LOOPS:
+        label = label.format(x=response.output_symbol)
         values = getattr(response, name)
         magnitude.semilogx(w, 20.0 * np.log10(np.abs(values)), label=label)
         phase.semilogx(w, np.degrees(continuous_phase(values, w)), label=label)
@@ -71,9 +74,10 @@ def step_figure(response):
     unit = response.run.output_unit  # deg, or mm at a linear output
     command, output = ((response.command_mm, response.output_mm) if unit.linear else
                        (response.command_deg, response.output_angle_deg))
-    angle.plot(t_ms, command, color="k", ls=":", lw=0.9, label="command δ_cmd")
     name = response.run.output
-    angle.plot(t_ms, output, label=f"{name} {unit.quantity} δ")
+    symbol = OutputWords(name, unit.linear).symbol  # δ, or x at a linear output
+    angle.plot(t_ms, command, color="k", ls=":", lw=0.9, label=f"command {symbol}_cmd")
+    angle.plot(t_ms, output, label=f"{name} {unit.quantity} {symbol}")
     angle.set_ylabel(f"{name} {unit.quantity} [{unit.shown}]")
     angle.set_title(f"{unit.symbol(response.step.amplitude_deg)} step (nonlinear, limits and "
                     "delays)")
@@ -110,7 +114,7 @@ def analysis_figure(analysis):
 
     loaded = analysis.loaded
     data = types.SimpleNamespace(
-        label=variant_label(loaded), analysis=analysis,
+        label=variant_label(loaded), analysis=analysis, loaded=loaded,
         curves=curves(loaded.params, loop_frequency_range(analysis),
                       ReportSettings().curve_points_per_decade))
     return bode_loops(data, with_closed_loop=True, figure_class=Figure)

@@ -7,7 +7,7 @@ import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.ticker import MultipleLocator
 
-from cas_freq.config.wording import common_output_label
+from cas_freq.config.wording import OutputWords, common_output_label
 from cas_freq.plots.common import EXACT, Margins, legend_below
 from cas_freq.plots.common import figure as _figure
 from cas_freq.plots.common import rounded as _r
@@ -158,8 +158,8 @@ def step_overlay(datas, labels):
                     lw=1)
         ax.set_xlim(0.0, 1e3 * window_s)
         ax.set_xlabel("time [ms]")
-        ax.set_ylabel("δ / step size [-]")
         unit = datas[0].dwell.steps[0].output_unit  # deg, or mm at a linear output
+        ax.set_ylabel(f"{OutputWords(linear=unit.linear).symbol} / step size [-]")
         size = "/".join(sorted({unit.symbol(a) for a in amplitudes}))
         ax.set_title(f"{'smallest' if col == 0 else 'largest'} step ({size})")
     handles = [Line2D([], [], color=color) for color in _colors(datas)]

@@ -4,6 +4,8 @@ feed-forward (the API's ``ProfileResponse.plot()`` and the report's profile sect
 import numpy as np
 from matplotlib.figure import Figure
 
+from cas_freq.config.wording import OutputWords
+
 #: (which run, legend label, line style) of the two runs drawn.
 _RUNS = (
     ("result", "with feed-forward", "-"),
@@ -35,14 +37,15 @@ def profile_figure(run, figure_class=Figure):
     fig = figure_class(figsize=(8, 6), layout="constrained")
     angle, error = fig.subplots(2, 1, sharex=True)
     first, unit = run.result, run.output_unit  # deg, or mm at a linear output
+    x = OutputWords(run.output, unit.linear).symbol  # δ, or x at a linear output
     keep = first.t <= view_end
     angle.plot(1e3 * first.t[keep], unit.from_si(first.command[keep]), color="k", ls=":", lw=0.9,
-               label="command δ_cmd")
+               label=f"command {x}_cmd")
     for name, label, style in _RUNS:
         result = getattr(run, name)
         keep = result.t <= view_end
         t_ms = 1e3 * result.t[keep]
-        angle.plot(t_ms, unit.from_si(result.delta[keep]), ls=style, label=f"δ, {label}")
+        angle.plot(t_ms, unit.from_si(result.delta[keep]), ls=style, label=f"{x}, {label}")
         error.plot(t_ms, unit.from_si(result.command[keep] - result.delta[keep]), ls=style,
                    label=label)
     for ax in (angle, error):
@@ -54,7 +57,7 @@ def profile_figure(run, figure_class=Figure):
                     "delays; the move shaded)")
     angle.legend()
     error.axhline(0.0, color="k", lw=0.6)
-    error.set_ylabel(f"tracking error δ_cmd − δ [{unit.shown}]")
+    error.set_ylabel(f"tracking error {x}_cmd − {x} [{unit.shown}]")
     error.set_xlabel("time [ms]")
     error.legend()
     return fig

@@ -21,7 +21,7 @@ import numpy as np
 from matplotlib.ticker import MultipleLocator
 
 from cas_freq.analysis.frequency import continuous_phase
-from cas_freq.config.wording import common_output_label
+from cas_freq.config.wording import OutputWords, common_output_label
 from cas_freq.output import output_unit
 from cas_freq.plots import loci
 from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_svg re-exported)
@@ -39,12 +39,17 @@ from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_sv
 )
 from cas_freq.plots.common import figure as _figure
 from cas_freq.plots.common import rounded as _r
-from cas_freq.plots.stiffness import CAPTION as STIFFNESS_CAPTION
+from cas_freq.plots.stiffness import caption as stiffness_caption
 from cas_freq.plots.stiffness import stiffness as stiffness_figure
 from cas_freq.report.data import current_limit
 from cas_freq.simulation.second_order import second_order_step
 
 HALF_POWER_DB = 20.0 * math.log10(1.0 / math.sqrt(2.0))
+
+
+def _symbol(data):
+    """The output's symbol in one variant's labels: δ (an angle), x (a linear output)."""
+    return OutputWords.of(data.loaded.params).symbol
 
 
 def _db(values):
@@ -163,7 +168,7 @@ def bode_loops(data, with_closed_loop=False, figure_class=None):
         if _in_range(w, margins.crossover_rad_s):
             lowest_phase = min(lowest_phase, _at(w, p, margins.crossover_rad_s))
     if with_closed_loop:
-        _closed_loop_curve(mag, ph, w, c, data.analysis.closed_loop)
+        _closed_loop_curve(mag, ph, w, c, data.analysis.closed_loop, _symbol(data))
     mag.axhline(0.0, color="k", lw=0.8)
     ph.axhline(-180.0, color="k", lw=0.8)
     mag.set_ylabel("magnitude [dB]")
@@ -188,14 +193,16 @@ def bode_loops(data, with_closed_loop=False, figure_class=None):
     return fig
 
 
-def _closed_loop_curve(mag, ph, w, c, figures):
-    """T = δ/δ_cmd on the open loops' axes, its bandwidth ▽ at |T(0)| − 3.01 dB in the legend
-    (none when the closed loop is not stable: ``figures`` None)."""
+def _closed_loop_curve(mag, ph, w, c, figures, symbol="δ"):
+    """T = δ/δ_cmd (``symbol``: x at a linear output) on the open loops' axes, its bandwidth ▽
+    at |T(0)| − 3.01 dB in the legend (none when the closed loop is not stable: ``figures``
+    None)."""
     words = "not stable: no closed-loop figures"
     if figures is not None:
         words = (f"ω_BW {figures.bandwidth_rad_s:.4g} rad/s, peak {figures.peak_db:.2f} dB"
                  if figures.bandwidth_rad_s is not None else f"peak {figures.peak_db:.2f} dB")
-    mag.plot(w, _db(c.closed_loop), color="C2", label=f"T = δ/δ_cmd (closed loop): {words}")
+    mag.plot(w, _db(c.closed_loop), color="C2",
+             label=f"T = {symbol}/{symbol}_cmd (closed loop): {words}")
     ph.plot(w, _phase_deg(c.closed_loop, c.omega_rad_s), color="C2")
     if figures is not None and _in_range(w, figures.bandwidth_rad_s):
         mag.plot([figures.bandwidth_rad_s], [figures.dc_gain_db + HALF_POWER_DB], "v",
@@ -210,7 +217,8 @@ def closed_loop(data):
     fig, axes = _figure(2, 1, (8, 6), sharex=True, margins=Margins())
     mag, ph = axes[:, 0]
     m, p = _db(c.closed_loop), _phase_deg(c.closed_loop, c.omega_rad_s)
-    mag.plot(w, m, color="C2", label="|T| = |δ/δ_cmd|")
+    symbol = _symbol(data)
+    mag.plot(w, m, color="C2", label=f"|T| = |{symbol}/{symbol}_cmd|")
     ph.plot(w, p, color="C2", label="∠T")
     dc = figures.dc_gain_db if figures is not None else 0.0
     mag.axhline(dc + HALF_POWER_DB, color="k", ls="--", lw=0.9, label="−3.01 dB")
@@ -241,7 +249,7 @@ def closed_loop(data):
     mag.legend(loc="lower left")
     ph.legend(loc="lower left")
     _log_axes([mag, ph], w)
-    fig.suptitle(f"{data.label}: closed loop T = δ/δ_cmd ({EXACT})")
+    fig.suptitle(f"{data.label}: closed loop T = {symbol}/{symbol}_cmd ({EXACT})")
     return fig
 
 
@@ -507,12 +515,12 @@ def steps(data):
             _shade_limits(ax, 1e3 * np.asarray(r.t), r, 1e3 * window_s)
             ax.set_xlim(0.0, 1e3 * window_s)
         top.plot(t_ms, _r(unit.from_si(r.command[keep])), color="k", lw=0.8, ls=":",
-                 label="command δ_cmd")
+                 label=f"command {_symbol(data)}_cmd")
         top.plot(t_ms, _r(unit.from_si(r.delta[keep])), color="C0",
                  label="nonlinear (limits, exact delays)")
         top.plot(t_ms, _r(unit.from_si(data.linear_steps[k][keep])), color="C1", ls="--",
                  label=f"linear T (Padé {data.pade_order})")
-        top.set_ylabel(f"{params.output_label} {unit.quantity} δ [{unit.shown}]")
+        top.set_ylabel(f"{params.output_label} {unit.quantity} {_symbol(data)} [{unit.shown}]")
         top.set_title(f"{unit.symbol(run.step.amplitude_deg)} step: {_limit_words(run.step)}")
         mid.plot(t_ms, _r(r.i[keep]), color="C0", label="motor current i")
         for sign in (1, -1):
@@ -575,7 +583,8 @@ def step_fit(data):
                 f"ζ {fit_ref.zeta:g}, td {1e3 * (fit_ref.td or 0.0):g} ms")
     ax.set_xlim(0.0, window)
     ax.set_xlabel("time [ms]")
-    ax.set_ylabel(f"{data.loaded.params.output_label} {unit.quantity} δ [{unit.shown}]")
+    ax.set_ylabel(f"{data.loaded.params.output_label} {unit.quantity} {_symbol(data)} "
+                  f"[{unit.shown}]")
     ax.legend(loc="lower right")
     ax.set_title(f"{unit.symbol(run.step.amplitude_deg)} step: second-order-plus-delay fit "
                  "(docs/model.md §7)")
@@ -704,7 +713,8 @@ def sinedwell(data):
     ph.plot(w, _r(np.degrees(np.unwrap(np.angle(lin)))), color="k", lw=1.2, ls="--", zorder=5)
     mag.plot([], [], "ko", mfc="none", label="a limit acts (hollow)")
     mag.axhline(HALF_POWER_DB, color="C7", ls=":", lw=1, label="−3.01 dB")
-    mag.set_ylabel("|δ/δ_cmd| first harmonic [dB]")
+    symbol = _symbol(data)
+    mag.set_ylabel(f"|{symbol}/{symbol}_cmd| first harmonic [dB]")
     ph.set_ylabel("phase [deg]")
     mag.legend(loc="lower left", ncols=2)
     _envelope_map(amp, data, r, w)
@@ -767,7 +777,7 @@ VARIANT_FIGURES = {
         "contours (constant ∠T, deg)" + _dashed_words(data.curves))),
     "nyquist": (loci.nyquist, loci.nyquist_caption),
     "pole_zero": (loci.pole_zero, loci.pole_zero_caption),
-    "stiffness": (stiffness_figure, STIFFNESS_CAPTION),
+    "stiffness": (stiffness_figure, stiffness_caption),
     "steps": (steps, "Step responses, linear vs nonlinear, limits shaded"),
     "step_fit": (step_fit, "Second-order fit over the simulated step"),
     "bandwidth_vs_amplitude": (bandwidth_vs_amplitude, "Bandwidth versus amplitude"),

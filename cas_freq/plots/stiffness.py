@@ -1,12 +1,14 @@
 """The report's dynamic-stiffness figure (docs/model.md §15, "Dynamic stiffness").
 
-1/|δ/M(jω)| of the output with every loop closed on the variant's frequency-response grid, the
-minimum analyze found marked, the config's load spring (when it has one) drawn as a line for
-comparison. With sampled controllers the curve is the continuous loops' (the title says so).
+1/|δ/M(jω)| of the output (1/|x/F(jω)| at a linear output) with every loop closed on the
+variant's frequency-response grid, the minimum analyze found marked, the config's load spring
+(when it has one) drawn as a line for comparison. With sampled controllers the curve is the
+continuous loops' (the title says so).
 """
 
 import numpy as np
 
+from cas_freq.config.wording import OutputWords
 from cas_freq.model.disturbance import load_response
 from cas_freq.model.loops import Selector
 from cas_freq.output import output_unit
@@ -14,8 +16,12 @@ from cas_freq.plots.common import EXACT, Margins, plain_log_labels
 from cas_freq.plots.common import figure as _figure
 from cas_freq.plots.common import rounded as _r
 
-CAPTION = ("Dynamic stiffness 1/|δ/M_load| of the output with every loop closed, its minimum "
-           "marked")
+
+def caption(data):
+    """The figure's caption: ``Dynamic stiffness 1/|δ/M_load| of the output ...``."""
+    words = OutputWords.of(data.loaded.params)
+    return (f"Dynamic stiffness {words.compliance_symbol} of the {words.label} with every loop "
+            "closed, its minimum marked")
 
 
 def stiffness(data):
@@ -31,7 +37,7 @@ def stiffness(data):
     w = _r(omega)
     fig, axes = _figure(1, 1, (8, 4.2), margins=Margins())
     ax = axes[0, 0]
-    ax.plot(w, _r(values), color="C0", label="1/|δ/M_load|")
+    ax.plot(w, _r(values), color="C0", label=OutputWords.of(data.loaded.params).compliance_symbol)
     found = data.analysis.stiffness
     if found is not None and found.minimum is not None \
             and omega[0] <= found.min_at_rad_s <= omega[-1]:

@@ -17,6 +17,7 @@ import time
 import types
 from pathlib import Path
 
+from cas_freq.config.wording import OutputWords
 from cas_freq.figures import FIGURES, LOOPS
 from cas_freq.output import output_json, output_unit
 from cas_freq.report.data import (
@@ -286,7 +287,8 @@ def closed_loop_table(analysis):
                   number(_shown(figure.key, getattr(cl, figure.name))))
                  for figure in FIGURES.values()
                  if figure.key.startswith("closed_loop.") and figure.requirement)
-    return Table(("figure", "unit", "T = δ/δ_cmd"), rows,
+    x = OutputWords.of(analysis.loaded.params if analysis.loaded is not None else None).symbol
+    return Table(("figure", "unit", f"T = {x}/{x}_cmd"), rows,
                  f"closed-loop figures ({analysis.delay_model} delays)")
 
 
@@ -561,7 +563,7 @@ def report_blocks(datas, figure_blocks, settings, command=None, extra=()):
         f"{settings.frequencies_text} (one batch per variant, "
         "feed-forward off as in docs/model.md's T)",
         "figure definitions: docs/model.md (motor-shaft loops, "
-        f"{params.output_label} angle δ = θ / gear ratio)",
+        f"{OutputWords.of(params).definition})",
     ]
     if command:
         facts.append(f"regenerate with: {command}")

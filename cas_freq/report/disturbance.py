@@ -1,7 +1,8 @@
-"""The "What the flight-control system sees" part of a variant's report section: the dynamic
-stiffness, the control effort and the encoder noise's current (docs/model.md §15) as a small
-table, with the stiffness figure."""
+"""The "Stiffness, effort and noise" part of a variant's report section ("What the
+flight-control system sees" of a control surface): the dynamic stiffness, the control effort and
+the encoder noise's current (docs/model.md §15) as a small table, with the stiffness figure."""
 
+from cas_freq.config.wording import OutputWords
 from cas_freq.report.numbers import number
 
 
@@ -14,14 +15,16 @@ def disturbance_blocks(data, figure=None):
     if stiff is None:
         return []
     per, unit = ("m", "N/m") if stiff.linear else ("rad", "N·m/rad")
-    blocks = [Heading(3, f"What the flight-control system sees ({data.loaded.variant})")]
+    words = OutputWords.of(data.loaded.params)
+    blocks = [Heading(3, f"{words.seen.capitalize()} ({data.loaded.variant})")]
     if stiff.minimum is None:
         blocks.append(Paragraph(f"Not reported: {stiff.note}."))
         return blocks
     rows = (
-        ("minimum dynamic stiffness 1/|δ/M_load|", unit, number(stiff.minimum, 4)),
+        (f"minimum dynamic stiffness {words.compliance_symbol}", unit,
+         number(stiff.minimum, 4)),
         ("  at", "rad/s", number(stiff.min_at_rad_s, 4)),
-        ("peak control effort |i/δ_cmd|", f"A/{per}", number(push.peak, 4)),
+        (f"peak control effort {words.effort_symbol}", f"A/{per}", number(push.peak, 4)),
         ("  at", "rad/s", number(push.peak_at_rad_s, 4)),
         ("RMS current of encoder quantisation noise", "mA",
          "—" if noise.current_rms_A is None else number(noise.current_rms_A * 1e3, 4)),

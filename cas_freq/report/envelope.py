@@ -173,7 +173,7 @@ def envelope_section(datas, png=False, computed=None):
     grid = spec.hinge_stiffness
     blocks = [Heading(2, "Load envelope"), Paragraph(
         f"Every figure against the load spring K_h (load.hinge_stiffness) at the "
-        f"{params.output_label} (the load moment −K_h·δ; > 0 opposes deflection, < 0 aids it, "
+        f"{params.output_label} (the load moment −K_h·δ; > 0 opposes the motion, < 0 aids it, "
         f"a statically unstable load), from "
         f"{number(min(grid), 4)} to {number(max(grid), 4)} N·m/rad ({len(grid)} points, the "
         "config's load_envelope: section), each variant's other load and drivetrain values "

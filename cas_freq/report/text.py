@@ -6,6 +6,7 @@ numerically zero (a fitted delay of 3e-48 ms is 0 ms), "—" when absent.
 
 import math
 
+from cas_freq.config.wording import GENERIC, OutputWords
 from cas_freq.figures import FIGURES
 from cas_freq.report.numbers import number
 
@@ -150,8 +151,9 @@ def analysis_table(analysis):
                              "around it makes it periodically time-varying)")
                 continue
             lines += _at_a_time_lines(margins.loop_at_a_time)
+    words = OutputWords.of(analysis.loaded.params if analysis.loaded is not None else None)
     closed = analysis.closed_loop
-    lines.append("  closed loop T = delta/delta_cmd")
+    lines.append(f"  closed loop {words.closed_loop}")
     if closed is None:
         lines.append("    not reported: the closed loop is not stable")
     else:
@@ -166,7 +168,7 @@ def analysis_table(analysis):
     from cas_freq.analysis.disturbance import text_lines
 
     lines += text_lines(getattr(analysis, "stiffness", None), getattr(analysis, "effort", None),
-                        getattr(analysis, "noise", None), _fmt)
+                        getattr(analysis, "noise", None), _fmt, words)
     if getattr(analysis, "limit_cycles", None) is not None:
         from cas_freq.analysis.limit_cycles import text_lines
         from cas_freq.output import output_unit
@@ -294,8 +296,9 @@ def _sinedwell_not_computed_table(head, data):
     return "\n".join(lines)
 
 
-def sinedwell_table(data):
-    """Multi-line summary of a sine-dwell run, from its dict (``sinedwell_run_dict``)."""
+def sinedwell_table(data, words=GENERIC):
+    """Multi-line summary of a sine-dwell run, from its dict (``sinedwell_run_dict``); ``words``
+    name the output (:class:`~cas_freq.config.wording.OutputWords`)."""
     head = f"{data['config']} / {data['variant']}"
     if data["overrides"]:
         head += " with " + ", ".join(data["overrides"])
@@ -313,7 +316,7 @@ def sinedwell_table(data):
         *warning,
         f"  nonlinear sine-dwell, feed-forward {'on' if data['feedforward'] else 'off'}, "
         f"{sim['controllers']} controllers, dt {sim['dt_s'] * 1e6:g} us; "
-        "first harmonic of delta / command",
+        f"first harmonic of the {words.value} / of its command",
         "  " + f"{'[rad/s]':>10}" + "".join(
             f"{_amplitude(a):>18}" for a in amplitudes
         ) + f"{'linear':>18}",

@@ -2,7 +2,7 @@
 
 An engineer sizing an actuator asks how much bandwidth and margin is left at the hinge moment
 of the worst flight condition, and at what hinge stiffness a requirement fails. This module
-sweeps ``load.hinge_stiffness`` (at the output, N*m/rad; > 0 opposes deflection, < 0 aids it) over
+sweeps ``load.hinge_stiffness`` (at the output, N*m/rad; > 0 opposes the motion, < 0 aids it) over
 a grid for one variant, with the batch engine of ``cas-freq sweep`` (linear figures, and the
 nonlinear step and its second-order fit where a requirement needs them), checks each
 requirement at every point as ``cas-freq verify`` does (a figure of a loop that is not stable

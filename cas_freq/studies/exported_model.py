@@ -1,4 +1,4 @@
-r"""The actuator as the flight-control designer uses it: ``cas-freq export-model`` and
+r"""The actuator as the outer loop's designer uses it: ``cas-freq export-model`` and
 ``Actuator.export_model`` (docs/model.md §15).
 
 One :class:`ExportedModel` holds
