@@ -46,6 +46,50 @@ def _delay(delay):
     return delay if isinstance(delay, DelayModel) else DelayModel.parse(delay)
 
 
+def _quantities(values, unit, field, output=None):
+    """Numbers [``unit``] from a number, a string with its unit (``"1 deg"``, ``"2 rev/s"``) or a
+    sequence of either: a number is taken as ``unit``; a string is converted
+    (:func:`cas_freq.units.to_si`), or at the output (``output``, an
+    :class:`~cas_freq.output.OutputUnit`) read as an angle or a length
+    (:func:`cas_freq.output.read_output`). A scalar gives a float, a sequence an array.
+
+    Raises
+    ------
+    cas_freq.exceptions.CasFreqError
+        One line naming ``field``, the value and what is accepted.
+    """
+    from cas_freq.exceptions import CasFreqError
+    from cas_freq.output import read_output
+    from cas_freq.units import to_si
+
+    single = isinstance(values, str) or np.ndim(values) == 0
+    items = [values] if single else list(np.asarray(values, dtype=object).reshape(-1))
+    out = []
+    for value in items:
+        value = value.item() if isinstance(value, np.generic) else value
+        if isinstance(value, str) and output is not None:
+            try:  # its message names the field, the value and what to give
+                out.append(read_output(value, output, field))
+            except ValueError as exc:
+                raise CasFreqError(str(exc)) from None
+            continue
+        try:
+            out.append(to_si(value, unit))
+        except (TypeError, ValueError) as exc:
+            accepted = f"a number [{unit}] or a string with its unit ({exc})"
+            raise CasFreqError(f"{field}: {value!r} is not accepted; accepted: "
+                               f"{accepted}") from None
+    return out[0] if single else np.array(out, dtype=float).reshape(np.shape(values))
+
+
+def _range(frequency_range):
+    """An analysed range (w_min, w_max) [rad/s] from numbers or strings with their unit; the
+    default when None."""
+    if frequency_range is None:
+        return DEFAULT_RANGE_RAD_S
+    return tuple(float(w) for w in _quantities(frequency_range, "rad/s", "frequency_range"))
+
+
 def load(path=None, variant="base", set=None):  # ``set=`` mirrors ``--set``
     """Load one variant of a config file, as ``cas-freq ... --variant NAME --set K=V`` does.
 
@@ -122,8 +166,9 @@ class Actuator:
         ----------
         delay : str or DelayModel
             ``"exact"`` or ``"pade:N"`` delays in every frequency response.
-        frequency_range : (float, float), optional
-            Analysed range [rad/s]; default 0.01..1e6.
+        frequency_range : (float or str, float or str), optional
+            Analysed range, numbers [rad/s] or strings with their unit (``"1 rev/s"``); default
+            0.01..1e6 rad/s.
         limit_cycle_check : bool
             Check each predicted limit cycle (``limit_cycles``, always predicted) by a
             nonlinear simulation (``analyze --limit-cycles``).
@@ -137,7 +182,7 @@ class Actuator:
         """
         from cas_freq.analysis import analyze
 
-        return analyze(self.loaded, _delay(delay), frequency_range or DEFAULT_RANGE_RAD_S,
+        return analyze(self.loaded, _delay(delay), _range(frequency_range),
                        limit_cycle_check=limit_cycle_check)
 
     @one_blas_thread()
@@ -147,7 +192,7 @@ class Actuator:
         Parameters
         ----------
         omega : array_like
-            Frequencies [rad/s].
+            Frequencies, numbers [rad/s] or strings with their unit (``"100 rev/s"``).
         delay : str or DelayModel
             ``"exact"`` or ``"pade:N"``.
 
@@ -157,7 +202,7 @@ class Actuator:
         """
         from cas_freq.model import ActuatorLoops
 
-        omega = np.asarray(omega, dtype=float)
+        omega = np.asarray(_quantities(omega, "rad/s", "omega"), dtype=float)
         loops = ActuatorLoops(self.params, _delay(delay))
         s = 1j * omega
         return FrequencyResponse(omega, loops.delay.label,
@@ -231,8 +276,8 @@ class Actuator:
         Parameters
         ----------
         hinge_stiffness : array_like
-            Values of ``load.hinge_stiffness`` (the load spring K_h) at the output [N*m/rad]
-            (> 0 opposes deflection, < 0 aids it).
+            Values of ``load.hinge_stiffness`` (the load spring K_h) at the output, numbers
+            [N*m/rad] or strings with their unit (> 0 opposes deflection, < 0 aids it).
         step : str, optional
             Output step of the step figures (``"10 deg"``); default the first step
             requirement's.
@@ -247,7 +292,8 @@ class Actuator:
         from cas_freq.studies.envelope import load_envelope
 
         step_rad = None if step is None else angle(str(step), "step")
-        return load_envelope(self.loaded, np.asarray(hinge_stiffness, dtype=float), step_rad)
+        stiffness = _quantities(hinge_stiffness, "N*m/rad", "hinge_stiffness")
+        return load_envelope(self.loaded, np.asarray(stiffness, dtype=float), step_rad)
 
     @one_blas_thread()
     def tune(self, free=None, objective="max-bandwidth", robust=None, tolerances=(),
@@ -322,11 +368,13 @@ class Actuator:
         ----------
         pade : int
             Padé order of both delays of the linear T.
-        amplitudes : sequence of float, optional
-            Sine-dwell and step amplitudes at the output [rad, or m at a linear output];
-            default those of ``cas-freq sinedwell``.
-        frequencies : sequence of float, optional
-            Sine-dwell frequencies [rad/s]; default the ``sinedwell`` grid.
+        amplitudes : sequence of float or str, optional
+            Sine-dwell and step amplitudes at the output, each a number [rad, or m at a
+            linear output] or a string with its unit (``"1 deg"``, ``"0.5 mm"``); default
+            those of ``cas-freq sinedwell``.
+        frequencies : sequence of float or str, optional
+            Sine-dwell frequencies, numbers [rad/s] or strings with their unit (``"2 rev/s"``);
+            default the ``sinedwell`` grid.
         feedforward : bool
             Let the feed-forward act on the sine-dwell and the sine limits.
 
@@ -335,8 +383,14 @@ class Actuator:
         cas_freq.studies.exported_model.ExportedModel
             ``system`` is T as a ``control.StateSpace``; ``to_dict()`` is the command's JSON.
         """
+        from cas_freq.output import output_unit
         from cas_freq.studies.exported_model import export_model
 
+        unit = output_unit(self.loaded.params)
+        if amplitudes is not None:
+            amplitudes = list(_quantities(amplitudes, unit.si, "amplitudes", unit).reshape(-1))
+        if frequencies is not None:
+            frequencies = list(_quantities(frequencies, "rad/s", "frequencies").reshape(-1))
         return export_model(self.loaded, pade, amplitudes, frequencies, feedforward)
 
     @one_blas_thread()
@@ -603,8 +657,9 @@ class ActuatorSet(Summary):
         ----------
         delay : str or DelayModel
             ``"exact"`` or ``"pade:N"``.
-        frequency_range : (float, float), optional
-            Analysed range [rad/s]; default 0.01..1e6.
+        frequency_range : (float or str, float or str), optional
+            Analysed range, numbers [rad/s] or strings with their unit (``"1 rev/s"``); default
+            0.01..1e6 rad/s.
 
         Returns
         -------
@@ -621,7 +676,7 @@ class ActuatorSet(Summary):
         from cas_freq.analysis import batch_analyze
 
         delay = _delay(delay)
-        batch = batch_analyze(self.loop_parameters, frequency_range or DEFAULT_RANGE_RAD_S,
+        batch = batch_analyze(self.loop_parameters, _range(frequency_range),
                               delay=delay, **({"pade_order": delay.order} if delay.order else {}))
         groups = {}
         for name, values in batch.figures.items():

@@ -54,9 +54,10 @@ def plant_system(params):
 
 
 #: Each loop's system name and (input, output) signal names, as python-control shows them:
-#: the symbols of docs/model.md. Each loop runs from its error to its measurement (broken at
-#: its error, which for a unity-feedback loop is the same L as broken at the controller
-#: output).
+#: the symbols of docs/model.md (a position loop on an output encoder measures ``delta``, S
+#: then runs from ``delta_cmd``: :func:`_loop_names`). Each loop runs from its error to its
+#: measurement (broken at its error, which for a unity-feedback loop is the same L as broken
+#: at the controller output).
 LOOP_NAMES = {
     "current_loop": ("L_i", "e_i", "i"),
     "current_closed_loop": ("T_i", "i_cmd", "i"),
@@ -146,10 +147,22 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
     loops["sensitivity"] = control.feedback(control.ss([], [], [], [[1.0]]), top)
     closed = closed_loop_matrices(p, pade_order)
     loops["closed_loop"] = control.ss(closed.a, closed.b, closed.c, closed.d)
+    names = _loop_names(structure)
     named = {key: control.ss(system, name=name, inputs=signal_in, outputs=signal_out)
              for key, system in loops.items()
-             for name, signal_in, signal_out in [LOOP_NAMES[key]]}
+             for name, signal_in, signal_out in [names[key]]}
     return LinearModel(pade_order, plant_system(p), **named)
+
+
+def _loop_names(structure):
+    """:data:`LOOP_NAMES` with each loop's signals as the structure declares them: the
+    position loop measures ``delta`` (and S starts at ``delta_cmd``) when it is closed on an
+    output encoder."""
+    names = {**LOOP_NAMES, **{loop.name: (loop.symbol, *loop.signals)
+                              for loop in structure.loops}}
+    measured = structure.loops[-1].signals[1]
+    names["sensitivity"] = ("S", f"{measured}_cmd", "e")
+    return names
 
 
 def _sampled_model(p, pade_order):
@@ -179,9 +192,10 @@ def _sampled_model(p, pade_order):
     output = stability.SIGNAL_ROWS[structure.output]
     loops["closed_loop"] = control.ss(a, b, c[output:output + 1], d[output:output + 1],
                                       top.period)
+    names = _loop_names(structure)
     named = {key: control.ss(system, name=name, inputs=signal_in, outputs=signal_out)
              for key, system in loops.items()
-             for name, signal_in, signal_out in [LOOP_NAMES[key]]}
+             for name, signal_in, signal_out in [names[key]]}
     plant = plant_system(p)
     a, b = plant.A, plant.B
     held, _ = sampled_stability.hold_equivalent(a[None], b[None], 0.0,
