@@ -323,10 +323,12 @@ class LoopMarginResult(Summary):
     delay_margin_s, delay_margin_crossover_rad_s
         Smallest delay margin over the gain crossovers [s] and at which [rad/s].
     sensitivity_peak_db, sensitivity_peak_rad_s
-        Ms = max |1/(1+L)| [dB] and where [rad/s]; None unless the closed loop is stable.
+        Ms = max |1/(1+L)| [dB] and where [rad/s]; None unless the closed loop is stable and
+        |S| has an interior maximum in range (largest at a range end, its value there is a
+        bound, not a peak: 3(10+s)/(2+s) tends to 1/4 as omega grows).
     disk_margin_alpha, disk_margin_gain_db, disk_margin_phase_deg
         Symmetric disk margin alpha, its gain [dB] and phase [deg] margins; None unless the
-        closed loop is stable.
+        closed loop is stable and max |S - 1/2| is at an interior maximum in range.
     closed_loop_stable : bool or None
         None when not known.
     stability_basis : str
@@ -450,6 +452,15 @@ def loop_margins(loop, *, delay=0.0, omega_range=None, stable=None, points_per_d
     values = {f.name: getattr(margins, f.name) for f in dataclasses.fields(LoopMarginResult)
               if hasattr(margins, f.name)}
     values.update(_static_phase_crossover(prepared, values))
+    s_inside, d_inside, s_top, d_top = (bool(v[0]) for v in figures["_interior_maxima"])
+    sampled = prepared.system is not None and _period(prepared.system) is not None
+    # |S| of a discrete loop is symmetric about its Nyquist frequency: a maximum there is a peak
+    sensitivity_inside = s_inside or (sampled and s_top)
+    disk_inside = d_inside or (sampled and d_top)
+    if not sensitivity_inside:  # |S| largest at a range end: a bound there, not a peak
+        values.update(sensitivity_peak_db=None, sensitivity_peak_rad_s=None)
+    if not disk_inside:
+        values.update(disk_margin_alpha=None, disk_margin_gain_db=None, disk_margin_phase_deg=None)
     return LoopMarginResult(
         **values, closed_loop_stable=is_stable, stability_basis=basis,
         omega_range_rad_s=(float(prepared.omega[0]), float(prepared.omega[-1])),

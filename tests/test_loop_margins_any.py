@@ -106,3 +106,31 @@ def test_discrete_closed_loop_stability_from_the_unit_circle(gain, stable):
 def test_discrete_range_past_nyquist_is_refused_naming_it():
     with pytest.raises(ValueError, match=r"omega_range: .* Nyquist frequency pi/dt = 314\.159"):
         cf.loop_margins(control.tf([1.0], [1.0, -0.5], 0.01), omega_range=(0.1, 1000.0))
+
+
+def test_no_peak_when_the_largest_value_is_at_a_range_end():
+    # L = 3(10+s)/(2+s) (python-control's margin_test system, sm published as inf: |1 + L|
+    # has no stationary point): |S| = |2+s| / |32+4s| rises monotonically to 1/4 as omega
+    # grows. Before: "Ms -12.04 dB at 10,000 rad/s", the range end. Now no peak, no disk margin.
+    loop = 3 * (10 + s) / (2 + s)
+    m = cf.loop_margins(loop)
+    assert m.closed_loop_stable is True
+    assert m.sensitivity_peak_db is None and m.sensitivity_peak_rad_s is None
+    assert m.disk_margin_alpha is None and m.disk_margin_gain_db is None
+    # T = 3(10+s)/(32+4s) falls monotonically from 30/32 to 3/4: no resonance peak
+    t = cf.closed_loop_figures(control.feedback(loop, 1))
+    assert t.peak_db is None and t.peak_rad_s is None
+    # T = wn^2/(s^2 + 2 zeta wn s + wn^2), zeta = 0.2: an interior peak, 1/(2 zeta sqrt(1 -
+    # zeta^2)) at wn sqrt(1 - 2 zeta^2), refined to ~1e-9 (rel 1e-7 is ample)
+    resonant = cf.closed_loop_figures(control.tf([100.0], [1.0, 4.0, 100.0]))
+    assert resonant.peak_db == pytest.approx(-20 * math.log10(0.4 * math.sqrt(0.96)), rel=1e-7)
+    assert resonant.peak_rad_s == pytest.approx(10 * math.sqrt(0.92), rel=1e-7)
+
+
+def test_a_discrete_loops_peak_at_nyquist_is_a_peak():
+    # L = 1/(z - 0.5): |S| = |z - 0.5| / |z + 0.5| is largest at z = -1, the Nyquist frequency,
+    # where the periodic frequency axis of a sampled loop turns: Ms = 3 (9.54 dB) there. The
+    # grid stops 1e-9 short of pi/dt, which moves |S| by O(1e-18): rel 1e-12.
+    m = cf.loop_margins(control.tf([1.0], [1.0, -0.5], 0.01))
+    assert m.sensitivity_peak_db == pytest.approx(20 * math.log10(3.0), rel=1e-12)
+    assert m.sensitivity_peak_rad_s == pytest.approx(math.pi / 0.01, rel=1e-8)

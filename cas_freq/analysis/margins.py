@@ -430,7 +430,10 @@ def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=Fal
         :data:`LOOP_FIGURES` (and :data:`EXTRA`), each shape (n,); with ``crossings`` also
         ``"_gain_crossings"`` (runs, frequency, PM [deg], delay margin [s], continuous phase
         [deg]) and
-        ``"_phase_crossings"`` (runs, frequency, GM [dB]), sorted by run and frequency.
+        ``"_phase_crossings"`` (runs, frequency, GM [dB]), sorted by run and frequency, and
+        ``"_interior_maxima"``: whether the maxima of |S| and of the disk distance are inside
+        the grid, and whether each is at its top end (bool (n,) each; at an end they are
+        bounds, not peaks, but at a sampled loop's Nyquist frequency).
     """
     n = response.shape[0]
     log_w = np.log(omega)
@@ -504,7 +507,7 @@ def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=Fal
     every = np.arange(n)
     if inner:
         out["_inner_probes"] = near_minus_one_probes(omega, response, distance2=plus)
-    (s_w, s_value, _), (d_w, distance, _) = _maxima(
+    (s_w, s_value, s_inside), (d_w, distance, d_inside) = _maxima(
         evaluate, omega,
         [(every, -plus, lambda v, i: 1.0 / np.abs(1.0 + v), response),
          (every, disk, lambda v, i: _disk_distance(v), response)],
@@ -523,7 +526,10 @@ def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=Fal
     out["disk_margin_phase_deg"] = np.degrees(2.0 * np.arctan(alpha / 2.0)) * nan
     names = (*LOOP_FIGURES, *EXTRA)
     if crossings:
-        names = (*names, "_gain_crossings", "_phase_crossings")
+        # a maximum at the top end of a sampled loop's grid (its Nyquist frequency, the end of
+        # its periodic frequency axis) is the caller's to accept
+        out["_interior_maxima"] = (s_inside, d_inside, s_w == omega[-1], d_w == omega[-1])
+        names = (*names, "_gain_crossings", "_phase_crossings", "_interior_maxima")
     if inner:
         names = (*names, "_inner_probes")
     return {name: out[name] for name in names}
