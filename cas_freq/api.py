@@ -32,12 +32,14 @@ from cas_freq.model import DelayModel
 from cas_freq.summary import Summary, row, spread
 from cas_freq.threads import one_blas_thread
 
-#: Default Padé order of :meth:`Actuator.to_control`. python-control's ``stability_margins``
-#: works on the loop's polynomials, whose degree grows with the order: at 6 it fails on the
-#: loaded QT-CAS variant (LinAlgError) and its root test overflows (RuntimeWarnings) on every
-#: shipped variant; at 4 it works on all of them, PM and crossover within 1e-9 of the
-#: exact-delay analysis (a few overflow warnings remain on two variants: fitted, loaded).
-#: tests/test_notebook.py checks every shipped variant.
+#: Highest default Padé order of :meth:`Actuator.to_control`. python-control's
+#: ``stability_margins`` works on the loop's polynomials, whose coefficients grow with the
+#: order (and the states): past ~1e76 its stability-margin test overflows and it raises
+#: LinAlgError (:data:`cas_freq.model.systems.POLYNOMIAL_LOG10_LIMIT`): at 6 on the loaded
+#: QT-CAS variant, at 4 on the cascade axis (25 states). The default is the highest order up
+#: to this one below that limit (4 on the QT-CAS variants, 3 on the cascade axis), PM and
+#: crossover within 1e-6 of the exact-delay analysis. tests/test_notebook.py checks every
+#: shipped architecture.
 TO_CONTROL_PADE_ORDER = 4
 
 
@@ -394,14 +396,19 @@ class Actuator:
         return export_model(self.loaded, pade, amplitudes, frequencies, feedforward)
 
     @one_blas_thread()
-    def to_control(self, pade=TO_CONTROL_PADE_ORDER):
+    def to_control(self, pade=None):
         """The loops as python-control state-space systems, both delays Padé of order ``pade``.
 
         Parameters
         ----------
-        pade : int
-            Padé order of both delays; the default (:data:`TO_CONTROL_PADE_ORDER`) is one that
-            python-control's ``stability_margins`` and ``step_info`` handle.
+        pade : int, optional
+            Padé order of every delay, 1..30. By default the highest order up to
+            :data:`TO_CONTROL_PADE_ORDER` at which python-control's polynomial
+            ``stability_margins`` stays in floating point on every loop (``step_info`` and
+            ``bandwidth`` work at any order); ``model.pade_order`` says which. A higher order
+            given here is built as asked, with a warning when ``stability_margins`` would
+            overflow on it (``cf.loop_margins`` of the system, or of ``analyze()``'s exact
+            delays, works at every order).
 
         Returns
         -------
@@ -411,9 +418,33 @@ class Actuator:
             named so (``sys.name == "L_p"``, signals as
             :data:`cas_freq.model.systems.LOOP_NAMES`).
         """
-        from cas_freq.model.systems import linear_model
+        import warnings
 
-        return linear_model(self.params, pade)
+        from cas_freq.exceptions import CasFreqError
+        from cas_freq.model.delay import MAX_PADE_ORDER
+        from cas_freq.model.systems import (
+            POLYNOMIAL_LOG10_LIMIT,
+            largest_polynomial,
+            linear_model,
+            margin_safe_model,
+        )
+
+        if pade is None:
+            return margin_safe_model(self.params, TO_CONTROL_PADE_ORDER)
+        if isinstance(pade, bool) or not isinstance(pade, int | np.integer) or \
+                not 1 <= pade <= MAX_PADE_ORDER:
+            raise CasFreqError(f"pade: {pade!r} is not accepted; accepted: an integer "
+                               f"1..{MAX_PADE_ORDER}, or None (the default order)")
+        model = linear_model(self.params, int(pade))
+        name, size = largest_polynomial(model)
+        if size >= POLYNOMIAL_LOG10_LIMIT:
+            warnings.warn(
+                f"pade: at order {pade} the {name.replace('_', ' ')}'s characteristic polynomial "
+                f"reaches 1e{size:.0f}, past what python-control's polynomial "
+                f"stability_margins holds (1e{POLYNOMIAL_LOG10_LIMIT:.0f}): it would raise "
+                "LinAlgError; to_control() picks an order that works, and cf.loop_margins "
+                "works at any", UserWarning, stacklevel=2)
+        return model
 
 
 #: The loops a :class:`FrequencyResponse` holds (``ActuatorLoops`` method names).

@@ -165,6 +165,57 @@ def _loop_names(structure):
     return names
 
 
+#: Largest coefficient [log10] of a loop's characteristic polynomial at which python-control's
+#: polynomial ``stability_margins`` stays in floating point: its stability-margin test
+#: multiplies two squared polynomials (coefficients to the 4th power, past 1.8e308 from ~1e77).
+#: Measured on the shipped variants: 1e75 works, 1e80 raises LinAlgError (infs or NaNs).
+POLYNOMIAL_LOG10_LIMIT = 76.0
+
+
+def polynomial_size(system):
+    """log10 of the largest coefficient of a continuous system's characteristic polynomial
+    (monic, from its poles): what python-control's polynomial margins raise to the 4th power
+    (:data:`POLYNOMIAL_LOG10_LIMIT`). 0 for a static or discrete system (python-control
+    evaluates those on the unit circle)."""
+    if system.isdtime(strict=True) or system.nstates == 0:
+        return 0.0
+    coefficients = np.abs(np.poly(np.linalg.eigvals(system.A)))
+    return float(np.log10(coefficients[coefficients > 0].max()))
+
+
+def largest_polynomial(model):
+    """(name, log10 size) of the loop of a :class:`LinearModel` with the largest
+    characteristic polynomial (:func:`polynomial_size`), over L_i, L_v and L_p."""
+    loops = [(name, getattr(model, name)) for name in
+             ("current_loop", "velocity_loop", "position_loop")]
+    return max(((name, polynomial_size(system)) for name, system in loops
+                if system is not None), key=lambda item: item[1])
+
+
+def margin_safe_model(params, highest):
+    """:func:`linear_model` at the highest Padé order <= ``highest`` at which every loop's
+    characteristic polynomial stays below :data:`POLYNOMIAL_LOG10_LIMIT` (python-control's
+    polynomial ``stability_margins`` then stays finite); order 1 if none does.
+
+    Parameters
+    ----------
+    params : cas_freq.config.ActuatorConfig or cas_freq.parameters.LoopParameters
+        One variant (SI).
+    highest : int
+        The highest order tried.
+
+    Returns
+    -------
+    LinearModel
+    """
+    order = highest
+    model = linear_model(params, order)
+    while order > 1 and largest_polynomial(model)[1] >= POLYNOMIAL_LOG10_LIMIT:
+        order -= 1
+        model = linear_model(params, order)
+    return model
+
+
 def _sampled_model(p, pade_order):
     """:func:`linear_model` of sampled loops: discrete-time python-control systems, each loop
     at its own period (the inner loops of a multirate drive at theirs, broken with the slower
