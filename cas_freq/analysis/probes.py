@@ -19,6 +19,15 @@ from cas_freq.jit import compiled_for
 #: below; an unresolved resonance gives ln 9 or more) and is refined.
 SHARP = 0.05
 
+#: The same for the complex ln L = ln |L| + j phase, in size: a pole or zero pair of width W
+#: (W/omega of its frequency) between two samples a distance D from them bends ln L by about
+#: W/D at the flank samples, first order in W, in the phase (a notch: a zero pair under a
+#: pole pair) or in ln |L| (a peak beside a notch). W = 1e-5 between samples 1.15 % apart
+#: (200 per decade) gives ~2e-3, where it may still cross 0 dB or -180° between them. A
+#: smooth loop (a delay's included, on the grid that follows it) bends by less than 1e-5 but
+#: beside resolved resonances, which are then subdivided once or twice.
+LOG_SHARP = 1e-3
+
 #: Subdivisions of an unresolved feature's grid intervals, each into four: down to 4^-20 of
 #: the grid spacing (about 1e-14 relative at 200 points per decade), below rounding.
 MAX_SUBDIVISIONS = 20
@@ -94,8 +103,9 @@ def extremum_probes(evaluate, omega, response, squared=None):
     before, after = rising[:, 1:-2], rising[:, 2:-1]
     maximum, minimum = before & ~after, ~before & after
     refined = (maximum & (inner < 1.0)) | (minimum & (inner > 1.0))
-    runs, k = np.nonzero(_corners(log_w, squared) & ~refined)
-    found = subdivision_probes(evaluate, log_w, squared, runs, k + 2)
+    corners = (_corners(log_w, squared) & ~refined) | _log_corners(log_w, response)
+    runs, k = np.nonzero(corners)
+    found = subdivision_probes(evaluate, log_w, squared, runs, k + 2, response)
     for sign in (1.0, -1.0):
         chosen = (top & (level < 1.0)) if sign > 0 else (~top & (level > 1.0))
         runs, k = all_runs[chosen], all_k[chosen]
@@ -139,24 +149,46 @@ def _corners(log_w, squared):
     return (np.abs(second[:, 1:-1]) > SHARP) & (np.abs(bend) > SHARP)
 
 
-def _sharp(squared):
+def _log_corners(log_w, response):
+    """Where the complex ln L has a corner at a grid sample (k = 2 .. m - 3, shape
+    (n, m - 4)), as :func:`_corners` for ln |L|^2 but with :data:`LOG_SHARP`: a notch or a
+    peak narrower than the spacing, which bends ln L at its flank samples to first order in its
+    width. The steps of ln L are logarithms of consecutive ratios (the phase step their
+    angle), so no unwrapping is needed."""
+    h = np.diff(log_w)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        slope = np.log(response[:, 1:] / response[:, :-1]) / h
+        second = np.diff(slope, axis=1) * (0.5 * (h[:-1] + h[1:]))
+        bend = second[:, 1:-1] - 0.5 * (second[:, :-2] + second[:, 2:])
+    return (np.abs(second[:, 1:-1]) > LOG_SHARP) & (np.abs(bend) > LOG_SHARP)
+
+
+def _sharp(squared, values=None):
     """Where the second difference of ln |L|^2 over consecutive samples exceeds :data:`SHARP`
-    in size, at the inner samples of each row (shape (n, m - 2)); False where not finite (the
+    in size, or (given the complex ``values``) that of ln L exceeds :data:`LOG_SHARP`,
+    at the inner samples of each row (shape (n, m - 2)); False where not finite (the
     subdivisions' samples are uniform in log frequency)."""
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         ratio = squared[:, :-2] * squared[:, 2:] / (squared[:, 1:-1] * squared[:, 1:-1])
-    bound = math.exp(SHARP)
-    return np.isfinite(ratio) & ((ratio > bound) | (ratio * bound < 1.0))
+        bound = math.exp(SHARP)
+        sharp = np.isfinite(ratio) & ((ratio > bound) | (ratio * bound < 1.0))
+        if values is None:
+            return sharp
+        turn = np.log(values[:, 2:] / values[:, 1:-1]) - np.log(values[:, 1:-1] /
+                                                                 values[:, :-2])
+    return sharp | (np.abs(turn) > LOG_SHARP)
 
 
-def subdivision_probes(evaluate, log_w, squared, runs, k):
-    """Probes that resolve the features at the sharp corners (``runs``, ``k``) of |L|^2.
+def subdivision_probes(evaluate, log_w, squared, runs, k, response=None):
+    """Probes that resolve the features at the sharp corners (``runs``, ``k``) of |L|^2 (and,
+    given ``response``, of the phase of L).
 
     The two grid intervals beside each corner are cut into four; beside every sharp corner
     among the new samples (second differences over the five samples of an interval, see
-    :func:`_sharp`) the quarters are cut again, and so on, at most :data:`MAX_SUBDIVISIONS`
-    times. A feature of width W stops showing corners once the spacing is below about W/5, so
-    its extrema and 0 dB crossings are then bracketed by the samples.
+    :func:`_sharp`, of ln |L|^2 and of the phase) the quarters are cut again, and so on, at
+    most :data:`MAX_SUBDIVISIONS` times. A feature of width W stops showing corners once the
+    spacing is below about W/5, so its extrema, its 0 dB and its -180° crossings are then
+    bracketed by the samples.
 
     Parameters
     ----------
@@ -168,6 +200,8 @@ def subdivision_probes(evaluate, log_w, squared, runs, k):
         |L|^2 on the grid, shape (n, m).
     runs, k : numpy.ndarray of int
         The sharp grid samples (0 < k < m - 1).
+    response : numpy.ndarray, optional
+        L on the grid, shape (n, m): the phase's corners are followed as well.
 
     Returns
     -------
@@ -179,6 +213,8 @@ def subdivision_probes(evaluate, log_w, squared, runs, k):
     runs, j = interval // m, interval % m
     lo, hi = log_w[j], log_w[j + 1]
     s_lo, s_hi = squared[runs, j], squared[runs, j + 1]
+    if response is not None:
+        v_lo, v_hi = response[runs, j], response[runs, j + 1]
     quarters = np.array([0.25, 0.5, 0.75])
     taken = []
     for _ in range(MAX_SUBDIVISIONS):
@@ -189,13 +225,16 @@ def subdivision_probes(evaluate, log_w, squared, runs, k):
         taken.append(Probes(np.repeat(runs, 3), x.ravel()))
         xs = np.column_stack([lo, x, hi])
         ss = np.column_stack([s_lo, value.real ** 2 + value.imag ** 2, s_hi])
-        sharp = _sharp(ss)  # at the three inner samples
+        vs = None if response is None else np.column_stack([v_lo, value, v_hi])
+        sharp = _sharp(ss, vs)  # at the three inner samples
         cut = np.zeros((runs.size, 4), dtype=bool)  # the quarters beside a sharp sample
         cut[:, :-1] |= sharp
         cut[:, 1:] |= sharp
         row, i = np.nonzero(cut)
         runs, lo, hi = runs[row], xs[row, i], xs[row, i + 1]
         s_lo, s_hi = ss[row, i], ss[row, i + 1]
+        if vs is not None:
+            v_lo, v_hi = vs[row, i], vs[row, i + 1]
     return sum(taken, Probes.none())
 
 
