@@ -27,6 +27,11 @@ feature narrower than the grid, and the brackets are split at them:
   refined to the true extremum, which becomes a probe (a narrow peak that pokes above 0 dB, or
   a notch that dips below, between two samples; however low the samples beside it are, since a
   peak 30 times narrower than the grid spacing shows only its far flanks);
+- every sample where the complex ln L = ln |L| + j phase has a corner (second differences
+  above :data:`~cas_freq.analysis.probes.LOG_SHARP`) marks a feature narrower than the grid:
+  a notch or peak of width W bends ln L at its flank samples by about W / distance, first
+  order in W (ln |L| alone bends to second order: a notch 1e-5 wide shows in the phase). Its
+  grid intervals are subdivided while the corners do not fade as a resolved curve's do;
 - every other sample where ln |L| has a corner marks a feature the grid does not resolve whose
   extremum is not the sample's: typically a notch next to a peak (a lightly damped zero pair
   beside a pole pair, as a compliant gear puts into L_i), whose samples show the peak's flank
