@@ -443,7 +443,7 @@ class Actuator:
                 f"reaches 1e{size:.0f}, past what python-control's polynomial "
                 f"stability_margins holds (1e{POLYNOMIAL_LOG10_LIMIT:.0f}): it would raise "
                 "LinAlgError; to_control() picks an order that works, and cf.loop_margins "
-                "works at any", UserWarning, stacklevel=2)
+                "works at any", UserWarning, stacklevel=3)  # past one_blas_thread's wrapper
         return model
 
 
