@@ -3,11 +3,11 @@ r"""Margins and closed-loop figures of any loop: ``cf.loop_margins`` and ``cf.cl
 A thin public layer over the engine the actuator figures use (:mod:`cas_freq.analysis.margins`,
 :mod:`cas_freq.analysis.closed_loop`, same definitions, docs/model.md). The loop may be
 
-1. a continuous-time SISO python-control ``TransferFunction`` or ``StateSpace``, evaluated by
-   its own ``__call__`` at :math:`j\omega`, times an exact :math:`e^{-s\tau}` when
-   ``delay=`` :math:`\tau` [s] is given (discrete-time systems are refused: only continuous
-   loops are evaluated here; an actuator's sampled controllers are modelled by its config's
-   ``sampling:``, docs/model.md section 14);
+1. a SISO python-control ``TransferFunction`` or ``StateSpace``, evaluated by its own
+   ``__call__`` at :math:`s = j\omega` (continuous time) or :math:`z = e^{j\omega T}`
+   (discrete time of period T = ``dt``, analysed up to the Nyquist frequency
+   :math:`\pi / T`), times an exact :math:`e^{-j\omega\tau}` when ``delay=``
+   :math:`\tau` [s] is given;
 2. a callable of s, ``loop(s) -> complex``, vectorised over a complex array;
 3. frequency-response data: a ``control.FrequencyResponseData`` or a pair
    ``(omega [rad/s], response)``. Its margins are found by interpolation on the given data
@@ -44,12 +44,23 @@ from cas_freq.analysis.margins import (
     loop_figures,
     margins_of_run,
 )
+from cas_freq.exceptions import CasFreqError
+from cas_freq.summary import Summary
 
 #: Order of the Padé approximant of a delay used only to decide closed-loop stability.
 PADE_ORDER = 10
 
 #: Range used for a callable when ``omega_range`` is not given [rad/s].
 CALLABLE_RANGE_RAD_S = (1e-3, 1e3)
+
+#: A pole or zero smaller than this times the largest is at s = 0 to rounding: the ss -> poles
+#: conversion leaves an integrator at ~1e-12 of the fastest pole instead of 0 (L(0) is then
+#: ~1e30, numerically infinite, not a static gain).
+AT_ZERO = 1e-9
+
+#: A discrete-time loop is analysed up to this share of its Nyquist frequency pi / dt: at
+#: pi / dt itself L is real (z = -1), where a sign test of Im L would read rounding.
+NYQUIST_SHARE = 1.0 - 1e-9
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -95,13 +106,36 @@ def _check_range(omega_range):
     return w_min, w_max
 
 
+def _period(system):
+    """The sampling period [s] of a discrete-time system, None for a continuous one."""
+    if not system.isdtime(strict=True):
+        return None
+    period = system.dt
+    if period is True or not (isinstance(period, int | float) and 0 < period < math.inf):
+        raise CasFreqError(f"loop: a discrete-time system of dt={period!r}; accepted: a "
+                         "continuous system or a discrete one of a given period dt > 0 [s]")
+    return float(period)
+
+
+def _s_plane(system, roots):
+    """Roots as s-plane frequencies [rad/s]: themselves for a continuous system, ln(z) / dt
+    for a discrete one (z = 0 maps to infinity)."""
+    roots = np.atleast_1d(np.asarray(roots, dtype=complex))
+    period = _period(system)
+    if period is None:
+        return roots
+    with np.errstate(divide="ignore"):
+        return np.log(roots) / period
+
+
 def _automatic_range(system, delay):
-    """1e-3 x the smallest .. 1e3 x the largest nonzero |pole|, |zero| (and 1/delay) [rad/s]."""
-    sizes = np.abs(np.concatenate([np.atleast_1d(system.poles()),
-                                   np.atleast_1d(system.zeros())]))
+    """1e-3 x the smallest .. 1e3 x the largest nonzero |pole|, |zero| (and 1/delay) [rad/s]
+    (a discrete system's mapped to the s-plane, :func:`_s_plane`)."""
+    sizes = np.abs(np.concatenate([_s_plane(system, system.poles()),
+                                   _s_plane(system, system.zeros())]))
     sizes = sizes[np.isfinite(sizes)]
     if sizes.size:
-        sizes = sizes[sizes > 1e-9 * sizes.max()]
+        sizes = sizes[sizes > AT_ZERO * sizes.max()]
     if delay > 0:
         sizes = np.append(sizes, 1.0 / delay)
     if sizes.size == 0:
@@ -154,21 +188,32 @@ def _prepare(loop, delay, omega_range, points_per_decade):
         omega, response, evaluate = _data_loop(loop, delay)
         return _Loop(evaluate, omega, None, delay, True), response
     if _is_lti(loop):
-        if loop.isdtime(strict=True):
-            raise TypeError(f"loop: a discrete-time system (dt={loop.dt}) is not accepted: only "
-                            "continuous loops are (an actuator's sampled controllers: its "
-                            "config's sampling:); accepted: a continuous-time TransferFunction "
-                            "or StateSpace")
         if loop.ninputs != 1 or loop.noutputs != 1:
             raise ValueError(f"loop: a {loop.noutputs}x{loop.ninputs} system; accepted: SISO")
         system = loop
-
-        def evaluate(w):
-            s = 1j * np.asarray(w, dtype=float)
-            value = np.asarray(system(s.reshape(-1), squeeze=True), dtype=complex)
-            return value.reshape(s.shape) * np.exp(-s * delay)
+        period = _period(system)
+        if period is None:
+            def evaluate(w):
+                s = 1j * np.asarray(w, dtype=float)
+                value = np.asarray(system(s.reshape(-1), squeeze=True), dtype=complex)
+                return value.reshape(s.shape) * np.exp(-s * delay)
+        else:
+            def evaluate(w):
+                s = 1j * np.asarray(w, dtype=float)
+                z = np.exp(s.reshape(-1) * period)
+                value = np.asarray(system(z, squeeze=True), dtype=complex)
+                return value.reshape(s.shape) * np.exp(-s * delay)
 
         w_min, w_max = omega_range or _automatic_range(system, delay)
+        if period is not None:
+            nyquist = NYQUIST_SHARE * math.pi / period
+            if omega_range is not None and w_max > nyquist:
+                raise CasFreqError(f"omega_range: {omega_range!r} goes past the Nyquist "
+                                 f"frequency pi/dt = {math.pi / period:.6g} rad/s; accepted: "
+                                 "(w_min, w_max) [rad/s] with w_max below it")
+            w_max = nyquist if omega_range is None else w_max
+            if w_min >= w_max:
+                w_min = 1e-3 * w_max
     elif callable(loop):
         system = None
 
@@ -199,8 +244,16 @@ def _closed_loop_stability(prepared, stable, closed):
     import control
 
     system = prepared.system
+    period = _period(system)
     basis = "poles of T" if closed else "closed-loop poles of feedback(L, 1)"
-    if prepared.delay_s > 0 and not closed:
+    if prepared.delay_s > 0 and not closed and period is not None:
+        samples = prepared.delay_s / period
+        if abs(samples - round(samples)) > 1e-9 * max(samples, 1.0):
+            return None, ("unknown: a delay of a fraction of a sample (pass stable=True/False "
+                          "for a discrete loop with such a delay)")
+        system = system * control.tf([1.0], [1.0] + [0.0] * round(samples), period)
+        basis = f"closed-loop poles with the delay as z^-{round(samples)}"
+    elif prepared.delay_s > 0 and not closed:
         num, den = control.pade(prepared.delay_s, PADE_ORDER)
         system = system * control.tf(num, den)
         basis = f"closed-loop poles with a Padé-{PADE_ORDER} delay (an approximation)"
@@ -208,6 +261,8 @@ def _closed_loop_stability(prepared, stable, closed):
         poles = (system if closed else control.feedback(system, 1)).poles()
     except (ValueError, np.linalg.LinAlgError, control.ControlArgument) as error:
         return None, f"unknown: the closed-loop poles could not be computed ({error})"
+    if period is not None:
+        return bool(np.all(np.abs(poles) < 1.0)), basis + " (inside the unit circle)"
     return bool(np.all(poles.real < 0)), basis
 
 
@@ -219,8 +274,10 @@ def _static_phase_crossover(prepared, values):
     """The phase crossover at w = 0 of an LTI loop whose static gain L(0) is finite and
     negative (as python-control and MATLAB list it), added to the crossings and the headline
     gain margins when nearer 0 dB; {} otherwise. (Not found for callables and data, which
-    are known only inside their range.)"""
-    if prepared.system is None:
+    are known only inside their range.) None either when the loop has a pole at s = 0 to
+    rounding (:data:`AT_ZERO`): L(0) is then infinite, whatever finite number the arithmetic
+    leaves."""
+    if prepared.system is None or _pole_at_zero(prepared.system):
         return {}
     with np.errstate(all="ignore"):
         dc = complex(np.asarray(prepared.system.dcgain()).reshape(-1)[0])
@@ -235,8 +292,18 @@ def _static_phase_crossover(prepared, values):
     return out
 
 
-@dataclasses.dataclass(frozen=True)
-class LoopMarginResult:
+def _pole_at_zero(system):
+    """Whether an LTI system has a pole at s = 0 (z = 1) to rounding: one smaller than
+    :data:`AT_ZERO` times its largest pole or zero (in the s-plane, :func:`_s_plane`)."""
+    poles = np.abs(_s_plane(system, system.poles()))
+    if poles.size == 0:
+        return False
+    sizes = np.concatenate([poles, np.abs(_s_plane(system, system.zeros()))])
+    return bool(poles.min() <= AT_ZERO * sizes[np.isfinite(sizes)].max())
+
+
+@dataclasses.dataclass(frozen=True, repr=False)
+class LoopMarginResult(Summary):
     """Every margin of one loop (:func:`loop_margins`); a figure that does not exist is None.
 
     Attributes
@@ -256,10 +323,12 @@ class LoopMarginResult:
     delay_margin_s, delay_margin_crossover_rad_s
         Smallest delay margin over the gain crossovers [s] and at which [rad/s].
     sensitivity_peak_db, sensitivity_peak_rad_s
-        Ms = max |1/(1+L)| [dB] and where [rad/s]; None unless the closed loop is stable.
+        Ms = max |1/(1+L)| [dB] and where [rad/s]; None unless the closed loop is stable and
+        |S| has an interior maximum in range (largest at a range end, its value there is a
+        bound, not a peak: 3(10+s)/(2+s) tends to 1/4 as omega grows).
     disk_margin_alpha, disk_margin_gain_db, disk_margin_phase_deg
         Symmetric disk margin alpha, its gain [dB] and phase [deg] margins; None unless the
-        closed loop is stable.
+        closed loop is stable and max |S - 1/2| is at an interior maximum in range.
     closed_loop_stable : bool or None
         None when not known.
     stability_basis : str
@@ -287,6 +356,26 @@ class LoopMarginResult:
     stability_basis: str
     omega_range_rad_s: tuple[float, float]
     _evaluate: object = dataclasses.field(repr=False, compare=False, default=None)
+
+    def _summary(self):
+        stable = {True: "stable", False: "unstable", None: "stability unknown"}
+        title = (f"{len(self.gain_crossovers)} gain and {len(self.phase_crossovers)} phase "
+                 f"crossovers in {self.omega_range_rad_s[0]:.4g}..{self.omega_range_rad_s[1]:.4g}"
+                 f" rad/s, closed loop {stable[self.closed_loop_stable]}")
+        return title, [
+            ("phase margin", self.phase_margin_deg, "deg"),
+            ("gain crossover", self.crossover_rad_s, "rad/s"),
+            ("gain margin", self.gain_margin_db, "dB"),
+            ("lower gain margin", self.gain_margin_low_db, "dB"),
+            ("delay margin", self.delay_margin_s, "s"),
+            ("sensitivity peak Ms", self.sensitivity_peak_db, "dB"),
+            ("phase crossover", self.phase_crossover_rad_s, "rad/s"),
+            ("lower phase crossover", self.phase_crossover_low_rad_s, "rad/s"),
+            ("Ms frequency", self.sensitivity_peak_rad_s, "rad/s"),
+            ("disk margin alpha", self.disk_margin_alpha, ""),
+            ("disk gain margin", self.disk_margin_gain_db, "dB"),
+            ("disk phase margin", self.disk_margin_phase_deg, "deg"),
+        ]
 
     def to_dict(self):
         """The figures as a JSON-ready dict (lists of dicts for the crossovers)."""
@@ -338,7 +427,8 @@ def loop_margins(loop, *, delay=0.0, omega_range=None, stable=None, points_per_d
            callable or tuple
         The loop L (module notes): a continuous SISO LTI system, ``loop(s) -> complex``, or
         frequency data ``(omega [rad/s], response)``. Data are interpolated between the given
-        samples only (no refinement beyond them); a discrete-time system raises TypeError.
+        samples only (no refinement beyond them); a discrete-time system is evaluated at
+        z = exp(j omega dt) up to its Nyquist frequency pi / dt.
     delay : float
         Delay in the loop [s], applied exactly as exp(-s delay).
     omega_range : (float, float), optional
@@ -362,14 +452,23 @@ def loop_margins(loop, *, delay=0.0, omega_range=None, stable=None, points_per_d
     values = {f.name: getattr(margins, f.name) for f in dataclasses.fields(LoopMarginResult)
               if hasattr(margins, f.name)}
     values.update(_static_phase_crossover(prepared, values))
+    s_inside, d_inside, s_top, d_top = (bool(v[0]) for v in figures["_interior_maxima"])
+    sampled = prepared.system is not None and _period(prepared.system) is not None
+    # |S| of a discrete loop is symmetric about its Nyquist frequency: a maximum there is a peak
+    sensitivity_inside = s_inside or (sampled and s_top)
+    disk_inside = d_inside or (sampled and d_top)
+    if not sensitivity_inside:  # |S| largest at a range end: a bound there, not a peak
+        values.update(sensitivity_peak_db=None, sensitivity_peak_rad_s=None)
+    if not disk_inside:
+        values.update(disk_margin_alpha=None, disk_margin_gain_db=None, disk_margin_phase_deg=None)
     return LoopMarginResult(
         **values, closed_loop_stable=is_stable, stability_basis=basis,
         omega_range_rad_s=(float(prepared.omega[0]), float(prepared.omega[-1])),
         _evaluate=prepared.evaluate)
 
 
-@dataclasses.dataclass(frozen=True)
-class ClosedLoopResult:
+@dataclasses.dataclass(frozen=True, repr=False)
+class ClosedLoopResult(Summary):
     """Bandwidth and shape of a closed loop T (:func:`closed_loop_figures`); None where a
     figure does not exist in range, or (all of them) when T is known to be unstable.
 
@@ -398,6 +497,18 @@ class ClosedLoopResult:
     stability_basis: str
     omega_range_rad_s: tuple[float, float]
     _evaluate: object = dataclasses.field(repr=False, compare=False, default=None)
+
+    def _summary(self):
+        stable = {True: "stable", False: "unstable", None: "stability unknown"}
+        title = (f"closed loop {stable[self.stable]}, {self.omega_range_rad_s[0]:.4g}.."
+                 f"{self.omega_range_rad_s[1]:.4g} rad/s")
+        return title, [
+            ("bandwidth", self.bandwidth_rad_s, "rad/s"),
+            ("DC gain", self.dc_gain_db, "dB"),
+            ("resonance peak", self.peak_db, "dB"),
+            ("peak frequency", self.peak_rad_s, "rad/s"),
+            ("-90 deg frequency", self.phase_90_rad_s, "rad/s"),
+        ]
 
     def to_dict(self):
         """The figures as a JSON-ready dict."""

@@ -33,18 +33,64 @@ from cas_freq.model import DelayModel
 from cas_freq.summary import Summary, row, spread
 from cas_freq.threads import one_blas_thread
 
-#: Default Padé order of :meth:`Actuator.to_control`. python-control's ``stability_margins``
-#: works on the loop's polynomials, whose degree grows with the order: at 6 it fails on the
-#: loaded QT-CAS variant (LinAlgError) and its root test overflows (RuntimeWarnings) on every
-#: shipped variant; at 4 it works on all of them, PM and crossover within 1e-9 of the
-#: exact-delay analysis (a few overflow warnings remain on two variants: fitted, loaded).
-#: tests/test_notebook.py checks every shipped variant.
+#: Highest default Padé order of :meth:`Actuator.to_control`. python-control's
+#: ``stability_margins`` works on the loop's polynomials, whose coefficients grow with the
+#: order (and the states): past ~1e76 its stability-margin test overflows and it raises
+#: LinAlgError (:data:`cas_freq.model.systems.POLYNOMIAL_LOG10_LIMIT`): at 6 on the loaded
+#: QT-CAS variant, at 4 on the cascade axis (25 states). The default is the highest order up
+#: to this one below that limit (4 on the QT-CAS variants, 3 on the cascade axis), PM and
+#: crossover within 1e-6 of the exact-delay analysis. tests/test_notebook.py checks every
+#: shipped architecture.
 TO_CONTROL_PADE_ORDER = 4
 
 
 def _delay(delay):
     """A :class:`DelayModel` from ``"exact"``/``"pade:N"`` (as ``--delay``) or a DelayModel."""
     return delay if isinstance(delay, DelayModel) else DelayModel.parse(delay)
+
+
+def _quantities(values, unit, field, output=None):
+    """Numbers [``unit``] from a number, a string with its unit (``"1 deg"``, ``"2 rev/s"``) or a
+    sequence of either: a number is taken as ``unit``; a string is converted
+    (:func:`cas_freq.units.to_si`), or at the output (``output``, an
+    :class:`~cas_freq.output.OutputUnit`) read as an angle or a length
+    (:func:`cas_freq.output.read_output`). A scalar gives a float, a sequence an array.
+
+    Raises
+    ------
+    cas_freq.exceptions.CasFreqError
+        One line naming ``field``, the value and what is accepted.
+    """
+    from cas_freq.exceptions import CasFreqError
+    from cas_freq.output import read_output
+    from cas_freq.units import to_si
+
+    single = isinstance(values, str) or np.ndim(values) == 0
+    items = [values] if single else list(np.asarray(values, dtype=object).reshape(-1))
+    out = []
+    for value in items:
+        value = value.item() if isinstance(value, np.generic) else value
+        if isinstance(value, str) and output is not None:
+            try:  # its message names the field, the value and what to give
+                out.append(read_output(value, output, field))
+            except ValueError as exc:
+                raise CasFreqError(str(exc)) from None
+            continue
+        try:
+            out.append(to_si(value, unit))
+        except (TypeError, ValueError) as exc:
+            accepted = f"a number [{unit}] or a string with its unit ({exc})"
+            raise CasFreqError(f"{field}: {value!r} is not accepted; accepted: "
+                               f"{accepted}") from None
+    return out[0] if single else np.array(out, dtype=float).reshape(np.shape(values))
+
+
+def _range(frequency_range):
+    """An analysed range (w_min, w_max) [rad/s] from numbers or strings with their unit; the
+    default when None."""
+    if frequency_range is None:
+        return DEFAULT_RANGE_RAD_S
+    return tuple(float(w) for w in _quantities(frequency_range, "rad/s", "frequency_range"))
 
 
 def load(path=None, variant="base", set=None):  # ``set=`` mirrors ``--set``
@@ -123,8 +169,9 @@ class Actuator:
         ----------
         delay : str or DelayModel
             ``"exact"`` or ``"pade:N"`` delays in every frequency response.
-        frequency_range : (float, float), optional
-            Analysed range [rad/s]; default 0.01..1e6.
+        frequency_range : (float or str, float or str), optional
+            Analysed range, numbers [rad/s] or strings with their unit (``"1 rev/s"``); default
+            0.01..1e6 rad/s.
         limit_cycle_check : bool
             Check each predicted limit cycle (``limit_cycles``, always predicted) by a
             nonlinear simulation (``analyze --limit-cycles``).
@@ -138,7 +185,7 @@ class Actuator:
         """
         from cas_freq.analysis import analyze
 
-        return analyze(self.loaded, _delay(delay), frequency_range or DEFAULT_RANGE_RAD_S,
+        return analyze(self.loaded, _delay(delay), _range(frequency_range),
                        limit_cycle_check=limit_cycle_check)
 
     @one_blas_thread()
@@ -148,7 +195,7 @@ class Actuator:
         Parameters
         ----------
         omega : array_like
-            Frequencies [rad/s].
+            Frequencies, numbers [rad/s] or strings with their unit (``"100 rev/s"``).
         delay : str or DelayModel
             ``"exact"`` or ``"pade:N"``.
 
@@ -158,7 +205,7 @@ class Actuator:
         """
         from cas_freq.model import ActuatorLoops
 
-        omega = np.asarray(omega, dtype=float)
+        omega = np.asarray(_quantities(omega, "rad/s", "omega"), dtype=float)
         loops = ActuatorLoops(self.params, _delay(delay))
         s = 1j * omega
         return FrequencyResponse(omega, loops.delay.label,
@@ -233,8 +280,8 @@ class Actuator:
         Parameters
         ----------
         hinge_stiffness : array_like
-            Values of ``load.hinge_stiffness`` (the load spring K_h) at the output [N*m/rad]
-            (> 0 opposes the motion, < 0 aids it).
+            Values of ``load.hinge_stiffness`` (the load spring K_h) at the output, numbers
+            [N*m/rad] or strings with their unit (> 0 opposes the motion, < 0 aids it).
         step : str, optional
             Output step of the step figures (``"10 deg"``); default the first step
             requirement's.
@@ -249,7 +296,8 @@ class Actuator:
         from cas_freq.studies.envelope import load_envelope
 
         step_rad = None if step is None else angle(str(step), "step")
-        return load_envelope(self.loaded, np.asarray(hinge_stiffness, dtype=float), step_rad)
+        stiffness = _quantities(hinge_stiffness, "N*m/rad", "hinge_stiffness")
+        return load_envelope(self.loaded, np.asarray(stiffness, dtype=float), step_rad)
 
     @one_blas_thread()
     def tune(self, free=None, objective="max-bandwidth", robust=None, tolerances=(),
@@ -324,11 +372,13 @@ class Actuator:
         ----------
         pade : int
             Padé order of both delays of the linear T.
-        amplitudes : sequence of float, optional
-            Sine-dwell and step amplitudes at the output [rad, or m at a linear output];
-            default those of ``cas-freq sinedwell``.
-        frequencies : sequence of float, optional
-            Sine-dwell frequencies [rad/s]; default the ``sinedwell`` grid.
+        amplitudes : sequence of float or str, optional
+            Sine-dwell and step amplitudes at the output, each a number [rad, or m at a
+            linear output] or a string with its unit (``"1 deg"``, ``"0.5 mm"``); default
+            those of ``cas-freq sinedwell``.
+        frequencies : sequence of float or str, optional
+            Sine-dwell frequencies, numbers [rad/s] or strings with their unit (``"2 rev/s"``);
+            default the ``sinedwell`` grid.
         feedforward : bool
             Let the feed-forward act on the sine-dwell and the sine limits.
 
@@ -337,19 +387,30 @@ class Actuator:
         cas_freq.studies.exported_model.ExportedModel
             ``system`` is T as a ``control.StateSpace``; ``to_dict()`` is the command's JSON.
         """
+        from cas_freq.output import output_unit
         from cas_freq.studies.exported_model import export_model
 
+        unit = output_unit(self.loaded.params)
+        if amplitudes is not None:
+            amplitudes = list(_quantities(amplitudes, unit.si, "amplitudes", unit).reshape(-1))
+        if frequencies is not None:
+            frequencies = list(_quantities(frequencies, "rad/s", "frequencies").reshape(-1))
         return export_model(self.loaded, pade, amplitudes, frequencies, feedforward)
 
     @one_blas_thread()
-    def to_control(self, pade=TO_CONTROL_PADE_ORDER):
+    def to_control(self, pade=None):
         """The loops as python-control state-space systems, both delays Padé of order ``pade``.
 
         Parameters
         ----------
-        pade : int
-            Padé order of both delays; the default (:data:`TO_CONTROL_PADE_ORDER`) is one that
-            python-control's ``stability_margins`` and ``step_info`` handle.
+        pade : int, optional
+            Padé order of every delay, 1..30. By default the highest order up to
+            :data:`TO_CONTROL_PADE_ORDER` at which python-control's polynomial
+            ``stability_margins`` stays in floating point on every loop (``step_info`` and
+            ``bandwidth`` work at any order); ``model.pade_order`` says which. A higher order
+            given here is built as asked, with a warning when ``stability_margins`` would
+            overflow on it (``cf.loop_margins`` of the system, or of ``analyze()``'s exact
+            delays, works at every order).
 
         Returns
         -------
@@ -359,9 +420,33 @@ class Actuator:
             named so (``sys.name == "L_p"``, signals as
             :data:`cas_freq.model.systems.LOOP_NAMES`).
         """
-        from cas_freq.model.systems import linear_model
+        import warnings
 
-        return linear_model(self.params, pade)
+        from cas_freq.exceptions import CasFreqError
+        from cas_freq.model.delay import MAX_PADE_ORDER
+        from cas_freq.model.systems import (
+            POLYNOMIAL_LOG10_LIMIT,
+            largest_polynomial,
+            linear_model,
+            margin_safe_model,
+        )
+
+        if pade is None:
+            return margin_safe_model(self.params, TO_CONTROL_PADE_ORDER)
+        if isinstance(pade, bool) or not isinstance(pade, int | np.integer) or \
+                not 1 <= pade <= MAX_PADE_ORDER:
+            raise CasFreqError(f"pade: {pade!r} is not accepted; accepted: an integer "
+                               f"1..{MAX_PADE_ORDER}, or None (the default order)")
+        model = linear_model(self.params, int(pade))
+        name, size = largest_polynomial(model)
+        if size >= POLYNOMIAL_LOG10_LIMIT:
+            warnings.warn(
+                f"pade: at order {pade} the {name.replace('_', ' ')}'s characteristic polynomial "
+                f"reaches 1e{size:.0f}, past what python-control's polynomial "
+                f"stability_margins holds (1e{POLYNOMIAL_LOG10_LIMIT:.0f}): it would raise "
+                "LinAlgError; to_control() picks an order that works, and cf.loop_margins "
+                "works at any", UserWarning, stacklevel=3)  # past one_blas_thread's wrapper
+        return model
 
 
 #: The loops a :class:`FrequencyResponse` holds (``ActuatorLoops`` method names).
@@ -608,8 +693,9 @@ class ActuatorSet(Summary):
         ----------
         delay : str or DelayModel
             ``"exact"`` or ``"pade:N"``.
-        frequency_range : (float, float), optional
-            Analysed range [rad/s]; default 0.01..1e6.
+        frequency_range : (float or str, float or str), optional
+            Analysed range, numbers [rad/s] or strings with their unit (``"1 rev/s"``); default
+            0.01..1e6 rad/s.
 
         Returns
         -------
@@ -626,7 +712,7 @@ class ActuatorSet(Summary):
         from cas_freq.analysis import batch_analyze
 
         delay = _delay(delay)
-        batch = batch_analyze(self.loop_parameters, frequency_range or DEFAULT_RANGE_RAD_S,
+        batch = batch_analyze(self.loop_parameters, _range(frequency_range),
                               delay=delay, **({"pade_order": delay.order} if delay.order else {}))
         groups = {}
         for name, values in batch.figures.items():

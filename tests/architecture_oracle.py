@@ -638,7 +638,7 @@ class ClosedLoopFigures:
 
     dc_gain: float
     bandwidth_rad_s: float | None
-    peak_db: float                      # max |T|/|T(0)| on the range (0 dB: none above)
+    peak_db: float | None               # max |T|/|T(0)| at an interior maximum (None: none)
     peak_rad_s: float | None            # None: the largest value is at the range's edge
     phase_90_rad_s: float | None        # lowest w where the phase of T reaches -90 deg
 
@@ -672,9 +672,10 @@ def closed_loop_figures(d, w, delay="exact"):
                                math.log(w[k + 1])), method="bounded",
                                options={"xatol": 1e-12})
         peak_w, peak = math.exp(best.x), -best.fun
-    else:
-        peak_w, peak = None, rel[k]
-    return ClosedLoopFigures(t0, bandwidth, 20.0 * math.log10(peak), peak_w, phase_90)
+    else:  # largest at the range's edge: no peak (the edge value is a bound)
+        peak_w, peak = None, None
+    return ClosedLoopFigures(t0, bandwidth, None if peak is None else 20.0 * math.log10(peak),
+                             peak_w, phase_90)
 
 
 def figures(d, w_min=1e-2, w_max=1e6, per_decade=2000, delay="exact", views=("L", "L_aat")):

@@ -63,8 +63,10 @@ def test_notch_narrower_than_the_grid_spacing():
     assert np.abs(loop(1j * omega)).min() > 1.0  # the grid alone sees no crossing
     found = [c.frequency_rad_s for c in loop_margins(loop, omega).gain_crossovers]
     assert len(found) == 2
-    # |L| = 1 at each: check the definition directly, and that they straddle the notch
-    np.testing.assert_allclose(np.abs(loop(1j * np.array(found))), 1.0, rtol=1e-9)
+    # |L| = 1 at each: check the definition directly, and that they straddle the notch. The
+    # notch's flank is steep, d ln|L| / d ln w ~ 1/zeta_p = 1e3, so the refinement's 1e-12 of
+    # ln w (times |ln w| ~ 6.3) is up to ~6e-9 of |L|: 1e-8
+    np.testing.assert_allclose(np.abs(loop(1j * np.array(found))), 1.0, rtol=1e-8)
     assert found[0] < w0 < found[1]
     assert found[1] / found[0] - 1 < 0.01  # both inside one grid interval
 

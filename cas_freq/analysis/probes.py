@@ -19,6 +19,15 @@ from cas_freq.jit import compiled_for
 #: below; an unresolved resonance gives ln 9 or more) and is refined.
 SHARP = 0.05
 
+#: The same for the complex ln L = ln |L| + j phase, in size: a pole or zero pair of width W
+#: (W/omega of its frequency) between two samples a distance D from them bends ln L by about
+#: W/D at the flank samples, first order in W, in the phase (a notch: a zero pair under a
+#: pole pair) or in ln |L| (a peak beside a notch). W = 1e-5 between samples 1.15 % apart
+#: (200 per decade) gives ~2e-3, where it may still cross 0 dB or -180° between them. A
+#: smooth loop (a delay's included, on the grid that follows it) bends by less than 1e-5 but
+#: beside resolved resonances, which are then subdivided once or twice.
+LOG_SHARP = 1e-3
+
 #: Subdivisions of an unresolved feature's grid intervals, each into four: down to 4^-20 of
 #: the grid spacing (about 1e-14 relative at 200 points per decade), below rounding.
 MAX_SUBDIVISIONS = 20
@@ -94,8 +103,14 @@ def extremum_probes(evaluate, omega, response, squared=None):
     before, after = rising[:, 1:-2], rising[:, 2:-1]
     maximum, minimum = before & ~after, ~before & after
     refined = (maximum & (inner < 1.0)) | (minimum & (inner > 1.0))
-    runs, k = np.nonzero(_corners(log_w, squared) & ~refined)
-    found = subdivision_probes(evaluate, log_w, squared, runs, k + 2)
+    with np.errstate(divide="ignore"):
+        log_squared = np.log(squared)
+    log_corner, log_size = _log_corners(log_w, response, log_squared)
+    corners = (_corners(log_w, squared, log_squared) & ~refined) | log_corner
+    runs, k = np.nonzero(corners)
+    # a corner of |L| alone is followed by its own test, not by the ratio of ln L's (inf)
+    parent = np.where(log_corner[runs, k], log_size[runs, k], np.inf)
+    found = subdivision_probes(evaluate, log_w, squared, runs, k + 2, response, parent)
     for sign in (1.0, -1.0):
         chosen = (top & (level < 1.0)) if sign > 0 else (~top & (level > 1.0))
         runs, k = all_runs[chosen], all_k[chosen]
@@ -120,7 +135,7 @@ def extremum_probes(evaluate, omega, response, squared=None):
     return found
 
 
-def _corners(log_w, squared):
+def _corners(log_w, squared, log_squared=None):
     """Where ln |L|^2 has a corner at a grid sample (k = 2 .. m - 3, shape (n, m - 4)): its
     second difference exceeds :data:`SHARP` in size and differs by more than that from the
     mean of its neighbours' (a resolved resonance curves smoothly: the second differences
@@ -133,30 +148,101 @@ def _corners(log_w, squared):
     """
     h = np.diff(log_w)
     with np.errstate(divide="ignore", invalid="ignore"):
-        slope = np.diff(np.log(squared), axis=1) / h
+        log_squared = np.log(squared) if log_squared is None else log_squared
+        slope = np.diff(log_squared, axis=1) / h
         second = np.diff(slope, axis=1) * (0.5 * (h[:-1] + h[1:]))
         bend = second[:, 1:-1] - 0.5 * (second[:, :-2] + second[:, 2:])
     return (np.abs(second[:, 1:-1]) > SHARP) & (np.abs(bend) > SHARP)
 
 
-def _sharp(squared):
+def _log_corners(log_w, response, log_squared):
+    """Where the complex ln L has a corner at a grid sample (k = 2 .. m - 3, shape
+    (n, m - 4)), as :func:`_corners` for ln |L|^2 but with :data:`LOG_SHARP`: a notch or a
+    peak narrower than the spacing, which bends ln L at its flank samples to first order in its
+    width. The steps of ln L are those of ``log_squared`` (ln |L|^2) halved and the angles of
+    consecutive ratios, so no unwrapping is needed. Also returns the size of each second difference
+    (what the subdivision compares its own with, :func:`subdivision_probes`).
+
+    On a grid that is not uniform (the log grid merged with a delay's linear one) the second
+    divided differences D_k = f[x_k, x_k+1, x_k+2] are used: for a cubic they are linear in
+    the nodes' mean, so the bend (D_k less its neighbours' interpolated at its nodes' mean) is
+    zero for any cubic on any grid, and a delay's fast but smooth phase makes none. Both are
+    scaled as second differences, by (x_k+2 - x_k)^2 / 2."""
+    h = np.diff(log_w)
+    span = log_w[2:] - log_w[:-2]
+    centre = (log_w[:-2] + log_w[1:-1] + log_w[2:]) / 3.0
+    before, after = centre[1:-1] - centre[:-2], centre[2:] - centre[1:-1]
+    weight = after / (before + after)
+    scale = 0.5 * span[1:-1] ** 2
+    re, im = response.real, response.imag
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # the steps of ln L: ln |ratio| (from |L|^2) and the ratio's angle, in real arithmetic
+        parts = (0.5 * np.diff(log_squared, axis=1), _angle_steps(re, im, log_squared))
+        size2 = bend2 = 0.0
+        for number, step in enumerate(parts):
+            change = step[:, 1:] - step[:, :-1] * (h[1:] / h[:-1])  # (slope change) h_k+1
+            if number:  # the phase's, modulo a turn (4 in the units of _angle_steps)
+                change = 2.0 - np.mod(2.0 - change, 4.0)
+            divided = change / (h[1:] * span)
+            middle = divided[:, 1:-1]
+            between = divided[:, :-2] * weight + divided[:, 2:] * (1.0 - weight)
+            size2 = size2 + (middle * scale) ** 2
+            bend2 = bend2 + ((middle - between) * scale) ** 2
+    size, bend = np.sqrt(size2), np.sqrt(bend2)
+    return (size > LOG_SHARP) & (bend > LOG_SHARP), size
+
+
+def _angle_steps(re, im, log_squared):
+    """The angle steps between consecutive samples, as a cheap monotone stand-in for the angle
+    a (which costs an arctan per sample, most of this scan): sin a for |a| <= pi/2, else
+    sign(a) (2 - |sin a|), in (-2, 2]. It is a to within 8 % for the steps a grid takes on a
+    smooth loop (< pi/8, with a delay's densified grid) and smooth in a, so a corner of the
+    phase is one of these steps, scaled by cos a."""
+    cross = re[:, :-1] * im[:, 1:] - im[:, :-1] * re[:, 1:]
+    dot = re[:, :-1] * re[:, 1:] + im[:, :-1] * im[:, 1:]
+    sine = cross * np.exp(-0.5 * (log_squared[:, :-1] + log_squared[:, 1:]))
+    return np.where(dot >= 0.0, sine, np.sign(cross) * (2.0 - np.abs(sine)))
+
+
+def _wrapped(log_change):
+    """A change of ln L with its phase part taken modulo a turn, in (-pi, pi]: a phase step
+    near half a turn reads +pi at one sample and -pi at the next, which is no corner."""
+    return log_change.real + 1j * (math.pi - np.mod(math.pi - log_change.imag, 2.0 * math.pi))
+
+
+def _sharp(squared, values=None, parent=None):
     """Where the second difference of ln |L|^2 over consecutive samples exceeds :data:`SHARP`
-    in size, at the inner samples of each row (shape (n, m - 2)); False where not finite (the
-    subdivisions' samples are uniform in log frequency)."""
+    in size, or (given the complex ``values``) that of ln L exceeds :data:`LOG_SHARP` and a
+    quarter of ``parent`` (per row: that of the coarser samples it was cut from), at the inner
+    samples of each row (shape (n, m - 2)); False where not finite (the subdivisions' samples
+    are uniform in log frequency). Also returns the sizes of ln L's second differences (None
+    without ``values``).
+
+    The quarter tells an unresolved feature from a resolved one: cutting the spacing by 4
+    makes the second differences of a resolved curve 16 times smaller, while those beside a
+    feature narrower than the spacing stay or grow (the samples come nearer to it)."""
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         ratio = squared[:, :-2] * squared[:, 2:] / (squared[:, 1:-1] * squared[:, 1:-1])
-    bound = math.exp(SHARP)
-    return np.isfinite(ratio) & ((ratio > bound) | (ratio * bound < 1.0))
+        bound = math.exp(SHARP)
+        sharp = np.isfinite(ratio) & ((ratio > bound) | (ratio * bound < 1.0))
+        if values is None:
+            return sharp, None
+        size = np.abs(_wrapped(np.log(values[:, 2:] / values[:, 1:-1])
+                               - np.log(values[:, 1:-1] / values[:, :-2])))
+    size = np.where(np.isfinite(size), size, 0.0)
+    return sharp | ((size > LOG_SHARP) & (size > 0.25 * parent[:, None])), size
 
 
-def subdivision_probes(evaluate, log_w, squared, runs, k):
-    """Probes that resolve the features at the sharp corners (``runs``, ``k``) of |L|^2.
+def subdivision_probes(evaluate, log_w, squared, runs, k, response=None, parent=None):
+    """Probes that resolve the features at the sharp corners (``runs``, ``k``) of |L|^2 (and,
+    given ``response``, of the phase of L).
 
     The two grid intervals beside each corner are cut into four; beside every sharp corner
     among the new samples (second differences over the five samples of an interval, see
-    :func:`_sharp`) the quarters are cut again, and so on, at most :data:`MAX_SUBDIVISIONS`
-    times. A feature of width W stops showing corners once the spacing is below about W/5, so
-    its extrema and 0 dB crossings are then bracketed by the samples.
+    :func:`_sharp`, of ln |L|^2 and of the phase) the quarters are cut again, and so on, at
+    most :data:`MAX_SUBDIVISIONS` times. A feature of width W stops showing corners once the
+    spacing is below about W/5, so its extrema, its 0 dB and its -180° crossings are then
+    bracketed by the samples.
 
     Parameters
     ----------
@@ -168,6 +254,12 @@ def subdivision_probes(evaluate, log_w, squared, runs, k):
         |L|^2 on the grid, shape (n, m).
     runs, k : numpy.ndarray of int
         The sharp grid samples (0 < k < m - 1).
+    response : numpy.ndarray, optional
+        L on the grid, shape (n, m): the corners of ln L are followed as well, while they do
+        not fade as a resolved curve's do (:func:`_sharp`).
+    parent : numpy.ndarray, optional
+        With ``response``: per corner, the size of ln L's second difference there (inf: a
+        corner of |L|^2 alone).
 
     Returns
     -------
@@ -175,10 +267,16 @@ def subdivision_probes(evaluate, log_w, squared, runs, k):
         Every sample taken.
     """
     m = log_w.size
-    interval = np.unique(np.concatenate([runs * m + k - 1, runs * m + k]))
+    both = np.concatenate([runs * m + k - 1, runs * m + k])
+    interval, which = np.unique(both, return_inverse=True)
+    if response is not None:
+        parents = np.full(interval.size, -np.inf)
+        np.maximum.at(parents, which.reshape(-1), np.concatenate([parent, parent]))
     runs, j = interval // m, interval % m
     lo, hi = log_w[j], log_w[j + 1]
     s_lo, s_hi = squared[runs, j], squared[runs, j + 1]
+    if response is not None:
+        v_lo, v_hi = response[runs, j], response[runs, j + 1]
     quarters = np.array([0.25, 0.5, 0.75])
     taken = []
     for _ in range(MAX_SUBDIVISIONS):
@@ -189,13 +287,20 @@ def subdivision_probes(evaluate, log_w, squared, runs, k):
         taken.append(Probes(np.repeat(runs, 3), x.ravel()))
         xs = np.column_stack([lo, x, hi])
         ss = np.column_stack([s_lo, value.real ** 2 + value.imag ** 2, s_hi])
-        sharp = _sharp(ss)  # at the three inner samples
+        vs = None if response is None else np.column_stack([v_lo, value, v_hi])
+        sharp, size = _sharp(ss, vs, None if vs is None else parents)  # the 3 inner samples
         cut = np.zeros((runs.size, 4), dtype=bool)  # the quarters beside a sharp sample
         cut[:, :-1] |= sharp
         cut[:, 1:] |= sharp
         row, i = np.nonzero(cut)
         runs, lo, hi = runs[row], xs[row, i], xs[row, i + 1]
         s_lo, s_hi = ss[row, i], ss[row, i + 1]
+        if vs is not None:
+            v_lo, v_hi = vs[row, i], vs[row, i + 1]
+            # each quarter's parent: the larger second difference at its two ends (inner ones)
+            ends = np.full((size.shape[0], 5), -np.inf)
+            ends[:, 1:4] = size
+            parents = np.maximum(ends[row, i], ends[row, i + 1])
     return sum(taken, Probes.none())
 
 

@@ -372,6 +372,8 @@ def build(p):
     at_current_command = _filters(p, "current_command")
     position_feedback = ("output_angle" if getattr(p, "feedback_output", False)
                          else "motor_angle")
+    # the position loop's error and what it measures: the output (delta) on an output encoder
+    position_signals = ("e", "delta" if position_feedback == "output_angle" else "theta")
     if not getattr(p, "cascade", False):
         reference = None
         if np.any(p.derivative_on_measurement):
@@ -383,7 +385,7 @@ def build(p):
             "position_loop", "L_p", "the current command", pid_controller(p, n),
             at_current_command, p.tau_p, position_feedback,
             _filters(p, "position_feedback"), reference=reference,
-            feedforward=(p.ff_a, p.ff_v, 0.0), signals=("e", "theta"),
+            feedforward=(p.ff_a, p.ff_v, 0.0), signals=position_signals,
         )
         return Structure(plant(p), (current, position))
     sensor = _filters(p, "velocity_feedback")
@@ -398,7 +400,7 @@ def build(p):
     position = Loop(
         "position_loop", "L_p", "the velocity command",
         pi_controller("position PI", p.cp_Kp, p.cp_Ki, n), (), p.tau_p, position_feedback,
-        _filters(p, "position_feedback"), feedforward=(p.ff_v, 0.0), signals=("e", "theta"),
+        _filters(p, "position_feedback"), feedforward=(p.ff_v, 0.0), signals=position_signals,
     )
     return Structure(plant(p), (current, velocity, position))
 

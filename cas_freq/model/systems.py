@@ -54,9 +54,10 @@ def plant_system(params):
 
 
 #: Each loop's system name and (input, output) signal names, as python-control shows them:
-#: the symbols of docs/model.md. Each loop runs from its error to its measurement (broken at
-#: its error, which for a unity-feedback loop is the same L as broken at the controller
-#: output).
+#: the symbols of docs/model.md (a position loop on an output encoder measures ``delta``, S
+#: then runs from ``delta_cmd``: :func:`_loop_names`). Each loop runs from its error to its
+#: measurement (broken at its error, which for a unity-feedback loop is the same L as broken
+#: at the controller output).
 LOOP_NAMES = {
     "current_loop": ("L_i", "e_i", "i"),
     "current_closed_loop": ("T_i", "i_cmd", "i"),
@@ -146,10 +147,73 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
     loops["sensitivity"] = control.feedback(control.ss([], [], [], [[1.0]]), top)
     closed = closed_loop_matrices(p, pade_order)
     loops["closed_loop"] = control.ss(closed.a, closed.b, closed.c, closed.d)
+    names = _loop_names(structure)
     named = {key: control.ss(system, name=name, inputs=signal_in, outputs=signal_out)
              for key, system in loops.items()
-             for name, signal_in, signal_out in [LOOP_NAMES[key]]}
+             for name, signal_in, signal_out in [names[key]]}
     return LinearModel(pade_order, plant_system(p), **named)
+
+
+def _loop_names(structure):
+    """:data:`LOOP_NAMES` with each loop's signals as the structure declares them: the
+    position loop measures ``delta`` (and S starts at ``delta_cmd``) when it is closed on an
+    output encoder."""
+    names = {**LOOP_NAMES, **{loop.name: (loop.symbol, *loop.signals)
+                              for loop in structure.loops}}
+    measured = structure.loops[-1].signals[1]
+    names["sensitivity"] = ("S", f"{measured}_cmd", "e")
+    return names
+
+
+#: Largest coefficient [log10] of a loop's characteristic polynomial at which python-control's
+#: polynomial ``stability_margins`` stays in floating point: its stability-margin test
+#: multiplies two squared polynomials (coefficients to the 4th power, past 1.8e308 from ~1e77).
+#: Measured on the shipped variants: 1e75 works, 1e80 raises LinAlgError (infs or NaNs).
+POLYNOMIAL_LOG10_LIMIT = 76.0
+
+
+def polynomial_size(system):
+    """log10 of the largest coefficient of a continuous system's characteristic polynomial
+    (monic, from its poles): what python-control's polynomial margins raise to the 4th power
+    (:data:`POLYNOMIAL_LOG10_LIMIT`). 0 for a static or discrete system (python-control
+    evaluates those on the unit circle)."""
+    if system.isdtime(strict=True) or system.nstates == 0:
+        return 0.0
+    coefficients = np.abs(np.poly(np.linalg.eigvals(system.A)))
+    return float(np.log10(coefficients[coefficients > 0].max()))
+
+
+def largest_polynomial(model):
+    """(name, log10 size) of the loop of a :class:`LinearModel` with the largest
+    characteristic polynomial (:func:`polynomial_size`), over L_i, L_v and L_p."""
+    loops = [(name, getattr(model, name)) for name in
+             ("current_loop", "velocity_loop", "position_loop")]
+    return max(((name, polynomial_size(system)) for name, system in loops
+                if system is not None), key=lambda item: item[1])
+
+
+def margin_safe_model(params, highest):
+    """:func:`linear_model` at the highest Padé order <= ``highest`` at which every loop's
+    characteristic polynomial stays below :data:`POLYNOMIAL_LOG10_LIMIT` (python-control's
+    polynomial ``stability_margins`` then stays finite); order 1 if none does.
+
+    Parameters
+    ----------
+    params : cas_freq.config.ActuatorConfig or cas_freq.parameters.LoopParameters
+        One variant (SI).
+    highest : int
+        The highest order tried.
+
+    Returns
+    -------
+    LinearModel
+    """
+    order = highest
+    model = linear_model(params, order)
+    while order > 1 and largest_polynomial(model)[1] >= POLYNOMIAL_LOG10_LIMIT:
+        order -= 1
+        model = linear_model(params, order)
+    return model
 
 
 def _sampled_model(p, pade_order):
@@ -179,9 +243,10 @@ def _sampled_model(p, pade_order):
     output = stability.SIGNAL_ROWS[structure.output]
     loops["closed_loop"] = control.ss(a, b, c[output:output + 1], d[output:output + 1],
                                       top.period)
+    names = _loop_names(structure)
     named = {key: control.ss(system, name=name, inputs=signal_in, outputs=signal_out)
              for key, system in loops.items()
-             for name, signal_in, signal_out in [LOOP_NAMES[key]]}
+             for name, signal_in, signal_out in [names[key]]}
     plant = plant_system(p)
     a, b = plant.A, plant.B
     held, _ = sampled_stability.hold_equivalent(a[None], b[None], 0.0,

@@ -199,8 +199,10 @@ def _closed_loop_curve(mag, ph, w, c, figures, symbol="δ"):
     None)."""
     words = "not stable: no closed-loop figures"
     if figures is not None:
-        words = (f"ω_BW {figures.bandwidth_rad_s:.4g} rad/s, peak {figures.peak_db:.2f} dB"
-                 if figures.bandwidth_rad_s is not None else f"peak {figures.peak_db:.2f} dB")
+        peak = ("no resonance peak" if figures.peak_db is None
+                else f"peak {figures.peak_db:.2f} dB")
+        words = (f"ω_BW {figures.bandwidth_rad_s:.4g} rad/s, {peak}"
+                 if figures.bandwidth_rad_s is not None else peak)
     mag.plot(w, _db(c.closed_loop), color="C2",
              label=f"T = {symbol}/{symbol}_cmd (closed loop): {words}")
     ph.plot(w, _phase_deg(c.closed_loop, c.omega_rad_s), color="C2")

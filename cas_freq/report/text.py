@@ -159,8 +159,9 @@ def analysis_table(analysis):
     else:
         lines += [
             f"    bandwidth (-3 dB)  {_fmt(closed.bandwidth_rad_s, 'rad/s')}",
-            f"    resonance peak     {_fmt(closed.peak_db, 'dB')} "
-            f"at {_fmt(closed.peak_rad_s, 'rad/s')}",
+            "    resonance peak     " + (
+                f"{_fmt(closed.peak_db, 'dB')} at {_fmt(closed.peak_rad_s, 'rad/s')}"
+                if closed.peak_db is not None else "none (|T| has no interior maximum)"),
             f"    phase -90 deg at   {_fmt(closed.phase_90_rad_s, 'rad/s')}",
         ]
     if analysis.drivetrain is not None:
