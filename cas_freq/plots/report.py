@@ -18,6 +18,8 @@ Titles name the variant and the delay model; every axis label carries its unit.
 import math
 
 import numpy as np
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
 from matplotlib.ticker import MultipleLocator
 
 from cas_freq.analysis.frequency import continuous_phase
@@ -29,6 +31,7 @@ from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_sv
     STYLE,
     SVG_DECIMALS,
     Margins,
+    legend_below,
     legend_room_below,
     legend_room_right,
     loop_color,
@@ -480,25 +483,77 @@ def _limit_words(step):
     return ("no limit hit" if not hit else " and ".join(hit) + " limit hit")
 
 
-def _step_window_s(run):
-    settle = run.step.settling_time_s
+#: A step's own panel runs to this many times the end of its transient
+#: (:func:`transient_end_s`), and at least :data:`STEP_WINDOW_MIN_S` [s].
+STEP_WINDOW_FACTOR = 1.3
+STEP_WINDOW_MIN_S = 0.02
+
+
+def _finite(value):
+    return value is not None and math.isfinite(value)
+
+
+def transient_end_s(run, linear=None):
+    """When a step's transient is over [s]: the nonlinear output within ±5 % of the step for
+    good, the linear step (``linear``, its :class:`~cas_freq.simulation.StepFigures`) within
+    ±2 %, and the last current or voltage limit released; None when the output never stays
+    within ±5 %.
+
+    A creep inside ±5 % (a 10° step that overshoots by 3 % and settles within ±2 % only after
+    80 ms, when everything else is over by 15 ms) does not stretch the panel; the step table
+    gives both settling times and the panel's title the ±2 % one it leaves out.
+    """
+    settle = run.step.settling_time_5pct_s
+    if not _finite(settle):
+        return None
+    ends = [settle]
+    if linear is not None and _finite(linear.settling_time_s):
+        ends.append(linear.settling_time_s)
+    r = run.result
+    limited = np.asarray(r.current_limited, bool) | np.asarray(r.voltage_limited, bool)
+    if limited.any():
+        ends.append(float(np.asarray(r.t)[np.flatnonzero(limited)[-1]]))
+    return max(ends)
+
+
+def _step_window_s(run, linear=None):
+    """A step's own panel [s]: :data:`STEP_WINDOW_FACTOR` × the end of its transient
+    (:func:`transient_end_s`), at least :data:`STEP_WINDOW_MIN_S`, the whole run when it does
+    not settle."""
+    end = transient_end_s(run, linear)
     t_end = float(run.result.t[-1])
-    if settle is None or not math.isfinite(settle):
+    if end is None:
         return t_end
-    return min(t_end, max(1.3 * settle, 0.02))
+    return min(t_end, max(STEP_WINDOW_FACTOR * end, STEP_WINDOW_MIN_S))
+
+
+def _step_title(run, window_s, unit):
+    """``"10° step: current limit hit"``, with the ±2 % settling time when it lies beyond the
+    panel."""
+    title = f"{unit.symbol(run.step.amplitude_deg)} step: {_limit_words(run.step)}"
+    settle = run.step.settling_time_s
+    if _finite(settle) and settle > window_s:
+        title += f"; within ±2 % from {1e3 * settle:.3g} ms"
+    return title
+
+
+def _linear_figures(data, k):
+    """The step figures of the linear step ``k`` of ``data``, None when it has none."""
+    figures = data.linear_step_figures
+    return figures[k] if k < len(figures) else None
 
 
 def steps(data):
     """Smallest and largest step: nonlinear vs linear output angle, current and voltage, with the
     intervals where a limit acts shaded."""
     indices = sorted({data.small_index, data.large_index})
-    fig, axes = _figure(3, len(indices), (5.2 * len(indices), 7.5),
-                        margins=Margins(top=0.65, hgap=0.4))
+    layout = Margins(top=0.65, hgap=0.4)
+    fig, axes = _figure(3, len(indices), (5.2 * len(indices), 7.5), margins=layout)
     params = data.loaded.params
     for col, k in enumerate(indices):
         run = data.dwell.steps[k]
         r = run.result
-        window_s = _step_window_s(run)
+        window_s = _step_window_s(run, _linear_figures(data, k))
         keep = _thin(r.t, window_s)
         t_ms = _r(1e3 * np.asarray(r.t)[keep])
         unit = run.output_unit
@@ -513,7 +568,7 @@ def steps(data):
         top.plot(t_ms, _r(unit.from_si(data.linear_steps[k][keep])), color="C1", ls="--",
                  label=f"linear T (Padé {data.pade_order})")
         top.set_ylabel(f"{params.output_label} {unit.quantity} δ [{unit.shown}]")
-        top.set_title(f"{unit.symbol(run.step.amplitude_deg)} step: {_limit_words(run.step)}")
+        top.set_title(_step_title(run, window_s, unit))
         mid.plot(t_ms, _r(r.i[keep]), color="C0", label="motor current i")
         for sign in (1, -1):
             mid.axhline(sign * current_limit(params), color="C3", ls="--", lw=0.9)
@@ -522,14 +577,17 @@ def steps(data):
         bottom.plot(t_ms, _r(r.V[keep]), color="C0", label="motor voltage V")
         bottom.set_ylabel("voltage V [V]")
         bottom.set_xlabel("time [ms]")
-        if col == 0:
-            top.legend(loc="lower right")
-            mid.fill_between([], [], color="C3", alpha=0.15, label="current limit active")
-            mid.fill_between([], [], color="C1", alpha=0.25, label="voltage limit active")
-            bottom.plot([], [], color="C1", ls="--", lw=0.9, label="±v_max")
-            bottom.legend(loc="upper right")
-            mid.plot([], [], color="C3", ls="--", lw=0.9, label="±i_max")
-            mid.legend(loc="upper right")
+    # one legend below the panels: inside them it covered the curves and the ±i_max lines
+    handles, labels = [], []
+    for ax in axes[:, 0]:  # the curves, each once
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            handles.append(handle)
+            labels.append(label)
+    handles += [Patch(color="C3", alpha=0.15), Patch(color="C1", alpha=0.25),
+                Line2D([], [], color="C3", ls="--", lw=0.9),
+                Line2D([], [], color="C1", ls="--", lw=0.9)]
+    labels += ["current limit active", "voltage limit active", "±i_max", "±v_max"]
+    legend_below(fig, layout, handles, labels, "small", 3)
     fig.suptitle(f"{data.label}: {params.output_label} steps, nonlinear simulation vs linear model "
                  f"(Padé {data.pade_order}); limit intervals shaded")
     return fig
@@ -550,7 +608,7 @@ def step_fit(data):
     reference's fit."""
     run = data.dwell.steps[data.large_index]
     r, fit = run.result, run.fit
-    window_s = _step_window_s(run)
+    window_s = _step_window_s(run, _linear_figures(data, data.large_index))
     keep = _thin(r.t, window_s)
     t = np.asarray(r.t)[keep]
     unit = run.output_unit
@@ -682,6 +740,10 @@ def bandwidth_vs_amplitude(data):
     return fig
 
 
+#: Width of the linear T's band under the sine-dwell traces [pt] (theirs: 1 pt).
+LINEAR_BAND_LW = 6.0
+
+
 def sinedwell(data):
     """Sine-dwell magnitude and phase per amplitude over the linear T; limited points hollow."""
     r = data.dwell.result
@@ -699,9 +761,11 @@ def sinedwell(data):
                     label=unit.symbol(amplitude) if ax is mag else None)
             ax.plot(w[hit], values[hit], "o", color=color, mfc="none", ms=5)
             ax.plot(w[~hit], values[~hit], "o", color=color, ms=4)
-    # the linear T on top, dashed, so that the small-signal trace does not hide it
-    mag.plot(w, _db(lin), color="k", lw=1.2, ls="--", zorder=5, label="linear T (exact delays)")
-    ph.plot(w, _r(np.degrees(np.unwrap(np.angle(lin)))), color="k", lw=1.2, ls="--", zorder=5)
+    # the linear T underneath, a wide pale band: the small-signal trace, which lies on it, is
+    # drawn over it and the band shows on either side (drawn over, dashed, T hid the trace)
+    for ax, values in ((mag, _db(lin)), (ph, _r(np.degrees(np.unwrap(np.angle(lin)))))):
+        ax.plot(w, values, color="k", lw=LINEAR_BAND_LW, alpha=0.25, solid_capstyle="butt",
+                zorder=1.5, label="linear T (exact delays)" if ax is mag else None)
     mag.plot([], [], "ko", mfc="none", label="a limit acts (hollow)")
     mag.axhline(HALF_POWER_DB, color="C7", ls=":", lw=1, label="−3.01 dB")
     mag.set_ylabel("|δ/δ_cmd| first harmonic [dB]")
