@@ -495,9 +495,8 @@ def _finite(value):
 
 def transient_end_s(run, linear=None):
     """When a step's transient is over [s]: the nonlinear output within ±5 % of the step for
-    good, the linear step (``linear``, its :class:`~cas_freq.simulation.StepFigures`) within
-    ±2 %, and the last current or voltage limit released; None when the output never stays
-    within ±5 %.
+    good, the linear step (``linear``, its :class:`~cas_freq.simulation.StepFigures`) too, and
+    the last current or voltage limit released; None when the output never stays within ±5 %.
 
     A creep inside ±5 % (a 10° step that overshoots by 3 % and settles within ±2 % only after
     80 ms, when everything else is over by 15 ms) does not stretch the panel; the step table
@@ -507,8 +506,8 @@ def transient_end_s(run, linear=None):
     if not _finite(settle):
         return None
     ends = [settle]
-    if linear is not None and _finite(linear.settling_time_s):
-        ends.append(linear.settling_time_s)
+    if linear is not None and _finite(linear.settling_time_5pct_s):
+        ends.append(linear.settling_time_5pct_s)
     r = run.result
     limited = np.asarray(r.current_limited, bool) | np.asarray(r.voltage_limited, bool)
     if limited.any():
