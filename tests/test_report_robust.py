@@ -340,3 +340,23 @@ def test_html_prints_wide_tables_whole():
     page = html.render([Table(("a", "b"), (("1", "2"),), "t")], "t")
     rules = page[page.index("@media print"):]
     assert "table-layout: fixed" in rules and "width: 100%" in rules
+
+
+def test_html_cells_break_only_between_words_and_after_key_separators():
+    """What the browser may break in a table cell: text at its spaces and a long key after its
+    dots and underscores; never a number (Chromium broke 1.341e-06 after its hyphen) nor a
+    short one-word cell (a status, a variant)."""
+    from cas_freq.report import html
+    from cas_freq.report.document import Table
+
+    page = html.render([Table(("parameter", "base"), (
+        ("viscous friction μv", "1.341e-06"),
+        ("closed_loop.bandwidth_rad_s", "PASS"),
+        ("x = 1.2e-06 N*m*s/rad (derived)", "−3.5 dB"),
+    ), "t")], "t")
+    body = page[page.index("<tbody>"):]
+    assert '<td class="v">1.341e-06</td>' in body and '<td class="PASS v">PASS</td>' in body
+    assert "<td>closed_<wbr>loop.<wbr>bandwidth_<wbr>rad_<wbr>s</td>" in body
+    assert '<td>x = <span class="v">1.2e-06</span> N*m*s/rad (derived)</td>' in body
+    assert "<td>viscous friction μv</td>" in body and "<td>−3.5 dB</td>" in body
+    assert ".v { white-space: nowrap; }" in page
