@@ -500,7 +500,7 @@ def transient_end_s(run, linear=None):
 
     A creep inside ±5 % (a 10° step that overshoots by 3 % and settles within ±2 % only after
     80 ms, when everything else is over by 15 ms) does not stretch the panel; the step table
-    gives both settling times and the panel's title the ±2 % one it leaves out.
+    gives both settling times and the label of the panel's time axis the ±2 % one it leaves out.
     """
     settle = run.step.settling_time_5pct_s
     if not _finite(settle):
@@ -526,14 +526,12 @@ def _step_window_s(run, linear=None):
     return min(t_end, max(STEP_WINDOW_FACTOR * end, STEP_WINDOW_MIN_S))
 
 
-def _step_title(run, window_s, unit):
-    """``"10° step: current limit hit"``, with the ±2 % settling time when it lies beyond the
-    panel."""
-    title = f"{unit.symbol(run.step.amplitude_deg)} step: {_limit_words(run.step)}"
+def _time_label(run, window_s):
+    """``"time [ms]"``, with the ±2 % settling time when it lies beyond the panel."""
     settle = run.step.settling_time_s
     if _finite(settle) and settle > window_s:
-        title += f"; within ±2 % from {1e3 * settle:.3g} ms"
-    return title
+        return f"time [ms]; within ±2 % from {1e3 * settle:.3g} ms, past the panel"
+    return "time [ms]"
 
 
 def _linear_figures(data, k):
@@ -567,7 +565,7 @@ def steps(data):
         top.plot(t_ms, _r(unit.from_si(data.linear_steps[k][keep])), color="C1", ls="--",
                  label=f"linear T (Padé {data.pade_order})")
         top.set_ylabel(f"{params.output_label} {unit.quantity} δ [{unit.shown}]")
-        top.set_title(_step_title(run, window_s, unit))
+        top.set_title(f"{unit.symbol(run.step.amplitude_deg)} step: {_limit_words(run.step)}")
         mid.plot(t_ms, _r(r.i[keep]), color="C0", label="motor current i")
         for sign in (1, -1):
             mid.axhline(sign * current_limit(params), color="C3", ls="--", lw=0.9)
@@ -575,7 +573,7 @@ def steps(data):
         mid.set_ylabel("current i [A]")
         bottom.plot(t_ms, _r(r.V[keep]), color="C0", label="motor voltage V")
         bottom.set_ylabel("voltage V [V]")
-        bottom.set_xlabel("time [ms]")
+        bottom.set_xlabel(_time_label(run, window_s))
     # one legend below the panels: inside them it covered the curves and the ±i_max lines
     handles, labels = [], []
     for ax in axes[:, 0]:  # the curves, each once
