@@ -303,7 +303,7 @@ def _legends(fig):
 
 def test_overlays_have_bounded_axes_and_readable_legends(datas):
     from cas_freq.plots import overlays
-    from cas_freq.plots import report as plots
+    from cas_freq.plots import steps as step_panels
     from cas_freq.plots.ranges import time_window
 
     labels = ["qt_cas/base", "qt_cas/slow"]
@@ -315,7 +315,7 @@ def test_overlays_have_bounded_axes_and_readable_legends(datas):
     steps = overlays.step_overlay(datas, labels)
     runs = [d.dwell.steps[d.small_index] for d in datas]
     settle = [r.step.settling_time_s for r in runs]
-    own = [plots._step_window_s(r, plots._linear_figures(d, d.small_index))
+    own = [step_panels._step_window_s(r, step_panels._linear_figures(d, d.small_index))
            for r, d in zip(runs, datas, strict=True)]
     expected, _ = time_window(settle, own)
     assert steps.axes[0].get_xlim()[1] == pytest.approx(1e3 * expected)

@@ -4,7 +4,7 @@ and ±v_max lines, the curves), and the small-signal sine-dwell trace is not hid
 linear T.
 
 Structure of the drawn figures, not pixels. The expected windows are worked out by hand from
-the rule of :func:`cas_freq.plots.report.transient_end_s` (1.3 × the latest of the nonlinear
+the rule of :func:`cas_freq.plots.steps.transient_end_s` (1.3 × the latest of the nonlinear
 and the linear ±5 % settling and the last limit interval, at least 20 ms).
 """
 
@@ -16,6 +16,7 @@ import pytest
 
 from cas_freq.config import load_variant
 from cas_freq.plots import report as plots
+from cas_freq.plots import steps as step_panels
 from cas_freq.report.data import ReportSettings, gather_variant
 
 FAST = ReportSettings(
@@ -62,7 +63,7 @@ def _linear(settle_5pct_s):
 )
 def test_step_panel_ends_when_the_transient_is_over(run, linear, window_s):
     # the limit's end is read on the 0.1 ms grid of _run: 1e-9 s is far below it
-    assert plots._step_window_s(run, linear) == pytest.approx(window_s, abs=1e-9)
+    assert step_panels._step_window_s(run, linear) == pytest.approx(window_s, abs=1e-9)
 
 
 @pytest.fixture(scope="module")

@@ -25,14 +25,11 @@ from cas_freq.plots.report import (
     _bandwidth_series,
     _db,
     _in_range,
-    _limit_words,
-    _linear_figures,
     _log_axes,
     _phase_deg,
     _reference_point,
-    _step_window_s,
-    _thin,
 )
+from cas_freq.plots.steps import _limit_words, _linear_figures, _step_window_s, _thin
 
 
 def _colors(datas):
