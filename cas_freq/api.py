@@ -1,14 +1,5 @@
 """The Python API: one actuator variant, or many, in a notebook.
 
->>> import cas_freq as cf
->>> act = cf.load("configs/qt_cas.yaml", variant="fitted", set={"position_loop.Kp": "5 A/rad"})
->>> act.analyze().closed_loop.bandwidth_rad_s        # every figure of ``analyze --json``
->>> act.analyze().plot()                             # Bode of L_i, L_p and T, margins marked
->>> act.frequency_response(omega).plot()             # Bode of L_i, L_p and T
->>> act.simulate(step="10 deg").plot()               # nonlinear step: output angle and current
->>> act.simulate_profile("10 deg", "2000 deg/s", "1e5 deg/s^2").profile  # a profile move
->>> act.vary({"position_loop.Kp": np.linspace(2, 12, 200)}).analyze().closed_loop.bandwidth_rad_s
-
 Nothing is computed here: each method calls the engine the CLI uses (:mod:`cas_freq.config`,
 :mod:`cas_freq.analysis`, :mod:`cas_freq.simulation`, :mod:`cas_freq.model`), so every figure
 is the one the matching command prints. The figures are defined in docs/model.md. matplotlib
@@ -19,6 +10,17 @@ and python-control are imported only by :meth:`FrequencyResponse.plot`,
 In a notebook every result shows a table of its headline figures (``_repr_html_``, from
 :mod:`cas_freq.summary`) and every ``plot()`` figure displays itself (a PNG, no
 ``%matplotlib``); ``repr()`` is a few lines of the same figures.
+
+Examples
+--------
+>>> import cas_freq as cf
+>>> act = cf.load("configs/qt_cas.yaml", variant="fitted", set={"position_loop.Kp": "5 A/rad"})
+>>> act.analyze().closed_loop.bandwidth_rad_s        # every figure of ``analyze --json``
+>>> act.analyze().plot()                             # Bode of L_i, L_p and T, margins marked
+>>> act.frequency_response(omega).plot()             # Bode of L_i, L_p and T
+>>> act.simulate(step="10 deg").plot()               # nonlinear step: output angle and current
+>>> act.simulate_profile("10 deg", "2000 deg/s", "1e5 deg/s^2").profile  # a profile move
+>>> act.vary({"position_loop.Kp": np.linspace(2, 12, 200)}).analyze().closed_loop.bandwidth_rad_s
 """
 
 import dataclasses

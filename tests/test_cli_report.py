@@ -92,6 +92,15 @@ CHROMIUM_OPTIONS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-qu
 #: Browser window widths checked for horizontal overflow [px]: a typical desktop, a narrow one.
 WIDTHS_PX = (1280, 800)
 
+#: Window width at which every table of up to :data:`FITTING_COLUMNS` columns shows whole,
+#: without scrolling in its box [px] (a desktop window; the report's text column is 1100 px).
+TABLE_WINDOW_PX = 1280
+
+#: The most columns of a table that must fit :data:`TABLE_WINDOW_PX`: the verdicts (11) and a
+#: comparison of six variants (8: parameters, verdicts). Compare's every-figure table, a value
+#: and a difference per variant (12 columns for six), is wider by design and scrolls in its box.
+FITTING_COLUMNS = 11
+
 #: Run in the page on its load event (every image loaded): what the browser made of each
 #: figure, and how wide the document is. The result goes into an attribute of <html>, which
 #: --dump-dom prints (an attribute adds nothing to the layout it measures).
@@ -108,9 +117,14 @@ window.addEventListener("load", function () {
     return Array.from(figure.querySelectorAll(":scope > svg, :scope > img")).map(box);
   });
   var files = Array.from(document.querySelectorAll("#cas-freq-probe img")).map(box);
+  var tables = Array.from(document.querySelectorAll("table")).map(function (table) {
+    return {columns: table.querySelectorAll("thead th").length, box: table.clientWidth,
+            content: table.scrollWidth,
+            caption: (table.querySelector("caption") || {}).textContent || ""};
+  });
   document.documentElement.setAttribute("data-check", JSON.stringify({
     innerWidth: window.innerWidth, scrollWidth: document.documentElement.scrollWidth,
-    figures: figures, files: files}));
+    figures: figures, files: files, tables: tables}));
 });
 """
 
@@ -154,7 +168,8 @@ def test_html_renders_in_headless_chromium(which, report_dir, compare_dir, chrom
     """HEADLESS BROWSER CHECK: the qt_cas report and the comparison open from file:// in
     Chromium; every figure is drawn with a non-zero size and every figure file it links to loads
     as an image with a non-zero natural size; the page does not overflow horizontally at
-    1280 px nor at 800 px (wide tables scroll inside their own box)."""
+    1280 px nor at 800 px (wide tables scroll inside their own box); at 1280 px every table of
+    up to :data:`FITTING_COLUMNS` columns shows whole."""
     folder = report_dir if which == "report" else compare_dir
     files = sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*.svg"))
     expected = (len(plots.VARIANT_FIGURES) if which == "report"
@@ -176,3 +191,11 @@ def test_html_renders_in_headless_chromium(which, report_dir, compare_dir, chrom
         assert seen["scrollWidth"] <= seen["innerWidth"], (
             f"{which} overflows horizontally at {width} px: the document is "
             f"{seen['scrollWidth']} px wide")
+        # in a desktop window no column of a table is cut off (parameters, verdicts, the
+        # comparison's six variants): each shows whole in its box, nothing to scroll
+        assert seen["tables"]
+        for table in seen["tables"]:
+            if width >= TABLE_WINDOW_PX and table["columns"] <= FITTING_COLUMNS:
+                assert table["content"] <= table["box"], (
+                    f"{which} at {width} px: the table '{table['caption'][:50]}' is "
+                    f"{table['content']} px wide in a {table['box']} px box")

@@ -102,3 +102,90 @@ def test_every_command_and_option_is_in_the_cli_reference():
             assert shown in section, f"{path}: {shown}"
             if action.help:
                 assert " ".join(action.help.split()[:4]).split("%")[0] in section, (path, shown)
+
+
+# ---- the site as a reader sees it ------------------------------------------------------------
+
+
+def _rendered_modules():
+    """The modules docs/reference/api.md has mkdocstrings render (``::: module`` lines)."""
+    page = (ROOT / "docs/reference/api.md").read_text(encoding="utf-8")
+    return re.findall(r"^::: (\S+)", page, re.MULTILINE)
+
+
+def _docstrings(module):
+    """(name, docstring) of a module, its public classes and functions and their methods."""
+    import inspect
+
+    yield module.__name__, module.__doc__
+    for name, obj in vars(module).items():
+        if name.startswith("_") or getattr(obj, "__module__", None) != module.__name__:
+            continue
+        if inspect.isclass(obj) or inspect.isfunction(obj):
+            yield f"{module.__name__}.{name}", obj.__doc__
+        if inspect.isclass(obj):
+            for member, value in vars(obj).items():
+                if not member.startswith("_") and (inspect.isfunction(value)
+                                                   or isinstance(value, property)):
+                    yield f"{module.__name__}.{name}.{member}", value.__doc__
+
+
+def test_doctest_lines_of_the_api_reference_sit_in_examples_sections():
+    """A ``>>>`` line outside a numpydoc ``Examples`` section is text to mkdocstrings' numpy
+    parser, and Markdown makes the lines one run-on nested quote (the ``cas_freq.api`` module's
+    example lost its code block); inside ``Examples`` they render as code."""
+    import importlib
+    import inspect
+
+    modules = _rendered_modules()
+    assert "cas_freq.api" in modules
+    misplaced = []
+    for module in modules:
+        for name, doc in _docstrings(importlib.import_module(module)):
+            lines = inspect.cleandoc(doc or "").splitlines()
+            section = None
+            for k, line in enumerate(lines):
+                if k + 1 < len(lines) and line.strip() and re.fullmatch(r"-{3,}",
+                                                                         lines[k + 1].strip()):
+                    section = line.strip()
+                if line.lstrip().startswith(">>>") and section != "Examples":
+                    misplaced.append(f"{name} (in {section or 'its text'}): {line.strip()}")
+                    break
+    assert not misplaced, misplaced
+
+
+def _mkdocs_config():
+    """mkdocs.yml read as MkDocs reads it (PyYAML's full Loader: ``!!python/...`` tags run)."""
+    import yaml
+
+    with open(ROOT / "mkdocs.yml", encoding="utf-8") as handle:
+        return yaml.load(handle, Loader=yaml.Loader)  # noqa: S506 (our own file, as MkDocs)
+
+
+def test_mkdocs_config_silences_only_the_gallery_s_deprecation_warning():
+    """MkDocs shows every DeprecationWarning (``simplefilter("module")``, with a stack) from
+    before it reads mkdocs.yml; the file's filter drops mkdocs-gallery's import of
+    ``mkdocs.utils.warning_filter`` and nothing else."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("module", DeprecationWarning)  # as mkdocs' CLI sets it
+        _mkdocs_config()
+        # the message MkDocs 1.6 gives (mkdocs/utils/__init__.py), and another one
+        warnings.warn("warning_filter doesn't do anything since MkDocs 1.2 and will be removed "
+                      "soon.", DeprecationWarning, stacklevel=1)
+        warnings.warn("something else is deprecated", DeprecationWarning, stacklevel=1)
+    assert [str(w.message) for w in caught] == ["something else is deprecated"]
+
+
+def test_a_key_in_a_table_s_first_column_stays_whole():
+    """Material lets inline code break anywhere: the config reference's narrow key column
+    showed "velocity_loo p". The site's stylesheet, listed in mkdocs.yml, keeps the first
+    column's code on one line."""
+    config = _mkdocs_config()
+    assert "stylesheets/extra.css" in config["extra_css"]
+    css = (ROOT / "docs/stylesheets/extra.css").read_text(encoding="utf-8")
+    rule = re.search(r"\.md-typeset td:first-child > code\s*\{([^}]*)\}", css)
+    assert rule and "white-space: nowrap" in rule.group(1)
+    # the config reference's keys are that column's code
+    assert "| `velocity_loop.Kp` |" in reference.config_reference()

@@ -281,8 +281,8 @@ def test_steps_figure_shades_the_limits(data):
     assert "current limit hit" in large_top.get_title()
     assert not [p for p in small_top.patches]  # nothing shaded at 0.5 deg
     assert large_top.patches  # the current-limit interval(s) at 10 deg
-    legend = [t.get_text() for t in small_top.get_legend().get_texts()]
-    assert "linear T (Padé 6)" in legend
+    (legend,) = fig.legends  # one, below the panels
+    assert "linear T (Padé 6)" in [t.get_text() for t in legend.get_texts()]
 
 
 def test_svg_is_reproducible_and_inlines(data):

@@ -303,7 +303,7 @@ def _legends(fig):
 
 def test_overlays_have_bounded_axes_and_readable_legends(datas):
     from cas_freq.plots import overlays
-    from cas_freq.plots import report as plots
+    from cas_freq.plots import steps as step_panels
     from cas_freq.plots.ranges import time_window
 
     labels = ["qt_cas/base", "qt_cas/slow"]
@@ -315,15 +315,22 @@ def test_overlays_have_bounded_axes_and_readable_legends(datas):
     steps = overlays.step_overlay(datas, labels)
     runs = [d.dwell.steps[d.small_index] for d in datas]
     settle = [r.step.settling_time_s for r in runs]
-    expected, _ = time_window(settle, [plots._step_window_s(r) for r in runs])
+    own = [step_panels._step_window_s(r, step_panels._linear_figures(d, d.small_index))
+           for r, d in zip(runs, datas, strict=True)]
+    expected, _ = time_window(settle, own)
     assert steps.axes[0].get_xlim()[1] == pytest.approx(1e3 * expected)
     for fig in (bode, steps, overlays.bandwidth_overlay(datas, labels)):
         legends = _legends(fig)
         assert legends and all(legend in fig.legends for legend in legends)  # outside the axes
         assert min(text.get_fontsize() for legend in legends
                    for text in legend.get_texts()) >= 8.0
+    # the caption names the rule that set the axis: here the slow variant's whole run (it does
+    # not settle, 2.5 × the median of the two would be longer), not the median
     caption = overlays.step_overlay_caption(datas, labels)
-    assert "2.5× the median settling time" in caption
+    longest = max(own)
+    assert expected == pytest.approx(longest)
+    assert (f"smallest steps over {1e3 * longest:.3g} ms (the longest of the variants' own "
+            "step panels)") in caption
 
 
 def test_html_prints_wide_tables_whole():
@@ -333,3 +340,23 @@ def test_html_prints_wide_tables_whole():
     page = html.render([Table(("a", "b"), (("1", "2"),), "t")], "t")
     rules = page[page.index("@media print"):]
     assert "table-layout: fixed" in rules and "width: 100%" in rules
+
+
+def test_html_cells_break_only_between_words_and_after_key_separators():
+    """What the browser may break in a table cell: text at its spaces and a long key after its
+    dots and underscores; never a number (Chromium broke 1.341e-06 after its hyphen) nor a
+    short one-word cell (a status, a variant)."""
+    from cas_freq.report import html
+    from cas_freq.report.document import Table
+
+    page = html.render([Table(("parameter", "base"), (
+        ("viscous friction μv", "1.341e-06"),
+        ("closed_loop.bandwidth_rad_s", "PASS"),
+        ("x = 1.2e-06 N*m*s/rad (derived)", "−3.5 dB"),
+    ), "t")], "t")
+    body = page[page.index("<tbody>"):]
+    assert '<td class="v">1.341e-06</td>' in body and '<td class="PASS v">PASS</td>' in body
+    assert "<td>closed_<wbr>loop.<wbr>bandwidth_<wbr>rad_<wbr>s</td>" in body
+    assert '<td>x = <span class="v">1.2e-06</span> N*m*s/rad (derived)</td>' in body
+    assert "<td>viscous friction μv</td>" in body and "<td>−3.5 dB</td>" in body
+    assert ".v { white-space: nowrap; }" in page

@@ -134,14 +134,17 @@ def test_closed_loop_figure_draws_the_bandwidth_requirement(data):
     assert "requirement ω_BW ≥ 300 rad/s" in labels
 
 
-def test_sinedwell_figure_linear_on_top_and_limits_in_both_panels(data):
+def test_sinedwell_figure_linear_band_and_limits_in_both_panels(data):
     from cas_freq.plots import report as plots
 
     fig = plots.sinedwell(data)
     mag, ph = fig.axes[:2]
+    # the linear T a wide band under every trace: the small-signal trace lies on it and shows
+    # (drawn on top, dashed, T hid it), the band on either side of it
     linear = [line for line in mag.lines if line.get_label() == "linear T (exact delays)"]
-    assert linear and linear[0].get_zorder() > max(
-        line.get_zorder() for line in mag.lines if line is not linear[0])
+    others = [line for line in mag.lines if line is not linear[0]]
+    assert linear and linear[0].get_zorder() < min(line.get_zorder() for line in others)
+    assert linear[0].get_linewidth() > 2 * max(line.get_linewidth() for line in others)
     # the 10 deg dwell hits a limit: hollow markers in the magnitude AND the phase panel
     for ax in (mag, ph):
         assert any(line.get_marker() == "o" and line.get_markerfacecolor() == "none"

@@ -22,6 +22,7 @@ from matplotlib import rc_context
 from matplotlib.figure import Figure
 from matplotlib.ticker import Locator, LogFormatterSciNotation
 
+from cas_freq.config.wording import OutputWords
 from cas_freq.report.numbers import round_array
 
 #: Style of every figure (and of the SVG writer): fixed, so output does not depend on a user's
@@ -315,3 +316,8 @@ LOOP_COLORS = {"current_loop": "C0", "velocity_loop": "C4", "position_loop": "C1
 def loop_color(name):
     """The colour of loop ``name`` (a key of :data:`LOOP_COLORS`) in every loop figure."""
     return LOOP_COLORS.get(name, "C5")
+
+
+def output_symbol(data):
+    """The output's symbol in one variant's labels: δ (an angle), x (a linear output)."""
+    return OutputWords.of(data.loaded.params).symbol

@@ -25,13 +25,11 @@ from cas_freq.plots.report import (
     _bandwidth_series,
     _db,
     _in_range,
-    _limit_words,
     _log_axes,
     _phase_deg,
     _reference_point,
-    _step_window_s,
-    _thin,
 )
+from cas_freq.plots.steps import _limit_words, _linear_figures, _step_window_s, _thin
 
 
 def _colors(datas):
@@ -131,9 +129,11 @@ def _velocity_rows(mag, ph, datas):
 
 def _step_overlay_window(datas, which):
     """(window [s], labels' indices off the panel) of the step ``which`` of every variant."""
-    runs = [d.dwell.steps[getattr(d, which)] for d in datas]
+    indices = [getattr(d, which) for d in datas]
+    runs = [d.dwell.steps[k] for d, k in zip(datas, indices, strict=True)]
     return time_window([run.step.settling_time_s for run in runs],
-                       [_step_window_s(run) for run in runs])
+                       [_step_window_s(run, _linear_figures(d, k))
+                        for run, d, k in zip(runs, datas, indices, strict=True)])
 
 
 def step_overlay(datas, labels):
@@ -179,8 +179,10 @@ def step_overlay_caption(datas, labels):
     parts = []
     for which, name in (("small_index", "smallest"), ("large_index", "largest")):
         window_s, off = _step_overlay_window(datas, which)
-        text = f"{name} steps over {1e3 * window_s:.3g} ms ({SETTLING_FACTOR:g}× the median " \
-               "settling time)"
+        # the median rule shortens the axis only when some variant's own panel is longer
+        why = (f"{SETTLING_FACTOR:g}× the median settling time" if off
+               else "the longest of the variants' own step panels")
+        text = f"{name} steps over {1e3 * window_s:.3g} ms ({why})"
         if off:
             text += f"; {', '.join(labels[k] for k in off)} settle later and run off the panel"
         parts.append(text)

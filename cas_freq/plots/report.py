@@ -21,7 +21,7 @@ import numpy as np
 from matplotlib.ticker import MultipleLocator
 
 from cas_freq.analysis.frequency import continuous_phase
-from cas_freq.config.wording import OutputWords, common_output_label
+from cas_freq.config.wording import common_output_label
 from cas_freq.output import output_unit
 from cas_freq.plots import loci
 from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_svg re-exported)
@@ -29,6 +29,7 @@ from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_sv
     STYLE,
     SVG_DECIMALS,
     Margins,
+    legend_below,
     legend_room_below,
     legend_room_right,
     loop_color,
@@ -38,18 +39,13 @@ from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_sv
     tidy_svg,
 )
 from cas_freq.plots.common import figure as _figure
+from cas_freq.plots.common import output_symbol as _symbol
 from cas_freq.plots.common import rounded as _r
+from cas_freq.plots.steps import step_fit, steps
 from cas_freq.plots.stiffness import caption as stiffness_caption
 from cas_freq.plots.stiffness import stiffness as stiffness_figure
-from cas_freq.report.data import current_limit
-from cas_freq.simulation.second_order import second_order_step
 
 HALF_POWER_DB = 20.0 * math.log10(1.0 / math.sqrt(2.0))
-
-
-def _symbol(data):
-    """The output's symbol in one variant's labels: δ (an angle), x (a linear output)."""
-    return OutputWords.of(data.loaded.params).symbol
 
 
 def _db(values):
@@ -438,162 +434,6 @@ def nichols(data, magnitude_range_db=(-40.0, 60.0)):
     return fig
 
 
-#: Most samples drawn per time-domain line (the simulations have tens of thousands).
-MAX_LINE_POINTS = 800
-
-
-def _thin(t, window_s):
-    """Indices of the samples up to ``window_s`` [s], strided to at most MAX_LINE_POINTS."""
-    t = np.asarray(t)
-    last = min(int(np.searchsorted(t, window_s, side="right")) + 1, t.size)
-    stride = max(1, math.ceil(last / MAX_LINE_POINTS))
-    keep = np.arange(0, last, stride)
-    return keep if keep[-1] == last - 1 else np.append(keep, last - 1)
-
-
-#: Gaps between limit intervals narrower than this fraction of the window are bridged when
-#: shaded (a clamp that chatters would otherwise draw thousands of spans below one pixel).
-SHADE_MERGE_FRACTION = 1e-3
-
-
-def _intervals(t, mask, merge_gap=0.0, end=None):
-    """(start, end) times of the runs where ``mask`` is true, at full resolution; runs
-    separated by at most ``merge_gap`` are joined, and only those starting by ``end`` kept."""
-    mask = np.asarray(mask, bool)
-    if not mask.any():
-        return []
-    edges = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
-    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
-    t = np.asarray(t)
-    intervals = []
-    for a, b in zip(t[starts], t[ends], strict=True):
-        if end is not None and a > end:
-            break
-        if intervals and a - intervals[-1][1] <= merge_gap:
-            intervals[-1][1] = float(b)
-        else:
-            intervals.append([float(a), float(b)])
-    return [tuple(interval) for interval in intervals]
-
-
-def _shade_limits(ax, t_ms, result, window_ms=None):
-    gap = 0.0 if window_ms is None else SHADE_MERGE_FRACTION * window_ms
-    for mask, color, alpha in ((result.current_limited, "C3", 0.15),
-                               (result.voltage_limited, "C1", 0.25)):
-        for start, end in _intervals(t_ms, mask, gap, window_ms):
-            ax.axvspan(start, max(end, start + 1e-3), color=color, alpha=alpha, lw=0)
-
-
-def _limit_words(step):
-    hit = [name for name, flag in (("current", step.current_limited),
-                                   ("voltage", step.voltage_limited)) if flag]
-    return ("no limit hit" if not hit else " and ".join(hit) + " limit hit")
-
-
-def _step_window_s(run):
-    settle = run.step.settling_time_s
-    t_end = float(run.result.t[-1])
-    if settle is None or not math.isfinite(settle):
-        return t_end
-    return min(t_end, max(1.3 * settle, 0.02))
-
-
-def steps(data):
-    """Smallest and largest step: nonlinear vs linear output angle, current and voltage, with the
-    intervals where a limit acts shaded."""
-    indices = sorted({data.small_index, data.large_index})
-    fig, axes = _figure(3, len(indices), (5.2 * len(indices), 7.5),
-                        margins=Margins(top=0.65, hgap=0.4))
-    params = data.loaded.params
-    for col, k in enumerate(indices):
-        run = data.dwell.steps[k]
-        r = run.result
-        window_s = _step_window_s(run)
-        keep = _thin(r.t, window_s)
-        t_ms = _r(1e3 * np.asarray(r.t)[keep])
-        unit = run.output_unit
-        top, mid, bottom = axes[:, col]
-        for ax in (top, mid, bottom):
-            _shade_limits(ax, 1e3 * np.asarray(r.t), r, 1e3 * window_s)
-            ax.set_xlim(0.0, 1e3 * window_s)
-        top.plot(t_ms, _r(unit.from_si(r.command[keep])), color="k", lw=0.8, ls=":",
-                 label=f"command {_symbol(data)}_cmd")
-        top.plot(t_ms, _r(unit.from_si(r.delta[keep])), color="C0",
-                 label="nonlinear (limits, exact delays)")
-        top.plot(t_ms, _r(unit.from_si(data.linear_steps[k][keep])), color="C1", ls="--",
-                 label=f"linear T (Padé {data.pade_order})")
-        top.set_ylabel(f"{params.output_label} {unit.quantity} {_symbol(data)} [{unit.shown}]")
-        top.set_title(f"{unit.symbol(run.step.amplitude_deg)} step: {_limit_words(run.step)}")
-        mid.plot(t_ms, _r(r.i[keep]), color="C0", label="motor current i")
-        for sign in (1, -1):
-            mid.axhline(sign * current_limit(params), color="C3", ls="--", lw=0.9)
-            bottom.axhline(sign * params.current_loop.v_max, color="C1", ls="--", lw=0.9)
-        mid.set_ylabel("current i [A]")
-        bottom.plot(t_ms, _r(r.V[keep]), color="C0", label="motor voltage V")
-        bottom.set_ylabel("voltage V [V]")
-        bottom.set_xlabel("time [ms]")
-        if col == 0:
-            top.legend(loc="lower right")
-            mid.fill_between([], [], color="C3", alpha=0.15, label="current limit active")
-            mid.fill_between([], [], color="C1", alpha=0.25, label="voltage limit active")
-            bottom.plot([], [], color="C1", ls="--", lw=0.9, label="±v_max")
-            bottom.legend(loc="upper right")
-            mid.plot([], [], color="C3", ls="--", lw=0.9, label="±i_max")
-            mid.legend(loc="upper right")
-    fig.suptitle(f"{data.label}: {params.output_label} steps, nonlinear simulation vs linear model "
-                 f"(Padé {data.pade_order}); limit intervals shaded")
-    return fig
-
-
-def _reference_fit(data):
-    """(reference, its fit) when the config declares a reference fit with ωn and ζ, else
-    None."""
-    reference = data.reference
-    fit = None if reference is None else reference.fit
-    if fit is None or fit.wn is None or fit.zeta is None:
-        return None
-    return reference, fit
-
-
-def step_fit(data):
-    """The largest step with its second-order fit and, when the config declares one, the
-    reference's fit."""
-    run = data.dwell.steps[data.large_index]
-    r, fit = run.result, run.fit
-    window_s = _step_window_s(run)
-    keep = _thin(r.t, window_s)
-    t = np.asarray(r.t)[keep]
-    unit = run.output_unit
-    a_deg = unit.value(run.step.amplitude_deg)  # the step in the unit the axis shows
-    fig, axes = _figure(1, 1, (8, 4.5), margins=Margins(top=0.6))
-    ax = axes[0, 0]
-    window = 1e3 * window_s
-    t_ms = _r(1e3 * t)
-    ax.plot(t_ms, _r(unit.from_si(r.delta[keep])), color="C0", lw=2.2, alpha=0.7,
-            label="nonlinear simulation (data)")
-    if fit.success:
-        ax.plot(t_ms, _r(second_order_step(t, fit.wn_rad_s, fit.zeta, fit.td_s, a_deg)),
-                color="C3", ls="--", label=f"fit: ωn {fit.wn_rad_s:.4g} rad/s, ζ {fit.zeta:.3g}, "
-                f"td {1e3 * fit.td_s:.3g} ms")
-    ref = _reference_fit(data)
-    if ref is not None:
-        reference, fit_ref = ref
-        source = f" ({reference.source})" if reference.source else ""
-        ax.plot(t_ms, _r(second_order_step(t, fit_ref.wn, fit_ref.zeta, fit_ref.td or 0.0,
-                                           a_deg)),
-                color="k", ls=":", label=f"reference fit{source}: ωn {fit_ref.wn:g} rad/s, "
-                f"ζ {fit_ref.zeta:g}, td {1e3 * (fit_ref.td or 0.0):g} ms")
-    ax.set_xlim(0.0, window)
-    ax.set_xlabel("time [ms]")
-    ax.set_ylabel(f"{data.loaded.params.output_label} {unit.quantity} {_symbol(data)} "
-                  f"[{unit.shown}]")
-    ax.legend(loc="lower right")
-    ax.set_title(f"{unit.symbol(run.step.amplitude_deg)} step: second-order-plus-delay fit "
-                 "(docs/model.md §7)")
-    fig.suptitle(f"{data.label}: second-order fit to the nonlinear step (exact delays)")
-    return fig
-
-
 def _bandwidth_bounds(verdicts):
     """The distinct lower bounds of the closed-loop bandwidth requirements [rad/s]."""
     bounds = []
@@ -693,6 +533,10 @@ def bandwidth_vs_amplitude(data):
     return fig
 
 
+#: Width of the linear T's band under the sine-dwell traces [pt] (theirs: 1 pt).
+LINEAR_BAND_LW = 6.0
+
+
 def sinedwell(data):
     """Sine-dwell magnitude and phase per amplitude over the linear T; limited points hollow."""
     r = data.dwell.result
@@ -710,9 +554,11 @@ def sinedwell(data):
                     label=unit.symbol(amplitude) if ax is mag else None)
             ax.plot(w[hit], values[hit], "o", color=color, mfc="none", ms=5)
             ax.plot(w[~hit], values[~hit], "o", color=color, ms=4)
-    # the linear T on top, dashed, so that the small-signal trace does not hide it
-    mag.plot(w, _db(lin), color="k", lw=1.2, ls="--", zorder=5, label="linear T (exact delays)")
-    ph.plot(w, _r(np.degrees(np.unwrap(np.angle(lin)))), color="k", lw=1.2, ls="--", zorder=5)
+    # the linear T underneath, a wide pale band: the small-signal trace, which lies on it, is
+    # drawn over it and the band shows on either side (drawn over, dashed, T hid the trace)
+    for ax, values in ((mag, _db(lin)), (ph, _r(np.degrees(np.unwrap(np.angle(lin)))))):
+        ax.plot(w, values, color="k", lw=LINEAR_BAND_LW, alpha=0.25, solid_capstyle="butt",
+                zorder=1.5, label="linear T (exact delays)" if ax is mag else None)
     mag.plot([], [], "ko", mfc="none", label="a limit acts (hollow)")
     mag.axhline(HALF_POWER_DB, color="C7", ls=":", lw=1, label="−3.01 dB")
     symbol = _symbol(data)
