@@ -631,7 +631,7 @@ def test_a_sampled_variant_s_discretisation_is_a_choice_that_moves_the_figures_a
     from cas_freq.config import load_variant
     from cas_freq.design.server import Design
 
-    design = Design(SHIPPED, "sampled")
+    design = Design(SHIPPED, "sampled", save_dir=tmp_path)
     (choice,) = [c for c in design.controls if c["key"] == "sampling.method"]
     assert choice["choices"] == ["backward", "tustin"] and choice["value"] == "backward"
     shown = {}
