@@ -198,11 +198,16 @@ def test_every_continuous_representation_has_the_measurement_filters(case):
     omega = np.geomspace(1.0, 1e5, 40)
     reference = loops.responses(loops.Selector(p)(), 1j * omega, delay=DelayModel(6))
     model = linear_model(p, 6)
+    # 1e-7 relative, and 1e-12 of the response's largest magnitude absolute: the state
+    # space's rounding is absolute, so T at 1e5 rad/s (1e-11 of its DC gain) is 1.3e-7 off
+    # relative (1.4e-18 absolute) on an AVX2 CPU
     for name in build(p).names:
         np.testing.assert_allclose(np.squeeze(getattr(model, name)(1j * omega)),
-                                   reference.loops[name], rtol=1e-7)
+                                   reference.loops[name], rtol=1e-7,
+                                   atol=1e-12 * np.max(np.abs(reference.loops[name])))
     np.testing.assert_allclose(np.squeeze(model.closed_loop(1j * omega)),
-                               reference.closed_loop, rtol=1e-7)
+                               reference.closed_loop, rtol=1e-7,
+                               atol=1e-12 * np.max(np.abs(reference.closed_loop)))
     # the compiled grid responses = numpy's
     compiled = grid_responses(loops.Selector(p)(column=True), omega, 1, EXACT)
     exact = loops.responses(loops.Selector(p)(), 1j * omega)
