@@ -1,5 +1,6 @@
 """Threads: one BLAS thread around the toolbox's small dense linear algebra, the caller's
-setting kept; and worker threads that an interrupt does not wait for (:func:`worker_threads`).
+setting kept; and worker threads that an interrupt does not wait for (:func:`worker_threads`,
+:func:`result_of`).
 
 The toolbox's linear algebra is many small matrices (5 x 5 exponentials, eigenvalues of loop
 matrices, 3 x 3 solves), where BLAS's threads only contend: on a loaded machine a 5 x 5
@@ -14,6 +15,10 @@ import concurrent.futures
 import contextlib
 
 _CONTROLLER = None
+
+#: The longest a wait of the main thread for a worker thread lasts before Python code runs
+#: again [s]: the next wait starts after it (:func:`result_of`).
+WAIT_SLICE_S = 0.05
 
 
 def _controller():
@@ -57,7 +62,9 @@ def worker_threads(max_workers, thread_name_prefix=""):
     minutes on a loaded machine) or analysed a large batch acted only once they were done.
     Here an exception (Ctrl-C, SIGTERM, an error) leaves at once: the tasks not started are
     cancelled, the running ones end on their own, their results unused (the CLI then ends the
-    process).
+    process). Where it ends normally, the threads are waited for in slices, as :func:`result_of`
+    waits (which the block should use for the tasks' results), so that a Ctrl-C then acts at
+    once too.
 
     Parameters
     ----------
@@ -70,7 +77,38 @@ def worker_threads(max_workers, thread_name_prefix=""):
                                                  thread_name_prefix=thread_name_prefix)
     try:
         yield pool
+        pool.shutdown(wait=False)  # the threads end once the tasks submitted are done
+        for thread in list(pool._threads):  # waited for in slices, as in result_of()
+            while thread.is_alive():
+                thread.join(WAIT_SLICE_S)
     except BaseException:
         pool.shutdown(wait=False, cancel_futures=True)
         raise
-    pool.shutdown(wait=True)
+
+
+def result_of(future):
+    """``future.result()``, waited for in slices of :data:`WAIT_SLICE_S`, so that a Ctrl-C
+    acts within one slice: call it, not ``future.result()``, for a worker's result in the main
+    thread (``pool.map``'s results are such waits too).
+
+    A wait without a timeout acts on a signal only if the signal interrupts it: one that
+    arrives just before the wait blocks (the main thread has passed the last point where
+    Python runs a pending handler, in the few instructions between
+    ``Condition.wait`` and its lock's acquire) is handled only once the wait ends, when the
+    task has returned. A Ctrl-C sent just as a worker started was so held for the worker's
+    whole task about one time in ten (tests/test_lost_interrupts.py); a real one during a
+    first run's compiling would have been held for minutes.
+
+    Parameters
+    ----------
+    future : concurrent.futures.Future
+        A task's future.
+
+    Returns
+    -------
+    object
+        The task's result; its exception is raised.
+    """
+    while not future.done():
+        concurrent.futures.wait((future,), timeout=WAIT_SLICE_S)
+    return future.result()

@@ -11,9 +11,12 @@ such code, so its handler runs there, as when the signal arrives during the comp
 A first report compiles its simulation kernels in a worker thread (prepare_kernels) and the
 frequency-domain batch runs its chunks in worker threads; ``with ThreadPoolExecutor()`` waited
 for them on leaving the block, so a Ctrl-C there acted only once a first run's compiling was
-done (minutes on a loaded machine).
+done (minutes on a loaded machine). A wait without a timeout also held a Ctrl-C that arrived
+just before it blocked until the task returned (one test run in ten here): the main thread
+waits in slices (cas_freq.threads.result_of).
 """
 
+import _thread
 import ctypes
 import importlib
 import signal
@@ -29,7 +32,7 @@ import cas_freq.simulation.simulator as simulator
 from cas_freq.cli import main
 from cas_freq.config import load_variant
 from cas_freq.parameters import LoopParameters
-from cas_freq.threads import worker_threads
+from cas_freq.threads import result_of, worker_threads
 
 # the module (cas_freq.analysis exports its function analyze under the same name)
 analyze = importlib.import_module("cas_freq.analysis.analyze")
@@ -188,6 +191,26 @@ def test_worker_threads_are_not_waited_for_after_an_interrupt(blocked):
     with worker_threads(1) as pool:  # ended normally, the tasks are waited for
         future = pool.submit(time.sleep, 0.2)
     assert future.done()
+
+
+@pytest.mark.parametrize("wait", ["result_of", "leaving the block"])
+def test_an_interrupt_pending_while_the_main_thread_waits_acts_at_once(wait, blocked):
+    # _thread.interrupt_main sets SIGINT pending as a signal does, without interrupting the
+    # main thread's wait: the state a Ctrl-C leaves where it arrives just before the wait blocks
+    # (Python runs the handler where Python code runs next, or where the signal interrupts a
+    # wait); a wait without a timeout held it until the task returned
+    def task():
+        time.sleep(0.2)  # the main thread waiting meanwhile
+        _thread.interrupt_main()
+        blocked()
+
+    start = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        with worker_threads(1) as pool:
+            future = pool.submit(task)
+            if wait == "result_of":
+                result_of(future)
+    assert time.perf_counter() - start < 0.2 + ACTED_WITHIN_S
 
 
 def test_ctrl_c_while_a_first_run_compiles_the_kernels_in_their_thread(blocked, monkeypatch):

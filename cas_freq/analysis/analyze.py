@@ -58,7 +58,7 @@ from cas_freq.model.sampled import grid_responses as sampled_grid_responses
 from cas_freq.model.structure import build, total_delay
 from cas_freq.output import output_json, output_unit
 from cas_freq.summary import Summary
-from cas_freq.threads import worker_threads
+from cas_freq.threads import result_of, worker_threads
 
 #: Variants per chunk: the grid responses take about 26 kB per variant and response.
 DEFAULT_CHUNK = 256
@@ -367,7 +367,9 @@ def batch_analyze(
 
     # numpy releases the GIL inside its array loops, so chunks overlap on several cores
     with worker_threads(_workers(workers, len(starts))) as pool:  # Ctrl-C: not waited for
-        for start, (values, chunk_verdicts) in zip(starts, pool.map(work, starts), strict=True):
+        futures = [pool.submit(work, start) for start in starts]  # pool.map, its waits sliced
+        for start, future in zip(starts, futures, strict=True):
+            values, chunk_verdicts = result_of(future)
             stop = min(start + chunk_size, n)
             for name in names:
                 figures[name][start:stop] = values[name]

@@ -78,7 +78,7 @@ from cas_freq.simulation.engine import (
     Engine,
 )
 from cas_freq.simulation.recording import Recording, RecordingBuffers  # noqa: F401 (re-exported)
-from cas_freq.threads import worker_threads
+from cas_freq.threads import result_of, worker_threads
 
 #: Largest default step [s].
 MAX_DEFAULT_STEP_S = 20e-6
@@ -697,19 +697,20 @@ def prepare_kernels(params):
     loads them from the cache (~0.4 s), as the process would anyway.
 
     The work runs in a new thread, waited for before this returns, except after an interrupt
-    (Ctrl-C), raised at once (:func:`cas_freq.threads.worker_threads`). numba's compiler recurses
-    deeply, and where the caller is itself deep in a call stack (pytest, a notebook) CPython
-    3.11 can keep crossing a boundary of its frame-stack chunks, mapping and unmapping one at
-    every crossing: compiling for one test took 22.8 s of user and 15.6 s of system time there
-    against 20.8 s and 1.7 s in a new thread, which starts a stack of its own (``strace -c``:
-    1.2 million mmap/munmap calls).
+    (Ctrl-C), raised at once (:func:`cas_freq.threads.worker_threads`,
+    :func:`cas_freq.threads.result_of`). numba's compiler recurses deeply, and where the caller
+    is itself deep in a call stack (pytest, a notebook) CPython 3.11 can keep crossing a
+    boundary of its frame-stack chunks, mapping and unmapping one at every crossing: compiling
+    for one test took 22.8 s of user and 15.6 s of system time there against 20.8 s and 1.7 s
+    in a new thread, which starts a stack of its own (``strace -c``: 1.2 million mmap/munmap
+    calls).
     """
     from cas_freq.jit import use_compiled
 
     if not use_compiled():
         return
     with worker_threads(1, "cas_freq-prepare-kernels") as thread:
-        thread.submit(_prepare_kernels, params).result()  # its failure raised again here
+        result_of(thread.submit(_prepare_kernels, params))  # its failure raised again here
 
 
 def _prepare_kernels(params):

@@ -19,7 +19,7 @@ from cas_freq.simulation.commands import Step
 from cas_freq.simulation.second_order import fit_second_order_batch
 from cas_freq.simulation.simulator import RecordingBuffers, simulate_batch
 from cas_freq.simulation.step_figures import simulation_step_figures
-from cas_freq.threads import worker_threads
+from cas_freq.threads import result_of, worker_threads
 
 #: Runs simulated together: memory is about 10 signals x 8 B x samples (up to 80,001) per run
 #: (the kernel writes only :data:`STEP_SIGNALS` of them).
@@ -158,7 +158,7 @@ def chunk_step_figures(result, amplitude_rad, sizes):
 
 def _store_fits(out, start, future, done, n, progress):
     """Write a chunk's fits (from ``future``) into ``out`` from run ``start``; count them."""
-    models = future.result()
+    models = result_of(future)
     for run, model in enumerate(models, start):
         for key in FIT_FIGURES:
             out[key][run] = getattr(model, key.split(".", 1)[1])
