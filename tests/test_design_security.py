@@ -100,8 +100,9 @@ def test_a_state_changing_request_needs_json_and_the_launch_token(served):
     for path in ("/api/state", "/api/save", "/api/tune", "/api/control"):
         status, answer = _ask(port, "POST", path, {}, {"Content-Type": "application/json"})
         assert status == 403 and "X-Cas-Freq-Token" in answer["error"], path
+        wrong = token[:-1] + "AB"[token[-1] == "A"]  # one character off
         status, answer = _ask(port, "POST", path, {}, {"Content-Type": "application/json",
-                                                       "X-Cas-Freq-Token": token[:-1] + "AB"[token[-1] == "A"]})
+                                                       "X-Cas-Freq-Token": wrong})
         assert status == 403, path
         status, answer = _ask(port, "POST", path, {}, {"Content-Type": "text/plain",
                                                        "X-Cas-Freq-Token": token})

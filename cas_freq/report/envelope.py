@@ -11,6 +11,7 @@ import math
 import numpy as np
 
 from cas_freq.report.numbers import number
+from cas_freq.threads import result_of
 
 #: Most rows of an envelope table (the figure shows every grid point).
 TABLE_ROWS = 17
@@ -191,7 +192,7 @@ def envelope_section(datas, png=False, computed=None):
         job = computed.get(data.loaded.variant)
         envelope, (svg, png_data) = (
             envelope_job(data.loaded, spec, data.analysis.drivetrain, params.name, png)
-            if job is None else job.result())
+            if job is None else result_of(job))
         low, high = envelope.stable_range
         span = ("nowhere on the scan" if low is None and high is None else
                 f"for K_h from {'−∞' if low is None else number(low, 4)} to "

@@ -6,6 +6,8 @@ The workers' life (signals, ending with this process) is :mod:`cas_freq.report.w
 
 import sys
 
+from cas_freq.threads import result_of
+
 #: Worker processes that draw a report's figures (while the next variant is computed); 1 draws
 #: them in the calling process. Two: matplotlib draws on one core, and the project's machine has
 #: two.
@@ -70,6 +72,10 @@ class _Later:
 
     def __init__(self, function, args):
         self.function, self.args = function, args
+
+    def done(self):
+        """True: nothing to wait for (the drawing runs in :meth:`result`, in this thread)."""
+        return True
 
     def result(self):
         return self.function(*self.args)
@@ -154,13 +160,13 @@ class FigureRenderer:
 
     def results(self):
         """Per variant, {stem: (SVG text, PNG bytes or None, caption)} in figure order."""
-        stems = _figure_stems() if self._pool is None else self._stems.result()
+        stems = _figure_stems() if self._pool is None else result_of(self._stems)
         rendered = []
         for data, futures in self._variants:
             if self._pool is None:
                 drawn = render_figures(data, stems, self.png)
             else:
-                drawn = [item for future in futures for item in future.result()]
+                drawn = [item for future in futures for item in result_of(future)]
             by_stem = {stem: rest for stem, *rest in drawn}
             rendered.append({stem: tuple(by_stem[stem]) for stem in stems if stem in by_stem})
         return rendered
