@@ -20,8 +20,10 @@ import hmac
 import secrets
 from dataclasses import dataclass, field
 
-#: The names of the loopback address a browser may send as ``Host``.
-LOOPBACK_NAMES = ("127.0.0.1", "localhost", "[::1]")
+#: The loopback addresses the server may listen on without ``--allow-remote``.
+LOOPBACK_ADDRESSES = ("127.0.0.1", "localhost", "::1")
+#: Their names as a browser sends them in ``Host`` (an IPv6 address in brackets).
+LOOPBACK_NAMES = tuple(f"[{a}]" if ":" in a else a for a in LOOPBACK_ADDRESSES)
 #: The header that carries the per-launch token.
 TOKEN_HEADER = "X-Cas-Freq-Token"
 
@@ -98,4 +100,4 @@ class Guard:
                                    "application/json")
 
 
-__all__ = ["LOOPBACK_NAMES", "TOKEN_HEADER", "Guard", "Refused", "new_token"]
+__all__ = ["LOOPBACK_ADDRESSES", "LOOPBACK_NAMES", "TOKEN_HEADER", "Guard", "Refused", "new_token"]

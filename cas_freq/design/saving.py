@@ -4,6 +4,8 @@ import re
 from pathlib import Path
 
 from cas_freq.design.guard import Refused
+from cas_freq.exceptions import CasFreqError
+from cas_freq.fileio import check_output_file
 
 #: The endings of a config file the page may write.
 SUFFIXES = (".yaml", ".yml")
@@ -37,7 +39,8 @@ def save_target(file, save_dir, config, default_name, overwrite=False):
     ------
     Refused
         403 for a file outside ``save_dir``, a folder that would have to be made, a link, a
-        name that is not a config file's; 409 for an existing file without ``overwrite``
+        folder or special file (:func:`cas_freq.fileio.check_output_file`), a name that is
+        not a config file's; 409 for an existing file without ``overwrite``
         and for the input config itself.
     """
     folder = Path(save_dir).resolve()
@@ -45,26 +48,27 @@ def save_target(file, save_dir, config, default_name, overwrite=False):
     path = Path(asked)
     if not path.is_absolute():
         path = folder / path
-    if path.is_symlink():
-        raise Refused(403, f"file {asked!r}: is a symbolic link; the design page writes "
-                           f"plain files in {folder} only")
-    resolved = path.resolve()
-    if resolved.parent != folder:
-        raise Refused(403, f"file {asked!r}: the design page saves only directly into "
+    outside = Refused(403, f"file {asked!r}: the design page saves only directly into "
                            f"{folder} (a file name such as 'mine.yaml'; start cas-freq design "
                            "with --save-dir to choose another folder)")
+    if path.parent.resolve() != folder:  # checked first: nothing is probed outside
+        raise outside
+    try:  # a link, a folder, a special file: refused as every output file is
+        check_output_file(path, "file")
+    except CasFreqError as exc:
+        raise Refused(403, str(exc)) from None
+    resolved = path.resolve()
+    if resolved.parent != folder:
+        raise outside
     if not SAFE_NAME.fullmatch(resolved.name) or resolved.suffix.lower() not in SUFFIXES:
         raise Refused(403, f"file {asked!r}: expected a file name of letters, digits and "
                            f"._- ending in {' or '.join(SUFFIXES)}")
     if resolved == Path(config).resolve():
         raise Refused(409, f"{resolved}: is the input config; the design page never "
                            "overwrites it (choose another file)")
-    if resolved.exists():
-        if not resolved.is_file():
-            raise Refused(403, f"{resolved}: exists and is not a regular file")
-        if not overwrite:
-            raise Refused(409, f"{resolved}: exists; the page replaces it only when you "
-                               "confirm (overwrite)")
+    if resolved.exists() and not overwrite:
+        raise Refused(409, f"{resolved}: exists; the page replaces it only when you confirm "
+                           "(overwrite)")
     return resolved
 
 

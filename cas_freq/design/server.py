@@ -44,7 +44,7 @@ from pathlib import Path
 from urllib.parse import parse_qs, urlparse
 
 from cas_freq.design.compute import CHOICES
-from cas_freq.design.guard import Guard, Refused, new_token
+from cas_freq.design.guard import LOOPBACK_ADDRESSES, Guard, Refused, new_token
 from cas_freq.design.requests import ControlRequest, SaveRequest, StateRequest, TuneRequest, parsed
 from cas_freq.design.saving import save_target
 from cas_freq.exceptions import CasFreqError
@@ -390,7 +390,7 @@ def make_server(design, host="127.0.0.1", port=0, token=None, read_timeout=READ_
     server = Server((host, port), handler)
     server.design = design
     server.guard = Guard(server.server_address[1], token or new_token(),
-                         remote=host not in ("127.0.0.1", "localhost", "::1"))
+                         remote=host not in LOOPBACK_ADDRESSES)
     return server
 
 
