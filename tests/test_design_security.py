@@ -189,6 +189,7 @@ def test_an_existing_file_is_replaced_only_when_the_page_confirmed(served):
     ("/api/state", {"seq": None}, "seq"),
     ("/api/state", {"seq": [1]}, "seq"),
     ("/api/state", {"values": {"position_loop.Kp": [3]}}, "values.position_loop.Kp"),
+    ("/api/state", {"values": {"int_key": [3]}}, "values.int_key"),  # a key, not a branch
     ("/api/state", {"nonlinear": "yes"}, "nonlinear"),
     ("/api/state", {"sesion": "typo"}, "sesion"),
     ("/api/tune", b'{"candidates": 1e400}', "candidates"),

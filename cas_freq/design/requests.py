@@ -88,8 +88,15 @@ def parsed(model, body):
 
 def _field(error):
     """The dotted field of a pydantic error (without a union's branch names)."""
-    return ".".join(str(part) for part in error["loc"] if not str(part).startswith(
-        ("function-", "str", "float", "int", "constrained"))) or "body"
+    return ".".join(str(part) for part in error["loc"] if not _branch(part)) or "body"
+
+
+def _branch(part):
+    """Whether a pydantic error location's part names a union's branch (``str``,
+    ``constrained-str``, ``function-after[...]``), not a field or a key."""
+    part = str(part)
+    return part in ("str", "float", "int", "bool") or part.startswith(
+        ("constrained-", "function-"))
 
 
 def _said(field, errors):
