@@ -60,6 +60,7 @@ import numpy as np
 
 from cas_freq.filters_config import ANALOG_POINTS
 from cas_freq.model import parts
+from cas_freq.model.parts import polyadd, polymul
 
 #: The plant signals a loop can measure: name -> meaning [unit per volt].
 SIGNALS = {
@@ -186,31 +187,6 @@ class Structure:
             if loop.name == name:
                 return loop
         raise KeyError(name)
-
-
-def polymul(a, b):
-    """Product of two polynomials (tuples of broadcastable coefficients)."""
-    out = [0.0] * (len(a) + len(b) - 1)
-    for i, x in enumerate(a):
-        for j, y in enumerate(b):
-            out[i + j] = out[i + j] + x * y
-    return tuple(out)
-
-
-def polyadd(a, b):
-    """Sum of two polynomials of possibly different degrees."""
-    width = max(len(a), len(b))
-    a = (0.0,) * (width - len(a)) + tuple(a)
-    b = (0.0,) * (width - len(b)) + tuple(b)
-    return tuple(x + y for x, y in zip(a, b, strict=True))
-
-
-def product(polynomials):
-    """Product of any number of polynomials ((1.0,) for none)."""
-    out = (1.0,)
-    for polynomial in polynomials:
-        out = polymul(out, polynomial)
-    return out
 
 
 def _rows(polynomial, n):
@@ -480,65 +456,3 @@ def _runs(p):
         return n
     shapes = [np.shape(getattr(p, name)) for name in ("R", "ci_Kp", "cp_Kp", "J", "Km")]
     return max((shape[0] for shape in shapes if shape), default=1)
-
-
-@dataclasses.dataclass(frozen=True)
-class Stage:
-    """One loop multiplied out for evaluation: polynomials (tuples) and its delay.
-
-    ``a``: controller and path numerators; ``b``: their denominators; ``g``: the measured
-    signal's numerator through the sensor's numerators; ``f``: the sensor's denominators;
-    ``reference``: the command's numerator at this controller's output over ``b`` before the
-    delay (None: no command enters here); ``tau``: the delay [s].
-    """
-
-    a: tuple
-    b: tuple
-    g: tuple
-    f: tuple
-    reference: tuple | None
-    tau: object
-
-
-def stages(structure, feedforward=False, minimal=False):
-    """The loops of ``structure`` multiplied out, innermost first (see the module docstring).
-
-    Parameters
-    ----------
-    structure : Structure
-    feedforward : bool
-        Let the feed-forward act (the command enters every controller with one).
-    minimal : bool
-        Use the blocks' minimal forms (coefficient stacks; for characteristic polynomials:
-        no command enters, ``reference`` is None).
-
-    Returns
-    -------
-    list of Stage
-    """
-    out = []
-    top = len(structure.loops) - 1
-    for k, loop in enumerate(structure.loops):
-        controller = loop.controller
-        if minimal and controller.minimal is not None:
-            c_num, c_den = (tuple(stack.T) for stack in controller.minimal())
-        else:
-            c_num, c_den = controller.numerator, controller.denominator
-        path_num = product(block.numerator for block in loop.path)
-        path_den = product(block.denominator for block in loop.path)
-        reference = None
-        if k == top and not minimal:
-            reference = loop.reference if loop.reference is not None else c_num
-        if feedforward and loop.feedforward is not None and not minimal:
-            injected = polymul(loop.feedforward, c_den)
-            reference = injected if reference is None else polyadd(reference, injected)
-        out.append(Stage(
-            a=polymul(c_num, path_num),
-            b=polymul(c_den, path_den),
-            g=polymul(structure.plant.signals[loop.feedback],
-                      product(block.numerator for block in loop.sensor)),
-            f=product(block.denominator for block in loop.sensor),
-            reference=None if reference is None else polymul(reference, path_num),
-            tau=loop.delay,
-        ))
-    return out
