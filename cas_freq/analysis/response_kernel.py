@@ -1,9 +1,12 @@
 r"""Every loop and T of a batch on a frequency grid in one compiled pass (numba).
 
 :func:`grid_responses` is :func:`cas_freq.model.loops.responses` on the imaginary axis for the
-large grids of :func:`~cas_freq.analysis.analyze.batch_analyze`: the same recurrence over the
-same stages (:func:`cas_freq.model.structure.stages`, whatever loops the structure declares),
-evaluated point by point instead of as numpy temporaries of (runs x frequencies):
+large grids of :func:`~cas_freq.analysis.analyze.batch_analyze`: the walk of
+:func:`cas_freq.model.table.walk` over the same loop table (:func:`cas_freq.model.table.table`,
+whatever loops the structure declares), read as data, evaluated point by point instead of as
+numpy temporaries of (runs x frequencies). The table comes in as coefficient stacks of one rank
+and dtype whatever the architecture (a loop per row of each stack), so one compilation serves
+every architecture:
 
 - each stage's polynomials, padded with leading zeros to one width per role (the padding adds
   exact zeros), are summed in real arithmetic at :math:`j\omega` (:func:`_at`);

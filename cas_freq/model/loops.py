@@ -1,8 +1,8 @@
 r"""Frequency responses of the actuator loops, for any number of variants at once (numpy only).
 
 The loops are those the declared structure (:mod:`cas_freq.model.structure`) gives, evaluated
-by its recurrence with every parameter an array that broadcasts against the complex
-frequencies. For the report's EPOS4 drive:
+by the walk over its loop table (:func:`cas_freq.model.table.walk`) in complex values, every
+parameter an array that broadcasts against the complex frequencies. For the report's EPOS4 drive:
 
 .. math::
     L_i = C_i e^{-s\tau_c} Y, \quad T_i = \frac{L_i}{1 + L_i}, \quad
@@ -26,9 +26,7 @@ import numpy as np
 from cas_freq.model import parts
 from cas_freq.model.delay import EXACT
 from cas_freq.model.structure import build, total_delay
-from cas_freq.model.table import (
-    Values, at_a_time, cascade, command, references, table, walk,
-)
+from cas_freq.model.table import Values, at_a_time, cascade, command, references, table, walk
 
 #: LoopParameters fields the frequency responses use (where the parameters have them).
 RESPONSE_FIELDS = (
@@ -119,8 +117,8 @@ def responses(p, s, closed=True, delay=EXACT, feedforward=False, loop_at_a_time=
               output=None):
     r"""Every loop's response and (optionally) T of the runs ``p`` at complex frequencies ``s``.
 
-    The recurrence of :mod:`cas_freq.model.structure` on the loops :func:`build` declares, one
-    complex division per figure: :math:`L_k = c_k/(b_k f_k E_{k-1})`,
+    The walk over the loop table (:mod:`cas_freq.model.table`) of the loops :func:`build`
+    declares, one complex division per figure: :math:`L_k = c_k/(b_k f_k E_{k-1})`,
     :math:`T = \tilde F\, g_{out} \sum_k A_{k-1}\varphi_k \prod_{m>k} b_m / E_{top}`.
 
     Parameters

@@ -1,12 +1,15 @@
 r"""The loop structure of an actuator, declared once: its blocks and how they connect.
 
 Every linear representation of the loops is derived from the :class:`Structure` that
-:func:`build` declares for a batch of runs: the vectorised frequency responses
-(:func:`cas_freq.model.loops.responses` and the compiled
-:mod:`cas_freq.analysis.response_kernel`), the Padé characteristic polynomials of the stability
-verdicts (:func:`cas_freq.analysis.stability.characteristic_polynomials`) and the python-control
-systems (:mod:`cas_freq.model.systems`). None of them composes the loops by hand: they all
-evaluate the cascade below, loop by loop, from the inside out.
+:func:`build` declares for a batch of runs. :func:`cas_freq.model.table.table` multiplies it
+out into a loop table, and :func:`cas_freq.model.table.walk` evaluates the recurrence below over
+it, loop by loop from the inside out, in the arithmetic each consumer needs: the vectorised
+frequency responses (:func:`cas_freq.model.loops.responses`, the compiled
+:mod:`cas_freq.analysis.response_kernel` reading the same table as coefficient stacks), the
+sampled loops (:mod:`cas_freq.model.sampled`), the load and noise inputs
+(:mod:`cas_freq.model.disturbance`) and the Padé characteristic polynomials of the stability
+verdicts (:func:`cas_freq.analysis.stability.characteristic_polynomials`). None of them
+composes the loops by hand.
 
 **The cascade.** The plant has one input, the motor voltage V, and the signals the loops measure
 are rational functions of it over a common denominator :math:`\Delta` (the parts of
