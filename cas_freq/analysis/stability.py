@@ -101,7 +101,7 @@ def _loop_recurrence(p, order, magnitudes):
     results = []
     for transform in (None, np.abs) if magnitudes else (None,):
         algebra = Polynomials(n, order, transform)
-        results.append({name: algebra.stack(e)
+        results.append({name: np.column_stack(e)
                         for name, e in walk(rows, algebra).characteristic.items()})
     names = rows.names
     paired = {}

@@ -163,11 +163,6 @@ def back_emf_coupling(p):
     return p.Ke * p.Km
 
 
-def current_controller(p):
-    """Numerator of C_i(s) = (Kp s + Ki) / s [V/A]."""
-    return (p.ci_Kp, p.ci_Ki)
-
-
 def position_controller(p):
     """Numerator of C_p(s) over s (Tf s + 1) [A/rad] (filtered derivative on the error)."""
     return (p.cp_Kp * p.Tf + p.cp_Kd, p.cp_Kp + p.cp_Ki * p.Tf, p.cp_Ki)

@@ -231,28 +231,19 @@ class Prepared:
                                    modes=self.modes.pick(runs), shape=np.shape(runs))
 
 
-class SampledValues:
+class SampledValues(Values):
     """The walk's algebra (:func:`cas_freq.model.table.walk`) of one group of loops at one
     rate: complex values at :math:`z = e^{j\\nu T}`, each block at the equivalent ``x`` of s
     (:func:`equivalent_s`), the measured signals those of the plant's hold-equivalent (or of
     the faster group inside, ``signals``), a delay between two controllers whole samples of
     this rate (none on the group's ``first`` loop: the hold-equivalent holds it)."""
 
-    one = 1.0
-    zero = 0.0
-    mul = staticmethod(Values.mul)
-    add = staticmethod(Values.add)
-
     def __init__(self, x, z_inverse, period, signals, first):
-        self.x = x
+        super().__init__(x)
         self.z_inverse = z_inverse
         self.period = period
         self.signals = signals
         self.first = first
-
-    def poly(self, polynomial):
-        """The block's value at the equivalent s."""
-        return parts.polyval(polynomial, self.x) if len(polynomial) > 1 else polynomial[0]
 
     def delay(self, row):
         """(z^-samples, None)."""
@@ -262,11 +253,11 @@ class SampledValues:
 
     def measured(self, row):
         """The sampled signal through the digital sensor's numerators."""
-        return self.signals[row.measured] * self.poly(row.digital[0])
+        return self.signals[row.measured] * self.poly(row.digital_numerator)
 
     def sensor(self, row):
         """The digital sensor's denominators."""
-        return self.poly(row.digital[1])
+        return self.poly(row.digital_denominator)
 
 
 def _evaluate(prepared, s, closed, loop_at_a_time, output, feedforward, through):

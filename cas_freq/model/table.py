@@ -57,8 +57,8 @@ class Row:
     feedback, measured : str
         The plant signal measured, and the name its sampler reads
         (:func:`cas_freq.model.hold.measured`: behind analog filters, their output).
-    digital : (tuple, tuple)
-        Numerators and denominators of the sensor blocks after the sampler.
+    digital_numerator, digital_denominator : tuple
+        Those of the sensor blocks after the sampler.
     feedforward : tuple or None
         :math:`\Phi(s)` of the command added to this controller's output.
     controller_denominator, path_numerator : tuple
@@ -77,7 +77,8 @@ class Row:
     sensor: tuple
     feedback: str
     measured: str
-    digital: tuple
+    digital_numerator: tuple
+    digital_denominator: tuple
     feedforward: tuple | None
     controller_denominator: tuple
     path_numerator: tuple
@@ -102,50 +103,41 @@ class Table:
     def arrays(self):
         """The same table with every coefficient an array (n,) where it varies between runs,
         else a float (the same number), ready for :meth:`pick`."""
-        return _mapped(self, _arrays)
+        return _mapped(self, _arrays, lambda polynomial: polynomial is not None)
 
     def pick(self, runs, count=None):
         """The table (of :meth:`arrays`) of the runs ``runs`` (indices), of its first
         ``count`` loops (all by default)."""
         def picked(polynomial):
-            return _pick(polynomial, runs)
+            return tuple(c[runs] if isinstance(c, np.ndarray) else c for c in polynomial)
 
-        rows = []
-        for row in self.rows[:count]:
-            varying = {name: getattr(row, name) for name in _POLYNOMIALS
-                       if _varies(getattr(row, name))}
-            if _varies((row.tau,)):
-                varying["tau"] = picked((row.tau,))[0]
-            if any(map(_varies, row.digital)):
-                varying["digital"] = tuple(map(picked, row.digital))
-            rows.append(dataclasses.replace(row, **{
-                name: value if name in ("tau", "digital") else picked(value)
-                for name, value in varying.items()}) if varying else row)
-        return Table(tuple(rows), picked(self.denominator), picked(self.seen), self.output)
+        return _mapped(self, picked, _varies, count)
 
 
-_POLYNOMIALS = ("a", "b", "g", "f", "reference", "sensor", "feedforward",
-                "controller_denominator", "path_numerator")
+_POLYNOMIALS = ("a", "b", "g", "f", "reference", "sensor", "digital_numerator",
+                "digital_denominator", "feedforward", "controller_denominator",
+                "path_numerator")
 
 
 def _varies(polynomial):
     return polynomial is not None and any(isinstance(c, np.ndarray) for c in polynomial)
 
 
-def _mapped(table, function):
-    rows = tuple(dataclasses.replace(
-        row, tau=function((row.tau,))[0], digital=tuple(map(function, row.digital)),
-        **{name: function(getattr(row, name)) for name in _POLYNOMIALS
-           if getattr(row, name) is not None}) for row in table.rows)
-    return Table(rows, function(table.denominator), function(table.seen), table.output)
+def _mapped(table, function, where, count=None):
+    """The table's first ``count`` rows with ``function`` applied to each polynomial
+    ``where`` says (the delay as a polynomial of one coefficient)."""
+    rows = []
+    for row in table.rows[:count]:
+        changes = {name: function(getattr(row, name)) for name in _POLYNOMIALS
+                   if where(getattr(row, name))}
+        if where((row.tau,)):
+            changes["tau"] = function((row.tau,))[0]
+        rows.append(dataclasses.replace(row, **changes) if changes else row)
+    return Table(tuple(rows), function(table.denominator), function(table.seen), table.output)
 
 
 def _arrays(polynomial):
     return tuple(float(c) if np.ndim(c) == 0 else np.asarray(c) for c in polynomial)
-
-
-def _pick(polynomial, runs):
-    return tuple(c[runs] if isinstance(c, np.ndarray) else c for c in polynomial)
 
 
 def table(structure, feedforward=False, minimal=False, output=None):
@@ -191,8 +183,8 @@ def table(structure, feedforward=False, minimal=False, output=None):
             f=product(block.denominator for block in loop.sensor), tau=loop.delay,
             reference=None if reference is None else polymul(reference, path_num),
             sensor=sensor, feedback=loop.feedback, measured=measured(loop),
-            digital=(product(block.numerator for block in digital),
-                     product(block.denominator for block in digital)),
+            digital_numerator=product(block.numerator for block in digital),
+            digital_denominator=product(block.denominator for block in digital),
             feedforward=loop.feedforward, controller_denominator=controller.denominator,
             path_numerator=path_num,
         ))
@@ -211,7 +203,7 @@ class Values:
     one = 1.0
     zero = 0.0
 
-    def __init__(self, s, delay):
+    def __init__(self, s, delay=None):
         self.s = s
         self.model = delay
 
@@ -231,7 +223,7 @@ class Values:
 
     def plant(self, table):
         """:math:`E_{-1} = \\Delta`."""
-        return parts.polyval(table.denominator, self.s)
+        return self.poly(table.denominator)
 
     def delay(self, row):
         """(numerator, denominator) of the row's delay; None: 1."""
@@ -246,7 +238,7 @@ class Values:
         return self.poly(row.f)
 
 
-class Polynomials:
+class Polynomials(Values):
     """Polynomials in s of ``n`` runs: tuples of coefficient columns (n,), highest power
     first, each delay its Padé approximant of order ``order``
     (:func:`pade_polynomials`); ``transform`` is applied to every coefficient that enters
@@ -258,6 +250,7 @@ class Polynomials:
     add = staticmethod(polyadd)
 
     def __init__(self, n, order, transform=None):
+        super().__init__(None)
         self.n = n
         self.order = order
         self.transform = transform
@@ -270,28 +263,11 @@ class Polynomials:
             return columns
         return tuple(self.transform(c) for c in columns)
 
-    def plant(self, table):
-        """:math:`\\Delta`."""
-        return self.poly(table.denominator)
-
     def delay(self, row):
         """(D(-s tau), D(s tau))."""
         tau = np.broadcast_to(np.asarray(row.tau, dtype=float), (self.n,))
         denominator, numerator = pade_polynomials(tau, self.order)
         return self.poly(tuple(numerator.T)), self.poly(tuple(denominator.T))
-
-    def measured(self, row):
-        """:math:`g_k`."""
-        return self.poly(row.g)
-
-    def sensor(self, row):
-        """:math:`f_k`."""
-        return self.poly(row.f)
-
-    def stack(self, polynomial):
-        """The polynomial as a stack (n, width)."""
-        return np.column_stack(polynomial)
-
 
 def pade_polynomials(tau, order):
     """(D(s tau), D(-s tau)) as stacks of polynomials in s, for delays ``tau`` [s] (n,)."""
