@@ -23,6 +23,7 @@ import types
 
 import numpy as np
 
+from cas_freq.filters_config import Filter
 from cas_freq.model import parts
 from cas_freq.model.delay import EXACT
 from cas_freq.model.structure import build, total_delay
@@ -38,9 +39,6 @@ RESPONSE_FIELDS = (
 
 #: Fields the whole batch shares (the architecture, the sampling), passed on as they are.
 STATIC_FIELDS = ("cascade", "feedback_output", "sample_rates", "sampling_method")
-
-#: Per-run numbers of a filter (cas_freq.parameters.Filter).
-FILTER_NUMBERS = ("frequency", "damping", "width", "depth_db")
 
 
 class Selector:
@@ -75,7 +73,7 @@ class Selector:
         values["filters"] = tuple(
             types.SimpleNamespace(at=item.at, kind=item.kind,
                                   **{name: _rows_of(getattr(item, name), index, column)
-                                     for name in FILTER_NUMBERS})
+                                     for name in Filter.NUMBERS})
             for item in self.filters)
         return types.SimpleNamespace(**values)
 

@@ -35,8 +35,9 @@ declared structure (:mod:`cas_freq.model.structure`) are then evaluated as the d
       P(e^{j\omega T_s}) = \frac{1}{M} \sum_{k=0}^{M-1} H_M(z_k)\, z_k^{-d}\, G(z_k),
       \qquad z_k = e^{j(\omega + 2\pi k/T_s) T_f}, \qquad H_M(z) = \sum_{i<M} z^{-i}.
 
-The loops are then composed by the same recurrence as the continuous ones
-(:mod:`cas_freq.model.structure`), over values instead of polynomials. Each loop's response
+The loops are then composed by the same walk over the loop table as the continuous ones
+(:func:`cas_freq.model.table.walk`), a group of loops of one rate at a time, in the algebra of
+:class:`SampledValues`. Each loop's response
 is a function of its own :math:`e^{j\omega T}`: meaningful up to its Nyquist frequency
 :math:`\pi/T` (the figures stop there). The closed loop T is the output's samples per
 command sample at the outermost loop's rate. Loop-at-a-time views of loops inside a slower
@@ -49,6 +50,7 @@ import math
 import numpy as np
 
 from cas_freq.exceptions import ConfigError
+from cas_freq.filters_config import Filter
 from cas_freq.model import parts
 from cas_freq.model.hold import WHOLE, PlantModes, hold_equivalent, plant_modes
 from cas_freq.model.loops import LoopResponses
@@ -341,7 +343,7 @@ def _runs(p):
     """The shape the runs' parameters broadcast to (() where every one is a scalar)."""
     shapes = [np.shape(value) for value in vars(p).values() if isinstance(value, np.ndarray)]
     shapes += [np.shape(getattr(item, name)) for item in getattr(p, "filters", ())
-               for name in ("frequency", "damping", "width", "depth_db")
+               for name in Filter.NUMBERS
                if isinstance(getattr(item, name, None), np.ndarray)]
     return np.broadcast_shapes(*shapes)
 

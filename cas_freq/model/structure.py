@@ -61,7 +61,7 @@ import dataclasses
 
 import numpy as np
 
-from cas_freq.filters_config import ANALOG_POINTS
+from cas_freq.filters_config import ANALOG_POINTS, FILTERS
 from cas_freq.model import parts
 from cas_freq.model.parts import polyadd, polymul
 
@@ -237,21 +237,11 @@ def pid_controller(p, n):
 
 
 def filter_block(item):
-    """A filter of the config's ``filters:`` list (docs/model.md, "Filters"), in the form
-    1 at s = 0: lowpass1 1/(s/w0 + 1), lowpass2 1/(s^2/w0^2 + 2 z s/w0 + 1), notch
-    (s^2/w0^2 + 2 d z s/w0 + 1)/(s^2/w0^2 + 2 z s/w0 + 1) with z = width/(2 w0),
-    d = 10^(depth/20)."""
-    w0 = item.frequency
-    if item.kind == "lowpass1":
-        return Block("low-pass", (1.0,), (1.0 / w0, 1.0))
-    if item.kind == "lowpass2":
-        return Block("low-pass", (1.0,), (1.0 / (w0 * w0), 2.0 * item.damping / w0, 1.0))
-    if item.kind == "notch":
-        zeta = item.width / (2.0 * w0)
-        depth = 10.0 ** (item.depth_db / 20.0)
-        return Block("notch", (1.0 / (w0 * w0), 2.0 * depth * zeta / w0, 1.0),
-                     (1.0 / (w0 * w0), 2.0 * zeta / w0, 1.0))
-    raise ValueError(f"unknown filter type {item.kind!r}")  # pragma: no cover (config checks)
+    """A filter of the config's ``filters:`` list as a block: its type's transfer function,
+    1 at s = 0 (:data:`cas_freq.filters_config.FILTERS`; docs/model.md, "Filters")."""
+    kind = FILTERS[item.kind]
+    numerator, denominator = kind.transfer(item)
+    return Block(kind.label, numerator, denominator)
 
 
 def _filters(p, at):
