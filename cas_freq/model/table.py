@@ -269,6 +269,7 @@ class Polynomials(Values):
         denominator, numerator = pade_polynomials(tau, self.order)
         return self.poly(tuple(numerator.T)), self.poly(tuple(denominator.T))
 
+
 def pade_polynomials(tau, order):
     """(D(s tau), D(-s tau)) as stacks of polynomials in s, for delays ``tau`` [s] (n,)."""
     d = pade_denominator(order)
