@@ -259,6 +259,12 @@ def analog_sensor(loop):
     return tuple(block for block in loop.sensor if block.analog)
 
 
+def measured(loop):
+    """The name of the signal a loop's sampler reads: its plant signal, or, behind analog
+    filters (:func:`analog_sensor`), ``"<loop name>.measured"``."""
+    return f"{loop.name}.measured" if analog_sensor(loop) else loop.feedback
+
+
 def plant(p):
     """The plant's signals per voltage over :math:`\\Delta` (see the module docstring)."""
     d, n_theta, n_out = parts.mechanics(p)

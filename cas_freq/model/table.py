@@ -26,9 +26,8 @@ import numpy as np
 
 from cas_freq.model import parts
 from cas_freq.model.delay import pade_denominator
-from cas_freq.model.hold import measured
 from cas_freq.model.parts import polyadd, polymul, product
-from cas_freq.model.structure import digital_sensor
+from cas_freq.model.structure import digital_sensor, measured
 
 
 @dataclasses.dataclass(frozen=True)
@@ -56,7 +55,7 @@ class Row:
         The sensor's numerators alone (where a noise enters before them).
     feedback, measured : str
         The plant signal measured, and the name its sampler reads
-        (:func:`cas_freq.model.hold.measured`: behind analog filters, their output).
+        (:func:`cas_freq.model.structure.measured`: behind analog filters, their output).
     digital_numerator, digital_denominator : tuple
         Those of the sensor blocks after the sampler.
     feedforward : tuple or None
