@@ -12,22 +12,17 @@ The first two act on the controllers' signals: they are digital where the drive 
 (discretised with their loop's controller). The measurement filters (:data:`ANALOG_POINTS`) act
 on the continuous measurement before the sampler (anti-aliasing): analog whatever the drive.
 
-and is of one kind, ``type``, declared once in :data:`FILTERS` (a :class:`FilterType`: its
-numbers and its transfer function, read by the config schema, the parameter keys and the loop
-structure's :func:`cas_freq.model.structure.filter_block`); ω0 = ``frequency`` [rad/s]:
-
-- ``lowpass1``: 1/(s/ω0 + 1);
-- ``lowpass2`` (``damping`` ζ, default 1/√2): ω0²/(s² + 2ζω0 s + ω0²);
-- ``notch`` (``width`` Δω [rad/s], ``depth`` [dB] < 0): (s² + 2dζω0 s + ω0²)/(s² + 2ζω0 s + ω0²)
-  with ζ = Δω/(2ω0), d = 10^(depth/20).
+Each filter is of one kind, ``type``, declared once in :data:`FILTERS` (a
+:class:`FilterType`: its numbers and its transfer function, read by the config schema, the
+parameter keys and the loop structure's :func:`cas_freq.model.structure.filter_block`; the
+formulas: docs/model.md, "Filters").
 
 :data:`FILTER_PARAMETERS` holds the records of a filter's numbers (unit, bounds, meaning), as
 :data:`cas_freq.parameters.PARAMETERS` does for the other keys. A new kind of filter is a
 :class:`FilterType` in :data:`FILTERS` with the records of any new numbers (and their per-run
-fields of :class:`Filter`). :class:`Filter` carries one
-filter of a batch of runs: its point and kind are the same for the whole batch (they shape the
-loop), its numbers are per run. This module imports only :mod:`cas_freq.exceptions` and
-:mod:`cas_freq.parameter_record`.
+fields of :class:`Filter`). :class:`Filter` carries one filter of a batch of runs: its point
+and kind are the same for the whole batch (they shape the loop), its numbers are per run.
+This module imports only :mod:`cas_freq.exceptions` and :mod:`cas_freq.parameter_record`.
 """
 
 import dataclasses
