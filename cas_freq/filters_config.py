@@ -12,18 +12,17 @@ The first two act on the controllers' signals: they are digital where the drive 
 (discretised with their loop's controller). The measurement filters (:data:`ANALOG_POINTS`) act
 on the continuous measurement before the sampler (anti-aliasing): analog whatever the drive.
 
-and is one of three kinds, ``type`` (ω0 = ``frequency`` [rad/s]):
-
-- ``lowpass1``: 1/(s/ω0 + 1);
-- ``lowpass2`` (``damping`` ζ, default 1/√2): ω0²/(s² + 2ζω0 s + ω0²);
-- ``notch`` (``width`` Δω [rad/s], ``depth`` [dB] < 0): (s² + 2dζω0 s + ω0²)/(s² + 2ζω0 s + ω0²)
-  with ζ = Δω/(2ω0), d = 10^(depth/20).
+Each filter is of one kind, ``type``, declared once in :data:`FILTERS` (a
+:class:`FilterType`: its numbers and its transfer function, read by the config schema, the
+parameter keys and the loop structure's :func:`cas_freq.model.structure.filter_block`; the
+formulas: docs/model.md, "Filters").
 
 :data:`FILTER_PARAMETERS` holds the records of a filter's numbers (unit, bounds, meaning), as
-:data:`cas_freq.parameters.PARAMETERS` does for the other keys. :class:`Filter` carries one
-filter of a batch of runs: its point and kind are the same for the whole batch (they shape the
-loop), its numbers are per run. This module imports only :mod:`cas_freq.exceptions` and
-:mod:`cas_freq.parameter_record`.
+:data:`cas_freq.parameters.PARAMETERS` does for the other keys. A new kind of filter is a
+:class:`FilterType` in :data:`FILTERS` with the records of any new numbers (and their per-run
+fields of :class:`Filter`). :class:`Filter` carries one filter of a batch of runs: its point
+and kind are the same for the whole batch (they shape the loop), its numbers are per run.
+This module imports only :mod:`cas_freq.exceptions` and :mod:`cas_freq.parameter_record`.
 """
 
 import dataclasses
@@ -33,9 +32,9 @@ import numpy as np
 from cas_freq.exceptions import ConfigError
 from cas_freq.parameter_record import Parameter
 
-__all__ = ["ANALOG_POINTS", "DEFAULT_DAMPING", "FILTER_NUMBERS", "FILTER_PARAMETERS",
-           "FILTER_POINTS", "FILTER_TYPES", "Filter", "depth_problem", "point_problem",
-           "type_problem"]
+__all__ = ["ANALOG_POINTS", "DEFAULT_DAMPING", "FILTERS", "FILTER_NUMBERS", "FILTER_PARAMETERS",
+           "FILTER_POINTS", "FILTER_TYPES", "Filter", "FilterType", "depth_problem",
+           "number_field", "point_problem", "type_problem"]
 
 #: Where a filter may sit.
 FILTER_POINTS = ("current_command", "velocity_feedback", "current_feedback",
@@ -43,15 +42,72 @@ FILTER_POINTS = ("current_command", "velocity_feedback", "current_feedback",
 #: The points on a measurement before it is sampled (analog filters, continuous even where the
 #: controllers are sampled): point -> the loop whose measurement it filters.
 ANALOG_POINTS = {"current_feedback": "current_loop", "position_feedback": "position_loop"}
-#: The kinds of filter, each with the numbers it takes (config names; ``frequency`` first).
-FILTER_NUMBERS = {
-    "lowpass1": ("frequency",),
-    "lowpass2": ("frequency", "damping"),
-    "notch": ("frequency", "width", "depth"),
-}
-FILTER_TYPES = tuple(FILTER_NUMBERS)
 #: Damping of a ``lowpass2`` without ``damping`` (1/√2: Butterworth) [-].
 DEFAULT_DAMPING = 0.7071
+
+
+@dataclasses.dataclass(frozen=True)
+class FilterType:
+    """One kind of filter (a config's ``type:``).
+
+    Attributes
+    ----------
+    name : str
+        Its ``type:`` in a config.
+    label : str
+        Its block's name in the loop structure.
+    numbers : tuple of str
+        The config names of the numbers it takes, ``frequency`` first (their records, unit and
+        bounds, in :data:`FILTER_PARAMETERS`; their per-run fields :func:`number_field`).
+    transfer : callable
+        ``transfer(item) -> (numerator, denominator)``: its transfer function, 1 at s = 0, as
+        polynomials in s (tuples, highest power first) of the item's per-run numbers
+        (:class:`Filter`'s fields, arrays or scalars broadcasting over runs).
+    """
+
+    name: str
+    label: str
+    numbers: tuple
+    transfer: object
+
+
+def _lowpass1(item):
+    """1/(s/w0 + 1)."""
+    return (1.0,), (1.0 / item.frequency, 1.0)
+
+
+def _lowpass2(item):
+    """1/(s^2/w0^2 + 2 z s/w0 + 1)."""
+    w0 = item.frequency
+    return (1.0,), (1.0 / (w0 * w0), 2.0 * item.damping / w0, 1.0)
+
+
+def _notch(item):
+    """(s^2/w0^2 + 2 d z s/w0 + 1)/(s^2/w0^2 + 2 z s/w0 + 1), z = width/(2 w0),
+    d = 10^(depth/20)."""
+    w0 = item.frequency
+    zeta = item.width / (2.0 * w0)
+    depth = 10.0 ** (item.depth_db / 20.0)
+    return ((1.0 / (w0 * w0), 2.0 * depth * zeta / w0, 1.0),
+            (1.0 / (w0 * w0), 2.0 * zeta / w0, 1.0))
+
+
+#: The kinds of filter, by ``type:``.
+FILTERS = {kind.name: kind for kind in (
+    FilterType("lowpass1", "low-pass", ("frequency",), _lowpass1),
+    FilterType("lowpass2", "low-pass", ("frequency", "damping"), _lowpass2),
+    FilterType("notch", "notch", ("frequency", "width", "depth"), _notch),
+)}
+#: The kinds of filter, each with the numbers it takes (config names; ``frequency`` first).
+FILTER_NUMBERS = {name: kind.numbers for name, kind in FILTERS.items()}
+FILTER_TYPES = tuple(FILTERS)
+#: A number's per-run field of :class:`Filter` where it differs from its config name.
+_FIELDS = {"depth": "depth_db"}
+
+
+def number_field(name):
+    """The :class:`Filter` field of a filter's number ``name`` (its config name)."""
+    return _FIELDS.get(name, name)
 
 #: The numbers of a filter of ``filters:`` (:mod:`cas_freq.filters_config`), by item key;
 #: the dotted key of filter i's number is ``filters.<i>.<name>``.
@@ -74,15 +130,18 @@ def point_problem(at):
     """What is wrong with a filter point ``at``, or None."""
     if at in FILTER_POINTS:
         return None
-    return (f"{at!r} is not a filter point; use current_command, velocity_feedback, "
-            "current_feedback or position_feedback")
+    return f"{at!r} is not a filter point; use {_alternatives(FILTER_POINTS)}"
 
 
 def type_problem(kind):
     """What is wrong with a filter type ``kind``, or None."""
     if kind in FILTER_TYPES:
         return None
-    return f"{kind!r} is not a filter type; use lowpass1, lowpass2 or notch"
+    return f"{kind!r} is not a filter type; use {_alternatives(FILTER_TYPES)}"
+
+
+def _alternatives(names):
+    return f"{', '.join(names[:-1])} or {names[-1]}"
 
 
 def depth_problem(values):
@@ -138,15 +197,13 @@ class Filter:
         except ValueError:
             raise ConfigError("simulation parameters: filter: its numbers' shapes do not "
                               "broadcast") from None
-        used = {"depth" if name == "depth_db" else name for name in self.NUMBERS}
-        used &= set(FILTER_NUMBERS[self.kind])
+        used = {number_field(name) for name in FILTER_NUMBERS[self.kind]}
         for name, array in zip(self.NUMBERS, arrays, strict=True):
             if array.ndim != 1:
                 raise ConfigError(f"simulation parameters: filter {name}: must be 1-D, got "
                                   f"{array.shape}")
-            config_name = "depth" if name == "depth_db" else name
-            array = np.array(array) if config_name in used else np.full(array.shape, np.nan)
-            if config_name in used and not (np.isfinite(array).all()
+            array = np.array(array) if name in used else np.full(array.shape, np.nan)
+            if name in used and not (np.isfinite(array).all()
                                             and (name == "depth_db" or (array > 0).all())):
                 raise ConfigError(f"simulation parameters: a {self.kind} filter's {name} must "
                                   f"be finite{'' if name == 'depth_db' else ' and > 0'}")

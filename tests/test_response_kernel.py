@@ -220,3 +220,25 @@ def test_prepared_responses_equal_the_responses_of_the_chosen_runs():
         np.testing.assert_array_equal(inner[name], theirs.loops[name])
     np.testing.assert_array_equal(prepared.current_loop(runs, s),
                                   current_loop(selector(runs), s))
+
+
+def test_one_compilation_serves_every_architecture():
+    # The kernel reads the loop table as data (coefficient stacks of fixed rank and dtype,
+    # whatever the loops): a PID-on-PI, a velocity cascade with filters, a position loop on an
+    # output encoder and a compliant drivetrain all run on the one machine code it has.
+    from cas_freq import jit
+
+    if not jit.use_compiled():
+        pytest.skip("numba is not importable: nothing compiles")
+    architectures = [("configs/qt_cas.yaml", "base"), ("configs/qt_cas.yaml", "fin_encoder"),
+                     ("configs/qt_cas.yaml", "loaded"), ("configs/cascade_axis.yaml", "base"),
+                     ("configs/dc_servo.yaml", "base")]
+    for config, variant in architectures:
+        params = _params(config, variant)
+        for delay, closed, aat in ((EXACT, True, True), (DelayModel(3), False, False)):
+            grid_responses(Selector(params)(column=True), OMEGA, 1, delay, closed=closed,
+                           loop_at_a_time=aat)
+    batch = CASES["qt_cas, six keys and delay"]  # coefficients per run
+    grid_responses(Selector(batch)(column=True), OMEGA, batch.n_runs, EXACT)
+    assert len(response_kernel._responses.signatures) == 1
+    assert len(response_kernel._evaluate_all.signatures) == 1

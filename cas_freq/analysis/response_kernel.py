@@ -1,9 +1,12 @@
 r"""Every loop and T of a batch on a frequency grid in one compiled pass (numba).
 
 :func:`grid_responses` is :func:`cas_freq.model.loops.responses` on the imaginary axis for the
-large grids of :func:`~cas_freq.analysis.analyze.batch_analyze`: the same recurrence over the
-same stages (:func:`cas_freq.model.structure.stages`, whatever loops the structure declares),
-evaluated point by point instead of as numpy temporaries of (runs x frequencies):
+large grids of :func:`~cas_freq.analysis.analyze.batch_analyze`: the walk of
+:func:`cas_freq.model.table.walk` over the same loop table (:func:`cas_freq.model.table.table`,
+whatever loops the structure declares), read as data, evaluated point by point instead of as
+numpy temporaries of (runs x frequencies). The table comes in as coefficient stacks of one rank
+and dtype whatever the architecture (a loop per row of each stack), so one compilation serves
+every architecture:
 
 - each stage's polynomials, padded with leading zeros to one width per role (the padding adds
   exact zeros), are summed in real arithmetic at :math:`j\omega` (:func:`_at`);
@@ -22,7 +25,8 @@ import numpy as np
 from cas_freq.jit import cached_jit
 from cas_freq.model import parts
 from cas_freq.model.loops import LoopResponses
-from cas_freq.model.structure import build, stages
+from cas_freq.model.structure import build
+from cas_freq.model.table import table
 
 
 @cached_jit(inline="always")
@@ -231,21 +235,18 @@ def grid_responses(p, omega, n, delay, closed=True, feedforward=False, loop_at_a
         broadcasts it.
     """
     omega = np.ascontiguousarray(omega, dtype=float)
-    structure = build(p)
-    steps = stages(structure, feedforward)
+    rows = table(build(p), feedforward)
+    steps = rows.rows
     count, m = len(steps), omega.size
-    a = _stack([s.a for s in steps], n)
-    b = _stack([s.b for s in steps], n)
-    g = _stack([s.g for s in steps], n)
-    f = _stack([s.f for s in steps], n)
+    references = [s.reference if s.reference is not None else (0.0,) for s in steps]
+    roles = ([rows.denominator], [rows.seen], [s.a for s in steps], [s.b for s in steps],
+             [s.g for s in steps], [s.f for s in steps], references)
+    stacks = tuple(_stack(role, n) for role in roles)
     has_reference = np.array([s.reference is not None for s in steps])
-    reference = _stack([s.reference if s.reference is not None else (0.0,) for s in steps], n)
     delays = _delays(delay, omega, [s.tau for s in steps], n)
-    plant = _stack([structure.plant.denominator], n)
-    output = _stack([structure.plant.signals[structure.output]], n)
-    # a loop whose stages (and those inside it) are the same in every run is computed once
+    # a loop whose rows (and those inside it) are the same in every run is computed once
     fill = np.full(count, n)
-    shared = plant.shape[1] == 1
+    shared = stacks[0].shape[1] == 1
     for k in range(count):
         shared = shared and all(all(_shared(c) for c in polynomial) for polynomial in
                                 (steps[k].a, steps[k].b, steps[k].g, steps[k].f))
@@ -255,18 +256,12 @@ def grid_responses(p, omega, n, delay, closed=True, feedforward=False, loop_at_a
     loops = np.empty((count, n, m), dtype=complex)
     aat = np.empty((count, n if loop_at_a_time else 0, m), dtype=complex)
     t = np.empty((n if closed else 0, m), dtype=complex)
-    roles = ([structure.plant.denominator], [structure.plant.signals[structure.output]],
-             [s.a for s in steps], [s.b for s in steps], [s.g for s in steps],
-             [s.f for s in steps],
-             [s.reference if s.reference is not None else (0.0,) for s in steps])
     shared = tuple(np.array([all(_shared(c) for c in polynomial) for polynomial in role])
                    for role in roles)
-    stacks = (plant, output, a, b, g, f, reference)
     values = tuple(_shared_values(stack, flags, omega)
                    for stack, flags in zip(stacks, shared, strict=True))
-    _responses(omega, plant, output, a, b, g, f, reference, values, shared, has_reference,
-               delays, fill, loops, aat, t)
-    names = structure.names
+    _responses(omega, *stacks, values, shared, has_reference, delays, fill, loops, aat, t)
+    names = rows.names
     cascade = {name: loops[k, 0] if fill[k] == 1 else loops[k] for k, name in enumerate(names)}
     return LoopResponses(
         cascade, t if closed else None,

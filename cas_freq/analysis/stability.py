@@ -46,41 +46,12 @@ import numpy as np
 
 from cas_freq.analysis.routh import verdicts
 from cas_freq.model import parts
-from cas_freq.model.delay import DEFAULT_PADE_ORDER, pade_denominator, pade_realization
-from cas_freq.model.structure import SIGNALS, build, stages
+from cas_freq.model.delay import DEFAULT_PADE_ORDER, pade_realization
+from cas_freq.model.structure import SIGNALS, build
+from cas_freq.model.table import Polynomials, table, walk
 
 #: |Re p| <= MARGINAL_TOLERANCE * max(1, |p|) counts as on the imaginary axis.
 MARGINAL_TOLERANCE = 1e-9
-
-
-def polymul(a, b):
-    """Product of stacks of polynomials (rows, highest power first)."""
-    out = np.zeros((a.shape[0], a.shape[1] + b.shape[1] - 1))
-    for j in range(b.shape[1]):
-        out[:, j : j + a.shape[1]] += a * b[:, j : j + 1]
-    return out
-
-
-def polyadd(a, b):
-    """Sum of stacks of polynomials of possibly different degrees."""
-    width = max(a.shape[1], b.shape[1])
-    out = np.zeros((a.shape[0], width))
-    out[:, width - a.shape[1] :] += a
-    out[:, width - b.shape[1] :] += b
-    return out
-
-
-def _stack(*columns):
-    return np.column_stack([np.broadcast_to(np.asarray(c, float), np.shape(columns[0]))
-                            for c in columns])
-
-
-def pade_polynomials(tau, order):
-    """(D(s tau), D(-s tau)) as stacks of polynomials in s, for delays ``tau`` [s] (n,)."""
-    d = pade_denominator(order)
-    powers = np.arange(order, -1, -1)
-    scale = tau[:, None] ** powers
-    return d * scale, d * scale * (-1.0) ** powers
 
 
 def loop_polynomials(p, order=DEFAULT_PADE_ORDER):
@@ -126,25 +97,13 @@ def loop_polynomial_bounds(p, order=DEFAULT_PADE_ORDER):
 
 def _loop_recurrence(p, order, magnitudes):
     n = p.n_runs
-    structure = build(p)
-    steps = stages(structure, minimal=True)
+    rows = table(build(p), minimal=True)
     results = []
-    for transform in (_identity, np.abs) if magnitudes else (_identity,):
-        e = transform(parts.stacked(structure.plant.denominator, n))
-        gain = sensed = np.ones((n, 1))
-        out = {}
-        for loop, stage in zip(structure.loops, steps, strict=True):
-            tau = np.broadcast_to(np.asarray(stage.tau, dtype=float), (n,))
-            delay_den, delay_num = map(transform, pade_polynomials(tau, order))
-            gain = polymul(polymul(gain, transform(_stacked(stage.a, n))), delay_num)
-            b = polymul(transform(_stacked(stage.b, n)), delay_den)
-            f = transform(_stacked(stage.f, n))
-            e = polyadd(polymul(polymul(b, f), e),
-                        polymul(polymul(gain, transform(_stacked(stage.g, n))), sensed))
-            sensed = polymul(sensed, f)
-            out[loop.name] = e
-        results.append(out)
-    names = [loop.name for loop in structure.loops]
+    for transform in (None, np.abs) if magnitudes else (None,):
+        algebra = Polynomials(n, order, transform)
+        results.append({name: np.column_stack(e)
+                        for name, e in walk(rows, algebra).characteristic.items()})
+    names = rows.names
     paired = {}
     for k, name in enumerate(names):
         e = results[0][name]
@@ -153,10 +112,6 @@ def _loop_recurrence(p, order, magnitudes):
             e, m = _without_roots_at_zero(e, m)
         paired[name] = (e, m)
     return paired
-
-
-def _identity(x):
-    return x
 
 
 def characteristic_polynomials(p, order=DEFAULT_PADE_ORDER):
@@ -177,10 +132,6 @@ def characteristic_polynomials(p, order=DEFAULT_PADE_ORDER):
     """
     polynomials = list(loop_polynomials(p, order).values())
     return polynomials[0], polynomials[-1]
-
-
-def _stacked(polynomial, n):
-    return polynomial if isinstance(polynomial, np.ndarray) else parts.stacked(polynomial, n)
 
 
 def _without_roots_at_zero(polynomials, magnitudes=None):

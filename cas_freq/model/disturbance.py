@@ -25,29 +25,19 @@ import numpy as np
 
 from cas_freq.model import parts
 from cas_freq.model.delay import EXACT
-from cas_freq.model.structure import build, product, stages
+from cas_freq.model.structure import build
+from cas_freq.model.table import Values, entering, table, walk
 
 
-def _closed(structure, s, delay, entering):
+def _closed(structure, s, delay, weights):
     r"""(:math:`\sum_k \tilde A_k h_k \prod_{m>k}\beta_m`, :math:`\prod_m \beta_m`,
-    :math:`E_{top}`) at ``s``, with ``entering[k]`` the polynomial :math:`h_k` entering loop
+    :math:`E_{top}`) at ``s``, with ``weights[k]`` the polynomial :math:`h_k` entering loop
     k's measurement before its sensor numerators (None: nothing enters there)."""
-    e = parts.polyval(structure.plant.denominator, s)
-    gain = sensed = betas = 1.0
-    total = 0.0
-    for loop, stage, h in zip(structure.loops, stages(structure), entering, strict=True):
-        d = delay.response(s, stage.tau)
-        beta = parts.polyval(stage.b, s) * (parts.polyval(stage.f, s) if len(stage.f) > 1
-                                            else stage.f[0])
-        gain = gain * parts.polyval(stage.a, s) * d
-        total = total * beta
-        if h is not None:
-            sensor = product(block.numerator for block in loop.sensor)
-            total = total + gain * parts.polyval(h, s) * parts.polyval(sensor, s) * sensed
-        e = beta * e + gain * parts.polyval(stage.g, s) * sensed
-        sensed = sensed * (parts.polyval(stage.f, s) if len(stage.f) > 1 else stage.f[0])
-        betas = betas * beta
-    return total, betas, e
+    rows = table(structure)
+    values = Values(s, delay)
+    found = walk(rows, values)
+    total, betas = entering(found.steps, rows, weights, values)
+    return total, betas, found.e
 
 
 def load_response(p, s, delay=EXACT):

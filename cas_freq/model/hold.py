@@ -25,7 +25,7 @@ from scipy.linalg import expm
 from cas_freq.exceptions import ConfigError
 from cas_freq.filters_config import ANALOG_POINTS, Filter
 from cas_freq.model import parts
-from cas_freq.model.structure import SIGNALS, analog_sensor, build, chain_state_space, filter_block
+from cas_freq.model.structure import SIGNALS, build, chain_state_space, filter_block, measured
 from cas_freq.threads import one_blas_thread
 
 #: A delay within this fraction of a whole number of periods counts as that number.
@@ -50,7 +50,8 @@ def _phi(x):
 class PlantModes:
     """The plant of every run as modes: poles (N, n) [rad/s] and, per measured signal, the
     residues (N, n) per volt; ``shape`` is the runs' shape in the parameters. ``filtered``:
-    the measurements through analog filters (:func:`measured` name -> :class:`AnalogPart`)."""
+    the measurements through analog filters (:func:`cas_freq.model.structure.measured` name
+    -> :class:`AnalogPart`)."""
 
     poles: np.ndarray
     residues: dict
@@ -89,12 +90,6 @@ class AnalogPart:
     def pick(self, runs):
         """The runs ``runs``."""
         return AnalogPart(*(getattr(self, k)[runs] for k in ("residues", "a", "b", "c")))
-
-
-def measured(loop):
-    """The name of the signal a loop's sampler reads: its plant signal, or, behind analog
-    filters (:func:`cas_freq.model.structure.analog_sensor`), ``"<loop name>.measured"``."""
-    return f"{loop.name}.measured" if analog_sensor(loop) else loop.feedback
 
 
 def with_analog_filters(a, b, rows, chains):

@@ -1,8 +1,8 @@
 r"""Frequency responses of the actuator loops, for any number of variants at once (numpy only).
 
 The loops are those the declared structure (:mod:`cas_freq.model.structure`) gives, evaluated
-by its recurrence with every parameter an array that broadcasts against the complex
-frequencies. For the report's EPOS4 drive:
+by the walk over its loop table (:func:`cas_freq.model.table.walk`) in complex values, every
+parameter an array that broadcasts against the complex frequencies. For the report's EPOS4 drive:
 
 .. math::
     L_i = C_i e^{-s\tau_c} Y, \quad T_i = \frac{L_i}{1 + L_i}, \quad
@@ -23,9 +23,11 @@ import types
 
 import numpy as np
 
+from cas_freq.filters_config import Filter
 from cas_freq.model import parts
 from cas_freq.model.delay import EXACT
-from cas_freq.model.structure import build, stages, total_delay
+from cas_freq.model.structure import build, total_delay
+from cas_freq.model.table import Values, at_a_time, cascade, command, references, table, walk
 
 #: LoopParameters fields the frequency responses use (where the parameters have them).
 RESPONSE_FIELDS = (
@@ -37,9 +39,6 @@ RESPONSE_FIELDS = (
 
 #: Fields the whole batch shares (the architecture, the sampling), passed on as they are.
 STATIC_FIELDS = ("cascade", "feedback_output", "sample_rates", "sampling_method")
-
-#: Per-run numbers of a filter (cas_freq.parameters.Filter).
-FILTER_NUMBERS = ("frequency", "damping", "width", "depth_db")
 
 
 class Selector:
@@ -74,7 +73,7 @@ class Selector:
         values["filters"] = tuple(
             types.SimpleNamespace(at=item.at, kind=item.kind,
                                   **{name: _rows_of(getattr(item, name), index, column)
-                                     for name in FILTER_NUMBERS})
+                                     for name in Filter.NUMBERS})
             for item in self.filters)
         return types.SimpleNamespace(**values)
 
@@ -116,8 +115,8 @@ def responses(p, s, closed=True, delay=EXACT, feedforward=False, loop_at_a_time=
               output=None):
     r"""Every loop's response and (optionally) T of the runs ``p`` at complex frequencies ``s``.
 
-    The recurrence of :mod:`cas_freq.model.structure` on the loops :func:`build` declares, one
-    complex division per figure: :math:`L_k = c_k/(b_k f_k E_{k-1})`,
+    The walk over the loop table (:mod:`cas_freq.model.table`) of the loops :func:`build`
+    declares, one complex division per figure: :math:`L_k = c_k/(b_k f_k E_{k-1})`,
     :math:`T = \tilde F\, g_{out} \sum_k A_{k-1}\varphi_k \prod_{m>k} b_m / E_{top}`.
 
     Parameters
@@ -142,62 +141,27 @@ def responses(p, s, closed=True, delay=EXACT, feedforward=False, loop_at_a_time=
     -------
     LoopResponses
     """
-    structure = build(p)
-    seen = structure.plant.signals[output or structure.output]
-    return _recurrence(structure.plant.denominator, seen, structure.names,
-                       stages(structure, feedforward), s, closed, delay, loop_at_a_time)
+    found = table(build(p), feedforward, output=output)
+    return evaluate(found, Values(s, delay), closed, loop_at_a_time)
 
 
-def _recurrence(denominator, seen, names, steps, s, closed, delay, loop_at_a_time):
-    """:func:`responses` of the stages ``steps`` of the loops ``names`` over the plant's
-    denominator, T read at the plant signal ``seen`` (polynomials)."""
-    e = parts.polyval(denominator, s)
-    gain = sensed = 1.0  # A_(k-1), F~_(k-1)
-    command = 0.0
-    cascade, inner, terms, betas = {}, [], [], []
-    for name, stage in zip(names, steps, strict=True):
-        d = delay.response(s, stage.tau)
-        b = parts.polyval(stage.b, s)
-        f = parts.polyval(stage.f, s) if len(stage.f) > 1 else stage.f[0]
-        beta = b * f
-        if closed:
-            command = command * b
-            if stage.reference is not None:
-                command = command + gain * parts.polyval(stage.reference, s) * d
-        gain = gain * parts.polyval(stage.a, s) * d
-        c = gain * parts.polyval(stage.g, s) * sensed
-        cascade[name] = c / (beta * e)
-        inner.append(e)
-        terms.append(c)
-        betas.append(beta)
-        e = beta * e + c
-        sensed = sensed * f
+def evaluate(rows, values, closed=True, loop_at_a_time=False, count=None):
+    """:func:`responses` of a :class:`~cas_freq.model.table.Table` in the complex algebra
+    ``values`` (:class:`~cas_freq.model.table.Values`), of its first ``count`` loops (all by
+    default; those outside a loop do not change its cascade view)."""
+    found = walk(rows, values, count)
     t = None
     if closed:
-        t = command * sensed * parts.polyval(seen, s) / e
-    aat = None
-    if loop_at_a_time:
-        aat = {}
-        upper = 0.0
-        above = 1.0
-        for k in range(len(terms) - 1, -1, -1):
-            upper = upper + terms[k] * above
-            above = above * betas[k]
-            aat[names[k]] = upper / (above * inner[k])
-        aat = dict(reversed(aat.items()))
-    return LoopResponses(cascade, t, aat)
+        numerator = command(found.steps, references(rows, values), values)
+        t = numerator * found.sensed * values.poly(rows.seen) / found.e
+    return LoopResponses(cascade(found.steps), t,
+                         at_a_time(found.steps) if loop_at_a_time else None)
 
 
 def current_loop(p, s, delay=EXACT):
     """L_i(s) alone (cheaper than :func:`responses`)."""
-    structure = build(p)
-    return _current_loop(stages(structure)[0], structure.plant.denominator, s, delay)
-
-
-def _current_loop(stage, denominator, s, delay):
-    f = parts.polyval(stage.f, s) if len(stage.f) > 1 else stage.f[0]
-    return (parts.polyval(stage.a, s) * delay.response(s, stage.tau) * parts.polyval(stage.g, s)
-            / (parts.polyval(stage.b, s) * f * parts.polyval(denominator, s)))
+    rows = table(build(p))
+    return evaluate(rows, Values(s, delay), False, count=1).loops[rows.names[0]]
 
 
 class PreparedResponses:
@@ -215,22 +179,8 @@ class PreparedResponses:
     """
 
     def __init__(self, p):
-        structure = build(p)
-        self.names = structure.names
-        self.denominator = _arrays(structure.plant.denominator)
-        self.seen = _arrays(structure.plant.signals[structure.output])
-        self.steps = [dataclasses.replace(
-            stage, a=_arrays(stage.a), b=_arrays(stage.b), g=_arrays(stage.g),
-            f=_arrays(stage.f), tau=_arrays((stage.tau,))[0],
-            reference=None if stage.reference is None else _arrays(stage.reference))
-            for stage in stages(structure)]
-
-    def _steps(self, runs, count=None):
-        return [dataclasses.replace(
-            stage, a=_pick(stage.a, runs), b=_pick(stage.b, runs), g=_pick(stage.g, runs),
-            f=_pick(stage.f, runs), tau=_pick((stage.tau,), runs)[0],
-            reference=None if stage.reference is None else _pick(stage.reference, runs))
-            for stage in self.steps[:count]]
+        self.table = table(build(p)).arrays()
+        self.names = self.table.names
 
     def responses(self, runs, s, closed=True, delay=EXACT, loop_at_a_time=False, through=None):
         """:func:`responses` of the runs ``runs`` (indices, one per value of ``s``); with
@@ -239,24 +189,11 @@ class PreparedResponses:
         count = None
         if through is not None and not (closed or loop_at_a_time):
             count = self.names.index(through) + 1
-        return _recurrence(_pick(self.denominator, runs), _pick(self.seen, runs),
-                           self.names[:count], self._steps(runs, count), s, closed, delay,
-                           loop_at_a_time)
+        return evaluate(self.table.pick(runs, count), Values(s, delay), closed, loop_at_a_time)
 
     def current_loop(self, runs, s, delay=EXACT):
         """:func:`current_loop` of the runs ``runs``."""
-        return _current_loop(self._steps(runs, 1)[0], _pick(self.denominator, runs), s, delay)
-
-
-def _arrays(polynomial):
-    """The coefficients as arrays (n,) where they vary, else as they are (0-d arrays as
-    floats: the same number)."""
-    return tuple(float(c) if np.ndim(c) == 0 else np.asarray(c) for c in polynomial)
-
-
-def _pick(polynomial, runs):
-    """The coefficients (of :func:`_arrays`) of the runs ``runs``."""
-    return tuple(c[runs] if isinstance(c, np.ndarray) else c for c in polynomial)
+        return self.responses(runs, s, False, delay, through=self.names[0]).loops[self.names[0]]
 
 
 class ActuatorLoops:

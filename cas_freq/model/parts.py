@@ -77,6 +77,32 @@ def _polyval_imaginary(coefficients, w):
     return out
 
 
+def polymul(a, b):
+    """Product of two polynomials (sequences of coefficients, highest power first, each a
+    float or an array broadcasting over runs)."""
+    out = [0.0] * (len(a) + len(b) - 1)
+    for i, x in enumerate(a):
+        for j, y in enumerate(b):
+            out[i + j] = out[i + j] + x * y
+    return tuple(out)
+
+
+def polyadd(a, b):
+    """Sum of two polynomials of possibly different degrees."""
+    width = max(len(a), len(b))
+    a = (0.0,) * (width - len(a)) + tuple(a)
+    b = (0.0,) * (width - len(b)) + tuple(b)
+    return tuple(x + y for x, y in zip(a, b, strict=True))
+
+
+def product(polynomials):
+    """Product of any number of polynomials ((1.0,) for none)."""
+    out = (1.0,)
+    for polynomial in polynomials:
+        out = polymul(out, polynomial)
+    return out
+
+
 def stacked(coefficients, n):
     """A polynomial as an (n, degree + 1) array of coefficient rows, one row per variant."""
     return np.column_stack([np.broadcast_to(np.asarray(c, dtype=float), (n,))
@@ -135,11 +161,6 @@ def mechanics(p):
 def back_emf_coupling(p):
     """K_e K_m [V*N*m*s/(rad*A)]: what the back-EMF adds to Z_e P_m in Y's denominator."""
     return p.Ke * p.Km
-
-
-def current_controller(p):
-    """Numerator of C_i(s) = (Kp s + Ki) / s [V/A]."""
-    return (p.ci_Kp, p.ci_Ki)
 
 
 def position_controller(p):

@@ -35,8 +35,9 @@ declared structure (:mod:`cas_freq.model.structure`) are then evaluated as the d
       P(e^{j\omega T_s}) = \frac{1}{M} \sum_{k=0}^{M-1} H_M(z_k)\, z_k^{-d}\, G(z_k),
       \qquad z_k = e^{j(\omega + 2\pi k/T_s) T_f}, \qquad H_M(z) = \sum_{i<M} z^{-i}.
 
-The loops are then composed by the same recurrence as the continuous ones
-(:mod:`cas_freq.model.structure`), over values instead of polynomials. Each loop's response
+The loops are then composed by the same walk over the loop table as the continuous ones
+(:func:`cas_freq.model.table.walk`), a group of loops of one rate at a time, in the algebra of
+:class:`SampledValues`. Each loop's response
 is a function of its own :math:`e^{j\omega T}`: meaningful up to its Nyquist frequency
 :math:`\pi/T` (the figures stop there). The closed loop T is the output's samples per
 command sample at the outermost loop's rate. Loop-at-a-time views of loops inside a slower
@@ -49,10 +50,14 @@ import math
 import numpy as np
 
 from cas_freq.exceptions import ConfigError
+from cas_freq.filters_config import Filter
 from cas_freq.model import parts
-from cas_freq.model.hold import WHOLE, PlantModes, hold_equivalent, measured, plant_modes
+from cas_freq.model.hold import WHOLE, PlantModes, hold_equivalent, plant_modes
 from cas_freq.model.loops import LoopResponses
-from cas_freq.model.structure import build, digital_sensor, product, stages
+from cas_freq.model.structure import build
+from cas_freq.model.table import Values, command, table, walk
+from cas_freq.model.table import at_a_time as table_at_a_time
+from cas_freq.model.table import cascade as table_cascade
 
 #: The discretisations of a sampled controller (docs/model.md).
 METHODS = ("backward", "tustin")
@@ -203,17 +208,14 @@ def responses(p, s, closed=True, loop_at_a_time=False, output=None, modes=None,
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class Prepared:
-    """The runs' loops multiplied out once (structure, stages, the digital sensors' numerators
-    and denominators, delays, plant modes; the analog sensors are in the plant's modes), for
-    :func:`responses` of all of them or of a few at a time (:meth:`pick`: the margin
-    searches' refinements)."""
+    """The runs' loops multiplied out once (structure, rate groups, the loop table, plant
+    modes; the analog sensors are in the plant's modes), for :func:`responses` of all of them
+    or of a few at a time (:meth:`pick`: the margin searches' refinements)."""
 
     structure: object
     plan: list
     method: str
-    steps: list
-    sensors: list
-    sensor_denominators: list
+    table: object
     modes: PlantModes
     shape: tuple
 
@@ -222,45 +224,48 @@ class Prepared:
         """The loops of the runs ``p``."""
         structure = build(p)
         return cls(structure, groups(structure.names, p.sample_rates),
-                   getattr(p, "sampling_method", "backward"),
-                   [dataclasses.replace(stage, a=_arrays(stage.a), b=_arrays(stage.b),
-                                        f=_arrays(stage.f), tau=_arrays((stage.tau,))[0],
-                                        reference=None if stage.reference is None
-                                        else _arrays(stage.reference))
-                    for stage in stages(structure)],
-                   [_arrays(product(block.numerator for block in digital_sensor(loop)))
-                    for loop in structure.loops],
-                   [_arrays(product(block.denominator for block in digital_sensor(loop)))
-                    for loop in structure.loops],
+                   getattr(p, "sampling_method", "backward"), table(structure).arrays(),
                    plant_modes(p) if modes is None else modes, _runs(p))
 
     def pick(self, runs):
         """The same of the runs ``runs`` (indices into the runs of 1-D parameters)."""
-        return dataclasses.replace(
-            self, steps=[dataclasses.replace(
-                stage, a=_pick(stage.a, runs), b=_pick(stage.b, runs), f=_pick(stage.f, runs),
-                tau=_pick((stage.tau,), runs)[0],
-                reference=None if stage.reference is None else _pick(stage.reference, runs))
-                for stage in self.steps],
-            sensors=[_pick(sensor, runs) for sensor in self.sensors],
-            sensor_denominators=[_pick(sensor, runs) for sensor in self.sensor_denominators],
-            modes=self.modes.pick(runs), shape=np.shape(runs))
+        return dataclasses.replace(self, table=self.table.pick(runs),
+                                   modes=self.modes.pick(runs), shape=np.shape(runs))
 
 
-def _arrays(polynomial):
-    """Coefficients as arrays where they vary between runs, else as floats."""
-    return tuple(float(c) if np.ndim(c) == 0 else np.asarray(c) for c in polynomial)
+class SampledValues(Values):
+    """The walk's algebra (:func:`cas_freq.model.table.walk`) of one group of loops at one
+    rate: complex values at :math:`z = e^{j\\nu T}`, each block at the equivalent ``x`` of s
+    (:func:`equivalent_s`), the measured signals those of the plant's hold-equivalent (or of
+    the faster group inside, ``signals``), a delay between two controllers whole samples of
+    this rate (none on the group's ``first`` loop: the hold-equivalent holds it)."""
 
+    def __init__(self, x, z_inverse, period, signals, first):
+        super().__init__(x)
+        self.z_inverse = z_inverse
+        self.period = period
+        self.signals = signals
+        self.first = first
 
-def _pick(polynomial, runs):
-    return tuple(c[runs] if isinstance(c, np.ndarray) and c.ndim else c for c in polynomial)
+    def delay(self, row):
+        """(z^-samples, None)."""
+        if row.name == self.first:
+            return 1.0, None
+        return self.z_inverse ** _samples(row.tau, self.period), None
+
+    def measured(self, row):
+        """The sampled signal through the digital sensor's numerators."""
+        return self.signals[row.measured] * self.poly(row.digital_numerator)
+
+    def sensor(self, row):
+        """The digital sensor's denominators."""
+        return self.poly(row.digital_denominator)
 
 
 def _evaluate(prepared, s, closed, loop_at_a_time, output, feedforward, through):
     """:func:`responses` of prepared loops."""
     structure, plan, method = prepared.structure, prepared.plan, prepared.method
-    steps, sensors, modes = prepared.steps, prepared.sensors, prepared.modes
-    sensor_denominators = prepared.sensor_denominators
+    rows, modes = prepared.table, prepared.modes
     if through is not None:
         k = structure.names.index(through)
         plan = [group for group in plan if min(group.loops) <= k]
@@ -284,53 +289,35 @@ def _evaluate(prepared, s, closed, loop_at_a_time, output, feedforward, through)
             k = np.arange(plan[g].ratio).reshape((-1,) + (1,) * nu.ndim)
             nu = nu[None] + 2.0 * np.pi * k / plan[g].period
 
-    signals = hold_equivalent(modes, steps[0].tau, plan[0].period, frequencies[0])
+    signals = hold_equivalent(modes, rows.rows[0].tau, plan[0].period, frequencies[0])
     cascade, views = {}, {}
     t = None
     for g, group in enumerate(plan):
         nu = frequencies[g]
-        x = equivalent_s(nu, group.period, method)
-        z_inverse = np.exp(-1j * nu * group.period)
-        e, gain, sensed, command = 1.0, 1.0, 1.0, 0.0
-        inner, terms, betas = [], [], []
-        for position, k in enumerate(group.loops):
-            stage = steps[k]
-            d = 1.0 if position == 0 else z_inverse ** _samples(stage.tau, group.period)
-            b = parts.polyval(stage.b, x)
-            f = _value(sensor_denominators[k], x)
-            beta = b * f
-            if closed and g == top:
-                command = command * b
-                if stage.reference is not None:
-                    command = command + gain * parts.polyval(stage.reference, x) * d
-                if feedforward and structure.loops[k].feedforward is not None:
-                    loop = structure.loops[k]
-                    injected = (parts.polyval(loop.feedforward, 1j * nu)
-                                * parts.polyval(loop.controller.denominator, x)
-                                * _value(product(block.numerator for block in loop.path), x))
-                    command = command + gain * injected * d
-            gain = gain * parts.polyval(stage.a, x) * d
-            c = gain * signals[measured(structure.loops[k])] * _value(sensors[k], x) * sensed
-            cascade[structure.names[k]] = _own(c / (beta * e), nu.ndim - omega.ndim)
-            inner.append(e)
-            terms.append(c)
-            betas.append(beta)
-            e = beta * e + c
-            sensed = sensed * f
+        group_rows = dataclasses.replace(rows, rows=tuple(rows.rows[k] for k in group.loops))
+        values = SampledValues(equivalent_s(nu, group.period, method),
+                               np.exp(-1j * nu * group.period), group.period, signals,
+                               group_rows.rows[0].name)
+        found = walk(group_rows, values, e=1.0)
+        aliases = nu.ndim - omega.ndim
+        cascade.update({name: _own(value, aliases)
+                        for name, value in table_cascade(found.steps).items()})
         if loop_at_a_time:
-            views.update(_at_a_time([structure.names[k] for k in group.loops], terms, betas,
-                                    inner, nu.ndim - omega.ndim, g == top))
+            for name, value in table_at_a_time(found.steps).items():
+                value = _own(value, aliases)
+                views[name] = value if g == top else np.full_like(value, np.nan)
         if g == top:
             if closed:
-                t = command * sensed * signals[seen] / e
+                entering = [_entering(row, values, nu, feedforward) for row in group_rows.rows]
+                t = (command(found.steps, entering, values) * found.sensed * signals[seen]
+                     / found.e)
             break
         # what the next (slower) group's loops see: held, delayed, sampled
         outer = plan[g + 1]
-        slow = steps[outer.loops[0]]
         fast = group.period
-        held = (z_inverse ** _samples(slow.tau, fast)
+        held = (values.z_inverse ** _samples(rows.rows[outer.loops[0]].tau, fast)
                 * _hold_sum(nu, fast, outer.ratio))
-        signals = {name: np.mean(held * gain * value * sensed / e, axis=0)
+        signals = {name: np.mean(held * found.gain * value * found.sensed / found.e, axis=0)
                    for name, value in signals.items()}
     period_of = {structure.names[k]: group.period for group in plan for k in group.loops}
     ndim = np.ndim(s)
@@ -340,11 +327,23 @@ def _evaluate(prepared, s, closed, loop_at_a_time, output, feedforward, through)
                             if loop_at_a_time else None, period_of)
 
 
+def _entering(row, values, nu, feedforward):
+    """What the command adds at this row's controller output
+    (:func:`cas_freq.model.table.command`): its reference and, with the feed-forward, the
+    command's rate and acceleration as the trajectory generator knows them (the polynomial at
+    s = j nu) over the controller's denominator."""
+    out = () if row.reference is None else (values.poly(row.reference),)
+    if feedforward and row.feedforward is not None:
+        out += (parts.polyval(row.feedforward, 1j * nu) * values.poly(row.controller_denominator)
+                * values.poly(row.path_numerator),)
+    return out
+
+
 def _runs(p):
     """The shape the runs' parameters broadcast to (() where every one is a scalar)."""
     shapes = [np.shape(value) for value in vars(p).values() if isinstance(value, np.ndarray)]
     shapes += [np.shape(getattr(item, name)) for item in getattr(p, "filters", ())
-               for name in ("frequency", "damping", "width", "depth_db")
+               for name in Filter.NUMBERS
                if isinstance(getattr(item, name, None), np.ndarray)]
     return np.broadcast_shapes(*shapes)
 
@@ -370,27 +369,9 @@ def _hold_sum(nu, period, count):
     return np.where(near, float(count), high / np.where(near, 1.0, low))
 
 
-def _value(polynomial, x):
-    return parts.polyval(polynomial, x) if len(polynomial) > 1 else polynomial[0]
-
-
 def _own(values, aliases):
     """A group's response at omega itself (the first of its aliases)."""
     return values[(0,) * aliases] if aliases else values
-
-
-def _at_a_time(names, terms, betas, inner, aliases, top):
-    """The loop-at-a-time views of one group's loops (NaN unless it is the outermost group:
-    a loop inside a slower loop, with that loop closed, is periodically time-varying)."""
-    out = {}
-    upper, above = 0.0, 1.0
-    for k in range(len(terms) - 1, -1, -1):
-        upper = upper + terms[k] * above
-        above = above * betas[k]
-        value = upper / (above * inner[k])
-        out[names[k]] = _own(value, aliases) if top else np.full_like(_own(value, aliases),
-                                                                       np.nan)
-    return dict(reversed(out.items()))
 
 
 class PreparedSampled:

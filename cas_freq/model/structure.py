@@ -1,12 +1,15 @@
 r"""The loop structure of an actuator, declared once: its blocks and how they connect.
 
 Every linear representation of the loops is derived from the :class:`Structure` that
-:func:`build` declares for a batch of runs: the vectorised frequency responses
-(:func:`cas_freq.model.loops.responses` and the compiled
-:mod:`cas_freq.analysis.response_kernel`), the Padé characteristic polynomials of the stability
-verdicts (:func:`cas_freq.analysis.stability.characteristic_polynomials`) and the python-control
-systems (:mod:`cas_freq.model.systems`). None of them composes the loops by hand: they all
-evaluate the cascade below, loop by loop, from the inside out.
+:func:`build` declares for a batch of runs. :func:`cas_freq.model.table.table` multiplies it
+out into a loop table, and :func:`cas_freq.model.table.walk` evaluates the recurrence below over
+it, loop by loop from the inside out, in the arithmetic each consumer needs: the vectorised
+frequency responses (:func:`cas_freq.model.loops.responses`, the compiled
+:mod:`cas_freq.analysis.response_kernel` reading the same table as coefficient stacks), the
+sampled loops (:mod:`cas_freq.model.sampled`), the load and noise inputs
+(:mod:`cas_freq.model.disturbance`) and the Padé characteristic polynomials of the stability
+verdicts (:func:`cas_freq.analysis.stability.characteristic_polynomials`). None of them
+composes the loops by hand.
 
 **The cascade.** The plant has one input, the motor voltage V, and the signals the loops measure
 are rational functions of it over a common denominator :math:`\Delta` (the parts of
@@ -58,8 +61,9 @@ import dataclasses
 
 import numpy as np
 
-from cas_freq.filters_config import ANALOG_POINTS
+from cas_freq.filters_config import ANALOG_POINTS, FILTERS
 from cas_freq.model import parts
+from cas_freq.model.parts import polyadd, polymul
 
 #: The plant signals a loop can measure: name -> meaning [unit per volt].
 SIGNALS = {
@@ -188,31 +192,6 @@ class Structure:
         raise KeyError(name)
 
 
-def polymul(a, b):
-    """Product of two polynomials (tuples of broadcastable coefficients)."""
-    out = [0.0] * (len(a) + len(b) - 1)
-    for i, x in enumerate(a):
-        for j, y in enumerate(b):
-            out[i + j] = out[i + j] + x * y
-    return tuple(out)
-
-
-def polyadd(a, b):
-    """Sum of two polynomials of possibly different degrees."""
-    width = max(len(a), len(b))
-    a = (0.0,) * (width - len(a)) + tuple(a)
-    b = (0.0,) * (width - len(b)) + tuple(b)
-    return tuple(x + y for x, y in zip(a, b, strict=True))
-
-
-def product(polynomials):
-    """Product of any number of polynomials ((1.0,) for none)."""
-    out = (1.0,)
-    for polynomial in polynomials:
-        out = polymul(out, polynomial)
-    return out
-
-
 def _rows(polynomial, n):
     return parts.stacked(polynomial, n)
 
@@ -258,21 +237,11 @@ def pid_controller(p, n):
 
 
 def filter_block(item):
-    """A filter of the config's ``filters:`` list (docs/model.md, "Filters"), in the form
-    1 at s = 0: lowpass1 1/(s/w0 + 1), lowpass2 1/(s^2/w0^2 + 2 z s/w0 + 1), notch
-    (s^2/w0^2 + 2 d z s/w0 + 1)/(s^2/w0^2 + 2 z s/w0 + 1) with z = width/(2 w0),
-    d = 10^(depth/20)."""
-    w0 = item.frequency
-    if item.kind == "lowpass1":
-        return Block("low-pass", (1.0,), (1.0 / w0, 1.0))
-    if item.kind == "lowpass2":
-        return Block("low-pass", (1.0,), (1.0 / (w0 * w0), 2.0 * item.damping / w0, 1.0))
-    if item.kind == "notch":
-        zeta = item.width / (2.0 * w0)
-        depth = 10.0 ** (item.depth_db / 20.0)
-        return Block("notch", (1.0 / (w0 * w0), 2.0 * depth * zeta / w0, 1.0),
-                     (1.0 / (w0 * w0), 2.0 * zeta / w0, 1.0))
-    raise ValueError(f"unknown filter type {item.kind!r}")  # pragma: no cover (config checks)
+    """A filter of the config's ``filters:`` list as a block: its type's transfer function,
+    1 at s = 0 (:data:`cas_freq.filters_config.FILTERS`; docs/model.md, "Filters")."""
+    kind = FILTERS[item.kind]
+    numerator, denominator = kind.transfer(item)
+    return Block(kind.label, numerator, denominator)
 
 
 def _filters(p, at):
@@ -288,6 +257,12 @@ def digital_sensor(loop):
 def analog_sensor(loop):
     """A loop's sensor blocks before its sampler (:attr:`Block.analog`)."""
     return tuple(block for block in loop.sensor if block.analog)
+
+
+def measured(loop):
+    """The name of the signal a loop's sampler reads: its plant signal, or, behind analog
+    filters (:func:`analog_sensor`), ``"<loop name>.measured"``."""
+    return f"{loop.name}.measured" if analog_sensor(loop) else loop.feedback
 
 
 def plant(p):
@@ -480,65 +455,3 @@ def _runs(p):
         return n
     shapes = [np.shape(getattr(p, name)) for name in ("R", "ci_Kp", "cp_Kp", "J", "Km")]
     return max((shape[0] for shape in shapes if shape), default=1)
-
-
-@dataclasses.dataclass(frozen=True)
-class Stage:
-    """One loop multiplied out for evaluation: polynomials (tuples) and its delay.
-
-    ``a``: controller and path numerators; ``b``: their denominators; ``g``: the measured
-    signal's numerator through the sensor's numerators; ``f``: the sensor's denominators;
-    ``reference``: the command's numerator at this controller's output over ``b`` before the
-    delay (None: no command enters here); ``tau``: the delay [s].
-    """
-
-    a: tuple
-    b: tuple
-    g: tuple
-    f: tuple
-    reference: tuple | None
-    tau: object
-
-
-def stages(structure, feedforward=False, minimal=False):
-    """The loops of ``structure`` multiplied out, innermost first (see the module docstring).
-
-    Parameters
-    ----------
-    structure : Structure
-    feedforward : bool
-        Let the feed-forward act (the command enters every controller with one).
-    minimal : bool
-        Use the blocks' minimal forms (coefficient stacks; for characteristic polynomials:
-        no command enters, ``reference`` is None).
-
-    Returns
-    -------
-    list of Stage
-    """
-    out = []
-    top = len(structure.loops) - 1
-    for k, loop in enumerate(structure.loops):
-        controller = loop.controller
-        if minimal and controller.minimal is not None:
-            c_num, c_den = (tuple(stack.T) for stack in controller.minimal())
-        else:
-            c_num, c_den = controller.numerator, controller.denominator
-        path_num = product(block.numerator for block in loop.path)
-        path_den = product(block.denominator for block in loop.path)
-        reference = None
-        if k == top and not minimal:
-            reference = loop.reference if loop.reference is not None else c_num
-        if feedforward and loop.feedforward is not None and not minimal:
-            injected = polymul(loop.feedforward, c_den)
-            reference = injected if reference is None else polyadd(reference, injected)
-        out.append(Stage(
-            a=polymul(c_num, path_num),
-            b=polymul(c_den, path_den),
-            g=polymul(structure.plant.signals[loop.feedback],
-                      product(block.numerator for block in loop.sensor)),
-            f=product(block.denominator for block in loop.sensor),
-            reference=None if reference is None else polymul(reference, path_num),
-            tau=loop.delay,
-        ))
-    return out
