@@ -121,27 +121,21 @@ def closings(p, pade_order=DEFAULT_PADE_ORDER, loops=None, n=None, sampled=False
     n = 1 if one else n
     structure = build(p)
     chosen = structure.loops[:loops]
-    if sampled:
-        timing = _Sampling(p, structure)
-        system, row_of = _held_plant(p, structure, n, timing.plan[0].period)
-        signal, sensor_blocks = measured, digital_sensor
-    else:
-        timing = _Continuous(pade_order)
-        system, row_of = _reduced_plant(p) if reduced else _plant(p, n)
-        signal, sensor_blocks = (lambda loop: loop.feedback), (lambda loop: loop.sensor)
+    form = _Sampling(p, structure) if sampled else _Continuous(pade_order)
+    system, row_of = form.plant(p, structure, n, reduced)
     out = {}
     for k, loop in enumerate(chosen):
-        system = timing.entering(k, structure, system, n)
-        discrete = timing.discretiser(k)
+        system = form.entering(k, structure, system, n)
+        discrete = form.discretiser(k)
         own = command and k == len(chosen) - 1 and loop.reference is not None
         path = chain([discrete(_realize_block(block, n)) for block in loop.path]
-                     + [timing.delay(k, loop, n)])
+                     + [form.delay(k, loop, n)])
         opened = series(series(_controller(loop, own, n, discrete), path), system)
-        row = row_of[signal(loop)]
-        blocks = sensor_blocks(loop)
+        row = row_of[form.signal(loop)]
+        blocks = form.sensor(loop)
         sensor = chain([discrete(_realize_block(block, n)) for block in blocks]) if blocks else None
         system = feedback(opened, row, sensor)
-        out[loop.name] = Closing(opened, row, sensor, system, timing.period(k))
+        out[loop.name] = Closing(opened, row, sensor, system, form.period(k))
     return {name: _one(closing) for name, closing in out.items()} if one else out
 
 
@@ -184,10 +178,19 @@ def z_to_s(z, period):
 # --- continuous and sampled timing -----------------------------------------------------------
 
 class _Continuous:
-    """Continuous loops: Padé delays, no discretisation, one rate."""
+    """Continuous loops: the plant itself, Padé delays, every sensor block in the feedback."""
 
     def __init__(self, pade_order):
         self.pade_order = pade_order
+
+    def plant(self, p, structure, n, reduced):
+        return _reduced_plant(p) if reduced else _plant(p, n)
+
+    def signal(self, loop):
+        return loop.feedback
+
+    def sensor(self, loop):
+        return loop.sensor
 
     def entering(self, k, structure, system, n):
         return system
@@ -203,13 +206,23 @@ class _Continuous:
 
 
 class _Sampling:
-    """Sampled loops: each loop's period, its delay line, the lifting at a slower loop."""
+    """Sampled loops: the held plant with the analog filters, each loop's period and delay
+    line, the lifting at a slower loop, the sensor blocks after the samplers."""
 
     def __init__(self, p, structure):
         self.method = p.sampling_method
         self.plan = groups(structure.names, p.sample_rates)
         self.place = {k: (g, position) for g, group in enumerate(self.plan)
                       for position, k in enumerate(group.loops)}
+
+    def plant(self, p, structure, n, reduced):
+        return _held_plant(p, structure, n, self.plan[0].period)
+
+    def signal(self, loop):
+        return measured(loop)
+
+    def sensor(self, loop):
+        return digital_sensor(loop)
 
     def period(self, k):
         return self.plan[self.place[k][0]].period
