@@ -147,11 +147,11 @@ def run_groups(p, sampled=False):
     structure = build(p)
     columns = [np.broadcast_to(np.asarray(p.K_g) > 0, (n,)),
                np.broadcast_to(np.asarray(p.K_h) != 0, (n,))]
-    timing = _Sampling(p, structure) if sampled else None
+    form = _Sampling(p, structure) if sampled else _Continuous(None)
     for k, loop in enumerate(structure.loops):
         columns += realised_orders(loop, n)
-        tau = np.broadcast_to(np.asarray(loop.delay, dtype=float), (n,)).reshape(-1)
-        columns += timing.delay_keys(k, tau) if sampled else [tau == 0]
+        columns += form.delay_keys(k, np.broadcast_to(np.asarray(loop.delay, dtype=float),
+                                                      (n,)).reshape(-1))
     _, group = np.unique(np.column_stack(columns), axis=0, return_inverse=True)
     group = group.reshape(-1)
     return [np.flatnonzero(group == g) for g in range(int(group.max()) + 1 if n else 0)]
@@ -175,7 +175,7 @@ def z_to_s(z, period):
     return np.log(z) / period
 
 
-# --- continuous and sampled timing -----------------------------------------------------------
+# --- the continuous and the sampled forms ----------------------------------------------------
 
 class _Continuous:
     """Continuous loops: the plant itself, Padé delays, every sensor block in the feedback."""
@@ -200,6 +200,10 @@ class _Continuous:
 
     def delay(self, k, loop, n):
         return _pade(loop.delay, self.pade_order, n)
+
+    def delay_keys(self, k, tau):
+        """What of loop k's delays (n,) [s] sets its state count: being zero."""
+        return [tau == 0]
 
     def period(self, k):
         return None
