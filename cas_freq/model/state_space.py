@@ -309,7 +309,7 @@ def _held_plant(p, structure, n, period):
     row_of = {**SIGNAL_ROWS, **{measured(loop): 4 + j for j, loop in enumerate(filtered)}}
     states, outputs = a.shape[-1], rows.shape[1]
     tau = float(np.asarray(structure.loops[0].delay, dtype=float).reshape(-1)[0])
-    held, _ = hold_equivalent(a, b, tau, period)
+    held = hold_equivalent(a, b, tau, period)
     width = held[0].shape[-1]
     c = np.zeros((n, outputs, width))
     c[:, :, width - states - 1:width - 1] = rows
@@ -326,9 +326,9 @@ def hold_equivalent(a, b, tau, period):
 
     Returns
     -------
-    (tuple, int)
+    tuple
         (A, B, C, D) with the delay line and one extra state (the previous input), C zero (the
-        caller reads the plant's states, the last but one ``s``), and ``s``.
+        caller reads the plant's states: the ``s`` before the last).
     """
     n, states = a.shape[0], a.shape[-1]
     whole = int(np.floor(tau / period + 1e-9))
@@ -350,7 +350,7 @@ def hold_equivalent(a, b, tau, period):
     big[:, :states, states:] = phi_1 @ psi
     inputs = np.concatenate([gamma_1, np.ones((n, 1, 1))], axis=1)
     held = (big, inputs, np.zeros((n, 1, states + 1)), np.zeros((n, 1, 1)))
-    return series(delay_line(whole, (n,)), held), states
+    return series(delay_line(whole, (n,)), held)
 
 
 # --- the blocks ------------------------------------------------------------------------------

@@ -147,7 +147,7 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
     plant = plant_system(p)
     if sampled:
         period = loops[structure.names[0]].period
-        held, _ = state_space.hold_equivalent(plant.A[None], plant.B[None], 0.0, period)
+        held = state_space.hold_equivalent(plant.A[None], plant.B[None], 0.0, period)
         states = plant.A.shape[0]
         plant = control.ss(held[0][0][:states, :states], held[1][0][:states], plant.C, plant.D,
                            period, inputs="V", outputs=plant.output_labels,
