@@ -55,7 +55,7 @@ from cas_freq.analysis.stability import loop_polynomials
 from cas_freq.config import load_variant
 from cas_freq.exceptions import ConfigError
 from cas_freq.filters_config import ANALOG_POINTS, FILTER_POINTS, Filter
-from cas_freq.model import loops, sampled
+from cas_freq.model import loops, sampled, state_space
 from cas_freq.model.delay import EXACT, DelayModel
 from cas_freq.model.structure import analog_sensor, build, digital_sensor
 from cas_freq.model.systems import linear_model
@@ -289,7 +289,7 @@ def test_the_sampled_loops_hold_the_analog_filters_before_the_samplers(filters, 
 
 def test_the_digital_sensor_of_a_sampled_loop_leaves_the_analog_filters_out():
     p = _params(sample_rates=EPOS4, sampling_method="backward")
-    closings = sampled_stability.loop_systems(p)
+    closings = state_space.closings(p, sampled=True)
     assert closings["current_loop"].sensor is None and closings["position_loop"].sensor is None
     # each loop reads its filtered signal, the rows after the plant's four
     assert closings["current_loop"].row >= 4 and closings["position_loop"].row >= 4

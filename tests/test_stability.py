@@ -12,8 +12,11 @@ per pole, over every case here (orders 2, 6, 10); the test allows 1e-8 relative 
 still far below any difference that could move a pole across the imaginary axis.
 """
 
+import dataclasses
+import math
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,10 +26,13 @@ from cas_freq.analysis.stability import (
     closed_loop_poles,
     closed_loop_stability,
     current_loop_poles,
+    loop_polynomials,
     pole_verdict,
 )
 from cas_freq.config import load_variant
+from cas_freq.filters_config import Filter
 from cas_freq.model.systems import linear_model
+from cas_freq.parameters import LoopParameters
 
 ORDERS = (2, 6, 10)
 RTOL = 1e-8  # per pole; see the module docstring
@@ -163,6 +169,23 @@ def test_derivative_on_measurement_keeps_the_poles():
         assert_same_poles(closed_loop_poles(measurement, order),
                           linear_model(measurement, order).closed_loop.poles())
         assert_same_poles(closed_loop_poles(measurement, order), closed_loop_poles(error, order))
+
+
+@pytest.mark.parametrize("config", ["qt_cas.yaml", "cascade_axis.yaml"])
+def test_current_loop_poles_are_its_polynomials_roots_with_a_current_filter(config):
+    # A filter on the measured current is part of the current loop: its poles are the roots of
+    # the current loop's characteristic polynomial (the verdict's, the recurrence of
+    # cas_freq.model.structure in polynomials: another route), two more than without it.
+    root = Path(__file__).resolve().parents[1] / "configs"
+    base = LoopParameters.from_config(load_variant(root / config).params)
+    filtered = dataclasses.replace(base, filters=(
+        *base.filters, Filter("current_feedback", "lowpass2", 2 * math.pi * 12e3, damping=0.6)))
+    for order in ORDERS:
+        polynomial = loop_polynomials(filtered, order)["current_loop"][0]
+        roots = np.roots(np.trim_zeros(polynomial, "f"))
+        poles = current_loop_poles(filtered, order)
+        assert_same_poles(poles, roots)
+        assert poles.size == current_loop_poles(base, order).size + 2
 
 
 def test_analysis_path_imports_neither_control_nor_matplotlib():

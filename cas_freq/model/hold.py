@@ -94,7 +94,7 @@ class AnalogPart:
 
 def with_analog_filters(a, b, rows, chains):
     r"""The plant (A, B) with analog measurement filters in series on its signals (the sampled
-    loops' state space, :mod:`cas_freq.analysis.sampled_stability`).
+    loops' state space, :mod:`cas_freq.model.state_space`).
 
     A filter chain :math:`(A_f, B_f, C_f, D_f)` on the signal :math:`y = C_y x`:
     :math:`A \to \begin{pmatrix} A & 0 \\ B_f C_y & A_f \end{pmatrix}`,

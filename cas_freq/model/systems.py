@@ -11,7 +11,7 @@ frequency-domain figures come from :mod:`cas_freq.model.loops`, which this modul
 of :mod:`cas_freq.model.parts`.
 
 The systems are those of the declared loop structure (:mod:`cas_freq.model.structure`),
-composed in state space by :mod:`cas_freq.analysis.stability` (the same matrices whose
+composed in state space by :mod:`cas_freq.model.state_space` (the same matrices whose
 eigenvalues are the closed-loop poles). The Padé delays are cascades of low-order sections
 (:func:`cas_freq.model.delay.pade_realization`), so orders 8 and 10 of sub-millisecond delays
 still give finite, accurate models.
@@ -24,8 +24,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from cas_freq.model import parts
+from cas_freq.model import parts, state_space
 from cas_freq.model.delay import DEFAULT_PADE_ORDER
+from cas_freq.model.sampled import is_sampled
 from cas_freq.model.structure import build
 
 if TYPE_CHECKING:
@@ -100,19 +101,22 @@ class LinearModel:
 def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
     """Build every loop of the declared structure as a python-control system with Padé delays.
 
-    Each loop k, broken at its error, is its forward path (:func:`~cas_freq.analysis.stability.
-    loop_forward`) in front of the loops inside it closed
-    (:func:`~cas_freq.analysis.stability.loop_system`), read at its measurement through its
-    sensor; the current loop sees the plant without the modes the current does not see (the
-    shaft's position, unless a hinge stiffness acts on it), which would add spurious poles at
-    0. T is the whole structure closed, read at the output.
+    The loops are those of :func:`cas_freq.model.state_space.closings`: each loop k, broken at
+    its error, is its forward path in front of the loops inside it closed, read at its
+    measurement through its sensor; the current loop of continuous controllers sees the plant
+    without the modes the current does not see (the shaft's position, unless a hinge stiffness
+    acts on it), which would add spurious poles at 0. T is the whole structure closed, read at
+    the output (:func:`closed_loop_matrices`). Sampled loops give discrete-time systems, each
+    loop at its own period (the inner loops of a multirate drive at theirs, broken with the
+    slower loops open), T and S at the outermost loop's; their delays exact (whole samples and
+    the hold-equivalent's fractional part).
 
     Parameters
     ----------
     params : cas_freq.config.ActuatorConfig or cas_freq.parameters.LoopParameters
         One variant (SI).
     pade_order : int
-        Padé order n >= 1 of every delay.
+        Padé order n >= 1 of every delay (continuous controllers).
 
     Returns
     -------
@@ -120,38 +124,41 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
     """
     import control
 
-    from cas_freq.analysis import stability
-    from cas_freq.model.sampled import is_sampled
-
     p = parts.one_variant(params)
-    if is_sampled(p):
-        return _sampled_model(p, pade_order)
     structure = build(p)
-    loops = {}
-    for k, loop in enumerate(structure.loops):
-        if k == 0:
-            inner = (*parts.current_plant_matrices(p), np.zeros((1, 1)))
-            row = 0
-        else:
-            inner = stability.loop_system(p, pade_order, loops=k)
-            row = stability.SIGNAL_ROWS[loop.feedback]
-        a, b, c, d = stability.loop_forward(loop, pade_order)
-        a, b, c, d = stability.series((a, b[:, :1], c, d[:, :1]), inner)
-        measured = (a, b, c[row:row + 1], d[row:row + 1])
-        sensor = stability.loop_sensor(loop)
-        if sensor is not None:
-            measured = stability.series(measured, sensor)
-        loops[loop.name] = control.ss(*measured)
-    top = loops[structure.loops[-1].name]
-    loops["current_closed_loop"] = control.feedback(loops["current_loop"], 1)
-    loops["sensitivity"] = control.feedback(control.ss([], [], [], [[1.0]]), top)
+    sampled = is_sampled(p)
+    loops = state_space.closings(p, pade_order, sampled=sampled, command=False)
+    if not sampled:
+        loops[structure.names[0]] = state_space.closings(p, pade_order, loops=1,
+                                                         reduced=True)[structure.names[0]]
+    systems = {name: control.ss(*closing.loop(), *_timebase(closing.period))
+               for name, closing in loops.items()}
+    top = structure.names[-1]
+    timebase = _timebase(loops[top].period)
+    systems["current_closed_loop"] = control.feedback(systems["current_loop"], 1)
+    systems["sensitivity"] = control.feedback(control.ss([], [], [], [[1.0]], *timebase),
+                                              systems[top])
     closed = closed_loop_matrices(p, pade_order)
-    loops["closed_loop"] = control.ss(closed.a, closed.b, closed.c, closed.d)
+    systems["closed_loop"] = control.ss(closed.a, closed.b, closed.c, closed.d, *timebase)
     names = _loop_names(structure)
     named = {key: control.ss(system, name=name, inputs=signal_in, outputs=signal_out)
-             for key, system in loops.items()
+             for key, system in systems.items()
              for name, signal_in, signal_out in [names[key]]}
-    return LinearModel(pade_order, plant_system(p), **named)
+    plant = plant_system(p)
+    if sampled:
+        period = loops[structure.names[0]].period
+        held = state_space.hold_equivalent(plant.A[None], plant.B[None], 0.0, period)
+        states = plant.A.shape[0]
+        plant = control.ss(held[0][0][:states, :states], held[1][0][:states], plant.C, plant.D,
+                           period, inputs="V", outputs=plant.output_labels,
+                           states=plant.state_labels, name="plant")
+    return LinearModel(pade_order, plant, **named)
+
+
+def _timebase(period):
+    """python-control's ``dt`` argument of a system of sampling ``period`` [s] (None:
+    continuous, python-control's default)."""
+    return () if period is None else (period,)
 
 
 def _loop_names(structure):
@@ -216,48 +223,6 @@ def margin_safe_model(params, highest):
     return model
 
 
-def _sampled_model(p, pade_order):
-    """:func:`linear_model` of sampled loops: discrete-time python-control systems, each loop
-    at its own period (the inner loops of a multirate drive at theirs, broken with the slower
-    loops open), T and S at the outermost loop's; the delays exact (whole samples and the
-    hold-equivalent's fractional part, :mod:`cas_freq.analysis.sampled_stability`)."""
-    import control
-
-    from cas_freq.analysis import sampled_stability, stability
-
-    structure = build(p)
-    closings = sampled_stability.loop_systems(p)
-    loops = {}
-    for name, closing in closings.items():
-        a, b, c, d = (m[0] for m in closing.opened)
-        row = closing.row
-        measured = (a, b[:, :1], c[row:row + 1], d[row:row + 1, :1])
-        if closing.sensor is not None:
-            measured = stability.series(measured, tuple(m[0] for m in closing.sensor))
-        loops[name] = control.ss(*measured, closing.period)
-    top = closings[structure.names[-1]]
-    loops["current_closed_loop"] = control.feedback(loops["current_loop"], 1)
-    loops["sensitivity"] = control.feedback(control.ss([], [], [], [[1.0]], top.period),
-                                            loops[structure.names[-1]])
-    a, b, c, d = (m[0] for m in top.closed)
-    output = stability.SIGNAL_ROWS[structure.output]
-    loops["closed_loop"] = control.ss(a, b, c[output:output + 1], d[output:output + 1],
-                                      top.period)
-    names = _loop_names(structure)
-    named = {key: control.ss(system, name=name, inputs=signal_in, outputs=signal_out)
-             for key, system in loops.items()
-             for name, signal_in, signal_out in [names[key]]}
-    plant = plant_system(p)
-    a, b = plant.A, plant.B
-    held, _ = sampled_stability.hold_equivalent(a[None], b[None], 0.0,
-                                                closings["current_loop"].period)
-    states = a.shape[0]
-    held = control.ss(held[0][0][:states, :states], held[1][0][:states], plant.C, plant.D,
-                      closings["current_loop"].period, inputs="V", outputs=plant.output_labels,
-                      states=plant.state_labels, name="plant")
-    return LinearModel(pade_order, held, **named)
-
-
 @dataclasses.dataclass(frozen=True, eq=False)
 class ClosedLoopMatrices:
     """T = δ/δ_cmd with Padé delays as state-space matrices (numpy; the matrices of
@@ -282,11 +247,9 @@ class ClosedLoopMatrices:
 def closed_loop_matrices(params, pade_order=DEFAULT_PADE_ORDER):
     """T's state-space matrices with Padé delays of ``pade_order`` (numpy only).
 
-    Continuous controllers: the declared structure closed
-    (:func:`cas_freq.analysis.stability.loop_system`); sampled ones: the outermost loop's
-    closed discrete-time system at its period
-    (:func:`cas_freq.analysis.sampled_stability.loop_systems`, delays exact). Read at the
-    output in both cases.
+    The declared structure closed (:func:`cas_freq.model.state_space.closings`), read at the
+    output: continuous controllers with Padé delays, or sampled ones as the outermost loop's
+    closed discrete-time system at its period (delays exact).
 
     Parameters
     ----------
@@ -299,22 +262,12 @@ def closed_loop_matrices(params, pade_order=DEFAULT_PADE_ORDER):
     -------
     ClosedLoopMatrices
     """
-    from cas_freq.analysis import stability
-    from cas_freq.model.sampled import is_sampled
-
     p = parts.one_variant(params)
     structure = build(p)
-    output = stability.SIGNAL_ROWS[structure.output]
-    if is_sampled(p):
-        from cas_freq.analysis import sampled_stability
-
-        top = sampled_stability.loop_systems(p)[structure.names[-1]]
-        a, b, c, d = (m[0] for m in top.closed)
-        period = top.period
-    else:
-        a, b, c, d = stability.loop_system(p, pade_order)
-        period = None
-    return ClosedLoopMatrices(a, b, c[output:output + 1], d[output:output + 1], period)
+    top = state_space.closings(p, pade_order, sampled=is_sampled(p))[structure.names[-1]]
+    a, b, c, d = top.closed
+    output = state_space.SIGNAL_ROWS[structure.output]
+    return ClosedLoopMatrices(a, b, c[output:output + 1], d[output:output + 1], top.period)
 
 
 def transmission_zeros(a, b, c, d):
@@ -362,9 +315,7 @@ def closed_loop_zeros(params, pade_order, closed=None):
     zeros = transmission_zeros(closed.a, closed.b, closed.c, closed.d)
     zeros = zeros[np.isfinite(zeros)]
     if closed.period is not None:  # sampled controllers: z-plane zeros, as the poles
-        from cas_freq.analysis.sampled_stability import z_to_s
-
-        zeros = z_to_s(zeros, closed.period)
+        zeros = state_space.z_to_s(zeros, closed.period)
     return zeros[np.lexsort((zeros.imag, zeros.real))]
 
 
