@@ -201,7 +201,7 @@ def nyquist(data):
                      else f": PM {aat.phase_margin_deg:.3g}° @ {aat.crossover_rad_s:.4g} rad/s")
             ax.plot(_r(shown.real), _r(shown.imag), color=color, lw=1.1, ls="--",
                     label=f"{loop.symbol} with every other loop closed, ω > 0{words}")
-        ax.set_title(f"{loop.symbol} ({loop.words}, broken at {loop.break_symbol})\n"
+        ax.set_title(f"{loop.title}\n"
                      f"ω {c.omega_rad_s[0]:.3g}..{c.omega_rad_s[-1]:.3g} "
                      f"rad/s; view ±{half:g} around −1")
         handles, labels = ax.get_legend_handles_labels()
@@ -218,7 +218,7 @@ def nyquist_caption(data):
     """Caption of :func:`nyquist` for one variant."""
     described = data.curves.outermost_first()
     places = ("left", "right") if len(described) == 2 else ("left", "middle", "right")
-    panels = ", ".join(f"{loop.symbol} ({loop.words}, broken at {loop.breaks_at}; {place})"
+    panels = ", ".join(f"{loop.symbol} ({loop.break_point}; {place})"
                        for loop, place in zip(described, places, strict=False))
     inner = ", ".join(loop.symbol for loop in described[1:])
     return (f"Nyquist plots of {panels}, exact delays: ω > 0 solid with arrows "
