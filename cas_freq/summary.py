@@ -12,7 +12,7 @@ Imports only the standard library and :mod:`cas_freq.figures`.
 import html
 import math
 
-from cas_freq.figures import FIGURES
+from cas_freq.figures import FIGURES, loop_label
 
 #: Most rows ``__repr__`` prints (the HTML table shows every row).
 REPR_ROWS = 6
@@ -40,7 +40,7 @@ def row(entry):
     figure = FIGURES[key]
     if isinstance(value, float | int) and not isinstance(value, bool):
         value = value * figure.scale
-    loop = f"{figure.loop.replace('_', ' ')}: " if figure.loop else ""
+    loop = f"{loop_label(figure.loop)}: " if figure.loop else ""
     return loop + figure.label, _text(value), figure.shown_unit
 
 
@@ -88,5 +88,5 @@ def spread(key, values):
     missing = values.size - finite.size
     if missing:
         text += f" ({missing} without)"
-    loop = f"{figure.loop.replace('_', ' ')}: " if figure.loop else ""
+    loop = f"{loop_label(figure.loop)}: " if figure.loop else ""
     return loop + figure.label, text, figure.shown_unit
