@@ -44,6 +44,17 @@ def row(entry):
     return loop + figure.label, _text(value), figure.shown_unit
 
 
+def table_rows(result, group, names):
+    """Summary rows ``(label, value, unit)`` of the attributes ``names`` of ``result``, with
+    the labels and units of the figures ``group.name`` of :data:`~cas_freq.figures.FIGURES`
+    (of no particular loop: a loop's figures without its name)."""
+    rows = []
+    for name in names:
+        figure = FIGURES[f"{group}.{name}"]
+        rows.append((figure.label, figure.shown(getattr(result, name)), figure.shown_unit))
+    return rows
+
+
 class Summary:
     """Mixin: ``__repr__`` and ``_repr_html_`` from the class's ``_summary()``.
 

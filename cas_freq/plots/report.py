@@ -257,7 +257,7 @@ def sensitivity(data):
     w = _r(c.omega_rad_s)
     fig, axes = _figure(1, 1, (8, 4.2), margins=Margins())
     ax = axes[0, 0]
-    ax.plot(w, _db(c.sensitivity), color="C0", label="|S| = |1/(1+L_p)|")
+    ax.plot(w, _db(c.sensitivity), color="C0", label=f"|S| = |1/(1+{c.described[-1].symbol})|")
     ax.plot(w, _db(c.closed_loop), color="C2", label="|T|")
     margins = data.analysis.position_loop
     if _in_range(w, margins.sensitivity_peak_rad_s):

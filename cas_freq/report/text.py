@@ -327,7 +327,8 @@ def _sinedwell_not_computed_table(head, data):
                      "(Padé poles): no sine-dwell bandwidth exists")
     lines += [f"  sine-dwell not computed: {reason}",
               "  nonlinear steps (second-order fit, docs/model.md §7)",
-              f"    {'amplitude':>10}{'overshoot [%]':>15}{'step fit [rad/s]':>18}"]
+              f"    {'amplitude':>10}{FIGURES['step.overshoot_pct'].heading:>15}"
+              f"{'step fit [rad/s]':>18}"]
     for entry in data["amplitudes"]:
         diverged = entry.get("diverged_at_s")
         if diverged is not None:
