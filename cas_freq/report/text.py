@@ -62,7 +62,8 @@ def _crossover_lines(key, margins):
             label = " " * len(label)
         at = margins.delay_margin_crossover_rad_s
         lines.append(_figure_line(dm, margins.delay_margin_s,
-                                  f" (the smallest, at {_fmt(at, 'rad/s')})", _LOOP_WIDTH))
+                                  f" (the smallest, at {shown_text(f'{key}.crossover_rad_s', at)})",
+                                  _LOOP_WIDTH))
     return lines
 
 
@@ -74,15 +75,15 @@ def _loop_lines(title, key, margins):
         f"  {title}",
         *_crossover_lines(key, margins),
         _figure_line(f"{key}.gain_margin_db", margins.gain_margin_db,
-                     f" at {_fmt(margins.phase_crossover_rad_s, 'rad/s')}", _LOOP_WIDTH),
+                     f" at {of('phase_crossover_rad_s')}", _LOOP_WIDTH),
     ]
     if margins.gain_margin_low_db is not None:
         lines.append(_figure_line(f"{key}.gain_margin_low_db", margins.gain_margin_low_db,
-                                  f" at {_fmt(margins.phase_crossover_low_rad_s, 'rad/s')}",
+                                  f" at {of('phase_crossover_low_rad_s')}",
                                   _LOOP_WIDTH))
     lines += [
         _figure_line(f"{key}.sensitivity_peak_db", margins.sensitivity_peak_db,
-                     f" at {_fmt(margins.sensitivity_peak_rad_s, 'rad/s')}", _LOOP_WIDTH),
+                     f" at {of('sensitivity_peak_rad_s')}", _LOOP_WIDTH),
         _figure_line(f"{key}.disk_margin_alpha", margins.disk_margin_alpha,
                      f" (±{of('disk_margin_gain_db')}, ±{of('disk_margin_phase_deg')})",
                      _LOOP_WIDTH),
@@ -98,14 +99,15 @@ def _at_a_time_lines(key, margins):
     key = f"{key}.loop_at_a_time"
     pm = FIGURES[f"{key}.phase_margin_deg"].label
     others = f" (smallest |{pm}| of {more + 1})" if more > 0 else ""
-    width = _LOOP_WIDTH - 2
+    width, phase_crossover = _LOOP_WIDTH - 2, margins.phase_crossover_rad_s
     return [
         "    every other loop closed (loop at a time):",
         _figure_line(f"{key}.crossover_rad_s", margins.crossover_rad_s, others, width, 6),
         _figure_line(f"{key}.phase_margin_deg", margins.phase_margin_deg, "", width, 6),
         _figure_line(f"{key}.delay_margin_s", margins.delay_margin_s, "", width, 6),
         _figure_line(f"{key}.gain_margin_db", margins.gain_margin_db,
-                     f" at {_fmt(margins.phase_crossover_rad_s, 'rad/s')}", width, 6),
+                     f" at {shown_text(f'{key}.phase_crossover_rad_s', phase_crossover)}",
+                     width, 6),
     ]
 
 
@@ -203,7 +205,7 @@ def analysis_table(analysis):
         lines += [
             _figure_line("closed_loop.bandwidth_rad_s", closed.bandwidth_rad_s, "", width),
             _figure_line("closed_loop.peak_db", closed.peak_db,
-                         f" at {_fmt(closed.peak_rad_s, 'rad/s')}", width)
+                         f" at {shown_text('closed_loop.peak_rad_s', closed.peak_rad_s)}", width)
             if closed.peak_db is not None else
             f"    {FIGURES['closed_loop.peak_db'].label:<{width}} none (|T| has no interior "
             "maximum)",
