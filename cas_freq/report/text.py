@@ -99,7 +99,7 @@ def _at_a_time_lines(key, margins):
     key = f"{key}.loop_at_a_time"
     pm = FIGURES[f"{key}.phase_margin_deg"].label
     others = f" (smallest |{pm}| of {more + 1})" if more > 0 else ""
-    width, phase_crossover = _LOOP_WIDTH - 2, margins.phase_crossover_rad_s
+    width, phase_crossover = _LOOP_WIDTH, margins.phase_crossover_rad_s
     return [
         "    every other loop closed (loop at a time):",
         _figure_line(f"{key}.crossover_rad_s", margins.crossover_rad_s, others, width, 6),
@@ -467,6 +467,12 @@ def command_table(run):
     return "\n".join(lines)
 
 
+#: The drivetrain's figures in the analysis text, and the width of their labels.
+_DRIVETRAIN_FIGURES = ("reflected_inertia_kg_m2", "reflected_damping_n_m_s_rad",
+                       "reflected_stiffness_n_m_rad")
+_DRIVETRAIN_WIDTH = max(len(FIGURES[f"drivetrain.{name}"].label) for name in _DRIVETRAIN_FIGURES)
+
+
 def _drivetrain_lines(load, loaded=None):
     """The drivetrain block of the analyze text (cas_freq.analysis.drivetrain); the load
     spring at the output as ``loaded``'s output names it (K_h [N*m/rad], at a linear output
@@ -477,20 +483,19 @@ def _drivetrain_lines(load, loaded=None):
     gear = "compliant gear, two masses" if load.compliant else "rigid gear"
     lines = [
         f"  load and drivetrain ({gear}), reflected to the motor shaft",
-        f"    inertia J_eff      {_fmt(load.reflected_inertia_kg_m2, 'kg*m^2')}",
-        f"    damping mu_eff     {_fmt(load.reflected_damping_n_m_s_rad, 'N*m*s/rad')}",
-        f"    stiffness k_eff    {_fmt(load.reflected_stiffness_n_m_rad, 'N*m/rad')}",
-        "    open-loop plant    " + ("stable" if load.plant_stable else
+        *(_figure_line(f"drivetrain.{name}", getattr(load, name), "", _DRIVETRAIN_WIDTH)
+          for name in _DRIVETRAIN_FIGURES),
+        f"    {'open-loop plant':<{_DRIVETRAIN_WIDTH}} " + ("stable" if load.plant_stable else
                                     f"UNSTABLE (pole at +{_fmt(load.plant_unstable_pole_rad_s)}"
                                     " rad/s)"),
     ]
     for label, modes in (("resonance", load.resonances),
                          ("anti-resonance", load.anti_resonances)):
         for mode in modes:
-            lines.append(f"    {label:<18} {_fmt(mode.frequency_rad_s, 'rad/s')}, "
+            lines.append(f"    {label:<{_DRIVETRAIN_WIDTH}} {_fmt(mode.frequency_rad_s, 'rad/s')}, "
                          f"zeta {_fmt(mode.damping)}")
     low, high = load.stable_hinge_stiffness_n_m_rad
-    lines.append(f"    stable for {unit.spring:<8}" + (
+    lines.append(f"    {'stable for ' + unit.spring:<{_DRIVETRAIN_WIDTH}} " + (
         "none scanned" if low is None and high is None else
         f"{'-inf' if low is None else _fmt(low)} .. {'+inf' if high is None else _fmt(high)} "
         f"{unit.spring_unit}"))
