@@ -97,6 +97,9 @@ class Figure:
     twin : str
         The key of the other kind's record of an output quantity
         (``profile.tracking_error_max_mm`` <-> ``profile.tracking_error_max_deg``), else ``""``.
+    short : str
+        Its symbol or abbreviation where a compact column or a plot's annotation names it
+        (``"PM"``), ``""`` for none (the label is then used).
     """
 
     key: str
@@ -112,6 +115,7 @@ class Figure:
     json_key: str = ""
     output: str = ""
     twin: str = ""
+    short: str = ""
 
     def __post_init__(self):
         if not self.json_key:
@@ -132,6 +136,12 @@ class Figure:
         """Label and shown unit as a column or an axis names it (``"delay margin [ms]"``;
         the label alone for a dimensionless figure)."""
         return f"{self.label} [{self.shown_unit}]" if self.shown_unit else self.label
+
+    @property
+    def short_heading(self):
+        """:attr:`short` (else the label) and the shown unit: ``"PM [deg]"``."""
+        name = self.short or self.label
+        return f"{name} [{self.shown_unit}]" if self.shown_unit else name
 
     def shown(self, value):
         """``value`` [the JSON unit] in :attr:`shown_unit`; None, NaN and flags unchanged."""
@@ -183,6 +193,11 @@ _LOOP_FIGURES = (
      _NOT_STABLE),
 )
 
+#: The short names of a loop's figures (:attr:`Figure.short`).
+_LOOP_SHORT = {"crossover_rad_s": "ωc", "phase_margin_deg": "PM", "delay_margin_s": "DM",
+               "gain_margin_db": "GM", "gain_margin_low_db": "lower GM",
+               "sensitivity_peak_db": "Ms"}
+
 _UNSTABLE_T = "the closed loop is not stable"
 
 #: Every other figure: (key, command, unit, label, shown unit, scale, meaning, absent[,
@@ -193,10 +208,10 @@ _OTHER_FIGURES = (
      "|T(0)| in dB (0 dB with integral action)", _UNSTABLE_T),
     ("closed_loop.bandwidth_rad_s", "analyze", "rad/s", "bandwidth ω_BW (−3.01 dB)", "rad/s",
      1.0, "lowest frequency at which |T| is 3.0103 dB below |T(0)|",
-     f"{_UNSTABLE_T}, or |T| stays above −3.01 dB in the analysed range"),
+     f"{_UNSTABLE_T}, or |T| stays above −3.01 dB in the analysed range", {"short": "ω_BW"}),
     ("closed_loop.peak_db", "analyze", "dB", "resonance peak", "dB", 1.0,
      "max |T|/|T(0)| in dB, at an interior maximum of |T|",
-     f"{_UNSTABLE_T}, or |T| has no interior maximum"),
+     f"{_UNSTABLE_T}, or |T| has no interior maximum", {"short": "peak"}),
     ("closed_loop.peak_rad_s", "analyze", "rad/s", "frequency of the resonance peak", "rad/s",
      1.0, "the frequency of the resonance peak",
      f"{_UNSTABLE_T}, or |T| has no interior maximum"),
@@ -383,7 +398,7 @@ def _table():
     for loop in LOOPS:
         for name, unit, label, shown, scale, meaning, absent in _LOOP_FIGURES:
             figures.append(Figure(f"{loop}.{name}", "analyze", unit, label, shown, scale,
-                                  meaning, absent, loop))
+                                  meaning, absent, loop, short=_LOOP_SHORT.get(name, "")))
         figures.append(Figure(
             f"{loop}.sensitivity_peak_at_range_edge", "analyze", "",
             "sensitivity peak at the range edge", "", 1.0,

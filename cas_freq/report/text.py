@@ -154,7 +154,7 @@ def pade_columns(analysis):
                ("closed_loop", "bandwidth_rad_s", "bandwidth_rad_s"),
                ("closed_loop", "peak_db", "peak_db")]
     return [(f"{described[loop].symbol if loop in described else 'T'} "
-             f"{FIGURES[f'{loop}.{name}'].heading}", attribute, f"{loop}.{name}")
+             f"{FIGURES[f'{loop}.{name}'].short_heading}", attribute, f"{loop}.{name}")
             for loop, name, attribute in columns]
 
 
