@@ -15,11 +15,10 @@ def _fmt(value, unit="", digits=4):
     return number(value, digits, unit)
 
 
-def _figure_line(key, value, tail="", width=19, indent=4):
+def _figure_line(key, value, tail="", indent=4):
     """``    label               value unit`` of a figure of the figure table
     (:data:`~cas_freq.figures.FIGURES`: label, shown unit and factor), then ``tail``."""
-    figure = FIGURES[key]
-    return f"{' ' * indent}{figure.label:<{width}} {shown_text(key, value)}{tail}"
+    return f"{' ' * indent}{FIGURES[key].label:<{_WIDTH}} {shown_text(key, value)}{tail}"
 
 
 def shown_text(key, value):
@@ -28,10 +27,9 @@ def shown_text(key, value):
     return _fmt(figure.shown(value), figure.shown_unit)
 
 
-#: Width of the labels of a loop's figures in the analysis text.
-_LOOP_WIDTH = max(len(FIGURES[f"current_loop.{name}"].label) for name in (
-    "crossover_rad_s", "phase_margin_deg", "delay_margin_s", "gain_margin_db",
-    "gain_margin_low_db", "sensitivity_peak_db", "disk_margin_alpha"))
+#: Width of the labels in the text: the longest of a loop's (and of the drivetrain's).
+_WIDTH = max(len(FIGURES[key].label) for key in (
+    "current_loop.crossover_rad_s", "drivetrain.reflected_stiffness_n_m_rad"))
 
 
 def _crossover_lines(key, margins):
@@ -46,13 +44,12 @@ def _crossover_lines(key, margins):
     pm, dm = f"{key}.phase_margin_deg", f"{key}.delay_margin_s"
     lines = [
         _figure_line(f"{key}.crossover_rad_s", margins.crossover_rad_s,
-                     f" (smallest |{FIGURES[pm].label}| of {len(crossovers)})" if several else "",
-                     _LOOP_WIDTH),
-        _figure_line(pm, margins.phase_margin_deg, "", _LOOP_WIDTH),
-        _figure_line(dm, own, " (at this crossover)" if several else "", _LOOP_WIDTH),
+                     f" (smallest |{FIGURES[pm].label}| of {len(crossovers)})" if several else ""),
+        _figure_line(pm, margins.phase_margin_deg),
+        _figure_line(dm, own, " (at this crossover)" if several else ""),
     ]
     if several:
-        label = f"    {'other crossovers':<{_LOOP_WIDTH}} "
+        label = f"    {'other crossovers':<{_WIDTH}} "
         for c in crossovers:
             if c.frequency_rad_s == margins.crossover_rad_s:
                 continue
@@ -61,9 +58,8 @@ def _crossover_lines(key, margins):
                          f"{shown_text(dm, c.delay_margin_s)}")
             label = " " * len(label)
         at = margins.delay_margin_crossover_rad_s
-        lines.append(_figure_line(dm, margins.delay_margin_s,
-                                  f" (the smallest, at {shown_text(f'{key}.crossover_rad_s', at)})",
-                                  _LOOP_WIDTH))
+        lines.append(_figure_line(dm, margins.delay_margin_s, " (the smallest, at "
+                                  f"{shown_text(f'{key}.crossover_rad_s', at)})"))
     return lines
 
 
@@ -75,19 +71,17 @@ def _loop_lines(title, key, margins):
         f"  {title}",
         *_crossover_lines(key, margins),
         _figure_line(f"{key}.gain_margin_db", margins.gain_margin_db,
-                     f" at {of('phase_crossover_rad_s')}", _LOOP_WIDTH),
+                     f" at {of('phase_crossover_rad_s')}"),
     ]
     if margins.gain_margin_low_db is not None:
         lines.append(_figure_line(f"{key}.gain_margin_low_db", margins.gain_margin_low_db,
-                                  f" at {of('phase_crossover_low_rad_s')}",
-                                  _LOOP_WIDTH))
+                                  f" at {of('phase_crossover_low_rad_s')}"))
     lines += [
         _figure_line(f"{key}.sensitivity_peak_db", margins.sensitivity_peak_db,
-                     f" at {of('sensitivity_peak_rad_s')}", _LOOP_WIDTH),
+                     f" at {of('sensitivity_peak_rad_s')}"),
         _figure_line(f"{key}.disk_margin_alpha", margins.disk_margin_alpha,
-                     f" (±{of('disk_margin_gain_db')}, ±{of('disk_margin_phase_deg')})",
-                     _LOOP_WIDTH),
-        f"    {'crossings':<{_LOOP_WIDTH}} {len(margins.gain_crossovers)} gain, "
+                     f" (±{of('disk_margin_gain_db')}, ±{of('disk_margin_phase_deg')})"),
+        f"    {'crossings':<{_WIDTH}} {len(margins.gain_crossovers)} gain, "
         f"{len(margins.phase_crossovers)} phase in range",
     ]
     return lines
@@ -99,15 +93,13 @@ def _at_a_time_lines(key, margins):
     key = f"{key}.loop_at_a_time"
     pm = FIGURES[f"{key}.phase_margin_deg"].label
     others = f" (smallest |{pm}| of {more + 1})" if more > 0 else ""
-    width, phase_crossover = _LOOP_WIDTH, margins.phase_crossover_rad_s
+    at = shown_text(f"{key}.phase_crossover_rad_s", margins.phase_crossover_rad_s)
     return [
         "    every other loop closed (loop at a time):",
-        _figure_line(f"{key}.crossover_rad_s", margins.crossover_rad_s, others, width, 6),
-        _figure_line(f"{key}.phase_margin_deg", margins.phase_margin_deg, "", width, 6),
-        _figure_line(f"{key}.delay_margin_s", margins.delay_margin_s, "", width, 6),
-        _figure_line(f"{key}.gain_margin_db", margins.gain_margin_db,
-                     f" at {shown_text(f'{key}.phase_crossover_rad_s', phase_crossover)}",
-                     width, 6),
+        _figure_line(f"{key}.crossover_rad_s", margins.crossover_rad_s, others, 6),
+        _figure_line(f"{key}.phase_margin_deg", margins.phase_margin_deg, "", 6),
+        _figure_line(f"{key}.delay_margin_s", margins.delay_margin_s, "", 6),
+        _figure_line(f"{key}.gain_margin_db", margins.gain_margin_db, f" at {at}", 6),
     ]
 
 
@@ -146,16 +138,14 @@ def pade_columns(analysis):
     :class:`cas_freq.analysis.analyze.PadeComparison`, figure key), after the delay model's;
     the loops named by their structure's symbols."""
     described = analysis_loops_named(analysis)
-    columns = [("current_loop", "phase_margin_deg", "current_phase_margin_deg"),
-               ("position_loop", "phase_margin_deg", "position_phase_margin_deg"),
-               ("position_loop", "crossover_rad_s", "position_crossover_rad_s"),
-               ("position_loop", "gain_margin_db", "position_gain_margin_db"),
-               ("position_loop", "gain_margin_low_db", "position_gain_margin_low_db"),
-               ("closed_loop", "bandwidth_rad_s", "bandwidth_rad_s"),
-               ("closed_loop", "peak_db", "peak_db")]
+    columns = [("current_loop", "phase_margin_deg"), ("position_loop", "phase_margin_deg"),
+               ("position_loop", "crossover_rad_s"), ("position_loop", "gain_margin_db"),
+               ("position_loop", "gain_margin_low_db"), ("closed_loop", "bandwidth_rad_s"),
+               ("closed_loop", "peak_db")]
     return [(f"{described[loop].symbol if loop in described else 'T'} "
-             f"{FIGURES[f'{loop}.{name}'].short_heading}", attribute, f"{loop}.{name}")
-            for loop, name, attribute in columns]
+             f"{FIGURES[f'{loop}.{name}'].short_heading}",
+             name if loop == "closed_loop" else f"{loop.removesuffix('_loop')}_{name}",
+             f"{loop}.{name}") for loop, name in columns]
 
 
 def analysis_loops_named(analysis):
@@ -200,16 +190,14 @@ def analysis_table(analysis):
     if closed is None:
         lines.append("    not reported: the closed loop is not stable")
     else:
-        width = max(len(FIGURES[f"closed_loop.{name}"].label)
-                    for name in ("bandwidth_rad_s", "peak_db", "phase_90_rad_s"))
         lines += [
-            _figure_line("closed_loop.bandwidth_rad_s", closed.bandwidth_rad_s, "", width),
+            _figure_line("closed_loop.bandwidth_rad_s", closed.bandwidth_rad_s),
             _figure_line("closed_loop.peak_db", closed.peak_db,
-                         f" at {shown_text('closed_loop.peak_rad_s', closed.peak_rad_s)}", width)
+                         f" at {shown_text('closed_loop.peak_rad_s', closed.peak_rad_s)}")
             if closed.peak_db is not None else
-            f"    {FIGURES['closed_loop.peak_db'].label:<{width}} none (|T| has no interior "
+            f"    {FIGURES['closed_loop.peak_db'].label:<{_WIDTH}} none (|T| has no interior "
             "maximum)",
-            _figure_line("closed_loop.phase_90_rad_s", closed.phase_90_rad_s, "", width),
+            _figure_line("closed_loop.phase_90_rad_s", closed.phase_90_rad_s),
         ]
     if analysis.drivetrain is not None:
         lines += _drivetrain_lines(analysis.drivetrain, analysis.loaded)
@@ -297,18 +285,12 @@ def step_table(run):
         _figure_line("step.max_voltage_v", step.max_voltage_v,
                      f" ({_limit_text(result.t, result.voltage_limited)})"),
         "  second-order-plus-delay fit (docs/model.md §7)",
-        *(_figure_line(f"fit.{name}", getattr(fit, name), "", _FIT_WIDTH)
+        *(_figure_line(f"fit.{name}", getattr(fit, name))
           for name in ("wn_rad_s", "zeta", "td_s")),
-        f"    {FIGURES['fit.rms_residual'].label:<{_FIT_WIDTH}} "
+        f"    {FIGURES['fit.rms_residual'].label:<{_WIDTH}} "
         f"{_fmt(100 * fit.rms_residual / math.radians(abs(step.amplitude_deg)))} % of the step",
-        _figure_line("fit.bandwidth_closed_form_rad_s", fit.bandwidth_closed_form_rad_s, "",
-                     _FIT_WIDTH),
+        _figure_line("fit.bandwidth_closed_form_rad_s", fit.bandwidth_closed_form_rad_s),
     ])
-
-
-#: Width of the fit's labels in the step text.
-_FIT_WIDTH = max(len(FIGURES[f"fit.{name}"].label) for name in (
-    "wn_rad_s", "zeta", "td_s", "rms_residual", "bandwidth_closed_form_rad_s"))
 
 
 def _amplitude(entry):
@@ -467,12 +449,6 @@ def command_table(run):
     return "\n".join(lines)
 
 
-#: The drivetrain's figures in the analysis text, and the width of their labels.
-_DRIVETRAIN_FIGURES = ("reflected_inertia_kg_m2", "reflected_damping_n_m_s_rad",
-                       "reflected_stiffness_n_m_rad")
-_DRIVETRAIN_WIDTH = max(len(FIGURES[f"drivetrain.{name}"].label) for name in _DRIVETRAIN_FIGURES)
-
-
 def _drivetrain_lines(load, loaded=None):
     """The drivetrain block of the analyze text (cas_freq.analysis.drivetrain); the load
     spring at the output as ``loaded``'s output names it (K_h [N*m/rad], at a linear output
@@ -483,19 +459,20 @@ def _drivetrain_lines(load, loaded=None):
     gear = "compliant gear, two masses" if load.compliant else "rigid gear"
     lines = [
         f"  load and drivetrain ({gear}), reflected to the motor shaft",
-        *(_figure_line(f"drivetrain.{name}", getattr(load, name), "", _DRIVETRAIN_WIDTH)
-          for name in _DRIVETRAIN_FIGURES),
-        f"    {'open-loop plant':<{_DRIVETRAIN_WIDTH}} " + ("stable" if load.plant_stable else
+        *(_figure_line(f"drivetrain.{name}", getattr(load, name)) for name in (
+            "reflected_inertia_kg_m2", "reflected_damping_n_m_s_rad",
+            "reflected_stiffness_n_m_rad")),
+        f"    {'open-loop plant':<{_WIDTH}} " + ("stable" if load.plant_stable else
                                     f"UNSTABLE (pole at +{_fmt(load.plant_unstable_pole_rad_s)}"
                                     " rad/s)"),
     ]
     for label, modes in (("resonance", load.resonances),
                          ("anti-resonance", load.anti_resonances)):
         for mode in modes:
-            lines.append(f"    {label:<{_DRIVETRAIN_WIDTH}} {_fmt(mode.frequency_rad_s, 'rad/s')}, "
+            lines.append(f"    {label:<{_WIDTH}} {_fmt(mode.frequency_rad_s, 'rad/s')}, "
                          f"zeta {_fmt(mode.damping)}")
     low, high = load.stable_hinge_stiffness_n_m_rad
-    lines.append(f"    {'stable for ' + unit.spring:<{_DRIVETRAIN_WIDTH}} " + (
+    lines.append(f"    {'stable for ' + unit.spring:<{_WIDTH}} " + (
         "none scanned" if low is None and high is None else
         f"{'-inf' if low is None else _fmt(low)} .. {'+inf' if high is None else _fmt(high)} "
         f"{unit.spring_unit}"))
