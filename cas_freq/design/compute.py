@@ -178,20 +178,15 @@ def _bode(omega, response):
 MARGINS = ("crossover_rad_s", "phase_margin_deg", "delay_margin_s", "gain_margin_db",
            "phase_crossover_rad_s", "gain_margin_low_db", "phase_crossover_low_rad_s")
 
-#: The columns of the page's margin table: (view, figure): each loop's own margins, then
-#: those with every other loop closed.
-MARGIN_COLUMNS = (("margins", "crossover_rad_s"), ("margins", "phase_margin_deg"),
-                  ("margins", "gain_margin_db"), ("margins", "gain_margin_low_db"),
-                  ("margins", "delay_margin_s"), ("loop_at_a_time", "phase_margin_deg"),
-                  ("loop_at_a_time", "gain_margin_db"), ("loop_at_a_time", "crossover_rad_s"))
-
-
-def _margin_columns():
-    """The margin table's columns for the page: view, figure and heading (the figure table's
-    label and unit; "every other loop closed: " before those of that view)."""
-    return [{"view": view, "name": name, "heading": (
-        "every other loop closed: " if view == "loop_at_a_time" else "")
-        + FIGURES[f"position_loop.{name}"].heading} for view, name in MARGIN_COLUMNS]
+#: The columns of the page's margin table (view, figure and heading: the figure table's
+#: label and unit): each loop's own margins, then those with every other loop closed.
+MARGIN_COLUMNS = [{"view": view, "name": name, "heading": (
+    "every other loop closed: " if view == "loop_at_a_time" else "")
+    + FIGURES[f"position_loop.{name}"].heading} for view, names in (
+        ("margins", ("crossover_rad_s", "phase_margin_deg", "gain_margin_db",
+                     "gain_margin_low_db", "delay_margin_s")),
+        ("loop_at_a_time", ("phase_margin_deg", "gain_margin_db", "crossover_rad_s")))
+    for name in names]
 
 
 def _margins(margins):
@@ -326,7 +321,7 @@ def design_state(loaded, step_rad=None, nonlinear=True):
         "config": loaded.params.name, "variant": loaded.variant,
         "overrides": [f"{key}={value}" for key, value in loaded.overrides],
         "stability": analysis.stability.verdict, "stable": analysis.stable,
-        "omega_rad_s": omega, "loops": loops, "margin_columns": _margin_columns(),
+        "omega_rad_s": omega, "loops": loops, "margin_columns": MARGIN_COLUMNS,
         "closed_loop": {
             "magnitude_db": closed_magnitude, "phase_deg": closed_phase,
             "bandwidth_rad_s": _finite(bandwidth),

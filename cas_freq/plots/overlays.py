@@ -91,32 +91,25 @@ def bode_overlay(datas, labels):
     _overlay_legend(fig, layout, handles + more, names + more_names)
     _log_axes(list(axes[:, 0]), [min(d.curves.omega_rad_s[0] for d in datas),
                                  max(d.curves.omega_rad_s[-1] for d in datas)])
-    shown = " and ".join([", ".join(_symbols(datas)), "T"])
-    fig.suptitle(f"{shown} of {len(datas)} variants ({EXACT}); phase shown up to "
+    shown = ", ".join(loop.symbol for loop in (_loop(datas, "position_loop"),
+                                               _loop(datas, "velocity_loop")) if loop)
+    fig.suptitle(f"{shown} and T of {len(datas)} variants ({EXACT}); phase shown up to "
                  f"{PAST_CROSSOVER:g}× the highest crossover")
     return fig
 
 
 def _loop(datas, name):
     """The :class:`~cas_freq.report.data.CurveLoop` ``name`` (its structure's symbol and break
-    point) of the first variant that has that loop."""
-    return next(loop for d in datas for loop in d.curves.described if loop.name == name)
-
-
-def _symbols(datas):
-    """The symbols of the loops :func:`bode_overlay` draws: the position loop's, then the
-    velocity loop's where some variant has one."""
-    names = ["position_loop"] + (["velocity_loop"] if any(
-        "velocity_loop" in d.curves.loops for d in datas) else [])
-    return [_loop(datas, name).symbol for name in names]
+    point) of the first variant that has that loop, None when none has it."""
+    return next((loop for d in datas for loop in d.curves.described if loop.name == name), None)
 
 
 def bode_overlay_caption(datas):
     """Caption of :func:`bode_overlay`."""
-    if not any("velocity_loop" in d.curves.loops for d in datas):
-        return f"{_symbols(datas)[0]} and T overlaid"
-    velocity = _loop(datas, "velocity_loop")
-    return (f"{_symbols(datas)[0]}, {velocity.symbol} (broken at {velocity.breaks_at}; every "
+    position, velocity = _loop(datas, "position_loop"), _loop(datas, "velocity_loop")
+    if velocity is None:
+        return f"{position.symbol} and T overlaid"
+    return (f"{position.symbol}, {velocity.symbol} (broken at {velocity.breaks_at}; every "
             "other loop closed dashed) and T overlaid")
 
 
