@@ -194,9 +194,8 @@ _LOOP_FIGURES = (
 )
 
 #: The short names of a loop's figures (:attr:`Figure.short`).
-_LOOP_SHORT = {"crossover_rad_s": "ωc", "phase_margin_deg": "PM", "delay_margin_s": "DM",
-               "gain_margin_db": "GM", "gain_margin_low_db": "lower GM",
-               "sensitivity_peak_db": "Ms"}
+_LOOP_SHORT = {"crossover_rad_s": "ωc", "phase_margin_deg": "PM", "gain_margin_db": "GM",
+               "gain_margin_low_db": "lower GM", "sensitivity_peak_db": "Ms"}
 
 _UNSTABLE_T = "the closed loop is not stable"
 
