@@ -128,7 +128,8 @@ def _sampling_lines(analysis, described):
     lines = [f"  sampled controllers: {rates} ({sampling['method']}, zero-order hold)",
              f"    {'figure':<{width}}    sampled     continuous"]
     lines += [f"    {label:<{width}} {_fmt(a):>10} {_fmt(b):>14}" for label, a, b in rows]
-    lines.append(f"    {FIGURES['stability'].label:<{width}} {analysis.stability.verdict:>10} "
+    # (the sampled column's verdict is of the discrete-time poles, not of the Padé model)
+    lines.append(f"    {'stability':<{width}} {analysis.stability.verdict:>10} "
                  f"{continuous['stability']:>14}")
     return lines
 
