@@ -45,7 +45,7 @@ from cas_freq.analysis.margins import (
     margins_of_run,
 )
 from cas_freq.exceptions import CasFreqError
-from cas_freq.summary import Summary
+from cas_freq.summary import Summary, table_rows
 
 #: Order of the Padé approximant of a delay used only to decide closed-loop stability.
 PADE_ORDER = 10
@@ -362,20 +362,11 @@ class LoopMarginResult(Summary):
         title = (f"{len(self.gain_crossovers)} gain and {len(self.phase_crossovers)} phase "
                  f"crossovers in {self.omega_range_rad_s[0]:.4g}..{self.omega_range_rad_s[1]:.4g}"
                  f" rad/s, closed loop {stable[self.closed_loop_stable]}")
-        return title, [
-            ("phase margin", self.phase_margin_deg, "deg"),
-            ("gain crossover", self.crossover_rad_s, "rad/s"),
-            ("gain margin", self.gain_margin_db, "dB"),
-            ("lower gain margin", self.gain_margin_low_db, "dB"),
-            ("delay margin", self.delay_margin_s, "s"),
-            ("sensitivity peak Ms", self.sensitivity_peak_db, "dB"),
-            ("phase crossover", self.phase_crossover_rad_s, "rad/s"),
-            ("lower phase crossover", self.phase_crossover_low_rad_s, "rad/s"),
-            ("Ms frequency", self.sensitivity_peak_rad_s, "rad/s"),
-            ("disk margin alpha", self.disk_margin_alpha, ""),
-            ("disk gain margin", self.disk_margin_gain_db, "dB"),
-            ("disk phase margin", self.disk_margin_phase_deg, "deg"),
-        ]
+        return title, table_rows(self, "position_loop", (
+            "phase_margin_deg", "crossover_rad_s", "gain_margin_db", "gain_margin_low_db",
+            "delay_margin_s", "sensitivity_peak_db", "phase_crossover_rad_s",
+            "phase_crossover_low_rad_s", "sensitivity_peak_rad_s", "disk_margin_alpha",
+            "disk_margin_gain_db", "disk_margin_phase_deg"))
 
     def to_dict(self):
         """The figures as a JSON-ready dict (lists of dicts for the crossovers)."""
@@ -502,13 +493,8 @@ class ClosedLoopResult(Summary):
         stable = {True: "stable", False: "unstable", None: "stability unknown"}
         title = (f"closed loop {stable[self.stable]}, {self.omega_range_rad_s[0]:.4g}.."
                  f"{self.omega_range_rad_s[1]:.4g} rad/s")
-        return title, [
-            ("bandwidth", self.bandwidth_rad_s, "rad/s"),
-            ("DC gain", self.dc_gain_db, "dB"),
-            ("resonance peak", self.peak_db, "dB"),
-            ("peak frequency", self.peak_rad_s, "rad/s"),
-            ("-90 deg frequency", self.phase_90_rad_s, "rad/s"),
-        ]
+        return title, table_rows(self, "closed_loop", (
+            "bandwidth_rad_s", "dc_gain_db", "peak_db", "peak_rad_s", "phase_90_rad_s"))
 
     def to_dict(self):
         """The figures as a JSON-ready dict."""

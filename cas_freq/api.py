@@ -206,13 +206,15 @@ class Actuator:
         FrequencyResponse
         """
         from cas_freq.model import ActuatorLoops
+        from cas_freq.report.data import described_loops
 
         omega = np.asarray(_quantities(omega, "rad/s", "omega"), dtype=float)
         loops = ActuatorLoops(self.params, _delay(delay))
         s = 1j * omega
         return FrequencyResponse(omega, loops.delay.label,
                                  **{name: getattr(loops, name)(s) for name in _LOOPS},
-                                 output_symbol=OutputWords.of(self.loaded.params).symbol)
+                                 output_symbol=OutputWords.of(self.loaded.params).symbol,
+                                 described=described_loops(self.params))
 
     @one_blas_thread()
     def simulate(self, step=None):
@@ -471,6 +473,8 @@ class FrequencyResponse(Summary):
         L_p (broken at the current command), S = 1/(1 + L_p) and T = delta/delta_cmd [-].
     output_symbol : str
         The output's symbol in the figure's labels: ``"δ"``, ``"x"`` at a linear output.
+    described : tuple of cas_freq.report.data.CurveLoop
+        The loops' symbols and break points, innermost first (the loop structure's).
     """
 
     omega_rad_s: np.ndarray
@@ -481,10 +485,13 @@ class FrequencyResponse(Summary):
     sensitivity: np.ndarray
     closed_loop: np.ndarray
     output_symbol: str = "δ"
+    described: tuple = ()
 
     def _summary(self):
         w = self.omega_rad_s
-        return (f"L_i, T_i, L_p, S, T at {w.size} frequencies ({self.delay_model} delays)",
+        symbols = {loop.name: loop.symbol for loop in self.described}
+        shown = (symbols["current_loop"], "T_i", symbols["position_loop"], "S", "T")
+        return (f"{', '.join(shown)} at {w.size} frequencies ({self.delay_model} delays)",
                 [("lowest frequency", float(w.min()) if w.size else None, "rad/s"),
                  ("highest frequency", float(w.max()) if w.size else None, "rad/s"),
                  ("largest |T|", float(np.abs(self.closed_loop).max()) if w.size else None,

@@ -1,4 +1,4 @@
-"""Every figure of merit, declared once: its JSON key, unit, label, meaning and break point.
+"""Every figure of merit, declared once: its JSON key, unit, label, meaning and loop.
 
 :data:`FIGURES` is to the figures what :data:`cas_freq.parameters.PARAMETERS` is to the config's
 parameters: one :class:`Figure` per figure, by the dotted key requirements name it with
@@ -6,14 +6,17 @@ parameters: one :class:`Figure` per figure, by the dotted key requirements name 
 ``fit.zeta``, ``sinedwell.bandwidth_rad_s``, ``profile.tracking_error_max_deg``). Each record
 says which command's JSON holds it (and where, :attr:`Figure.json_key`), the unit of its value
 there (the unit its key's suffix names), the unit and factor it is shown with, a short label,
-a one-line meaning (defined in docs/model.md §7) and, for the margins of a loop, the loop's
-break point. Everything else reads the table:
+a one-line meaning (defined in docs/model.md §7) and, for the margins of a loop, the loop
+(where it is broken, and its symbol, are the loop structure's:
+:class:`cas_freq.model.structure.Loop`). Everything else reads the table:
 
 - the requirements (:mod:`cas_freq.config.requirement`): the accepted ``metric`` names
   (:data:`METRICS`), their units, the command that measures them;
 - ``verify`` and ``tune``: the unit a verdict is shown in (:data:`UNIT_LABELS`);
-- the report's and the comparison's tables (:mod:`cas_freq.report.build`,
-  :mod:`cas_freq.report.compare`): labels, display units and factors.
+- the report's, the comparison's and the text tables (:mod:`cas_freq.report.build`,
+  :mod:`cas_freq.report.compare`, :mod:`cas_freq.report.text`), the plots' axes: labels,
+  display units and factors (no label of this table is typed anywhere else; a test scans the
+  package for copies).
 
 A loop's figures are declared once (:data:`_LOOP_FIGURES`) and expanded per loop of
 :data:`LOOPS`. A few records are figures shown in the tables but not accepted as requirements
@@ -27,47 +30,26 @@ This module imports nothing but the standard library: it is read on the ``verify
 import dataclasses
 import math
 
-__all__ = ["CONDITIONS", "FIGURES", "LOOPS", "METRICS", "UNIT_LABELS", "Figure", "Loop",
-           "accepted_metrics", "json_values"]
+__all__ = ["CONDITIONS", "FIGURES", "LOOPS", "METRICS", "UNIT_LABELS", "Figure",
+           "accepted_metrics", "json_values", "loop_label"]
 
 
-@dataclasses.dataclass(frozen=True)
-class Loop:
-    """One loop whose open-loop response has margins.
-
-    Attributes
-    ----------
-    name : str
-        Readable name (``"position loop"``).
-    symbol : str
-        Its open-loop response's symbol in docs/model.md (``"L_p"``).
-    broken_at : str
-        Where the loop is broken to measure it (``"the current command"``).
-    """
-
-    name: str
-    symbol: str
-    broken_at: str
-
-    @property
-    def break_point(self):
-        """``"position loop, broken at the current command"``."""
-        return f"{self.name}, broken at {self.broken_at}"
-
-
-#: The loops with margins, by the group name of their figures in the JSON (docs/model.md §3-4
-#: and §13): each broken at its controller's output with the loops inside it closed and those
+#: The loops with margins: the group names of their figures in the JSON (docs/model.md §3-4
+#: and §13), each broken at its controller's output with the loops inside it closed and those
 #: outside open, and (``<loop>.loop_at_a_time``) with every other loop closed. The velocity
-#: loop's figures exist only for a drive with one (the position loop is then broken at the
-#: velocity command).
-LOOPS = {
-    "current_loop": Loop("current loop", "L_i", "the voltage"),
-    "velocity_loop": Loop("velocity loop", "L_v", "the current command"),
-    "position_loop": Loop("position loop", "L_p", "the current command"),
-}
-LOOPS.update({f"{key}.loop_at_a_time": Loop(loop.name, loop.symbol,
-                                            f"{loop.broken_at}, every other loop closed")
-              for key, loop in list(LOOPS.items())})
+#: loop's figures exist only for a drive with one. A loop's symbol and where it is broken are
+#: the loop structure's (:class:`cas_freq.model.structure.Loop`: they depend on the drive),
+#: not this table's.
+LOOPS = ("current_loop", "velocity_loop", "position_loop")
+LOOPS += tuple(f"{key}.loop_at_a_time" for key in LOOPS)
+
+
+def loop_label(key):
+    """A key of :data:`LOOPS` in words: ``"position loop"``, ``"position loop, every other
+    loop closed"``."""
+    loop, _, view = key.partition(".")
+    return loop.replace("_", " ") + (", every other loop closed" if view else "")
+
 
 #: How each unit (pint spelling, as :attr:`Figure.unit`) is shown.
 UNIT_LABELS = {"rad/s": "rad/s", "deg": "deg", "dB": "dB", "percent": "%", "s": "s", "A": "A",
@@ -115,6 +97,9 @@ class Figure:
     twin : str
         The key of the other kind's record of an output quantity
         (``profile.tracking_error_max_mm`` <-> ``profile.tracking_error_max_deg``), else ``""``.
+    short : str
+        Its symbol or abbreviation where a compact column or a plot's annotation names it
+        (``"PM"``), ``""`` for none (the label is then used).
     """
 
     key: str
@@ -130,6 +115,7 @@ class Figure:
     json_key: str = ""
     output: str = ""
     twin: str = ""
+    short: str = ""
 
     def __post_init__(self):
         if not self.json_key:
@@ -141,15 +127,27 @@ class Figure:
         return self.key.rpartition(".")[2]
 
     @property
-    def break_point(self):
-        """Where its loop is broken (``"position loop, broken at the current command"``), None
-        for a figure of no loop."""
-        return None if self.loop is None else LOOPS[self.loop].break_point
-
-    @property
     def unit_label(self):
         """The JSON unit as shown (``"%"`` for ``"percent"``)."""
         return UNIT_LABELS[self.unit]
+
+    @property
+    def heading(self):
+        """Label and shown unit as a column or an axis names it (``"delay margin [ms]"``;
+        the label alone for a dimensionless figure)."""
+        return f"{self.label} [{self.shown_unit}]" if self.shown_unit else self.label
+
+    @property
+    def short_heading(self):
+        """:attr:`short` (else the label) and the shown unit: ``"PM [deg]"``."""
+        name = self.short or self.label
+        return f"{name} [{self.shown_unit}]" if self.shown_unit else name
+
+    def shown(self, value):
+        """``value`` [the JSON unit] in :attr:`shown_unit`; None, NaN and flags unchanged."""
+        if value is None or isinstance(value, bool | str):
+            return value
+        return value * self.scale
 
 
 _MS = ("ms", 1e3)
@@ -195,6 +193,10 @@ _LOOP_FIGURES = (
      _NOT_STABLE),
 )
 
+#: The short names of a loop's figures (:attr:`Figure.short`).
+_LOOP_SHORT = {"crossover_rad_s": "ωc", "phase_margin_deg": "PM", "gain_margin_db": "GM",
+               "gain_margin_low_db": "lower GM", "sensitivity_peak_db": "Ms"}
+
 _UNSTABLE_T = "the closed loop is not stable"
 
 #: Every other figure: (key, command, unit, label, shown unit, scale, meaning, absent[,
@@ -205,10 +207,10 @@ _OTHER_FIGURES = (
      "|T(0)| in dB (0 dB with integral action)", _UNSTABLE_T),
     ("closed_loop.bandwidth_rad_s", "analyze", "rad/s", "bandwidth ω_BW (−3.01 dB)", "rad/s",
      1.0, "lowest frequency at which |T| is 3.0103 dB below |T(0)|",
-     f"{_UNSTABLE_T}, or |T| stays above −3.01 dB in the analysed range"),
+     f"{_UNSTABLE_T}, or |T| stays above −3.01 dB in the analysed range", {"short": "ω_BW"}),
     ("closed_loop.peak_db", "analyze", "dB", "resonance peak", "dB", 1.0,
      "max |T|/|T(0)| in dB, at an interior maximum of |T|",
-     f"{_UNSTABLE_T}, or |T| has no interior maximum"),
+     f"{_UNSTABLE_T}, or |T| has no interior maximum", {"short": "peak"}),
     ("closed_loop.peak_rad_s", "analyze", "rad/s", "frequency of the resonance peak", "rad/s",
      1.0, "the frequency of the resonance peak",
      f"{_UNSTABLE_T}, or |T| has no interior maximum"),
@@ -395,7 +397,7 @@ def _table():
     for loop in LOOPS:
         for name, unit, label, shown, scale, meaning, absent in _LOOP_FIGURES:
             figures.append(Figure(f"{loop}.{name}", "analyze", unit, label, shown, scale,
-                                  meaning, absent, loop))
+                                  meaning, absent, loop, short=_LOOP_SHORT.get(name, "")))
         figures.append(Figure(
             f"{loop}.sensitivity_peak_at_range_edge", "analyze", "",
             "sensitivity peak at the range edge", "", 1.0,

@@ -12,7 +12,7 @@ Imports only the standard library and :mod:`cas_freq.figures`.
 import html
 import math
 
-from cas_freq.figures import FIGURES
+from cas_freq.figures import FIGURES, loop_label
 
 #: Most rows ``__repr__`` prints (the HTML table shows every row).
 REPR_ROWS = 6
@@ -40,8 +40,19 @@ def row(entry):
     figure = FIGURES[key]
     if isinstance(value, float | int) and not isinstance(value, bool):
         value = value * figure.scale
-    loop = f"{figure.loop.replace('_', ' ')}: " if figure.loop else ""
+    loop = f"{loop_label(figure.loop)}: " if figure.loop else ""
     return loop + figure.label, _text(value), figure.shown_unit
+
+
+def table_rows(result, group, names):
+    """Summary rows ``(label, value, unit)`` of the attributes ``names`` of ``result``, with
+    the labels and units of the figures ``group.name`` of :data:`~cas_freq.figures.FIGURES`
+    (of no particular loop: a loop's figures without its name)."""
+    rows = []
+    for name in names:
+        figure = FIGURES[f"{group}.{name}"]
+        rows.append((figure.label, figure.shown(getattr(result, name)), figure.shown_unit))
+    return rows
 
 
 class Summary:
@@ -88,5 +99,5 @@ def spread(key, values):
     missing = values.size - finite.size
     if missing:
         text += f" ({missing} without)"
-    loop = f"{figure.loop.replace('_', ' ')}: " if figure.loop else ""
+    loop = f"{loop_label(figure.loop)}: " if figure.loop else ""
     return loop + figure.label, text, figure.shown_unit

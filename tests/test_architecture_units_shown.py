@@ -6,6 +6,7 @@ from pathlib import Path
 import pytest
 
 from cas_freq.config import load_variant
+from cas_freq.figures import FIGURES
 from cas_freq.report.compare import in_unit, parameter_differences
 from cas_freq.tuning.summary import column_label, tune_text
 
@@ -75,7 +76,8 @@ def _tune_data(keys):
 def test_tune_pareto_columns_name_each_keys_loop():
     keys = ["position_loop.Kp", "velocity_loop.Kp", "velocity_loop.Ki"]
     text = tune_text(_tune_data(keys))
-    header = next(line for line in text.splitlines() if "BW rad/s" in line)
+    heading = FIGURES["closed_loop.bandwidth_rad_s"].heading  # the table's label and unit
+    header = next(line for line in text.splitlines() if heading in line)
     assert header.split()[:3] == ["position.Kp", "velocity.Kp", "velocity.Ki"]
     row = text.splitlines()[-1].split()
     assert row[:3] == ["1", "2", "3"]  # each value under its own column

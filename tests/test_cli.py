@@ -11,6 +11,7 @@ import pytest
 from clirun import SHIPPED_NOTE
 
 from cas_freq.cli import main
+from cas_freq.figures import FIGURES
 
 LOOP_KEYS = (
     "crossover_rad_s", "phase_margin_deg", "delay_margin_s", "gain_margin_db",
@@ -193,7 +194,7 @@ def test_analyze_text(base_text):
     assert base_text.startswith("qt_cas / base\n")
     assert "closed loop STABLE" in base_text
     assert "UNSTABLE" not in base_text
-    assert "bandwidth (-3 dB)" in base_text
+    assert FIGURES["closed_loop.bandwidth_rad_s"].label in base_text
 
 
 def test_unstable_loop_json(unstable_json):

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from clirun import run_cli
 
+from cas_freq.figures import FIGURES
 from cas_freq.simulation.second_order import second_order_step
 
 _run = run_cli
@@ -91,7 +92,8 @@ def test_td_interval_in_text_and_json(tmp_path):
     low, high = json.loads(out)["fit"]["td_ci_s"]
     assert low < 2e-3 < high  # the true delay of the data, as for wn above
     code, out, _ = _run(["fit", str(path), "--step", "10deg"])
-    line = next(line for line in out.splitlines() if line.strip().startswith("td "))
+    line = next(line for line in out.splitlines()
+                if line.strip().startswith(FIGURES["fit.td_s"].label + " "))
     assert line.strip().endswith(f"[{low * 1e3:.4g}, {high * 1e3:.4g}]")
 
 

@@ -8,6 +8,7 @@ import math
 import pytest
 from clirun import run_cli
 
+from cas_freq.figures import FIGURES
 from cas_freq.report.numbers import number
 
 # The made-up DC servo of configs/dc_servo.yaml with an aiding hinge (K_h = -15 N*m/rad at
@@ -98,11 +99,17 @@ def test_text_gives_each_crossover_its_own_delay_margin():
         return number(seconds * 1e3, 4, "ms")
 
     (headline,) = [c for c in crossovers if c["frequency_rad_s"] == current["crossover_rad_s"]]
-    start = lines.index(f"    gain crossover     {number(headline['frequency_rad_s'], 4, 'rad/s')}"
-                        " (smallest |phase margin| of 3)")
+    # the labels are the figure table's, in a column as wide as the longest of a loop's
+    labels = {name: FIGURES[f"current_loop.{name}"].label
+              for name in ("crossover_rad_s", "phase_margin_deg", "delay_margin_s")}
+    width = len(labels["crossover_rad_s"])
+    start = lines.index(f"    {labels['crossover_rad_s']:<{width}} "
+                        f"{number(headline['frequency_rad_s'], 4, 'rad/s')}"
+                        f" (smallest |{labels['phase_margin_deg']}| of 3)")
     pm = number(headline["phase_margin_deg"], 4, "deg")
-    assert lines[start + 1] == f"    phase margin       {pm}"
-    assert lines[start + 2] == f"    delay margin       {ms(headline['delay_margin_s'])}"
+    assert lines[start + 1] == f"    {labels['phase_margin_deg']:<{width}} {pm}"
+    assert lines[start + 2] == (f"    {labels['delay_margin_s']:<{width}} "
+                                f"{ms(headline['delay_margin_s'])} (at this crossover)")
     for c in crossovers:
         if c is not headline:
             assert (f"{number(c['frequency_rad_s'], 4, 'rad/s')}: phase margin "
@@ -112,8 +119,8 @@ def test_text_gives_each_crossover_its_own_delay_margin():
     assert smallest is not headline
     assert current["delay_margin_s"] == smallest["delay_margin_s"]
     assert current["delay_margin_crossover_rad_s"] == smallest["frequency_rad_s"]
-    assert (f"    smallest delay margin {ms(smallest['delay_margin_s'])} "
-            f"(at {number(smallest['frequency_rad_s'], 4, 'rad/s')})") in lines
+    assert (f"    {labels['delay_margin_s']:<{width}} {ms(smallest['delay_margin_s'])} "
+            f"(the smallest, at {number(smallest['frequency_rad_s'], 4, 'rad/s')})") in lines
 
 
 def test_headline_is_the_crossover_nearest_minus_one():

@@ -25,6 +25,8 @@ import pytest
 from clirun import run_cli
 from conftest import chromium_or_skip
 
+from cas_freq.figures import FIGURES
+
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = ROOT / "configs" / "qt_cas.yaml"
 #: Ctrl-C must stop the server within this [s] (issue 29).
@@ -619,7 +621,8 @@ def _printed(argv):
     assert code == 0
     margins = dict(re.findall(
         r"^  (\w+ loop) L_\w+ .*\n(?:    .*\n)*?    phase margin +(\S+) deg", out, flags=re.M))
-    (bandwidth,) = re.findall(r"^    bandwidth \(-3 dB\) +(\S+) rad/s", out, flags=re.M)
+    label = re.escape(FIGURES["closed_loop.bandwidth_rad_s"].label)  # the figure table's
+    (bandwidth,) = re.findall(rf"^    {label} +(\S+) rad/s", out, flags=re.M)
     return margins, bandwidth
 
 

@@ -9,7 +9,7 @@ import pytest
 from clirun import run_cli
 
 from cas_freq.config.requirement import METRICS, Requirement, metric_unit
-from cas_freq.figures import CONDITIONS, FIGURES, LOOPS, json_values
+from cas_freq.figures import CONDITIONS, FIGURES, LOOPS, json_values, loop_label
 from cas_freq.output import LENGTH
 from cas_freq.parameters import PARAMETERS
 
@@ -145,16 +145,20 @@ def test_requirement_metrics_are_the_tables_with_their_units():
         Requirement(id="X", metric="step.current_limited", max=0, step="10 deg")
 
 
-def test_loop_figures_are_declared_once_per_loop_with_their_break_point():
+def test_loop_figures_are_declared_once_per_loop_with_their_loop():
     per_loop = {loop: sorted(f.name for f in FIGURES.values() if f.loop == loop
                              and f.requirement) for loop in LOOPS}
     assert per_loop["current_loop"] == per_loop["position_loop"]
     assert len(per_loop["position_loop"]) == 13  # 12 before delay_margin_crossover_rad_s
-    assert FIGURES["position_loop.phase_margin_deg"].break_point == (
-        "position loop, broken at the current command")
-    assert FIGURES["current_loop.gain_margin_db"].break_point == (
-        "current loop, broken at the voltage")
-    assert FIGURES["closed_loop.bandwidth_rad_s"].break_point is None
+    assert FIGURES["position_loop.loop_at_a_time.phase_margin_deg"].loop == (
+        "position_loop.loop_at_a_time")
+    assert FIGURES["closed_loop.bandwidth_rad_s"].loop is None
+    assert loop_label("velocity_loop.loop_at_a_time") == (
+        "velocity loop, every other loop closed")
+    # the shown value and the column heading follow the unit and factor
+    delay = FIGURES["position_loop.delay_margin_s"]
+    assert delay.shown(0.002) == pytest.approx(2.0) and delay.heading == "delay margin [ms]"
+    assert delay.shown(None) is None and FIGURES["fit.zeta"].heading == "damping ratio ζ"
     # every display factor is the conversion its units name
     for figure in FIGURES.values():
         if figure.shown_unit == "ms":

@@ -17,6 +17,7 @@ from clirun import run_cli
 from docs_pages import doc_section
 
 from cas_freq.exceptions import ConfigError
+from cas_freq.figures import FIGURES
 from cas_freq.identification import fit_recordings, read_recording
 from cas_freq.identification.columns import parse_column_option
 from cas_freq.simulation.second_order import fit_second_order_batch, second_order_step
@@ -307,7 +308,8 @@ def test_cli_table_and_column_option(tmp_path):
                               "--columns", "time=stamp_ms,position=enc_deg"])
     assert code == 0, err
     assert "step of 10 deg (from the --step option)" in out
-    assert "wn 462 rad/s" in out and "closed-form bandwidth 565.9 rad/s" in out
+    assert f"{FIGURES['fit.wn_rad_s'].label} 462 rad/s" in out  # the figure table's label
+    assert "closed-form bandwidth 565.9 rad/s" in out
     assert "model qt_cas / base" in out and "joint fit" not in out
     code, out, err = run_cli(["fit", "--data", str(path), "--step", "10deg", "--variant",
                               "fitted", "--columns", "time=stamp_ms,position=enc_deg"])

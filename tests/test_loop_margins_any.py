@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import cas_freq as cf
+from cas_freq.figures import FIGURES
 
 s = control.tf("s")
 
@@ -24,10 +25,11 @@ def test_results_print_a_short_headline_not_every_crossover():
     assert len(text.splitlines()) <= 8 and len(text) < 600
     assert text.startswith("LoopMarginResult: 1 gain and")
     assert f"phase margin: {m.phase_margin_deg:.4g} deg" in text
-    assert "<table>" in m._repr_html_() and "disk margin alpha" in m._repr_html_()
+    assert "<table>" in m._repr_html_() and "disk margin α" in m._repr_html_()
     t = cf.closed_loop_figures(control.feedback(DELAYED, 1))
     assert len(repr(t).splitlines()) <= 8
-    assert f"bandwidth: {t.bandwidth_rad_s:.4g} rad/s" in repr(t)
+    bandwidth = FIGURES["closed_loop.bandwidth_rad_s"].label  # the figure table's label
+    assert f"{bandwidth}: {t.bandwidth_rad_s:.4g} rad/s" in repr(t)
     assert "<table>" in t._repr_html_()
 
 

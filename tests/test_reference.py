@@ -9,6 +9,7 @@ import pytest
 from cas_freq.config import load_variant
 from cas_freq.config.loader import validate
 from cas_freq.exceptions import ConfigError
+from cas_freq.figures import FIGURES
 from cas_freq.formulas import second_order_bandwidth
 from cas_freq.plots import report as plots
 from cas_freq.report.build import report_blocks
@@ -136,4 +137,5 @@ def test_report_with_reference_shows_it(qt_cas):
     assert "566 rad/s" in legend
     assert any(t.startswith("reference fit") for t in _legend_texts(plots.step_fit(qt_cas)))
     rows = {row[0]: row[2] for row in reference_rows(qt_cas)}
-    assert rows["overshoot"] == 13.0 and rows["fit td"] == pytest.approx(2.0)
+    assert rows[FIGURES["step.overshoot_pct"].label] == 13.0
+    assert rows["fit: " + FIGURES["fit.td_s"].label] == pytest.approx(2.0)  # [ms]

@@ -17,6 +17,7 @@ import pytest
 from cas_freq.analysis import analyze, to_dict
 from cas_freq.config import load_variant
 from cas_freq.exceptions import CasFreqError
+from cas_freq.figures import FIGURES
 from cas_freq.plots import overlays
 from cas_freq.plots import report as plots
 from cas_freq.report import html
@@ -159,9 +160,10 @@ def test_reference_rows_show_the_configs_bench_numbers(data):
     results = variant_results(data)
     bench = {row["figure"]: row["reference"] for row in results["reference_comparison"]}
     # ARL-TR-9136 §5 and §7 (docs/model.md §8): rise 5 ms, overshoot 13 %, fit 566 rad/s
-    assert bench["rise time 10-90 %"] == pytest.approx(5.0)
-    assert bench["overshoot"] == 13.0
-    assert bench["ω_BW of the fit (closed form)"] == 566.0
+    # (labelled as the figure table labels the step's and the fit's figures)
+    assert bench[FIGURES["step.rise_time_s"].label] == pytest.approx(5.0)
+    assert bench[FIGURES["step.overshoot_pct"].label] == 13.0
+    assert bench["fit: " + FIGURES["fit.bandwidth_closed_form_rad_s"].label] == 566.0
 
 
 def test_settings_reject_bad_grids():

@@ -10,6 +10,7 @@ import dataclasses
 import math
 
 from cas_freq.cli.common import angle, write_and_print
+from cas_freq.figures import FIGURES
 
 
 def _fit_dict(fit, unit_step=False):
@@ -94,23 +95,30 @@ def fit_notes(f):
 
 def fit_lines(f, indent="    "):
     """Text lines of a fit dict."""
+    wn, zeta, td, bandwidth = (FIGURES[f"fit.{name}"] for name in (
+        "wn_rad_s", "zeta", "td_s", "bandwidth_closed_form_rad_s"))
     return [
-        f"{indent}wn {_g(f['wn_rad_s'], ' rad/s')} {_interval(f['wn_ci_rad_s'])}",
-        f"{indent}zeta {_g(f['zeta'])} {_interval(f['zeta_ci'])}",
-        f"{indent}td {_ms(f['td_s'])} {_interval(f['td_ci_s'], lambda v: _ms(v, ''))}",
-        f"{indent}closed-form bandwidth {_g(f['bandwidth_closed_form_rad_s'], ' rad/s')}",
+        f"{indent}{wn.label} {_g(f['wn_rad_s'], ' ' + wn.shown_unit)} "
+        f"{_interval(f['wn_ci_rad_s'])}",
+        f"{indent}{zeta.label} {_g(f['zeta'])} {_interval(f['zeta_ci'])}",
+        f"{indent}{td.label} {_ms(f['td_s'])} {_interval(f['td_ci_s'], lambda v: _ms(v, ''))}",
+        f"{indent}{bandwidth.label} "
+        f"{_g(f['bandwidth_closed_form_rad_s'], ' ' + bandwidth.shown_unit)}",
         *(f"{indent}{note}" for note in fit_notes(f)),
     ]
 
 
 def step_lines(s, indent="  "):
-    """Text lines of step figures."""
-    return [
-        f"{indent}rise time 10-90 %   {_ms(s['rise_time_s'])}",
-        f"{indent}overshoot           {_g(s['overshoot_pct'], ' %')}",
-        f"{indent}settling ±2 % / ±5 % {_ms(s['settling_time_s'])} / "
-        f"{_ms(s['settling_time_5pct_s'])}",
-    ]
+    """Text lines of step figures (labels, units and factors of the figure table)."""
+    lines = []
+    for name in ("rise_time_s", "overshoot_pct", "settling_time_s", "settling_time_5pct_s"):
+        figure = FIGURES[f"step.{name}"]
+        value = s[name]
+        if value is not None and abs(value) < 1e-9 and figure.unit == "s":
+            value = 0.0  # a time below 1e-9 s is 0
+        lines.append(f"{indent}{figure.label:<19} "
+                     f"{_g(figure.shown(value), ' ' + figure.shown_unit)}")
+    return lines
 
 
 def rms_line(f, key, indent="    ", rad_key=None):

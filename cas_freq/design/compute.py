@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 from cas_freq.exceptions import CasFreqError, ConfigError
+from cas_freq.figures import FIGURES
 
 #: Points per decade of the Bode curves sent to the page.
 CURVE_POINTS_PER_DECADE = 40
@@ -172,24 +173,33 @@ def _bode(omega, response):
     return [_finite(v) for v in magnitude], [_finite(v) for v in phase]
 
 
+#: A loop's margins the page shows (figures of :data:`cas_freq.figures.FIGURES` after the
+#: loop's name).
+MARGINS = ("crossover_rad_s", "phase_margin_deg", "delay_margin_s", "gain_margin_db",
+           "phase_crossover_rad_s", "gain_margin_low_db", "phase_crossover_low_rad_s")
+
+#: The columns of the page's margin table (view, figure and heading: the figure table's
+#: label and unit): each loop's own margins, then those with every other loop closed.
+MARGIN_COLUMNS = [{"view": view, "name": name, "heading": (
+    "every other loop closed: " if view == "loop_at_a_time" else "")
+    + FIGURES[f"position_loop.{name}"].heading} for view, names in (
+        ("margins", ("crossover_rad_s", "phase_margin_deg", "gain_margin_db",
+                     "gain_margin_low_db", "delay_margin_s")),
+        ("loop_at_a_time", ("phase_margin_deg", "gain_margin_db", "crossover_rad_s")))
+    for name in names]
+
+
 def _margins(margins):
-    """A loop's margins [SI, deg, dB] and their texts as ``analyze`` prints them (None for
-    None)."""
+    """A loop's margins [SI, deg, dB] and their texts as ``analyze`` prints them, in the units
+    the figure table shows them in (None for None)."""
     from cas_freq.report.numbers import number
 
     if margins is None:
         return None
-    figures = {
-        "crossover_rad_s": margins.crossover_rad_s,
-        "phase_margin_deg": margins.phase_margin_deg,
-        "delay_margin_s": margins.delay_margin_s,
-        "gain_margin_db": margins.gain_margin_db,
-        "phase_crossover_rad_s": margins.phase_crossover_rad_s,
-        "gain_margin_low_db": margins.gain_margin_low_db,
-        "phase_crossover_low_rad_s": margins.phase_crossover_low_rad_s,
-    }
+    figures = {name: getattr(margins, name) for name in MARGINS}
     out = {name: _finite(value) for name, value in figures.items()}
-    out["text"] = {name: number(value, DIGITS) for name, value in figures.items()}
+    out["text"] = {name: number(FIGURES[f"position_loop.{name}"].shown(value), DIGITS)
+                   for name, value in figures.items()}
     return out
 
 
@@ -225,6 +235,7 @@ def steps(loaded, analysis, amplitude, nonlinear=True):
     from cas_freq.model import DEFAULT_PADE_ORDER
     from cas_freq.output import output_unit
     from cas_freq.report.data import linear_steps
+    from cas_freq.report.numbers import number
     from cas_freq.simulation.run import step_run
 
     unit = output_unit(loaded.params)
@@ -237,6 +248,10 @@ def steps(loaded, analysis, amplitude, nonlinear=True):
                           for name in ("current", "voltage")}
         out["figures"] = {name: _finite(getattr(run.step, name)) for name in
                           ("rise_time_s", "overshoot_pct", "settling_time_s", "peak_time_s")}
+        # as the step's title names them: the figure table's label, value and unit
+        out["figure_texts"] = {name: f"{FIGURES[f'step.{name}'].label} " + number(
+            FIGURES[f"step.{name}"].shown(value), 3, FIGURES[f"step.{name}"].shown_unit)
+            for name, value in out["figures"].items()}
         t_end = float(t[-1])
     else:
         bandwidth = analysis.closed_loop.bandwidth_rad_s if analysis.closed_loop else None
@@ -306,7 +321,7 @@ def design_state(loaded, step_rad=None, nonlinear=True):
         "config": loaded.params.name, "variant": loaded.variant,
         "overrides": [f"{key}={value}" for key, value in loaded.overrides],
         "stability": analysis.stability.verdict, "stable": analysis.stable,
-        "omega_rad_s": omega, "loops": loops,
+        "omega_rad_s": omega, "loops": loops, "margin_columns": MARGIN_COLUMNS,
         "closed_loop": {
             "magnitude_db": closed_magnitude, "phase_deg": closed_phase,
             "bandwidth_rad_s": _finite(bandwidth),

@@ -104,11 +104,15 @@ class Loop:
     Attributes
     ----------
     name : str
-        Figure prefix (``"current_loop"``).
+        Figure prefix (``"current_loop"``), the group of its figures in the JSON
+        (:data:`cas_freq.figures.LOOPS`).
     symbol : str
-        Its loop transfer function's symbol (``"L_i"``).
+        Its loop transfer function's symbol (``"L_i"``), as docs/model.md and every table,
+        figure and text name it.
     breaks_at : str
-        Where its loop is broken (the controller's output), in words.
+        Where its loop is broken (the controller's output), in words (``"the voltage"``).
+    break_symbol : str
+        The same signal as a symbol (``"V"``), as legends and titles name it.
     controller : Block
         Acts on the error (command − measurement).
     path : tuple of Block
@@ -132,6 +136,7 @@ class Loop:
     name: str
     symbol: str
     breaks_at: str
+    break_symbol: str
     controller: Block
     path: tuple
     delay: object
@@ -140,6 +145,11 @@ class Loop:
     reference: tuple | None = None
     feedforward: tuple | None = None
     signals: tuple = ("e", "y")
+
+    @property
+    def label(self):
+        """Its name in words (``"current loop"``)."""
+        return self.name.replace("_", " ")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -340,7 +350,7 @@ def build(p):
     """
     n = _runs(p)
     current = Loop(
-        "current_loop", "L_i", "the voltage",
+        "current_loop", "L_i", "the voltage", "V",
         pi_controller("current PI", p.ci_Kp, p.ci_Ki, n), (), p.tau_c, "current",
         _filters(p, "current_feedback"), signals=("e_i", "i"),
     )
@@ -357,7 +367,7 @@ def build(p):
             reference = tuple(np.where(p.derivative_on_measurement, m, c) for m, c in zip(
                 measured, parts.position_controller(p), strict=True))
         position = Loop(
-            "position_loop", "L_p", "the current command", pid_controller(p, n),
+            "position_loop", "L_p", "the current command", "i_cmd", pid_controller(p, n),
             at_current_command, p.tau_p, position_feedback,
             _filters(p, "position_feedback"), reference=reference,
             feedforward=(p.ff_a, p.ff_v, 0.0), signals=position_signals,
@@ -368,12 +378,12 @@ def build(p):
     if np.any(tau_vf > 0):
         sensor = (Block("velocity filter", (1.0,), (p.tau_vf, 1.0)), *sensor)
     velocity = Loop(
-        "velocity_loop", "L_v", "the current command",
+        "velocity_loop", "L_v", "the current command", "i_cmd",
         pi_controller("velocity PI", p.cv_Kp, p.cv_Ki, n), at_current_command, p.tau_v,
         "motor_velocity", sensor, feedforward=(p.ff_a, 0.0, 0.0), signals=("e_v", "omega"),
     )
     position = Loop(
-        "position_loop", "L_p", "the velocity command",
+        "position_loop", "L_p", "the velocity command", "ω_cmd",
         pi_controller("position PI", p.cp_Kp, p.cp_Ki, n), (), p.tau_p, position_feedback,
         _filters(p, "position_feedback"), feedforward=(p.ff_v, 0.0), signals=position_signals,
     )

@@ -54,16 +54,14 @@ def plant_system(params):
     )
 
 
-#: Each loop's system name and (input, output) signal names, as python-control shows them:
-#: the symbols of docs/model.md (a position loop on an output encoder measures ``delta``, S
-#: then runs from ``delta_cmd``: :func:`_loop_names`). Each loop runs from its error to its
-#: measurement (broken at its error, which for a unity-feedback loop is the same L as broken
-#: at the controller output).
+#: The system name and (input, output) signal names of each system that is not a loop of the
+#: structure, as python-control shows them (the symbols of docs/model.md); each loop's are the
+#: structure's (:class:`~cas_freq.model.structure.Loop`: ``symbol`` and ``signals``, from its
+#: error to its measurement, :func:`_loop_names`; broken at its error, which for a
+#: unity-feedback loop is the same L as broken at the controller output). S runs from the
+#: outermost loop's command (``delta_cmd`` on an output encoder).
 LOOP_NAMES = {
-    "current_loop": ("L_i", "e_i", "i"),
     "current_closed_loop": ("T_i", "i_cmd", "i"),
-    "velocity_loop": ("L_v", "e_v", "omega"),
-    "position_loop": ("L_p", "e", "theta"),
     "sensitivity": ("S", "theta_cmd", "e"),
     "closed_loop": ("T", "delta_cmd", "delta"),
 }
@@ -72,7 +70,7 @@ LOOP_NAMES = {
 @dataclasses.dataclass(frozen=True)
 class LinearModel:
     """The actuator's loops as python-control state-space systems (Padé delays), named as
-    :data:`LOOP_NAMES` (``model.position_loop.name == "L_p"``).
+    the structure's loops and :data:`LOOP_NAMES` (``model.position_loop.name == "L_p"``).
 
     Attributes
     ----------

@@ -14,13 +14,9 @@ from cas_freq.analysis.frequency import continuous_phase
 from cas_freq.config.wording import OutputWords
 from cas_freq.plots.common import NotebookFigure as Figure
 
-#: The loops of the Bode figure: (attribute of FrequencyResponse, legend label; ``{x}`` the
-#: output's symbol).
-BODE_LOOPS = (
-    ("current_loop", "L_i (current loop, broken at V)"),
-    ("position_loop", "L_p (position loop, broken at i_cmd)"),
-    ("closed_loop", "T = {x}/{x}_cmd (closed loop)"),
-)
+#: The loops of the Bode figure (attributes of FrequencyResponse; each loop's legend is its
+#: structure's title, T's names the output).
+BODE_LOOPS = ("current_loop", "position_loop", "closed_loop")
 
 
 def bode_figure(response):
@@ -39,8 +35,10 @@ def bode_figure(response):
     w = response.omega_rad_s
     fig = Figure(figsize=(8, 6), layout="constrained")
     magnitude, phase = fig.subplots(2, 1, sharex=True)
-    for name, label in BODE_LOOPS:
-        label = label.format(x=response.output_symbol)
+    titles = {loop.name: loop.title for loop in response.described}
+    x = response.output_symbol
+    for name in BODE_LOOPS:
+        label = titles.get(name, f"T = {x}/{x}_cmd (closed loop)")
         values = getattr(response, name)
         magnitude.semilogx(w, 20.0 * np.log10(np.abs(values)), label=label)
         phase.semilogx(w, np.degrees(continuous_phase(values, w)), label=label)

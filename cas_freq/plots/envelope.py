@@ -9,16 +9,19 @@ Plotted data are rounded as every report figure (:func:`cas_freq.plots.common.ro
 
 import numpy as np
 
+from cas_freq.figures import FIGURES, loop_label
 from cas_freq.plots.common import Margins, figure, legend_room_right, rounded
 
-#: (figure key, axis label, panel) of the plotted series.
-_SERIES = (
-    ("closed_loop.bandwidth_rad_s", "ω_BW linear (−3 dB of T)", 0),
-    ("position_loop.phase_margin_deg", "L_p phase margin [deg]", 1),
-    ("position_loop.gain_margin_db", "L_p gain margin (upper) [dB]", 1),
-    ("step.overshoot_pct", "step overshoot", 2),
-)
-_PANEL_LABELS = ("ω_BW [rad/s]", "margin [deg], [dB]", "overshoot [%]")
+#: (figure key, legend label, panel) of the plotted series: the figure table's labels and
+#: units, after the loop or the run they are of.
+_SERIES = tuple((key, f"{prefix}: {FIGURES[key].heading}", panel) for key, prefix, panel in (
+    ("closed_loop.bandwidth_rad_s", "linear T", 0),
+    ("position_loop.phase_margin_deg", loop_label("position_loop"), 1),
+    ("position_loop.gain_margin_db", loop_label("position_loop"), 1),
+    ("step.overshoot_pct", "nonlinear step", 2),
+))
+_PANEL_LABELS = (f"ω_BW [{FIGURES['closed_loop.bandwidth_rad_s'].shown_unit}]",
+                 "margin [deg], [dB]", FIGURES["step.overshoot_pct"].heading)
 
 
 def envelope_figure(envelope, config_name):
@@ -49,8 +52,8 @@ def envelope_figure(envelope, config_name):
         _unsettled(axes[2], k, envelope, trusted["step.overshoot_pct"])
     for ax, label in zip(axes, _PANEL_LABELS, strict=False):
         ax.set_ylabel(label)
-    axes[-1].set_xlabel("load spring K_h (load.hinge_stiffness) [N·m/rad] (> 0 opposes, < 0 "
-                        "aids)")
+    axes[-1].set_xlabel(f"{FIGURES['drivetrain.hinge_stiffness_n_m_rad'].heading} "
+                        "(load.hinge_stiffness; > 0 opposes, < 0 aids)")
     fig.suptitle(f"Load envelope — {config_name} / {envelope.variant} (dotted: the variant's "
                  "own K_h; shaded: closed loop not stable)", fontsize=9)
     for ax in axes:

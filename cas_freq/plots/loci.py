@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 
+from cas_freq.figures import FIGURES
 from cas_freq.model import parts
 from cas_freq.plots.common import EXACT, Margins, legend_room_below, legend_room_right, loop_color
 from cas_freq.plots.common import figure as _figure
@@ -131,12 +132,14 @@ def _nyquist_panel(ax, omega, values, margins, exact, name, color):
         p = exact(margins.crossover_rad_s)
         ax.plot([_r(p.real)], [_r(p.imag)], "o", color=color, ms=5,
                 label=f"gain crossover {margins.crossover_rad_s:.4g} rad/s "
-                f"(PM {margins.phase_margin_deg:.3g}°)")
+                f"({FIGURES['position_loop.phase_margin_deg'].short} "
+                f"{margins.phase_margin_deg:.3g}°)")
     if margins.phase_crossover_rad_s is not None:
         p = exact(margins.phase_crossover_rad_s)
         ax.plot([_r(p.real)], [_r(p.imag)], "s", color=color, ms=4, mfc="none",
                 label=f"phase crossover {margins.phase_crossover_rad_s:.4g} rad/s "
-                f"(GM {margins.gain_margin_db:+.3g} dB)")
+                f"({FIGURES['position_loop.gain_margin_db'].short} "
+                f"{margins.gain_margin_db:+.3g} dB)")
     if margins.sensitivity_peak_db is not None:
         centre, radius = ms_circle(margins.sensitivity_peak_db)
         _circle(ax, centre, radius, color="C3", lw=1.1, ls="--",
@@ -198,10 +201,11 @@ def nyquist(data):
             shown = _clipped(c.loop_at_a_time[loop.name], half)
             aat = margins.loop_at_a_time
             words = ("" if aat is None or aat.phase_margin_deg is None
-                     else f": PM {aat.phase_margin_deg:.3g}° @ {aat.crossover_rad_s:.4g} rad/s")
+                     else f": {FIGURES['position_loop.phase_margin_deg'].short} "
+                     f"{aat.phase_margin_deg:.3g}° @ {aat.crossover_rad_s:.4g} rad/s")
             ax.plot(_r(shown.real), _r(shown.imag), color=color, lw=1.1, ls="--",
                     label=f"{loop.symbol} with every other loop closed, ω > 0{words}")
-        ax.set_title(f"{loop.symbol} ({loop.words}, broken at {loop.break_symbol})\n"
+        ax.set_title(f"{loop.title}\n"
                      f"ω {c.omega_rad_s[0]:.3g}..{c.omega_rad_s[-1]:.3g} "
                      f"rad/s; view ±{half:g} around −1")
         handles, labels = ax.get_legend_handles_labels()
@@ -218,7 +222,7 @@ def nyquist_caption(data):
     """Caption of :func:`nyquist` for one variant."""
     described = data.curves.outermost_first()
     places = ("left", "right") if len(described) == 2 else ("left", "middle", "right")
-    panels = ", ".join(f"{loop.symbol} ({loop.words}, broken at {loop.breaks_at}; {place})"
+    panels = ", ".join(f"{loop.symbol} ({loop.break_point}; {place})"
                        for loop, place in zip(described, places, strict=False))
     inner = ", ".join(loop.symbol for loop in described[1:])
     return (f"Nyquist plots of {panels}, exact delays: ω > 0 solid with arrows "

@@ -77,22 +77,40 @@ def bode_overlay(datas, labels):
     low, high, step = phase_window(phases, crossovers)
     ph.set_ylim(low, high)
     ph.yaxis.set_major_locator(MultipleLocator(step))
-    mag.set_ylabel("|L_p| [dB]")
-    ph.set_ylabel("∠L_p [deg]")
+    position = _loop(datas, "position_loop").symbol
+    mag.set_ylabel(f"|{position}| [dB]")
+    ph.set_ylabel(f"∠{position} [deg]")
     cl.set_ylabel("|T| [dB] (● ω_BW)")
     handles, names = mag.get_legend_handles_labels()
     more, more_names = cl.get_legend_handles_labels()
     if velocity:
         _velocity_rows(axes[3, 0], axes[4, 0], datas)
         more = [*more, Line2D([], [], color="k", ls="--", lw=1.0)]
-        more_names = [*more_names, "L_v with every other loop closed (dashed)"]
+        more_names = [*more_names, f"{_loop(datas, 'velocity_loop').symbol} with every other "
+                      "loop closed (dashed)"]
     _overlay_legend(fig, layout, handles + more, names + more_names)
     _log_axes(list(axes[:, 0]), [min(d.curves.omega_rad_s[0] for d in datas),
                                  max(d.curves.omega_rad_s[-1] for d in datas)])
-    shown = "L_p, L_v and T" if velocity else "L_p and T"
-    fig.suptitle(f"{shown} of {len(datas)} variants ({EXACT}); phase shown up to "
+    shown = ", ".join(loop.symbol for loop in (_loop(datas, "position_loop"),
+                                               _loop(datas, "velocity_loop")) if loop)
+    fig.suptitle(f"{shown} and T of {len(datas)} variants ({EXACT}); phase shown up to "
                  f"{PAST_CROSSOVER:g}× the highest crossover")
     return fig
+
+
+def _loop(datas, name):
+    """The :class:`~cas_freq.report.data.CurveLoop` ``name`` (its structure's symbol and break
+    point) of the first variant that has that loop, None when none has it."""
+    return next((loop for d in datas for loop in d.curves.described if loop.name == name), None)
+
+
+def bode_overlay_caption(datas):
+    """Caption of :func:`bode_overlay`."""
+    position, velocity = _loop(datas, "position_loop"), _loop(datas, "velocity_loop")
+    if velocity is None:
+        return f"{position.symbol} and T overlaid"
+    return (f"{position.symbol}, {velocity.symbol} (broken at {velocity.breaks_at}; every "
+            "other loop closed dashed) and T overlaid")
 
 
 def _velocity_rows(mag, ph, datas):
@@ -123,8 +141,9 @@ def _velocity_rows(mag, ph, datas):
     low, high, step = phase_window(phases, crossovers)
     ph.set_ylim(low, high)
     ph.yaxis.set_major_locator(MultipleLocator(step))
-    mag.set_ylabel("|L_v| [dB]")
-    ph.set_ylabel("∠L_v [deg]")
+    symbol = _loop(datas, "velocity_loop").symbol
+    mag.set_ylabel(f"|{symbol}| [dB]")
+    ph.set_ylabel(f"∠{symbol} [deg]")
 
 
 def _step_overlay_window(datas, which):
@@ -220,10 +239,7 @@ def bandwidth_overlay(datas, labels):
 #: The overlay figures of a comparison: file stem -> (function, caption); a caption is a string
 #: or a function of (datas, labels) that returns one.
 COMPARE_FIGURES = {
-    "bode_overlay": (bode_overlay, lambda datas, labels: (
-        "L_p, L_v (broken at the current command; every other loop closed dashed) and T "
-        "overlaid" if any("velocity_loop" in d.curves.loops for d in datas)
-        else "L_p and T overlaid")),
+    "bode_overlay": (bode_overlay, lambda datas, labels: bode_overlay_caption(datas)),
     "step_overlay": (step_overlay, step_overlay_caption),
     "bandwidth_overlay": (bandwidth_overlay, "Bandwidth versus amplitude overlaid"),
 }

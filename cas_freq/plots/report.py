@@ -22,6 +22,7 @@ from matplotlib.ticker import MultipleLocator
 
 from cas_freq.analysis.frequency import continuous_phase
 from cas_freq.config.wording import common_output_label
+from cas_freq.figures import FIGURES
 from cas_freq.output import output_unit
 from cas_freq.plots import loci
 from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_svg re-exported)
@@ -75,14 +76,17 @@ def _log_axes(axes, omega):
 
 def _margin_words(margins):
     """The loop's headline margins for its legend entry (no text on the axes: none collides)."""
+    pm, gm, low = (FIGURES[f"position_loop.{name}"] for name in (
+        "phase_margin_deg", "gain_margin_db", "gain_margin_low_db"))  # their short names
     words = []
     if margins.phase_margin_deg is not None:
-        words.append(f"PM {margins.phase_margin_deg:.3g}° @ {margins.crossover_rad_s:.4g} rad/s")
+        words.append(f"{pm.short} {margins.phase_margin_deg:.3g}° @ "
+                     f"{margins.crossover_rad_s:.4g} rad/s")
     if margins.gain_margin_db is not None:
-        words.append(f"GM {margins.gain_margin_db:+.3g} dB @ "
+        words.append(f"{gm.short} {margins.gain_margin_db:+.3g} dB @ "
                      f"{margins.phase_crossover_rad_s:.4g} rad/s")
     if margins.gain_margin_low_db is not None:
-        words.append(f"lower GM {margins.gain_margin_low_db:+.3g} dB @ "
+        words.append(f"{low.short} {margins.gain_margin_low_db:+.3g} dB @ "
                      f"{margins.phase_crossover_low_rad_s:.4g} rad/s")
     return "; ".join(words) if words else "no crossover in range"
 
@@ -257,7 +261,7 @@ def sensitivity(data):
     w = _r(c.omega_rad_s)
     fig, axes = _figure(1, 1, (8, 4.2), margins=Margins())
     ax = axes[0, 0]
-    ax.plot(w, _db(c.sensitivity), color="C0", label="|S| = |1/(1+L_p)|")
+    ax.plot(w, _db(c.sensitivity), color="C0", label=f"|S| = |1/(1+{c.described[-1].symbol})|")
     ax.plot(w, _db(c.closed_loop), color="C2", label="|T|")
     margins = data.analysis.position_loop
     if _in_range(w, margins.sensitivity_peak_rad_s):

@@ -14,15 +14,15 @@ import json
 import math
 import os
 import time
-import types
 from pathlib import Path
 
 from cas_freq.config.wording import OutputWords
-from cas_freq.figures import FIGURES, LOOPS
+from cas_freq.figures import FIGURES
 from cas_freq.output import output_json, output_unit
 from cas_freq.report.data import (
     ReportSettings,
     current_limit,
+    described_loops,
     display_path,
     gather_frequency,
     gather_time,
@@ -38,6 +38,7 @@ from cas_freq.report.numbers import JSON_DIGITS, number, rounded_json
 from cas_freq.report.outdir import sanitise_name, write_directory_atomic
 from cas_freq.report.parameter_table import parameter_table
 from cas_freq.report.rendering import FIGURE_WORKERS, FigureRenderer, render_figures
+from cas_freq.report.text import pade_columns
 
 #: Folder that holds the reports by default (relative to the working directory).
 REPORTS_DIR = Path("reports")
@@ -57,10 +58,6 @@ def results_json(value):
     (:func:`cas_freq.report.numbers.rounded_json`)."""
     return json.dumps(rounded_json(value, JSON_DIGITS), indent=2, allow_nan=False,
                       ensure_ascii=False) + "\n"
-
-
-def _ms(seconds):
-    return None if seconds is None or not math.isfinite(seconds) else 1e3 * seconds
 
 
 # ---- tables ---------------------------------------------------------------------------------
@@ -107,19 +104,11 @@ def reference_blocks(datas):
                   f"(never used by the model); model steps of {'/'.join(sorted(steps))}")]
 
 
-def _shown(key, value):
-    """A figure's value [its JSON unit] in the unit the tables show it in (:data:`FIGURES`);
-    None and flags unchanged."""
-    if value is None or isinstance(value, bool):
-        return value
-    return value * FIGURES[key].scale
-
-
 def _figure_row(key, value, prefix=""):
     """(label, shown unit, value) of a figure of the table (:data:`FIGURES`), the label after
     ``prefix``."""
     figure = FIGURES[key]
-    return f"{prefix}{figure.label}", figure.shown_unit, _shown(key, value)
+    return f"{prefix}{figure.label}", figure.shown_unit, FIGURES[key].shown(value)
 
 
 #: The summary's figures of each loop (keys of :data:`FIGURES` after the loop's name).
@@ -151,19 +140,21 @@ def summary_rows(data, continuous=False):
     cl = a.closed_loop
     poles = "Padé or discrete-time poles" if continuous else "Padé poles"
     rows = [(f"closed loop ({poles})", "", a.stability.verdict)]
+    symbols = {loop.name: loop.symbol for loop in data.curves.described}
     for loop, names in _SUMMARY_LOOP_FIGURES.items():
         margins = a
         for part in loop.split("."):
             margins = margins and getattr(margins, part)
         if margins is None:  # a drive without that loop
             continue
-        symbol = LOOPS[loop].symbol + (" (others closed)" if "." in loop else "")
+        name, _, view = loop.partition(".")
+        symbol = symbols[name] + (" (others closed)" if view else "")
         rows += [_figure_row(f"{loop}.{name}", getattr(margins, name), f"{symbol} ")
                  for name in names]
     rows += [_figure_row(f"closed_loop.{name}", getattr(cl, name) if cl else None, "T ")
              for name in ("bandwidth_rad_s", "peak_db", "phase_90_rad_s")]
     if continuous:
-        rows += _continuous_rows(a)
+        rows += _continuous_rows(a, symbols)
     for k, run in enumerate(data.dwell.steps):  # one step per sine-dwell amplitude
         label, unit, _ = _figure_row("sinedwell.bandwidth_rad_s", None, "sine-dwell ")
         rows.append((f"{label} at {_step_text(run)}", unit,
@@ -179,14 +170,15 @@ def summary_rows(data, continuous=False):
     return rows
 
 
-def _continuous_rows(analysis):
-    """The ``continuous`` figures of a sampled variant (a continuous one's own figures)."""
+def _continuous_rows(analysis, symbols):
+    """The ``continuous`` figures of a sampled variant (a continuous one's own figures);
+    ``symbols``: each loop's by name."""
     rows = []
     for loop, names in _SUMMARY_CONTINUOUS.items():
         own = getattr(analysis, loop)
         if own is None and loop != "closed_loop":  # a drive without that loop
             continue
-        symbol = "T" if loop == "closed_loop" else LOOPS[loop].symbol
+        symbol = symbols.get(loop, "T")
         for name in names:
             value = (analysis.continuous[loop][name] if analysis.continuous
                      else own and getattr(own, name))
@@ -215,29 +207,18 @@ def _limits_text(step):
 
 
 def analysis_loops(analysis):
-    """(key of :data:`LOOPS`, symbol, break point, margins) of every loop of an analysis,
-    innermost first, then each inner loop with every other loop closed. The break points are
-    the loop structure's (:func:`cas_freq.model.structure.build`: a cascade's position loop is
-    broken at the velocity command)."""
-    from cas_freq.report.data import described_loops
-
-    if analysis.loaded is not None:
-        described = described_loops(analysis.loaded.params)
-    else:  # an analysis without its variant: the loops it has, the break points of LOOPS
-        names = [key for key in ("current_loop", "velocity_loop", "position_loop")
-                 if getattr(analysis, key) is not None]
-        breaks = {"position_loop": ("the velocity command" if "velocity_loop" in names
-                                    else "the current command")}
-        described = [types.SimpleNamespace(name=key, breaks_at=breaks.get(
-            key, LOOPS[key].broken_at)) for key in names]
-    keys = [loop.name for loop in described]
-    breaks_at = {loop.name: loop.breaks_at for loop in described}
-    views = [(key, getattr(analysis, key), breaks_at[key]) for key in keys]
-    views += [(f"{key}.loop_at_a_time", getattr(analysis, key).loop_at_a_time,
-               f"{breaks_at[key]}, every other loop closed")
-              for key in keys[:-1] if getattr(analysis, key).loop_at_a_time is not None]
-    return [(key, LOOPS[key].symbol, f"{LOOPS[key].name}, broken at {where}", margins)
-            for key, margins, where in views]
+    """(key of :data:`~cas_freq.figures.LOOPS`, symbol, break point, margins) of every loop of
+    an analysis, innermost first, then each inner loop with every other loop closed. The
+    symbols and break points are the loop structure's
+    (:func:`cas_freq.model.structure.build`: a cascade's position loop is broken at the
+    velocity command)."""
+    described = described_loops(analysis.loaded.params)
+    views = [(loop.name, loop, getattr(analysis, loop.name), loop.break_point)
+             for loop in described]
+    views += [(f"{name}.loop_at_a_time", loop, margins.loop_at_a_time,
+               f"{where}, every other loop closed")
+              for name, loop, margins, where in views[:-1] if margins.loop_at_a_time is not None]
+    return [(key, loop.symbol, where, margins) for key, loop, margins, where in views]
 
 
 def margins_table(analysis):
@@ -249,7 +230,7 @@ def margins_table(analysis):
         if figure.loop != "current_loop" or not figure.requirement:
             continue
         rows.append((figure.label, figure.shown_unit or "-",
-                     *(number(_shown(figure.key, getattr(margins, figure.name)))
+                     *(number(figure.shown(getattr(margins, figure.name)))
                        for *_, margins in loops)))
     rows.append(("crossings in range", "",
                  *(f"{len(margins.gain_crossovers)} gain, {len(margins.phase_crossovers)} phase"
@@ -265,15 +246,18 @@ def crossings_table(analysis, frequency_range):
     rows = []
     for key, symbol, _, loop in analysis_loops(analysis):
         name = symbol if "." not in key else f"{symbol} (every other loop closed)"
+        pm, dm, gm = (FIGURES[f"{key}.{figure}"] for figure in (
+            "phase_margin_deg", "delay_margin_s", "gain_margin_db"))
         for c in loop.gain_crossovers:
             if low <= c.frequency_rad_s <= high:
                 rows.append((name, "gain crossover", number(c.frequency_rad_s),
-                             f"PM {number(c.phase_margin_deg)} deg, delay margin "
-                             f"{number(_ms(c.delay_margin_s))} ms"))
+                             f"{pm.label} {number(c.phase_margin_deg, unit=pm.shown_unit)}, "
+                             f"{dm.label} "
+                             f"{number(dm.shown(c.delay_margin_s), unit=dm.shown_unit)}"))
         for c in loop.phase_crossovers:
             if low <= c.frequency_rad_s <= high:
                 rows.append((name, "phase crossover", number(c.frequency_rad_s),
-                             f"GM {number(c.gain_margin_db)} dB"))
+                             f"gain margin {number(c.gain_margin_db, unit=gm.shown_unit)}"))
     return Table(("loop", "kind", "frequency [rad/s]", "margin"), tuple(rows),
                  f"every crossover in {low:g}..{high:g} rad/s (the plotted range)")
 
@@ -284,7 +268,7 @@ def closed_loop_table(analysis):
     if cl is None:
         return Paragraph("The closed loop is not stable: no closed-loop figures.")
     rows = tuple((figure.label, figure.shown_unit,
-                  number(_shown(figure.key, getattr(cl, figure.name))))
+                  number(figure.shown(getattr(cl, figure.name))))
                  for figure in FIGURES.values()
                  if figure.key.startswith("closed_loop.") and figure.requirement)
     x = OutputWords.of(analysis.loaded.params if analysis.loaded is not None else None).symbol
@@ -293,17 +277,16 @@ def closed_loop_table(analysis):
 
 
 def pade_table(analysis):
-    """The Padé-vs-exact table of the analysis."""
-    rows = []
-    for r in analysis.pade_vs_exact:
-        rows.append((r.delay_model, number(r.current_phase_margin_deg),
-                     number(r.position_phase_margin_deg), number(r.position_crossover_rad_s),
-                     number(r.position_gain_margin_db), number(r.position_gain_margin_low_db),
-                     number(r.bandwidth_rad_s), number(r.peak_db),
-                     number(r.closed_loop_max_error, 3)))
-    return Table(("delay model", "L_i PM [deg]", "L_p PM [deg]", "L_p crossover [rad/s]",
-                  "L_p GM [dB]", "L_p lower GM [dB]", "ω_BW [rad/s]", "peak [dB]",
-                  "max |T_pade − T_exact|"), tuple(rows),
+    """The Padé-vs-exact table of the analysis (the columns of
+    :func:`cas_freq.report.text.pade_columns`)."""
+    columns = pade_columns(analysis)
+    rows = tuple((r.delay_model,
+                  *(number(FIGURES[key].shown(getattr(r, attribute)))
+                    for _, attribute, key in columns),
+                  number(r.closed_loop_max_error, 3))
+                 for r in analysis.pade_vs_exact)
+    return Table(("delay model", *(heading for heading, *_ in columns),
+                  "max |T_pade − T_exact|"), rows,
                  "headline figures with Padé delays of each order beside exact delays")
 
 
@@ -321,7 +304,7 @@ def step_table(data):
         columns += [f"{size} nonlinear", f"{size} linear (Padé {data.pade_order})"]
         figures += [run.step, data.linear_step_figures[k]]
     rows = tuple((figure.label, figure.shown_unit,
-                  *(number(_shown(figure.key, getattr(f, figure.name))) for f in figures))
+                  *(number(figure.shown(getattr(f, figure.name))) for f in figures))
                  for figure in FIGURES.values() if figure.key.startswith("step."))
     return Table(("figure", "unit", *columns), rows,
                  "step figures (nonlinear: limits and exact delays; linear: no limits)")
@@ -331,10 +314,11 @@ def fit_table(data):
     """Second-order fits of every step, beside the reference's fit when the config declares
     one."""
     rows = []
+    td = FIGURES["fit.td_s"]
     for run in data.dwell.steps:
         fit = run.fit
         rows.append((f"{_step_text(run)} step (model)", number(fit.wn_rad_s),
-                     number(fit.zeta, 3), number(_ms(fit.td_s), 3),
+                     number(fit.zeta, 3), number(td.shown(fit.td_s), 3),
                      number(fit.bandwidth_closed_form_rad_s),
                      number(fit.rms_residual * run.output_unit.scale, 3),
                      "yes" if fit.success else "no"))
@@ -344,7 +328,7 @@ def fit_table(data):
         size = ("" if reference.step_amplitude is None
                 else f"{math.degrees(reference.step_amplitude):g}° ")
         rows.append((f"{size}step (reference)", number(fit.wn), number(fit.zeta),
-                     number(_ms(fit.td)), number(fit.bandwidth_rad_s), "—", "—"))
+                     number(td.shown(fit.td)), number(fit.bandwidth_rad_s), "—", "—"))
     shown = output_unit(data.loaded.params).shown  # the residual is in the output's unit
     header = tuple(f"{f.label} [{shown if f.key == 'fit.rms_residual' else f.shown_unit or '-'}]"
                    if f.name != "success" else f.label

@@ -21,7 +21,7 @@ from pathlib import Path
 from cas_freq.config import read_config_file
 from cas_freq.config.wording import common_output_label, name_the_output
 from cas_freq.exceptions import CasFreqError
-from cas_freq.figures import FIGURES, LOOPS
+from cas_freq.figures import FIGURES, LOOPS, loop_label
 from cas_freq.parameters import PARAMETERS, parameter
 from cas_freq.report.build import REPORTS_DIR, results_json
 from cas_freq.report.data import (
@@ -296,8 +296,7 @@ _SUFFIX_UNITS = (("_rad_s", "rad/s", 1.0), ("_deg", "deg", 1.0), ("_db", "dB", 1
 #: Readable name of each group of figures (the key before the figure's name).
 _GROUP_LABELS = {
     "analyze": "closed loop",
-    **{f"analyze.{key}": loop.name + (", every other loop closed" if "." in key else "")
-       for key, loop in LOOPS.items()},
+    **{f"analyze.{key}": loop_label(key) for key in LOOPS},
     "analyze.closed_loop": "closed loop",
     "analyze.drivetrain": "drivetrain",
     "analyze.envelope": "rate and torque envelope",

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from cas_freq.exceptions import CasFreqError
+from cas_freq.figures import FIGURES
 from cas_freq.fileio import json_ready
 
 # the sine-dwell grid rule, one for every command (re-exported)
@@ -99,15 +100,10 @@ class ReportSettings:
         })
 
 
-#: How a figure's legend names each break point of :func:`cas_freq.model.structure.build`
-#: (its ``breaks_at``), in a word.
-BREAK_SYMBOLS = {"the voltage": "V", "the current command": "i_cmd",
-                 "the velocity command": "ω_cmd"}
-
-
 @dataclasses.dataclass(frozen=True)
 class CurveLoop:
-    """One loop of the structure as the figures name it.
+    """One loop of the structure as the figures name it: the names of its
+    :class:`cas_freq.model.structure.Loop` (which declares them), without its blocks.
 
     Attributes
     ----------
@@ -119,22 +115,30 @@ class CurveLoop:
         ``"velocity loop"``.
     breaks_at : str
         Where it is broken, in words (``"the current command"``).
+    break_symbol : str
+        The same in a word (``"i_cmd"``).
     """
 
     name: str
     symbol: str
     words: str
     breaks_at: str
+    break_symbol: str
 
-    @property
-    def break_symbol(self):
-        """The break point in a word (``"i_cmd"``)."""
-        return BREAK_SYMBOLS.get(self.breaks_at, self.breaks_at)
+    @classmethod
+    def of(cls, loop):
+        """The names of a :class:`cas_freq.model.structure.Loop`."""
+        return cls(loop.name, loop.symbol, loop.label, loop.breaks_at, loop.break_symbol)
 
     @property
     def title(self):
         """``"L_v (velocity loop, broken at i_cmd)"``."""
         return f"{self.symbol} ({self.words}, broken at {self.break_symbol})"
+
+    @property
+    def break_point(self):
+        """``"velocity loop, broken at the current command"``."""
+        return f"{self.words}, broken at {self.breaks_at}"
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -184,8 +188,7 @@ def described_loops(params):
     from cas_freq.model import parts
     from cas_freq.model.structure import build
 
-    return tuple(CurveLoop(loop.name, loop.symbol, loop.name.replace("_", " "), loop.breaks_at)
-                 for loop in build(parts.one_variant(params)).loops)
+    return tuple(CurveLoop.of(loop) for loop in build(parts.one_variant(params)).loops)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -647,28 +650,30 @@ def reference_rows(data):
     dwell_bw = sinedwell_bandwidth(data, k)
     ref_fit = reference.fit
 
-    def ms(value):
-        return None if value is None or not math.isfinite(value) else 1e3 * value
-
     def of_fit(name):
         return None if ref_fit is None else getattr(ref_fit, name)
 
-    rows = [
-        ("rise time 10-90 %", "ms", ms(reference.rise_time), ms(step.rise_time_s)),
-        ("overshoot", "%", reference.overshoot_pct, step.overshoot_pct),
-        ("settling time (2 %)", "ms", ms(reference.settling_time), ms(step.settling_time_s)),
-        ("fit ωn", "rad/s", of_fit("wn"), fit.wn_rad_s),
-        ("fit ζ", "-", of_fit("zeta"), fit.zeta),
-        ("fit td", "ms", ms(of_fit("td")), ms(fit.td_s)),
-        ("ω_BW of the fit (closed form)", "rad/s",
-         None if ref_fit is None else ref_fit.bandwidth_rad_s, fit.bandwidth_closed_form_rad_s),
+    # (figure, the label's prefix, the reference's value, the model's) [the JSON unit]
+    declared = [
+        ("step.rise_time_s", "", reference.rise_time, step.rise_time_s),
+        ("step.overshoot_pct", "", reference.overshoot_pct, step.overshoot_pct),
+        ("step.settling_time_s", "", reference.settling_time, step.settling_time_s),
+        ("fit.wn_rad_s", "fit: ", of_fit("wn"), fit.wn_rad_s),
+        ("fit.zeta", "fit: ", of_fit("zeta"), fit.zeta),
+        ("fit.td_s", "fit: ", of_fit("td"), fit.td_s),
+        ("fit.bandwidth_closed_form_rad_s", "fit: ", of_fit("bandwidth_rad_s"),
+         fit.bandwidth_closed_form_rad_s),
     ]
-    rows = [row for row in rows if row[2] is not None]
-    return rows + [
-        ("ω_BW sine-dwell at the step's amplitude", "rad/s", None, dwell_bw),
-        ("ω_BW linear (-3 dB of T)", "rad/s", None,
+    model_only = [
+        ("sinedwell.bandwidth_rad_s", "sine-dwell at the step's amplitude: ", None, dwell_bw),
+        ("closed_loop.bandwidth_rad_s", "linear T: ", None,
          None if closed is None else closed.bandwidth_rad_s),
     ]
+    return [(prefix + FIGURES[key].label, FIGURES[key].shown_unit or "-",
+             FIGURES[key].shown(value), FIGURES[key].shown(model))
+            for key, prefix, value, model in declared if value is not None] + [
+        (prefix + FIGURES[key].label, FIGURES[key].shown_unit, None, FIGURES[key].shown(model))
+        for key, prefix, value, model in model_only]
 
 
 def reference_dict(reference):

@@ -7,6 +7,7 @@ figures beside the linear ones are read as what they are).
 
 import math
 
+from cas_freq.figures import FIGURES
 from cas_freq.report.numbers import number
 
 
@@ -52,9 +53,10 @@ def drivetrain_blocks(data):
             f"{'+∞' if high is None else number(high, 4)}")
     rows = (
         ("gear", "", "compliant (two masses)" if load.compliant else "rigid"),
-        ("reflected inertia J_eff", "kg·m²", number(load.reflected_inertia_kg_m2, 4)),
-        ("reflected damping μ_eff", "N·m·s/rad", number(load.reflected_damping_n_m_s_rad, 4)),
-        ("reflected load spring k_eff", "N·m/rad", number(load.reflected_stiffness_n_m_rad, 4)),
+        *((FIGURES[f"drivetrain.{name}"].label, FIGURES[f"drivetrain.{name}"].shown_unit,
+           number(FIGURES[f"drivetrain.{name}"].shown(getattr(load, name)), 4))
+          for name in ("reflected_inertia_kg_m2", "reflected_damping_n_m_s_rad",
+                       "reflected_stiffness_n_m_rad")),
         ("open-loop plant", "", "stable" if load.plant_stable else
          f"UNSTABLE, pole at +{number(load.plant_unstable_pole_rad_s, 4)} rad/s"),
         ("resonances (poles of θ/i)", "", _modes(load.resonances)),

@@ -10,22 +10,23 @@ import math
 
 import numpy as np
 
+from cas_freq.figures import FIGURES, loop_label
 from cas_freq.report.numbers import number
 from cas_freq.threads import result_of
 
 #: Most rows of an envelope table (the figure shows every grid point).
 TABLE_ROWS = 17
 
-#: (column, unit, figure key) of the envelope table.
-_COLUMNS = (
-    ("ω_BW", "rad/s", "closed_loop.bandwidth_rad_s"),
-    ("T peak", "dB", "closed_loop.peak_db"),
-    ("PM_p", "deg", "position_loop.phase_margin_deg"),
-    ("GM_p", "dB", "position_loop.gain_margin_db"),
-    ("PM_i", "deg", "current_loop.phase_margin_deg"),
-    ("overshoot", "%", "step.overshoot_pct"),
-    ("settling 2 %", "ms", "step.settling_time_s"),
-)
+#: The figures of the envelope table's columns (labels, units and factors: :data:`FIGURES`).
+_COLUMNS = ("closed_loop.bandwidth_rad_s", "closed_loop.peak_db", "position_loop.phase_margin_deg",
+            "position_loop.gain_margin_db", "current_loop.phase_margin_deg",
+            "step.overshoot_pct", "step.settling_time_s")
+
+
+def _heading(key):
+    """A column's heading: the figure's label and unit, after its loop's name."""
+    figure = FIGURES[key]
+    return (f"{loop_label(figure.loop)}: " if figure.loop else "") + figure.heading
 
 
 class EnvelopeSection:
@@ -84,8 +85,8 @@ def table_rows(envelope):
     picks = sorted({*picks.astype(int).tolist(), nominal})
     from cas_freq.studies.envelope import shown_figure
 
-    columns = [c for c in _COLUMNS if c[2] in envelope.figures]
-    shown = {key: shown_figure(envelope, key) for _, _, key in columns}
+    columns = [key for key in _COLUMNS if key in envelope.figures]
+    shown = {key: shown_figure(envelope, key) for key in columns}
     settling = envelope.figures.get("step.settling_time_s", np.full(grid.size, np.nan))
     rows = []
     for j in picks:
@@ -93,7 +94,7 @@ def table_rows(envelope):
         cells = []
         stable = str(envelope.stability[j]) == "stable"
         settled = math.isfinite(float(settling[j]))
-        for _, unit, key in columns:
+        for key in columns:
             if key == "step.overshoot_pct" and stable and not settled:
                 cells.append("not settled")  # a run the limits let diverge, or still moving
                 continue
@@ -101,11 +102,11 @@ def table_rows(envelope):
             # does not trust them); the open-loop margins say how far it is from stability
             value = float(shown[key][j])
             value = value if math.isfinite(value) else None
-            cells.append(number(value * 1e3 if unit == "ms" and value is not None else value, 4))
+            cells.append(number(FIGURES[key].shown(value), 4))
         label = number(float(grid[j]), 4) + (" (own)" if j == nominal else "")
         rows.append((label, str(envelope.stability[j]), *cells, ", ".join(failing) or "—"))
-    header = ("K_h [N·m/rad]", "closed loop", *(f"{name} [{unit}]" for name, unit, _ in columns),
-              "requirements failed")
+    header = (FIGURES["drivetrain.hinge_stiffness_n_m_rad"].heading, "closed loop",
+              *map(_heading, columns), "requirements failed")
     return header, tuple(rows)
 
 

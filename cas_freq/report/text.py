@@ -15,107 +15,146 @@ def _fmt(value, unit="", digits=4):
     return number(value, digits, unit)
 
 
-def _ms(seconds):
-    return None if seconds is None else seconds * 1e3
+def _figure_line(key, value, tail="", indent=4):
+    """``    label               value unit`` of a figure of the figure table
+    (:data:`~cas_freq.figures.FIGURES`: label, shown unit and factor), then ``tail``."""
+    return f"{' ' * indent}{FIGURES[key].label:<{_WIDTH}} {shown_text(key, value)}{tail}"
 
 
-def _crossover_lines(margins):
+def shown_text(key, value):
+    """A figure's value (its JSON unit) as text in the unit the tables show it in."""
+    figure = FIGURES[key]
+    return _fmt(figure.shown(value), figure.shown_unit)
+
+
+#: Width of the labels in the text: the longest of a loop's (and of the drivetrain's).
+_WIDTH = max(len(FIGURES[key].label) for key in (
+    "current_loop.crossover_rad_s", "drivetrain.reflected_stiffness_n_m_rad"))
+
+
+def _crossover_lines(key, margins):
     """The headline gain crossover (smallest |phase margin|) with its own phase and delay margin;
     with several crossovers, each other one with its margins, then the smallest delay margin
-    with the crossover it belongs to (it need not be the headline one)."""
+    with the crossover it belongs to (it need not be the headline one). ``key``: the loop's
+    group of :data:`~cas_freq.figures.FIGURES`."""
     crossovers = margins.gain_crossovers
     headline = [c for c in crossovers if c.frequency_rad_s == margins.crossover_rad_s]
     own = headline[0].delay_margin_s if headline else margins.delay_margin_s
-    count = f" (smallest |phase margin| of {len(crossovers)})" if len(crossovers) > 1 else ""
+    several = len(crossovers) > 1
+    pm, dm = f"{key}.phase_margin_deg", f"{key}.delay_margin_s"
     lines = [
-        f"    gain crossover     {_fmt(margins.crossover_rad_s, 'rad/s')}{count}",
-        f"    phase margin       {_fmt(margins.phase_margin_deg, 'deg')}",
-        f"    delay margin       {_fmt(_ms(own), 'ms')}",
+        _figure_line(f"{key}.crossover_rad_s", margins.crossover_rad_s,
+                     f" (smallest |{FIGURES[pm].label}| of {len(crossovers)})" if several else ""),
+        _figure_line(pm, margins.phase_margin_deg),
+        _figure_line(dm, own, " (at this crossover)" if several else ""),
     ]
-    if len(crossovers) > 1:
-        label = "    other crossovers   "
+    if several:
+        label = f"    {'other crossovers':<{_WIDTH}} "
         for c in crossovers:
             if c.frequency_rad_s == margins.crossover_rad_s:
                 continue
-            lines.append(f"{label}{_fmt(c.frequency_rad_s, 'rad/s')}: phase margin "
-                         f"{_fmt(c.phase_margin_deg, 'deg')}, delay margin "
-                         f"{_fmt(_ms(c.delay_margin_s), 'ms')}")
+            lines.append(f"{label}{_fmt(c.frequency_rad_s, 'rad/s')}: {FIGURES[pm].label} "
+                         f"{shown_text(pm, c.phase_margin_deg)}, {FIGURES[dm].label} "
+                         f"{shown_text(dm, c.delay_margin_s)}")
             label = " " * len(label)
-        lines.append(f"    smallest delay margin {_fmt(_ms(margins.delay_margin_s), 'ms')} (at "
-                     f"{_fmt(margins.delay_margin_crossover_rad_s, 'rad/s')})")
+        at = margins.delay_margin_crossover_rad_s
+        lines.append(_figure_line(dm, margins.delay_margin_s, " (the smallest, at "
+                                  f"{shown_text(f'{key}.crossover_rad_s', at)})"))
     return lines
 
 
-def _loop_lines(title, margins):
+def _loop_lines(title, key, margins):
+    def of(name):
+        return shown_text(f"{key}.{name}", getattr(margins, name))
+
     lines = [
         f"  {title}",
-        *_crossover_lines(margins),
-        f"    gain margin        {_fmt(margins.gain_margin_db, 'dB')} "
-        f"at {_fmt(margins.phase_crossover_rad_s, 'rad/s')}",
+        *_crossover_lines(key, margins),
+        _figure_line(f"{key}.gain_margin_db", margins.gain_margin_db,
+                     f" at {of('phase_crossover_rad_s')}"),
     ]
     if margins.gain_margin_low_db is not None:
-        lines.append(
-            f"    lower gain margin  {_fmt(margins.gain_margin_low_db, 'dB')} "
-            f"at {_fmt(margins.phase_crossover_low_rad_s, 'rad/s')}"
-        )
+        lines.append(_figure_line(f"{key}.gain_margin_low_db", margins.gain_margin_low_db,
+                                  f" at {of('phase_crossover_low_rad_s')}"))
     lines += [
-        f"    sensitivity peak   {_fmt(margins.sensitivity_peak_db, 'dB')} "
-        f"at {_fmt(margins.sensitivity_peak_rad_s, 'rad/s')}",
-        f"    disk margin        ±{_fmt(margins.disk_margin_gain_db, 'dB')}, "
-        f"±{_fmt(margins.disk_margin_phase_deg, 'deg')} "
-        f"(alpha {_fmt(margins.disk_margin_alpha)})",
-        f"    crossings          {len(margins.gain_crossovers)} gain, "
+        _figure_line(f"{key}.sensitivity_peak_db", margins.sensitivity_peak_db,
+                     f" at {of('sensitivity_peak_rad_s')}"),
+        _figure_line(f"{key}.disk_margin_alpha", margins.disk_margin_alpha,
+                     f" (±{of('disk_margin_gain_db')}, ±{of('disk_margin_phase_deg')})"),
+        f"    {'crossings':<{_WIDTH}} {len(margins.gain_crossovers)} gain, "
         f"{len(margins.phase_crossovers)} phase in range",
     ]
     return lines
 
 
-def _at_a_time_lines(margins):
+def _at_a_time_lines(key, margins):
     """The headline margins of a loop broken with every other loop closed."""
     more = len(margins.gain_crossovers) - 1
-    others = f" (smallest |phase margin| of {more + 1})" if more > 0 else ""
+    key = f"{key}.loop_at_a_time"
+    pm = FIGURES[f"{key}.phase_margin_deg"].label
+    others = f" (smallest |{pm}| of {more + 1})" if more > 0 else ""
+    at = shown_text(f"{key}.phase_crossover_rad_s", margins.phase_crossover_rad_s)
     return [
         "    every other loop closed (loop at a time):",
-        f"      gain crossover   {_fmt(margins.crossover_rad_s, 'rad/s')}{others}",
-        f"      phase margin     {_fmt(margins.phase_margin_deg, 'deg')}",
-        f"      delay margin     {_fmt(_ms(margins.delay_margin_s), 'ms')}",
-        f"      gain margin      {_fmt(margins.gain_margin_db, 'dB')} "
-        f"at {_fmt(margins.phase_crossover_rad_s, 'rad/s')}",
+        _figure_line(f"{key}.crossover_rad_s", margins.crossover_rad_s, others, 6),
+        _figure_line(f"{key}.phase_margin_deg", margins.phase_margin_deg, "", 6),
+        _figure_line(f"{key}.delay_margin_s", margins.delay_margin_s, "", 6),
+        _figure_line(f"{key}.gain_margin_db", margins.gain_margin_db, f" at {at}", 6),
     ]
 
 
-def _sampling_lines(analysis):
+def _sampling_lines(analysis, described):
     """The sampled loops' rates and headline figures beside the continuous model's."""
     sampling, continuous = analysis.sampling, analysis.continuous
     rates = ", ".join(f"{name.replace('_loop', '')} {_fmt(rate / 1e3, 'kHz')}"
                       for name, rate in sampling["rates_hz"].items())
-    lines = [f"  sampled controllers: {rates} ({sampling['method']}, zero-order hold)",
-             "    figure                          sampled     continuous"]
     rows = []
     for name, rate in sampling["rates_hz"].items():
-        margins = getattr(analysis, name)
-        short = name.replace("_loop", "")
-        rows += [
-            (f"{short} phase margin [deg]", margins.phase_margin_deg,
-             continuous[name]["phase_margin_deg"]),
-            (f"{short} crossover [rad/s]", margins.crossover_rad_s,
-             continuous[name]["crossover_rad_s"]),
-            (f"{short} gain margin [dB]", margins.gain_margin_db,
-             continuous[name]["gain_margin_db"]),
-            (f"{short} delay margin [ms]", _ms(margins.delay_margin_s),
-             _ms(continuous[name]["delay_margin_s"])),
-        ]
+        margins, symbol = getattr(analysis, name), described[name].symbol
+        rows += [(f"{symbol} {FIGURES[f'{name}.{figure}'].heading}",
+                  FIGURES[f"{name}.{figure}"].shown(getattr(margins, figure)),
+                  FIGURES[f"{name}.{figure}"].shown(continuous[name][figure]))
+                 for figure in ("phase_margin_deg", "crossover_rad_s", "gain_margin_db",
+                                "delay_margin_s")]
         samples = None if margins.delay_margin_s is None else margins.delay_margin_s * rate
-        rows.append((f"{short} delay margin [samples]", samples, None))
+        rows.append((f"{symbol} {FIGURES[f'{name}.delay_margin_s'].label} [samples]", samples,
+                     None))
     closed = analysis.closed_loop
-    rows += [("bandwidth [rad/s]", closed and closed.bandwidth_rad_s,
-              continuous["closed_loop"]["bandwidth_rad_s"]),
-             ("resonance peak [dB]", closed and closed.peak_db,
-              continuous["closed_loop"]["peak_db"])]
-    lines += [f"    {label:<30} {_fmt(a):>9} {_fmt(b):>14}" for label, a, b in rows]
-    lines.append(f"    {'stability':<30} {analysis.stability.verdict:>9} "
+    rows += [(f"T {FIGURES[f'closed_loop.{figure}'].heading}",
+              closed and FIGURES[f"closed_loop.{figure}"].shown(getattr(closed, figure)),
+              FIGURES[f"closed_loop.{figure}"].shown(continuous["closed_loop"][figure]))
+             for figure in ("bandwidth_rad_s", "peak_db")]
+    width = max(len(label) for label, *_ in rows)
+    lines = [f"  sampled controllers: {rates} ({sampling['method']}, zero-order hold)",
+             f"    {'figure':<{width}}    sampled     continuous"]
+    lines += [f"    {label:<{width}} {_fmt(a):>10} {_fmt(b):>14}" for label, a, b in rows]
+    # (the sampled column's verdict is of the discrete-time poles, not of the Padé model)
+    lines.append(f"    {'stability':<{width}} {analysis.stability.verdict:>10} "
                  f"{continuous['stability']:>14}")
     return lines
+
+
+def pade_columns(analysis):
+    """The columns of the Padé-vs-exact table: (heading, attribute of
+    :class:`cas_freq.analysis.analyze.PadeComparison`, figure key), after the delay model's;
+    the loops named by their structure's symbols."""
+    described = analysis_loops_named(analysis)
+    columns = [("current_loop", "phase_margin_deg"), ("position_loop", "phase_margin_deg"),
+               ("position_loop", "crossover_rad_s"), ("position_loop", "gain_margin_db"),
+               ("position_loop", "gain_margin_low_db"), ("closed_loop", "bandwidth_rad_s"),
+               ("closed_loop", "peak_db")]
+    return [(f"{described[loop].symbol if loop in described else 'T'} "
+             f"{FIGURES[f'{loop}.{name}'].short_heading}",
+             name if loop == "closed_loop" else f"{loop.removesuffix('_loop')}_{name}",
+             f"{loop}.{name}") for loop, name in columns]
+
+
+def analysis_loops_named(analysis):
+    """The :class:`~cas_freq.report.data.CurveLoop` of every loop of the analysis's variant by
+    name (the loop structure's symbols and break points)."""
+    from cas_freq.report.data import described_loops
+
+    return {loop.name: loop for loop in described_loops(analysis.loaded.params)}
 
 
 def analysis_table(analysis):
@@ -131,38 +170,35 @@ def analysis_table(analysis):
         f"  delays {analysis.delay_model}; range {low:g}..{high:g} rad/s; closed loop "
         f"{analysis.stability.verdict.upper()} ({poles})",
     ]
+    described = analysis_loops_named(analysis)
     if analysis.sampling:
-        lines += _sampling_lines(analysis)
-    loops = [("current loop L_i (broken at the voltage)", analysis.current_loop)]
-    if analysis.velocity_loop is not None:
-        loops.append(("velocity loop L_v (broken at the current command)",
-                      analysis.velocity_loop))
-        loops.append(("position loop L_p (broken at the velocity command)",
-                      analysis.position_loop))
-    else:
-        loops.append(("position loop L_p (broken at the current command)",
-                      analysis.position_loop))
-    for k, (title, margins) in enumerate(loops):
-        lines += _loop_lines(title, margins)
+        lines += _sampling_lines(analysis, described)
+    loops = list(described.values())
+    for k, loop in enumerate(loops):
+        margins = getattr(analysis, loop.name)
+        lines += _loop_lines(f"{loop.words} {loop.symbol} (broken at {loop.breaks_at})",
+                             loop.name, margins)
         if k < len(loops) - 1 and margins.loop_at_a_time is not None:
             if analysis.sampling and margins.loop_at_a_time.crossover_rad_s is None \
                     and margins.loop_at_a_time.gain_margin_db is None:
                 lines.append("    every other loop closed: not defined (a slower sampled loop "
                              "around it makes it periodically time-varying)")
                 continue
-            lines += _at_a_time_lines(margins.loop_at_a_time)
-    words = OutputWords.of(analysis.loaded.params if analysis.loaded is not None else None)
+            lines += _at_a_time_lines(loop.name, margins.loop_at_a_time)
+    words = OutputWords.of(analysis.loaded.params)
     closed = analysis.closed_loop
     lines.append(f"  closed loop {words.closed_loop}")
     if closed is None:
         lines.append("    not reported: the closed loop is not stable")
     else:
         lines += [
-            f"    bandwidth (-3 dB)  {_fmt(closed.bandwidth_rad_s, 'rad/s')}",
-            "    resonance peak     " + (
-                f"{_fmt(closed.peak_db, 'dB')} at {_fmt(closed.peak_rad_s, 'rad/s')}"
-                if closed.peak_db is not None else "none (|T| has no interior maximum)"),
-            f"    phase -90 deg at   {_fmt(closed.phase_90_rad_s, 'rad/s')}",
+            _figure_line("closed_loop.bandwidth_rad_s", closed.bandwidth_rad_s),
+            _figure_line("closed_loop.peak_db", closed.peak_db,
+                         f" at {shown_text('closed_loop.peak_rad_s', closed.peak_rad_s)}")
+            if closed.peak_db is not None else
+            f"    {FIGURES['closed_loop.peak_db'].label:<{_WIDTH}} none (|T| has no interior "
+            "maximum)",
+            _figure_line("closed_loop.phase_90_rad_s", closed.phase_90_rad_s),
         ]
     if analysis.drivetrain is not None:
         lines += _drivetrain_lines(analysis.drivetrain, analysis.loaded)
@@ -174,9 +210,8 @@ def analysis_table(analysis):
         from cas_freq.analysis.limit_cycles import text_lines
         from cas_freq.output import output_unit
 
-        unit = output_unit(analysis.loaded.params) if analysis.loaded is not None else None
-        lines += text_lines(analysis.limit_cycles, unit)
-    if analysis.envelope is not None and analysis.loaded is not None:
+        lines += text_lines(analysis.limit_cycles, output_unit(analysis.loaded.params))
+    if analysis.envelope is not None:
         from cas_freq.analysis.rate_envelope import envelope_lines
         from cas_freq.output import output_unit
 
@@ -184,15 +219,15 @@ def analysis_table(analysis):
             analysis.envelope, output_unit(analysis.loaded.params),
             analysis.loaded.params.output_label)]
     if analysis.pade_vs_exact:
-        lines.append(
-            "  Padé vs exact      PM_p [deg]  GM_p [dB]  PM_i [deg]  w_BW [rad/s]  max|dT|"
-        )
+        columns = pade_columns(analysis)
+        lines.append("  Padé vs exact")
+        lines.append(f"    {'delay model':<16}" + "".join(
+            f" {heading:>{len(heading)}}" for heading, *_ in columns) + "  max|dT|")
         for row in analysis.pade_vs_exact:
-            lines.append(
-                f"    {row.delay_model:<16} {_fmt(row.position_phase_margin_deg):>10} "
-                f"{_fmt(row.position_gain_margin_db):>10} {_fmt(row.current_phase_margin_deg):>11} "
-                f"{_fmt(row.bandwidth_rad_s):>13} {row.closed_loop_max_error:>9.2e}"
-            )
+            lines.append(f"    {row.delay_model:<16}" + "".join(
+                f" {_fmt(FIGURES[key].shown(getattr(row, attribute))):>{len(heading)}}"
+                for heading, attribute, key in columns)
+                + f"  {row.closed_loop_max_error:.2e}")
     lines += [f"  note: {note}" for note in analysis.notes]
     return "\n".join(lines)
 
@@ -205,14 +240,6 @@ def _limit_text(t, active):
         return "within limit"
     return (f"limit active {activity['active_s'] * 1e3:.3g} ms between "
             f"{activity['first_s'] * 1e3:.3g} and {activity['last_s'] * 1e3:.3g} ms")
-
-
-def _figure_line(key, value, tail=""):
-    """``    label               value unit`` of a figure of the figure table
-    (:data:`~cas_freq.figures.FIGURES`: label, shown unit and factor), then ``tail``."""
-    figure = FIGURES[key]
-    shown = None if value is None else value * figure.scale
-    return f"    {figure.label:<19} {_fmt(shown, figure.shown_unit)}{tail}"
 
 
 def _sampled_controllers(result):
@@ -251,19 +278,19 @@ def step_table(run):
         + _sampled_controllers(result),
         _figure_line("step.rise_time_s", step.rise_time_s),
         _figure_line("step.overshoot_pct", step.overshoot_pct),
-        f"    settling ±2 % / ±5 % {_fmt(_ms(step.settling_time_s), 'ms')} / "
-        f"{_fmt(_ms(step.settling_time_5pct_s), 'ms')}",
+        _figure_line("step.settling_time_s", step.settling_time_s),
+        _figure_line("step.settling_time_5pct_s", step.settling_time_5pct_s),
         _figure_line("step.peak_time_s", step.peak_time_s),
         _figure_line("step.max_current_a", step.max_current_a,
                      f" ({_limit_text(result.t, result.current_limited)})"),
         _figure_line("step.max_voltage_v", step.max_voltage_v,
                      f" ({_limit_text(result.t, result.voltage_limited)})"),
         "  second-order-plus-delay fit (docs/model.md §7)",
-        f"    wn {_fmt(fit.wn_rad_s, 'rad/s')}, zeta {_fmt(fit.zeta)}, "
-        f"td {_fmt(_ms(fit.td_s), 'ms')}"
-        f", rms residual {_fmt(100 * fit.rms_residual / math.radians(abs(step.amplitude_deg)))}"
-        " % of step",
-        f"    closed-form bandwidth {_fmt(fit.bandwidth_closed_form_rad_s, 'rad/s')}",
+        *(_figure_line(f"fit.{name}", getattr(fit, name))
+          for name in ("wn_rad_s", "zeta", "td_s")),
+        f"    {FIGURES['fit.rms_residual'].label:<{_WIDTH}} "
+        f"{_fmt(100 * fit.rms_residual / math.radians(abs(step.amplitude_deg)))} % of the step",
+        _figure_line("fit.bandwidth_closed_form_rad_s", fit.bandwidth_closed_form_rad_s),
     ])
 
 
@@ -285,7 +312,8 @@ def _sinedwell_not_computed_table(head, data):
                      "(Padé poles): no sine-dwell bandwidth exists")
     lines += [f"  sine-dwell not computed: {reason}",
               "  nonlinear steps (second-order fit, docs/model.md §7)",
-              f"    {'amplitude':>10}{'overshoot [%]':>15}{'step fit [rad/s]':>18}"]
+              f"    {'amplitude':>10}{FIGURES['step.overshoot_pct'].heading:>15}"
+              f"{'step fit [rad/s]':>18}"]
     for entry in data["amplitudes"]:
         diverged = entry.get("diverged_at_s")
         if diverged is not None:
@@ -432,20 +460,20 @@ def _drivetrain_lines(load, loaded=None):
     gear = "compliant gear, two masses" if load.compliant else "rigid gear"
     lines = [
         f"  load and drivetrain ({gear}), reflected to the motor shaft",
-        f"    inertia J_eff      {_fmt(load.reflected_inertia_kg_m2, 'kg*m^2')}",
-        f"    damping mu_eff     {_fmt(load.reflected_damping_n_m_s_rad, 'N*m*s/rad')}",
-        f"    stiffness k_eff    {_fmt(load.reflected_stiffness_n_m_rad, 'N*m/rad')}",
-        "    open-loop plant    " + ("stable" if load.plant_stable else
+        *(_figure_line(f"drivetrain.{name}", getattr(load, name)) for name in (
+            "reflected_inertia_kg_m2", "reflected_damping_n_m_s_rad",
+            "reflected_stiffness_n_m_rad")),
+        f"    {'open-loop plant':<{_WIDTH}} " + ("stable" if load.plant_stable else
                                     f"UNSTABLE (pole at +{_fmt(load.plant_unstable_pole_rad_s)}"
                                     " rad/s)"),
     ]
     for label, modes in (("resonance", load.resonances),
                          ("anti-resonance", load.anti_resonances)):
         for mode in modes:
-            lines.append(f"    {label:<18} {_fmt(mode.frequency_rad_s, 'rad/s')}, "
+            lines.append(f"    {label:<{_WIDTH}} {_fmt(mode.frequency_rad_s, 'rad/s')}, "
                          f"zeta {_fmt(mode.damping)}")
     low, high = load.stable_hinge_stiffness_n_m_rad
-    lines.append(f"    stable for {unit.spring:<8}" + (
+    lines.append(f"    {'stable for ' + unit.spring:<{_WIDTH}} " + (
         "none scanned" if low is None and high is None else
         f"{'-inf' if low is None else _fmt(low)} .. {'+inf' if high is None else _fmt(high)} "
         f"{unit.spring_unit}"))

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from cas_freq.figures import UNIT_LABELS
+from cas_freq.figures import FIGURES, UNIT_LABELS
 from cas_freq.tuning.evaluate import MISSING_VIOLATION, TRADE_OFF
 from cas_freq.tuning.options import OBJECTIVES
 from cas_freq.verify.evaluate import bound_text
@@ -176,23 +176,26 @@ def tune_text(data):
         shown = front if len(front) <= MAX_ROWS else [
             front[int(i)] for i in np.unique(np.linspace(0, len(front) - 1, MAX_ROWS).round())]
         simulated = any(point["step.overshoot_pct"] is not None for point in front)
+        figures = [(FIGURES[key], sense) for key, sense in TRADE_OFF]
+        aims = [f"{figure.label} ({'up' if sense > 0 else 'down'})" for figure, sense in figures]
         lines += ["", f"trade-off: {len(front)} feasible candidates on the Pareto front of "
-                  "bandwidth (up), phase margin (up) and overshoot (down), nominal"
-                  + ("" if simulated else " (the steps not simulated: no overshoot)")
-                  + (f"; {len(shown)} shown, evenly by bandwidth (all in --json)"
+                  f"{', '.join(aims[:-1])} and {aims[-1]}, nominal"
+                  + ("" if simulated else " (the steps not simulated: no "
+                     f"{FIGURES['step.overshoot_pct'].label})")
+                  + (f"; {len(shown)} shown, evenly by {figures[0][0].label} (all in --json)"
                      if len(shown) < len(front) else "")]
         keys = [free["key"] for free in data["free"]]
         labels = [column_label(key) for key in keys]
         widths = [max(10, len(label)) for label in labels]
         head = "  " + " ".join(f"{label:>{width}}" for label, width in zip(labels, widths,
                                                                           strict=True))
-        lines.append(head + f" {'BW rad/s':>9} {'PM deg':>7} {'OS %':>6}")
+        columns = [(figure, len(figure.heading)) for figure, _ in figures]
+        lines.append(head + "".join(f" {figure.heading}" for figure, _ in figures))
         for point in shown:
             lines.append("  " + " ".join(f"{point[key]:>{width}.4g}"
                                          for key, width in zip(keys, widths, strict=True))
-                         + f" {_cell(point['closed_loop.bandwidth_rad_s'], 9, '.4g')}"
-                         f" {_cell(point['position_loop.phase_margin_deg'], 7, '.3g')}"
-                         f" {_cell(point['step.overshoot_pct'], 6, '.3g')}")
+                         + "".join(f" {_cell(figure.shown(point[figure.key]), width, '.4g')}"
+                                   for figure, width in columns))
     return "\n".join(lines)
 
 

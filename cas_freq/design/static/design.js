@@ -387,10 +387,9 @@
       if (v && v.step[kind]) ss.push({x: v.step[kind].t, y: v.step[kind].y, color, dash: DASH,
                                       label: `${kind} variant`});
     });
-    const f = st.figures;
+    const f = st.figure_texts;  // label, value and unit of the figure table
     const title = `Step of ${+st.amplitude.toPrecision(4)} ${st.unit}` + (f ?
-      ` (nonlinear: overshoot ${text(f.overshoot_pct && +f.overshoot_pct.toPrecision(3))} %, ` +
-      `settling ${f.settling_time_s ? +(f.settling_time_s * 1e3).toPrecision(3) : "–"} ms)` : "");
+      ` (nonlinear: ${f.overshoot_pct}, ${f.settling_time_s})` : "");
     const spans = [];
     const shades = {current: "#ff7f0e", voltage: "#9467bd"};
     Object.entries(st.limited || {}).forEach(([name, list]) => list.forEach(([from, to]) =>
@@ -404,27 +403,27 @@
     $("notes").replaceChildren(...s.notes.map((n) => el("li", {}, n)));
   }
 
+  // the ids of the cells the tests and the page read, by view and figure
+  const MARGIN_IDS = {"margins crossover_rad_s": "wc-", "margins phase_margin_deg": "pm-",
+                      "margins gain_margin_db": "gm-",
+                      "loop_at_a_time phase_margin_deg": "pm-at-a-time-"};
+
   function renderMargins(s) {
+    // the columns' headings are the figure table's labels and units (s.margin_columns)
     const table = el("table", {id: "margin-table"});
     const head = el("tr");
-    ["loop", "broken at", "ωc [rad/s]", "PM [deg]", "GM [dB]", "lower GM [dB]",
-     "delay margin [ms]", "loop at a time: PM [deg]", "GM [dB]", "ωc [rad/s]"]
+    ["loop", "broken at", ...s.margin_columns.map((c) => c.heading)]
       .forEach((h) => head.appendChild(el("th", {}, h)));
     table.appendChild(head);
     s.loops.forEach((loop) => {
-      const t = (loop.margins || {}).text || {}, a = (loop.loop_at_a_time || {}).text || {};
       const row = el("tr", {id: "row-" + loop.name});
       row.appendChild(el("td", {class: "text"}, loop.symbol));
       row.appendChild(el("td", {class: "text"}, loop.breaks_at));
-      row.appendChild(el("td", {id: "wc-" + loop.name}, text(t.crossover_rad_s)));
-      row.appendChild(el("td", {id: "pm-" + loop.name}, text(t.phase_margin_deg)));
-      row.appendChild(el("td", {id: "gm-" + loop.name}, text(t.gain_margin_db)));
-      row.appendChild(el("td", {}, text(t.gain_margin_low_db)));
-      const dm = loop.margins && loop.margins.delay_margin_s;
-      row.appendChild(el("td", {}, dm === null || dm === undefined ? "–" : +(dm * 1e3).toPrecision(4)));
-      row.appendChild(el("td", {id: "pm-at-a-time-" + loop.name}, text(a.phase_margin_deg)));
-      row.appendChild(el("td", {}, text(a.gain_margin_db)));
-      row.appendChild(el("td", {}, text(a.crossover_rad_s)));
+      s.margin_columns.forEach((c) => {
+        const shown = (loop[c.view] || {}).text || {};
+        const id = MARGIN_IDS[`${c.view} ${c.name}`];
+        row.appendChild(el("td", id ? {id: id + loop.name} : {}, text(shown[c.name])));
+      });
       table.appendChild(row);
     });
     const bw = el("p", {}, `ω_BW = `);
