@@ -126,6 +126,11 @@ FILTER_PARAMETERS = {
 }
 
 
+def _positive(record):
+    """True for a number that must be > 0 (its record's bound is > 0)."""
+    return record.lower == 0.0 and record.strict
+
+
 def point_problem(at):
     """What is wrong with a filter point ``at``, or None."""
     if at in FILTER_POINTS:
@@ -153,66 +158,74 @@ def depth_problem(values):
     return f"a notch's depth is below 0 dB, got {float(values[bad][0]):g} dB"
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
 class Filter:
-    """One filter of a batch of runs.
+    """One filter of a batch of runs: its point and kind (the same for every run) and its
+    numbers per run.
 
-    Attributes
+    Parameters
     ----------
     at : str
-        Its point, one of :data:`FILTER_POINTS` (the same for every run).
+        Its point, one of :data:`FILTER_POINTS`.
     kind : str
-        Its type, one of :data:`FILTER_TYPES` (the same for every run).
-    frequency : numpy.ndarray
-        ω0 per run [rad/s].
-    damping : numpy.ndarray
-        ζ of a ``lowpass2`` per run [-] (NaN for the other kinds).
-    width : numpy.ndarray
-        Δω of a ``notch`` per run [rad/s] (NaN for the other kinds).
-    depth_db : numpy.ndarray
-        Depth of a ``notch`` per run [dB], < 0 (NaN for the other kinds).
+        Its type, one of :data:`FILTER_TYPES`.
+    frequency : array_like
+        ω0 per run [rad/s] (every kind has one).
+    **numbers : array_like
+        Its other numbers per run, by field (:func:`number_field` of their config names:
+        ``damping`` [-], ``width`` [rad/s], ``depth_db`` [dB], ...; the records of
+        :data:`FILTER_PARAMETERS` give their units and bounds).
 
-    The arrays are read-only, 1-D and of one length (scalars broadcast); the numbers a kind does
-    not use are set to NaN whatever is given.
+    Every field of :data:`NUMBERS` is an attribute: a read-only 1-D array, all of one length
+    (scalars broadcast); the numbers the kind does not take are NaN whatever is given.
     """
 
-    at: str
-    kind: str
-    frequency: np.ndarray
-    damping: np.ndarray = np.nan
-    width: np.ndarray = np.nan
-    depth_db: np.ndarray = np.nan
+    #: The per-run fields, in order: one per record of :data:`FILTER_PARAMETERS`.
+    NUMBERS = tuple(number_field(name) for name in FILTER_PARAMETERS)
 
-    #: The per-run fields, in order.
-    NUMBERS = ("frequency", "damping", "width", "depth_db")
-
-    def __post_init__(self):
-        for problem in (point_problem(self.at), type_problem(self.kind)):
+    def __init__(self, at, kind, frequency, **numbers):
+        for problem in (point_problem(at), type_problem(kind)):
             if problem:
                 raise ConfigError(f"simulation parameters: filter: {problem}")
+        unknown = sorted(set(numbers) - set(self.NUMBERS))
+        if unknown:
+            raise ConfigError(f"simulation parameters: filter: no number {unknown[0]!r}; "
+                              f"the numbers are {', '.join(self.NUMBERS)}")
+        self.at, self.kind = at, kind
+        numbers = {"frequency": frequency, **numbers}
         try:
-            arrays = np.broadcast_arrays(*(np.atleast_1d(np.asarray(getattr(self, name),
+            arrays = np.broadcast_arrays(*(np.atleast_1d(np.asarray(numbers.get(name, np.nan),
                                                                     dtype=float))
                                            for name in self.NUMBERS))
         except ValueError:
             raise ConfigError("simulation parameters: filter: its numbers' shapes do not "
                               "broadcast") from None
-        used = {number_field(name) for name in FILTER_NUMBERS[self.kind]}
-        for name, array in zip(self.NUMBERS, arrays, strict=True):
+        used = {number_field(name): name for name in FILTER_NUMBERS[kind]}
+        for field, array in zip(self.NUMBERS, arrays, strict=True):
             if array.ndim != 1:
-                raise ConfigError(f"simulation parameters: filter {name}: must be 1-D, got "
+                raise ConfigError(f"simulation parameters: filter {field}: must be 1-D, got "
                                   f"{array.shape}")
-            array = np.array(array) if name in used else np.full(array.shape, np.nan)
-            if name in used and not (np.isfinite(array).all()
-                                            and (name == "depth_db" or (array > 0).all())):
-                raise ConfigError(f"simulation parameters: a {self.kind} filter's {name} must "
-                                  f"be finite{'' if name == 'depth_db' else ' and > 0'}")
+            array = np.array(array) if field in used else np.full(array.shape, np.nan)
+            if field in used:
+                positive = _positive(FILTER_PARAMETERS[used[field]])
+                if not (np.isfinite(array).all() and (not positive or (array > 0).all())):
+                    raise ConfigError(f"simulation parameters: a {kind} filter's {field} must "
+                                      f"be finite{' and > 0' if positive else ''}")
             array.setflags(write=False)
-            object.__setattr__(self, name, array)
-        if self.kind == "notch":
+            setattr(self, field, array)
+        if kind == "notch":
             problem = depth_problem(self.depth_db)
             if problem:
                 raise ConfigError(f"simulation parameters: filter depth_db: {problem}")
+
+    def __repr__(self):
+        numbers = ", ".join(f"{number_field(name)}={getattr(self, number_field(name))!r}"
+                            for name in FILTER_NUMBERS[self.kind])
+        return f"Filter({self.at!r}, {self.kind!r}, {numbers})"
+
+    def replace(self, **numbers):
+        """This filter with the numbers ``numbers`` (by field) replaced."""
+        return Filter(self.at, self.kind, **{
+            **{name: getattr(self, name) for name in self.NUMBERS}, **numbers})
 
     @property
     def n_runs(self):
@@ -226,13 +239,12 @@ class Filter:
 
     def broadcast(self, n):
         """This filter with every array of length ``n``."""
-        return dataclasses.replace(self, **{name: np.broadcast_to(getattr(self, name), (n,))
-                                            for name in self.NUMBERS})
+        return self.replace(**{name: np.broadcast_to(getattr(self, name), (n,))
+                               for name in self.NUMBERS})
 
     def take(self, rows):
         """The runs ``rows`` (a slice, or an array of run indices)."""
-        return dataclasses.replace(self, **{name: getattr(self, name)[rows]
-                                            for name in self.NUMBERS})
+        return self.replace(**{name: getattr(self, name)[rows] for name in self.NUMBERS})
 
     @classmethod
     def stacked(cls, filters):

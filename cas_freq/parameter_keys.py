@@ -15,7 +15,12 @@ import re
 import numpy as np
 
 from cas_freq.exceptions import ConfigError, ConfigTypeError
-from cas_freq.filters_config import FILTER_NUMBERS, FILTER_PARAMETERS, depth_problem
+from cas_freq.filters_config import (
+    FILTER_NUMBERS,
+    FILTER_PARAMETERS,
+    depth_problem,
+    number_field,
+)
 from cas_freq.parameter_record import table as _table
 
 #: Longest accepted transport delay of either loop [s].
@@ -239,9 +244,6 @@ CASCADE_ONLY = {
 }
 
 _FILTER_KEY = re.compile(r"filters\.(0|[1-9]\d{0,3})\.(\w+)")
-#: Filter-number key -> Filter attribute.
-_FILTER_FIELDS = {"frequency": "frequency", "damping": "damping", "width": "width",
-                  "depth": "depth_db"}
 
 
 def is_cascade(config):
@@ -357,9 +359,9 @@ def loop_values(loop, key, config=None):
     match = _FILTER_KEY.fullmatch(key)
     if match:
         index, name = int(match.group(1)), match.group(2)
-        if index >= len(loop.filters) or name not in _FILTER_FIELDS:
+        if index >= len(loop.filters) or name not in FILTER_PARAMETERS:
             return None
-        return getattr(loop.filters[index], _FILTER_FIELDS[name])
+        return getattr(loop.filters[index], number_field(name))
     if key == "gear.ratio" and is_linear(config):  # the loop holds N = 2 pi ratio / lead
         return loop.ratio * config.gear.screw_lead / (2.0 * math.pi)
     field = parameter(key, config).field

@@ -53,10 +53,15 @@ import math
 import numpy as np
 
 from cas_freq.exceptions import ConfigError
-from cas_freq.filters_config import FILTER_NUMBERS, FILTER_PARAMETERS, Filter, depth_problem
+from cas_freq.filters_config import (
+    FILTER_NUMBERS,
+    FILTER_PARAMETERS,
+    Filter,
+    depth_problem,
+    number_field,
+)
 from cas_freq.formulas import viscous_friction_from_no_load as viscous_friction
 from cas_freq.parameter_keys import (
-    _FILTER_FIELDS,
     CASCADE_ONLY,
     CASCADE_PARAMETERS,
     CASCADE_REFUSED,
@@ -428,7 +433,7 @@ def _filters(config, numbers=None):
         values = {}
         for name in FILTER_NUMBERS[item.type]:
             key = f"filters.{i}.{name}"
-            values[_FILTER_FIELDS[name]] = numbers.get(key, getattr(item, name))
+            values[number_field(name)] = numbers.get(key, getattr(item, name))
         filters.append(Filter(item.at, item.type, **values))
     return tuple(filters)
 

@@ -339,7 +339,7 @@ def test_a_batch_of_sampled_runs_is_each_run_alone():
     # per-run filter frequencies, plants and current-loop delays (the fractional part of
     # tau_c differs: 1.5, 1.25 and 2 samples): the batch's responses are each run's alone
     base = _params(sample_rates=EPOS4, sampling_method="backward").take([0, 0, 0])
-    filters = tuple(dataclasses.replace(f, frequency=f.frequency * np.array([1.0, 0.5, 2.0]))
+    filters = tuple(f.replace(frequency=f.frequency * np.array([1.0, 0.5, 2.0]))
                     for f in base.filters)
     batch = dataclasses.replace(base, filters=filters).replace(
         tau_c=np.array([60e-6, 50e-6, 80e-6]), J=base.J * np.array([1.0, 1.2, 0.9]))

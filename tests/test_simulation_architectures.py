@@ -134,7 +134,7 @@ def test_small_step_matches_the_linear_pade_model(case):
 def _cascade_batch():
     """Two cascades differing in a gain, the speed clamp and the notch's frequency."""
     p = _cascade().take([0, 0])
-    filters = tuple(dataclasses.replace(f, frequency=np.array([800.0, 700.0]))
+    filters = tuple(f.replace(frequency=np.array([800.0, 700.0]))
                     if f.kind == "notch" else f for f in p.filters)
     return dataclasses.replace(p, filters=filters).replace(
         cv_Kp=np.array([1.3, 0.9]), omega_max=np.array([np.inf, 30.0]))

@@ -399,7 +399,7 @@ class FilterSpec(_Section):
     @model_validator(mode="after")
     def _numbers_of_type(self):
         taken = FILTER_NUMBERS[self.type]
-        extra = [name for name in ("damping", "width", "depth")
+        extra = [name for name in FILTER_PARAMETERS
                  if getattr(self, name) is not None and name not in taken]
         if extra:
             raise PydanticCustomError(
