@@ -4,9 +4,10 @@ The kernels take the architecture as data (:mod:`cas_freq.simulation.architectur
 float64 2-D tables, int64 index arrays, the same tuple whatever the loops), so numba types
 every call alike: after simulating the report's PID-on-PI, the velocity cascade with its
 filters, a sampled cascade and a loaded drivetrain, with one run (the serial kernel) and two
-(the parallel one), each kernel's dispatcher holds one signature. A kernel typed once per
-architecture (an argument None for one and an array for another, a tuple of another length)
-holds two or more here, and a fresh install compiles each of them again.
+(the parallel one), each kernel's dispatcher holds one signature (the loop over one run's
+steps, ``_advance_run``, too). A kernel typed once per architecture (an argument None for one
+and an array for another, a tuple of another length) holds two or more here, and a fresh
+install compiles each of them again.
 """
 
 import dataclasses
@@ -51,7 +52,8 @@ def test_one_compilation_serves_every_architecture():
             result = simulate_batch(batch, Step(math.radians(1.0)), t_end=2e-3, extend=False,
                                     engine="compiled")
             assert result.theta.shape[0] == batch.n_runs
-    kernels = [kernel.start_batch, kernel.advance_serial]
+    # the loop over a run's steps too: a loaded and an unloaded run are one machine code
+    kernels = [kernel.start_batch, kernel.advance_serial, kernel._advance_run]
     if numba.get_num_threads() > 1:  # batches of two runs ran the parallel kernel
         kernels.append(kernel.advance_parallel)
     for dispatcher in kernels:
