@@ -89,7 +89,8 @@ class FilterChain:
 @dataclasses.dataclass(frozen=True)
 class Inner:
     """The blocks between the position controller and the current loop, and the position
-    loop's measurement (the parts the report's PID-on-PI does not have).
+    loop's measurement (every architecture has one: the report's PID-on-PI without filters
+    has no velocity loop and no filter chain, and is stepped by the same code).
 
     Attributes
     ----------
@@ -150,12 +151,6 @@ class Position:
     ff_v: np.ndarray
     ff_a: np.ndarray
     delay: object
-
-
-def needs_inner(params):
-    """Whether ``params`` has a block the PID-on-PI steps do not (velocity loop, filters,
-    output feedback)."""
-    return bool(params.cascade or params.filters or params.feedback_output)
 
 
 def _feedforward(loop, n):
@@ -220,15 +215,12 @@ def filter_chain(blocks, n, dt, every=None, method="backward"):
 
 def inner_blocks(params, dt, every=None, method="backward"):
     """The blocks of ``params`` between the position controller and the current loop
-    (:class:`Inner`), from the structure (:func:`cas_freq.model.structure.build`); None for
-    the report's PID-on-PI without filters on the motor encoder.
+    (:class:`Inner`), from the structure (:func:`cas_freq.model.structure.build`).
 
     ``every`` maps loop names (:data:`LOOPS`) to update periods in steps (None or absent:
     continuous); a sampled loop's filters are discretised by ``method``.
     """
     p = params
-    if not needs_inner(p):
-        return None
     every = every or {}
     n = p.n_runs
     loops = loop_structure.build(p).loops

@@ -50,19 +50,20 @@ class CompiledEngine:
         every = every or {}
         position_every = every.get("position_loop")
         self.every_c, self.every_p = every.get("current_loop") or 0, position_every or 0
-        # the blocks the report's PID-on-PI does not have, from the declared structure
+        # the blocks between the position and the current controller, from the declared
+        # structure; every argument of the kernels has the same type whatever the
+        # architecture, so that one compilation serves them all
         self.inner = inner = architecture.inner_blocks(params, dt, every, method)
         self.p, self.m, self.has_derivative, (slots_c, slots_p) = kernel.parameter_table(
             params, dt, position_every, inner, method)
-        self.ext = None
-        if inner is not None:
-            table, state, steps = architecture.kernel_tables(
-                inner, n, dt, architecture.position(params).delay, method == "backward")
-            slots = 1 << (ring_size(steps) - 1).bit_length()
-            self.ext = (table, state, steps, np.zeros((n, slots)), np.zeros((n, slots)))
-        # a batch with some loaded run: the loaded plant's table (mechanics.py) and 5 states
-        loaded = bool(np.any(params.loaded))
-        self.q = mech.table(params, dt) if loaded else None
+        table, state, steps = architecture.kernel_tables(
+            inner, n, dt, architecture.position(params).delay, method == "backward")
+        slots = 1 << (ring_size(steps) - 1).bit_length()
+        self.ext = (table, state, steps, np.zeros((n, slots)), np.zeros((n, slots)))
+        # the loaded plant's table (mechanics.py), and 5 states where some run is loaded (an
+        # unloaded run's row says so: the kernel steps it with the 3-state plant)
+        self.loaded = loaded = bool(np.any(params.loaded))
+        self.q = mech.table(params, dt) if loaded else np.zeros((n, mech.COLUMNS))
         #: Names of the signals of :meth:`sample` and :meth:`advance`.
         self.signals = SIGNALS + LOAD_SIGNALS if loaded else SIGNALS
         self.x = np.zeros((n, mech.NX if loaded else 3))
@@ -79,7 +80,7 @@ class CompiledEngine:
     def record_only(self, names):
         """Record only the signals ``names`` (and theta; theta and omega in a loaded batch)
         from now on; the other rows of the recordings are not written."""
-        self.record = kernel.record_mask(names, self.q is not None)
+        self.record = kernel.record_mask(names, self.loaded)
 
     def stop(self, runs):
         """Advance the runs where ``runs`` (bool, n_runs) is True no further: their states and
@@ -107,8 +108,8 @@ class CompiledEngine:
 
     def sample(self):
         """The recorded signals at the present step, in the order of :attr:`signals`."""
-        values = kernel.sample(self.p, self.x, self.s, self.q is not None)
-        if self.inner is not None and self.inner.cascade:  # the velocity controller's clamp
+        values = kernel.sample(self.p, self.x, self.s, self.loaded)
+        if self.inner.cascade:  # the velocity controller's clamp
             limited = self.ext[1][:, architecture.S_LIMITED] != 0
             values = values[:7] + (limited,) + values[8:]
         return values
@@ -127,7 +128,7 @@ class CompiledEngine:
             (n_runs, n_samples).
         """
         rows = self.recorded_rows(n_steps, record_every)
-        names = kernel.FLOAT_SIGNALS + (() if self.q is None else LOAD_SIGNALS)
+        names = kernel.FLOAT_SIGNALS + (LOAD_SIGNALS if self.loaded else ())
         # each run's samples contiguous (the kernel writes them run by run)
         floats = np.empty((len(names), self.x.shape[0], rows))
         flags = np.empty((2, self.x.shape[0], rows), dtype=np.bool_)
@@ -164,7 +165,7 @@ class CompiledEngine:
         finally:
             if parallel:
                 _PARALLEL.release()
-        if q is not None:
+        if self.loaded:
             kernel.rigid_fin(self.p, q, floats, slice(offset, offset + rows))
         return np.arange(base, base + rows) * record_every * self.dt
 

@@ -218,12 +218,11 @@ class Engine:
             p.ci_Kp, p.ci_Ki, np.zeros_like(p.ci_Kp), p.Tf, p.v_max, dt * (current_every or 1),
             sampled=current_every is not None, method=method,
         )
-        # the blocks the report's PID-on-PI does not have (velocity loop, filters, output
-        # feedback), read from the declared structure (architecture.py); None without them
+        # the blocks between the position and the current controller (velocity loop,
+        # filters) and the position loop's measurement, read from the declared structure
+        # (architecture.py)
         self.inner = inner = architecture.inner_blocks(p, dt, every, method)
-        position = (architecture.position(p) if inner is not None else
-                    architecture.Position(p.cp_Kp, p.cp_Ki, p.cp_Kd, p.Tf, p.i_max, p.ff_v,
-                                          p.ff_a, p.tau_p))
+        position = architecture.position(p)
         self.position = Controller(
             position.kp, position.ki, position.kd, position.tf, position.limit,
             dt * (position_every or 1), sampled=position_every is not None, method=method,
@@ -234,14 +233,13 @@ class Engine:
         #: The analog filters on the measured current and angle (None: none), stepped at
         #: every step before the controllers read them (:meth:`_measure`).
         self.current_sensor = self.angle_sensor = None
-        if inner is not None:
-            self._setup_inner(p, dt, position.delay)
+        self._setup_inner(p, dt, position.delay)
         self.on_measurement = p.derivative_on_measurement
         # Derivative input: the error everywhere (None), -theta everywhere (True), or mixed.
         on = self.on_measurement
         self._derivative_on = None if not on.any() else (True if on.all() else on)
         self.voltage_line = DelayLine(p.tau_c, dt, hold=current_every is not None)
-        if inner is None or not inner.cascade:
+        if not inner.cascade:
             self.current_line = DelayLine(p.tau_p, dt, hold=position_every is not None)
         #: Update period in steps of the controller that commands the current (None:
         #: continuous); its output, and the filters after it, are held in between.
@@ -277,7 +275,7 @@ class Engine:
         """The angle the position loop measures: the motor angle, or with output feedback the
         output angle on the motor's scale N*delta (a rigid, unloaded run's is theta)."""
         theta = self.x[:, 2]
-        if self.inner is None or not self.inner.output_feedback or self.drivetrain is None:
+        if not self.inner.output_feedback or self.drivetrain is None:
             return theta
         return np.where(self.loaded, self.ratio * self.x[:, 4], theta)
 
@@ -292,14 +290,6 @@ class Engine:
         if self.angle_sensor is not None:
             step = self.angle_sensor.start if start else self.angle_sensor.step
             self.theta_meas = step(self.theta_meas, self.theta_meas)[1]
-
-    def _command_update(self, k, left, right, start=False):
-        """The current command (``u_left``, ``u_cmd``) at step ``k``: the position
-        controller's output, or what the inner blocks make of it."""
-        if self.inner is None:
-            self.u_left, self.u_cmd = self.u_p_left, self.u_p
-        else:
-            self._inner_update(k, left, right, start)
 
     def _inner_update(self, k, left, right, start=False):
         """The blocks between the position controller and the current loop at step ``k``:
@@ -357,7 +347,7 @@ class Engine:
         jumps = np.any(angle != angle_left, axis=1) | np.any(ff != ff_left, axis=1)
         if not (np.count_nonzero(ff) or np.count_nonzero(ff_left)):
             ff = ff_left = None
-        if self.inner is not None and self.inner.cascade:  # the acceleration, for ff_a
+        if self.inner.cascade:  # the acceleration, for ff_a
             (_, _, accel), (_, _, accel_left) = self.commands.motor_limits(times)
             if self.position_every is not None:
                 accel_left = accel
@@ -394,7 +384,7 @@ class Engine:
         self.theta_cmd = right[0]
         self._measure(start=True)
         self._position_update(left, right, start=True)
-        self._command_update(0, left, right, start=True)
+        self._inner_update(0, left, right, start=True)
         self.current_line.push(0, self.u_cmd, self.u_left)
         self._current_update(start=True)
         self.voltage_line.push(0, self.v_c, self.v_left)
@@ -534,7 +524,7 @@ class Engine:
         self._measure()
         if self.position_every is None or k % self.position_every == 0:
             self._position_update(left, right)
-        self._command_update(k, left, right)
+        self._inner_update(k, left, right)
         self.current_line.push(k, self.u_cmd, self.u_left)
         if self.current_every is None or k % self.current_every == 0:
             self._current_update()

@@ -12,16 +12,21 @@ one machine-code loop, ``prange`` over the runs. Per step :math:`t_k \to t_{k+1}
    :func:`~cas_freq.simulation.engine.plant_step_matrices`, computed in numpy and passed in).
    A loaded run (:mod:`~cas_freq.simulation.mechanics`) steps its 5 states with the matrices of
    the mode chosen at the step's start and the torques of its nonlinear terms (the table of
-   :func:`~cas_freq.simulation.mechanics.table`); the unloaded runs of the batch keep the
-   3-state step, compiled without the loaded branches (numba prunes them where the table
-   argument is None).
+   :func:`~cas_freq.simulation.mechanics.table`); an unloaded run (its row of that table
+   says so, a batch without a load passes a table of zeros) keeps the 3-state step, a branch
+   taken per run (one machine code for both, not one specialisation each: with the
+   architecture as data, that cut the kernels' first compilation from 132 to 55 s of CPU,
+   for 11 to 14 % more CPU per step).
 3. **Position controller** (§4): PID with filtered derivative, feed-forward, clamp to ±i_max,
    anti-windup (:func:`_controller_update`, the scalar form of
    :class:`~cas_freq.simulation.controllers.Controller`); its output enters the delay line τp.
-   Other architectures (``ext`` given, :mod:`~cas_freq.simulation.architecture`): the
-   position loop measures N*delta with output feedback; its output goes through the velocity
-   loop of a cascade (delay line tau_p, PI on the filtered speed, clamp ±i_max) and the
-   filters at the current command (:func:`_inner`) before the delay line read in step 4.
+   The architecture is data (the inner blocks' table ``ext``,
+   :mod:`~cas_freq.simulation.architecture`): the position loop measures N*delta with output
+   feedback; its output goes through the velocity loop of a cascade (delay line tau_p, PI on
+   the filtered speed, clamp ±i_max) and the filters at the current command (:func:`_inner`)
+   before the delay line read in step 4; a PID-on-PI has neither (orders 0, no cascade).
+   Every argument has the same numba type whatever the architecture, the sampling and the
+   load, so each kernel is compiled once for them all.
 4. **Current controller** (§3): PI on the delayed current command, clamp to ±v_max,
    anti-windup; its output enters the delay line τc.
 5. Every ``record_every`` steps the signals of :data:`~cas_freq.simulation.engine.SIGNALS`
@@ -195,17 +200,17 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
         Some run has a derivative term (Kd > 0).
     dt : float
         Step [s].
-    ext : tuple or None
-        The inner blocks (velocity loop, filters, output feedback) where the runs have some:
-        the table, state and velocity-line steps of
+    ext : tuple
+        The inner blocks (velocity loop, filters, output feedback; none for a PID-on-PI
+        without filters): the table, state and velocity-line steps of
         :func:`~cas_freq.simulation.architecture.kernel_tables` and the velocity line's ring
-        buffers; None for the report's PID-on-PI (numba compiles it without their branches).
+        buffers.
     """
     for r in range(x.shape[0]):
         sampled_p, sampled_c = every_p > 0, every_c > 0
         backward = p[r, _BACKWARD] != 0.0
         # the current command is held where its commander is sampled
-        hold_i = sampled_p if ext is None else ext[0][r, arch.COMMANDER_EVERY] > 0.0
+        hold_i = ext[0][r, arch.COMMANDER_EVERY] > 0.0
         angle, ff = _command(p, right, r, 0)
         angle_left, ff_left = angle, ff
         if not sampled_p:  # a sampler sees the values from now on
@@ -213,28 +218,26 @@ def start_batch(p, m, x, s, voltage_right, voltage_left, current_right, current_
         s[r, _THETA_CMD] = angle
         # the measurements from rest through their analog filters (Engine._measure): d u
         i_meas, th_meas = x[r, 0], x[r, 2]
-        if ext is not None:
-            g, gs = ext[0], ext[1]
-            m_i, m_a = int(g[r, arch.I_ORDER]), int(g[r, arch.A_ORDER])
-            if m_i > 0:
-                gs[r, arch.S_I_U] = i_meas
-                i_meas = g[r, int(g[r, arch.I_AT]) + m_i * m_i + 3 * m_i] * i_meas
-            if m_a > 0:
-                gs[r, arch.S_A_U] = th_meas
-                th_meas = g[r, int(g[r, arch.A_AT]) + m_a * m_a + 3 * m_a] * th_meas
+        g, gs = ext[0], ext[1]
+        m_i, m_a = int(g[r, arch.I_ORDER]), int(g[r, arch.A_ORDER])
+        if m_i > 0:
+            gs[r, arch.S_I_U] = i_meas
+            i_meas = g[r, int(g[r, arch.I_AT]) + m_i * m_i + 3 * m_i] * i_meas
+        if m_a > 0:
+            gs[r, arch.S_A_U] = th_meas
+            th_meas = g[r, int(g[r, arch.A_AT]) + m_a * m_a + 3 * m_a] * th_meas
         # a sampled controller makes its first update from zero samples before t = 0
         (s[r, _P_INT], s[r, _P_FILTER], s[r, _P_E], s[r, _P_Y], s[r, _P_REST],
          s[r, _P_U_LEFT], s[r, _P_U], s[r, _P_LIMITED]) = _position_update(
             p, r, th_meas, angle_left, angle, ff_left, ff, 0.0, 0.0, 0.0, 0.0, 0.0, sampled_p,
             has_derivative, dt * max(every_p, 1), not sampled_p, sampled_p and backward,
         )
-        u_left, u_right = s[r, _P_U_LEFT], s[r, _P_U]
-        if ext is not None:  # the position loop measures the same at rest (theta = N delta)
-            col = r if right.shape[2] > 1 else 0
-            u_left, u_right, _ = _inner_call(
-                ext, r, 0, p[r, _RATIO], x[r, 1], u_left, u_right,
-                right[0, 2, col] if sampled_p else left[0, 2, col], right[0, 2, col],
-                True, sampled_p, dt, True)
+        # the position loop measures the same at rest (theta = N delta)
+        col = r if right.shape[2] > 1 else 0
+        u_left, u_right, _ = _inner_call(
+            ext, r, 0, p[r, _RATIO], x[r, 1], s[r, _P_U_LEFT], s[r, _P_U],
+            right[0, 2, col] if sampled_p else left[0, 2, col], right[0, 2, col],
+            True, sampled_p, dt, True)
         _push(current_right, current_left, r, 0, u_right, u_left, hold_i)
         (s[r, _C_INT], s[r, _C_E], s[r, _C_REST], s[r, _C_V_LEFT], s[r, _C_V],
          s[r, _C_LIMITED], s[r, _I_CMD]) = _current_update(
@@ -254,18 +257,9 @@ def advance_parallel(p, m, x, s, voltage_right, voltage_left, current_right, cur
     for run in prange(x.shape[0]):
         if not active[run]:
             continue
-        if q is None:
-            _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
-                         current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None, ext, record, n_steps)
-        elif q[run, _Q_LOADED] != 0.0:
-            _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
-                         current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, q, ext, record, n_steps)
-        else:
-            _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
-                         current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None, ext, record, n_steps)
+        _advance_run(np.int64(run), p, m, x, s, voltage_right, voltage_left, current_right,
+                     current_left, right, left, k0, record_every, record_base, floats,
+                     flags, every_c, every_p, has_derivative, dt, q, ext, record, n_steps)
 
 
 @_jit(nogil=True)
@@ -292,12 +286,11 @@ def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, curre
         given (written for the loaded runs only), and (2, n_runs, rows) of bool, written.
     every_c, every_p, has_derivative, dt
         As for :func:`start_batch`.
-    q : numpy.ndarray or None
-        The loaded plant's table (n_runs, mechanics.COLUMNS) where some run is loaded, else
-        None. Runs with ``q[r, LOADED] == 0`` take the unloaded path (the same machine code
-        as a batch without ``q``: numba prunes the loaded branches where ``q`` is None).
-    ext : tuple or None
-        The inner blocks, as for :func:`start_batch` (None: pruned likewise).
+    q : numpy.ndarray
+        The loaded plant's table (n_runs, mechanics.COLUMNS), zeros for a batch without a
+        load. Runs with ``q[r, LOADED] == 0`` take the unloaded path (the 3-state plant).
+    ext : tuple
+        The inner blocks, as for :func:`start_batch`.
     record : int
         Bit mask of the signals written (bit j: :data:`RECORDED` [j], :func:`record_mask`);
         the rows of the others are left as they were (recording every signal is about 40 %
@@ -311,18 +304,9 @@ def advance_serial(p, m, x, s, voltage_right, voltage_left, current_right, curre
     for r in range(x.shape[0]):
         if not active[r]:
             continue
-        if q is None:
-            _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
-                         current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None, ext, record, n_steps)
-        elif q[r, _Q_LOADED] != 0.0:
-            _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
-                         current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, q, ext, record, n_steps)
-        else:
-            _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
-                         current_left, right, left, k0, record_every, record_base, floats,
-                         flags, every_c, every_p, has_derivative, dt, None, ext, record, n_steps)
+        _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right,
+                     current_left, right, left, k0, record_every, record_base, floats,
+                     flags, every_c, every_p, has_derivative, dt, q, ext, record, n_steps)
 
 
 @_jit()
@@ -358,7 +342,7 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
     backward_p, backward_c = sampled_p and backward, sampled_c and backward
     # the current command is held where its commander is sampled (the velocity controller in
     # a cascade, else the position controller)
-    hold_i = sampled_p if ext is None else ext[0][r, arch.COMMANDER_EVERY] > 0.0
+    hold_i = ext[0][r, arch.COMMANDER_EVERY] > 0.0
     col = r if right.shape[2] > 1 else 0
     mask_c, mask_p = voltage_right.shape[1] - 1, current_right.shape[1] - 1
     # the delay lines' reads at step k (_read): the sample index, for a holding line
@@ -387,12 +371,13 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
     want_angle, want_i_cmd = (record & 16) != 0, (record & 32) != 0
     want_integral, want_p_limited = (record & 64) != 0, (record & 128) != 0
     want_c_limited = (record & 256) != 0
-    # a loaded run (q given): fin states, constants and recordings (mechanics.py)
+    # a loaded run (its row of q says so): fin states, constants and recordings (mechanics.py)
     w_l = d_l = w_before = 0.0
     compliant = False
     half = k_g = c_g = tau_h = j_l = b_l = k_h = coulomb = e_forward = e_back = 0.0
     rec_delta, rec_omega_l = rec_theta, rec_omega
-    if q is not None:
+    loaded = q[r, _Q_LOADED] != 0.0
+    if loaded:
         w_l, d_l, w_before = x[r, 3], x[r, 4], s[r, _W_BEFORE]
         compliant = q[r, _Q_COMPLIANT] != 0.0
         half, k_g, tau_h = q[r, _Q_HALF], q[r, _Q_K_G], q[r, _Q_TAU_H]
@@ -403,15 +388,15 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
     # the inner blocks (ext, architecture.py): output feedback, and the current command's
     # clamp flag (the velocity controller's in a cascade)
     i_limited = p_limited
-    output_feedback = False
+    output_feedback = ext[0][r, arch.OUTPUT] != 0.0
+    if ext[0][r, arch.CASCADE] != 0.0:
+        i_limited = ext[1][r, arch.S_LIMITED]
     # the analog filters on the measured current and angle (orders 0: none)
-    m_i = m_a = 0
-    if ext is not None:
-        m_i, m_a = int(ext[0][r, arch.I_ORDER]), int(ext[0][r, arch.A_ORDER])
-    if ext is not None:
-        output_feedback = ext[0][r, arch.OUTPUT] != 0.0
-        if ext[0][r, arch.CASCADE] != 0.0:
-            i_limited = ext[1][r, arch.S_LIMITED]
+    m_i, m_a = int(ext[0][r, arch.I_ORDER]), int(ext[0][r, arch.A_ORDER])
+    # no block between the position controller and the current loop (no velocity loop, no
+    # filter at the current command): the position controller's output is the current
+    # command, pushed as it is (what _inner returns then, without its table reads)
+    direct = ext[0][r, arch.CASCADE] == 0.0 and ext[0][r, arch.PATH_ORDER] == 0.0
     for row in range(n_steps):
         k = k0 + row
         c_row = 0 if one_row else row
@@ -444,7 +429,7 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
                 v_b = (1.0 - f_c) * (voltage_left[r, j & mask_c] if j >= 0 else 0.0) + before
                 v = v_b
         # 2. plant (§2): x <- Phi x + G_a V_a + G_b V_b
-        if q is None:
+        if not loaded:
             x0 = phi0 * i + phi1 * w + phi2 * th
             x1 = phi3 * i + phi4 * w + phi5 * th
             x2 = phi6 * i + phi7 * w + phi8 * th
@@ -538,21 +523,20 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
         # 3. the measurements at t_k+1 through their analog filters (Engine._measure)
         i_meas = i
         measured = th
-        if ext is not None:
-            if q is not None and output_feedback:
-                measured = ratio * d_l  # the output angle on the motor's scale
-            if m_i > 0:
-                g, gs = ext[0], ext[1]
-                at = int(g[r, arch.I_AT])
-                y = _chain(g, gs, r, at, m_i, int(g[r, arch.I_Z]), gs[r, arch.S_I_U], i)
-                gs[r, arch.S_I_U] = i
-                i_meas = y + g[r, at + m_i * m_i + 3 * m_i] * i
-            if m_a > 0:
-                g, gs = ext[0], ext[1]
-                at = int(g[r, arch.A_AT])
-                y = _chain(g, gs, r, at, m_a, int(g[r, arch.A_Z]), gs[r, arch.S_A_U], measured)
-                gs[r, arch.S_A_U] = measured
-                measured = y + g[r, at + m_a * m_a + 3 * m_a] * measured
+        if loaded and output_feedback:
+            measured = ratio * d_l  # the output angle on the motor's scale
+        if m_i > 0:
+            g, gs = ext[0], ext[1]
+            at = int(g[r, arch.I_AT])
+            y = _chain(g, gs, r, at, m_i, int(g[r, arch.I_Z]), gs[r, arch.S_I_U], i)
+            gs[r, arch.S_I_U] = i
+            i_meas = y + g[r, at + m_i * m_i + 3 * m_i] * i
+        if m_a > 0:
+            g, gs = ext[0], ext[1]
+            at = int(g[r, arch.A_AT])
+            y = _chain(g, gs, r, at, m_a, int(g[r, arch.A_Z]), gs[r, arch.S_A_U], measured)
+            gs[r, arch.S_A_U] = measured
+            measured = y + g[r, at + m_a * m_a + 3 * m_a] * measured
         # 4. position controller at t_k+1 (§4), its output into the delay line tau_p
         angle = ratio * right[c_row, 0, col]
         ff = ff_v * (ratio * right[c_row, 1, col]) + ff_a * (ratio * right[c_row, 2, col])
@@ -578,11 +562,11 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
             )
             i_limited = p_limited
         slot = k & mask_p
-        if ext is None:
+        if direct:
             current_right[r, slot] = u_p
-            if not sampled_p:
+            if not hold_i:
                 current_left[r, slot] = u_left
-        else:  # velocity loop and filters
+        else:  # the velocity loop and the filters at the current command
             acc_right = right[c_row, 2, col]
             acc_left = acc_right if sampled_p else left[c_row, 2, col]
             cmd_left, cmd_right, limited = _inner(ext, r, k, ratio, w, u_left, u_p, acc_left,
@@ -657,7 +641,7 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
                 rec_p_limited[out] = i_limited != 0.0
             if want_c_limited:
                 rec_c_limited[out] = c_limited != 0.0
-            if q is not None:
+            if loaded:
                 rec_delta[out] = d_l
                 rec_omega_l[out] = w_l
             next_record += record_every
@@ -669,13 +653,13 @@ def _advance_run(r, p, m, x, s, voltage_right, voltage_left, current_right, curr
     s[r, _C_INT], s[r, _C_E], s[r, _C_REST] = c_int, c_e, c_rest
     s[r, _C_V_LEFT], s[r, _C_V], s[r, _C_LIMITED] = v_left, v_c, c_limited
     s[r, _I_CMD], s[r, _V], s[r, _THETA_CMD] = i_cmd, v, angle
-    if q is not None:
+    if loaded:
         x[r, 3], x[r, 4], s[r, _W_BEFORE] = w_l, d_l, w_before
 
 
 # --- the tables the kernel reads, and the samples it holds (for compiled.py) -----------------
 
-def parameter_table(params, dt, position_every=None, inner=None, method="backward"):
+def parameter_table(params, dt, position_every, inner, method="backward"):
     """The kernel's per-run parameter table and delay steps of a batch.
 
     Parameters
@@ -686,10 +670,11 @@ def parameter_table(params, dt, position_every=None, inner=None, method="backwar
         Step [s].
     position_every : int or None
         Update period of a sampled position controller in steps; None for a continuous one.
-    inner : cas_freq.simulation.architecture.Inner, optional
-        The runs' inner blocks: the position controller's numbers then come from the
-        structure (:func:`~cas_freq.simulation.architecture.position`) and, in a cascade, the
-        delay line read by the current controller is the velocity loop's (tau_v).
+    inner : cas_freq.simulation.architecture.Inner
+        The runs' inner blocks (:func:`~cas_freq.simulation.architecture.inner_blocks`): in a
+        cascade the delay line read by the current controller is the velocity loop's (tau_v).
+        The position controller's numbers come from the structure
+        (:func:`~cas_freq.simulation.architecture.position`).
     method : {"backward", "tustin"}
         The sampled controllers' discretisation (:mod:`~cas_freq.simulation.controllers`).
 
@@ -707,9 +692,7 @@ def parameter_table(params, dt, position_every=None, inner=None, method="backwar
     p[:, _PHI:_PHI + 9] = phi.reshape(n, 9)
     p[:, _GA:_GA + 3] = g_a
     p[:, _GB:_GB + 3] = g_b
-    position = (arch.position(pr) if inner is not None else
-                arch.Position(pr.cp_Kp, pr.cp_Ki, pr.cp_Kd, pr.Tf, pr.i_max, pr.ff_v, pr.ff_a,
-                              pr.tau_p))
+    position = arch.position(pr)
     p[:, _RATIO], p[:, _FF_V], p[:, _FF_A] = pr.ratio, position.ff_v, position.ff_a
     p[:, _CP_KP], p[:, _CP_KI], p[:, _I_MAX] = position.kp, position.ki, position.limit
     p[:, _CI_KP], p[:, _CI_KI], p[:, _V_MAX] = pr.ci_Kp, pr.ci_Ki, pr.v_max
@@ -723,8 +706,7 @@ def parameter_table(params, dt, position_every=None, inner=None, method="backwar
         p[:, _CP_GD], p[:, _CP_A], p[:, _CP_B], p[:, _CP_C] = filter_
     # the line the current controller reads: after the position controller (tau_p), or in a
     # cascade after the velocity controller (tau_v)
-    current_delay = (np.broadcast_to(inner.velocity_delay, (n,))
-                     if inner is not None and inner.cascade else pr.tau_p)
+    current_delay = np.broadcast_to(inner.velocity_delay, (n,)) if inner.cascade else pr.tau_p
     (m_c, f_c), (m_p, f_p) = delay_steps(pr.tau_c, dt), delay_steps(current_delay, dt)
     p[:, _F_C], p[:, _F_P] = f_c, f_p
     slots = tuple(1 << (ring_size(m) - 1).bit_length() for m in (m_c, m_p))

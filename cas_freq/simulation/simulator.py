@@ -687,8 +687,9 @@ def prepare_kernels(params):
     """Have the compiled simulation kernels in this process: batches of ``params`` (an
     ActuatorConfig) without a load and with a load spring, of one run and of two (the serial
     and the parallel kernel), a few steps each, a step fit and the step figures of a batch
-    (the kernels' signatures of steps, figures and fits, loaded and not); nothing with the
-    reference engine.
+    (the kernels' signatures of steps, figures and fits); nothing with the reference engine.
+    The simulation kernels take the architecture, the sampling and the load as data
+    (:mod:`cas_freq.simulation.kernel`), so any one config prepares them for every other.
 
     For a process about to fork workers that simulate (``cas-freq report``'s load envelope):
     on a first run (no kernel in numba's cache) the report's process and the worker compiled
@@ -721,7 +722,9 @@ def _prepare_kernels(params):
     runs = LoopParameters.from_configs([params]).take([0, 0])
     unloaded = dict(F_c=0.0, eta=1.0, eta_b=1.0, K_g=0.0, c_g=0.0, backlash=0.0, J_L=0.0,
                     b_L=0.0, K_h=0.0, tau_h=0.0)  # LoopParameters.loaded is then False
-    for load in (unloaded, {"K_h": 1.0}):  # the kernels' two signatures (table q or None)
+    # a batch without a load and one with (the same simulation kernels; the loaded batch's
+    # recordings hold the fin's rows for the figure kernels)
+    for load in (unloaded, {"K_h": 1.0}):
         batch = dataclasses.replace(runs, **{key: np.full(2, value) for key, value in load.items()})
         for runs_of_batch in (batch.take([0]), batch):  # the serial and the parallel kernel
             simulate_batch(runs_of_batch, Step(1e-3), t_end=1e-4, extend=False)
