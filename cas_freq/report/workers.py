@@ -73,7 +73,6 @@ def prepare_kernels(variants):
     from cas_freq.jit import use_compiled
     from cas_freq.report.envelope import envelope_variants
     from cas_freq.simulation.simulator import prepare_kernels as prepare_simulation
-    from cas_freq.threads import result_of, worker_threads
 
     if not use_compiled() or not variants or variants[0].params.load_envelope is None:
         return
@@ -81,14 +80,28 @@ def prepare_kernels(variants):
     for loaded in variants:
         if wanted is None or loaded.variant in wanted:
             prepare_simulation(loaded.params)
-            # in a thread of its own, as prepare_simulation (numba's compiler deep in a
-            # caller's stack: see its docstring)
-            with worker_threads(1, "cas_freq-prepare-kernels") as thread:
-                result_of(thread.submit(_prepare_frequency_kernels, loaded.params))
+            prepare_frequency_kernels(loaded.params)
+
+
+def prepare_frequency_kernels(params):
+    """Have the frequency-domain kernels of a batch of ``params`` (an ActuatorConfig) in this
+    process: the grid scans' and the batch responses' (see :func:`prepare_kernels`); nothing
+    with the reference engine.
+
+    In a thread of its own, waited for, as
+    :func:`cas_freq.simulation.simulator.prepare_kernels` (numba's compiler deep in a caller's
+    stack: see its docstring).
+    """
+    from cas_freq.jit import use_compiled
+    from cas_freq.threads import result_of, worker_threads
+
+    if use_compiled():
+        with worker_threads(1, "cas_freq-prepare-kernels") as thread:
+            result_of(thread.submit(_prepare_frequency_kernels, params))
 
 
 def _prepare_frequency_kernels(params):
-    """The frequency-domain kernels of a load envelope's batch of ``params``' variant."""
+    """The work of :func:`prepare_frequency_kernels`, in its thread."""
     import cas_freq.analysis.scan_kernel  # noqa: F401  (compiled on import)
     from cas_freq.analysis import batch_analyze
     from cas_freq.parameters import LoopParameters
