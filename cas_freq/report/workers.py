@@ -59,11 +59,12 @@ def prepare_kernels(variants):
     For each variant whose envelope the report computes
     (:func:`cas_freq.report.envelope.envelope_variants`): the simulation's kernels
     (:func:`cas_freq.simulation.simulator.prepare_kernels`: steps with and without a load
-    spring, fits, step figures), the grid scans' (:mod:`cas_freq.analysis.scan_kernel`, compiled
-    on import) and the frequency-domain batch kernels (:func:`cas_freq.analysis.batch_analyze`
-    of two runs, without and with a load spring, on a short grid: a batch analysis runs them
-    at any size). Kernels that take the loop table as data are compiled for the first variant
-    and found compiled for the others. Nothing with the reference engine.
+    spring, fits, step figures) and the frequency-domain batch kernels
+    (:func:`cas_freq.analysis.batch_analyze` of two runs, without and with a load spring, on a
+    short grid: a batch analysis runs them at any size; the grid scans of
+    :mod:`cas_freq.analysis.scan_kernel` run only on larger arrays than an envelope's).
+    Kernels that take the loop table as data are compiled for the first variant and found
+    compiled for the others. Nothing with the reference engine.
 
     Parameters
     ----------
@@ -85,8 +86,7 @@ def prepare_kernels(variants):
 
 def prepare_frequency_kernels(params):
     """Have the frequency-domain kernels of a batch of ``params`` (an ActuatorConfig) in this
-    process: the grid scans' and the batch responses' (see :func:`prepare_kernels`); nothing
-    with the reference engine.
+    process (see :func:`prepare_kernels`); nothing with the reference engine.
 
     In a thread of its own, waited for, as
     :func:`cas_freq.simulation.simulator.prepare_kernels` (numba's compiler deep in a caller's
@@ -102,7 +102,6 @@ def prepare_frequency_kernels(params):
 
 def _prepare_frequency_kernels(params):
     """The work of :func:`prepare_frequency_kernels`, in its thread."""
-    import cas_freq.analysis.scan_kernel  # noqa: F401  (compiled on import)
     from cas_freq.analysis import batch_analyze
     from cas_freq.parameters import LoopParameters
 
