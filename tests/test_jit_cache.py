@@ -146,39 +146,43 @@ def test_the_users_own_numba_functions_are_not_announced(tmp_path):
 
 
 def _signatures():
-    """The argument types each simulation and fit kernel has machine code for in this
-    process (compiled, or loaded from numba's cache)."""
+    """The argument types each simulation, fit and frequency-domain batch kernel has machine
+    code for in this process (compiled, or loaded from numba's cache)."""
     from numba.core.registry import CPUDispatcher
 
+    from cas_freq.analysis import response_kernel
     from cas_freq.simulation import figure_kernel, fit_kernel, kernel
 
     return {(module.__name__, name, signature)
-            for module in (kernel, fit_kernel, figure_kernel)
+            for module in (kernel, fit_kernel, figure_kernel, response_kernel)
             for name, function in vars(module).items() if isinstance(function, CPUDispatcher)
             for signature in function.overloads}
 
 
 def test_the_report_has_the_envelope_workers_kernels_before_it_forks():
-    # a first report compiled the simulation kernels twice at once, in its process and in the
-    # figure worker computing the load envelope (~25 s of CPU each: 70 s against 19 s warm);
-    # build_report now gets them first (prepare_kernels: compiled or from the cache) and the
-    # forked worker inherits them: the envelope (2 of its hinge stiffnesses) then needs no
-    # other signature
-    from cas_freq.config.loader import load_variant
-    from cas_freq.simulation.simulator import prepare_kernels
+    # a first report compiled the kernels again in the figure workers computing the load
+    # envelopes: the simulation's (~25 s of CPU each: 70 s against 19 s warm), then, once the
+    # report prepared those, the frequency-domain batch's (response_kernel, in each of the two
+    # workers at once); build_report now gets them all first (report.workers.prepare_kernels:
+    # compiled or from the cache) and the forked workers inherit them: an envelope (2 of its
+    # hinge stiffnesses) then needs no other signature
+    from cas_freq.config import load_all_variants
+    from cas_freq.report.workers import prepare_kernels
     from cas_freq.studies.envelope import load_envelope
 
     if not jit.use_compiled():
         pytest.skip("numba is not importable: nothing compiles")
-    loaded = load_variant()
-    prepare_kernels(loaded.params)
+    variants = load_all_variants(ROOT / "configs" / "qt_cas.yaml")
+    prepare_kernels(variants)
     before = _signatures()
+    loaded = next(v for v in variants if v.variant in variants[0].params.load_envelope.variants)
     load_envelope(loaded, [0.0, 10.0], loaded.params.load_envelope.step)
     assert _signatures() - before == set()
-    # (the fit's kernels by the names the fit calls)
+    # (the fit's kernels by the names the fit calls; the batch responses, whatever their names)
     assert {name for _, name, _ in before} >= {"advance_parallel", "start_batch",
                                                "normal_equations_of", "lm_trials", "lm_update",
                                                "refine"}
+    assert any(module.endswith(".response_kernel") for module, _, _ in before)
 
 
 def _compiling(seconds, cpu_seconds):
