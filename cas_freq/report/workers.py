@@ -22,10 +22,8 @@ workers at once instead of waiting for the figures they are drawing.
 
 Linux only: elsewhere the report draws in its own process and nothing is forked.
 
-The workers never compile: :func:`prepare_kernels` has the compiled kernels a worker runs in
-the report's process before it forks them, and the forked workers inherit them (on a first run
-each of the two workers compiled the frequency-domain kernels of the load envelope again,
-at the same time as the other and the report's process compiled theirs).
+The workers never compile: :func:`prepare_kernels` has the kernels they run in the report's
+process before it forks them (on a first run each worker compiled the envelope's again).
 """
 
 import ctypes
@@ -38,6 +36,13 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
+
+from cas_freq.analysis import batch_analyze
+from cas_freq.jit import use_compiled
+from cas_freq.parameters import LoopParameters
+from cas_freq.report.envelope import envelope_variants
+from cas_freq.simulation.simulator import prepare_kernels as prepare_simulation
+from cas_freq.threads import result_of, worker_threads
 
 #: ``prctl`` option that sets the signal a process gets when its parent dies (linux/prctl.h).
 PR_SET_PDEATHSIG = 1
@@ -71,10 +76,6 @@ def prepare_kernels(variants):
     variants : list of cas_freq.config.LoadedVariant
         The report's variants (of one config).
     """
-    from cas_freq.jit import use_compiled
-    from cas_freq.report.envelope import envelope_variants
-    from cas_freq.simulation.simulator import prepare_kernels as prepare_simulation
-
     if not use_compiled() or not variants or variants[0].params.load_envelope is None:
         return
     wanted = envelope_variants(variants[0].params)
@@ -88,13 +89,9 @@ def prepare_frequency_kernels(params):
     """Have the frequency-domain kernels of a batch of ``params`` (an ActuatorConfig) in this
     process (see :func:`prepare_kernels`); nothing with the reference engine.
 
-    In a thread of its own, waited for, as
-    :func:`cas_freq.simulation.simulator.prepare_kernels` (numba's compiler deep in a caller's
-    stack: see its docstring).
+    In a thread of its own, as :func:`cas_freq.simulation.simulator.prepare_kernels` (see its
+    docstring).
     """
-    from cas_freq.jit import use_compiled
-    from cas_freq.threads import result_of, worker_threads
-
     if use_compiled():
         with worker_threads(1, "cas_freq-prepare-kernels") as thread:
             result_of(thread.submit(_prepare_frequency_kernels, params))
@@ -102,9 +99,6 @@ def prepare_frequency_kernels(params):
 
 def _prepare_frequency_kernels(params):
     """The work of :func:`prepare_frequency_kernels`, in its thread."""
-    from cas_freq.analysis import batch_analyze
-    from cas_freq.parameters import LoopParameters
-
     runs = LoopParameters.from_configs([params]).take([0, 0])
     runs = dataclasses.replace(runs, K_h=np.array([0.0, 1.0]))
     batch_analyze(runs, frequency_range=(1.0, 1e4), points_per_decade=5, workers=1)
