@@ -301,22 +301,54 @@ def _listen_to_compilations():
     event.register("numba:compile", _COMPILING["listener"])
 
 
-def cached_jit(**options):
+def cached_jit(arguments=None, **options):
     """``numba.njit`` with ``cache=True``; without a cache if no cache directory is usable.
 
     ``error_model="numpy"``: a division by zero gives inf or nan, as in the numpy code each
     kernel mirrors, instead of raising. The first compilation in a process is told
     (:func:`compile_messages`).
+
+    Parameters
+    ----------
+    arguments : tuple of numba types, optional
+        The kernel's one signature (its argument types, e.g. :func:`array_type`), compiled or
+        loaded from the cache when the kernel's module is imported: every call converts to it
+        (a C-contiguous or read-only array to an ``array_type`` of any layout), and a call
+        that cannot raises ``TypeError`` instead of compiling another machine code. None (an
+        inlined helper): numba compiles for each call's types.
+    **options
+        More ``numba.njit`` options (``nogil``, ``inline``).
     """
     from numba import njit
 
     _listen_to_compilations()
+    signatures = () if arguments is None else [tuple(arguments)]
 
     def decorate(function):
         try:
-            return njit(cache=True, error_model="numpy", **options)(function)
+            return njit(*signatures, cache=True, error_model="numpy", **options)(function)
         except RuntimeError:  # numba: "cannot cache function ...: no locator available"
             _COMPILING["uncached"] = True
-            return njit(cache=False, error_model="numpy", **options)(function)
+            return njit(*signatures, cache=False, error_model="numpy", **options)(function)
 
     return decorate
+
+
+def array_type(dtype, ndim, written=False):
+    """numba's type of a numpy array argument of any layout (C-contiguous, Fortran-ordered or
+    a strided view), for :func:`cached_jit`'s ``arguments``: one machine code for all layouts.
+
+    Parameters
+    ----------
+    dtype : str
+        The element type by numba's name (``"float64"``, ``"complex128"``, ``"int64"``,
+        ``"bool_"``).
+    ndim : int
+        Number of dimensions.
+    written : bool
+        The kernel writes into the array; else the array is declared read-only, which accepts
+        read-only and writable arrays alike.
+    """
+    from numba import types
+
+    return types.Array(getattr(types, dtype), ndim, "A", readonly=not written)

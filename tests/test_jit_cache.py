@@ -137,48 +137,52 @@ def test_without_a_home_nothing_is_created_in_the_working_folder(monkeypatch, tm
 
 
 def test_the_users_own_numba_functions_are_not_announced(tmp_path):
-    # the listener is process-wide: a compilation of the user's code is not cas_freq's
+    # the listener is process-wide (registered by the first kernel declared; here directly,
+    # since declaring one compiles it): a compilation of the user's code is not cas_freq's
     code = ("import logging; logging.basicConfig(level=logging.INFO); import cas_freq.jit; "
-            "from cas_freq.simulation import fit_kernel; import numba; "
+            "cas_freq.jit._listen_to_compilations(); import numba; "
             "numba.njit(lambda x: x + 1)(1)")
     assert NOTE not in _run(None, tmp_path / "cache", code=code)
 
 
 def _signatures():
-    """The argument types each simulation and fit kernel has machine code for in this
-    process (compiled, or loaded from numba's cache)."""
+    """The argument types each simulation, fit and frequency-domain batch kernel has machine
+    code for in this process (compiled, or loaded from numba's cache)."""
     from numba.core.registry import CPUDispatcher
 
+    from cas_freq.analysis import response_kernel
     from cas_freq.simulation import figure_kernel, fit_kernel, kernel
 
     return {(module.__name__, name, signature)
-            for module in (kernel, fit_kernel, figure_kernel)
+            for module in (kernel, fit_kernel, figure_kernel, response_kernel)
             for name, function in vars(module).items() if isinstance(function, CPUDispatcher)
             for signature in function.overloads}
 
 
 def test_the_report_has_the_envelope_workers_kernels_before_it_forks():
-    # a first report compiled the simulation kernels twice at once, in its process and in the
-    # figure worker computing the load envelope (~25 s of CPU each: 70 s against 19 s warm);
-    # build_report now gets them first (prepare_kernels: compiled or from the cache) and the
-    # forked worker inherits them: the envelope (2 of its hinge stiffnesses) then needs no
-    # other signature
-    from cas_freq.config.loader import load_variant
-    from cas_freq.simulation.simulator import prepare_kernels
+    # a first report compiled the kernels again in the figure workers computing the load
+    # envelopes: the simulation's (~25 s of CPU each: 70 s against 19 s warm), then, once the
+    # report prepared those, the frequency-domain batch's (response_kernel, in each of the two
+    # workers at once); build_report now gets them all first (report.workers.prepare_kernels:
+    # compiled or from the cache) and the forked workers inherit them: an envelope (2 of its
+    # hinge stiffnesses) then needs no other signature
+    from cas_freq.config import load_all_variants
+    from cas_freq.report.workers import prepare_kernels
     from cas_freq.studies.envelope import load_envelope
 
     if not jit.use_compiled():
         pytest.skip("numba is not importable: nothing compiles")
-    loaded = load_variant()
-    prepare_kernels(loaded.params)
+    variants = load_all_variants(ROOT / "configs" / "qt_cas.yaml")
+    prepare_kernels(variants)
     before = _signatures()
+    loaded = next(v for v in variants if v.variant in variants[0].params.load_envelope.variants)
     load_envelope(loaded, [0.0, 10.0], loaded.params.load_envelope.step)
     assert _signatures() - before == set()
-    # (the fit's kernels by the names the fit calls: "normal_equations", which only the tests
-    # call, made this test pass only after them)
+    # (the fit's kernels by the names the fit calls; the batch responses, whatever their names)
     assert {name for _, name, _ in before} >= {"advance_parallel", "start_batch",
                                                "normal_equations_of", "lm_trials", "lm_update",
                                                "refine"}
+    assert any(module.endswith(".response_kernel") for module, _, _ in before)
 
 
 def _compiling(seconds, cpu_seconds):
@@ -229,3 +233,43 @@ def test_the_cli_says_what_compiling_took_so_far_and_in_the_end(monkeypatch):
     assert abs(float(said.group(2)) - cpu) <= 0.1 and cpu < wall - 0.5
     time.sleep(0.4)  # the ticker is stopped: nothing more is said
     assert len(lines) == 1 + len(ticks)
+
+
+def test_the_scan_figure_and_fit_kernels_have_one_machine_code_for_any_array_layout():
+    # a kernel compiled once per argument types compiled again for a strided view (the step
+    # figures of a batch's first columns) or a read-only array (settled_runs' final values):
+    # each now has one signature, compiled or loaded on import, which every layout converts to
+    from numba.core.registry import CPUDispatcher
+
+    from cas_freq.analysis import scan_kernel
+    from cas_freq.simulation import figure_kernel, fit_kernel
+
+    if not jit.use_compiled():
+        pytest.skip("numba is not importable: nothing compiles")
+    kernels = {name: function for module in (scan_kernel, figure_kernel, fit_kernel)
+               for name, function in vars(module).items()
+               if isinstance(function, CPUDispatcher)
+               and function.targetoptions.get("inline") != "always"}
+    assert len(kernels) == 17
+    rng = np.random.default_rng(3)
+    grid = rng.standard_normal((3, 40)) + 1j * rng.standard_normal((3, 40))
+    read_only = grid.copy()
+    read_only.flags.writeable = False
+    results = []
+    for response in (grid, np.asfortranarray(grid), read_only, np.repeat(grid, 2, axis=1)[:, ::2]):
+        out = [np.empty(grid.shape) for _ in range(3)]
+        scan_kernel.magnitudes(response, *out)
+        results.append(out)
+    for other in results[1:]:
+        np.testing.assert_array_equal(np.array(other), np.array(results[0]))
+    t = np.linspace(0.0, 0.04, 40)
+    delta = 1.0 - np.exp(-200.0 * t) * np.ones((3, 1))
+    final = np.ones(3)
+    final.flags.writeable = False
+    assert figure_kernel.settled_runs(delta, delta, final, 20, 0.02).all()
+    flags = np.zeros((3, 41), dtype=bool)
+    table = figure_kernel.step_figures_batch(t, delta, np.full(3, 40), 1.0, delta, delta,
+                                             flags[:, :40], flags[:, 1:])
+    assert table.shape == (3, 9)
+    assert {name: len(function.signatures) for name, function in kernels.items()} == dict.fromkeys(
+        kernels, 1)

@@ -11,11 +11,21 @@ to its first event, with the same tests (:func:`~cas_freq.analysis.margins.phase
 sign of the cross product of neighbouring points where the imaginary part changes sign). On
 the batches of ``benchmarks/run.py`` they replace about ten full passes over (256 x 1,601)
 arrays per loop.
+
+Each kernel has one signature (:func:`~cas_freq.jit.cached_jit`'s ``arguments``): arrays of any
+layout, so that a grid's row slice and the whole grid share one machine code.
 """
 
 import math
 
-from cas_freq.jit import cached_jit
+from numba import types
+
+from cas_freq.jit import array_type, cached_jit
+
+#: The argument types: a batch's grid responses (n, m), read; real and index arrays.
+_GRID = array_type("complex128", 2)
+_REAL, _REAL_OUT = array_type("float64", 2), array_type("float64", 2, written=True)
+_INDEX, _INDEX_OUT = array_type("int64", 1), array_type("int64", 1, written=True)
 
 
 @cached_jit(inline="always")
@@ -41,7 +51,7 @@ def _quarter_turn(value, quarters):
     return complex(value.imag, -value.real)
 
 
-@cached_jit(nogil=True)
+@cached_jit((_GRID, _INDEX, array_type("float64", 1), types.int64, _INDEX_OUT), nogil=True)
 def first_turned_jumps(response, rows, quarters, width, out):
     """out[q]: the first k < width - 1 where ``response[rows[q]]`` turned by ``quarters[q]``
     quarter turns jumps between k and k + 1, else width - 1."""
@@ -57,7 +67,7 @@ def first_turned_jumps(response, rows, quarters, width, out):
             previous = current
 
 
-@cached_jit(nogil=True)
+@cached_jit((_GRID, _INDEX_OUT, _INDEX_OUT), nogil=True)
 def first_fall_below_90(response, crossing, jump):
     """Per row: ``crossing``, the first k where the point leaves the half-planes Re > 0 or
     Im >= 0 between k and k + 1 (m - 1 if never); ``jump``, the first phase jump at or
@@ -79,7 +89,7 @@ def first_fall_below_90(response, crossing, jump):
             previous, above = current, next_above
 
 
-@cached_jit(nogil=True)
+@cached_jit((_GRID, _REAL_OUT, _REAL_OUT, _REAL_OUT), nogil=True)
 def magnitudes(response, squared, plus, disk):
     """|L|^2, |1 + L|^2 and |1 - L|^2 / |1 + L|^2 of every point, in one pass."""
     n, m = response.shape
@@ -94,7 +104,7 @@ def magnitudes(response, squared, plus, disk):
             disk[i, k] = (shifted * shifted + im2) / plus[i, k]
 
 
-@cached_jit(nogil=True)
+@cached_jit((_GRID, _REAL, _INDEX_OUT, _INDEX_OUT), nogil=True)
 def long_chords(inner, distance2, rows, columns):
     """The intervals (row, k) where the chord from point k to k + 1 is longer than sqrt(3)
     times the nearer end's distance to -1, in row-major order; returns how many (the first

@@ -676,12 +676,11 @@ def build_report(variants, out_dir=None, *, settings=None, verdicts=None, png=Fa
     params = variants[0].params
     enveloped = envelope_variants(params)
     datas, envelopes = [], {}
-    if workers > 1 and params.load_envelope is not None:
-        from cas_freq.simulation.simulator import prepare_kernels
+    if workers > 1:
+        from cas_freq.report.workers import prepare_kernels
 
-        # compiled (first run) or loaded here once, then inherited by the forked workers:
-        # on a first run the load envelope's worker compiled them too, at the same time
-        prepare_kernels(params)
+        # compiled (first run) or loaded here once, then inherited by the forked workers
+        prepare_kernels(variants)
     with FigureRenderer(workers, png) as renderer:
         if renderer.parallel:
             # a worker computes and draws the load envelopes first, while this process

@@ -21,15 +21,28 @@ fork is done. :func:`stop_pool` with ``kill=True`` (an interrupted or failed rep
 workers at once instead of waiting for the figures they are drawing.
 
 Linux only: elsewhere the report draws in its own process and nothing is forked.
+
+The workers never compile: :func:`prepare_kernels` has the kernels they run in the report's
+process before it forks them (on a first run each worker compiled the envelope's again).
 """
 
 import ctypes
+import dataclasses
 import multiprocessing
 import os
 import signal
 import threading
 import time
 from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+
+from cas_freq.analysis import batch_analyze
+from cas_freq.jit import use_compiled
+from cas_freq.parameters import LoopParameters
+from cas_freq.report.envelope import envelope_variants
+from cas_freq.simulation.simulator import prepare_kernels as prepare_simulation
+from cas_freq.threads import result_of, worker_threads
 
 #: ``prctl`` option that sets the signal a process gets when its parent dies (linux/prctl.h).
 PR_SET_PDEATHSIG = 1
@@ -42,6 +55,53 @@ KILL_WAIT_S = 2.0
 
 #: Period of the parent check where ``prctl`` is unavailable [s].
 PARENT_POLL_S = 0.2
+
+
+def prepare_kernels(variants):
+    """Have the compiled kernels of the load envelope in this process, before it forks the
+    workers that compute it (compiled where numba's cache has none, else loaded from it).
+
+    For each variant whose envelope the report computes
+    (:func:`cas_freq.report.envelope.envelope_variants`): the simulation's kernels
+    (:func:`cas_freq.simulation.simulator.prepare_kernels`: steps with and without a load
+    spring, fits, step figures) and the frequency-domain batch kernels
+    (:func:`cas_freq.analysis.batch_analyze` of two runs, without and with a load spring, on a
+    short grid: a batch analysis runs them at any size; the grid scans of
+    :mod:`cas_freq.analysis.scan_kernel` run only on larger arrays than an envelope's).
+    Kernels that take the loop table as data are compiled for the first variant and found
+    compiled for the others. Nothing with the reference engine.
+
+    Parameters
+    ----------
+    variants : list of cas_freq.config.LoadedVariant
+        The report's variants (of one config).
+    """
+    if not use_compiled() or not variants or variants[0].params.load_envelope is None:
+        return
+    wanted = envelope_variants(variants[0].params)
+    for loaded in variants:
+        if wanted is None or loaded.variant in wanted:
+            prepare_simulation(loaded.params)
+            prepare_frequency_kernels(loaded.params)
+
+
+def prepare_frequency_kernels(params):
+    """Have the frequency-domain kernels of a batch of ``params`` (an ActuatorConfig) in this
+    process (see :func:`prepare_kernels`); nothing with the reference engine.
+
+    In a thread of its own, as :func:`cas_freq.simulation.simulator.prepare_kernels` (see its
+    docstring).
+    """
+    if use_compiled():
+        with worker_threads(1, "cas_freq-prepare-kernels") as thread:
+            result_of(thread.submit(_prepare_frequency_kernels, params))
+
+
+def _prepare_frequency_kernels(params):
+    """The work of :func:`prepare_frequency_kernels`, in its thread."""
+    runs = LoopParameters.from_configs([params]).take([0, 0])
+    runs = dataclasses.replace(runs, K_h=np.array([0.0, 1.0]))
+    batch_analyze(runs, frequency_range=(1.0, 1e4), points_per_decade=5, workers=1)
 
 
 def fork_pool(workers, warm_up):

@@ -11,13 +11,18 @@ nominal, an overshooting, an unsettled and an unstable run). Per 32-run chunk of
 they take well under a millisecond, against ~10 ms for the per-run numpy figures and ~10 ms
 for the numpy settling check over the whole horizon (which scans every sample; this one scans
 each run backwards from its end and stops at its first sample outside the band).
+
+Each kernel has one signature (:func:`~cas_freq.jit.cached_jit`'s ``arguments``): arrays of any
+layout, read-only or not, so that a batch's whole buffers and views of their first columns
+share one machine code.
 """
 
 import math
 
 import numpy as np
+from numba import types
 
-from cas_freq.jit import cached_jit
+from cas_freq.jit import array_type, cached_jit
 from cas_freq.simulation.step_figures import DIVERGED
 
 #: Columns of :func:`step_figures_batch`'s table (the ``step.*`` figures of ``simulate``).
@@ -63,7 +68,9 @@ def _largest_magnitude(x, size):
     return top
 
 
-@cached_jit(nogil=True)
+@cached_jit((array_type("float64", 1), array_type("float64", 2), array_type("int64", 1),
+             types.float64, array_type("float64", 2), array_type("float64", 2),
+             array_type("bool_", 2), array_type("bool_", 2)), nogil=True)
 def step_figures_batch(t, response, sizes, final, current, voltage, current_limited,
                        voltage_limited):
     """Step figures of every run (:func:`~cas_freq.simulation.step_figures.step_figures`).
@@ -136,7 +143,8 @@ def step_figures_batch(t, response, sizes, final, current, voltage, current_limi
     return out
 
 
-@cached_jit(nogil=True)
+@cached_jit((array_type("float64", 2), array_type("float64", 2), array_type("float64", 1),
+             types.int64, types.float64), nogil=True)
 def settled_runs(delta, command, final, start, band_fraction):
     """Per run: ``delta`` within ``band_fraction`` times the largest |command| of ``final``
     at every sample from column ``start`` on (the simulator's settling check).

@@ -1,6 +1,6 @@
 r"""The normal equations of the second-order step fit, compiled with numba.
 
-:func:`normal_equations` gives, for each of k runs, the sum of squares
+:func:`normal_equations_of` gives, for each of k runs, the sum of squares
 :math:`r^T r`, :math:`J^T J` (3 x 3) and :math:`J^T r` (3) of the residuals of the
 second-order-plus-delay unit step at the scaled variables p, in one pass over the samples and
 without the (k, 3, m) Jacobian. It is the scalar form of the numpy reference
@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numba import types
 
-from cas_freq.jit import cached_jit
+from cas_freq.jit import array_type, cached_jit
 from cas_freq.simulation.second_order import _FTOL, _LOWER, _MOVE, C_SERIES, D_SERIES, S_SERIES
 
 try:  # numba's own helper for LAPACK's dgesv (what its np.linalg.solve calls): not public API
@@ -38,13 +38,20 @@ except (ImportError, AttributeError):  # pragma: no cover (another numba)
     _GESV = F_INT_nptype = None
 _DOUBLE = ord("d")
 
+# The kernels' argument types (one signature each, arrays of any layout: cached_jit): read-only
+# (R) and written (W) float arrays of 1, 2 and 3 dimensions, index and flag arrays.
+_R1, _R2, _R3 = (array_type("float64", ndim) for ndim in (1, 2, 3))
+_W1, _W2, _W3 = (array_type("float64", ndim, written=True) for ndim in (1, 2, 3))
+_INDEX, _FLAGS = array_type("int64", 1), array_type("bool_", 1)
+_F, _I = types.float64, types.int64
+
 #: Exponent gap beyond which the fast decay of the overdamped step is below 2^-54 of the slow
 #: one (e^-40 = 4e-18 < 2^-54 = 5.6e-17, with room for the rounding of the exponents and of
 #: exp): adding or subtracting it rounds to the slow one, so it is left out, exactly.
 FAST_NEGLIGIBLE = 40.0
 
 
-@cached_jit()
+@cached_jit((_F, _R1))
 def _series(x, coefficients):
     """Horner evaluation of sum coefficients[k] (-x)^k (at x = 0 exactly coefficients[0],
     as Horner's steps give it: every product is then a zero: all of a run at zeta = 1, as
@@ -57,7 +64,7 @@ def _series(x, coefficients):
     return total
 
 
-@cached_jit()
+@cached_jit((_R2, _R2, _I, _R1, _R1, _W2, _W1))
 def _run_sums(t, unit, row, p, scale, normal, gradient):
     """Sum of squares of one run (returned), its J^T J into ``normal`` (3, 3) and J^T r into
     ``gradient`` (3), at the scaled variables ``p`` (3) with scales ``scale`` (3), on the data
@@ -123,14 +130,7 @@ def _run_sums(t, unit, row, p, scale, normal, gradient):
     return rr
 
 
-@cached_jit(nogil=True)
-def normal_equations(t, unit, p, scale):
-    """Sum of squares, J^T J and J^T r of the unit-step residuals of k runs
-    (:func:`normal_equations_of` of every row of ``t`` and ``unit``)."""
-    return normal_equations_of(t, unit, np.arange(t.shape[0]), p, scale)
-
-
-@cached_jit(nogil=True)
+@cached_jit((_R2, _R2, _INDEX, _R2, _R2), nogil=True)
 def normal_equations_of(t, unit, rows, p, scale):
     """Sum of squares, J^T J and J^T r of the unit-step residuals of k runs, run i on the
     data of row ``rows[i]`` (no copy of the data of the runs still iterating).
@@ -176,7 +176,7 @@ def normal_equations_of(t, unit, rows, p, scale):
 # lm_update).
 
 
-@cached_jit()
+@cached_jit((_F, _F))
 def _maximum(a, b):
     """np.maximum of two floats (NaN if either is NaN)."""
     if a != a or b != b:
@@ -184,7 +184,7 @@ def _maximum(a, b):
     return a if a >= b else b
 
 
-@cached_jit()
+@cached_jit((_F, _F))
 def _minimum(a, b):
     """np.minimum of two floats (NaN if either is NaN)."""
     if a != a or b != b:
@@ -192,7 +192,7 @@ def _minimum(a, b):
     return a if a <= b else b
 
 
-@cached_jit()
+@cached_jit((_F, _F, _F))
 def _clip(x, low, high):
     """np.clip of a float between array bounds: min(max(x, low), high), NaN kept."""
     if x != x:
@@ -224,16 +224,19 @@ def _solve_by_numpy(system, rhs, out):
     return 0
 
 
-_solve = cached_jit(nogil=True)(_solve_by_numpy if _GESV is None else _solve_by_helper)
+#: ``_solve(system, rhs, out)``: ``out`` C-contiguous (dgesv writes its memory).
+_solve = cached_jit((_R2, _R1, types.float64[::1]), nogil=True)(
+    _solve_by_numpy if _GESV is None else _solve_by_helper)
 
 
-@cached_jit()
+@cached_jit((_R1,))
 def _norm(v):
     """np.linalg.norm of a 3-vector (its sum of squares in numpy's order)."""
     return math.sqrt((v[0] * v[0] + v[1] * v[1]) + v[2] * v[2])
 
 
-@cached_jit(nogil=True)
+@cached_jit((_R2, _R2, _INDEX, _R2, _R1, _R3, _R2, _R1, _R2, _R2, _W2, _W2, _W3, _W2),
+            nogil=True)
 def lm_trials(t, unit, active, p, cost, normal, gradient, damping, scale, upper,
               trial, step, normal_new, gradient_new):
     """One Levenberg-Marquardt trial step of each active run (the first half of an iteration
@@ -318,7 +321,8 @@ def lm_trials(t, unit, active, p, cost, normal, gradient, damping, scale, upper,
     return cost_new, ratio, accept, stuck, flat
 
 
-@cached_jit(nogil=True)
+@cached_jit((_INDEX, _W2, _W1, _W3, _W2, _W1, _W1, array_type("bool_", 1, written=True), _R2,
+             _R2, _R1, _R3, _R2, _R1, _R1, _FLAGS, _FLAGS, _FLAGS), nogil=True)
 def lm_update(active, p, cost, normal, gradient, damping, growth, converged, trial, step,
               cost_new, normal_new, gradient_new, ratio, cube, accept, stuck, flat):
     """The second half of an iteration: Nielsen's update of λ, the convergence tests and the
@@ -355,7 +359,7 @@ def lm_update(active, p, cost, normal, gradient, damping, growth, converged, tri
     return going[:kept]
 
 
-@cached_jit(nogil=True)
+@cached_jit((_R2, _R2, _R2, _R2, _R2, _R1, _R3, _R2, _I), nogil=True)
 def refine(t, unit, p, scale, upper, cost, normal, gradient, iterations):
     """:func:`~cas_freq.simulation.second_order._refine`, run by run, from the converged fits.
 
