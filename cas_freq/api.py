@@ -28,6 +28,8 @@ import types
 
 import numpy as np
 
+from cas_freq.analysis import analyze
+from cas_freq.analysis.analyze import Analysis as _Figures
 from cas_freq.analysis.frequency import DEFAULT_RANGE_RAD_S
 from cas_freq.config.loader import load_variant, read_config_file, variant_names
 from cas_freq.config.wording import OutputWords
@@ -180,15 +182,13 @@ class Actuator:
 
         Returns
         -------
-        cas_freq.analysis.Analysis
+        Analysis
             Attributes ``current_loop``, ``position_loop`` (margins), ``closed_loop``
             (bandwidth, peak; None when the loop is not stable), ``stable``, ``stability``;
             a figure that does not exist is None. ``to_dict()`` is ``analyze --json``.
         """
-        from cas_freq.analysis import analyze
-
-        return analyze(self.loaded, _delay(delay), _range(frequency_range),
-                       limit_cycle_check=limit_cycle_check)
+        return Analysis.of(analyze(self.loaded, _delay(delay), _range(frequency_range),
+                                   limit_cycle_check=limit_cycle_check))
 
     @one_blas_thread()
     def frequency_response(self, omega, delay="exact"):
@@ -229,8 +229,7 @@ class Actuator:
         -------
         StepResponse
         """
-        from cas_freq.cli.common import output_step
-        from cas_freq.output import output_unit
+        from cas_freq.output import output_step, output_unit
         from cas_freq.simulation.run import step_run
 
         step = output_unit(self.loaded.params).example if step is None else step
@@ -294,7 +293,7 @@ class Actuator:
             ``figures`` per grid point, ``stable_range``, and per requirement its verdicts and
             where it is lost (``requirements[k].lost_below`` / ``lost_above``).
         """
-        from cas_freq.cli.common import angle
+        from cas_freq.output import angle
         from cas_freq.studies.envelope import load_envelope
 
         step_rad = None if step is None else angle(str(step), "step")
@@ -500,6 +499,34 @@ class FrequencyResponse(Summary):
         from cas_freq.plots.api import bode_figure
 
         return bode_figure(self)
+
+
+class Analysis(_Figures):
+    """What :meth:`Actuator.analyze` returns: a :class:`cas_freq.analysis.Analysis` (every
+    figure, ``to_dict()``) that also draws itself (:meth:`plot`)."""
+
+    @classmethod
+    def of(cls, analysis):
+        """The same figures as ``analysis`` (a :class:`cas_freq.analysis.Analysis`)."""
+        return cls(**{field.name: getattr(analysis, field.name)
+                      for field in dataclasses.fields(analysis)})
+
+    def plot(self):
+        """Bode of L_i, L_p and T: every crossover marked, the margins as bars and in the
+        legend, the bandwidth on T (the report's open-loop figure with T added).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            Magnitude [dB] and phase [deg] axes against frequency [rad/s]; in a notebook it
+            displays itself.
+        """
+        if self.loaded is None:
+            raise ValueError("this analysis holds no variant to plot (loaded=None); "
+                             "analyze it with cas_freq.load(...).analyze()")
+        from cas_freq.plots.api import analysis_figure
+
+        return analysis_figure(self)
 
 
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)

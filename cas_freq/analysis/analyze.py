@@ -477,23 +477,6 @@ class Analysis(Summary):
         changed = f" with {', '.join(self.overrides)}" if self.overrides else ""
         return f"{self.config} / {self.variant}{changed} ({self.delay_model} delays)", rows
 
-    def plot(self):
-        """Bode of L_i, L_p and T: every crossover marked, the margins as bars and in the
-        legend, the bandwidth on T (the report's open-loop figure with T added).
-
-        Returns
-        -------
-        matplotlib.figure.Figure
-            Magnitude [dB] and phase [deg] axes against frequency [rad/s]; in a notebook it
-            displays itself.
-        """
-        if self.loaded is None:
-            raise ValueError("this analysis holds no variant to plot (loaded=None); "
-                             "analyze it with cas_freq.load(...).analyze()")
-        from cas_freq.plots.api import analysis_figure
-
-        return analysis_figure(self)
-
 
 def _value(number):
     return None if not np.isfinite(number) else float(number)

@@ -76,8 +76,8 @@ def run(args):
         variants += selected_variants(config, names, args.overrides, all_by_default=True)
     settings = settings_from_args(args, variants)
     if args.output is not None or len(variants) >= 2:
-        from cas_freq.fileio import check_output_dir
         from cas_freq.report.compare import default_compare_dir
+        from cas_freq.report.outdir import check_output_dir
 
         check_output_dir(args.output if args.output is not None
                          else default_compare_dir(variants, names or None), "-o")

@@ -3,8 +3,9 @@
 import dataclasses
 import math
 
-from cas_freq.cli.common import EXIT_OK, angle, output_path, print_json
+from cas_freq.cli.common import EXIT_OK, column_option, output_path, print_json
 from cas_freq.exceptions import CasFreqError
+from cas_freq.output import angle
 
 
 def register(commands):
@@ -77,19 +78,6 @@ def register(commands):
                         "into DIR (replaced as a whole); with --params also config.yaml (the "
                         "config with the fitted variant), or only that config to FILE.yaml")
     parser.set_defaults(handler=run)
-
-
-def column_option(args):
-    """The ``--columns`` mapping of ``args`` (None without the option); a malformed one is
-    bad input (exit 2)."""
-    from cas_freq.identification.columns import parse_column_option
-
-    if args.columns is None:
-        return None
-    try:
-        return parse_column_option(args.columns)
-    except ValueError as exc:
-        raise CasFreqError(str(exc)) from None
 
 
 def run(args):

@@ -9,10 +9,11 @@ import math
 import time
 from pathlib import Path
 
-from cas_freq.cli.common import angle, write_and_print, wrote
+from cas_freq.cli.common import write_and_print, wrote
 from cas_freq.exceptions import CasFreqError
 from cas_freq.identification.identifiability import UNBOUNDED
 from cas_freq.identification.probe import NOT_IDENTIFIABLE
+from cas_freq.output import angle
 
 #: A residual this many times the pre-trigger noise is reported as a misfit.
 MISFIT = 2.0
@@ -214,8 +215,7 @@ def table(data):
 
 def run_params(args):
     """Fit each ``--params`` model, compare, print, write ``-o``."""
-    from cas_freq.cli.common import selected_variants
-    from cas_freq.cli.fit import column_option
+    from cas_freq.cli.common import column_option, selected_variants
     from cas_freq.fileio import check_output_file, json_ready, write_text_atomic
     from cas_freq.identification import read_recording
     from cas_freq.identification.fitted_config import fitted_config_text

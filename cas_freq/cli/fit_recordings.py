@@ -9,7 +9,8 @@ step figures and fit of CONFIG's base variant simulated for the same step
 import dataclasses
 import math
 
-from cas_freq.cli.common import angle, write_and_print
+from cas_freq.cli.common import write_and_print
+from cas_freq.output import angle
 
 
 def _fit_dict(fit, unit_step=False):
@@ -169,7 +170,7 @@ def table(data):
 
 def run_recordings(args):
     """Read the recordings, fit them, simulate the config's step, print, write ``-o``."""
-    from cas_freq.cli.fit import column_option
+    from cas_freq.cli.common import column_option
     from cas_freq.identification import fit_recordings, read_recording
     from cas_freq.report.outdir import check_output_dir
 

@@ -190,7 +190,7 @@ def run_sweep(args):
                            "command oscillates)")
     if args.output is not None:
         check_output_dir(args.output, "-o")
-    from cas_freq.cli.fit import column_option
+    from cas_freq.cli.common import column_option
 
     columns = column_option(args)
     loaded = selected_variants(args.target, [args.variant] if args.variant else [], [])[0]

@@ -5,11 +5,11 @@ from cas_freq.cli.common import (
     add_config_arguments,
     file_safe,
     output_path,
-    output_step,
     print_json,
     several_variants,
     variant_csv,
 )
+from cas_freq.output import output_step
 
 #: Figures summarised in the text output (besides those of the requirements).
 SUMMARY_FIGURES = (
@@ -93,7 +93,7 @@ def run(args):
     """Run the Monte Carlo of each selected variant; print text or JSON, write the report."""
     from cas_freq.cli.common import load_variants, terminal_progress
     from cas_freq.exceptions import CasFreqError
-    from cas_freq.fileio import check_output_dir
+    from cas_freq.report.outdir import check_output_dir
     from cas_freq.report.studies import json_text, write_report
     from cas_freq.studies.distributed import session
     from cas_freq.studies.montecarlo import (

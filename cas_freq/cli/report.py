@@ -80,7 +80,7 @@ def run(args):
 
     variants = load_variants(args, all_by_default=True)
     settings = settings_from_args(args, variants)
-    from cas_freq.fileio import check_output_dir
+    from cas_freq.report.outdir import check_output_dir
 
     if args.output is not None:
         check_output_dir(args.output, "-o")

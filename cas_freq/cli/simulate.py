@@ -6,13 +6,13 @@ from cas_freq.cli.common import (
     add_config_arguments,
     load_variants,
     output_path,
-    output_step,
     print_json,
     refuse_linear,
     several_variants,
     terminal_progress,
     wrote,
 )
+from cas_freq.output import output_step
 
 
 def register(commands):

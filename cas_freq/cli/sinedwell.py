@@ -3,14 +3,13 @@
 from cas_freq.cli.common import (
     EXIT_OK,
     add_config_arguments,
-    angle,
     load_variants,
-    output_step,
     print_json,
     several_variants,
     terminal_progress,
 )
 from cas_freq.exceptions import CasFreqError
+from cas_freq.output import angle, output_step
 
 #: Amplitudes when none are given: small signal, mid, and the report's 10 deg step size.
 DEFAULT_AMPLITUDES = "0.5deg,2deg,10deg"

@@ -6,12 +6,12 @@ from cas_freq.cli.common import (
     file_safe,
     load_variants,
     output_path,
-    output_step,
     print_json,
     several_variants,
     variant_csv,
 )
 from cas_freq.exceptions import CasFreqError
+from cas_freq.output import output_step
 
 #: Figures shown in the text table (all of them go to JSON and CSV).
 TABLE_FIGURES = (
@@ -125,7 +125,8 @@ def table(sweep):
 def run(args):
     """Run the sweep of each selected variant; print tables or JSON, write CSV and the report."""
     from cas_freq.cli.common import terminal_progress
-    from cas_freq.fileio import check_output_dir, check_output_file, write_text_atomic
+    from cas_freq.fileio import check_output_file, write_text_atomic
+    from cas_freq.report.outdir import check_output_dir
     from cas_freq.report.studies import json_text, write_report
     from cas_freq.studies.distributed import session
     from cas_freq.studies.sweep import run_sweep, sweep_csv, sweep_dict

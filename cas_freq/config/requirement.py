@@ -173,12 +173,6 @@ class ProfileCondition(BaseModel):
             raise PydanticCustomError("cas_value", f"must be > 0, got {value!r}")
         return number
 
-    def command(self):
-        """The :class:`~cas_freq.simulation.commands.Profile` of this condition."""
-        from cas_freq.simulation.commands import Profile
-
-        return Profile(self.distance, self.velocity, self.acceleration, self.deceleration)
-
 
 class Requirement(BaseModel):
     """One requirement on one figure, checked for every variant by ``cas-freq verify``.

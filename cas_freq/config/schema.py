@@ -24,6 +24,7 @@ from pydantic import (
 from pydantic_core import PydanticCustomError
 
 from cas_freq.config.requirement import Requirement
+from cas_freq.exceptions import ConfigError
 from cas_freq.filters_config import (
     DEFAULT_DAMPING,
     FILTER_NUMBERS,
@@ -31,6 +32,7 @@ from cas_freq.filters_config import (
     point_problem,
     type_problem,
 )
+from cas_freq.parameter_keys import parse_grid_values
 from cas_freq.parameters import (
     CASCADE_ONLY,
     CASCADE_PARAMETERS,
@@ -578,9 +580,6 @@ class LoadEnvelopeSpec(_Section):
     @field_validator("hinge_stiffness", mode="before")
     @classmethod
     def _grid(cls, value):
-        from cas_freq.exceptions import ConfigError
-        from cas_freq.studies.sweep import parse_grid_values
-
         text = ",".join(str(v) for v in value) if isinstance(value, (list, tuple)) else value
         try:
             values = parse_grid_values("load.hinge_stiffness", str(text))

@@ -162,7 +162,7 @@ class Design:
     def _step(self, text):
         if not text:
             return None
-        from cas_freq.cli.common import output_step
+        from cas_freq.output import output_step
 
         return output_step(str(text), "step", [self.loaded])
 

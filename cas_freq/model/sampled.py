@@ -52,6 +52,7 @@ from cas_freq.exceptions import ConfigError
 from cas_freq.model import parts
 from cas_freq.model.hold import WHOLE, PlantModes, hold_equivalent, measured, plant_modes
 from cas_freq.model.loops import LoopResponses
+from cas_freq.model.loops import responses as continuous
 from cas_freq.model.structure import build, digital_sensor, product, stages
 
 #: The discretisations of a sampled controller (docs/model.md).
@@ -490,8 +491,6 @@ def drive_responses(p, s, closed=True, loop_at_a_time=False):
     closed, loop_at_a_time : bool
         As :func:`responses`.
     """
-    from cas_freq.model.loops import responses as continuous
-
     if not is_sampled(p):
         return continuous(p, s, closed=closed, loop_at_a_time=loop_at_a_time)
     omega = np.asarray(s).imag

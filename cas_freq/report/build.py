@@ -20,9 +20,9 @@ from pathlib import Path
 from cas_freq.config.wording import OutputWords
 from cas_freq.figures import FIGURES, LOOPS
 from cas_freq.output import output_json, output_unit
+from cas_freq.parameters import current_limit
 from cas_freq.report.data import (
     ReportSettings,
-    current_limit,
     display_path,
     gather_frequency,
     gather_time,

@@ -265,13 +265,6 @@ class VariantData:
         return tuple(getattr(self.loaded.params, "requirements", ()) or ())
 
 
-def current_limit(params):
-    """The current-command limit i_max [A] of a validated config: the velocity loop's with
-    one, else the position loop's."""
-    velocity = getattr(params, "velocity_loop", None)
-    return (velocity if velocity is not None else params.position_loop).i_max
-
-
 def variant_label(loaded):
     """``config / variant`` (with the ``--set`` overrides, if any)."""
     label = f"{loaded.params.name} / {loaded.variant}"

@@ -8,6 +8,7 @@ import math
 
 from cas_freq.figures import FIGURES
 from cas_freq.report.numbers import number
+from cas_freq.simulation.commands import condition_profile
 
 
 def _trapezoid_text(move, unit):
@@ -173,7 +174,7 @@ def profile_section(datas, png=False):
     unit = output_unit(datas[0].loaded.params)
     results = []
     for number_, condition in enumerate(conditions, start=1):
-        move = condition.command()
+        move = condition_profile(condition)
         verdicts = {id(d.loaded): d.analysis.stability.verdict for d in stable}
         runs = profile_runs([d.loaded for d in stable], move, verdicts) if stable else []
         blocks.append(Heading(3, f"Move {number_}: {profile_condition_text(move, unit)}"))

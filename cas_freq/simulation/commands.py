@@ -584,3 +584,10 @@ def motor_command(command, ratio, t, left=False):
         Angle [rad], rate [rad/s], acceleration [rad/s^2] at the motor.
     """
     return tuple(ratio * part for part in command.fin(t, left=left))
+
+
+def condition_profile(condition):
+    """The :class:`Profile` of a config's profile condition
+    (:class:`cas_freq.config.requirement.ProfileCondition`)."""
+    return Profile(condition.distance, condition.velocity, condition.acceleration,
+                   condition.deceleration)

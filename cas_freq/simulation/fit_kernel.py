@@ -26,8 +26,8 @@ import math
 import numpy as np
 from numba import types
 
+from cas_freq.formulas import _FTOL, _LOWER, _MOVE, C_SERIES, D_SERIES, S_SERIES
 from cas_freq.jit import cached_jit
-from cas_freq.simulation.second_order import _FTOL, _LOWER, _MOVE, C_SERIES, D_SERIES, S_SERIES
 
 try:  # numba's own helper for LAPACK's dgesv (what its np.linalg.solve calls): not public API
     from numba.np.linalg import _LAPACK, F_INT_nptype

@@ -11,6 +11,7 @@ grid, the same move) are done once.
 import math
 
 from cas_freq.fileio import json_ready
+from cas_freq.simulation.commands import condition_profile
 
 
 def figure(result, metric):
@@ -82,8 +83,8 @@ def measure(variants, requirements, known=None):
     for condition in dict.fromkeys(r.profile for r in requirements if r.kind == "profile"):
         from cas_freq.simulation.profile_run import profile_runs
 
-        runs = profile_runs([variants[index] for index in stable], condition.command(),
-                            verdicts) if stable else []
+        runs = profile_runs([variants[index] for index in stable],
+                            condition_profile(condition), verdicts) if stable else []
         moves[condition] = dict(zip(stable, runs, strict=True))
     out = []
     for index, loaded in enumerate(variants):
