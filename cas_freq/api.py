@@ -33,9 +33,13 @@ from cas_freq.analysis.analyze import Analysis as _Figures
 from cas_freq.analysis.frequency import DEFAULT_RANGE_RAD_S
 from cas_freq.config.loader import load_variant, read_config_file, variant_names
 from cas_freq.config.wording import OutputWords
+from cas_freq.exceptions import CasFreqError
 from cas_freq.model import DelayModel
+from cas_freq.output import angle, output_step, output_unit, read_output
 from cas_freq.summary import Summary, row, spread
 from cas_freq.threads import one_blas_thread
+from cas_freq.tuning import options
+from cas_freq.units import to_si
 
 #: Highest default Padé order of :meth:`Actuator.to_control`. python-control's
 #: ``stability_margins`` works on the loop's polynomials, whose coefficients grow with the
@@ -65,10 +69,6 @@ def _quantities(values, unit, field, output=None):
     cas_freq.exceptions.CasFreqError
         One line naming ``field``, the value and what is accepted.
     """
-    from cas_freq.exceptions import CasFreqError
-    from cas_freq.output import read_output
-    from cas_freq.units import to_si
-
     single = isinstance(values, str) or np.ndim(values) == 0
     items = [values] if single else list(np.asarray(values, dtype=object).reshape(-1))
     out = []
@@ -229,7 +229,6 @@ class Actuator:
         -------
         StepResponse
         """
-        from cas_freq.output import output_step, output_unit
         from cas_freq.simulation.run import step_run
 
         step = output_unit(self.loaded.params).example if step is None else step
@@ -259,7 +258,6 @@ class Actuator:
         -------
         ProfileResponse
         """
-        from cas_freq.output import output_unit
         from cas_freq.simulation.profile_run import make_profile, profile_run
 
         unit = output_unit(self.loaded.params)
@@ -293,7 +291,6 @@ class Actuator:
             ``figures`` per grid point, ``stable_range``, and per requirement its verdicts and
             where it is lost (``requirements[k].lost_below`` / ``lost_above``).
         """
-        from cas_freq.output import angle
         from cas_freq.studies.envelope import load_envelope
 
         step_rad = None if step is None else angle(str(step), "step")
@@ -337,7 +334,6 @@ class Actuator:
             ``values()`` the tuned keys [SI], ``feasible``, ``evaluation`` (every candidate),
             ``pareto`` (indices of the trade-off front).
         """
-        from cas_freq.tuning import options
         from cas_freq.tuning.run import tune_variant
 
         texts = [f"{key}={low}:{high}" for key, (low, high) in (bounds or {}).items()]
@@ -388,7 +384,6 @@ class Actuator:
         cas_freq.studies.exported_model.ExportedModel
             ``system`` is T as a ``control.StateSpace``; ``to_dict()`` is the command's JSON.
         """
-        from cas_freq.output import output_unit
         from cas_freq.studies.exported_model import export_model
 
         unit = output_unit(self.loaded.params)
@@ -423,7 +418,6 @@ class Actuator:
         """
         import warnings
 
-        from cas_freq.exceptions import CasFreqError
         from cas_freq.model.delay import MAX_PADE_ORDER
         from cas_freq.model.systems import (
             POLYNOMIAL_LOG10_LIMIT,

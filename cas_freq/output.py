@@ -164,8 +164,6 @@ def wrong_kind(text, unit, option):
     """The refusal of ``text`` when it is an output quantity of the other kind (a length at a
     rotary output, an angle at a linear one), else None: ``--step: 10 deg is an angle; this
     actuator's output is linear: give a length, e.g. 5mm``."""
-    from cas_freq.units import has_unit, to_si
-
     other = LENGTH if unit is ANGLE else ANGLE
     try:
         to_si(text, other.si)
@@ -201,8 +199,6 @@ def read_output(text, unit, option, nonzero=True):
     ValueError
         One line naming ``option``, the value and what is accepted.
     """
-    from cas_freq.units import has_unit, to_si
-
     what = "an angle" if unit is ANGLE else "a length"
     try:
         value = to_si(text, unit.si)

@@ -3,7 +3,8 @@
 import argparse
 import json
 
-from cas_freq.exceptions import CasFreqError
+from cas_freq.exceptions import CasFreqError, ConfigError
+from cas_freq.report.studies import write_report
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 
@@ -130,7 +131,6 @@ def selected_variants(config, names, overrides, all_by_default=False):
     """
     from cas_freq.config import BASE_VARIANT, load_all_variants, parse_set_option
     from cas_freq.config.loader import one_line, shown
-    from cas_freq.exceptions import ConfigError
 
     parsed = [parse_set_option(text) for text in overrides]
     chosen = set(names) if names else None if all_by_default else {BASE_VARIANT}
@@ -174,8 +174,6 @@ def write_and_print(args, data, files, text):
     called only with ``-o``; None: the command wrote its output itself) into ``args.output``
     as a whole, then print ``data`` as JSON or ``text(data)``. Returns EXIT_OK."""
     if args.output is not None and files is not None:
-        from cas_freq.report.studies import write_report
-
         write_report(args.output, files())
         wrote(args.output)
     if args.json:

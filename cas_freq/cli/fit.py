@@ -4,7 +4,10 @@ import dataclasses
 import math
 
 from cas_freq.cli.common import EXIT_OK, column_option, output_path, print_json
+from cas_freq.cli.fit_recordings import fit_lines, rms_line, run_recordings, step_lines
+from cas_freq.cli.fit_sweep import are_sweeps, run_sweep
 from cas_freq.exceptions import CasFreqError
+from cas_freq.fileio import json_ready
 from cas_freq.output import angle
 
 
@@ -90,9 +93,6 @@ def run(args):
         if getattr(args, option):
             raise CasFreqError(f"{name} needs --params KEYS (a fit of config keys)")
     if args.data:
-        from cas_freq.cli.fit_recordings import run_recordings
-        from cas_freq.cli.fit_sweep import are_sweeps, run_sweep
-
         if are_sweeps(args.data, column_option(args)):
             return run_sweep(args)
 
@@ -116,7 +116,6 @@ def run_file(args):
     """Fit the response in the file and print the figures and the fit."""
     import numpy as np
 
-    from cas_freq.fileio import json_ready
     from cas_freq.simulation.commands import read_angle_series_csv
     from cas_freq.simulation.second_order import fit_second_order
     from cas_freq.simulation.step_figures import step_figures
@@ -144,7 +143,6 @@ def run_file(args):
     if args.json:
         print_json(data)
         return EXIT_OK
-    from cas_freq.cli.fit_recordings import fit_lines, rms_line, step_lines
 
     f = dict(data["fit"])
     f["rms_residual_of_step"] = (None if f["rms_residual"] is None

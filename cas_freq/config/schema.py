@@ -24,6 +24,7 @@ from pydantic import (
 from pydantic_core import PydanticCustomError
 
 from cas_freq.config.requirement import Requirement
+from cas_freq.config.wording import OUTPUT
 from cas_freq.exceptions import ConfigError
 from cas_freq.filters_config import (
     DEFAULT_DAMPING,
@@ -738,8 +739,6 @@ class ActuatorConfig(_Section):
     def output_label(self):
         """What labels and text call the output: ``output_name``, else ``"output"``
         (:mod:`cas_freq.config.wording`)."""
-        from cas_freq.config.wording import OUTPUT
-
         return self.output_name or OUTPUT
 
     @model_validator(mode="after")

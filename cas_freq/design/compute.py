@@ -14,6 +14,9 @@ import math
 import numpy as np
 
 from cas_freq.exceptions import CasFreqError, ConfigError
+from cas_freq.fileio import json_ready
+from cas_freq.output import output_unit, read_output
+from cas_freq.tuning.options import DEFAULT_FACTOR
 
 #: Points per decade of the Bode curves sent to the page.
 CURVE_POINTS_PER_DECADE = 40
@@ -74,8 +77,6 @@ def _slider(value, record):
     start (``"zero-log"``), or on both sides of a zero at its centre for a key that takes
     negative values too (``"signed-log"``, e.g. ``load.hinge_stiffness``).
     """
-    from cas_freq.tuning.options import DEFAULT_FACTOR
-
     low = record.lower if record.lower is not None else -math.inf
     high = record.upper if record.upper is not None else math.inf
     smallest = record.smallest or (low if low > 0 else -high if high < 0 else None)
@@ -223,7 +224,6 @@ def steps(loaded, analysis, amplitude, nonlinear=True):
     """The linear and (with ``nonlinear``) the nonlinear step at the output, in the output's
     shown unit (deg, or mm for a linear output); ``amplitude`` [rad or m]."""
     from cas_freq.model import DEFAULT_PADE_ORDER
-    from cas_freq.output import output_unit
     from cas_freq.report.data import linear_steps
     from cas_freq.simulation.run import step_run
 
@@ -250,8 +250,6 @@ def steps(loaded, analysis, amplitude, nonlinear=True):
 
 def default_step(loaded):
     """The step the page starts with [rad or m]: the output's example (``5deg``... ``5mm``)."""
-    from cas_freq.output import output_unit, read_output
-
     unit = output_unit(loaded.params)
     return read_output(unit.example, unit, "step")
 
@@ -274,7 +272,6 @@ def design_state(loaded, step_rad=None, nonlinear=True):
     dict
     """
     from cas_freq.analysis import analyze
-    from cas_freq.fileio import json_ready
     from cas_freq.report.data import curves, loop_frequency_range
     from cas_freq.report.numbers import number
     from cas_freq.verify.evaluate import verdict_dict, verify_variant

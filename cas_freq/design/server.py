@@ -48,6 +48,9 @@ from cas_freq.design.guard import LOOPBACK_ADDRESSES, Guard, Refused, new_token
 from cas_freq.design.requests import ControlRequest, SaveRequest, StateRequest, TuneRequest, parsed
 from cas_freq.design.saving import save_target
 from cas_freq.exceptions import CasFreqError
+from cas_freq.fileio import json_ready, write_text_atomic
+from cas_freq.output import output_step, output_unit
+from cas_freq.tuning.options import GLOBAL_COUNT, ROUNDS
 
 #: Largest request body accepted [bytes].
 MAX_BODY = 1 << 20
@@ -120,8 +123,6 @@ class Design:
 
     def init(self, name):
         """The page's start: config, variant, controls and the session's values."""
-        from cas_freq.output import output_unit
-
         return {"config": str(self.config), "variant": self.variant,
                 "save_dir": str(self.save_dir),
                 "controls": self.controls + self.session(name).extra,
@@ -162,7 +163,6 @@ class Design:
     def _step(self, text):
         if not text:
             return None
-        from cas_freq.output import output_step
 
         return output_step(str(text), "step", [self.loaded])
 
@@ -185,7 +185,6 @@ class Design:
         objective, bounds and search; ``candidates``/``rounds`` as its options): the tuned
         values and the Pareto front of bandwidth, phase margin and overshoot."""
         from cas_freq.config import load_variant
-        from cas_freq.tuning.options import GLOBAL_COUNT, ROUNDS
         from cas_freq.tuning.run import tune_variant
         from cas_freq.tuning.summary import tune_dict
 
@@ -198,7 +197,6 @@ class Design:
         free = ",".join(control["key"] for control in self.controls + session.extra
                         if not control["key"].startswith("sampling."))
         result = tune_variant(loaded, free, candidates=candidates, rounds=rounds)
-        from cas_freq.fileio import json_ready
 
         data = json_ready(tune_dict(result, loaded.params.name, loaded.variant, 0.0))
         return {key: data[key] for key in ("objective", "feasible", "tuned", "pareto", "free",
@@ -209,7 +207,6 @@ class Design:
         folder only: :func:`cas_freq.design.saving.save_target`)."""
         from cas_freq.config import load_variant
         from cas_freq.drive.variant_text import config_with_variant, si_text, variant_entries
-        from cas_freq.fileio import write_text_atomic
         from cas_freq.parameters import base_values
 
         request = parsed(SaveRequest, request)

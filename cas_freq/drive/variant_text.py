@@ -11,7 +11,8 @@ loader would read differently is never written.
 import re
 
 from cas_freq.config.schema import VARIANT_NAME
-from cas_freq.exceptions import ConfigError
+from cas_freq.exceptions import CasFreqError, ConfigError
+from cas_freq.fileio import read_input
 
 __all__ = ["NAME_PATTERN", "config_with_variant", "insert_variant", "si_text",
            "variant_entries"]
@@ -216,8 +217,6 @@ def config_with_variant(config, name, entries, comment, expected, what, force=Fa
 
     from cas_freq.config import load_all_variants
     from cas_freq.config.loader import MAX_FILE_BYTES, read_config_file
-    from cas_freq.exceptions import CasFreqError
-    from cas_freq.fileio import read_input
     from cas_freq.parameters import base_values
 
     config = Path(config)

@@ -28,6 +28,8 @@ import math
 
 import numpy as np
 
+from cas_freq.units import registry
+
 #: Half-widths (of a coordinate) that separate the verdicts.
 WELL = math.log(1.1)
 NOT = math.log(2.0)
@@ -66,8 +68,6 @@ def monomial(exponents, names):
 
 def _unit(exponents, units):
     """The SI unit of a product of powers of units, as pint writes it compactly."""
-    from cas_freq.units import registry
-
     quantity = registry().Quantity(1.0)
     for e, unit in zip(exponents, units, strict=True):
         if e:

@@ -18,6 +18,7 @@ import types
 from pathlib import Path
 
 from cas_freq.config.wording import OutputWords
+from cas_freq.exceptions import CasFreqError
 from cas_freq.figures import FIGURES, LOOPS
 from cas_freq.output import output_json, output_unit
 from cas_freq.parameters import current_limit
@@ -34,6 +35,7 @@ from cas_freq.report.data import (
 )
 from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
 from cas_freq.report.drivetrain import drivetrain_blocks
+from cas_freq.report.nonlinear import nonlinear_elements
 from cas_freq.report.numbers import JSON_DIGITS, number, rounded_json
 from cas_freq.report.outdir import sanitise_name, write_directory_atomic
 from cas_freq.report.parameter_table import parameter_table
@@ -384,7 +386,6 @@ def bandwidth_table(data):
 def small_signal_sentence(data):
     """Whether the smallest step stays clear of the limits, and what else (if anything) sets
     the nonlinear simulation apart from the linear model (:func:`nonlinear_elements`)."""
-    from cas_freq.report.nonlinear import nonlinear_elements
     from cas_freq.simulation.run import diverged_at
 
     run = data.dwell.steps[data.small_index]
@@ -433,7 +434,6 @@ def variant_blocks(data, figure_blocks, settings):
     blocks += drivetrain_blocks(data)
     if getattr(a, "limit_cycles", None) is not None:
         from cas_freq.analysis.limit_cycles import report_sentence
-        from cas_freq.output import output_unit
 
         blocks.append(Paragraph(report_sentence(a.limit_cycles,
                                                 output_unit(data.loaded.params))))
@@ -678,8 +678,6 @@ def build_report(variants, out_dir=None, *, settings=None, verdicts=None, png=Fa
     Path
         The report folder.
     """
-    from cas_freq.exceptions import CasFreqError
-
     if not variants:
         raise CasFreqError("report: no variant selected")
     names = {v.params.name for v in variants}

@@ -19,6 +19,7 @@ from cas_freq.fileio import json_ready
 
 # the sine-dwell grid rule, one for every command (re-exported)
 from cas_freq.simulation.sinedwell import DWELL_POINTS, DWELL_SPAN, dwell_frequencies  # noqa: F401
+from cas_freq.threads import one_blas_thread
 
 #: Default sine-dwell amplitudes at the output [deg]: small signal (no limit acts), two
 #: intermediate sizes, and a 10 deg step (ARL-TR-9136's bench step). The smallest and the
@@ -373,8 +374,6 @@ def unit_step_response(system, n_steps, dt):
         Output, shape (n_steps,).
     """
     from scipy.linalg import expm
-
-    from cas_freq.threads import one_blas_thread
 
     a, b, c, d = (np.asarray(m, dtype=float) for m in (system.a, system.b, system.c, system.d))
     n = a.shape[0]

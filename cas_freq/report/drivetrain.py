@@ -7,6 +7,7 @@ figures beside the linear ones are read as what they are).
 
 import math
 
+from cas_freq.output import output_unit
 from cas_freq.report.numbers import number
 
 
@@ -43,7 +44,6 @@ def drivetrain_blocks(data):
     load = data.analysis.drivetrain
     if load is None:
         return []
-    from cas_freq.output import output_unit
 
     unit = output_unit(data.loaded.params)
     low, high = load.stable_hinge_stiffness_n_m_rad

@@ -7,7 +7,9 @@ No matplotlib here but in :func:`profile_figure_svg`, which imports it when it d
 import math
 
 from cas_freq.figures import FIGURES
+from cas_freq.output import output_unit
 from cas_freq.report.numbers import number
+from cas_freq.report.outdir import sanitise_name
 from cas_freq.simulation.commands import condition_profile
 
 
@@ -149,7 +151,6 @@ def profile_section(datas, png=False):
         Also write each figure as PNG.
     """
     from cas_freq.report.document import Figure, Heading, Paragraph, Table
-    from cas_freq.report.outdir import sanitise_name
     from cas_freq.simulation.profile_run import (
         profile_condition_text,
         profile_run_dict,
@@ -169,7 +170,6 @@ def profile_section(datas, png=False):
         "= 0); figures defined in docs/model.md, \"Profile moves\"."
         + (f" Not simulated (closed loop not stable): {', '.join(skipped)}." if skipped
            else ""))]
-    from cas_freq.output import output_unit
 
     unit = output_unit(datas[0].loaded.params)
     results = []

@@ -6,6 +6,7 @@ The workers' life (signals, ending with this process) is :mod:`cas_freq.report.w
 
 import sys
 
+from cas_freq.report.workers import fork_pool, stop_pool
 from cas_freq.threads import result_of
 
 #: Worker processes that draw a report's figures (while the next variant is computed); 1 draws
@@ -114,7 +115,6 @@ class FigureRenderer:
             # python-control (~0.7 s) only here, after the fork, while the workers draw: it
             # is needed for the linear steps and the zeros of T, which are computed here
             import cas_freq.plots.report  # noqa: F401
-            from cas_freq.report.workers import fork_pool
 
             try:
                 # start the workers now: they import the figure code while the caller computes
@@ -126,8 +126,6 @@ class FigureRenderer:
 
     def __exit__(self, exc_type, *exc):
         if self._pool is not None:
-            from cas_freq.report.workers import stop_pool
-
             # interrupted (Ctrl-C, SIGTERM) or failed: the workers are killed, not waited for
             stop_pool(self._pool, kill=exc_type is not None)
         return False

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from cas_freq.exceptions import ConfigError
+from cas_freq.fileio import csv_row, read_input
 
 
 def _since(t, start):
@@ -520,8 +521,6 @@ def read_angle_series_csv(path, negative_times=False, what="CSV file"):
         (a ValueError) naming the file and row of the first bad value, or what a header
         lacks.
     """
-    from cas_freq.fileio import csv_row, read_input
-
     path = Path(path)
     text = read_input(path, what)
     times, angles = [], []

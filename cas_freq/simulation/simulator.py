@@ -67,7 +67,7 @@ import warnings
 import numpy as np
 
 from cas_freq.exceptions import ConfigError, ModelError
-from cas_freq.jit import ENGINE_ENV, ENGINES, engine_name  # noqa: F401 (re-exported)
+from cas_freq.jit import ENGINE_ENV, ENGINES, engine_name, use_compiled  # noqa: F401 (re-exported)
 from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.architecture import LOOPS
 from cas_freq.simulation.controllers import METHODS
@@ -705,8 +705,6 @@ def prepare_kernels(params):
     in a new thread, which starts a stack of its own (``strace -c``: 1.2 million mmap/munmap
     calls).
     """
-    from cas_freq.jit import use_compiled
-
     if not use_compiled():
         return
     with worker_threads(1, "cas_freq-prepare-kernels") as thread:

@@ -4,6 +4,7 @@ import dataclasses
 import math
 
 from cas_freq.figures import UNIT_LABELS
+from cas_freq.fileio import json_ready
 from cas_freq.verify.measure import measure
 
 PASS, FAIL, ADVISORY = "PASS", "FAIL", "ADVISORY"
@@ -162,8 +163,6 @@ def failed_required(verdicts):
 
 def verdict_dict(verdict):
     """JSON-ready dict of a verdict."""
-    from cas_freq.fileio import json_ready
-
     data = dataclasses.asdict(verdict)
     if verdict.bound is None:  # only a figure known as a bound carries the two keys
         del data["bound"], data["bound_value"]

@@ -10,7 +10,9 @@ grid, the same move) are done once.
 
 import math
 
+from cas_freq.figures import FIGURES
 from cas_freq.fileio import json_ready
+from cas_freq.output import LENGTH, output_unit
 from cas_freq.simulation.commands import condition_profile
 
 
@@ -21,12 +23,8 @@ def figure(result, metric):
     the figure does not exist. A linear output's quantity (``profile.tracking_error_max_mm``)
     is its rotary twin's attribute in mm (:mod:`cas_freq.output`); one in its own unit
     (``stiffness.min_N_per_m``) is read as it is."""
-    from cas_freq.figures import FIGURES
-
     record = FIGURES.get(metric)
     if record is not None and record.output == "length" and record.unit == "mm":
-        from cas_freq.output import LENGTH
-
         value = figure(result, record.twin)
         if value is None:
             return None
@@ -172,7 +170,6 @@ def _sinedwell_bandwidth(loaded, analysis, amplitude, frequencies):
         The bandwidth [rad/s], the bound the grid gives when it holds no crossing, and the text
         of what was run (with why nothing was, when the sine-dwell exceeds the budget).
     """
-    from cas_freq.output import output_unit
     from cas_freq.simulation.run import dwell_parameters, over_budget_reason
     from cas_freq.simulation.simulator import BudgetError
     from cas_freq.simulation.sinedwell import dwell_frequencies, sine_dwell
