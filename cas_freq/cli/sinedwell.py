@@ -61,7 +61,7 @@ def amplitudes_text(text, variants, default, linear_default):
 
 def parse_amplitudes(text, variants=None):
     """Comma-separated output amplitudes with units → list in SI: angles [rad], or lengths [m]
-    at a linear output of ``variants`` (:func:`cas_freq.cli.common.output_step`)."""
+    at a linear output of ``variants`` (:func:`cas_freq.output.output_step`)."""
     parts = [part.strip() for part in text.split(",")]
     if not text.strip() or any(not part for part in parts):
         example = "angles such as 0.5deg,2deg,10deg"

@@ -74,8 +74,8 @@ def split_settings(settings, config=None, parse=True):
     the position gains' units). ``parse=False``, before the config is loaded: the axes of the
     keys whose unit depends on the architecture as their texts (the key checked)."""
     from cas_freq.config import parse_set_option
+    from cas_freq.parameter_keys import is_grid_spec, parse_grid_values
     from cas_freq.parameters import CASCADE_PARAMETERS, check_key
-    from cas_freq.studies.sweep import is_grid_spec, parse_grid_values
 
     fixed, axes = [], {}
     for text in settings:

@@ -252,7 +252,7 @@ def lm_trials(t, unit, active, p, cost, normal, gradient, damping, scale, upper,
         Each run's λ (k,).
     scale, upper : numpy.ndarray
         Scales and upper bounds of the scaled variables (k, 3); the lower bounds are
-        ``second_order._LOWER``.
+        ``cas_freq.formulas._LOWER``.
     trial, step, normal_new, gradient_new : numpy.ndarray
         Written, row a for active run a: the trial point, the step to it (n, 3), J^T J
         (n, 3, 3) and J^T r (n, 3) there.
