@@ -28,18 +28,32 @@ import types
 
 import numpy as np
 
-from cas_freq.analysis import analyze
+from cas_freq.analysis import analyze, batch_analyze
 from cas_freq.analysis.analyze import Analysis as _Figures
 from cas_freq.analysis.frequency import DEFAULT_RANGE_RAD_S
 from cas_freq.config.loader import load_variant, read_config_file, variant_names
 from cas_freq.config.wording import OutputWords
 from cas_freq.exceptions import CasFreqError
-from cas_freq.model import DelayModel
+from cas_freq.model import ActuatorLoops, DelayModel
+from cas_freq.model.delay import MAX_PADE_ORDER
+from cas_freq.model.systems import (
+    POLYNOMIAL_LOG10_LIMIT,
+    largest_polynomial,
+    linear_model,
+    margin_safe_model,
+)
 from cas_freq.output import angle, output_step, output_unit, read_output
+from cas_freq.parameters import unit_of, variant_parameters
+from cas_freq.simulation.profile_run import make_profile, profile_run, profile_run_dict
+from cas_freq.simulation.run import step_run, step_run_dict
+from cas_freq.studies.envelope import load_envelope
+from cas_freq.studies.exported_model import export_model
 from cas_freq.summary import Summary, row, spread
 from cas_freq.threads import one_blas_thread
 from cas_freq.tuning import options
+from cas_freq.tuning.run import tune_variant
 from cas_freq.units import to_si
+from cas_freq.verify.measure import figure
 
 #: Highest default Padé order of :meth:`Actuator.to_control`. python-control's
 #: ``stability_margins`` works on the loop's polynomials, whose coefficients grow with the
@@ -205,8 +219,6 @@ class Actuator:
         -------
         FrequencyResponse
         """
-        from cas_freq.model import ActuatorLoops
-
         omega = np.asarray(_quantities(omega, "rad/s", "omega"), dtype=float)
         loops = ActuatorLoops(self.params, _delay(delay))
         s = 1j * omega
@@ -229,8 +241,6 @@ class Actuator:
         -------
         StepResponse
         """
-        from cas_freq.simulation.run import step_run
-
         step = output_unit(self.loaded.params).example if step is None else step
         return StepResponse.of(step_run(self.loaded, output_step(str(step), "step",
                                                                  [self.loaded])))
@@ -258,8 +268,6 @@ class Actuator:
         -------
         ProfileResponse
         """
-        from cas_freq.simulation.profile_run import make_profile, profile_run
-
         unit = output_unit(self.loaded.params)
         defaults = (unit.example, *unit.rate_examples)
         distance, velocity, acceleration = (
@@ -291,8 +299,6 @@ class Actuator:
             ``figures`` per grid point, ``stable_range``, and per requirement its verdicts and
             where it is lost (``requirements[k].lost_below`` / ``lost_above``).
         """
-        from cas_freq.studies.envelope import load_envelope
-
         step_rad = None if step is None else angle(str(step), "step")
         stiffness = _quantities(hinge_stiffness, "N*m/rad", "hinge_stiffness")
         return load_envelope(self.loaded, np.asarray(stiffness, dtype=float), step_rad)
@@ -334,8 +340,6 @@ class Actuator:
             ``values()`` the tuned keys [SI], ``feasible``, ``evaluation`` (every candidate),
             ``pareto`` (indices of the trade-off front).
         """
-        from cas_freq.tuning.run import tune_variant
-
         texts = [f"{key}={low}:{high}" for key, (low, high) in (bounds or {}).items()]
         return tune_variant(
             self.loaded, None if free is None else ",".join(free), texts, objective, robust,
@@ -356,8 +360,6 @@ class Actuator:
         -------
         ActuatorSet
         """
-        from cas_freq.parameters import variant_parameters
-
         changes = {key: np.asarray(values, dtype=float) for key, values in changes.items()}
         return ActuatorSet(self, changes, variant_parameters(self.params, changes))
 
@@ -384,8 +386,6 @@ class Actuator:
         cas_freq.studies.exported_model.ExportedModel
             ``system`` is T as a ``control.StateSpace``; ``to_dict()`` is the command's JSON.
         """
-        from cas_freq.studies.exported_model import export_model
-
         unit = output_unit(self.loaded.params)
         if amplitudes is not None:
             amplitudes = list(_quantities(amplitudes, unit.si, "amplitudes", unit).reshape(-1))
@@ -417,14 +417,6 @@ class Actuator:
             :data:`cas_freq.model.systems.LOOP_NAMES`).
         """
         import warnings
-
-        from cas_freq.model.delay import MAX_PADE_ORDER
-        from cas_freq.model.systems import (
-            POLYNOMIAL_LOG10_LIMIT,
-            largest_polynomial,
-            linear_model,
-            margin_safe_model,
-        )
 
         if pade is None:
             return margin_safe_model(self.params, TO_CONTROL_PADE_ORDER)
@@ -579,8 +571,6 @@ class StepResponse(Summary):
 
     def to_dict(self):
         """JSON-ready dict: the JSON of ``cas-freq simulate --step ... --json``."""
-        from cas_freq.simulation.run import step_run_dict
-
         return step_run_dict(self.run)
 
     def plot(self):
@@ -639,8 +629,6 @@ class ProfileResponse(Summary):
                    run.without_feedforward, run)
 
     def _summary(self):
-        from cas_freq.verify.measure import figure
-
         unit = self.run.output_unit
         names = ("tracking_error_max_deg", "tracking_error_rms_deg", "overshoot_pct",
                  "settling_time_s", "max_current_a", "max_voltage_v")
@@ -661,8 +649,6 @@ class ProfileResponse(Summary):
 
     def to_dict(self):
         """JSON-ready dict: the JSON of ``cas-freq simulate --profile ... --json``."""
-        from cas_freq.simulation.profile_run import profile_run_dict
-
         return profile_run_dict(self.run)
 
     def plot(self):
@@ -700,8 +686,6 @@ class ActuatorSet(Summary):
         return self.loop_parameters.n_runs
 
     def _summary(self):
-        from cas_freq.parameters import unit_of
-
         rows = [(key, f"{np.min(values):.4g} .. {np.max(values):.4g}"
                  if np.size(values) else "—", unit_of(key, self.base.params))
                 for key, values in self.changes.items()]
@@ -732,8 +716,6 @@ class ActuatorSet(Summary):
             ``stability.pade_order``; ``figures``, the same arrays keyed as
             ``"closed_loop.bandwidth_rad_s"`` (the column names of ``cas-freq sweep``).
         """
-        from cas_freq.analysis import batch_analyze
-
         delay = _delay(delay)
         batch = batch_analyze(self.loop_parameters, _range(frequency_range),
                               delay=delay, **({"pade_order": delay.order} if delay.order else {}))

@@ -42,6 +42,7 @@ from cas_freq.analysis.margins import (
 )
 from cas_freq.analysis.probes import Probes
 from cas_freq.analysis.rate_envelope import rate_envelope, sine_frequencies
+from cas_freq.analysis.response_kernel import grid_responses
 from cas_freq.analysis.sampling_text import sampling_notes, sampling_section
 from cas_freq.analysis.stability import (
     Stability,
@@ -57,6 +58,7 @@ from cas_freq.model.sampled import PreparedSampled, is_sampled, nyquist_frequenc
 from cas_freq.model.sampled import grid_responses as sampled_grid_responses
 from cas_freq.model.structure import build, total_delay
 from cas_freq.output import output_json, output_unit
+from cas_freq.parameters import LoopParameters
 from cas_freq.summary import Summary
 from cas_freq.threads import result_of, worker_threads
 
@@ -220,8 +222,6 @@ def _grid_responses(p, omega, n, delay, compiled=None, at_a_time=True):
     if is_sampled(p):
         return sampled_grid_responses(p, omega, loop_at_a_time=at_a_time)
     if compiled_for(n * omega.size) if compiled is None else compiled:
-        from cas_freq.analysis.response_kernel import grid_responses
-
         return grid_responses(p, omega, n, delay, loop_at_a_time=at_a_time)
     return responses(p, 1j * omega, delay=delay, loop_at_a_time=at_a_time)
 
@@ -574,8 +574,6 @@ def analyze(
     -------
     Analysis
     """
-    from cas_freq.parameters import LoopParameters
-
     params = LoopParameters.from_config(loaded.params)
     omega = frequency_grid(*frequency_range, points_per_decade, total_delay(params))
     order = delay.order or DEFAULT_PADE_ORDER

@@ -18,8 +18,12 @@ from cas_freq.cli.common import (
 )
 from cas_freq.exceptions import CasFreqError
 from cas_freq.fileio import check_output_file, json_ready, write_text_atomic
+from cas_freq.identification import read_recording
+from cas_freq.identification.free_keys import labels, parse_model_spec
 from cas_freq.identification.identifiability import UNBOUNDED
+from cas_freq.identification.physical import fit_physical
 from cas_freq.identification.probe import NOT_IDENTIFIABLE
+from cas_freq.identification.step_fit import step_size
 from cas_freq.output import angle
 from cas_freq.report.outdir import check_output_dir
 from cas_freq.report.studies import json_text
@@ -87,8 +91,6 @@ def _identifiability_dict(found):
 
 def fit_dict(fit, seconds):
     """JSON-ready dict of one PhysicalFit."""
-    from cas_freq.identification.free_keys import labels
-
     ident = {name: _identifiability_dict(found) for name, found in fit.identifiability.items()}
     return {
         "name": fit.name,
@@ -224,11 +226,7 @@ def table(data):
 
 def run_params(args):
     """Fit each ``--params`` model, compare, print, write ``-o``."""
-    from cas_freq.identification import read_recording
     from cas_freq.identification.fitted_config import fitted_config_text
-    from cas_freq.identification.free_keys import parse_model_spec
-    from cas_freq.identification.physical import fit_physical
-    from cas_freq.identification.step_fit import step_size
 
     output = args.output
     as_file = output is not None and Path(output).suffix.lower() in (".yaml", ".yml")

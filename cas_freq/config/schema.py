@@ -33,6 +33,7 @@ from cas_freq.filters_config import (
     point_problem,
     type_problem,
 )
+from cas_freq.formulas import second_order_bandwidth
 from cas_freq.parameter_keys import parse_grid_values
 from cas_freq.parameters import (
     CASCADE_ONLY,
@@ -547,8 +548,6 @@ class ReferenceFit(_Section):
         if self.bandwidth is not None:
             return self.bandwidth
         if self.wn is not None and self.zeta is not None:
-            from cas_freq.formulas import second_order_bandwidth
-
             return second_order_bandwidth(self.wn, self.zeta)
         return None
 

@@ -16,7 +16,17 @@ import numpy as np
 from cas_freq.exceptions import CasFreqError, ConfigError
 from cas_freq.fileio import json_ready
 from cas_freq.output import output_unit, read_output
+from cas_freq.parameters import (
+    PARAMETERS,
+    check_key,
+    loop_values,
+    parameter,
+    parse_value,
+    variant_parameters,
+)
+from cas_freq.report.numbers import number
 from cas_freq.tuning.options import DEFAULT_FACTOR
+from cas_freq.tuning.space import default_free
 
 #: Points per decade of the Bode curves sent to the page.
 CURVE_POINTS_PER_DECADE = 40
@@ -52,8 +62,6 @@ def _check(key, params):
     """ConfigError unless ``key`` can have a control: a key a sweep can vary, or a sample
     rate of a sampled loop, or the discretisation of a sampled variant (static for a batch,
     but one variant at a time here). Returns the sample rate [Hz] of a rate key, else None."""
-    from cas_freq.parameters import PARAMETERS, check_key
-
     if key in CHOICES:
         if not params.sampling.sample_rates:
             raise ConfigError(f"{key}: the variant's controllers are continuous; the "
@@ -114,9 +122,6 @@ def controls(loaded, keys=None):
         (:data:`cas_freq.parameters.PARAMETERS`), which bounds the typed entry); a key of
         :data:`CHOICES` has ``"choices"`` and its word as ``value`` instead.
     """
-    from cas_freq.parameters import loop_values, parameter, variant_parameters
-    from cas_freq.tuning.space import default_free
-
     params = loaded.params
     if keys is None:
         keys = (*default_free(params), *(CHOICES if params.sampling.sample_rates else ()))
@@ -144,8 +149,6 @@ def controls(loaded, keys=None):
 
 def check_values(values, config):
     """{key: error text} of the entries of ``values`` (key -> text) that do not parse."""
-    from cas_freq.parameters import parse_value
-
     errors = {}
     for key, text in values.items():
         try:
@@ -176,8 +179,6 @@ def _bode(omega, response):
 def _margins(margins):
     """A loop's margins [SI, deg, dB] and their texts as ``analyze`` prints them (None for
     None)."""
-    from cas_freq.report.numbers import number
-
     if margins is None:
         return None
     figures = {
@@ -273,7 +274,6 @@ def design_state(loaded, step_rad=None, nonlinear=True):
     """
     from cas_freq.analysis import analyze
     from cas_freq.report.data import curves, loop_frequency_range
-    from cas_freq.report.numbers import number
     from cas_freq.verify.evaluate import verdict_dict, verify_variant
 
     # every figure as analyze gives it, but the loaded variant's stable hinge-stiffness scan

@@ -43,13 +43,16 @@ from importlib import resources
 from pathlib import Path
 from urllib.parse import parse_qs, urlparse
 
-from cas_freq.design.compute import CHOICES
+from cas_freq.config import load_variant
+from cas_freq.design.compute import CHOICES, check_values, controls, design_state
 from cas_freq.design.guard import LOOPBACK_ADDRESSES, Guard, Refused, new_token
 from cas_freq.design.requests import ControlRequest, SaveRequest, StateRequest, TuneRequest, parsed
 from cas_freq.design.saving import save_target
+from cas_freq.drive.variant_text import config_with_variant, si_text, variant_entries
 from cas_freq.exceptions import CasFreqError
 from cas_freq.fileio import json_ready, write_text_atomic
 from cas_freq.output import output_step, output_unit
+from cas_freq.parameters import base_values
 from cas_freq.tuning.options import GLOBAL_COUNT, ROUNDS
 
 #: Largest request body accepted [bytes].
@@ -99,9 +102,6 @@ class Design:
     """
 
     def __init__(self, config, variant="base", keys=None, save_dir=None):
-        from cas_freq.config import load_variant
-        from cas_freq.design.compute import controls
-
         self.config = Path(config)
         self.save_dir = Path(self.config.parent if save_dir is None else save_dir).resolve()
         if not self.save_dir.is_dir():
@@ -131,9 +131,6 @@ class Design:
 
     def state(self, request):
         """Figures for ``request`` (see the module's ``POST /api/state``)."""
-        from cas_freq.config import load_variant
-        from cas_freq.design.compute import check_values, design_state
-
         request = parsed(StateRequest, request)
         session = self.session(request.session)
         seq = request.seq
@@ -169,8 +166,6 @@ class Design:
     def control(self, request):
         """The control of one more key (any numeric key of the config :func:`controls`
         accepts), added to the session's."""
-        from cas_freq.design.compute import controls
-
         request = parsed(ControlRequest, request)
         session = self.session(request.session)
         key = request.key.strip()
@@ -184,7 +179,6 @@ class Design:
         """``cas-freq tune`` of the page's keys from the session's values (the tune's default
         objective, bounds and search; ``candidates``/``rounds`` as its options): the tuned
         values and the Pareto front of bandwidth, phase margin and overshoot."""
-        from cas_freq.config import load_variant
         from cas_freq.tuning.run import tune_variant
         from cas_freq.tuning.summary import tune_dict
 
@@ -205,10 +199,6 @@ class Design:
     def save(self, request):
         """Write the config with the session's values as variant ``name`` (into the save
         folder only: :func:`cas_freq.design.saving.save_target`)."""
-        from cas_freq.config import load_variant
-        from cas_freq.drive.variant_text import config_with_variant, si_text, variant_entries
-        from cas_freq.parameters import base_values
-
         request = parsed(SaveRequest, request)
         session = self.session(request.session)
         name = request.name

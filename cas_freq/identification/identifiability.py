@@ -28,6 +28,7 @@ import math
 
 import numpy as np
 
+from cas_freq.identification.free_keys import labels
 from cas_freq.units import registry
 
 #: Half-widths (of a coordinate) that separate the verdicts.
@@ -169,8 +170,6 @@ def identifiability(fisher, free, x, s2, q):
     q : float
         Interval quantile.
     """
-    from cas_freq.identification.free_keys import labels
-
     names = labels(free)
     w, vectors = np.linalg.eigh(0.5 * (fisher + fisher.T))
     top = max(float(w[-1]), 1e-300)

@@ -24,6 +24,7 @@ from cas_freq.exceptions import CasFreqError
 from cas_freq.figures import FIGURES, LOOPS
 from cas_freq.output import LENGTH, output_json, output_unit
 from cas_freq.parameters import PARAMETERS, parameter
+from cas_freq.report import html, markdown
 from cas_freq.report.build import REPORTS_DIR, results_json
 from cas_freq.report.data import (
     ReportSettings,
@@ -571,7 +572,6 @@ def compare_files(datas, labels, settings, *, png=False, command=None):
     """Every file of the comparison folder as (relative path, content), figures first."""
     from cas_freq.plots import report as plots
     from cas_freq.plots.overlays import COMPARE_FIGURES
-    from cas_freq.report import html, markdown
 
     figure_blocks = {}
     for stem, (draw, caption) in COMPARE_FIGURES.items():

@@ -16,10 +16,23 @@ import numpy as np
 
 from cas_freq.exceptions import CasFreqError
 from cas_freq.fileio import json_ready
+from cas_freq.model import ActuatorLoops, parts
+from cas_freq.model.loops import Selector
+from cas_freq.model.sampled import drive_responses
+from cas_freq.model.structure import build
+from cas_freq.model.systems import closed_loop_matrices, closed_loop_zeros
+from cas_freq.simulation.run import sinedwell_run, sinedwell_run_dict, step_run_dict
 
 # the sine-dwell grid rule, one for every command (re-exported)
-from cas_freq.simulation.sinedwell import DWELL_POINTS, DWELL_SPAN, dwell_frequencies  # noqa: F401
+from cas_freq.simulation.sinedwell import (  # noqa: F401
+    DWELL_POINTS,
+    DWELL_SPAN,
+    bandwidth_text,
+    dwell_frequencies,
+)
+from cas_freq.simulation.step_figures import step_figures
 from cas_freq.threads import one_blas_thread
+from cas_freq.verify import verdict_dict, verify_variant
 
 #: Default sine-dwell amplitudes at the output [deg]: small signal (no limit acts), two
 #: intermediate sizes, and a 10 deg step (ARL-TR-9136's bench step). The smallest and the
@@ -182,9 +195,6 @@ class Curves:
 
 def described_loops(params):
     """The :class:`CurveLoop` of every loop of ``params``' structure, innermost first."""
-    from cas_freq.model import parts
-    from cas_freq.model.structure import build
-
     return tuple(CurveLoop(loop.name, loop.symbol, loop.name.replace("_", " "), loop.breaks_at)
                  for loop in build(parts.one_variant(params)).loops)
 
@@ -290,9 +300,6 @@ def curves(params, frequency_range_rad_s, points_per_decade):
     Curves
     """
     from cas_freq.analysis.frequency import frequency_grid
-    from cas_freq.model import ActuatorLoops
-    from cas_freq.model.loops import Selector
-    from cas_freq.model.sampled import drive_responses
 
     loops = ActuatorLoops(params)
     omega = frequency_grid(*frequency_range_rad_s, points_per_decade, loops.total_delay)
@@ -433,8 +440,6 @@ def linear_steps(params, times, amplitudes_rad, pade_order, closed=None):
     -------
     list of numpy.ndarray
     """
-    from cas_freq.model.systems import closed_loop_matrices
-
     if closed is None:
         closed = closed_loop_matrices(params, pade_order)
     times = [np.asarray(t, dtype=float) for t in times]
@@ -468,7 +473,6 @@ def requirement_verdicts(loaded, results):
     """
     if not loaded.params.requirements:
         return []
-    from cas_freq.verify import verdict_dict, verify_variant
 
     return [verdict_dict(verdict) for verdict in verify_variant(loaded, known=results)]
 
@@ -527,10 +531,6 @@ def gather_time(data, settings=ReportSettings(), verdicts=None, progress=None):
     """``data`` of :func:`gather_frequency` completed: **one** sine-dwell batch (with the
     nonlinear step of every amplitude), the linear steps, the requirement verdicts (parameters
     as :func:`gather_variant`)."""
-    from cas_freq.model.systems import closed_loop_matrices, closed_loop_zeros
-    from cas_freq.simulation.run import sinedwell_run
-    from cas_freq.simulation.step_figures import step_figures
-
     loaded, analysis = data.loaded, data.analysis
     # a sine-dwell beyond the simulation budget is refused before it starts and left out
     # (dwell.result None, dwell.not_computed the reason), as is the default one of a loop that
@@ -563,8 +563,6 @@ def sinedwell_bandwidth(data, k):
     """Sine-dwell bandwidth [rad/s] of amplitude ``k``, or as text what is known instead: a
     bound from the grid ("> 5000" when no point is below −3.01 dB, "< 100" when the first one
     already is) or "not computed" (the sine-dwell was beyond the simulation budget)."""
-    from cas_freq.simulation.sinedwell import bandwidth_text
-
     result = data.dwell.result
     if result is None:
         return "not computed"
@@ -699,7 +697,6 @@ def variant_results(data):
     import dataclasses as dc
 
     from cas_freq.analysis import to_dict
-    from cas_freq.simulation.run import sinedwell_run_dict, step_run_dict
 
     shown = display_path(data.loaded.source)
     steps = data.dwell.steps

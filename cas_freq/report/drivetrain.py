@@ -8,6 +8,7 @@ figures beside the linear ones are read as what they are).
 import math
 
 from cas_freq.output import output_unit
+from cas_freq.report.document import Paragraph, Table
 from cas_freq.report.numbers import number
 
 
@@ -39,8 +40,6 @@ def nonlinear_terms(params):
 
 def drivetrain_blocks(data):
     """Blocks for a loaded variant (none for an unloaded one)."""
-    from cas_freq.report.document import Paragraph, Table
-
     load = data.analysis.drivetrain
     if load is None:
         return []

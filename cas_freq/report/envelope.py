@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
 from cas_freq.report.numbers import number
 from cas_freq.report.outdir import sanitise_name
 from cas_freq.threads import result_of
@@ -161,7 +162,6 @@ def envelope_section(datas, png=False, computed=None):
         Variant name -> an object whose ``result()`` is its :func:`envelope_job` (a future
         of a worker process that computed and drew it while the report was being computed).
     """
-    from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
     from cas_freq.studies.envelope import envelope_dict
 
     params = datas[0].loaded.params

@@ -16,6 +16,7 @@ from cas_freq.exceptions import ConfigError
 from cas_freq.fileio import json_ready
 from cas_freq.parameter_keys import MAX_POINTS
 from cas_freq.parameters import unit_of, variant_parameters
+from cas_freq.simulation.sinedwell import sine_dwell_bandwidths
 from cas_freq.studies.distributed import (
     CHUNK_SAMPLES,
     RETRIES,
@@ -24,6 +25,8 @@ from cas_freq.studies.distributed import (
     cluster_lost,
     distributed_module,
 )
+from cas_freq.studies.shown import run_figures_not_shown, shown_run_figure
+from cas_freq.studies.steps import DEFAULT_STEP_CHUNK, batch_steps
 
 
 def grid(axes):
@@ -97,13 +100,9 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None
                              loop_at_a_time=wants_loop_at_a_time(params))
     figures = dict(analysis.figures)
     if step_rad is not None:
-        from cas_freq.studies.steps import batch_steps
-
         figures.update(batch_steps(loop, step_rad, fit=fit, rates_hz=params.simulation.rates_hz,
                                    progress=stage_progress("step"), buffers=buffers))
     if sinedwell is not None:
-        from cas_freq.simulation.sinedwell import sine_dwell_bandwidths
-
         amplitude, frequencies = sinedwell
         current_rate_hz, position_rate_hz = params.simulation.rates_hz
         bandwidth, _, _ = sine_dwell_bandwidths(
@@ -194,16 +193,12 @@ def figure_names(figures):
 def not_shown(sweep):
     """Why each grid point's closed-loop, step and fit figures are not shown (None where they
     are): :func:`~cas_freq.studies.shown.run_figures_not_shown`, the load envelope's rule."""
-    from cas_freq.studies.shown import run_figures_not_shown
-
     return run_figures_not_shown(sweep.figures, sweep.stability)
 
 
 def shown_figures(sweep):
     """Every figure per grid point as the sweep shows it (text, JSON, CSV, plot): NaN where it
     does not exist or is not shown (:func:`not_shown`)."""
-    from cas_freq.studies.shown import shown_run_figure
-
     reasons = not_shown(sweep)
     return {name: shown_run_figure(values, name, reasons) for name, values in sweep.figures.items()}
 
@@ -290,8 +285,6 @@ def evaluate_figures_distributed(params, changes, scheduler, *, progress=None,
     (dict of str to numpy.ndarray, numpy.ndarray of str)
         As ``evaluate_figures``, in sample order.
     """
-    from cas_freq.studies.steps import DEFAULT_STEP_CHUNK
-
     if chunk_samples <= 0 or chunk_samples % DEFAULT_STEP_CHUNK:
         raise ValueError(f"chunk_samples must be a positive multiple of {DEFAULT_STEP_CHUNK}, "
                          f"got {chunk_samples}")

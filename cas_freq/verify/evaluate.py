@@ -5,6 +5,7 @@ import math
 
 from cas_freq.figures import UNIT_LABELS
 from cas_freq.fileio import json_ready
+from cas_freq.simulation.sinedwell import bound_meets
 from cas_freq.verify.measure import measure
 
 PASS, FAIL, ADVISORY = "PASS", "FAIL", "ADVISORY"
@@ -79,8 +80,6 @@ def _verdict(requirement, variant, value, condition, stable=True, bound=None):
     if known:
         meets = requirement.passes(value)
     elif bound is not None:
-        from cas_freq.simulation.sinedwell import bound_meets
-
         meets = bound_meets(bound, requirement.min, requirement.max)
     else:
         meets = None
