@@ -4,7 +4,7 @@ Nothing is computed here: each method calls the engine the CLI uses (:mod:`cas_f
 :mod:`cas_freq.analysis`, :mod:`cas_freq.simulation`, :mod:`cas_freq.model`), so every figure
 is the one the matching command prints. The figures are defined in docs/model.md. matplotlib
 and python-control are imported only by :meth:`FrequencyResponse.plot`,
-:meth:`StepResponse.plot`, :meth:`ProfileResponse.plot`, ``Analysis.plot`` and
+:meth:`StepResponse.plot`, :meth:`ProfileResponse.plot`, :meth:`Analysis.plot` and
 :meth:`Actuator.to_control`.
 
 In a notebook every result shows a table of its headline figures (``_repr_html_``, from
