@@ -28,8 +28,7 @@ import types
 
 import numpy as np
 
-from cas_freq.analysis import analyze, batch_analyze
-from cas_freq.analysis.analyze import Analysis as _Figures
+from cas_freq import analysis
 from cas_freq.analysis.frequency import DEFAULT_RANGE_RAD_S
 from cas_freq.config.loader import load_variant, read_config_file, variant_names
 from cas_freq.config.wording import OutputWords
@@ -46,8 +45,8 @@ from cas_freq.output import angle, output_step, output_unit, read_output
 from cas_freq.parameters import unit_of, variant_parameters
 from cas_freq.simulation.profile_run import make_profile, profile_run, profile_run_dict
 from cas_freq.simulation.run import step_run, step_run_dict
+from cas_freq.studies import exported_model
 from cas_freq.studies.envelope import load_envelope
-from cas_freq.studies.exported_model import export_model
 from cas_freq.summary import Summary, row, spread
 from cas_freq.threads import one_blas_thread
 from cas_freq.tuning import options
@@ -201,8 +200,8 @@ class Actuator:
             (bandwidth, peak; None when the loop is not stable), ``stable``, ``stability``;
             a figure that does not exist is None. ``to_dict()`` is ``analyze --json``.
         """
-        return Analysis.of(analyze(self.loaded, _delay(delay), _range(frequency_range),
-                                   limit_cycle_check=limit_cycle_check))
+        return Analysis.of(analysis.analyze(self.loaded, _delay(delay), _range(frequency_range),
+                                            limit_cycle_check=limit_cycle_check))
 
     @one_blas_thread()
     def frequency_response(self, omega, delay="exact"):
@@ -391,7 +390,7 @@ class Actuator:
             amplitudes = list(_quantities(amplitudes, unit.si, "amplitudes", unit).reshape(-1))
         if frequencies is not None:
             frequencies = list(_quantities(frequencies, "rad/s", "frequencies").reshape(-1))
-        return export_model(self.loaded, pade, amplitudes, frequencies, feedforward)
+        return exported_model.export_model(self.loaded, pade, amplitudes, frequencies, feedforward)
 
     @one_blas_thread()
     def to_control(self, pade=None):
@@ -487,7 +486,7 @@ class FrequencyResponse(Summary):
         return bode_figure(self)
 
 
-class Analysis(_Figures):
+class Analysis(analysis.Analysis):
     """What :meth:`Actuator.analyze` returns: a :class:`cas_freq.analysis.Analysis` (every
     figure, ``to_dict()``) that also draws itself (:meth:`plot`)."""
 
@@ -717,8 +716,9 @@ class ActuatorSet(Summary):
             ``"closed_loop.bandwidth_rad_s"`` (the column names of ``cas-freq sweep``).
         """
         delay = _delay(delay)
-        batch = batch_analyze(self.loop_parameters, _range(frequency_range),
-                              delay=delay, **({"pade_order": delay.order} if delay.order else {}))
+        batch = analysis.batch_analyze(
+            self.loop_parameters, _range(frequency_range), delay=delay,
+            **({"pade_order": delay.order} if delay.order else {}))
         groups = {}
         for name, values in batch.figures.items():
             *path, figure = name.split(".")

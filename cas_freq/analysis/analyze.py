@@ -18,7 +18,7 @@ import os
 
 import numpy as np
 
-from cas_freq.analysis import sampled_stability
+from cas_freq.analysis import response_kernel, sampled_stability
 from cas_freq.analysis.closed_loop import (
     CLOSED_LOOP_FIGURES,
     ClosedLoopFigures,
@@ -42,7 +42,6 @@ from cas_freq.analysis.margins import (
 )
 from cas_freq.analysis.probes import Probes
 from cas_freq.analysis.rate_envelope import rate_envelope, sine_frequencies
-from cas_freq.analysis.response_kernel import grid_responses
 from cas_freq.analysis.sampling_text import sampling_notes, sampling_section
 from cas_freq.analysis.stability import (
     Stability,
@@ -222,7 +221,7 @@ def _grid_responses(p, omega, n, delay, compiled=None, at_a_time=True):
     if is_sampled(p):
         return sampled_grid_responses(p, omega, loop_at_a_time=at_a_time)
     if compiled_for(n * omega.size) if compiled is None else compiled:
-        return grid_responses(p, omega, n, delay, loop_at_a_time=at_a_time)
+        return response_kernel.grid_responses(p, omega, n, delay, loop_at_a_time=at_a_time)
     return responses(p, 1j * omega, delay=delay, loop_at_a_time=at_a_time)
 
 

@@ -44,7 +44,8 @@ from pathlib import Path
 from urllib.parse import parse_qs, urlparse
 
 from cas_freq.config import load_variant
-from cas_freq.design.compute import CHOICES, check_values, controls, design_state
+from cas_freq.design import compute
+from cas_freq.design.compute import CHOICES, check_values, controls
 from cas_freq.design.guard import LOOPBACK_ADDRESSES, Guard, Refused, new_token
 from cas_freq.design.requests import ControlRequest, SaveRequest, StateRequest, TuneRequest, parsed
 from cas_freq.design.saving import save_target
@@ -152,7 +153,7 @@ class Design:
                             or message.startswith(f"{k}:")), None) or \
                     next((k for k in values if k in message), "_")
                 return {"errors": {key: message}, "seq": seq}
-            data = design_state(loaded, step_rad, request.nonlinear)
+            data = compute.design_state(loaded, step_rad, request.nonlinear)
             session.values = values
             data["seq"] = seq
             return data
