@@ -10,8 +10,9 @@ The Python API (:mod:`cas_freq.api`)::
     act = cf.load("configs/qt_cas.yaml", variant="fitted", set={"position_loop.Kp": "5 A/rad"})
     act.analyze().closed_loop.bandwidth_rad_s
 
-The package is layered one way: ``parameters``/``config`` -> ``model`` ->
-``analysis``/``simulation`` -> ``studies``/``verify`` -> ``plots``/``report`` -> ``cli``/``api``.
+The package is layered one way (docs/layout.md): the tables, ``config``, ``model``,
+``simulation``, ``analysis``, ``studies``, ``verify``/``tuning``, ``plots``, ``report``, the API,
+the CLI.
 Importing it is cheap: ``load``, ``Actuator`` and ``ActuatorSet`` are imported from
 :mod:`cas_freq.api` on first use, and nothing here imports python-control or matplotlib.
 """

@@ -4,7 +4,7 @@ Nothing is computed here: each method calls the engine the CLI uses (:mod:`cas_f
 :mod:`cas_freq.analysis`, :mod:`cas_freq.simulation`, :mod:`cas_freq.model`), so every figure
 is the one the matching command prints. The figures are defined in docs/model.md. matplotlib
 and python-control are imported only by :meth:`FrequencyResponse.plot`,
-:meth:`StepResponse.plot`, :meth:`ProfileResponse.plot`, ``Analysis.plot`` and
+:meth:`StepResponse.plot`, :meth:`ProfileResponse.plot`, :meth:`Analysis.plot` and
 :meth:`Actuator.to_control`.
 
 In a notebook every result shows a table of its headline figures (``_repr_html_``, from
@@ -28,12 +28,32 @@ import types
 
 import numpy as np
 
+from cas_freq import analysis
 from cas_freq.analysis.frequency import DEFAULT_RANGE_RAD_S
 from cas_freq.config.loader import load_variant, read_config_file, variant_names
 from cas_freq.config.wording import OutputWords
-from cas_freq.model import DelayModel
+from cas_freq.exceptions import CasFreqError
+from cas_freq.model import ActuatorLoops, DelayModel
+from cas_freq.model.delay import MAX_PADE_ORDER
+from cas_freq.model.systems import (
+    POLYNOMIAL_LOG10_LIMIT,
+    largest_polynomial,
+    linear_model,
+    margin_safe_model,
+)
+from cas_freq.output import angle, output_step, output_unit, read_output
+from cas_freq.parameters import unit_of, variant_parameters
+from cas_freq.report.data import described_loops
+from cas_freq.simulation.profile_run import make_profile, profile_run, profile_run_dict
+from cas_freq.simulation.run import step_run, step_run_dict
+from cas_freq.studies import exported_model
+from cas_freq.studies.envelope import load_envelope
 from cas_freq.summary import Summary, row, spread
 from cas_freq.threads import one_blas_thread
+from cas_freq.tuning import options
+from cas_freq.tuning.run import tune_variant
+from cas_freq.units import to_si
+from cas_freq.verify.measure import figure
 
 #: Highest default Padé order of :meth:`Actuator.to_control`. python-control's
 #: ``stability_margins`` works on the loop's polynomials, whose coefficients grow with the
@@ -63,10 +83,6 @@ def _quantities(values, unit, field, output=None):
     cas_freq.exceptions.CasFreqError
         One line naming ``field``, the value and what is accepted.
     """
-    from cas_freq.exceptions import CasFreqError
-    from cas_freq.output import read_output
-    from cas_freq.units import to_si
-
     single = isinstance(values, str) or np.ndim(values) == 0
     items = [values] if single else list(np.asarray(values, dtype=object).reshape(-1))
     out = []
@@ -180,15 +196,13 @@ class Actuator:
 
         Returns
         -------
-        cas_freq.analysis.Analysis
+        Analysis
             Attributes ``current_loop``, ``position_loop`` (margins), ``closed_loop``
             (bandwidth, peak; None when the loop is not stable), ``stable``, ``stability``;
             a figure that does not exist is None. ``to_dict()`` is ``analyze --json``.
         """
-        from cas_freq.analysis import analyze
-
-        return analyze(self.loaded, _delay(delay), _range(frequency_range),
-                       limit_cycle_check=limit_cycle_check)
+        return Analysis.of(analysis.analyze(self.loaded, _delay(delay), _range(frequency_range),
+                                            limit_cycle_check=limit_cycle_check))
 
     @one_blas_thread()
     def frequency_response(self, omega, delay="exact"):
@@ -205,9 +219,6 @@ class Actuator:
         -------
         FrequencyResponse
         """
-        from cas_freq.model import ActuatorLoops
-        from cas_freq.report.data import described_loops
-
         omega = np.asarray(_quantities(omega, "rad/s", "omega"), dtype=float)
         loops = ActuatorLoops(self.params, _delay(delay))
         s = 1j * omega
@@ -231,10 +242,6 @@ class Actuator:
         -------
         StepResponse
         """
-        from cas_freq.cli.common import output_step
-        from cas_freq.output import output_unit
-        from cas_freq.simulation.run import step_run
-
         step = output_unit(self.loaded.params).example if step is None else step
         return StepResponse.of(step_run(self.loaded, output_step(str(step), "step",
                                                                  [self.loaded])))
@@ -262,9 +269,6 @@ class Actuator:
         -------
         ProfileResponse
         """
-        from cas_freq.output import output_unit
-        from cas_freq.simulation.profile_run import make_profile, profile_run
-
         unit = output_unit(self.loaded.params)
         defaults = (unit.example, *unit.rate_examples)
         distance, velocity, acceleration = (
@@ -296,9 +300,6 @@ class Actuator:
             ``figures`` per grid point, ``stable_range``, and per requirement its verdicts and
             where it is lost (``requirements[k].lost_below`` / ``lost_above``).
         """
-        from cas_freq.cli.common import angle
-        from cas_freq.studies.envelope import load_envelope
-
         step_rad = None if step is None else angle(str(step), "step")
         stiffness = _quantities(hinge_stiffness, "N*m/rad", "hinge_stiffness")
         return load_envelope(self.loaded, np.asarray(stiffness, dtype=float), step_rad)
@@ -340,9 +341,6 @@ class Actuator:
             ``values()`` the tuned keys [SI], ``feasible``, ``evaluation`` (every candidate),
             ``pareto`` (indices of the trade-off front).
         """
-        from cas_freq.tuning import options
-        from cas_freq.tuning.run import tune_variant
-
         texts = [f"{key}={low}:{high}" for key, (low, high) in (bounds or {}).items()]
         return tune_variant(
             self.loaded, None if free is None else ",".join(free), texts, objective, robust,
@@ -363,8 +361,6 @@ class Actuator:
         -------
         ActuatorSet
         """
-        from cas_freq.parameters import variant_parameters
-
         changes = {key: np.asarray(values, dtype=float) for key, values in changes.items()}
         return ActuatorSet(self, changes, variant_parameters(self.params, changes))
 
@@ -391,15 +387,12 @@ class Actuator:
         cas_freq.studies.exported_model.ExportedModel
             ``system`` is T as a ``control.StateSpace``; ``to_dict()`` is the command's JSON.
         """
-        from cas_freq.output import output_unit
-        from cas_freq.studies.exported_model import export_model
-
         unit = output_unit(self.loaded.params)
         if amplitudes is not None:
             amplitudes = list(_quantities(amplitudes, unit.si, "amplitudes", unit).reshape(-1))
         if frequencies is not None:
             frequencies = list(_quantities(frequencies, "rad/s", "frequencies").reshape(-1))
-        return export_model(self.loaded, pade, amplitudes, frequencies, feedforward)
+        return exported_model.export_model(self.loaded, pade, amplitudes, frequencies, feedforward)
 
     @one_blas_thread()
     def to_control(self, pade=None):
@@ -425,15 +418,6 @@ class Actuator:
             :data:`cas_freq.model.systems.LOOP_NAMES`).
         """
         import warnings
-
-        from cas_freq.exceptions import CasFreqError
-        from cas_freq.model.delay import MAX_PADE_ORDER
-        from cas_freq.model.systems import (
-            POLYNOMIAL_LOG10_LIMIT,
-            largest_polynomial,
-            linear_model,
-            margin_safe_model,
-        )
 
         if pade is None:
             return margin_safe_model(self.params, TO_CONTROL_PADE_ORDER)
@@ -509,6 +493,34 @@ class FrequencyResponse(Summary):
         return bode_figure(self)
 
 
+class Analysis(analysis.Analysis):
+    """What :meth:`Actuator.analyze` returns: a :class:`cas_freq.analysis.Analysis` (every
+    figure, ``to_dict()``) that also draws itself (:meth:`plot`)."""
+
+    @classmethod
+    def of(cls, analysis):
+        """The same figures as ``analysis`` (a :class:`cas_freq.analysis.Analysis`)."""
+        return cls(**{field.name: getattr(analysis, field.name)
+                      for field in dataclasses.fields(analysis)})
+
+    def plot(self):
+        """Bode of L_i, L_p and T: every crossover marked, the margins as bars and in the
+        legend, the bandwidth on T (the report's open-loop figure with T added).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            Magnitude [dB] and phase [deg] axes against frequency [rad/s]; in a notebook it
+            displays itself.
+        """
+        if self.loaded is None:
+            raise ValueError("this analysis holds no variant to plot (loaded=None); "
+                             "analyze it with cas_freq.load(...).analyze()")
+        from cas_freq.plots.api import analysis_figure
+
+        return analysis_figure(self)
+
+
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)
 class StepResponse(Summary):
     """A simulated nonlinear output step.
@@ -565,8 +577,6 @@ class StepResponse(Summary):
 
     def to_dict(self):
         """JSON-ready dict: the JSON of ``cas-freq simulate --step ... --json``."""
-        from cas_freq.simulation.run import step_run_dict
-
         return step_run_dict(self.run)
 
     def plot(self):
@@ -625,8 +635,6 @@ class ProfileResponse(Summary):
                    run.without_feedforward, run)
 
     def _summary(self):
-        from cas_freq.verify.measure import figure
-
         unit = self.run.output_unit
         names = ("tracking_error_max_deg", "tracking_error_rms_deg", "overshoot_pct",
                  "settling_time_s", "max_current_a", "max_voltage_v")
@@ -647,8 +655,6 @@ class ProfileResponse(Summary):
 
     def to_dict(self):
         """JSON-ready dict: the JSON of ``cas-freq simulate --profile ... --json``."""
-        from cas_freq.simulation.profile_run import profile_run_dict
-
         return profile_run_dict(self.run)
 
     def plot(self):
@@ -686,8 +692,6 @@ class ActuatorSet(Summary):
         return self.loop_parameters.n_runs
 
     def _summary(self):
-        from cas_freq.parameters import unit_of
-
         rows = [(key, f"{np.min(values):.4g} .. {np.max(values):.4g}"
                  if np.size(values) else "—", unit_of(key, self.base.params))
                 for key, values in self.changes.items()]
@@ -718,11 +722,10 @@ class ActuatorSet(Summary):
             ``stability.pade_order``; ``figures``, the same arrays keyed as
             ``"closed_loop.bandwidth_rad_s"`` (the column names of ``cas-freq sweep``).
         """
-        from cas_freq.analysis import batch_analyze
-
         delay = _delay(delay)
-        batch = batch_analyze(self.loop_parameters, _range(frequency_range),
-                              delay=delay, **({"pade_order": delay.order} if delay.order else {}))
+        batch = analysis.batch_analyze(
+            self.loop_parameters, _range(frequency_range), delay=delay,
+            **({"pade_order": delay.order} if delay.order else {}))
         groups = {}
         for name, values in batch.figures.items():
             *path, figure = name.split(".")

@@ -10,12 +10,12 @@ Output: write to a temporary file in the target's folder, then rename.
 A run that fails half-way (or is interrupted) leaves the previous file intact, never half of a
 new one, and removes its temporary file.
 
-:func:`check_output_file` and :func:`check_output_dir` check an output path before any work
-starts: every command calls them first for its ``--csv``, ``--junit`` and ``-o`` options, so a
-folder where a file is meant, a parent that cannot be written or a symbolic link ends the run
-at once with one line (exit 2) instead of after minutes of work. Symbolic links are refused,
-not written through: outputs are replaced as a whole, and replacing a link would silently turn
-it into a plain file or folder.
+:func:`check_output_file` (and :func:`cas_freq.report.outdir.check_output_dir`) check an
+output path before any work starts: every command calls them first for its ``--csv``,
+``--junit`` and ``-o`` options, so a folder where a file is meant, a parent that cannot be
+written or a symbolic link ends the run at once with one line (exit 2) instead of after
+minutes of work. Symbolic links are refused, not written through: outputs are replaced as a
+whole, and replacing a link would silently turn it into a plain file or folder.
 """
 
 import os
@@ -28,6 +28,12 @@ from cas_freq.exceptions import CasFreqError, ConfigError
 #: Largest data file read [bytes]: a recording or command CSV (about 500,000 rows: 50 s at
 #: 10 kHz; the shipped 1 s chirp is 0.2 MB), as for an EPOS4 parameter file.
 MAX_DATA_BYTES = 16 << 20
+
+
+def one_line(text):
+    """``text`` with every control character (newlines included) escaped: one line."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
+
 
 #: What a file that is not regular is, by its ``stat`` mode.
 _FILE_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe (FIFO)"),
@@ -73,8 +79,6 @@ def read_input(path, what, limit=None, encoding="utf-8"):
         a device, a named pipe, ...), larger than ``limit``, unreadable, or not text in
         ``encoding``.
     """
-    from cas_freq.config.loader import one_line
-
     shown = one_line(path)
     limit = MAX_DATA_BYTES if limit is None else limit
 
@@ -159,8 +163,6 @@ def csv_row(path, number, line):
     try:
         return next(csv.reader([line]), [])
     except csv.Error as exc:
-        from cas_freq.config.loader import one_line
-
         if "field limit" in str(exc):
             reason = (f"a cell longer than {csv.field_size_limit():,} characters "
                       f"(the line has {len(line):,}); cells are numbers")
@@ -194,14 +196,6 @@ def check_output_file(path, option):
         raise CasFreqError(f"{option} {path}: exists and is not a regular file")
     _check_parent(path, option)
     return path
-
-
-def check_output_dir(path, option="-o"):
-    """Check that ``path`` can be written as a report folder; see
-    :func:`cas_freq.report.outdir.check_output_dir`."""
-    from cas_freq.report.outdir import check_output_dir as check
-
-    return check(path, option)
 
 
 def _umask():

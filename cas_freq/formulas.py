@@ -83,3 +83,28 @@ def second_order_bandwidth(natural_frequency, damping_ratio):
     a = 1.0 - 2.0 * damping_ratio * damping_ratio  # inf, not OverflowError, at 1e200
     root = math.hypot(a, 1.0)
     return natural_frequency * math.sqrt(a + root if a >= 0 else 1.0 / (root - a))
+
+
+# --- the second-order step fit (cas_freq.simulation.second_order, its compiled kernels in
+# cas_freq.simulation.fit_kernel) ---------------------------------------------------------
+
+#: Terms of the power series in x = (1 - zeta^2) s^2 (|x| < 1): the 12th is below 1e-20.
+SERIES_TERMS = 12
+#: Coefficients of C = sum c_k (-x)^k, S / s = sum s_k (-x)^k, D / s^3 = sum d_k (-x)^k.
+C_SERIES = np.array([1.0 / math.factorial(2 * k) for k in range(SERIES_TERMS)])
+S_SERIES = np.array([1.0 / math.factorial(2 * k + 1) for k in range(SERIES_TERMS)])
+D_SERIES = np.array([-(2 * k + 2) / math.factorial(2 * k + 3) for k in range(SERIES_TERMS)])
+
+#: Lower bounds of the scaled variables (wn / wn0, zeta, td / td_scale); the upper bound of the
+#: third is t_end / td_scale, of the others infinity (as in fit_second_order).
+_LOWER = np.array([1e-6, 0.0, 0.0])
+
+#: Levenberg-Marquardt stops a run when an accepted step lowers its sum of squares by less than
+#: this fraction (least_squares in fit_second_order: 1e-14). Within ~1e-7 of the minimum then,
+#: where _refine's Newton steps take over; stopping at 1e-12 saves a fifth of the iterations
+#: but can leave a slowly zigzagging overdamped fit 1e-4 short.
+_FTOL = 1e-15
+
+#: Most relative move of the variables that _refine accepts (larger: the start was not near a
+#: minimum, and it is kept).
+_MOVE = 1e-4

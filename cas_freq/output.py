@@ -19,6 +19,9 @@ import dataclasses
 import math
 import re
 
+from cas_freq.exceptions import CasFreqError
+from cas_freq.units import has_unit, to_si
+
 __all__ = ["ANGLE", "LENGTH", "OutputUnit", "output_json", "output_unit", "read_output",
            "wrong_kind"]
 
@@ -161,8 +164,6 @@ def wrong_kind(text, unit, option):
     """The refusal of ``text`` when it is an output quantity of the other kind (a length at a
     rotary output, an angle at a linear one), else None: ``--step: 10 deg is an angle; this
     actuator's output is linear: give a length, e.g. 5mm``."""
-    from cas_freq.units import has_unit, to_si
-
     other = LENGTH if unit is ANGLE else ANGLE
     try:
         to_si(text, other.si)
@@ -198,8 +199,6 @@ def read_output(text, unit, option, nonzero=True):
     ValueError
         One line naming ``option``, the value and what is accepted.
     """
-    from cas_freq.units import has_unit, to_si
-
     what = "an angle" if unit is ANGLE else "a length"
     try:
         value = to_si(text, unit.si)
@@ -215,3 +214,33 @@ def read_output(text, unit, option, nonzero=True):
         raise ValueError(f"{option}: must be {'non-zero and ' if nonzero else ''}within "
                          f"±{unit.largest_text} at the output, got {text!r}")
     return value
+
+
+def angle(text, option):
+    """An angle with a unit ('10deg', '0.1 rad') in radians, non-zero and within ±90 deg."""
+    try:
+        value = to_si(text, "rad")  # raises ValueError for text that is not a number and a unit
+        if not has_unit(text):
+            raise ValueError("it has no unit")
+    except (ValueError, TypeError) as exc:
+        raise CasFreqError(f"{option}: expected an angle with a unit such as 10deg, got "
+                           f"{text!r} ({exc})") from None
+    if not value != 0 or abs(value) > math.pi / 2:
+        raise CasFreqError(
+            f"{option}: must be non-zero and within ±90 deg at the output, got {text!r}"
+        )
+    return value
+
+
+def output_step(text, option, variants):
+    """A step (or move) at the output with a unit, in SI: an angle [rad] within ±90 deg at a
+    rotary output ('10deg'), a length [m] within ±1 m at a linear one ('5mm'); the other kind
+    is refused naming what to give (:func:`cas_freq.output.read_output`)."""
+    units = {output_unit(loaded.params) for loaded in variants}
+    if len(units) > 1:
+        raise CasFreqError(f"{option}: the selected variants mix rotary and linear outputs; "
+                           "select one kind with --variant")
+    try:
+        return read_output(text, units.pop(), option)
+    except ValueError as exc:
+        raise CasFreqError(str(exc)) from None

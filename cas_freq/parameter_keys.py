@@ -401,6 +401,52 @@ def parse_value(key, value, config=None):
     return number
 
 
+#: Largest grid accepted (points).
+MAX_POINTS = 1_000_000
+
+
+def parse_grid_values(key, spec, config=None):
+    """Values [SI] of one grid axis: ``start:stop:count`` or ``a,b,c`` (in the unit of
+    ``config``'s architecture, :func:`cas_freq.parameters.parameter`).
+
+    Raises
+    ------
+    ConfigError
+        For a key that cannot be varied or a spec that does not parse, naming what is accepted.
+    """
+    check_key(key, config)
+    accepted = (f"--set {key}={spec}: expected START:STOP:COUNT (COUNT >= 1 evenly spaced "
+                f"values) or a list A,B,C, numbers in {unit_of(key, config)} or with units")
+    text = str(spec).strip()
+    if ":" in text:
+        parts = text.split(":")
+        if len(parts) != 3:
+            raise ConfigError(accepted)
+        start, stop = (parse_value(key, part.strip(), config) for part in parts[:2])
+        try:
+            count = int(parts[2])
+        except ValueError:
+            raise ConfigError(accepted) from None
+        if count < 1 or not (math.isfinite(start) and math.isfinite(stop)):
+            raise ConfigError(accepted)
+        if count > MAX_POINTS:
+            raise ConfigError(f"--set {key}: {count} values, more than the {MAX_POINTS} points a "
+                              "sweep accepts")
+        return np.linspace(start, stop, count)
+    parts = [part.strip() for part in text.split(",")]
+    if not parts or any(not part for part in parts):
+        raise ConfigError(accepted)
+    if len(parts) > MAX_POINTS:
+        raise ConfigError(f"--set {key}: {len(parts)} values, more than the {MAX_POINTS} points "
+                          "a sweep accepts")
+    return np.array([parse_value(key, part, config) for part in parts])
+
+
+def is_grid_spec(value):
+    """True for a ``--set`` value that is a grid (contains ``:`` or ``,``)."""
+    return isinstance(value, str) and (":" in value or "," in value)
+
+
 def filter_time_constant(kp, kd, tf=None):
     """The derivative filter time constant [s]: ``tf`` if given, else Kd/(10*Kp), 0 where Kd = 0.
 

@@ -576,3 +576,10 @@ def _check_some_gain(full, cascade):
         if none.any():
             raise ConfigError(f"{section}: Kp and Ki are both 0: no {section.split('_')[0]} "
                               f"loop (samples {_indices(none)})")
+
+
+def current_limit(params):
+    """The current-command limit i_max [A] of a validated config: the velocity loop's with
+    one, else the position loop's."""
+    velocity = getattr(params, "velocity_loop", None)
+    return (velocity if velocity is not None else params.position_loop).i_max

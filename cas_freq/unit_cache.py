@@ -19,6 +19,8 @@ import json
 import math
 import os
 
+from cas_freq.fileio import write_text_atomic
+
 #: Version of the rules a stored factor passed (part of the file name): 2 since an angle must
 #: match (``min^-1`` is no longer read as ``rad/min``), 3 since a torque per current counts as
 #: per radian (``V*s`` is no longer read as ``N*m/A``), so a factor stored under older rules
@@ -76,7 +78,6 @@ def store_factor(unit, target, factor):
     path = cache_file()
     if path is None:
         return
-    from cas_freq.fileio import write_text_atomic
 
     rows = [[unit, target, value] for (unit, target), value in sorted(table.items())]
     try:

@@ -13,7 +13,8 @@ import pytest
 
 from cas_freq.cli import main
 from cas_freq.exceptions import ConfigError
-from cas_freq.studies.sweep import grid, parse_grid_values
+from cas_freq.parameter_keys import parse_grid_values
+from cas_freq.studies.sweep import grid
 
 
 def _strict(text):

@@ -29,8 +29,9 @@ import cas_freq as cf
 from cas_freq.analysis.disturbance import disturbance_figures, noise
 from cas_freq.exceptions import ConfigError
 from cas_freq.model import parts
+from cas_freq.model.actuator_loops import ActuatorLoops
 from cas_freq.model.disturbance import encoder_weights, load_response, noise_current
-from cas_freq.model.loops import ActuatorLoops, Selector
+from cas_freq.model.loops import Selector
 from cas_freq.model.structure import build
 from cas_freq.parameters import LoopParameters
 

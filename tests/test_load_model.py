@@ -18,7 +18,7 @@ from scipy.optimize import brentq
 from cas_freq.analysis.drivetrain import drivetrain
 from cas_freq.analysis.stability import closed_loop_poles, stability_verdicts
 from cas_freq.config import load_variant
-from cas_freq.model.loops import ActuatorLoops
+from cas_freq.model.actuator_loops import ActuatorLoops
 from cas_freq.model.systems import plant_system
 from cas_freq.parameters import LoopParameters
 

@@ -15,8 +15,8 @@ from clirun import run_cli
 import cas_freq.fileio as fileio
 import cas_freq.report.outdir as outdir
 from cas_freq.exceptions import CasFreqError
-from cas_freq.fileio import check_output_dir, check_output_file, write_text_atomic
-from cas_freq.report.outdir import MARKER, write_directory_atomic
+from cas_freq.fileio import check_output_file, write_text_atomic
+from cas_freq.report.outdir import MARKER, check_output_dir, write_directory_atomic
 
 
 def _one_line_exit_2(code, out, err, *fragments):

@@ -258,7 +258,7 @@ def test_compare_tables_list_the_velocity_loop_from_the_figure_table(axis, no_no
 def test_parameter_table_of_a_cascade(axis, no_notch, qt):
     # a cascade's gains in their own units (the position loop commands the speed: 1/s), its
     # filters by point and type ("—" where a variant has none), no PID-only keys
-    from cas_freq.report.data import current_limit
+    from cas_freq.parameters import current_limit
     from cas_freq.report.parameter_table import parameter_table
 
     rows = {row[0]: row[1:] for row in parameter_table([axis, no_notch]).rows}

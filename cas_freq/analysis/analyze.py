@@ -18,7 +18,7 @@ import os
 
 import numpy as np
 
-from cas_freq.analysis import sampled_stability
+from cas_freq.analysis import response_kernel, sampled_stability
 from cas_freq.analysis.closed_loop import (
     CLOSED_LOOP_FIGURES,
     ClosedLoopFigures,
@@ -57,6 +57,7 @@ from cas_freq.model.sampled import PreparedSampled, is_sampled, nyquist_frequenc
 from cas_freq.model.sampled import grid_responses as sampled_grid_responses
 from cas_freq.model.structure import build, total_delay
 from cas_freq.output import output_json, output_unit
+from cas_freq.parameters import LoopParameters
 from cas_freq.summary import Summary
 from cas_freq.threads import result_of, worker_threads
 
@@ -220,9 +221,7 @@ def _grid_responses(p, omega, n, delay, compiled=None, at_a_time=True):
     if is_sampled(p):
         return sampled_grid_responses(p, omega, loop_at_a_time=at_a_time)
     if compiled_for(n * omega.size) if compiled is None else compiled:
-        from cas_freq.analysis.response_kernel import grid_responses
-
-        return grid_responses(p, omega, n, delay, loop_at_a_time=at_a_time)
+        return response_kernel.grid_responses(p, omega, n, delay, loop_at_a_time=at_a_time)
     return responses(p, 1j * omega, delay=delay, loop_at_a_time=at_a_time)
 
 
@@ -477,23 +476,6 @@ class Analysis(Summary):
         changed = f" with {', '.join(self.overrides)}" if self.overrides else ""
         return f"{self.config} / {self.variant}{changed} ({self.delay_model} delays)", rows
 
-    def plot(self):
-        """Bode of L_i, L_p and T: every crossover marked, the margins as bars and in the
-        legend, the bandwidth on T (the report's open-loop figure with T added).
-
-        Returns
-        -------
-        matplotlib.figure.Figure
-            Magnitude [dB] and phase [deg] axes against frequency [rad/s]; in a notebook it
-            displays itself.
-        """
-        if self.loaded is None:
-            raise ValueError("this analysis holds no variant to plot (loaded=None); "
-                             "analyze it with cas_freq.load(...).analyze()")
-        from cas_freq.plots.api import analysis_figure
-
-        return analysis_figure(self)
-
 
 def _value(number):
     return None if not np.isfinite(number) else float(number)
@@ -591,8 +573,6 @@ def analyze(
     -------
     Analysis
     """
-    from cas_freq.parameters import LoopParameters
-
     params = LoopParameters.from_config(loaded.params)
     omega = frequency_grid(*frequency_range, points_per_decade, total_delay(params))
     order = delay.order or DEFAULT_PADE_ORDER

@@ -17,6 +17,7 @@ import numpy as np
 
 from cas_freq.analysis.margins import _first_true, _maxima, phase_jumps
 from cas_freq.analysis.roots import refine_roots
+from cas_freq.analysis.scan_kernel import first_fall_below_90 as kernel
 from cas_freq.formulas import HALF_POWER
 from cas_freq.jit import compiled_for
 
@@ -159,8 +160,6 @@ def first_fall_below_90(response):
     :func:`_first_phase_90` only asks whether the jump comes after the crossing.
     """
     if compiled_for(response.size):
-        from cas_freq.analysis.scan_kernel import first_fall_below_90 as kernel
-
         crossing = np.empty(response.shape[0], dtype=np.int64)
         jump = np.empty(response.shape[0], dtype=np.int64)
         kernel(response, crossing, jump)

@@ -54,6 +54,7 @@ import math
 
 import numpy as np
 
+from cas_freq.analysis import scan_kernel
 from cas_freq.analysis.probes import (
     Probes,
     extremum_probes,
@@ -199,10 +200,8 @@ def first_turned_jumps(response, rows, quarters, width):
     """
     quarters = np.asarray(quarters, dtype=float)
     if compiled_for(rows.size * width):
-        from cas_freq.analysis.scan_kernel import first_turned_jumps as kernel
-
         out = np.empty(rows.size, dtype=np.int64)
-        kernel(response, rows.astype(np.int64), quarters, width, out)
+        scan_kernel.first_turned_jumps(response, rows.astype(np.int64), quarters, width, out)
         return out
     return _first_true(phase_jumps(quarter_turn(response[rows, :width], quarters[:, None])))
 
@@ -319,10 +318,8 @@ def magnitudes(response):
     compiled in one pass on large arrays (:mod:`cas_freq.analysis.scan_kernel`, the same
     operations), this numpy form its reference."""
     if compiled_for(response.size):
-        from cas_freq.analysis.scan_kernel import magnitudes as kernel
-
         squared, plus, disk = (np.empty(response.shape) for _ in range(3))
-        kernel(response, squared, plus, disk)
+        scan_kernel.magnitudes(response, squared, plus, disk)
         return squared, plus, disk
     re, im = response.real, response.imag
     plus = (re + 1.0) ** 2 + im * im

@@ -12,6 +12,7 @@ import math
 import numpy as np
 
 from cas_freq.analysis.roots import refine_maxima
+from cas_freq.analysis.scan_kernel import long_chords
 from cas_freq.jit import compiled_for
 
 #: A local extremum whose second difference of ln |L|^2 over three grid samples exceeds this is
@@ -320,8 +321,6 @@ def _long_chords(inner, distance2):
     of its nearer end to -1 (``distance2``: |1 + L|^2), in row-major order; compiled on large
     arrays (:mod:`cas_freq.analysis.scan_kernel`), this numpy form its reference."""
     if compiled_for(inner.size):
-        from cas_freq.analysis.scan_kernel import long_chords
-
         empty = np.empty(0, dtype=np.int64)
         count = long_chords(inner, distance2, empty, empty)
         rows, k = np.empty(count, dtype=np.int64), np.empty(count, dtype=np.int64)

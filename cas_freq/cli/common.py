@@ -2,9 +2,9 @@
 
 import argparse
 import json
-import math
 
-from cas_freq.exceptions import CasFreqError
+from cas_freq.exceptions import CasFreqError, ConfigError
+from cas_freq.report.studies import write_report
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 
@@ -131,7 +131,6 @@ def selected_variants(config, names, overrides, all_by_default=False):
     """
     from cas_freq.config import BASE_VARIANT, load_all_variants, parse_set_option
     from cas_freq.config.loader import one_line, shown
-    from cas_freq.exceptions import ConfigError
 
     parsed = [parse_set_option(text) for text in overrides]
     chosen = set(names) if names else None if all_by_default else {BASE_VARIANT}
@@ -175,8 +174,6 @@ def write_and_print(args, data, files, text):
     called only with ``-o``; None: the command wrote its output itself) into ``args.output``
     as a whole, then print ``data`` as JSON or ``text(data)``. Returns EXIT_OK."""
     if args.output is not None and files is not None:
-        from cas_freq.report.studies import write_report
-
         write_report(args.output, files())
         wrote(args.output)
     if args.json:
@@ -226,36 +223,15 @@ def print_json(data):
     print(json.dumps(data, indent=2, allow_nan=False))
 
 
-def angle(text, option):
-    """An angle with a unit ('10deg', '0.1 rad') in radians, non-zero and within ±90 deg."""
-    from cas_freq.config.units import has_unit, to_si
+def column_option(args):
+    """The ``--columns`` mapping of ``args`` (None without the option); a malformed one is
+    bad input (exit 2)."""
+    from cas_freq.identification.columns import parse_column_option
 
+    if args.columns is None:
+        return None
     try:
-        value = to_si(text, "rad")  # raises ValueError for text that is not a number and a unit
-        if not has_unit(text):
-            raise ValueError("it has no unit")
-    except (ValueError, TypeError) as exc:
-        raise CasFreqError(f"{option}: expected an angle with a unit such as 10deg, got "
-                           f"{text!r} ({exc})") from None
-    if not value != 0 or abs(value) > math.pi / 2:
-        raise CasFreqError(
-            f"{option}: must be non-zero and within ±90 deg at the output, got {text!r}"
-        )
-    return value
-
-
-def output_step(text, option, variants):
-    """A step (or move) at the output with a unit, in SI: an angle [rad] within ±90 deg at a
-    rotary output ('10deg'), a length [m] within ±1 m at a linear one ('5mm'); the other kind
-    is refused naming what to give (:func:`cas_freq.output.read_output`)."""
-    from cas_freq.output import output_unit, read_output
-
-    units = {output_unit(loaded.params) for loaded in variants}
-    if len(units) > 1:
-        raise CasFreqError(f"{option}: the selected variants mix rotary and linear outputs; "
-                           "select one kind with --variant")
-    try:
-        return read_output(text, units.pop(), option)
+        return parse_column_option(args.columns)
     except ValueError as exc:
         raise CasFreqError(str(exc)) from None
 

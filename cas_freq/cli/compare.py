@@ -2,8 +2,16 @@
 
 import shlex
 
-from cas_freq.cli.common import EXIT_OK, add_config_arguments, label_progress, output_path
+from cas_freq.cli.common import (
+    EXIT_OK,
+    add_config_arguments,
+    label_progress,
+    output_path,
+    selected_variants,
+)
 from cas_freq.cli.report import DEFAULT_AMPLITUDES, DEFAULT_FREQUENCIES, settings_from_args
+from cas_freq.exceptions import CasFreqError
+from cas_freq.report.outdir import check_output_dir
 
 
 def register(commands):
@@ -37,8 +45,6 @@ def register(commands):
 
 def parse_variant_list(text):
     """``a,b`` → ['a', 'b'] (no empty names)."""
-    from cas_freq.exceptions import CasFreqError
-
     names = [part.strip() for part in text.split(",")]
     if not text.strip() or any(not name for name in names):
         raise CasFreqError(f"--variants: expected names such as base,fitted, got {text!r}")
@@ -66,7 +72,6 @@ def command_text(args, names):
 
 def run(args):
     """Build the comparison; print the path of its index.html."""
-    from cas_freq.cli.common import selected_variants
     from cas_freq.report.compare import build_compare
 
     names = (parse_variant_list(args.variant_list) if args.variant_list is not None
@@ -76,7 +81,6 @@ def run(args):
         variants += selected_variants(config, names, args.overrides, all_by_default=True)
     settings = settings_from_args(args, variants)
     if args.output is not None or len(variants) >= 2:
-        from cas_freq.fileio import check_output_dir
         from cas_freq.report.compare import default_compare_dir
 
         check_output_dir(args.output if args.output is not None

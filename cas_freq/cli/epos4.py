@@ -27,6 +27,7 @@ from cas_freq.cli.common import (
     wrote,
 )
 from cas_freq.exceptions import CasFreqError
+from cas_freq.fileio import check_output_file, write_text_atomic
 
 
 def register(commands):
@@ -88,7 +89,6 @@ def run_import(args):
     """Read the export, add the variant to the config's text, check it loads, write it."""
     from cas_freq.drive import epos4
     from cas_freq.drive.variant_text import config_with_variant
-    from cas_freq.fileio import check_output_file, write_text_atomic
 
     if args.json and args.output is None:
         raise CasFreqError("--json: prints what was imported, so the config needs -o OUT.yaml")
@@ -149,7 +149,6 @@ def run_export(args):
     """Print the selected variants' settings; write a parameter file with ``-o``."""
     from cas_freq.config.loader import one_line, shown
     from cas_freq.drive import epos4
-    from cas_freq.fileio import check_output_file, write_text_atomic
 
     output = check_output_file(args.output, "-o") if args.output is not None else None
     if output is not None and several_variants(args):

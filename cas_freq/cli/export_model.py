@@ -17,6 +17,7 @@ from cas_freq.cli.sinedwell import (
     parse_frequencies,
 )
 from cas_freq.exceptions import CasFreqError
+from cas_freq.fileio import check_output_file, write_text_atomic
 
 
 def register(commands):
@@ -42,7 +43,6 @@ def run(args):
     """Export one variant to ``args.output``."""
     import json
 
-    from cas_freq.fileio import check_output_file, write_text_atomic
     from cas_freq.model.delay import MAX_PADE_ORDER
     from cas_freq.studies.exported_model import DEFAULT_EXPORT_PADE, export_model
 

@@ -3,8 +3,12 @@
 import dataclasses
 import math
 
-from cas_freq.cli.common import EXIT_OK, angle, output_path, print_json
+from cas_freq.cli.common import EXIT_OK, column_option, output_path, print_json
+from cas_freq.cli.fit_recordings import fit_lines, rms_line, run_recordings, step_lines
+from cas_freq.cli.fit_sweep import are_sweeps, run_sweep
 from cas_freq.exceptions import CasFreqError
+from cas_freq.fileio import json_ready
+from cas_freq.output import angle
 
 
 def register(commands):
@@ -79,19 +83,6 @@ def register(commands):
     parser.set_defaults(handler=run)
 
 
-def column_option(args):
-    """The ``--columns`` mapping of ``args`` (None without the option); a malformed one is
-    bad input (exit 2)."""
-    from cas_freq.identification.columns import parse_column_option
-
-    if args.columns is None:
-        return None
-    try:
-        return parse_column_option(args.columns)
-    except ValueError as exc:
-        raise CasFreqError(str(exc)) from None
-
-
 def run(args):
     """``fit --data FILE...`` (:mod:`cas_freq.cli.fit_recordings`) or ``fit FILE --step``."""
     if args.data and args.params:
@@ -102,9 +93,6 @@ def run(args):
         if getattr(args, option):
             raise CasFreqError(f"{name} needs --params KEYS (a fit of config keys)")
     if args.data:
-        from cas_freq.cli.fit_recordings import run_recordings
-        from cas_freq.cli.fit_sweep import are_sweeps, run_sweep
-
         if are_sweeps(args.data, column_option(args)):
             return run_sweep(args)
 
@@ -128,7 +116,6 @@ def run_file(args):
     """Fit the response in the file and print the figures and the fit."""
     import numpy as np
 
-    from cas_freq.fileio import json_ready
     from cas_freq.simulation.commands import read_angle_series_csv
     from cas_freq.simulation.second_order import fit_second_order
     from cas_freq.simulation.step_figures import step_figures
@@ -156,7 +143,6 @@ def run_file(args):
     if args.json:
         print_json(data)
         return EXIT_OK
-    from cas_freq.cli.fit_recordings import fit_lines, rms_line, step_lines
 
     f = dict(data["fit"])
     f["rms_residual_of_step"] = (None if f["rms_residual"] is None

@@ -9,10 +9,24 @@ import math
 import time
 from pathlib import Path
 
-from cas_freq.cli.common import angle, write_and_print, wrote
+from cas_freq.cli.common import (
+    column_option,
+    refuse_linear,
+    selected_variants,
+    write_and_print,
+    wrote,
+)
 from cas_freq.exceptions import CasFreqError
+from cas_freq.fileio import check_output_file, json_ready, write_text_atomic
+from cas_freq.identification import read_recording
+from cas_freq.identification.free_keys import labels, parse_model_spec
 from cas_freq.identification.identifiability import UNBOUNDED
+from cas_freq.identification.physical import fit_physical
 from cas_freq.identification.probe import NOT_IDENTIFIABLE
+from cas_freq.identification.step_fit import step_size
+from cas_freq.output import angle
+from cas_freq.report.outdir import check_output_dir
+from cas_freq.report.studies import json_text
 
 #: A residual this many times the pre-trigger noise is reported as a misfit.
 MISFIT = 2.0
@@ -77,8 +91,6 @@ def _identifiability_dict(found):
 
 def fit_dict(fit, seconds):
     """JSON-ready dict of one PhysicalFit."""
-    from cas_freq.identification.free_keys import labels
-
     ident = {name: _identifiability_dict(found) for name, found in fit.identifiability.items()}
     return {
         "name": fit.name,
@@ -214,20 +226,11 @@ def table(data):
 
 def run_params(args):
     """Fit each ``--params`` model, compare, print, write ``-o``."""
-    from cas_freq.cli.common import selected_variants
-    from cas_freq.cli.fit import column_option
-    from cas_freq.fileio import check_output_file, json_ready, write_text_atomic
-    from cas_freq.identification import read_recording
     from cas_freq.identification.fitted_config import fitted_config_text
-    from cas_freq.identification.free_keys import parse_model_spec
-    from cas_freq.identification.physical import fit_physical
-    from cas_freq.identification.step_fit import step_size
 
     output = args.output
     as_file = output is not None and Path(output).suffix.lower() in (".yaml", ".yml")
     if output is not None and not as_file:
-        from cas_freq.report.outdir import check_output_dir
-
         check_output_dir(output, "-o")
     elif as_file:
         check_output_file(output, "-o")
@@ -239,7 +242,6 @@ def run_params(args):
     columns = column_option(args)
     loaded = selected_variants(args.target, [args.variant] if args.variant else [],
                                args.overrides)[0]
-    from cas_freq.cli.common import refuse_linear
 
     refuse_linear(loaded, "fit")
     if as_file and Path(output).resolve() == Path(loaded.source).resolve():
@@ -273,7 +275,6 @@ def run_params(args):
     def files():
         from cas_freq.plots.common import svg_text
         from cas_freq.plots.recordings import physical_fit_figure
-        from cas_freq.report.studies import json_text
 
         figure = physical_fit_figure(recordings, fits, best.name, loaded.params.output_label)
         return {"fit.json": json_text(data), "config.yaml": text, "fit.svg": svg_text(figure)}

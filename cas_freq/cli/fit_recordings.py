@@ -9,8 +9,12 @@ step figures and fit of CONFIG's base variant simulated for the same step
 import dataclasses
 import math
 
-from cas_freq.cli.common import angle, write_and_print
+from cas_freq.cli.common import column_option, refuse_linear, selected_variants, write_and_print
 from cas_freq.figures import FIGURES
+from cas_freq.fileio import json_ready
+from cas_freq.output import angle
+from cas_freq.report.outdir import check_output_dir
+from cas_freq.report.studies import json_text
 
 
 def _fit_dict(fit, unit_step=False):
@@ -25,8 +29,6 @@ def _fit_dict(fit, unit_step=False):
 def results(fits, model_runs, config):
     """The JSON-ready dict of the fits (and of the config's simulated steps)."""
     import numpy as np
-
-    from cas_freq.fileio import json_ready
 
     recordings = []
     for run in fits.runs:
@@ -177,18 +179,14 @@ def table(data):
 
 def run_recordings(args):
     """Read the recordings, fit them, simulate the config's step, print, write ``-o``."""
-    from cas_freq.cli.fit import column_option
     from cas_freq.identification import fit_recordings, read_recording
-    from cas_freq.report.outdir import check_output_dir
 
     if args.output is not None:
         check_output_dir(args.output, "-o")
     columns = column_option(args)
     step = None if args.step is None else angle(args.step, "--step")
-    from cas_freq.cli.common import selected_variants
 
     loaded = selected_variants(args.target, [args.variant] if args.variant else [], [])[0]
-    from cas_freq.cli.common import refuse_linear
 
     refuse_linear(loaded, "fit")
     recordings = [read_recording(path, columns) for path in args.data]
@@ -202,7 +200,6 @@ def run_recordings(args):
     def files():
         from cas_freq.plots.common import svg_text
         from cas_freq.plots.recordings import recording_fit_figure
-        from cas_freq.report.studies import json_text
 
         return {"fit.json": json_text(data), "fit.svg": svg_text(
             recording_fit_figure(fits, loaded.params.output_label))}

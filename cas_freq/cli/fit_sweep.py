@@ -9,8 +9,11 @@ the model's, and with several recordings how each compares with the first. ``-o 
 frf.json and frf.svg.
 """
 
-from cas_freq.cli.common import write_and_print
-from cas_freq.exceptions import CasFreqError
+from cas_freq.cli.common import column_option, refuse_linear, selected_variants, write_and_print
+from cas_freq.exceptions import CasFreqError, ConfigError
+from cas_freq.fileio import json_ready
+from cas_freq.report.outdir import check_output_dir
+from cas_freq.report.studies import json_text
 
 #: Responses estimated: key, input and output attributes of a SweepRecording, label (``{output}``:
 #: the config's ``output_label``), unit.
@@ -24,7 +27,6 @@ RESPONSES = (
 def are_sweeps(paths, columns):
     """True if every recording is a sweep, False if every one is a step; a mix is an error
     naming the files of each kind."""
-    from cas_freq.exceptions import ConfigError
     from cas_freq.identification.sweep import recording_kind
 
     kinds = {path: recording_kind(path, columns) for path in paths}
@@ -102,7 +104,6 @@ def analyse(recording, params):
 def results(recordings, loaded):
     """The JSON-ready dict of every recording's responses (and the estimates, for the
     figure)."""
-    from cas_freq.fileio import json_ready
     from cas_freq.identification import frf
 
     analysed = [analyse(recording, loaded.params) for recording in recordings]
@@ -181,20 +182,16 @@ def table(data):
 
 def run_sweep(args):
     """Read the sweep recordings, estimate, compare with the model, print, write ``-o``."""
-    from cas_freq.cli.common import selected_variants
     from cas_freq.identification.sweep import read_sweep
-    from cas_freq.report.outdir import check_output_dir
 
     if args.step is not None:
         raise CasFreqError("--step is for step recordings; the recordings are sweeps (their "
                            "command oscillates)")
     if args.output is not None:
         check_output_dir(args.output, "-o")
-    from cas_freq.cli.fit import column_option
 
     columns = column_option(args)
     loaded = selected_variants(args.target, [args.variant] if args.variant else [], [])[0]
-    from cas_freq.cli.common import refuse_linear
 
     refuse_linear(loaded, "fit")
     recordings = [read_sweep(path, columns) for path in args.data]
@@ -203,7 +200,6 @@ def run_sweep(args):
     def files():
         from cas_freq.plots.common import svg_text
         from cas_freq.plots.frf import frf_figure
-        from cas_freq.report.studies import json_text
 
         return {"frf.json": json_text(data), "frf.svg": svg_text(frf_figure(data))}
 

@@ -4,12 +4,18 @@ from cas_freq.cli.common import (
     EXIT_OK,
     add_config_arguments,
     file_safe,
+    load_variants,
     output_path,
-    output_step,
     print_json,
     several_variants,
+    terminal_progress,
     variant_csv,
 )
+from cas_freq.exceptions import CasFreqError
+from cas_freq.output import output_json, output_step, output_unit
+from cas_freq.report.outdir import check_output_dir
+from cas_freq.report.studies import json_text, write_report
+from cas_freq.studies.distributed import parse_scheduler, session
 
 #: Figures summarised in the text output (besides those of the requirements).
 SUMMARY_FIGURES = (
@@ -91,11 +97,6 @@ def summary(data):
 
 def run(args):
     """Run the Monte Carlo of each selected variant; print text or JSON, write the report."""
-    from cas_freq.cli.common import load_variants, terminal_progress
-    from cas_freq.exceptions import CasFreqError
-    from cas_freq.fileio import check_output_dir
-    from cas_freq.report.studies import json_text, write_report
-    from cas_freq.studies.distributed import session
     from cas_freq.studies.montecarlo import (
         fresh_seed,
         montecarlo_dict,
@@ -109,8 +110,6 @@ def run(args):
     if args.no_step and args.step:
         raise CasFreqError("--no-step and --step exclude each other")
     if args.scheduler is not None:
-        from cas_freq.studies.distributed import parse_scheduler
-
         parse_scheduler(args.scheduler)
     from cas_freq.parameters import CASCADE_PARAMETERS, LINEAR_ONLY, LINEAR_PARAMETERS
 
@@ -138,7 +137,6 @@ def run(args):
             if progress:
                 progress.done()
     several = several_variants(args)
-    from cas_freq.output import output_json, output_unit
 
     data = [output_json(montecarlo_dict(result), output_unit(loaded.params))  # mm if linear
             for result, loaded in zip(results, variants, strict=True)]

@@ -7,6 +7,8 @@ from cas_freq.cli.common import (
     load_variants,
     output_path,
 )
+from cas_freq.cli.sinedwell import amplitudes_text, parse_amplitudes, parse_frequencies
+from cas_freq.report.outdir import check_output_dir
 
 #: Amplitudes when none are given: small signal, two intermediate sizes, the report's 10 deg.
 DEFAULT_AMPLITUDES = "0.5deg,2deg,5deg,10deg"
@@ -52,7 +54,6 @@ def settings_from_args(args, variants=None):
     """ReportSettings from the command-line options (amplitudes read as ``variants``' output
     takes them: lengths at a linear output, whose default is
     :data:`LINEAR_DEFAULT_AMPLITUDES`)."""
-    from cas_freq.cli.sinedwell import amplitudes_text, parse_amplitudes, parse_frequencies
     from cas_freq.model.delay import DelayModel
     from cas_freq.report.data import ReportSettings
 
@@ -80,7 +81,6 @@ def run(args):
 
     variants = load_variants(args, all_by_default=True)
     settings = settings_from_args(args, variants)
-    from cas_freq.fileio import check_output_dir
 
     if args.output is not None:
         check_output_dir(args.output, "-o")

@@ -6,13 +6,15 @@ from cas_freq.cli.common import (
     add_config_arguments,
     load_variants,
     output_path,
-    output_step,
     print_json,
     refuse_linear,
     several_variants,
     terminal_progress,
     wrote,
 )
+from cas_freq.exceptions import CasFreqError
+from cas_freq.fileio import check_output_file, write_text_atomic
+from cas_freq.output import ANGLE, output_step, output_unit
 
 
 def register(commands):
@@ -55,8 +57,6 @@ def register(commands):
 
 def run(args):
     """Simulate for the selected variants; print a table or JSON, write CSV."""
-    from cas_freq.fileio import check_output_file, write_text_atomic
-
     if args.csv is not None:
         check_output_file(args.csv, "--csv")
     from cas_freq.report.text import command_table, step_table
@@ -115,8 +115,6 @@ def _profile(args, variants):
     None without ``--profile`` (when the limits must not be given either); ``variants``: the
     loaded variants, whose output's kind says how the move is read (None: check the options
     only, the move as an angle)."""
-    from cas_freq.exceptions import CasFreqError
-
     limits = {"velocity": args.velocity, "acceleration": args.acceleration,
               "deceleration": args.deceleration}
     if args.profile is None:
@@ -128,7 +126,6 @@ def _profile(args, variants):
     if missing:
         raise CasFreqError(f"--profile: needs {' and '.join(missing)} (e.g. --profile 10deg "
                            "--velocity 2000deg/s --acceleration 1e5deg/s^2)")
-    from cas_freq.output import ANGLE, output_unit
     from cas_freq.simulation.profile_run import make_profile
 
     units = {output_unit(loaded.params) for loaded in variants or ()}

@@ -3,14 +3,13 @@
 from cas_freq.cli.common import (
     EXIT_OK,
     add_config_arguments,
-    angle,
     load_variants,
-    output_step,
     print_json,
     several_variants,
     terminal_progress,
 )
 from cas_freq.exceptions import CasFreqError
+from cas_freq.output import angle, output_json, output_step, output_unit
 
 #: Amplitudes when none are given: small signal, mid, and the report's 10 deg step size.
 DEFAULT_AMPLITUDES = "0.5deg,2deg,10deg"
@@ -56,15 +55,13 @@ LINEAR_DEFAULT_AMPLITUDES = "0.1mm,0.5mm,2mm"
 def amplitudes_text(text, variants, default, linear_default):
     """``text``, or at a linear output the linear default where ``text`` is the rotary
     ``default`` (an option left unset)."""
-    from cas_freq.output import output_unit
-
     linear = any(output_unit(loaded.params).linear for loaded in variants or ())
     return linear_default if linear and text == default else text
 
 
 def parse_amplitudes(text, variants=None):
     """Comma-separated output amplitudes with units → list in SI: angles [rad], or lengths [m]
-    at a linear output of ``variants`` (:func:`cas_freq.cli.common.output_step`)."""
+    at a linear output of ``variants`` (:func:`cas_freq.output.output_step`)."""
     parts = [part.strip() for part in text.split(",")]
     if not text.strip() or any(not part for part in parts):
         example = "angles such as 0.5deg,2deg,10deg"
@@ -90,7 +87,6 @@ def run(args):
     """Sine-dwell the selected variants; print a table or JSON."""
     from cas_freq.analysis import analyze
     from cas_freq.config.wording import OutputWords
-    from cas_freq.output import output_json, output_unit
     from cas_freq.report.text import sinedwell_table
     from cas_freq.simulation.run import over_budget_reason, sinedwell_run, sinedwell_run_dict
     from cas_freq.simulation.simulator import BudgetError

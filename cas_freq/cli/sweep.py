@@ -6,12 +6,18 @@ from cas_freq.cli.common import (
     file_safe,
     load_variants,
     output_path,
-    output_step,
     print_json,
     several_variants,
+    terminal_progress,
     variant_csv,
 )
+from cas_freq.cli.sinedwell import parse_frequencies
 from cas_freq.exceptions import CasFreqError
+from cas_freq.fileio import check_output_file, write_text_atomic
+from cas_freq.output import output_json, output_step, output_unit
+from cas_freq.report.outdir import check_output_dir
+from cas_freq.report.studies import json_text, write_report
+from cas_freq.studies.distributed import parse_scheduler, session
 
 #: Figures shown in the text table (all of them go to JSON and CSV).
 TABLE_FIGURES = (
@@ -68,8 +74,8 @@ def split_settings(settings, config=None, parse=True):
     the position gains' units). ``parse=False``, before the config is loaded: the axes of the
     keys whose unit depends on the architecture as their texts (the key checked)."""
     from cas_freq.config import parse_set_option
+    from cas_freq.parameter_keys import is_grid_spec, parse_grid_values
     from cas_freq.parameters import CASCADE_PARAMETERS, check_key
-    from cas_freq.studies.sweep import is_grid_spec, parse_grid_values
 
     fixed, axes = [], {}
     for text in settings:
@@ -124,10 +130,6 @@ def table(sweep):
 
 def run(args):
     """Run the sweep of each selected variant; print tables or JSON, write CSV and the report."""
-    from cas_freq.cli.common import terminal_progress
-    from cas_freq.fileio import check_output_dir, check_output_file, write_text_atomic
-    from cas_freq.report.studies import json_text, write_report
-    from cas_freq.studies.distributed import session
     from cas_freq.studies.sweep import run_sweep, sweep_csv, sweep_dict
 
     if args.csv is not None:
@@ -135,8 +137,6 @@ def run(args):
     if args.output is not None:
         check_output_dir(args.output, "-o")
     if args.scheduler is not None:
-        from cas_freq.studies.distributed import parse_scheduler
-
         parse_scheduler(args.scheduler)
     fixed, axes = split_settings(args.overrides, parse=False)
     if not axes:
@@ -148,7 +148,6 @@ def run(args):
     step = output_step(args.step, "--step", variants) if args.step else None
     sinedwell = None
     if args.sinedwell:
-        from cas_freq.cli.sinedwell import parse_frequencies
         from cas_freq.simulation.run import DEFAULT_SINEDWELL_FREQUENCIES_RAD_S
 
         frequencies = (DEFAULT_SINEDWELL_FREQUENCIES_RAD_S if args.frequencies is None
@@ -167,7 +166,6 @@ def run(args):
             if progress:
                 progress.done()
     several = several_variants(args)
-    from cas_freq.output import output_json, output_unit
 
     data = [output_json(sweep_dict(result), output_unit(loaded.params))  # mm if linear
             for result, loaded in zip(results, variants, strict=True)]

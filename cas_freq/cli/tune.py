@@ -11,25 +11,30 @@ from cas_freq.cli.common import (
     EXIT_FAILED,
     EXIT_OK,
     add_config_arguments,
+    load_variants,
     output_path,
     print_json,
+    terminal_progress,
     wrote,
 )
-from cas_freq.exceptions import CasFreqError
+from cas_freq.exceptions import CasFreqError, ConfigError
+from cas_freq.fileio import check_output_file, json_ready, write_text_atomic
+from cas_freq.report.outdir import check_output_dir
+from cas_freq.report.studies import json_text, write_report
+from cas_freq.studies.distributed import session
+from cas_freq.tuning.options import (
+    CASCADE_DEFAULT_FREE,
+    DEFAULT_FACTOR,
+    DEFAULT_FREE,
+    GLOBAL_COUNT,
+    OBJECTIVES,
+    ROUND_COUNT,
+    ROUNDS,
+)
 
 
 def register(commands):
     """Add the ``tune`` sub-parser."""
-    from cas_freq.tuning.options import (
-        CASCADE_DEFAULT_FREE,
-        DEFAULT_FACTOR,
-        DEFAULT_FREE,
-        GLOBAL_COUNT,
-        OBJECTIVES,
-        ROUND_COUNT,
-        ROUNDS,
-    )
-
     parser = commands.add_parser(
         "tune", help="tune keys (gains, filters, ...) to the config's requirements",
         description="Search free keys for the best objective subject to the config's "
@@ -105,17 +110,12 @@ def _check_counts(args):
 
 def run(args):
     """Tune, print, write the config (and the comparison)."""
-    from cas_freq.cli.common import load_variants, terminal_progress
-    from cas_freq.fileio import check_output_file, json_ready, write_text_atomic
-    from cas_freq.studies.distributed import session
     from cas_freq.tuning.run import tune_variant
     from cas_freq.tuning.summary import tune_dict, tune_text
 
     _check_counts(args)
     output = check_output_file(args.output, "-o") if args.output is not None else None
     if args.report is not None:
-        from cas_freq.report.outdir import check_output_dir
-
         check_output_dir(args.report, "--report")
     variants = load_variants(args)
     if len(variants) != 1:
@@ -150,7 +150,6 @@ def run(args):
     if args.report is not None:
         from cas_freq.plots.common import svg_text
         from cas_freq.plots.tune import trade_off_figure
-        from cas_freq.report.studies import json_text, write_report
 
         write_report(args.report, {"tune.json": json_text(data),
                                    "trade-off.svg": svg_text(trade_off_figure(result))})
@@ -182,7 +181,6 @@ def _tuned_config(loaded, result, name):
 def _drive_settings(tuned):
     """The tuned variant's gains in EPOS4 units (None if the drive cannot hold them)."""
     from cas_freq.drive import epos4
-    from cas_freq.exceptions import ConfigError
 
     try:
         settings = epos4.settings_of(tuned.params, f"variant {tuned.variant!r}")

@@ -12,6 +12,7 @@ from cas_freq.cli.common import (
     print_json,
 )
 from cas_freq.exceptions import CasFreqError
+from cas_freq.fileio import check_output_file, write_text_atomic
 
 
 def register(commands):
@@ -67,7 +68,6 @@ def verdict_table(config_name, verdicts):
 
 def run(args):
     """Verify the selected variants; print a table or JSON; write JUnit; exit 0/1."""
-    from cas_freq.fileio import check_output_file, write_text_atomic
     from cas_freq.verify import failed_required, junit_xml, verdict_dict, verify_variants
 
     if args.junit is not None:

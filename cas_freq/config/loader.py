@@ -33,6 +33,7 @@ from cas_freq.config.schema import (
     CascadePositionLoop,
 )
 from cas_freq.exceptions import ConfigError, ConfigTypeError, listed
+from cas_freq.fileio import one_line, read_input
 
 #: Keys that give the same quantity another way: setting the key removes its alternative.
 _ALTERNATIVES = {"motor.mu_v": "motor.no_load", "motor.no_load": "motor.mu_v"}
@@ -55,11 +56,6 @@ def shown(value, limit=QUOTE_CHARS):
         text = text[: 20 * limit]
     text = one_line(text)
     return text if len(text) <= limit else text[: limit - 3] + "..."
-
-
-def one_line(text):
-    """``text`` with every control character (newlines included) escaped: one line."""
-    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
 
 
 #: YAML 1.2 core schema's plain scalars (https://yaml.org/spec/1.2.2/#1032-tag-resolution); the
@@ -290,8 +286,6 @@ def read_config_file(path):
         regular file, larger than :data:`MAX_FILE_BYTES`, not UTF-8), is not valid YAML, or is
         not a mapping.
     """
-    from cas_freq.fileio import read_input
-
     shown_path = one_line(path)
     text = read_input(path, "config file", MAX_FILE_BYTES)
     try:

@@ -23,6 +23,7 @@ from pydantic_core import PydanticCustomError
 
 from cas_freq.config.units import has_unit, to_si
 from cas_freq.figures import FIGURES, METRICS, UNIT_LABELS, accepted_metrics
+from cas_freq.output import ANGLE, LENGTH, wrong_kind
 
 __all__ = ["METRICS", "UNIT_LABELS", "ProfileCondition", "Requirement", "convert_bound",
            "metric_unit", "parse_frequency_spec"]
@@ -138,8 +139,6 @@ class ProfileCondition(BaseModel):
     @field_validator("distance", mode="before")
     @classmethod
     def _distance(cls, value, info):
-        from cas_freq.output import LENGTH, wrong_kind
-
         if (info.context or {}).get("linear"):  # a linear output: a length
             wrong = wrong_kind(value, LENGTH, "") if isinstance(value, str) else None
             if wrong:
@@ -172,12 +171,6 @@ class ProfileCondition(BaseModel):
         if not number > 0:
             raise PydanticCustomError("cas_value", f"must be > 0, got {value!r}")
         return number
-
-    def command(self):
-        """The :class:`~cas_freq.simulation.commands.Profile` of this condition."""
-        from cas_freq.simulation.commands import Profile
-
-        return Profile(self.distance, self.velocity, self.acceleration, self.deceleration)
 
 
 class Requirement(BaseModel):
@@ -259,8 +252,6 @@ class Requirement(BaseModel):
     @field_validator("step", "amplitude", mode="before")
     @classmethod
     def _angle(cls, value, info):
-        from cas_freq.output import ANGLE, LENGTH, wrong_kind
-
         if value is None:
             return value
         linear = bool(info is not None and (info.context or {}).get("linear"))

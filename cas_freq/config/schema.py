@@ -24,6 +24,8 @@ from pydantic import (
 from pydantic_core import PydanticCustomError
 
 from cas_freq.config.requirement import Requirement
+from cas_freq.config.wording import OUTPUT
+from cas_freq.exceptions import ConfigError
 from cas_freq.filters_config import (
     DEFAULT_DAMPING,
     FILTER_NUMBERS,
@@ -31,6 +33,8 @@ from cas_freq.filters_config import (
     point_problem,
     type_problem,
 )
+from cas_freq.formulas import second_order_bandwidth
+from cas_freq.parameter_keys import parse_grid_values
 from cas_freq.parameters import (
     CASCADE_ONLY,
     CASCADE_PARAMETERS,
@@ -544,8 +548,6 @@ class ReferenceFit(_Section):
         if self.bandwidth is not None:
             return self.bandwidth
         if self.wn is not None and self.zeta is not None:
-            from cas_freq.formulas import second_order_bandwidth
-
             return second_order_bandwidth(self.wn, self.zeta)
         return None
 
@@ -578,9 +580,6 @@ class LoadEnvelopeSpec(_Section):
     @field_validator("hinge_stiffness", mode="before")
     @classmethod
     def _grid(cls, value):
-        from cas_freq.exceptions import ConfigError
-        from cas_freq.studies.sweep import parse_grid_values
-
         text = ",".join(str(v) for v in value) if isinstance(value, (list, tuple)) else value
         try:
             values = parse_grid_values("load.hinge_stiffness", str(text))
@@ -739,8 +738,6 @@ class ActuatorConfig(_Section):
     def output_label(self):
         """What labels and text call the output: ``output_name``, else ``"output"``
         (:mod:`cas_freq.config.wording`)."""
-        from cas_freq.config.wording import OUTPUT
-
         return self.output_name or OUTPUT
 
     @model_validator(mode="after")

@@ -15,6 +15,19 @@ import numpy as np
 
 from cas_freq.exceptions import CasFreqError, ConfigError
 from cas_freq.figures import FIGURES
+from cas_freq.fileio import json_ready
+from cas_freq.output import output_unit, read_output
+from cas_freq.parameters import (
+    PARAMETERS,
+    check_key,
+    loop_values,
+    parameter,
+    parse_value,
+    variant_parameters,
+)
+from cas_freq.report.numbers import number
+from cas_freq.tuning.options import DEFAULT_FACTOR
+from cas_freq.tuning.space import default_free
 
 #: Points per decade of the Bode curves sent to the page.
 CURVE_POINTS_PER_DECADE = 40
@@ -50,8 +63,6 @@ def _check(key, params):
     """ConfigError unless ``key`` can have a control: a key a sweep can vary, or a sample
     rate of a sampled loop, or the discretisation of a sampled variant (static for a batch,
     but one variant at a time here). Returns the sample rate [Hz] of a rate key, else None."""
-    from cas_freq.parameters import PARAMETERS, check_key
-
     if key in CHOICES:
         if not params.sampling.sample_rates:
             raise ConfigError(f"{key}: the variant's controllers are continuous; the "
@@ -75,8 +86,6 @@ def _slider(value, record):
     start (``"zero-log"``), or on both sides of a zero at its centre for a key that takes
     negative values too (``"signed-log"``, e.g. ``load.hinge_stiffness``).
     """
-    from cas_freq.tuning.options import DEFAULT_FACTOR
-
     low = record.lower if record.lower is not None else -math.inf
     high = record.upper if record.upper is not None else math.inf
     smallest = record.smallest or (low if low > 0 else -high if high < 0 else None)
@@ -114,9 +123,6 @@ def controls(loaded, keys=None):
         (:data:`cas_freq.parameters.PARAMETERS`), which bounds the typed entry); a key of
         :data:`CHOICES` has ``"choices"`` and its word as ``value`` instead.
     """
-    from cas_freq.parameters import loop_values, parameter, variant_parameters
-    from cas_freq.tuning.space import default_free
-
     params = loaded.params
     if keys is None:
         keys = (*default_free(params), *(CHOICES if params.sampling.sample_rates else ()))
@@ -144,8 +150,6 @@ def controls(loaded, keys=None):
 
 def check_values(values, config):
     """{key: error text} of the entries of ``values`` (key -> text) that do not parse."""
-    from cas_freq.parameters import parse_value
-
     errors = {}
     for key, text in values.items():
         try:
@@ -192,8 +196,6 @@ MARGIN_COLUMNS = [{"view": view, "name": name, "heading": (
 def _margins(margins):
     """A loop's margins [SI, deg, dB] and their texts as ``analyze`` prints them, in the units
     the figure table shows them in (None for None)."""
-    from cas_freq.report.numbers import number
-
     if margins is None:
         return None
     figures = {name: getattr(margins, name) for name in MARGINS}
@@ -233,9 +235,7 @@ def steps(loaded, analysis, amplitude, nonlinear=True):
     """The linear and (with ``nonlinear``) the nonlinear step at the output, in the output's
     shown unit (deg, or mm for a linear output); ``amplitude`` [rad or m]."""
     from cas_freq.model import DEFAULT_PADE_ORDER
-    from cas_freq.output import output_unit
     from cas_freq.report.data import linear_steps
-    from cas_freq.report.numbers import number
     from cas_freq.simulation.run import step_run
 
     unit = output_unit(loaded.params)
@@ -265,8 +265,6 @@ def steps(loaded, analysis, amplitude, nonlinear=True):
 
 def default_step(loaded):
     """The step the page starts with [rad or m]: the output's example (``5deg``... ``5mm``)."""
-    from cas_freq.output import output_unit, read_output
-
     unit = output_unit(loaded.params)
     return read_output(unit.example, unit, "step")
 
@@ -289,9 +287,7 @@ def design_state(loaded, step_rad=None, nonlinear=True):
     dict
     """
     from cas_freq.analysis import analyze
-    from cas_freq.fileio import json_ready
     from cas_freq.report.data import curves, loop_frequency_range
-    from cas_freq.report.numbers import number
     from cas_freq.verify.evaluate import verdict_dict, verify_variant
 
     # every figure as analyze gives it, but the loaded variant's stable hinge-stiffness scan

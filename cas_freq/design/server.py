@@ -43,11 +43,18 @@ from importlib import resources
 from pathlib import Path
 from urllib.parse import parse_qs, urlparse
 
-from cas_freq.design.compute import CHOICES
+from cas_freq.config import load_variant
+from cas_freq.design import compute
+from cas_freq.design.compute import CHOICES, check_values, controls
 from cas_freq.design.guard import LOOPBACK_ADDRESSES, Guard, Refused, new_token
 from cas_freq.design.requests import ControlRequest, SaveRequest, StateRequest, TuneRequest, parsed
 from cas_freq.design.saving import save_target
+from cas_freq.drive.variant_text import config_with_variant, si_text, variant_entries
 from cas_freq.exceptions import CasFreqError
+from cas_freq.fileio import json_ready, write_text_atomic
+from cas_freq.output import output_step, output_unit
+from cas_freq.parameters import base_values
+from cas_freq.tuning.options import GLOBAL_COUNT, ROUNDS
 
 #: Largest request body accepted [bytes].
 MAX_BODY = 1 << 20
@@ -96,9 +103,6 @@ class Design:
     """
 
     def __init__(self, config, variant="base", keys=None, save_dir=None):
-        from cas_freq.config import load_variant
-        from cas_freq.design.compute import controls
-
         self.config = Path(config)
         self.save_dir = Path(self.config.parent if save_dir is None else save_dir).resolve()
         if not self.save_dir.is_dir():
@@ -120,8 +124,6 @@ class Design:
 
     def init(self, name):
         """The page's start: config, variant, controls and the session's values."""
-        from cas_freq.output import output_unit
-
         return {"config": str(self.config), "variant": self.variant,
                 "save_dir": str(self.save_dir),
                 "controls": self.controls + self.session(name).extra,
@@ -130,9 +132,6 @@ class Design:
 
     def state(self, request):
         """Figures for ``request`` (see the module's ``POST /api/state``)."""
-        from cas_freq.config import load_variant
-        from cas_freq.design.compute import check_values, design_state
-
         request = parsed(StateRequest, request)
         session = self.session(request.session)
         seq = request.seq
@@ -154,7 +153,7 @@ class Design:
                             or message.startswith(f"{k}:")), None) or \
                     next((k for k in values if k in message), "_")
                 return {"errors": {key: message}, "seq": seq}
-            data = design_state(loaded, step_rad, request.nonlinear)
+            data = compute.design_state(loaded, step_rad, request.nonlinear)
             session.values = values
             data["seq"] = seq
             return data
@@ -162,15 +161,12 @@ class Design:
     def _step(self, text):
         if not text:
             return None
-        from cas_freq.cli.common import output_step
 
         return output_step(str(text), "step", [self.loaded])
 
     def control(self, request):
         """The control of one more key (any numeric key of the config :func:`controls`
         accepts), added to the session's."""
-        from cas_freq.design.compute import controls
-
         request = parsed(ControlRequest, request)
         session = self.session(request.session)
         key = request.key.strip()
@@ -184,8 +180,6 @@ class Design:
         """``cas-freq tune`` of the page's keys from the session's values (the tune's default
         objective, bounds and search; ``candidates``/``rounds`` as its options): the tuned
         values and the Pareto front of bandwidth, phase margin and overshoot."""
-        from cas_freq.config import load_variant
-        from cas_freq.tuning.options import GLOBAL_COUNT, ROUNDS
         from cas_freq.tuning.run import tune_variant
         from cas_freq.tuning.summary import tune_dict
 
@@ -198,7 +192,6 @@ class Design:
         free = ",".join(control["key"] for control in self.controls + session.extra
                         if not control["key"].startswith("sampling."))
         result = tune_variant(loaded, free, candidates=candidates, rounds=rounds)
-        from cas_freq.fileio import json_ready
 
         data = json_ready(tune_dict(result, loaded.params.name, loaded.variant, 0.0))
         return {key: data[key] for key in ("objective", "feasible", "tuned", "pareto", "free",
@@ -207,11 +200,6 @@ class Design:
     def save(self, request):
         """Write the config with the session's values as variant ``name`` (into the save
         folder only: :func:`cas_freq.design.saving.save_target`)."""
-        from cas_freq.config import load_variant
-        from cas_freq.drive.variant_text import config_with_variant, si_text, variant_entries
-        from cas_freq.fileio import write_text_atomic
-        from cas_freq.parameters import base_values
-
         request = parsed(SaveRequest, request)
         session = self.session(request.session)
         name = request.name

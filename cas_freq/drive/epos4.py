@@ -56,6 +56,8 @@ import re
 from pathlib import Path
 
 from cas_freq.exceptions import ConfigError
+from cas_freq.fileio import read_input
+from cas_freq.units import registry, to_si
 
 __all__ = [
     "CASCADE",
@@ -252,8 +254,6 @@ _NO_DEFAULTS = "\x00cas_freq: no DEFAULT section"
 
 def _quantity(magnitude, unit):
     """A pint Quantity in the shared registry."""
-    from cas_freq.units import registry
-
     return registry().Quantity(magnitude, unit)
 
 
@@ -406,8 +406,6 @@ def read_export(path, structure=PID_ON_PI):
         INTEGER32, UNSIGNED16 or UNSIGNED32, a position I gain in a unit other than the default
         (0x30A1:09), or a missing gain object (every one is listed).
     """
-    from cas_freq.fileio import read_input
-
     path = Path(path)
     where = str(path)
     raw = read_input(path, "EPOS4 parameter file", MAX_FILE_BYTES, encoding=None)
@@ -521,8 +519,6 @@ def import_values(export):
         (``"616300 uV/A"``, read by the config loader as it is) and the value in the key's SI
         unit (:func:`cas_freq.parameters.unit_of`), converted with pint.
     """
-    from cas_freq.units import to_si
-
     out = {}
     for read in export.values:
         text = f"{read.value} {read.obj.unit}"

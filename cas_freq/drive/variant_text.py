@@ -10,8 +10,12 @@ loader would read differently is never written.
 
 import re
 
+from cas_freq.config import load_all_variants
+from cas_freq.config.loader import MAX_FILE_BYTES, _flatten, read_config_file
 from cas_freq.config.schema import VARIANT_NAME
-from cas_freq.exceptions import ConfigError
+from cas_freq.exceptions import CasFreqError, ConfigError
+from cas_freq.fileio import read_input
+from cas_freq.parameters import base_values, unit_of
 
 __all__ = ["NAME_PATTERN", "config_with_variant", "insert_variant", "si_text",
            "variant_entries"]
@@ -151,8 +155,6 @@ def si_text(key, value, config=None):
     """``'0.0075 N*m/A'``: a value [SI] with its key's unit (in ``config``'s architecture: a
     cascade's ``position_loop.Kp`` is in 1/s; a filter's number in its own unit), 6
     significant digits."""
-    from cas_freq.parameters import unit_of
-
     unit = unit_of(key, config)
     if unit.startswith("1/"):  # written "s^-1", as the shipped configs write it ("1/s" reads too)
         base, _, power = unit[2:].partition("^")
@@ -164,8 +166,6 @@ def variant_entries(loaded, changed):
     """(key, value text, comment) lines of a new variant: ``loaded``'s own entries as its file
     writes them, its ``--set`` overrides, then ``changed`` (key -> (value text, comment)),
     which replace any of those."""
-    from cas_freq.config.loader import _flatten, read_config_file
-
     entries = {}
     if loaded.variant != "base":
         data = read_config_file(loaded.source)
@@ -213,12 +213,6 @@ def config_with_variant(config, name, entries, comment, expected, what, force=Fa
     """
     import tempfile
     from pathlib import Path
-
-    from cas_freq.config import load_all_variants
-    from cas_freq.config.loader import MAX_FILE_BYTES, read_config_file
-    from cas_freq.exceptions import CasFreqError
-    from cas_freq.fileio import read_input
-    from cas_freq.parameters import base_values
 
     config = Path(config)
     load_all_variants(config)  # the config must load as it is before it is extended

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from cas_freq.drive.variant_text import config_with_variant, si_text
 from cas_freq.drive.variant_text import variant_entries as entries_with
+from cas_freq.identification.free_keys import labels
 
 
 def _comment(fit, index, labels):
@@ -31,8 +32,6 @@ def _comment(fit, index, labels):
 
 def variant_entries(loaded, fit):
     """(key, value text, comment) lines of the fitted variant."""
-    from cas_freq.identification.free_keys import labels
-
     names = labels(fit.free)
     changed = {free.key: (si_text(free.key, value, loaded.params), _comment(fit, index, names))
                for index, (free, value) in enumerate(zip(fit.free, fit.estimate, strict=True))}

@@ -11,9 +11,9 @@ Noise on the output biases neither H1 nor its phase; it lowers the coherence, so
 use the frequencies with :math:`\gamma^2 \ge` :data:`COHERENT`.
 
 The model (:func:`model_responses`) is the package's own loops
-(:class:`cas_freq.model.loops.ActuatorLoops`, exact delays): T (output angle / output command,
-without the feed-forward, docs/model.md), :math:`T_i` (current / current command at the current
-controller) and the current per output command,
+(:class:`cas_freq.model.actuator_loops.ActuatorLoops`, exact delays): T (output angle / output
+command, without the feed-forward, docs/model.md), :math:`T_i` (current / current command at
+the current controller) and the current per output command,
 :math:`i/\delta_{cmd} = N e^{-s\tau_p} T_i C_r/(1 + L_p)` (the position controller's output
 :math:`C_r \theta_{cmd} - C_p \theta` delayed by :math:`\tau_p` is the current command).
 """
@@ -24,7 +24,7 @@ import math
 import numpy as np
 from scipy import signal
 
-from cas_freq.model.loops import ActuatorLoops
+from cas_freq.model.actuator_loops import ActuatorLoops
 from cas_freq.simulation.sinedwell import crossing_bandwidth
 
 #: Welch averages the default segment length aims at (50 % overlap: 2 n / nperseg - 1).

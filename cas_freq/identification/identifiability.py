@@ -28,6 +28,9 @@ import math
 
 import numpy as np
 
+from cas_freq.identification.free_keys import labels
+from cas_freq.units import registry
+
 #: Half-widths (of a coordinate) that separate the verdicts.
 WELL = math.log(1.1)
 NOT = math.log(2.0)
@@ -66,8 +69,6 @@ def monomial(exponents, names):
 
 def _unit(exponents, units):
     """The SI unit of a product of powers of units, as pint writes it compactly."""
-    from cas_freq.units import registry
-
     quantity = registry().Quantity(1.0)
     for e, unit in zip(exponents, units, strict=True):
         if e:
@@ -169,8 +170,6 @@ def identifiability(fisher, free, x, s2, q):
     q : float
         Interval quantile.
     """
-    from cas_freq.identification.free_keys import labels
-
     names = labels(free)
     w, vectors = np.linalg.eigh(0.5 * (fisher + fisher.T))
     top = max(float(w[-1]), 1e-300)

@@ -20,6 +20,7 @@ from cas_freq.simulation.second_order import (
     fit_second_order_batch,
     second_order_step,
 )
+from cas_freq.simulation.step_figures import step_figures
 
 #: Largest relative disagreement between a recording's commanded step and ``--step``.
 STEP_TOLERANCE = 0.01
@@ -127,8 +128,6 @@ def fit_recordings(recordings, step_rad=None):
     -------
     RecordingFits
     """
-    from cas_freq.simulation.step_figures import step_figures
-
     recordings = list(recordings)
     steps = [step_size(recording, step_rad) for recording in recordings]
     times = [r.time_s[r.after] for r in recordings]

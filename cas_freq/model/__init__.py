@@ -5,7 +5,7 @@
 :mod:`~cas_freq.model.systems` builds python-control systems and is imported on demand.
 """
 
+from cas_freq.model.actuator_loops import ActuatorLoops
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, DelayModel
-from cas_freq.model.loops import ActuatorLoops
 
 __all__ = ["DEFAULT_PADE_ORDER", "ActuatorLoops", "DelayModel"]

@@ -24,6 +24,8 @@ With the derivative on the measurement, the command sees only :math:`K_p + K_i/s
 
 import numpy as np
 
+from cas_freq.parameters import LoopParameters
+
 #: Below this many frequencies the plain Horner rule is faster (less Python overhead).
 _REAL_ARITHMETIC_FROM = 512
 
@@ -36,8 +38,6 @@ def one_variant(params):
     params : cas_freq.config.ActuatorConfig or cas_freq.parameters.LoopParameters
         A validated config, or loop parameters of exactly one run.
     """
-    from cas_freq.parameters import LoopParameters
-
     if not isinstance(params, LoopParameters):
         params = LoopParameters.from_config(params)
     if params.n_runs != 1:

@@ -54,6 +54,7 @@ from cas_freq.filters_config import Filter
 from cas_freq.model import parts
 from cas_freq.model.hold import WHOLE, PlantModes, hold_equivalent, plant_modes
 from cas_freq.model.loops import LoopResponses
+from cas_freq.model.loops import responses as continuous
 from cas_freq.model.structure import build
 from cas_freq.model.table import Values, command, table, walk
 from cas_freq.model.table import at_a_time as table_at_a_time
@@ -471,8 +472,6 @@ def drive_responses(p, s, closed=True, loop_at_a_time=False):
     closed, loop_at_a_time : bool
         As :func:`responses`.
     """
-    from cas_freq.model.loops import responses as continuous
-
     if not is_sampled(p):
         return continuous(p, s, closed=closed, loop_at_a_time=loop_at_a_time)
     omega = np.asarray(s).imag

@@ -322,7 +322,7 @@ def exact_frequency_responses(loops, omega):
 
     Parameters
     ----------
-    loops : cas_freq.model.loops.ActuatorLoops
+    loops : cas_freq.model.actuator_loops.ActuatorLoops
         Loops to evaluate (their delay model is used as it is).
     omega : array_like
         Frequencies [rad/s].

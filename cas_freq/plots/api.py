@@ -12,7 +12,10 @@ import numpy as np
 
 from cas_freq.analysis.frequency import continuous_phase
 from cas_freq.config.wording import OutputWords
+from cas_freq.plots import profile
 from cas_freq.plots.common import NotebookFigure as Figure
+from cas_freq.plots.report import bode_loops
+from cas_freq.report.data import ReportSettings, curves, loop_frequency_range, variant_label
 
 #: The loops of the Bode figure (attributes of FrequencyResponse; each loop's legend is its
 #: structure's title, T's names the output).
@@ -102,14 +105,6 @@ def analysis_figure(analysis):
     -------
     matplotlib.figure.Figure
     """
-    from cas_freq.plots.report import bode_loops
-    from cas_freq.report.data import (
-        ReportSettings,
-        curves,
-        loop_frequency_range,
-        variant_label,
-    )
-
     loaded = analysis.loaded
     data = types.SimpleNamespace(
         label=variant_label(loaded), analysis=analysis, loaded=loaded,
@@ -120,6 +115,4 @@ def analysis_figure(analysis):
 
 def profile_figure(run):
     """:func:`cas_freq.plots.profile.profile_figure` as a figure that displays itself."""
-    from cas_freq.plots import profile
-
     return profile.profile_figure(run, figure_class=Figure)

@@ -28,6 +28,9 @@ import numpy as np
 
 from cas_freq.figures import FIGURES
 from cas_freq.model import parts
+from cas_freq.model.loops import Selector
+from cas_freq.model.sampled import drive_responses as responses
+from cas_freq.model.systems import closed_loop_zeros as zeros
 from cas_freq.plots.common import EXACT, Margins, legend_room_below, legend_room_right, loop_color
 from cas_freq.plots.common import figure as _figure
 from cas_freq.plots.common import rounded as _r
@@ -177,9 +180,6 @@ def nyquist(data):
     each (L_p, L_v with a velocity loop, L_i), zoomed on −1, with the Ms circle and the
     disk-margin disk of each loop (as the engine reports Ms and α); an inner loop with every
     other loop closed is drawn dashed on its loop's panel."""
-    from cas_freq.model.loops import Selector
-    from cas_freq.model.sampled import drive_responses as responses
-
     c = data.curves
     p = Selector(parts.one_variant(data.loaded.params))()
     described = c.outermost_first()
@@ -247,7 +247,6 @@ def closed_loop_zeros(data):
     known = getattr(data, "closed_loop_zeros", None)  # data of the figure API may lack them
     if known is not None:
         return np.asarray(known, dtype=complex)
-    from cas_freq.model.systems import closed_loop_zeros as zeros
 
     return zeros(data.loaded.params, data.analysis.stability.pade_order)
 

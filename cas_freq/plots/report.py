@@ -21,9 +21,11 @@ import numpy as np
 from matplotlib.ticker import MultipleLocator
 
 from cas_freq.analysis.frequency import continuous_phase
+from cas_freq.analysis.rate_envelope import rate_envelope
 from cas_freq.config.wording import common_output_label
 from cas_freq.figures import FIGURES
 from cas_freq.output import output_unit
+from cas_freq.parameters import LoopParameters
 from cas_freq.plots import loci
 from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_svg re-exported)
     EXACT,
@@ -581,9 +583,6 @@ def _envelope_map(ax, data, r, w):
     setting), each dwell point (hollow where a limit acted) and each amplitude's sine-dwell
     bandwidth (a star): where an amplitude's line crosses a limit curve, that limit bends its
     response."""
-    from cas_freq.analysis.rate_envelope import rate_envelope
-    from cas_freq.parameters import LoopParameters
-
     unit = output_unit(data.loaded.params)
     dense = np.geomspace(float(w[0]), float(w[-1]), 200)
     envelope = rate_envelope(data.loaded.params, LoopParameters.from_config(data.loaded.params),

@@ -9,11 +9,11 @@ import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
+from cas_freq.parameters import current_limit
 from cas_freq.plots.common import Margins, legend_below
 from cas_freq.plots.common import figure as _figure
 from cas_freq.plots.common import output_symbol as _symbol
 from cas_freq.plots.common import rounded as _r
-from cas_freq.report.data import current_limit
 from cas_freq.simulation.second_order import second_order_step
 
 #: Most samples drawn per time-domain line (the simulations have tens of thousands).

@@ -12,6 +12,7 @@ from cas_freq.config.wording import OutputWords
 from cas_freq.model.disturbance import load_response
 from cas_freq.model.loops import Selector
 from cas_freq.output import output_unit
+from cas_freq.parameters import LoopParameters
 from cas_freq.plots.common import EXACT, Margins, plain_log_labels
 from cas_freq.plots.common import figure as _figure
 from cas_freq.plots.common import rounded as _r
@@ -26,8 +27,6 @@ def caption(data):
 
 def stiffness(data):
     """1/|δ/M(jω)| [N·m/rad, N/m at a linear output] against frequency, the minimum marked."""
-    from cas_freq.parameters import LoopParameters
-
     params = LoopParameters.from_config(data.loaded.params)
     p = Selector(params)()
     omega = data.curves.omega_rad_s

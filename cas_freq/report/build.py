@@ -16,29 +16,41 @@ import os
 import time
 from pathlib import Path
 
+from cas_freq.analysis.limit_cycles import report_sentence
+from cas_freq.analysis.rate_envelope import envelope_lines
 from cas_freq.config.wording import OutputWords
+from cas_freq.exceptions import CasFreqError
 from cas_freq.figures import FIGURES
 from cas_freq.output import output_json, output_unit
+from cas_freq.parameters import current_limit
+from cas_freq.report import html, markdown
 from cas_freq.report.data import (
+    SINEDWELL_FIGURES,
     ReportSettings,
-    current_limit,
     described_loops,
     display_path,
     gather_frequency,
     gather_time,
+    not_computed,
     not_computed_notice,
     reference_dict,
     reference_rows,
     sinedwell_bandwidth,
     variant_results,
 )
+from cas_freq.report.disturbance import disturbance_blocks
 from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
 from cas_freq.report.drivetrain import drivetrain_blocks
+from cas_freq.report.envelope import envelope_job, envelope_section, envelope_variants
+from cas_freq.report.nonlinear import nonlinear_elements
 from cas_freq.report.numbers import JSON_DIGITS, number, rounded_json
 from cas_freq.report.outdir import sanitise_name, write_directory_atomic
 from cas_freq.report.parameter_table import parameter_table
+from cas_freq.report.profile import profile_section
 from cas_freq.report.rendering import FIGURE_WORKERS, FigureRenderer, render_figures
 from cas_freq.report.text import pade_columns
+from cas_freq.report.workers import prepare_kernels
+from cas_freq.simulation.run import diverged_at
 
 #: Folder that holds the reports by default (relative to the working directory).
 REPORTS_DIR = Path("reports")
@@ -368,9 +380,6 @@ def bandwidth_table(data):
 def small_signal_sentence(data):
     """Whether the smallest step stays clear of the limits, and what else (if anything) sets
     the nonlinear simulation apart from the linear model (:func:`nonlinear_elements`)."""
-    from cas_freq.report.nonlinear import nonlinear_elements
-    from cas_freq.simulation.run import diverged_at
-
     run = data.dwell.steps[data.small_index]
     step = run.step
     params = data.loaded.params
@@ -416,16 +425,12 @@ def variant_blocks(data, figure_blocks, settings):
         blocks.append(Bullets(tuple(a.notes)))
     blocks += drivetrain_blocks(data)
     if getattr(a, "limit_cycles", None) is not None:
-        from cas_freq.analysis.limit_cycles import report_sentence
-        from cas_freq.output import output_unit
-
         blocks.append(Paragraph(report_sentence(a.limit_cycles,
                                                 output_unit(data.loaded.params))))
     blocks += [Heading(3, f"Frequency response ({data.loaded.variant})"), margins_table(a),
                crossings_table(a, data.curve_range_rad_s), closed_loop_table(a)]
     blocks += [figure_blocks[n] for n in ("bode_loops", "closed_loop", "sensitivity", "nichols",
                                           "nyquist", "pole_zero")]
-    from cas_freq.report.disturbance import disturbance_blocks
 
     blocks += disturbance_blocks(data, figure_blocks.get("stiffness"))
     blocks += [Heading(3, f"Padé vs exact delays ({data.loaded.variant})"), pade_table(a)]
@@ -436,7 +441,6 @@ def variant_blocks(data, figure_blocks, settings):
                bandwidth_table(data), figure_blocks["bandwidth_vs_amplitude"],
                figure_blocks["sinedwell"]]
     if a.envelope is not None:  # the rate and torque envelope (docs/model.md §15)
-        from cas_freq.analysis.rate_envelope import envelope_lines
 
         blocks.append(Paragraph("Rate and torque " + "; ".join(envelope_lines(
             a.envelope, output_unit(data.loaded.params), data.loaded.params.output_label))
@@ -567,7 +571,6 @@ def _figure_files(data, png, rendered=None):
     ``rendered``: the variant's figures already drawn (:meth:`FigureRenderer.results`); None
     draws them here."""
     from cas_freq.plots.report import VARIANT_FIGURES
-    from cas_freq.report.data import SINEDWELL_FIGURES, not_computed
 
     if rendered is None:
         drawn = render_figures(data, list(VARIANT_FIGURES), png)
@@ -594,14 +597,10 @@ def report_files(datas, settings, *, png=False, command=None, rendered=None, env
     ``rendered``: per variant, its figures already drawn (:meth:`FigureRenderer.results`);
     None draws them here, one after the other. ``envelopes``: the load envelopes already
     computed and drawn (:func:`cas_freq.report.envelope.envelope_section`'s ``computed``)."""
-    from cas_freq.report import html, markdown
-
     figure_blocks = []
     for k, data in enumerate(datas):
         figure_blocks.append((yield from _figure_files(
             data, png, None if rendered is None else rendered[k])))
-    from cas_freq.report.envelope import envelope_section
-    from cas_freq.report.profile import profile_section
 
     profile = yield from profile_section(datas, png)  # nothing without a profile requirement
     # nothing without a load_envelope:
@@ -662,23 +661,18 @@ def build_report(variants, out_dir=None, *, settings=None, verdicts=None, png=Fa
     Path
         The report folder.
     """
-    from cas_freq.exceptions import CasFreqError
-
     if not variants:
         raise CasFreqError("report: no variant selected")
     names = {v.params.name for v in variants}
     if len(names) > 1:
         raise CasFreqError(f"report: variants of one config expected, got configs {sorted(names)}"
                            "; use `cas-freq compare` for several configs")
-    from cas_freq.report.envelope import envelope_job, envelope_variants
 
     settings = settings or ReportSettings()
     params = variants[0].params
     enveloped = envelope_variants(params)
     datas, envelopes = [], {}
     if workers > 1:
-        from cas_freq.report.workers import prepare_kernels
-
         # compiled (first run) or loaded here once, then inherited by the forked workers
         prepare_kernels(variants)
     with FigureRenderer(workers, png) as renderer:

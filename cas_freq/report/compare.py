@@ -22,7 +22,9 @@ from cas_freq.config import read_config_file
 from cas_freq.config.wording import common_output_label, name_the_output
 from cas_freq.exceptions import CasFreqError
 from cas_freq.figures import FIGURES, LOOPS, loop_label
+from cas_freq.output import LENGTH, output_json, output_unit
 from cas_freq.parameters import PARAMETERS, parameter
+from cas_freq.report import html, markdown
 from cas_freq.report.build import REPORTS_DIR, results_json
 from cas_freq.report.data import (
     ReportSettings,
@@ -391,8 +393,6 @@ def flat_figures(results):
     table), ``step <a>°.*`` and ``fit <a>°.*`` (the simulated steps), ``linear step <a>°.*``,
     ``sinedwell.bandwidth <a>°`` and ``sinedwell.limit_onset_amplitude_deg``.
     """
-    from cas_freq.output import LENGTH, output_json
-
     # a linear output's entry (its steps' amplitude_mm): every output quantity in mm
     linear = any("amplitude_mm" in run["step"] for run in results["simulate"])
     results = output_json(results, LENGTH) if linear else results
@@ -494,8 +494,6 @@ def verdict_matrix(datas, labels):
 
 def compare_blocks(datas, labels, figure_blocks, settings, command=None):
     """Every block of the comparison, in order."""
-    from cas_freq.output import output_unit
-
     unit = output_unit(datas[0].loaded.params)  # the entries share their output's kind
     amplitudes = ", ".join(unit.symbol(math.degrees(a)) for a in settings.amplitudes_rad)
     output = common_output_label(d.loaded.params for d in datas)
@@ -573,7 +571,6 @@ def compare_files(datas, labels, settings, *, png=False, command=None):
     """Every file of the comparison folder as (relative path, content), figures first."""
     from cas_freq.plots import report as plots
     from cas_freq.plots.overlays import COMPARE_FIGURES
-    from cas_freq.report import html, markdown
 
     figure_blocks = {}
     for stem, (draw, caption) in COMPARE_FIGURES.items():
@@ -589,7 +586,6 @@ def compare_files(datas, labels, settings, *, png=False, command=None):
     all_results = [variant_results(d) for d in datas]
     rows, flats, keys = difference_rows(all_results)
     matrix, header = verdict_matrix(datas, labels)
-    from cas_freq.output import output_json, output_unit
 
     yield "results.json", results_json(output_json({
         "baseline": labels[0],

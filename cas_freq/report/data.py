@@ -17,9 +17,23 @@ import numpy as np
 from cas_freq.exceptions import CasFreqError
 from cas_freq.figures import FIGURES
 from cas_freq.fileio import json_ready
+from cas_freq.model import ActuatorLoops, parts
+from cas_freq.model.loops import Selector
+from cas_freq.model.sampled import drive_responses
+from cas_freq.model.structure import build
+from cas_freq.model.systems import closed_loop_matrices, closed_loop_zeros
+from cas_freq.simulation.run import sinedwell_run, sinedwell_run_dict, step_run_dict
 
 # the sine-dwell grid rule, one for every command (re-exported)
-from cas_freq.simulation.sinedwell import DWELL_POINTS, DWELL_SPAN, dwell_frequencies  # noqa: F401
+from cas_freq.simulation.sinedwell import (  # noqa: F401
+    DWELL_POINTS,
+    DWELL_SPAN,
+    bandwidth_text,
+    dwell_frequencies,
+)
+from cas_freq.simulation.step_figures import step_figures
+from cas_freq.threads import one_blas_thread
+from cas_freq.verify import verdict_dict, verify_variant
 
 #: Default sine-dwell amplitudes at the output [deg]: small signal (no limit acts), two
 #: intermediate sizes, and a 10 deg step (ARL-TR-9136's bench step). The smallest and the
@@ -185,9 +199,6 @@ class Curves:
 
 def described_loops(params):
     """The :class:`CurveLoop` of every loop of ``params``' structure, innermost first."""
-    from cas_freq.model import parts
-    from cas_freq.model.structure import build
-
     return tuple(CurveLoop.of(loop) for loop in build(parts.one_variant(params)).loops)
 
 
@@ -268,13 +279,6 @@ class VariantData:
         return tuple(getattr(self.loaded.params, "requirements", ()) or ())
 
 
-def current_limit(params):
-    """The current-command limit i_max [A] of a validated config: the velocity loop's with
-    one, else the position loop's."""
-    velocity = getattr(params, "velocity_loop", None)
-    return (velocity if velocity is not None else params.position_loop).i_max
-
-
 def variant_label(loaded):
     """``config / variant`` (with the ``--set`` overrides, if any)."""
     label = f"{loaded.params.name} / {loaded.variant}"
@@ -299,9 +303,6 @@ def curves(params, frequency_range_rad_s, points_per_decade):
     Curves
     """
     from cas_freq.analysis.frequency import frequency_grid
-    from cas_freq.model import ActuatorLoops
-    from cas_freq.model.loops import Selector
-    from cas_freq.model.sampled import drive_responses
 
     loops = ActuatorLoops(params)
     omega = frequency_grid(*frequency_range_rad_s, points_per_decade, loops.total_delay)
@@ -384,8 +385,6 @@ def unit_step_response(system, n_steps, dt):
     """
     from scipy.linalg import expm
 
-    from cas_freq.threads import one_blas_thread
-
     a, b, c, d = (np.asarray(m, dtype=float) for m in (system.a, system.b, system.c, system.d))
     n = a.shape[0]
     if n == 0:
@@ -444,8 +443,6 @@ def linear_steps(params, times, amplitudes_rad, pade_order, closed=None):
     -------
     list of numpy.ndarray
     """
-    from cas_freq.model.systems import closed_loop_matrices
-
     if closed is None:
         closed = closed_loop_matrices(params, pade_order)
     times = [np.asarray(t, dtype=float) for t in times]
@@ -479,7 +476,6 @@ def requirement_verdicts(loaded, results):
     """
     if not loaded.params.requirements:
         return []
-    from cas_freq.verify import verdict_dict, verify_variant
 
     return [verdict_dict(verdict) for verdict in verify_variant(loaded, known=results)]
 
@@ -538,10 +534,6 @@ def gather_time(data, settings=ReportSettings(), verdicts=None, progress=None):
     """``data`` of :func:`gather_frequency` completed: **one** sine-dwell batch (with the
     nonlinear step of every amplitude), the linear steps, the requirement verdicts (parameters
     as :func:`gather_variant`)."""
-    from cas_freq.model.systems import closed_loop_matrices, closed_loop_zeros
-    from cas_freq.simulation.run import sinedwell_run
-    from cas_freq.simulation.step_figures import step_figures
-
     loaded, analysis = data.loaded, data.analysis
     # a sine-dwell beyond the simulation budget is refused before it starts and left out
     # (dwell.result None, dwell.not_computed the reason), as is the default one of a loop that
@@ -574,8 +566,6 @@ def sinedwell_bandwidth(data, k):
     """Sine-dwell bandwidth [rad/s] of amplitude ``k``, or as text what is known instead: a
     bound from the grid ("> 5000" when no point is below −3.01 dB, "< 100" when the first one
     already is) or "not computed" (the sine-dwell was beyond the simulation budget)."""
-    from cas_freq.simulation.sinedwell import bandwidth_text
-
     result = data.dwell.result
     if result is None:
         return "not computed"
@@ -712,7 +702,6 @@ def variant_results(data):
     import dataclasses as dc
 
     from cas_freq.analysis import to_dict
-    from cas_freq.simulation.run import sinedwell_run_dict, step_run_dict
 
     shown = display_path(data.loaded.source)
     steps = data.dwell.steps

@@ -3,13 +3,12 @@ flight-control system sees" of a control surface): the dynamic stiffness, the co
 the encoder noise's current (docs/model.md §15) as a small table, with the stiffness figure."""
 
 from cas_freq.config.wording import OutputWords
+from cas_freq.report.document import Heading, Paragraph, Table
 from cas_freq.report.numbers import number
 
 
 def disturbance_blocks(data, figure=None):
     """The heading, the table and (when drawn) the stiffness figure of one variant."""
-    from cas_freq.report.document import Heading, Paragraph, Table
-
     a = data.analysis
     stiff, push, noise = a.stiffness, a.effort, a.noise
     if stiff is None:

@@ -8,6 +8,8 @@ figures beside the linear ones are read as what they are).
 import math
 
 from cas_freq.figures import FIGURES
+from cas_freq.output import output_unit
+from cas_freq.report.document import Paragraph, Table
 from cas_freq.report.numbers import number
 
 
@@ -39,12 +41,9 @@ def nonlinear_terms(params):
 
 def drivetrain_blocks(data):
     """Blocks for a loaded variant (none for an unloaded one)."""
-    from cas_freq.report.document import Paragraph, Table
-
     load = data.analysis.drivetrain
     if load is None:
         return []
-    from cas_freq.output import output_unit
 
     unit = output_unit(data.loaded.params)
     low, high = load.stable_hinge_stiffness_n_m_rad

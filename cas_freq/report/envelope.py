@@ -11,7 +11,9 @@ import math
 import numpy as np
 
 from cas_freq.figures import FIGURES, loop_label
+from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
 from cas_freq.report.numbers import number
+from cas_freq.report.outdir import sanitise_name
 from cas_freq.threads import result_of
 
 #: Most rows of an envelope table (the figure shows every grid point).
@@ -161,8 +163,6 @@ def envelope_section(datas, png=False, computed=None):
         Variant name -> an object whose ``result()`` is its :func:`envelope_job` (a future
         of a worker process that computed and drew it while the report was being computed).
     """
-    from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
-    from cas_freq.report.outdir import sanitise_name
     from cas_freq.studies.envelope import envelope_dict
 
     params = datas[0].loaded.params

@@ -6,6 +6,8 @@ import math
 import re
 
 from cas_freq.config.wording import name_the_output
+from cas_freq.parameters import base_values, is_cascade
+from cas_freq.parameters import parameter as record
 from cas_freq.report.document import Table
 from cas_freq.report.numbers import number
 
@@ -77,8 +79,6 @@ def parameter_row_head(key, output, config=None):
     :data:`~cas_freq.parameters.PARAMETERS` (in ``config``'s architecture and output kind: a
     cascade's position gains per second, a linear output's loads in SI lengths; a filter's
     numbers; ``+/-`` as ``±``), "the output" named as the config names it."""
-    from cas_freq.parameters import parameter as record
-
     parameter = record(key, config)
     unit, scale = _SHOWN_KEY_UNITS.get(key) or _SHOWN_UNITS.get(parameter.unit) or (
         parameter.unit.replace("*", "·").replace("^2", "²"), 1.0)
@@ -100,8 +100,6 @@ def parameter_value(params, key):
 def parameter_table(datas):
     """The parameters of every variant (motor, gear, gains, delays, limits) with units; motor
     angles, loops on the motor shaft (docs/model.md)."""
-    from cas_freq.parameters import base_values, is_cascade
-
     loaded = any(d.analysis.drivetrain is not None for d in datas)
     output = datas[0].loaded.params.output_label
     configs = [d.loaded.params for d in datas]

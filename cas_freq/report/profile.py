@@ -7,7 +7,17 @@ No matplotlib here but in :func:`profile_figure_svg`, which imports it when it d
 import math
 
 from cas_freq.figures import FIGURES
+from cas_freq.output import output_unit
+from cas_freq.report.document import Figure, Heading, Paragraph, Table
 from cas_freq.report.numbers import number
+from cas_freq.report.outdir import sanitise_name
+from cas_freq.simulation.commands import condition_profile
+from cas_freq.simulation.profile_run import (
+    move_dict,
+    profile_condition_text,
+    profile_run_dict,
+    profile_runs,
+)
 
 
 def _trapezoid_text(move, unit):
@@ -71,8 +81,6 @@ def _feedforward_text(run):
 
 def move_text(run):
     """The move at the output and at the motor in the drive's units (profile position mode)."""
-    from cas_freq.simulation.profile_run import move_dict, profile_condition_text
-
     motor = move_dict(run.move, run.ratio)["motor"]
     return (f"profile move of {profile_condition_text(run.move, run.output_unit)} at the "
             f"{run.output}; at the motor "
@@ -147,14 +155,6 @@ def profile_section(datas, png=False):
     png : bool
         Also write each figure as PNG.
     """
-    from cas_freq.report.document import Figure, Heading, Paragraph, Table
-    from cas_freq.report.outdir import sanitise_name
-    from cas_freq.simulation.profile_run import (
-        profile_condition_text,
-        profile_run_dict,
-        profile_runs,
-    )
-
     requirements = datas[0].loaded.params.requirements
     conditions = list(dict.fromkeys(r.profile for r in requirements if r.kind == "profile"))
     if not conditions:
@@ -168,12 +168,11 @@ def profile_section(datas, png=False):
         "= 0); figures defined in docs/model.md, \"Profile moves\"."
         + (f" Not simulated (closed loop not stable): {', '.join(skipped)}." if skipped
            else ""))]
-    from cas_freq.output import output_unit
 
     unit = output_unit(datas[0].loaded.params)
     results = []
     for number_, condition in enumerate(conditions, start=1):
-        move = condition.command()
+        move = condition_profile(condition)
         verdicts = {id(d.loaded): d.analysis.stability.verdict for d in stable}
         runs = profile_runs([d.loaded for d in stable], move, verdicts) if stable else []
         blocks.append(Heading(3, f"Move {number_}: {profile_condition_text(move, unit)}"))

@@ -6,6 +6,8 @@ The workers' life (signals, ending with this process) is :mod:`cas_freq.report.w
 
 import sys
 
+from cas_freq.report.data import SINEDWELL_FIGURES, not_computed
+from cas_freq.report.workers import fork_pool, stop_pool
 from cas_freq.threads import result_of
 
 #: Worker processes that draw a report's figures (while the next variant is computed); 1 draws
@@ -31,7 +33,6 @@ def render_figures(data, stems, png=False):
         (stem, SVG text, PNG bytes or None, caption) of each stem, in order.
     """
     from cas_freq.plots import report as plots
-    from cas_freq.report.data import SINEDWELL_FIGURES, not_computed
 
     skipped = SINEDWELL_FIGURES if "sinedwell" in not_computed(data) else ()
     drawn = []
@@ -114,7 +115,6 @@ class FigureRenderer:
             # python-control (~0.7 s) only here, after the fork, while the workers draw: it
             # is needed for the linear steps and the zeros of T, which are computed here
             import cas_freq.plots.report  # noqa: F401
-            from cas_freq.report.workers import fork_pool
 
             try:
                 # start the workers now: they import the figure code while the caller computes
@@ -126,8 +126,6 @@ class FigureRenderer:
 
     def __exit__(self, exc_type, *exc):
         if self._pool is not None:
-            from cas_freq.report.workers import stop_pool
-
             # interrupted (Ctrl-C, SIGTERM) or failed: the workers are killed, not waited for
             stop_pool(self._pool, kill=exc_type is not None)
         return False

@@ -7,11 +7,11 @@ intact, and a folder cas-freq did not write is never replaced.
 
 import json
 
+from cas_freq.report.outdir import write_directory_atomic
+
 
 def write_report(directory, files):
     """Write ``files`` (name -> text) as the whole content of ``directory``; returns its path."""
-    from cas_freq.report.outdir import write_directory_atomic
-
     return write_directory_atomic(directory, files.items())
 
 

@@ -8,6 +8,7 @@ import math
 
 from cas_freq.config.wording import GENERIC, OutputWords
 from cas_freq.figures import FIGURES
+from cas_freq.output import ANGLE, output_unit
 from cas_freq.report.numbers import number
 
 
@@ -208,12 +209,10 @@ def analysis_table(analysis):
                         getattr(analysis, "noise", None), _fmt, words)
     if getattr(analysis, "limit_cycles", None) is not None:
         from cas_freq.analysis.limit_cycles import text_lines
-        from cas_freq.output import output_unit
 
         lines += text_lines(analysis.limit_cycles, output_unit(analysis.loaded.params))
     if analysis.envelope is not None:
         from cas_freq.analysis.rate_envelope import envelope_lines
-        from cas_freq.output import output_unit
 
         lines += [f"  {line}" for line in envelope_lines(
             analysis.envelope, output_unit(analysis.loaded.params),
@@ -454,8 +453,6 @@ def _drivetrain_lines(load, loaded=None):
     """The drivetrain block of the analyze text (cas_freq.analysis.drivetrain); the load
     spring at the output as ``loaded``'s output names it (K_h [N*m/rad], at a linear output
     K [N/m])."""
-    from cas_freq.output import ANGLE, output_unit
-
     unit = ANGLE if loaded is None else output_unit(loaded.params)
     gear = "compliant gear, two masses" if load.compliant else "rigid gear"
     lines = [

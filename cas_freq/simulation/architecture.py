@@ -51,6 +51,7 @@ import numpy as np
 from cas_freq.model import structure as loop_structure
 from cas_freq.model.structure import analog_sensor, digital_sensor
 from cas_freq.simulation.controllers import METHODS, check_method
+from cas_freq.simulation.delay_line import delay_steps
 from cas_freq.simulation.mechanics import distinct_exponentials
 
 #: The loops a simulated drive can have, innermost first (their names in the structure and in
@@ -317,8 +318,6 @@ def kernel_tables(inner, n, dt, position_delay, backward=False):
     and the velocity controller (n_runs,) (0 without a velocity loop).
 
     The delay lines' ring sizes follow from those steps (:func:`delay_line.ring_size`)."""
-    from cas_freq.simulation.delay_line import delay_steps
-
     chains = (inner.path, inner.sensor, inner.current_sensor, inner.angle_sensor)
     m_path, m_sensor, m_current, m_angle = (0 if c is None else c.order for c in chains)
     table = np.zeros((n, PATH + sum(chain_columns(m) for m in (m_path, m_sensor, m_current,

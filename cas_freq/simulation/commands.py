@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from cas_freq.exceptions import ConfigError
+from cas_freq.fileio import csv_row, read_input
 
 
 def _since(t, start):
@@ -520,8 +521,6 @@ def read_angle_series_csv(path, negative_times=False, what="CSV file"):
         (a ValueError) naming the file and row of the first bad value, or what a header
         lacks.
     """
-    from cas_freq.fileio import csv_row, read_input
-
     path = Path(path)
     text = read_input(path, what)
     times, angles = [], []
@@ -584,3 +583,10 @@ def motor_command(command, ratio, t, left=False):
         Angle [rad], rate [rad/s], acceleration [rad/s^2] at the motor.
     """
     return tuple(ratio * part for part in command.fin(t, left=left))
+
+
+def condition_profile(condition):
+    """The :class:`Profile` of a config's profile condition
+    (:class:`cas_freq.config.requirement.ProfileCondition`)."""
+    return Profile(condition.distance, condition.velocity, condition.acceleration,
+                   condition.deceleration)

@@ -14,7 +14,7 @@ import numpy as np
 
 from cas_freq.exceptions import ConfigError
 from cas_freq.fileio import json_ready
-from cas_freq.output import ANGLE, OutputUnit, output_json
+from cas_freq.output import ANGLE, OutputUnit, output_json, wrong_kind
 from cas_freq.parameters import LoopParameters, unit_of
 from cas_freq.simulation.commands import Profile
 from cas_freq.simulation.profile_figures import profile_figures
@@ -26,6 +26,7 @@ from cas_freq.simulation.run import (
     linear_verdict,
 )
 from cas_freq.simulation.simulator import simulate_batch
+from cas_freq.units import has_unit, to_si
 
 #: rad/s -> rpm.
 _RPM = 60.0 / (2.0 * math.pi)
@@ -37,8 +38,6 @@ _LIMITS = (("velocity", "rad/s", "2000deg/s"), ("acceleration", "rad/s^2", "1e5d
 
 def _quantity(value, unit, name, example, positive=True):
     """``value`` (a string with a unit, or a number in ``unit``) as a float in ``unit``."""
-    from cas_freq.units import has_unit, to_si
-
     what = {"rad": "an angle", "m": "a length", "rad/s": "a positive speed",
             "m/s": "a positive speed"}.get(unit, "a positive acceleration")
     expected = f"expected {what} at the output with a unit such as {example}"
@@ -79,7 +78,6 @@ def make_profile(distance, velocity, acceleration, deceleration=None, names=None
     """
     names = {key: f"profile.{key}" for key in ("distance", *(k for k, *_ in _LIMITS))} | \
         dict(names or {})
-    from cas_freq.output import wrong_kind
 
     wrong = wrong_kind(distance, unit, names["distance"]) if isinstance(distance, str) else None
     if wrong:

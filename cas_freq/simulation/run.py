@@ -7,12 +7,19 @@ import math
 import numpy as np
 
 from cas_freq.fileio import json_ready
+from cas_freq.model import DEFAULT_PADE_ORDER, ActuatorLoops
 from cas_freq.output import ANGLE, OutputUnit, output_json, output_unit
 from cas_freq.parameters import LoopParameters, loop_structure
 from cas_freq.simulation.commands import Step
 from cas_freq.simulation.second_order import fit_second_order
-from cas_freq.simulation.simulator import loop_time_step, simulate_batch
-from cas_freq.simulation.step_figures import simulation_step_figures
+from cas_freq.simulation.simulator import BUDGET_ENV, BudgetError, loop_time_step, simulate_batch
+from cas_freq.simulation.sinedwell import (
+    bound_meets,
+    dwell_frequencies,
+    limit_onset_amplitude,
+    sine_dwell,
+)
+from cas_freq.simulation.step_figures import diverged, simulation_step_figures
 
 #: Columns of the time-series CSV, with their units (the same for every config; ``fit`` also
 #: reads the former ``command_fin``).
@@ -47,7 +54,6 @@ class StepRun:
 def linear_verdict(params):
     """Stability verdict of the linear closed loop, as ``analyze`` reports it."""
     from cas_freq.analysis.stability import closed_loop_stability
-    from cas_freq.model import DEFAULT_PADE_ORDER
 
     return closed_loop_stability(params, DEFAULT_PADE_ORDER).verdict
 
@@ -164,8 +170,6 @@ def limit_activity(t, active):
 def diverged_at(run):
     """The first time [s] at which a :class:`StepRun`'s output diverged
     (:func:`~cas_freq.simulation.step_figures.diverged`), or None."""
-    from cas_freq.simulation.step_figures import diverged
-
     return diverged(run.result.t, run.result.delta, run.step.amplitude_deg * np.pi / 180)
 
 
@@ -378,8 +382,6 @@ def over_budget_reason(error, frequencies_rad_s, option="--frequencies"):
     option : str
         Where the grid is set (named in the text).
     """
-    from cas_freq.simulation.simulator import BUDGET_ENV
-
     w = sorted(frequencies_rad_s)
     return (f"the sine-dwell grid {w[0]:.4g}..{w[-1]:.4g} rad/s needs a {error.horizon_s:.3g} s "
             "horizon (set by its lowest frequency), beyond the simulation budget; set "
@@ -430,13 +432,6 @@ def sinedwell_run(loaded, amplitudes_rad, frequencies_rad_s=None, *, feedforward
     """
     from cas_freq.analysis.closed_loop import closed_loop_summary
     from cas_freq.analysis.frequency import DEFAULT_RANGE_RAD_S, frequency_grid
-    from cas_freq.model import ActuatorLoops
-    from cas_freq.simulation.simulator import BudgetError
-    from cas_freq.simulation.sinedwell import (
-        dwell_frequencies,
-        limit_onset_amplitude,
-        sine_dwell,
-    )
 
     if over_budget not in ("raise", "skip"):
         raise ValueError(f"over_budget: 'raise' or 'skip', got {over_budget!r}")
@@ -514,8 +509,6 @@ def _bound_dict(bound):
 def _meets(value, bound, required):
     """Whether a bandwidth (or its bound) meets ``>= required``: True, False, or None when a
     bound cannot decide it (:func:`~cas_freq.simulation.sinedwell.bound_meets`)."""
-    from cas_freq.simulation.sinedwell import bound_meets
-
     if value is not None and math.isfinite(value):
         return value >= required
     return None if bound is None else bound_meets(bound, minimum=required)

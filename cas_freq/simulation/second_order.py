@@ -28,7 +28,15 @@ import math
 
 import numpy as np
 
-from cas_freq.formulas import second_order_bandwidth
+from cas_freq.formulas import (
+    _FTOL,
+    _LOWER,
+    _MOVE,
+    C_SERIES,
+    D_SERIES,
+    S_SERIES,
+    second_order_bandwidth,
+)
 from cas_freq.jit import use_compiled
 from cas_freq.simulation.step_figures import diverged
 
@@ -240,13 +248,6 @@ def _start(t, unit, initial=None):
 # (s C - S) / (1 - zeta^2) come from their power series in (1 - zeta^2) s^2, which are exact at
 # zeta = 1 and free of the cancellation of the closed forms there.
 
-#: Terms of the power series in x = (1 - zeta^2) s^2 (|x| < 1): the 12th is below 1e-20.
-SERIES_TERMS = 12
-#: Coefficients of C = sum c_k (-x)^k, S / s = sum s_k (-x)^k, D / s^3 = sum d_k (-x)^k.
-C_SERIES = np.array([1.0 / math.factorial(2 * k) for k in range(SERIES_TERMS)])
-S_SERIES = np.array([1.0 / math.factorial(2 * k + 1) for k in range(SERIES_TERMS)])
-D_SERIES = np.array([-(2 * k + 2) / math.factorial(2 * k + 3) for k in range(SERIES_TERMS)])
-
 #: Most Levenberg-Marquardt trial steps per run (found: 10-45).
 _MAX_ITERATIONS = 500
 
@@ -254,22 +255,9 @@ _MAX_ITERATIONS = 500
 #: block x max_points floats, 2 MB each at 128 x 2000, three times that in _refine's Hessian).
 _BATCH_BLOCK = 128
 
-#: Lower bounds of the scaled variables (wn / wn0, zeta, td / td_scale); the upper bound of the
-#: third is t_end / td_scale, of the others infinity (as in fit_second_order).
-_LOWER = np.array([1e-6, 0.0, 0.0])
-
-#: Levenberg-Marquardt stops a run when an accepted step lowers its sum of squares by less than
-#: this fraction (least_squares in fit_second_order: 1e-14). Within ~1e-7 of the minimum then,
-#: where _refine's Newton steps take over; stopping at 1e-12 saves a fifth of the iterations
-#: but can leave a slowly zigzagging overdamped fit 1e-4 short.
-_FTOL = 1e-15
-
 #: Newton steps of _refine.
 _REFINE_STEPS = 4
 
-#: Most relative move of the variables that _refine accepts (larger: the start was not near a
-#: minimum, and it is kept).
-_MOVE = 1e-4
 
 
 def _series(x, coefficients):

@@ -67,9 +67,10 @@ import warnings
 import numpy as np
 
 from cas_freq.exceptions import ConfigError, ModelError
-from cas_freq.jit import ENGINE_ENV, ENGINES, engine_name  # noqa: F401 (re-exported)
+from cas_freq.jit import ENGINE_ENV, ENGINES, engine_name, use_compiled  # noqa: F401 (re-exported)
 from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.architecture import LOOPS
+from cas_freq.simulation.commands import Step
 from cas_freq.simulation.controllers import METHODS
 from cas_freq.simulation.engine import (
     LOAD_SIGNALS,
@@ -77,8 +78,16 @@ from cas_freq.simulation.engine import (
     CommandSet,
     Engine,
 )
+from cas_freq.simulation.figure_kernel import settled_runs, step_figures_batch
 from cas_freq.simulation.recording import Recording, RecordingBuffers  # noqa: F401 (re-exported)
+from cas_freq.simulation.second_order import fit_second_order
 from cas_freq.threads import result_of, worker_threads
+
+try:  # the compiled engine needs numba; without it the reference engine runs (engine_class)
+    from cas_freq.simulation.compiled import CompiledEngine
+    _NO_COMPILED = None
+except ImportError as _exc:  # pragma: no cover (numba is a dependency)
+    CompiledEngine, _NO_COMPILED = None, _exc
 
 #: Largest default step [s].
 MAX_DEFAULT_STEP_S = 20e-6
@@ -317,12 +326,10 @@ def engine_class(requested=None):
     """
     if engine_name(requested) == "reference":
         return Engine
-    try:
-        from cas_freq.simulation.compiled import CompiledEngine
-    except ImportError as exc:
-        warnings.warn(f"simulation: the compiled engine is unavailable ({exc}); running the "
-                      f"numpy reference engine instead (set {ENGINE_ENV}=reference to choose "
-                      "it)", stacklevel=3)
+    if CompiledEngine is None:
+        warnings.warn(f"simulation: the compiled engine is unavailable ({_NO_COMPILED}); "
+                      f"running the numpy reference engine instead (set {ENGINE_ENV}=reference "
+                      "to choose it)", stacklevel=3)
         return Engine
     return CompiledEngine
 
@@ -491,8 +498,6 @@ def _settled(t, delta, command, final, t_from, compiled=False):
     verdicts, scanning each run back from its end), else in numpy.
     """
     if compiled:
-        from cas_freq.simulation.figure_kernel import settled_runs
-
         start = int(np.searchsorted(t, t_from, side="left"))
         return settled_runs(np.ascontiguousarray(delta, dtype=float),
                             np.ascontiguousarray(command, dtype=float),
@@ -706,8 +711,6 @@ def prepare_kernels(params):
     in a new thread, which starts a stack of its own (``strace -c``: 1.2 million mmap/munmap
     calls).
     """
-    from cas_freq.jit import use_compiled
-
     if not use_compiled():
         return
     with worker_threads(1, "cas_freq-prepare-kernels") as thread:
@@ -716,9 +719,6 @@ def prepare_kernels(params):
 
 def _prepare_kernels(params):
     """The work of :func:`prepare_kernels`, in its thread."""
-    from cas_freq.simulation.commands import Step
-    from cas_freq.simulation.second_order import fit_second_order
-
     runs = LoopParameters.from_configs([params]).take([0, 0])
     unloaded = dict(F_c=0.0, eta=1.0, eta_b=1.0, K_g=0.0, c_g=0.0, backlash=0.0, J_L=0.0,
                     b_L=0.0, K_h=0.0, tau_h=0.0)  # LoopParameters.loaded is then False
@@ -732,7 +732,6 @@ def _prepare_kernels(params):
     fit_second_order(t, 1.0 - np.exp(-50.0 * t), 1.0)
     # the step figures of a batch (studies.steps.chunk_step_figures): its recorded signals
     # are the whole buffers (C-contiguous) or views of their first columns
-    from cas_freq.simulation.figure_kernel import step_figures_batch
 
     y, flags = np.ones((2, t.size)), np.zeros((2, t.size), dtype=bool)
     sizes = np.full(2, t.size - 1)

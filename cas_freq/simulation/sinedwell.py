@@ -59,9 +59,10 @@ import numpy as np
 
 from cas_freq.exceptions import ConfigError
 from cas_freq.formulas import HALF_POWER
+from cas_freq.model import ActuatorLoops
 from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.commands import Sine
-from cas_freq.simulation.simulator import loop_sampling, loop_time_step, simulate_batch
+from cas_freq.simulation.simulator import budget_runs, loop_sampling, loop_time_step, simulate_batch
 
 #: Half-power level [dB]: 20 log10(1/sqrt(2)) = -3.0103 dB.
 HALF_POWER_DB = 20.0 * math.log10(HALF_POWER)
@@ -517,8 +518,6 @@ def _chunk_within_budget(params, frequencies, settings, n_f, current_rate_hz,
     """Actuators per batch that keep a batch of ``n_f`` runs each within the simulator's budget
     (:func:`~cas_freq.simulation.simulator.check_budget`); at least 1 (a single actuator beyond
     the budget is then refused by the batch itself)."""
-    from cas_freq.simulation.simulator import budget_runs
-
     periods = 2.0 * math.pi / frequencies
     settle = np.maximum(settings["periods_settle"] * periods, settings["min_settle_s"])
     t_end = float(np.max(settle + settings["periods_measure"] * periods))
@@ -547,7 +546,5 @@ def linear_reference(params, omega, feedforward=True):
     ``F(s) = ff_v s + ff_a s^2`` (motor-angle units, as the simulator applies it): the
     small-amplitude limit of :func:`sine_dwell`.
     """
-    from cas_freq.model import ActuatorLoops
-
     s = 1j * np.asarray(omega, dtype=float)
     return ActuatorLoops(params).closed_loop(s, feedforward=feedforward)

@@ -22,8 +22,6 @@ local cluster of N single-threaded worker processes, started and stopped with th
 import contextlib
 import re
 
-import numpy as np
-
 from cas_freq.exceptions import CasFreqError
 
 #: Samples per chunk sent to a worker (a multiple of the step batch, so that a chunk's steps
@@ -70,7 +68,7 @@ def parse_scheduler(text):
                        f"scheduler address such as tcp://10.0.0.5:8786, got {text!r}")
 
 
-def _distributed():
+def distributed_module():
     """The ``distributed`` module, or a clear error naming the extra to install."""
     try:
         import distributed
@@ -108,7 +106,7 @@ def client_for(scheduler):
 
 @contextlib.contextmanager
 def _new_client(scheduler):
-    distributed = _distributed()
+    distributed = distributed_module()
     kind, value = parse_scheduler(scheduler)
     if kind == "local":
         with distributed.LocalCluster(n_workers=value, threads_per_worker=1, processes=True,
@@ -157,73 +155,7 @@ def chunk_slices(n_samples, size=CHUNK_SAMPLES):
     return [slice(start, min(start + size, n_samples)) for start in range(0, n_samples, size)]
 
 
-def _evaluate_chunk(params, changes, options):
-    """Figures and verdicts of one chunk (runs on a worker)."""
-    from cas_freq.studies.sweep import evaluate_figures
-
-    return evaluate_figures(params, changes, **options)
-
-
-def evaluate_figures_distributed(params, changes, scheduler, *, progress=None,
-                                 chunk_samples=CHUNK_SAMPLES, **options):
-    """:func:`cas_freq.studies.sweep.evaluate_figures` with its samples cut into chunks and
-    evaluated on a dask cluster.
-
-    Parameters
-    ----------
-    params : cas_freq.config.ActuatorConfig
-        Base config (sent to the cluster once).
-    changes : dict of str to numpy.ndarray
-        Dotted key -> values [SI] per sample.
-    scheduler : str
-        ``local:N`` or a scheduler address (:func:`parse_scheduler`).
-    progress : callable, optional
-        ``progress(done, total)`` in samples, as chunks complete.
-    chunk_samples : int
-        Samples per chunk: a multiple of the step batch
-        (:data:`cas_freq.studies.steps.DEFAULT_STEP_CHUNK`), so that results do not depend on it.
-    **options
-        ``step_rad``, ``fit``, ``sinedwell`` as for ``evaluate_figures``.
-
-    Returns
-    -------
-    (dict of str to numpy.ndarray, numpy.ndarray of str)
-        As ``evaluate_figures``, in sample order.
-    """
-    from cas_freq.studies.steps import DEFAULT_STEP_CHUNK
-
-    if chunk_samples <= 0 or chunk_samples % DEFAULT_STEP_CHUNK:
-        raise ValueError(f"chunk_samples must be a positive multiple of {DEFAULT_STEP_CHUNK}, "
-                         f"got {chunk_samples}")
-    distributed = _distributed()
-    n = len(next(iter(changes.values()))) if changes else 0
-    slices = chunk_slices(n, chunk_samples)
-    with client_for(scheduler) as client:
-        # hash=False: a key of its own each call. With the default content hash, a second
-        # study of the same config in one session (tune's batches) reuses the first's key,
-        # which the first's release then drops from the workers ("lost dependencies").
-        shared = client.scatter(params, broadcast=True, hash=False)
-        futures = [
-            client.submit(_evaluate_chunk, shared, {k: v[part] for k, v in changes.items()},
-                          options, retries=RETRIES, pure=False)
-            for part in slices
-        ]
-        index = {future.key: position for position, future in enumerate(futures)}
-        results = [None] * len(futures)
-        done = 0
-        for future in distributed.as_completed(futures):
-            position = index[future.key]
-            try:
-                results[position] = future.result()  # a chunk's error after its retries
-            except (distributed.client.FutureCancelledError, distributed.KilledWorker) as exc:
-                raise _cluster_lost(scheduler, exc, done, n) from None
-            done += slices[position].stop - slices[position].start
-            if progress:
-                progress(done, n)
-    return _joined(results)
-
-
-def _cluster_lost(scheduler, exc, done, total):
+def cluster_lost(scheduler, exc, done, total):
     """The one-line error of a study whose cluster lost the chunks still to run: every worker
     gone (the config scattered to them with them), the scheduler gone, or a chunk's workers
     dying more often than dask allows."""
@@ -238,12 +170,3 @@ def _cluster_lost(scheduler, exc, done, total):
     return CasFreqError(f"--scheduler {scheduler}: the dask cluster was lost mid-study after "
                         f"{done:,} of {total:,} samples: {why}; start the workers again and "
                         "rerun, or run without --scheduler")
-
-
-def _joined(results):
-    """One (figures, stability) from the chunks' results, in order."""
-    names = list(results[0][0])
-    figures = {name: np.concatenate([figures[name] for figures, _ in results])
-               for name in names}
-    stability = np.concatenate([stability for _, stability in results])
-    return figures, stability

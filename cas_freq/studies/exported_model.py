@@ -29,6 +29,7 @@ import numpy as np
 from cas_freq.exceptions import CasFreqError
 from cas_freq.fileio import json_ready
 from cas_freq.output import output_json, output_unit
+from cas_freq.parameters import LoopParameters
 
 #: The JSON's format name (a reader checks it).
 FORMAT = "cas-freq actuator model 1"
@@ -220,7 +221,6 @@ def export_model(loaded, pade_order=DEFAULT_EXPORT_PADE, amplitudes_rad=None,
     from cas_freq.analysis.rate_envelope import rate_envelope
     from cas_freq.model.delay import MAX_PADE_ORDER
     from cas_freq.model.systems import linear_model
-    from cas_freq.parameters import LoopParameters
     from cas_freq.simulation.run import sinedwell_run
     from cas_freq.simulation.sinedwell import dwell_frequencies
 

@@ -26,6 +26,7 @@ import numpy as np
 from cas_freq.exceptions import ConfigError
 from cas_freq.fileio import json_ready
 from cas_freq.parameters import base_values, check_key, parameter, unit_of
+from cas_freq.simulation.run import DEFAULT_SINEDWELL_FREQUENCIES_RAD_S
 from cas_freq.studies.sweep import evaluate_figures, figure_names
 from cas_freq.units import to_si
 
@@ -191,8 +192,6 @@ def run_montecarlo(loaded, tolerances, samples, *, distribution="normal", seed=N
 
 def dwell_condition(requirement):
     """(amplitude [rad], frequencies [rad/s]) a sine-dwell requirement is measured at."""
-    from cas_freq.simulation.run import DEFAULT_SINEDWELL_FREQUENCIES_RAD_S
-
     return (requirement.amplitude,
             tuple(requirement.frequencies or DEFAULT_SINEDWELL_FREQUENCIES_RAD_S))
 

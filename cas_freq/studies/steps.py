@@ -16,6 +16,7 @@ import numpy as np
 
 from cas_freq.jit import use_compiled
 from cas_freq.simulation.commands import Step
+from cas_freq.simulation.figure_kernel import FIGURE_COLUMNS, step_figures_batch
 from cas_freq.simulation.second_order import fit_second_order_batch
 from cas_freq.simulation.simulator import RecordingBuffers, simulate_batch
 from cas_freq.simulation.step_figures import simulation_step_figures
@@ -140,8 +141,6 @@ def chunk_step_figures(result, amplitude_rad, sizes):
         Each figure of :data:`STEP_FIGURES`, shape (n_runs,).
     """
     if use_compiled():
-        from cas_freq.simulation.figure_kernel import FIGURE_COLUMNS, step_figures_batch
-
         table = step_figures_batch(result.t, np.ascontiguousarray(result.delta), sizes,
                                    float(amplitude_rad), result.i, result.V,
                                    result.current_limited, result.voltage_limited)

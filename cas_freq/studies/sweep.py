@@ -14,52 +14,19 @@ import numpy as np
 from cas_freq.analysis import FIGURES, batch_analyze
 from cas_freq.exceptions import ConfigError
 from cas_freq.fileio import json_ready
-from cas_freq.parameters import check_key, parse_value, unit_of, variant_parameters
-
-#: Largest grid accepted (points).
-MAX_POINTS = 1_000_000
-
-
-def parse_grid_values(key, spec, config=None):
-    """Values [SI] of one grid axis: ``start:stop:count`` or ``a,b,c`` (in the unit of
-    ``config``'s architecture, :func:`cas_freq.parameters.parameter`).
-
-    Raises
-    ------
-    ConfigError
-        For a key that cannot be varied or a spec that does not parse, naming what is accepted.
-    """
-    check_key(key, config)
-    accepted = (f"--set {key}={spec}: expected START:STOP:COUNT (COUNT >= 1 evenly spaced "
-                f"values) or a list A,B,C, numbers in {unit_of(key, config)} or with units")
-    text = str(spec).strip()
-    if ":" in text:
-        parts = text.split(":")
-        if len(parts) != 3:
-            raise ConfigError(accepted)
-        start, stop = (parse_value(key, part.strip(), config) for part in parts[:2])
-        try:
-            count = int(parts[2])
-        except ValueError:
-            raise ConfigError(accepted) from None
-        if count < 1 or not (math.isfinite(start) and math.isfinite(stop)):
-            raise ConfigError(accepted)
-        if count > MAX_POINTS:
-            raise ConfigError(f"--set {key}: {count} values, more than the {MAX_POINTS} points a "
-                              "sweep accepts")
-        return np.linspace(start, stop, count)
-    parts = [part.strip() for part in text.split(",")]
-    if not parts or any(not part for part in parts):
-        raise ConfigError(accepted)
-    if len(parts) > MAX_POINTS:
-        raise ConfigError(f"--set {key}: {len(parts)} values, more than the {MAX_POINTS} points "
-                          "a sweep accepts")
-    return np.array([parse_value(key, part, config) for part in parts])
-
-
-def is_grid_spec(value):
-    """True for a ``--set`` value that is a grid (contains ``:`` or ``,``)."""
-    return isinstance(value, str) and (":" in value or "," in value)
+from cas_freq.parameter_keys import MAX_POINTS
+from cas_freq.parameters import unit_of, variant_parameters
+from cas_freq.simulation.sinedwell import sine_dwell_bandwidths
+from cas_freq.studies.distributed import (
+    CHUNK_SAMPLES,
+    RETRIES,
+    chunk_slices,
+    client_for,
+    cluster_lost,
+    distributed_module,
+)
+from cas_freq.studies.shown import run_figures_not_shown, shown_run_figure
+from cas_freq.studies.steps import DEFAULT_STEP_CHUNK, batch_steps
 
 
 def grid(axes):
@@ -109,8 +76,6 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None
         ``sinedwell.*``) and the stability verdict per sample.
     """
     if scheduler is not None:
-        from cas_freq.studies.distributed import evaluate_figures_distributed
-
         return evaluate_figures_distributed(params, changes, scheduler, progress=progress,
                                             step_rad=step_rad, fit=fit, sinedwell=sinedwell)
     loop = variant_parameters(params, changes)
@@ -135,13 +100,9 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None
                              loop_at_a_time=wants_loop_at_a_time(params))
     figures = dict(analysis.figures)
     if step_rad is not None:
-        from cas_freq.studies.steps import batch_steps
-
         figures.update(batch_steps(loop, step_rad, fit=fit, rates_hz=params.simulation.rates_hz,
                                    progress=stage_progress("step"), buffers=buffers))
     if sinedwell is not None:
-        from cas_freq.simulation.sinedwell import sine_dwell_bandwidths
-
         amplitude, frequencies = sinedwell
         current_rate_hz, position_rate_hz = params.simulation.rates_hz
         bandwidth, _, _ = sine_dwell_bandwidths(
@@ -232,16 +193,12 @@ def figure_names(figures):
 def not_shown(sweep):
     """Why each grid point's closed-loop, step and fit figures are not shown (None where they
     are): :func:`~cas_freq.studies.shown.run_figures_not_shown`, the load envelope's rule."""
-    from cas_freq.studies.shown import run_figures_not_shown
-
     return run_figures_not_shown(sweep.figures, sweep.stability)
 
 
 def shown_figures(sweep):
     """Every figure per grid point as the sweep shows it (text, JSON, CSV, plot): NaN where it
     does not exist or is not shown (:func:`not_shown`)."""
-    from cas_freq.studies.shown import shown_run_figure
-
     reasons = not_shown(sweep)
     return {name: shown_run_figure(values, name, reasons) for name, values in sweep.figures.items()}
 
@@ -295,3 +252,74 @@ def sweep_csv(sweep):
         cells.append(reasons[index] or "")
         out.write(",".join(cells) + "\n")
     return out.getvalue()
+
+
+def _evaluate_chunk(params, changes, options):
+    """Figures and verdicts of one chunk (runs on a worker)."""
+    return evaluate_figures(params, changes, **options)
+
+
+def evaluate_figures_distributed(params, changes, scheduler, *, progress=None,
+                                 chunk_samples=CHUNK_SAMPLES, **options):
+    """:func:`cas_freq.studies.sweep.evaluate_figures` with its samples cut into chunks and
+    evaluated on a dask cluster.
+
+    Parameters
+    ----------
+    params : cas_freq.config.ActuatorConfig
+        Base config (sent to the cluster once).
+    changes : dict of str to numpy.ndarray
+        Dotted key -> values [SI] per sample.
+    scheduler : str
+        ``local:N`` or a scheduler address (:func:`parse_scheduler`).
+    progress : callable, optional
+        ``progress(done, total)`` in samples, as chunks complete.
+    chunk_samples : int
+        Samples per chunk: a multiple of the step batch
+        (:data:`cas_freq.studies.steps.DEFAULT_STEP_CHUNK`), so that results do not depend on it.
+    **options
+        ``step_rad``, ``fit``, ``sinedwell`` as for ``evaluate_figures``.
+
+    Returns
+    -------
+    (dict of str to numpy.ndarray, numpy.ndarray of str)
+        As ``evaluate_figures``, in sample order.
+    """
+    if chunk_samples <= 0 or chunk_samples % DEFAULT_STEP_CHUNK:
+        raise ValueError(f"chunk_samples must be a positive multiple of {DEFAULT_STEP_CHUNK}, "
+                         f"got {chunk_samples}")
+    distributed = distributed_module()
+    n = len(next(iter(changes.values()))) if changes else 0
+    slices = chunk_slices(n, chunk_samples)
+    with client_for(scheduler) as client:
+        # hash=False: a key of its own each call. With the default content hash, a second
+        # study of the same config in one session (tune's batches) reuses the first's key,
+        # which the first's release then drops from the workers ("lost dependencies").
+        shared = client.scatter(params, broadcast=True, hash=False)
+        futures = [
+            client.submit(_evaluate_chunk, shared, {k: v[part] for k, v in changes.items()},
+                          options, retries=RETRIES, pure=False)
+            for part in slices
+        ]
+        index = {future.key: position for position, future in enumerate(futures)}
+        results = [None] * len(futures)
+        done = 0
+        for future in distributed.as_completed(futures):
+            position = index[future.key]
+            try:
+                results[position] = future.result()  # a chunk's error after its retries
+            except (distributed.client.FutureCancelledError, distributed.KilledWorker) as exc:
+                raise cluster_lost(scheduler, exc, done, n) from None
+            done += slices[position].stop - slices[position].start
+            if progress:
+                progress(done, n)
+    return _joined(results)
+
+
+def _joined(results):
+    """One (figures, stability) from the chunks' results, in order."""
+    names = list(results[0][0])
+    figures = {name: np.concatenate([figures[name] for figures, _ in results])
+               for name in names}
+    stability = np.concatenate([stability for _, stability in results])
+    return figures, stability

@@ -14,6 +14,9 @@ import math
 
 import numpy as np
 
+from cas_freq.parameters import base_values
+from cas_freq.studies.montecarlo import dwell_condition
+from cas_freq.studies.steps import FIT_FIGURES, STEP_FIGURES
 from cas_freq.studies.sweep import evaluate_figures
 from cas_freq.tuning.options import OBJECTIVES
 
@@ -178,8 +181,6 @@ def _screened_figures(params, changes, n, m, scenario_set, held, step, fit, sine
                 figures[name] = np.full(n * m, np.nan)
                 figures[name][rows] = values
     else:
-        from cas_freq.studies.steps import FIT_FIGURES, STEP_FIGURES
-
         for name in STEP_FIGURES + (FIT_FIGURES if fit else ()) + (
                 ("sinedwell.bandwidth_rad_s",) if sinedwell else ()):
             figures[name] = np.full(n * m, np.nan)
@@ -191,8 +192,6 @@ def evaluate(params, keys, unit, scenario_set, held, objective, scheduler=None, 
     """Evaluate candidates given as unit-box points ``unit`` (n, k); ``screen``: simulate only
     the candidates the linear requirements leave feasible (else every one); ``simulate``
     False: none (the step and sine-dwell figures NaN)."""
-    from cas_freq.parameters import base_values
-
     unit = np.atleast_2d(unit)
     n = unit.shape[0]
     values = {k.key: k.value(unit[:, j]) for j, k in enumerate(keys)}
@@ -204,8 +203,6 @@ def evaluate(params, keys, unit, scenario_set, held, objective, scheduler=None, 
     dwell = next((c.requirement for c in held if c.requirement.kind == "sinedwell"), None)
     sinedwell = None
     if dwell is not None:
-        from cas_freq.studies.montecarlo import dwell_condition
-
         sinedwell = dwell_condition(dwell)
     m = scenario_set.count
     figures, stability, simulated = _screened_figures(params, changes, n, m, scenario_set,

@@ -4,6 +4,8 @@ import dataclasses
 import math
 
 from cas_freq.figures import UNIT_LABELS
+from cas_freq.fileio import json_ready
+from cas_freq.simulation.sinedwell import bound_meets
 from cas_freq.verify.measure import measure
 
 PASS, FAIL, ADVISORY = "PASS", "FAIL", "ADVISORY"
@@ -78,8 +80,6 @@ def _verdict(requirement, variant, value, condition, stable=True, bound=None):
     if known:
         meets = requirement.passes(value)
     elif bound is not None:
-        from cas_freq.simulation.sinedwell import bound_meets
-
         meets = bound_meets(bound, requirement.min, requirement.max)
     else:
         meets = None
@@ -162,8 +162,6 @@ def failed_required(verdicts):
 
 def verdict_dict(verdict):
     """JSON-ready dict of a verdict."""
-    from cas_freq.fileio import json_ready
-
     data = dataclasses.asdict(verdict)
     if verdict.bound is None:  # only a figure known as a bound carries the two keys
         del data["bound"], data["bound_value"]

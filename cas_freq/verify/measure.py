@@ -10,7 +10,14 @@ grid, the same move) are done once.
 
 import math
 
+from cas_freq.figures import FIGURES
 from cas_freq.fileio import json_ready
+from cas_freq.output import LENGTH, output_unit
+from cas_freq.simulation.commands import condition_profile
+from cas_freq.simulation.profile_run import profile_condition_text, profile_runs
+from cas_freq.simulation.run import dwell_parameters, over_budget_reason, step_batch
+from cas_freq.simulation.simulator import BudgetError
+from cas_freq.simulation.sinedwell import dwell_frequencies, sine_dwell
 
 
 def figure(result, metric):
@@ -20,12 +27,8 @@ def figure(result, metric):
     the figure does not exist. A linear output's quantity (``profile.tracking_error_max_mm``)
     is its rotary twin's attribute in mm (:mod:`cas_freq.output`); one in its own unit
     (``stiffness.min_N_per_m``) is read as it is."""
-    from cas_freq.figures import FIGURES
-
     record = FIGURES.get(metric)
     if record is not None and record.output == "length" and record.unit == "mm":
-        from cas_freq.output import LENGTH
-
         value = figure(result, record.twin)
         if value is None:
             return None
@@ -64,7 +67,6 @@ def measure(variants, requirements, known=None):
         its grid (:func:`~cas_freq.simulation.sinedwell.bandwidth_bound`; value None).
     """
     from cas_freq.analysis import analyze
-    from cas_freq.simulation.run import step_batch
 
     known = known or [{} for _ in variants]
     analyses = [item.get("analyze") or analyze(loaded)
@@ -80,10 +82,8 @@ def measure(variants, requirements, known=None):
         steps[size].update(zip(missing, runs, strict=True))
     moves = {}
     for condition in dict.fromkeys(r.profile for r in requirements if r.kind == "profile"):
-        from cas_freq.simulation.profile_run import profile_runs
-
-        runs = profile_runs([variants[index] for index in stable], condition.command(),
-                            verdicts) if stable else []
+        runs = profile_runs([variants[index] for index in stable],
+                            condition_profile(condition), verdicts) if stable else []
         moves[condition] = dict(zip(stable, runs, strict=True))
     out = []
     for index, loaded in enumerate(variants):
@@ -101,8 +101,6 @@ def measure(variants, requirements, known=None):
                 values[key] = figure(run, requirement.metric)
                 context[key] = f"nonlinear step of {run.output_unit.show(run.step.amplitude_deg)}"
             elif requirement.kind == "profile":
-                from cas_freq.simulation.profile_run import profile_condition_text
-
                 run = moves[requirement.profile][index]
                 values[key] = figure(run, requirement.metric)
                 context[key] = (f"profile move of "
@@ -171,11 +169,6 @@ def _sinedwell_bandwidth(loaded, analysis, amplitude, frequencies):
         The bandwidth [rad/s], the bound the grid gives when it holds no crossing, and the text
         of what was run (with why nothing was, when the sine-dwell exceeds the budget).
     """
-    from cas_freq.output import output_unit
-    from cas_freq.simulation.run import dwell_parameters, over_budget_reason
-    from cas_freq.simulation.simulator import BudgetError
-    from cas_freq.simulation.sinedwell import dwell_frequencies, sine_dwell
-
     grid = frequencies or dwell_frequencies(analysis)
     shown = output_unit(loaded.params).show(math.degrees(amplitude))
     text = (f"sine-dwell at {shown}, {len(grid)} frequencies "
