@@ -44,7 +44,7 @@ import numpy as np  # noqa: E402
 
 from cas_freq.analysis.analyze import batch_analyze  # noqa: E402
 from cas_freq.config import load_variant  # noqa: E402
-from cas_freq.parameters import variant_parameters  # noqa: E402
+from cas_freq.core.parameters import variant_parameters  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import numpy_floor  # noqa: E402

@@ -11,7 +11,7 @@ run in-process in a worker process with a 60 s alarm. Printed per command:
   hangs (> 60 s);
 - typo strings read as a different number: a typo of a value string of the shipped config
   (decimal comma, a second dot, a blank or comma inside the number, a percent) that
-  ``cas_freq.parameters.parse_value`` accepts with another value than the original's.
+  ``cas_freq.core.parameters.parse_value`` accepts with another value than the original's.
 
 Mutated configs change 1-3 values of the shipped config (random strings, numbers of extreme
 magnitude, wrong types, deleted keys, unicode, commas, typos, YAML tags, duplicate keys, deep
@@ -204,7 +204,7 @@ NUMERIC_KEYS = None
 
 def extreme_config(rng, base):
     """A valid-looking config: every parameter scaled by 10**U(-k, k), some set to 0."""
-    from cas_freq.parameters import PARAMETERS
+    from cas_freq.core.parameters import PARAMETERS
 
     data = copy.deepcopy(base)
     data.pop("variants", None)
@@ -215,7 +215,7 @@ def extreme_config(rng, base):
             value = get(data, path)
         except (KeyError, TypeError):
             continue
-        from cas_freq.parameters import parse_value
+        from cas_freq.core.parameters import parse_value
 
         si = parse_value(key, value)
         if rng.random() < 0.1 and ("delay" in key or key.endswith(("Ki", "Kd", "ff_v", "ff_a"))):
@@ -311,8 +311,8 @@ def run_case(job):
 
 def check_typos(typos):
     """Typos a value string read as a number (another than the original's)."""
-    from cas_freq.exceptions import CasFreqError
-    from cas_freq.parameters import PARAMETERS, parse_value
+    from cas_freq.core.exceptions import CasFreqError
+    from cas_freq.core.parameters import PARAMETERS, parse_value
 
     wrong = []
     for dotted, original, typo_text in typos:

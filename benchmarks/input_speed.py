@@ -49,8 +49,8 @@ from test_fuzz_inputs import (  # noqa: E402
 
 from cas_freq.cli import main as cas_freq  # noqa: E402
 from cas_freq.config import load_all_variants  # noqa: E402
-from cas_freq.exceptions import CasFreqError  # noqa: E402
-from cas_freq.units import to_si  # noqa: E402
+from cas_freq.core.exceptions import CasFreqError  # noqa: E402
+from cas_freq.core.units import to_si  # noqa: E402
 
 #: Longest a config may take to be refused or loaded [s] (the tool's budget for reading data).
 LOAD_BUDGET_S = 2.0

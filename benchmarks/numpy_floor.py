@@ -19,11 +19,15 @@ and load) so both sides evaluate the same plant; everything else is written here
 
 import numpy as np
 
-from cas_freq.analysis.frequency import DEFAULT_POINTS_PER_DECADE, DEFAULT_RANGE_RAD_S
-from cas_freq.analysis.frequency import frequency_grid
+from cas_freq.analysis.frequency import (
+    DEFAULT_POINTS_PER_DECADE,
+    DEFAULT_RANGE_RAD_S,
+    frequency_grid,
+)
 from cas_freq.model import parts
 from cas_freq.model.loops import Selector
 from cas_freq.model.structure import total_delay
+
 #: Variants evaluated at once (bounds the memory: chunk x grid complex numbers per array).
 CHUNK = 250
 #: -3.0103 dB as a magnitude.

@@ -60,7 +60,7 @@ from baselines import ImprovedBaseline  # noqa: E402
 
 from cas_freq.analysis.analyze import DEFAULT_CHUNK, batch_analyze  # noqa: E402
 from cas_freq.config import load_variant  # noqa: E402
-from cas_freq.parameters import variant_parameters  # noqa: E402
+from cas_freq.core.parameters import variant_parameters  # noqa: E402
 
 SEED = 20261122
 ROOT = Path(__file__).resolve().parents[1]
@@ -165,7 +165,7 @@ def process_times(argv, repeats=3, engine=None):
 
 def variants(params, n, rng):
     """Random variants: each key uniform within ±10 % of the config's value."""
-    from cas_freq.parameters import base_values
+    from cas_freq.core.parameters import base_values
 
     base = base_values(params)
     return {key: base[key] * rng.uniform(0.9, 1.1, n) for key in KEYS}
@@ -296,7 +296,7 @@ def bench_headline_step(params, rows, repeats, rounds=3):
     takes ~1.9 times as long), so each round's ratio compares the two in the same state; the
     row shows the median times and the median of the rounds' ratios.
     """
-    from cas_freq.parameters import LoopParameters
+    from cas_freq.core.parameters import LoopParameters
     from cas_freq.simulation import Step, simulate_batch
 
     amplitude = math.radians(10.0)
@@ -333,7 +333,7 @@ def bench_headline_step(params, rows, repeats, rounds=3):
 
 def bench_step(params, runs, rows, notes):
     """10 deg steps: the compiled kernel and the numpy reference engine (batch and one run)."""
-    from cas_freq.parameters import LoopParameters
+    from cas_freq.core.parameters import LoopParameters
     from cas_freq.simulation import Step, simulate_batch
 
     amplitude = math.radians(10.0)
@@ -400,7 +400,7 @@ def _process_text(times):
 def bench_sinedwell(params, rows):
     """Headline row 4: the sine-dwell map of 8 amplitudes x 30 frequencies (100..5000
     rad/s) of the shipped config, median of 3 after a warm-up of the kernel."""
-    from cas_freq.parameters import LoopParameters
+    from cas_freq.core.parameters import LoopParameters
     from cas_freq.simulation.sinedwell import sine_dwell
 
     amplitudes = np.radians([0.25, 0.5, 1, 2, 4, 6, 8, 10])

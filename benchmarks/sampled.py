@@ -34,7 +34,7 @@ import numpy as np  # noqa: E402
 
 from cas_freq.analysis.analyze import batch_analyze  # noqa: E402
 from cas_freq.config import load_variant  # noqa: E402
-from cas_freq.parameters import variant_parameters  # noqa: E402
+from cas_freq.core.parameters import variant_parameters  # noqa: E402
 
 #: case -> (variant, sampling rates replacing the variant's, or None to keep them)
 CASES = {

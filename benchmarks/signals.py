@@ -67,7 +67,8 @@ LOCAL_CLUSTER = ("montecarlo", "-q", "--samples", "4000", "--tolerance", "motor.
                  "--scheduler", "local:2")
 
 
-#: The first line of a run that compiles kernels (cas_freq.jit), and the lines that may follow it
+#: The first line of a run that compiles kernels (cas_freq.core.jit), and the lines that may follow
+#: it
 #: before the signal's: the time so far, the report's progress.
 COMPILING = "cas-freq: compiling the numerical kernels"
 PROGRESS = ("cas-freq: still compiling", "report: ")

@@ -22,7 +22,7 @@ __version__ = "0.1.0"
 #: Names exported from :mod:`cas_freq.api`, imported on first access.
 _API = ("load", "Actuator", "ActuatorSet")
 
-#: Names exported from :mod:`cas_freq.any_loop` (margins of any loop), imported on first access.
+#: Names exported from :mod:`cas_freq.api.any_loop` (margins of any loop), imported on first access.
 _ANY_LOOP = ("loop_margins", "closed_loop_figures")
 
 __all__ = [*_API, *_ANY_LOOP, "__version__"]
@@ -34,7 +34,7 @@ def __getattr__(name):
 
         return getattr(api, name)
     if name in _ANY_LOOP:
-        from cas_freq import any_loop
+        from cas_freq.api import any_loop
 
         return getattr(any_loop, name)
     raise AttributeError(f"module 'cas_freq' has no attribute {name!r}")

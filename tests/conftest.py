@@ -13,7 +13,7 @@ from cas_freq.config import default_config_path, read_config_file
 
 @pytest.fixture(scope="session", autouse=True)
 def _no_compile_messages_in_process():
-    """The CLI's first-compilation lines (cas_freq.jit) silenced for commands run in this
+    """The CLI's first-compilation lines (cas_freq.core.jit) silenced for commands run in this
     process: whether a test's command compiles depends on the order the tests ran in and on
     numba's cache, and many tests check stderr exactly. tests/test_jit_cache.py checks the
     messages in processes of their own."""
@@ -74,9 +74,9 @@ def engine(request, monkeypatch):
     kernels forced on small arrays."""
     monkeypatch.setenv("CAS_FREQ_ENGINE", request.param)
     if request.param == "compiled":
-        from cas_freq.jit import use_compiled
+        from cas_freq.core.jit import use_compiled
 
-        monkeypatch.setattr("cas_freq.jit.COMPILED_FROM", 0)
+        monkeypatch.setattr("cas_freq.core.jit.COMPILED_FROM", 0)
         if not use_compiled():
             pytest.skip("numba is not importable: the compiled path cannot run")
     return request.param

@@ -90,7 +90,7 @@ def drive_of(path, variant="base"):
     values (mu_v from the no-load point, Tf = Kd/(10 Kp)); the oracle refuses anything it does
     not model (a load, a compliant gear, filters, a velocity loop, output feedback)."""
     from cas_freq.config import load_variant
-    from cas_freq.parameters import LoopParameters
+    from cas_freq.core.parameters import LoopParameters
 
     p = LoopParameters.from_config(load_variant(path, variant).params)
     if p.cascade or p.feedback_output or p.filters or np.any(p.loaded):

@@ -3,7 +3,7 @@
 Issue 24: ``gear.efficiency: 1e-300`` (or 5e-324) and ``load.hinge_stiffness: -1e9`` were
 accepted and raised numpy's LinAlgError in simulate, sinedwell, report, compare and tune. Now:
 
-- the forward efficiency has a physical lower bound (cas_freq.parameters.MIN_EFFICIENCY, 1 %:
+- the forward efficiency has a physical lower bound (cas_freq.core.parameters.MIN_EFFICIENCY, 1 %:
   below it the reflected load 1/eta overflowed the plant's matrices), so such a value is bad
   input (exit 2, naming the key, the value and the range);
 - K_h = -1e9 N*m/rad (an aiding hinge spring 1e8 times the loop's own stiffness) is an

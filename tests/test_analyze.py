@@ -9,9 +9,9 @@ import pytest
 
 from cas_freq.analysis import analyze, to_dict
 from cas_freq.analysis.stability import pole_verdict
+from cas_freq.analysis.systems import linear_model
 from cas_freq.config import load_variant
 from cas_freq.model import ActuatorLoops, DelayModel
-from cas_freq.model.systems import linear_model
 
 
 @pytest.fixture(scope="module", params=["base", "fitted"])

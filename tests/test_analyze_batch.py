@@ -21,9 +21,9 @@ import pytest
 
 from cas_freq.analysis import FIGURES, analyze, batch_analyze
 from cas_freq.config import load_variant
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.parameters import variant_parameters
 from cas_freq.model import ActuatorLoops
-from cas_freq.parameters import variant_parameters
 
 
 def _random_changes(params, rng, n):

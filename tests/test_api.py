@@ -57,7 +57,7 @@ def test_to_dict_is_the_cli_json():
 def test_set_errors_name_the_api_argument_not_the_cli_option(overrides, words):
     """Issue 24 review: errors of ``load(set=...)`` said "with --set", an option the API has
     not; they name ``set=``, and the CLI keeps "--set"."""
-    from cas_freq.exceptions import ConfigError
+    from cas_freq.core.exceptions import ConfigError
 
     with pytest.raises(ConfigError) as caught:
         cf.load(set=overrides)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import cas_freq as cf
-from cas_freq.exceptions import CasFreqError
+from cas_freq.core.exceptions import CasFreqError
 
 
 @pytest.fixture(scope="module")

@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from cas_freq.config import load_variant
-from cas_freq.figures import FIGURES
+from cas_freq.core.figures import FIGURES
 from cas_freq.report.compare import in_unit, parameter_differences
 from cas_freq.tuning.summary import column_label, tune_text
 
@@ -87,8 +87,8 @@ def test_tune_pareto_columns_name_each_keys_loop():
 def test_fit_params_start_and_unit_are_the_cascades():
     # a cascade's Kp in 1/s: the start '80 1/s' is read in it (base code: refused as not
     # A/rad), and the free key says 1/s (base code: A/rad, the PID-on-PI's)
+    from cas_freq.core.parameters import variant_parameters
     from cas_freq.identification.free_keys import free_keys, parse_model_spec
-    from cas_freq.parameters import variant_parameters
 
     config = load_variant(CASCADE).params
     spec = parse_model_spec("position_loop.Kp=80 1/s,velocity_loop.Kp", 1)
@@ -101,7 +101,7 @@ def test_the_profile_feedforward_is_shown_in_the_architectures_units():
     # a cascade's ff_v feeds the velocity command: dimensionless, not A*s/rad
     from types import SimpleNamespace
 
-    from cas_freq.parameters import unit_of
+    from cas_freq.core.parameters import unit_of
     from cas_freq.report.profile import _feedforward_text
 
     cascade = load_variant(CASCADE).params

@@ -27,10 +27,10 @@ from architecture_oracle import (
 import cas_freq as cf
 from cas_freq.analysis.stability import closed_loop_poles as our_poles
 from cas_freq.analysis.stability import loop_polynomials
+from cas_freq.analysis.systems import linear_model
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.model.delay import DelayModel
 from cas_freq.model.loops import Selector, responses
-from cas_freq.model.systems import linear_model
-from cas_freq.parameters import LoopParameters
 
 AXIS = "configs/cascade_axis.yaml"
 

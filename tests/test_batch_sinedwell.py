@@ -11,7 +11,7 @@ import pytest
 from clirun import run_cli
 
 from cas_freq.config import load_all_variants
-from cas_freq.parameters import LoopParameters
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.simulation.sinedwell import sine_dwell, sine_dwell_bandwidths
 
 FREQUENCIES = (300.0, 420.0, 600.0)  # brackets the 10 deg bandwidths (~320..430 rad/s)

@@ -11,7 +11,7 @@ import pytest
 from clirun import SHIPPED_NOTE
 
 from cas_freq.cli import main
-from cas_freq.figures import FIGURES
+from cas_freq.core.figures import FIGURES
 
 LOOP_KEYS = (
     "crossover_rad_s", "phase_margin_deg", "delay_margin_s", "gain_margin_db",

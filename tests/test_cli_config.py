@@ -12,7 +12,7 @@ import cas_freq as cf
 import cas_freq.cli.analyze as analyze_command
 from cas_freq.cli import main
 from cas_freq.config import default_config_path, load_variant
-from cas_freq.exceptions import (
+from cas_freq.core.exceptions import (
     CasFreqError,
     ConfigError,
     ConfigTypeError,

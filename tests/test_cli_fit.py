@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from clirun import run_cli
 
-from cas_freq.figures import FIGURES
+from cas_freq.core.figures import FIGURES
 from cas_freq.simulation.second_order import second_order_step
 
 _run = run_cli

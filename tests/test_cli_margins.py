@@ -8,8 +8,8 @@ import math
 import pytest
 from clirun import run_cli
 
-from cas_freq.figures import FIGURES
-from cas_freq.report.numbers import number
+from cas_freq.core.figures import FIGURES
+from cas_freq.core.numbers import number
 
 # The made-up DC servo of configs/dc_servo.yaml with an aiding hinge (K_h = -15 N*m/rad at
 # the output: a statically unstable plant), a slow current-loop integral and a small Kd: the

@@ -7,7 +7,7 @@ import pytest
 
 from cas_freq.cli import main
 from cas_freq.config import load_variant
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
 from cas_freq.studies.montecarlo import draw, parse_tolerance
 
 ARGS = ["montecarlo", "--samples", "40", "--tolerance", "motor.Km=10%",

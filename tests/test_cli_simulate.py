@@ -75,7 +75,7 @@ def test_limit_activity_times(simulated):
     """The 10 deg step drives the current command into its clamp right after the step (the
     filtered derivative's kick, Kd/Tf = 63 A/rad on 3.49 rad) for a few ms; the voltage stays
     inside 30 V. limit_activity itself: worked example on a hand-made flag series."""
-    from cas_freq.simulation.run import limit_activity
+    from cas_freq.studies.run import limit_activity
 
     _, data, _ = simulated
     current, voltage = data["limits"]["current"], data["limits"]["voltage"]

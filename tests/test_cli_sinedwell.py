@@ -16,9 +16,9 @@ from clirun import run_cli
 from cas_freq.cli.common import terminal_progress
 from cas_freq.cli.sinedwell import parse_amplitudes, parse_frequencies
 from cas_freq.config import load_variant
-from cas_freq.exceptions import CasFreqError
-from cas_freq.formulas import second_order_bandwidth
-from cas_freq.simulation.run import step_run, step_run_dict
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.formulas import second_order_bandwidth
+from cas_freq.studies.run import step_run, step_run_dict
 
 _run = run_cli
 

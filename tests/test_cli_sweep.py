@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from cas_freq.cli import main
-from cas_freq.exceptions import ConfigError
-from cas_freq.parameter_keys import parse_grid_values
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.parameter_keys import parse_grid_values
 from cas_freq.studies.sweep import grid
 
 

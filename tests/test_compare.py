@@ -9,8 +9,9 @@ import re
 import pytest
 
 from cas_freq.config import load_variant
-from cas_freq.exceptions import CasFreqError
-from cas_freq.parameters import PARAMETERS, parse_value
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.numbers import round_significant
+from cas_freq.core.parameters import PARAMETERS, parse_value
 from cas_freq.report.compare import (
     SETTINGS,
     build_compare,
@@ -26,7 +27,6 @@ from cas_freq.report.compare import (
     verdict_matrix,
 )
 from cas_freq.report.data import ReportSettings, gather_variant, variant_results
-from cas_freq.report.numbers import round_significant
 from cas_freq.report.outdir import write_directory_atomic
 
 FAST = ReportSettings(
@@ -252,7 +252,7 @@ def test_parameter_table_of_two_configs(shipped_config_path):
 def test_every_figure_has_a_label_and_a_unit(pair):
     _, datas = pair
     keys = list(flat_figures(variant_results(datas[0])))
-    # every figure of the table is one of the figure table's (cas_freq.figures): none falls
+    # every figure of the table is one of the figure table's (cas_freq.core.figures): none falls
     # back to its raw name
     assert [key for key in keys if table_figure(re.sub(r" [\d.]+°$", "", key)) is None] == []
     labels = [figure_display(key)[0] for key in keys]

@@ -11,7 +11,7 @@ from cas_freq.config import (
     read_config_file,
     variant_names,
 )
-from cas_freq.exceptions import CasFreqError, ConfigError, ConfigTypeError
+from cas_freq.core.exceptions import CasFreqError, ConfigError, ConfigTypeError
 
 # Values given in SI in the report are stored as they are: compare to rel 1e-12 (only the pint
 # conversion of the file's unit strings, e.g. 0.071 mH, adds rounding of a few ulps).

@@ -17,9 +17,9 @@ from clirun import run_cli
 
 from cas_freq.config import load_all_variants, load_variant
 from cas_freq.config.loader import _apply, validate
-from cas_freq.exceptions import ConfigError
-from cas_freq.filters_config import Filter
-from cas_freq.parameters import (
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.filters_config import Filter
+from cas_freq.core.parameters import (
     STATIC_FIELDS,
     LoopParameters,
     base_values,
@@ -359,7 +359,7 @@ def test_set_and_variants_reach_a_filter_number(shipped_raw):
 
 
 def test_sweep_tolerance_and_tune_read_the_cascade_units(shipped_raw):
-    from cas_freq.parameter_keys import parse_grid_values
+    from cas_freq.core.parameter_keys import parse_grid_values
     from cas_freq.studies.montecarlo import parse_tolerance
     from cas_freq.tuning.space import parse_bounds, parse_free, tune_keys
 

@@ -8,7 +8,7 @@ import yaml
 
 from cas_freq.config import load_variant, parse_set_option, read_config_file
 from cas_freq.config.loader import default_config_path
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
 from cas_freq.studies.montecarlo import parse_tolerance
 
 

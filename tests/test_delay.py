@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import pade as scipy_pade
 
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
 from cas_freq.model.delay import (
     DelayModel,
     pade_denominator,

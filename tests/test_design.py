@@ -25,7 +25,7 @@ import pytest
 from clirun import run_cli
 from conftest import chromium_or_skip
 
-from cas_freq.figures import FIGURES
+from cas_freq.core.figures import FIGURES
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = ROOT / "configs" / "qt_cas.yaml"
@@ -526,7 +526,7 @@ def test_a_sample_rate_has_a_control_and_multirate_errors_name_it():
     data = design.state({"session": "s", "seq": 2, "nonlinear": False,
                          "values": {"sampling.position_loop": "3 kHz"}})
     assert "multirate must be exact" in data["errors"]["sampling.position_loop"]
-    from cas_freq.exceptions import ConfigError
+    from cas_freq.core.exceptions import ConfigError
 
     with pytest.raises(ConfigError, match="continuously"):
         Design(SHIPPED, "base", ["sampling.position_loop"])
@@ -675,7 +675,7 @@ def test_a_key_at_zero_gets_a_slider_over_the_table_s_range_with_zero_on_it():
     # tune's range around the value (x/4..x4) is empty at zero: the slider spans the
     # parameter table's non-zero magnitudes instead, zero at its start, or at its centre for
     # a key that also takes negative values (the hinge spring); a negative value gets a log
-    # slider on its own side of zero. The bounds are the table's (cas_freq/parameter_keys.py)
+    # slider on its own side of zero. The bounds are the table's (cas_freq/core/parameter_keys.py)
     from cas_freq.config import load_variant
     from cas_freq.design.compute import controls
 

@@ -27,13 +27,13 @@ from scipy.integrate import quad
 
 import cas_freq as cf
 from cas_freq.analysis.disturbance import disturbance_figures, noise
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.model import parts
 from cas_freq.model.actuator_loops import ActuatorLoops
 from cas_freq.model.disturbance import encoder_weights, load_response, noise_current
 from cas_freq.model.loops import Selector
 from cas_freq.model.structure import build
-from cas_freq.parameters import LoopParameters
 
 QT = "configs/qt_cas.yaml"
 AXIS = "configs/cascade_axis.yaml"

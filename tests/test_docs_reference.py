@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 
 from cas_freq.cli import build_parser
-from cas_freq.filters_config import FILTER_PARAMETERS
-from cas_freq.parameter_record import Parameter
-from cas_freq.parameters import CASCADE_PARAMETERS, PARAMETERS
+from cas_freq.core.filters_config import FILTER_PARAMETERS
+from cas_freq.core.parameter_record import Parameter
+from cas_freq.core.parameters import CASCADE_PARAMETERS, PARAMETERS
 
 ROOT = Path(__file__).resolve().parents[1]
 _SPEC = importlib.util.spec_from_file_location("docs_reference", ROOT / "docs/_hooks/reference.py")
@@ -39,7 +39,7 @@ def test_every_numeric_key_is_listed_with_its_unit_and_range(config_page, key):
     # a key of both position loops: the PID-on-PI's row; omega_max: the cascade's (PID-on-PI
     # refuses it)
     # a linear output's keys (refused in the rotary sections): their own section's row
-    from cas_freq.parameters import LINEAR_ONLY
+    from cas_freq.core.parameters import LINEAR_ONLY
 
     after = ("CascadePositionLoop" if key == "position_loop.omega_max" else
              "PositionLoop" if key.startswith("position_loop.") else

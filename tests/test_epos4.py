@@ -18,9 +18,9 @@ import yaml
 from clirun import run_cli
 
 from cas_freq.config import load_all_variants, load_variant
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.parameters import base_values
 from cas_freq.drive import epos4, insert_variant
-from cas_freq.exceptions import ConfigError
-from cas_freq.parameters import base_values
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "epos4" / "qt_cas_tuned.dcf"

@@ -1,4 +1,5 @@
-"""The figure table (cas_freq.figures) against the commands' JSON: every figure's key resolves to
+"""The figure table (cas_freq.core.figures) against the commands' JSON: every figure's key resolves
+to
 a number of the command that measures it, and every number of those JSON groups is a figure of
 the table or a declared test condition; the requirements, the report and the comparison read
 their names, units and labels from it."""
@@ -9,9 +10,9 @@ import pytest
 from clirun import run_cli
 
 from cas_freq.config.requirement import METRICS, Requirement, metric_unit
-from cas_freq.figures import CONDITIONS, FIGURES, LOOPS, json_values, loop_label
-from cas_freq.output import LENGTH
-from cas_freq.parameters import PARAMETERS
+from cas_freq.core.figures import CONDITIONS, FIGURES, LOOPS, json_values, loop_label
+from cas_freq.core.output import LENGTH
+from cas_freq.core.parameters import PARAMETERS
 
 #: One run per command, on the shipped config's base variant (a few seconds in all): a 10° step
 #: (its fit too), a sine-dwell at 10° on a two-point grid that brackets its −3 dB point (426
@@ -190,7 +191,7 @@ def test_verify_reads_the_field_the_json_prints(outputs):
 def test_the_reports_tables_read_the_labels_of_the_tables():
     from cas_freq.report.parameter_table import _LOAD_KEYS, _PARAMETER_KEYS, parameter_row_head
 
-    # parameter labels and units from cas_freq.parameters, "the output" as the config names it
+    # parameter labels and units from cas_freq.core.parameters, "the output" as the config names it
     assert parameter_row_head("load.inertia", "fin") == (
         "load inertia J_L at the fin", "kg·m²", 1.0)
     assert parameter_row_head("motor.L", "output") == ("motor terminal inductance L", "mH", 1e3)

@@ -1,11 +1,11 @@
-"""Atomic text output (cas_freq.fileio)."""
+"""Atomic text output (cas_freq.core.fileio)."""
 
 import os
 import stat
 
 import pytest
 
-from cas_freq.fileio import json_ready, write_text_atomic
+from cas_freq.core.fileio import json_ready, write_text_atomic
 
 
 def test_writes_and_replaces(tmp_path):

@@ -1,4 +1,4 @@
-"""The filter kinds, declared once (cas_freq/filters_config.py, FILTERS).
+"""The filter kinds, declared once (cas_freq/core/filters_config.py, FILTERS).
 
 Every reader of a filter's kind takes it from the registry: the config's numbers
 (FILTER_NUMBERS, FILTER_TYPES), their records (FILTER_PARAMETERS, unit and bounds), their
@@ -11,7 +11,7 @@ import types
 import numpy as np
 import pytest
 
-from cas_freq.filters_config import (
+from cas_freq.core.filters_config import (
     FILTER_NUMBERS,
     FILTER_PARAMETERS,
     FILTER_TYPES,

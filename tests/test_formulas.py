@@ -1,10 +1,10 @@
-"""Closed-form relations of ARL-TR-9136 (cas_freq.formulas)."""
+"""Closed-form relations of ARL-TR-9136 (cas_freq.core.formulas)."""
 
 import math
 
 import pytest
 
-from cas_freq.formulas import second_order_bandwidth, viscous_friction_from_no_load
+from cas_freq.core.formulas import second_order_bandwidth, viscous_friction_from_no_load
 
 # Report Table 3 (catalog motor): Km = 0.0105 N*m/A, n0 = 16,300 rpm (docs/model.md erratum: the
 # table says rad/s), I0 = 0.218 A.

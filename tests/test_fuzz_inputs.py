@@ -31,9 +31,9 @@ from cas_freq.cli import main
 from cas_freq.config import default_config_path, load_all_variants, load_variant
 from cas_freq.config.loader import parse_set_option
 from cas_freq.config.requirement import convert_bound
-from cas_freq.exceptions import CasFreqError
-from cas_freq.parameters import PARAMETERS, parse_value
-from cas_freq.units import to_si
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.parameters import PARAMETERS, parse_value
+from cas_freq.core.units import to_si
 
 settings.register_profile(
     "ci", max_examples=60, deadline=5000, derandomize=True,

@@ -18,12 +18,12 @@ import numpy as np
 import pytest
 
 from cas_freq.config import load_variant
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.parameters import variant_parameters
 from cas_freq.identification import read_recording
 from cas_freq.identification.free_keys import FreeKey, free_keys, parse_model_spec
 from cas_freq.identification.identifiability import identifiability, monomial
 from cas_freq.identification.physical import fit_physical
-from cas_freq.parameters import variant_parameters
 
 ROOT = Path(__file__).resolve().parents[1]
 PHYSICAL = ROOT / "examples" / "recordings" / "physical"

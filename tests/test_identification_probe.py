@@ -18,11 +18,11 @@ import pytest
 import cas_freq.identification.physical as physical
 from cas_freq.cli.fit_params import fit_dict, table
 from cas_freq.config import load_variant
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.parameters import variant_parameters
 from cas_freq.identification.free_keys import free_keys, parse_model_spec
 from cas_freq.identification.recordings import Recording
 from cas_freq.identification.replay import RecordingReplayer, Replay
-from cas_freq.parameters import variant_parameters
 
 STEP = math.radians(5.0)
 QUANTUM = 50e-6  # [s] the closed form's delay is rounded down to whole periods of 50 us

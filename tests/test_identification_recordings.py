@@ -16,8 +16,8 @@ import pytest
 from clirun import run_cli
 from docs_pages import doc_section
 
-from cas_freq.exceptions import ConfigError
-from cas_freq.figures import FIGURES
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.figures import FIGURES
 from cas_freq.identification import fit_recordings, read_recording
 from cas_freq.identification.columns import parse_column_option
 from cas_freq.simulation.second_order import fit_second_order_batch, second_order_step

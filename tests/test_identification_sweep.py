@@ -19,7 +19,7 @@ import pytest
 from clirun import run_cli
 from scipy import signal
 
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
 from cas_freq.identification import frf
 from cas_freq.identification.sweep import is_sweep, median_crossings, read_sweep
 

@@ -1,7 +1,7 @@
 """Every file a user names is read bounded (issue 24, "unbounded reads").
 
 Configs, recordings (``fit --data``), step response files (``fit FILE``) and command files
-(``simulate --command``) are read by one function, :func:`cas_freq.fileio.read_input`: only a
+(``simulate --command``) are read by one function, :func:`cas_freq.core.fileio.read_input`: only a
 regular file (a symbolic link to one is fine), at most a stated size. Before, ``/dev/zero``
 ended in ``MemoryError``, a named pipe as a config blocked forever, a 10 MB CSV line gave a
 ``_csv.Error`` traceback and 10,000 unknown keys a 1.86 MB error line.
@@ -18,8 +18,8 @@ import pytest
 from clirun import run_cli
 
 from cas_freq.config.loader import default_config_path
-from cas_freq.exceptions import listed
-from cas_freq.fileio import MAX_DATA_BYTES
+from cas_freq.core.exceptions import listed
+from cas_freq.core.fileio import MAX_DATA_BYTES
 
 REPO = Path(__file__).resolve().parents[1]
 

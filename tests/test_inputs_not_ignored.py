@@ -12,8 +12,8 @@ import yaml
 from clirun import run_cli
 
 from cas_freq.config import load_variant
-from cas_freq.exceptions import ConfigError
-from cas_freq.fileio import check_output_file
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.fileio import check_output_file
 
 ROOT = Path(__file__).resolve().parents[1]
 DC_SERVO = ROOT / "configs" / "dc_servo.yaml"
@@ -87,7 +87,7 @@ def test_a_fractional_encoder_count_is_refused():
 def test_an_output_file_on_a_virtual_file_system_is_refused_when_checked():
     # /proc's permissions let root write; no file can be created there (base code: "No such
     # file or directory" after the whole run)
-    from cas_freq.exceptions import CasFreqError
+    from cas_freq.core.exceptions import CasFreqError
 
     with pytest.raises(CasFreqError, match=r"--csv /proc/version: no file can be created in "
                                            "the folder /proc"):

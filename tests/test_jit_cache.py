@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cas_freq import jit
+from cas_freq.core import jit
 
 ROOT = Path(__file__).resolve().parents[1]
 NOTE = "cas-freq: compiling the numerical kernels not in the cache yet"
@@ -86,7 +86,7 @@ def test_a_really_read_only_copy_of_the_package(tmp_path):
     env = {key: value for key, value in os.environ.items()
            if key not in (jit.CACHE_ENV, "XDG_CACHE_HOME")}
     env.update(PYTHONPATH=str(tmp_path / "site"), HOME=str(tmp_path / "home"))
-    out = subprocess.run([sys.executable, "-c", "import os, cas_freq.jit; "
+    out = subprocess.run([sys.executable, "-c", "import os, cas_freq.core.jit; "
                           f"print(os.environ['{jit.CACHE_ENV}'])"],
                          env=env, capture_output=True, text=True, check=True).stdout
     assert out.strip() == str(tmp_path / "home" / ".cache" / "cas_freq" / "numba")
@@ -139,8 +139,8 @@ def test_without_a_home_nothing_is_created_in_the_working_folder(monkeypatch, tm
 def test_the_users_own_numba_functions_are_not_announced(tmp_path):
     # the listener is process-wide (registered by the first kernel declared; here directly,
     # since declaring one compiles it): a compilation of the user's code is not cas_freq's
-    code = ("import logging; logging.basicConfig(level=logging.INFO); import cas_freq.jit; "
-            "cas_freq.jit._listen_to_compilations(); import numba; "
+    code = ("import logging; logging.basicConfig(level=logging.INFO); import cas_freq.core.jit; "
+            "cas_freq.core.jit._listen_to_compilations(); import numba; "
             "numba.njit(lambda x: x + 1)(1)")
     assert NOTE not in _run(None, tmp_path / "cache", code=code)
 

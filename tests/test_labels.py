@@ -2,7 +2,7 @@
 
 A loop's symbol and where it is broken are declared by the loop structure
 (:func:`cas_freq.model.structure.build`); a figure's label and unit by the figure table
-(:data:`cas_freq.figures.FIGURES`). Everything else reads them: this test scans the package's
+(:data:`cas_freq.core.figures.FIGURES`). Everything else reads them: this test scans the package's
 source (``ast``: every string literal but the docstrings, f-strings' literal parts included)
 for a copy typed by hand, which is how the tables, the text and the figures used to drift
 from the declaration ("bandwidth (-3 dB)" beside "bandwidth ω_BW (−3.01 dB)"; a cascade's
@@ -17,13 +17,13 @@ import pytest
 
 import cas_freq
 from cas_freq.config import load_variant
-from cas_freq.figures import FIGURES
+from cas_freq.core.figures import FIGURES
 from cas_freq.report.data import described_loops
 
 PACKAGE = Path(cas_freq.__file__).parent
 
 #: The declarations, where the names are typed.
-DECLARATIONS = {"figures.py", "model/structure.py"}
+DECLARATIONS = {"core/figures.py", "model/structure.py"}
 
 #: Labels that are also a value a result holds (the verdict "stable"): a literal equal to them
 #: is that value, not a copy of the label.

@@ -24,19 +24,17 @@ PACKAGE = ROOT / "cas_freq"
 #: without ``cas_freq.``) that it holds; a module belongs to the longest name that contains it.
 #: docs/layout.md shows the same list (:func:`layers_text`).
 LAYERS = (
-    ("exceptions", "units", "unit_cache", "fileio", "formulas", "output", "figures", "summary",
-     "threads", "jit", "parameter_record", "filters_config", "sampling_config",
-     "parameter_keys", "parameters", "report.numbers"),
+    ("core",),
     ("config", "drive"),
     ("model",),
     ("simulation",),
-    ("analysis", "model.systems"),
+    ("analysis",),
     ("identification",),
-    ("studies", "simulation.run", "simulation.profile_run"),
+    ("studies",),
     ("verify", "tuning"),
     ("plots",),
     ("report",),
-    ("any_loop", "api", "plots.api"),
+    ("api",),
     ("design", "cli", "__main__"),
 )
 
@@ -45,8 +43,8 @@ LAYERS = (
 HEAVY_LIBRARIES = ("numpy", "scipy", "numba", "control", "matplotlib", "dask", "pydantic")
 
 #: numba's cached ``njit``: a module that imports it at its top holds compiled kernels, heavy
-#: as numba is (cas_freq.jit itself imports numba only when a kernel is first compiled).
-KERNEL_MAKER = "cas_freq.jit.cached_jit"
+#: as numba is (cas_freq.core.jit itself imports numba only when a kernel is first compiled).
+KERNEL_MAKER = "cas_freq.core.jit.cached_jit"
 
 #: The start of the command line, which imports what it needs only once its handler of
 #: Ctrl-C is in place (cas_freq.__main__.run, cas_freq.cli.main): its deferred imports are

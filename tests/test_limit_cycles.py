@@ -21,8 +21,8 @@ from cas_freq.analysis.limit_cycles import (
     negative_real_crossings,
 )
 from cas_freq.cli.common import selected_variants
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.model.loops import Selector
-from cas_freq.parameters import LoopParameters
 
 #: fin_encoder with the play and nothing else nonlinear in the gear: no hinge bias preloading
 #: it, no friction, efficiencies 1 (below 1 the load's reflection depends on the direction of

@@ -28,7 +28,7 @@ from clirun import run_cli
 
 from cas_freq.analysis import analyze
 from cas_freq.config import load_variant
-from cas_freq.parameters import LoopParameters
+from cas_freq.core.parameters import LoopParameters
 
 CONFIG = "configs/ball_screw.yaml"
 LEAD, BELT, MASS, ETA, J_MOTOR = 0.005, 2.0, 20.0, 0.9, 1.5e-5
@@ -73,7 +73,7 @@ def test_linear_figures_equal_the_equivalent_rotary_ones(linear, rotary):
 
 
 def test_linear_step_equals_the_rotary_step_and_turns_the_motor_two_revolutions(linear, rotary):
-    from cas_freq.simulation.run import step_runs
+    from cas_freq.studies.run import step_runs
 
     run_a, run_b = step_runs([linear, rotary], LEAD)  # 5 mm; 0.005 rad
     for name in ("rise_time_s", "overshoot_pct", "settling_time_s", "max_current_a"):

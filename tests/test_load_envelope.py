@@ -14,7 +14,7 @@ from clirun import run_cli
 from cas_freq.analysis import batch_analyze
 from cas_freq.analysis.stability import closed_loop_poles
 from cas_freq.config import load_variant
-from cas_freq.parameters import LoopParameters
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.studies.envelope import envelope_dict, load_envelope
 
 CONFIG = "configs/qt_cas.yaml"

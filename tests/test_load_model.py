@@ -17,10 +17,10 @@ from scipy.optimize import brentq
 
 from cas_freq.analysis.drivetrain import drivetrain
 from cas_freq.analysis.stability import closed_loop_poles, stability_verdicts
+from cas_freq.analysis.systems import plant_system
 from cas_freq.config import load_variant
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.model.actuator_loops import ActuatorLoops
-from cas_freq.model.systems import plant_system
-from cas_freq.parameters import LoopParameters
 
 CONFIG = "configs/qt_cas.yaml"
 
@@ -343,7 +343,7 @@ def test_current_loop_poles_equal_python_controls(changes):
     # modes removed) against python-control's T_i of the loaded plant; python-control keeps
     # the modes i does not see as poles at 0 (dropped here). Rounding-level tolerance.
     from cas_freq.analysis.stability import current_loop_poles
-    from cas_freq.model.systems import linear_model
+    from cas_freq.analysis.systems import linear_model
 
     p = _params(**changes)
     ours = np.sort_complex(current_loop_poles(p, 6))

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import cas_freq as cf
-from cas_freq.figures import FIGURES
+from cas_freq.core.figures import FIGURES
 
 s = control.tf("s")
 

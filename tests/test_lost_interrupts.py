@@ -13,7 +13,7 @@ frequency-domain batch runs its chunks in worker threads; ``with ThreadPoolExecu
 for them on leaving the block, so a Ctrl-C there acted only once a first run's compiling was
 done (minutes on a loaded machine). A wait without a timeout also held a Ctrl-C that arrived
 just before it blocked until the task returned (one test run in ten here): the main thread
-waits in slices (cas_freq.threads.result_of).
+waits in slices (cas_freq.core.threads.result_of).
 """
 
 import _thread
@@ -27,12 +27,12 @@ from types import SimpleNamespace
 
 import pytest
 
-import cas_freq.jit as jit
+import cas_freq.core.jit as jit
 import cas_freq.simulation.simulator as simulator
 from cas_freq.cli import main
 from cas_freq.config import load_variant
-from cas_freq.parameters import LoopParameters
-from cas_freq.threads import result_of, worker_threads
+from cas_freq.core.parameters import LoopParameters
+from cas_freq.core.threads import result_of, worker_threads
 
 # the module (cas_freq.analysis exports its function analyze under the same name)
 analyze = importlib.import_module("cas_freq.analysis.analyze")

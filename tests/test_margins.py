@@ -8,7 +8,7 @@ import pytest
 from cas_freq.analysis.closed_loop import closed_loop_summary
 from cas_freq.analysis.frequency import frequency_grid
 from cas_freq.analysis.margins import loop_margins
-from cas_freq.formulas import second_order_bandwidth
+from cas_freq.core.formulas import second_order_bandwidth
 
 # Crossings are refined (Anderson-Bjorck regula falsi) to 1e-12 in log frequency; figures
 # computed from them are accurate to ~1e-9 relative. 1e-7 leaves room for the conversion to

@@ -52,14 +52,14 @@ from cas_freq.analysis import sampled_stability
 from cas_freq.analysis.response_kernel import grid_responses
 from cas_freq.analysis.stability import closed_loop_poles as our_poles
 from cas_freq.analysis.stability import loop_polynomials
+from cas_freq.analysis.systems import linear_model
 from cas_freq.config import load_variant
-from cas_freq.exceptions import ConfigError
-from cas_freq.filters_config import ANALOG_POINTS, FILTER_POINTS, Filter
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.filters_config import ANALOG_POINTS, FILTER_POINTS, Filter
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.model import loops, sampled, state_space
 from cas_freq.model.delay import EXACT, DelayModel
 from cas_freq.model.structure import analog_sensor, build, digital_sensor
-from cas_freq.model.systems import linear_model
-from cas_freq.parameters import LoopParameters
 from cas_freq.simulation import Step, simulate_batch
 from cas_freq.simulation.sinedwell import linear_reference, sine_dwell
 from tests.test_architectures import _compare

@@ -4,10 +4,10 @@ import control
 import numpy as np
 import pytest
 
+from cas_freq.analysis.systems import exact_frequency_responses, linear_model, plant_system
 from cas_freq.config import load_variant
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.model import ActuatorLoops, DelayModel, parts
-from cas_freq.model.systems import exact_frequency_responses, linear_model, plant_system
-from cas_freq.parameters import LoopParameters
 
 LOOPS = ("current_loop", "current_closed_loop", "position_loop", "sensitivity", "closed_loop")
 OMEGA = np.logspace(-1, 5.5, 60)  # [rad/s] covers every loop's crossover and beyond

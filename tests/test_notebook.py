@@ -46,7 +46,7 @@ def test_analysis_html_is_a_table_with_units(analysis):
     table = analysis._repr_html_()
     assert table.startswith("<table>") and table.endswith("</table>")
     bandwidth = analysis.closed_loop.bandwidth_rad_s
-    # the bandwidth's row: label and unit from cas_freq.figures.FIGURES
+    # the bandwidth's row: label and unit from cas_freq.core.figures.FIGURES
     assert (f"bandwidth ω_BW (−3.01 dB)</td><td style='text-align:right'>{bandwidth:.4g}</td>"
             "<td style='text-align:left'>rad/s</td>") in table
 
@@ -94,7 +94,7 @@ def test_plot_does_not_switch_the_matplotlib_backend():
     # inline backend off for the user's own pyplot figures. A fresh process (the modules are
     # imported once per process), a backend other than Agg chosen first.
     code = ("import matplotlib; matplotlib.use('svg'); "
-            "import cas_freq.plots.api, cas_freq.plots.report; "
+            "import cas_freq.api.figures, cas_freq.plots.report; "
             "print(matplotlib.rcParams['backend'])")
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(
         [str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])}
@@ -235,7 +235,7 @@ def test_to_control_default_order_stays_in_python_controls_reach():
     # past the ~1e76 at which python-control's stability_margins overflows (tested above for
     # the default); the default order is 3 there, 4 on the QT-CAS. An order asked for is built
     # as asked, with a warning saying why python-control's margins would fail on it.
-    from cas_freq.exceptions import CasFreqError
+    from cas_freq.core.exceptions import CasFreqError
 
     cascade = cf.load(ROOT / "configs/cascade_axis.yaml")
     assert cascade.to_control().pade_order == 3

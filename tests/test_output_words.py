@@ -52,7 +52,7 @@ def test_the_linear_output_is_defined_by_the_lead_not_the_gear_ratio_alone():
     # relation the text states (1e-12: one float rounding of 2π·2/0.005)
     from cas_freq.config import load_variant
     from cas_freq.config.wording import OutputWords
-    from cas_freq.parameters import LoopParameters
+    from cas_freq.core.parameters import LoopParameters
 
     loaded = load_variant(CONFIGS / "ball_screw.yaml", "base")
     ratio = float(LoopParameters.from_config(loaded.params).ratio[0])

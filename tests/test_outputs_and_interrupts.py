@@ -12,10 +12,10 @@ from pathlib import Path
 import pytest
 from clirun import run_cli
 
-import cas_freq.fileio as fileio
+import cas_freq.core.fileio as fileio
 import cas_freq.report.outdir as outdir
-from cas_freq.exceptions import CasFreqError
-from cas_freq.fileio import check_output_file, write_text_atomic
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.fileio import check_output_file, write_text_atomic
 from cas_freq.report.outdir import MARKER, check_output_dir, write_directory_atomic
 
 
@@ -371,7 +371,8 @@ def test_importing_the_cli_imports_nothing_heavy():
             "print(' '.join(sorted(set(sys.modules) - before)))")
     status, out, err = _python(code)
     assert status == 0, err
-    assert out.split() == ["cas_freq", "cas_freq.__main__", "cas_freq.cli", "cas_freq.exceptions"]
+    assert out.split() == ["cas_freq", "cas_freq.__main__", "cas_freq.cli",
+                           "cas_freq.core.exceptions"]
 
 
 #: A Ctrl-C that lands while ``cas_freq.cli`` is imported (an import hook raises it there).

@@ -1,4 +1,4 @@
-"""The parameter table (cas_freq.parameters): one declaration of every numeric parameter.
+"""The parameter table (cas_freq.core.parameters): one declaration of every numeric parameter.
 
 The table must cover every numeric field of the config schema and of LoopParameters; every
 bound must be enforced identically by the schema, by :func:`parse_value` (sweep, Monte Carlo)
@@ -21,8 +21,8 @@ from pydantic.fields import FieldInfo
 from cas_freq.config import ActuatorConfig, load_variant
 from cas_freq.config.loader import validate
 from cas_freq.config.schema import CascadePositionLoop, LinearGear, LinearLoad
-from cas_freq.exceptions import ConfigError, ConfigTypeError
-from cas_freq.parameters import (
+from cas_freq.core.exceptions import ConfigError, ConfigTypeError
+from cas_freq.core.parameters import (
     CASCADE_ONLY,
     CASCADE_PARAMETERS,
     LINEAR_ONLY,
@@ -105,7 +105,7 @@ def test_table_covers_every_numeric_schema_field():
     fields.update({key: info for key, info in cascade.items() if key not in CASCADE_PARAMETERS})
     # a linear output (gear.screw_lead) has gear and load sections of its own; the keys whose
     # unit changes are declared from LINEAR_PARAMETERS' rows
-    from cas_freq.parameters import LINEAR_PARAMETERS
+    from cas_freq.core.parameters import LINEAR_PARAMETERS
 
     linear = {**_numeric_schema_fields(LinearGear, "gear."),
               **_numeric_schema_fields(LinearLoad, "load.")}

@@ -28,10 +28,10 @@ import yaml
 from clirun import run_cli
 
 from cas_freq.config.loader import load_variant
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
 from cas_freq.model import ActuatorLoops
 from cas_freq.simulation import Profile, simulate_batch
-from cas_freq.simulation.profile_run import make_profile, profile_run, profile_run_dict
+from cas_freq.studies.profile_run import make_profile, profile_run, profile_run_dict
 
 DEG = math.pi / 180.0
 MOVE_ARGS = ["--profile", "10deg", "--velocity", "2000deg/s", "--acceleration", "1e5deg/s^2"]
@@ -243,7 +243,7 @@ def test_kernel_matches_reference(base):
     # one batch: the profile on base and fitted, with and without the feed-forward, by both
     # engines; a short horizon (the reference engine costs ~50 us per step)
     pytest.importorskip("numba")
-    from cas_freq.parameters import LoopParameters
+    from cas_freq.core.parameters import LoopParameters
 
     fitted = load_variant(None, variant="fitted")
     params = LoopParameters.from_configs([base.params, fitted.params, base.params])

@@ -13,7 +13,7 @@ import pytest
 
 import cas_freq as cf
 from cas_freq.analysis.rate_envelope import limit_responses, rate_envelope
-from cas_freq.parameters import LoopParameters
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.simulation.sinedwell import sine_dwell
 
 R, KM, KE, N, V_MAX, I_MAX = 0.361, 0.0105, 0.0105, 20.0, 30.0, 20.0

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from clirun import run_cli
 
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
 from cas_freq.identification import read_recording
 from cas_freq.identification.recordings import MAX_EXCURSION_RAD, MAX_STEP_RAD
 

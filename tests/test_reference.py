@@ -8,9 +8,9 @@ import pytest
 
 from cas_freq.config import load_variant
 from cas_freq.config.loader import validate
-from cas_freq.exceptions import ConfigError
-from cas_freq.figures import FIGURES
-from cas_freq.formulas import second_order_bandwidth
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.figures import FIGURES
+from cas_freq.core.formulas import second_order_bandwidth
 from cas_freq.plots import report as plots
 from cas_freq.report.build import report_blocks
 from cas_freq.report.data import ReportSettings, gather_variant, reference_rows, variant_results

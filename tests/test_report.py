@@ -16,8 +16,8 @@ import pytest
 
 from cas_freq.analysis import analyze, to_dict
 from cas_freq.config import load_variant
-from cas_freq.exceptions import CasFreqError
-from cas_freq.figures import FIGURES
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.figures import FIGURES
 from cas_freq.plots import overlays
 from cas_freq.plots import report as plots
 from cas_freq.report import html
@@ -91,7 +91,7 @@ def test_linear_step_equals_python_controls(base):
     # exact discretisation one sample at a time; the two differ only by round-off, ~1e-13)
     import control
 
-    from cas_freq.model.systems import closed_loop_matrices, linear_model
+    from cas_freq.analysis.systems import closed_loop_matrices, linear_model
     from cas_freq.report.data import linear_steps, unit_step_response
 
     closed = linear_model(base.params, 6).closed_loop
@@ -116,7 +116,7 @@ def test_closed_loop_matrices_and_zeros_are_python_controls(variant):
     import control
 
     from cas_freq.analysis.sampled_stability import z_to_s
-    from cas_freq.model.systems import closed_loop_matrices, closed_loop_zeros, linear_model
+    from cas_freq.analysis.systems import closed_loop_matrices, closed_loop_zeros, linear_model
 
     params = load_variant(None, variant).params
     expected = linear_model(params, 8).closed_loop
@@ -143,7 +143,7 @@ def test_linear_steps_and_zeros_do_not_import_python_control():
         "import sys\n"
         "import numpy as np\n"
         "from cas_freq.config import load_variant\n"
-        "from cas_freq.model.systems import closed_loop_zeros\n"
+        "from cas_freq.analysis.systems import closed_loop_zeros\n"
         "from cas_freq.report.data import linear_steps\n"
         "for variant in ('base', 'sampled'):\n"
         "    params = load_variant(None, variant).params\n"
@@ -395,7 +395,7 @@ def test_report_verdicts_reuse_its_runs_and_equal_verify(monkeypatch):
     """The report's 10 deg step is the step OS-1 and BW-2 need: verify reuses it (and the
     report's analysis) instead of simulating again, and gives the verdicts ``cas-freq verify``
     gives on its own."""
-    import cas_freq.simulation.run as run_module
+    import cas_freq.studies.run as run_module
     from cas_freq.verify import verdict_dict, verify_variant
 
     loaded = load_variant()

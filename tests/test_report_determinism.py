@@ -1,4 +1,4 @@
-"""Reports written at a stated precision: the rounding rules of :mod:`cas_freq.report.numbers`
+"""Reports written at a stated precision: the rounding rules of :mod:`cas_freq.core.numbers`
 on analytic examples, the SVG clean-up of :func:`cas_freq.plots.report.tidy_svg`, the
 comparison of two results.json files within the written precision (what ``.ci/run`` checks
 against the committed examples), and a report built twice on this machine byte for byte."""
@@ -11,10 +11,7 @@ import numpy as np
 import pytest
 
 from cas_freq.config import load_variant
-from cas_freq.plots.report import tidy_svg
-from cas_freq.report.build import build_report
-from cas_freq.report.data import ReportSettings
-from cas_freq.report.numbers import (
+from cas_freq.core.numbers import (
     JSON_DIGITS,
     ZERO,
     difference,
@@ -25,6 +22,9 @@ from cas_freq.report.numbers import (
     round_significant,
     rounded_json,
 )
+from cas_freq.plots.report import tidy_svg
+from cas_freq.report.build import build_report
+from cas_freq.report.data import ReportSettings
 
 FAST = ReportSettings(
     amplitudes_rad=(math.radians(0.5), math.radians(10.0)),

@@ -170,7 +170,7 @@ def _poles_drawn(ax):
 def test_pole_zero_map_draws_the_engines_poles(data):
     import control
 
-    from cas_freq.model.systems import linear_model
+    from cas_freq.analysis.systems import linear_model
 
     ax = plots.VARIANT_FIGURES["pole_zero"][0](data).axes[0]
     drawn = np.sort_complex(_poles_drawn(ax))

@@ -237,7 +237,7 @@ def test_compare_overlay_shows_the_velocity_loop_of_a_cascade(axis, no_notch, qt
 
 
 def test_compare_tables_list_the_velocity_loop_from_the_figure_table(axis, no_notch):
-    # the every-figure table of compare reads labels from cas_freq.figures: a cascade's
+    # the every-figure table of compare reads labels from cas_freq.core.figures: a cascade's
     # velocity loop and its loop-at-a-time view get their rows, valued as analyze gives them
     from cas_freq.analysis import to_dict
     from cas_freq.report.compare import difference_rows
@@ -258,7 +258,7 @@ def test_compare_tables_list_the_velocity_loop_from_the_figure_table(axis, no_no
 def test_parameter_table_of_a_cascade(axis, no_notch, qt):
     # a cascade's gains in their own units (the position loop commands the speed: 1/s), its
     # filters by point and type ("—" where a variant has none), no PID-only keys
-    from cas_freq.parameters import current_limit
+    from cas_freq.core.parameters import current_limit
     from cas_freq.report.parameter_table import parameter_table
 
     rows = {row[0]: row[1:] for row in parameter_table([axis, no_notch]).rows}

@@ -2,7 +2,7 @@
 
 import pytest
 
-from cas_freq.exceptions import CasFreqError
+from cas_freq.core.exceptions import CasFreqError
 from cas_freq.report.outdir import (
     MARKER,
     MARKER_TEXT,

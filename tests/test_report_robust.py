@@ -66,8 +66,8 @@ def test_budget_is_checked_before_any_simulation(slow_config, monkeypatch):
     (no simulation step is taken), with the needed CAS_FREQ_BUDGET in the error."""
     from cas_freq.analysis import analyze
     from cas_freq.simulation import simulator
-    from cas_freq.simulation.run import dwell_parameters
     from cas_freq.simulation.sinedwell import sine_dwell
+    from cas_freq.studies.run import dwell_parameters
 
     loaded = selected_variants(str(slow_config), ["slow"], [])[0]
     grid = dwell_frequencies(analyze(loaded))

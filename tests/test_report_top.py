@@ -72,7 +72,7 @@ def test_parameter_table_has_units_and_values(data):
     table = parameter_table([data])
     assert isinstance(table, Table) and table.header == ("parameter", "unit", "base")
     rows = {row[0]: row[1:] for row in table.rows}
-    # labels and units from cas_freq.parameters (each parameter's meaning up to its range)
+    # labels and units from cas_freq.core.parameters (each parameter's meaning up to its range)
     assert rows["gear ratio N"] == ("-", "20")
     assert rows["motor terminal inductance L"] == ("mH", "0.071")
     assert rows["position-loop transport delay τp"] == ("ms", "0.4")

@@ -9,7 +9,7 @@ import pytest
 
 from cas_freq.config import load_variant
 from cas_freq.config.requirement import METRICS, Requirement, metric_unit, parse_frequency_spec
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
 
 
 def _config(shipped_raw, write_config, requirements):

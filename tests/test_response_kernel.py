@@ -19,10 +19,10 @@ from cas_freq.analysis.frequency import (
 )
 from cas_freq.analysis.response_kernel import grid_responses
 from cas_freq.config import load_variant
-from cas_freq.jit import COMPILED_FROM
+from cas_freq.core.jit import COMPILED_FROM
+from cas_freq.core.parameters import LoopParameters, variant_parameters
 from cas_freq.model.delay import EXACT, DelayModel
 from cas_freq.model.loops import Selector, responses
-from cas_freq.parameters import LoopParameters, variant_parameters
 
 RUNS = 24
 RELATIVE = 1e-12
@@ -226,7 +226,7 @@ def test_one_compilation_serves_every_architecture():
     # The kernel reads the loop table as data (coefficient stacks of fixed rank and dtype,
     # whatever the loops): a PID-on-PI, a velocity cascade with filters, a position loop on an
     # output encoder and a compliant drivetrain all run on the one machine code it has.
-    from cas_freq import jit
+    from cas_freq.core import jit
 
     if not jit.use_compiled():
         pytest.skip("numba is not importable: nothing compiles")

@@ -23,9 +23,9 @@ from sampled_oracle import drive_of, lifted, sampled_margins
 from cas_freq.analysis import sampled_stability
 from cas_freq.analysis.analyze import analyze, batch_analyze
 from cas_freq.config import load_variant
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.model.sampled import groups
-from cas_freq.parameters import LoopParameters
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 QT_CAS = CONFIGS / "qt_cas.yaml"
@@ -192,9 +192,9 @@ def test_to_control_gives_the_sampled_loops(rates):
     """to_control of a sampled drive: discrete python-control systems (each loop at its own
     period; T at the outermost), whose frequency responses (state space, a second method)
     equal the recurrence's to 1e-11 relative."""
+    from cas_freq.analysis.systems import linear_model
     from cas_freq.model import sampled
     from cas_freq.model.loops import Selector
-    from cas_freq.model.systems import linear_model
 
     params = _params(QT_CAS, "base", rates=rates)
     model = linear_model(params)

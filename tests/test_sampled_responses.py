@@ -44,7 +44,7 @@ def _params(config, variant, rates, method, **changes):
     """The LoopParameters of a shipped config's variant with the sampling of the shared design
     (and any array fields changed)."""
     from cas_freq.config import load_variant
-    from cas_freq.parameters import LoopParameters
+    from cas_freq.core.parameters import LoopParameters
 
     params = LoopParameters.from_config(load_variant(config, variant).params)
     return dataclasses.replace(params, sample_rates=rates, sampling_method=method, **changes)

@@ -14,9 +14,9 @@ from clirun import run_cli
 
 from cas_freq.config import load_all_variants, load_variant, parse_set_option
 from cas_freq.config.loader import shipped_configs_dir, validate
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.parameters import STATIC_FIELDS, LoopParameters, variant_parameters
 from cas_freq.model.loops import Selector
-from cas_freq.parameters import STATIC_FIELDS, LoopParameters, variant_parameters
 
 CASCADE = shipped_configs_dir() / "cascade_axis.yaml"
 EPOS4 = [("sampling.current_loop", "25 kHz"), ("sampling.position_loop", "2.5 kHz")]

@@ -3,7 +3,7 @@
 :func:`cas_freq.analysis.margins.first_turned_jumps`, ``magnitudes``, ``probes._long_chords`` and
 :func:`cas_freq.analysis.closed_loop.first_fall_below_90` run their kernel
 (:mod:`cas_freq.analysis.scan_kernel`) on large arrays and numpy below
-:data:`cas_freq.jit.COMPILED_FROM`; ``CAS_FREQ_ENGINE=reference`` forces numpy. Both forms
+:data:`cas_freq.core.jit.COMPILED_FROM`; ``CAS_FREQ_ENGINE=reference`` forces numpy. Both forms
 make the same comparisons on the same values (turns by whole quarters are exact; the
 magnitudes: the same operations in the same order), so the indices and values must be
 equal. The responses: the loops of random variants of two actuators (many jumps and
@@ -28,9 +28,9 @@ from cas_freq.analysis.margins import (
 )
 from cas_freq.analysis.probes import _long_chords
 from cas_freq.config import load_variant
-from cas_freq.jit import use_compiled
+from cas_freq.core.jit import use_compiled
+from cas_freq.core.parameters import variant_parameters
 from cas_freq.model.loops import Selector, responses
-from cas_freq.parameters import variant_parameters
 
 
 def _loops(config, variant, n=48, seed=0):
@@ -73,7 +73,7 @@ def _reference(monkeypatch, function, *args):
 
 def _compiled(monkeypatch, function, *args):
     monkeypatch.setenv("CAS_FREQ_ENGINE", "compiled")
-    monkeypatch.setattr("cas_freq.jit.COMPILED_FROM", 0)
+    monkeypatch.setattr("cas_freq.core.jit.COMPILED_FROM", 0)
     assert use_compiled(), "numba is needed: without it both sides would run numpy"
     return function(*args)
 

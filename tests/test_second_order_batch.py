@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from cas_freq.config import default_config_path, load_variant
-from cas_freq.parameters import LoopParameters, variant_parameters
+from cas_freq.core.parameters import LoopParameters, variant_parameters
 from cas_freq.simulation import Step, second_order, simulate_batch
 from cas_freq.simulation.second_order import (
     fit_second_order,

@@ -23,8 +23,8 @@ import numpy as np
 import pytest
 
 from cas_freq.config import load_variant
-from cas_freq.jit import use_compiled
-from cas_freq.parameters import variant_parameters
+from cas_freq.core.jit import use_compiled
+from cas_freq.core.parameters import variant_parameters
 from cas_freq.simulation import Step, second_order, simulate_batch
 from cas_freq.simulation.second_order import (
     fit_second_order_batch,
@@ -225,7 +225,7 @@ def test_the_public_solve_fallback_gives_the_helpers_solution():
     # fit_kernel reaches LAPACK's dgesv through numba's private helper; a numba without it
     # takes numba's public np.linalg.solve instead (the same dgesv). Reference: the helper's
     # solution, to the bit, and both report a singular system.
-    from cas_freq.jit import cached_jit
+    from cas_freq.core.jit import cached_jit
     from cas_freq.simulation import fit_kernel
 
     fallback = cached_jit(nogil=True)(fit_kernel._solve_by_numpy)

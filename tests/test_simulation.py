@@ -1,6 +1,7 @@
 """Nonlinear time-domain simulator: linear cross-check, limits, anti-windup, batch, dt, sampling.
 
-References: the linear Padé model of :mod:`cas_freq.model.systems` (python-control), docs/model.md's
+References: the linear Padé model of :mod:`cas_freq.analysis.systems` (python-control),
+docs/model.md's
 numbers (20 A / 30 V limits, Kp * 3.49 rad = 22 A) and sample-exact discrete loops built here.
 The 10 deg runs of both shipped variants are simulated once per module, as one batch at the
 default step and one at half of it (a batch costs about what one run costs).
@@ -16,9 +17,9 @@ import numpy as np
 import pytest
 
 import cas_freq.simulation.controllers as controllers
+from cas_freq.analysis.systems import linear_model
 from cas_freq.config.loader import load_variant
-from cas_freq.exceptions import ConfigError, ModelError
-from cas_freq.model.systems import linear_model
+from cas_freq.core.exceptions import ConfigError, ModelError
 from cas_freq.simulation import (
     LoopParameters,
     Ramp,

@@ -6,7 +6,7 @@ References and tolerances
   declared structure (:mod:`cas_freq.model.structure`), so its sine dwell equals the
   exact-delay closed loop T(jw) (:func:`~cas_freq.simulation.sinedwell.linear_reference`,
   the frequency domain's own evaluation) and its step the Padé-8 python-control closed loop
-  (:func:`cas_freq.model.systems.linear_model`). The issue asks 0.2 dB; the simulator's error
+  (:func:`cas_freq.analysis.systems.linear_model`). The issue asks 0.2 dB; the simulator's error
   is second order in dt (exact plant and filter steps for inputs linear over a step,
   trapezoidal controllers, interpolated delays), observed below 0.006 dB and 0.05 deg at the
   default dt (the largest at 3000 rad/s on the notch of the PID-on-PI case), so the tests hold
@@ -35,10 +35,10 @@ import control
 import numpy as np
 import pytest
 
+from cas_freq.analysis.systems import linear_model
 from cas_freq.config.loader import load_variant, shipped_configs_dir
-from cas_freq.filters_config import Filter
-from cas_freq.model.systems import linear_model
-from cas_freq.parameters import LoopParameters
+from cas_freq.core.filters_config import Filter
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.simulation import Step, simulate_batch
 from cas_freq.simulation.sinedwell import linear_reference, sine_dwell
 from tests.clirun import run_cli

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from cas_freq.config.loader import load_variant
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
 from cas_freq.simulation import (
     Chirp,
     Ramp,

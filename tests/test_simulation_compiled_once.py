@@ -17,8 +17,8 @@ import numba
 import pytest
 
 from cas_freq.config.loader import load_variant, shipped_configs_dir
-from cas_freq.filters_config import Filter
-from cas_freq.parameters import LoopParameters
+from cas_freq.core.filters_config import Filter
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.simulation import Step, simulate_batch
 from tests.test_simulation import with_sampling
 

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 from cas_freq.config import load_variant
-from cas_freq.exceptions import ConfigError
-from cas_freq.parameters import variant_parameters
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.parameters import variant_parameters
 from cas_freq.simulation import Step, simulate, simulate_batch
 from cas_freq.simulation.figure_kernel import (
     FIGURE_COLUMNS,
@@ -161,7 +161,7 @@ def test_recording_only_some_signals_keeps_them_exact(gains_batch):
 def test_a_held_command_row_gives_the_same_run(hinge, monkeypatch):  # plant's branch)
     # after its start a step holds its value: the compiled engine passes one command row for
     # all the steps of a call instead of one per step; every signal must be the same to the bit
-    from cas_freq.parameters import LoopParameters
+    from cas_freq.core.parameters import LoopParameters
     from cas_freq.simulation.engine import CommandSet
 
     runs = LoopParameters.from_config(load_variant().params).take([0, 0])
@@ -178,7 +178,7 @@ def test_a_held_command_row_gives_the_same_run(hinge, monkeypatch):  # plant's b
 def test_fit_sums_of_chosen_rows_equal_those_of_copied_rows():
     # the Levenberg-Marquardt iteration passes the rows of the runs still iterating instead of
     # copies of their data: the same sums to the bit (each run's sums are its own)
-    from cas_freq.jit import use_compiled
+    from cas_freq.core.jit import use_compiled
 
     if not use_compiled():
         pytest.skip("numba is not importable: the numpy reference copies the rows")

@@ -24,8 +24,8 @@ import pytest
 import yaml
 
 from cas_freq.config.loader import load_variant, variant_names
-from cas_freq.exceptions import ConfigError
-from cas_freq.parameters import LoopParameters
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.simulation import Ramp, Sine, Step, read_command_csv, simulate_batch
 from cas_freq.simulation import simulator as simulator_module
 from cas_freq.simulation.engine import Engine
@@ -276,7 +276,7 @@ def test_batches_in_forked_processes():
     code = (
         "import math, multiprocessing\n"
         "from cas_freq.config.loader import load_variant\n"
-        "from cas_freq.parameters import LoopParameters\n"
+        "from cas_freq.core.parameters import LoopParameters\n"
         "from cas_freq.simulation import Step, simulate_batch\n"
         "params = LoopParameters.from_configs([load_variant().params] * 2)\n"
         "def batch(_):\n"

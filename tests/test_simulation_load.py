@@ -25,8 +25,8 @@ import numpy as np
 import pytest
 
 from cas_freq.config import load_variant
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.model.parts import plant_matrices
-from cas_freq.parameters import LoopParameters
 from cas_freq.simulation import Ramp, Sine, Step, simulate, simulate_batch
 
 pytest.importorskip("numba")

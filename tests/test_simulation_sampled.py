@@ -35,8 +35,8 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from cas_freq.exceptions import ConfigError
-from cas_freq.filters_config import Filter
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.filters_config import Filter
 from cas_freq.model import structure
 from cas_freq.simulation import Step, simulate_batch
 from cas_freq.simulation.architecture import FilterState, filter_chain

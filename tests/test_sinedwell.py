@@ -28,9 +28,9 @@ import pytest
 
 from cas_freq.analysis.closed_loop import closed_loop_summary
 from cas_freq.config import load_variant
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.model import ActuatorLoops
-from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.sinedwell import (
     HALF_POWER_DB,
     SineDwellResult,

@@ -1,6 +1,6 @@
 """Closed-loop poles (numpy state space) against python-control's Padé model of the same loops.
 
-Reference: :func:`cas_freq.model.systems.linear_model`, built with python-control from the
+Reference: :func:`cas_freq.analysis.systems.linear_model`, built with python-control from the
 same blocks by a different route (transfer-function sections, ``interconnect``/``feedback``).
 
 Tolerance of the pole comparison: an eigenvalue of a balanced matrix is computed with an
@@ -29,10 +29,10 @@ from cas_freq.analysis.stability import (
     loop_polynomials,
     pole_verdict,
 )
+from cas_freq.analysis.systems import linear_model
 from cas_freq.config import load_variant
-from cas_freq.filters_config import Filter
-from cas_freq.model.systems import linear_model
-from cas_freq.parameters import LoopParameters
+from cas_freq.core.filters_config import Filter
+from cas_freq.core.parameters import LoopParameters
 
 ORDERS = (2, 6, 10)
 RTOL = 1e-8  # per pole; see the module docstring

@@ -1,7 +1,7 @@
 """Stability verdicts (Routh arrays of the Padé characteristic polynomials, many variants at
 once) against the poles of python-control's model, and the root refiners.
 
-Reference: the poles of :func:`cas_freq.model.systems.linear_model`, built with python-control
+Reference: the poles of :func:`cas_freq.analysis.systems.linear_model`, built with python-control
 from the same blocks by another route (transfer-function sections, ``interconnect``/
 ``feedback``), judged by :func:`cas_freq.analysis.stability.pole_verdict`; the verdicts must
 agree exactly.
@@ -21,9 +21,9 @@ from cas_freq.analysis.stability import (
     pole_verdict,
     stability_verdicts,
 )
+from cas_freq.analysis.systems import linear_model
 from cas_freq.config import load_variant
-from cas_freq.model.systems import linear_model
-from cas_freq.parameters import variant_parameters
+from cas_freq.core.parameters import variant_parameters
 
 
 def python_control_verdicts(params, order=6):

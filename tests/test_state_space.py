@@ -25,11 +25,11 @@ import numpy as np
 import pytest
 
 from cas_freq.config import load_variant
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.model import loops, sampled, state_space
 from cas_freq.model.delay import DelayModel
 from cas_freq.model.parts import one_variant
 from cas_freq.model.structure import build
-from cas_freq.parameters import LoopParameters
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 OMEGA = np.array([3.0, 40.0, 500.0, 3000.0, 1e4])  # [rad/s]

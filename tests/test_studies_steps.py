@@ -1,6 +1,6 @@
 """Nonlinear steps of a batch against ``simulate`` of each variant alone.
 
-Reference: :func:`cas_freq.simulation.run.step_run` (what ``simulate --json`` prints) for the
+Reference: :func:`cas_freq.studies.run.step_run` (what ``simulate --json`` prints) for the
 same variant. Each run's arithmetic in the vectorised simulator is independent of the other
 runs, and the batch takes each run's figures over the horizon the single run would have used,
 so the figures agree to rounding (1e-9 relative).
@@ -11,8 +11,8 @@ import math
 import pytest
 
 from cas_freq.config import load_variant
-from cas_freq.parameters import variant_parameters
-from cas_freq.simulation.run import step_run, step_run_dict
+from cas_freq.core.parameters import variant_parameters
+from cas_freq.studies.run import step_run, step_run_dict
 from cas_freq.studies.steps import batch_steps
 
 

@@ -20,12 +20,12 @@ import numpy as np
 import pytest
 
 from cas_freq.config import load_variant
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.model import parts
 from cas_freq.model.delay import DelayModel, pade_denominator
 from cas_freq.model.loops import Selector
 from cas_freq.model.structure import build
 from cas_freq.model.table import Polynomials, Values, cascade, table, walk
-from cas_freq.parameters import LoopParameters
 
 ORDER = 4
 OMEGA = np.logspace(1, 4.5, 40)

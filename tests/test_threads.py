@@ -1,7 +1,8 @@
 """BLAS threads in the Python API: one thread inside its calls, the caller's setting restored.
 
 The CLI limits BLAS threads through the environment before numpy loads; a Python user's numpy
-is loaded already, so the API limits them with threadpoolctl around its work (cas_freq.threads).
+is loaded already, so the API limits them with threadpoolctl around its work
+(cas_freq.core.threads).
 Checked with threadpoolctl's own report of every loaded BLAS library's thread count, the
 caller's count set to 2 first (so that "1 inside" cannot be the caller's own setting).
 """
@@ -60,7 +61,7 @@ def test_where_blas_runs_one_thread_already_nothing_is_limited_or_restored(monke
     """The CLI's setting (every BLAS library at one thread): entering only reads the counts.
     threadpoolctl's limit (a set and a restore per call, ~60 us of a single run's ~0.6 ms
     simulation) is refused here, so a call to it fails the test."""
-    from cas_freq import threads
+    from cas_freq.core import threads
 
     controller = threads._controller()
 

@@ -1,4 +1,4 @@
-"""The disk cache of pint's conversion factors (cas_freq.unit_cache): a hit returns exactly
+"""The disk cache of pint's conversion factors (cas_freq.core.unit_cache): a hit returns exactly
 what pint returns, only factors are stored, a bad or unwritable file is harmless, and a start
 whose units are all cached does not import pint."""
 
@@ -10,8 +10,8 @@ import sys
 import numpy as np
 import pytest
 
-from cas_freq import unit_cache
-from cas_freq.units import registry, to_si
+from cas_freq.core import unit_cache
+from cas_freq.core.units import registry, to_si
 
 
 @pytest.fixture

@@ -1,10 +1,10 @@
-"""Unit strings of the config files -> SI floats (cas_freq.units.to_si)."""
+"""Unit strings of the config files -> SI floats (cas_freq.core.units.to_si)."""
 
 import math
 
 import pytest
 
-from cas_freq.units import to_si
+from cas_freq.core.units import to_si
 
 # Tolerance of the unit conversions below: pint multiplies by conversion factors in floating
 # point (0.071 mH comes back as 7.099999999999999e-05), so exact equality is not expected, but

@@ -1,17 +1,17 @@
 """Angles in units (issue 24): pint takes radians as dimensionless, so without a rule of its own
 ``16300 min^-1`` would be read as 16300 rad/min (2π off from rpm), ``Hz`` as ``rad/s`` and
-``25000 rad/s`` as 25000 Hz. The rule: the power of an angle must match (cas_freq.units)."""
+``25000 rad/s`` as 25000 Hz. The rule: the power of an angle must match (cas_freq.core.units)."""
 
 import json
 import math
 
 import pytest
 
-from cas_freq import unit_cache
 from cas_freq.config import load_variant
-from cas_freq.exceptions import ConfigError
-from cas_freq.parameters import parse_value
-from cas_freq.units import to_si
+from cas_freq.core import unit_cache
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.parameters import parse_value
+from cas_freq.core.units import to_si
 
 RTOL = 1e-12  # a unit factor applied in floating point: a few ulps
 

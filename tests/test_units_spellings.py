@@ -8,9 +8,9 @@ import pytest
 from clirun import run_cli
 
 from cas_freq.config import load_variant
-from cas_freq.exceptions import ConfigError
-from cas_freq.parameters import parse_value
-from cas_freq.units import to_si
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.parameters import parse_value
+from cas_freq.core.units import to_si
 
 RTOL = 1e-12  # a unit factor applied in floating point: a few ulps
 CASCADE = Path(__file__).resolve().parents[1] / "configs" / "cascade_axis.yaml"
@@ -19,7 +19,7 @@ CASCADE = Path(__file__).resolve().parents[1] / "configs" / "cascade_axis.yaml"
 @pytest.fixture(autouse=True)
 def _no_disk_cache(monkeypatch):
     # a factor cached by another run must not decide what these tests see
-    from cas_freq import unit_cache
+    from cas_freq.core import unit_cache
 
     monkeypatch.setenv(unit_cache.CACHE_ENV, "off")
     unit_cache._table.cache_clear()

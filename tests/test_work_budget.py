@@ -11,8 +11,8 @@ from clirun import SHIPPED_NOTE, run_cli
 
 import cas_freq.cli.common as common
 from cas_freq.config import load_variant
-from cas_freq.exceptions import CasFreqError, ConfigError
-from cas_freq.parameters import LoopParameters
+from cas_freq.core.exceptions import CasFreqError, ConfigError
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.simulation import simulator
 from cas_freq.simulation.commands import Step
 from cas_freq.simulation.simulator import (

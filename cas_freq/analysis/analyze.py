@@ -49,17 +49,17 @@ from cas_freq.analysis.stability import (
     loop_verdicts,
 )
 from cas_freq.config.wording import OutputWords
-from cas_freq.fileio import json_ready
-from cas_freq.jit import compiled_for, use_compiled
+from cas_freq.core.fileio import json_ready
+from cas_freq.core.jit import compiled_for, use_compiled
+from cas_freq.core.output import output_json, output_unit
+from cas_freq.core.parameters import LoopParameters
+from cas_freq.core.summary import Summary
+from cas_freq.core.threads import result_of, worker_threads
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, EXACT, DelayModel
 from cas_freq.model.loops import PreparedResponses, Selector, responses
 from cas_freq.model.sampled import PreparedSampled, is_sampled, nyquist_frequencies
 from cas_freq.model.sampled import grid_responses as sampled_grid_responses
 from cas_freq.model.structure import build, total_delay
-from cas_freq.output import output_json, output_unit
-from cas_freq.parameters import LoopParameters
-from cas_freq.summary import Summary
-from cas_freq.threads import result_of, worker_threads
 
 #: Variants per chunk: the grid responses take about 26 kB per variant and response.
 DEFAULT_CHUNK = 256
@@ -214,7 +214,7 @@ def _loop_figures_of(evaluate, low, response, n, stable, probes, crossings, inne
 def _grid_responses(p, omega, n, delay, compiled=None, at_a_time=True):
     """Every loop (both views) and T on the grid: compiled
     (:mod:`cas_freq.analysis.response_kernel`) where ``compiled`` (default: where
-    :func:`cas_freq.jit.compiled_for` says so), else numpy
+    :func:`cas_freq.core.jit.compiled_for` says so), else numpy
     (:func:`cas_freq.model.loops.responses`, the reference). The two agree to ~1e-14 relative,
     not to the last bit: a batch chooses once for all its chunks, so a run's figures do not
     depend on the chunk it falls in."""
@@ -326,7 +326,7 @@ def batch_analyze(
 
     Parameters
     ----------
-    params : cas_freq.parameters.LoopParameters
+    params : cas_freq.core.parameters.LoopParameters
         The variants (n runs).
     frequency_range : (float, float)
         Analysed range [rad/s].
@@ -498,7 +498,7 @@ def pade_study(params, max_order, omega):
 
     Parameters
     ----------
-    params : cas_freq.parameters.LoopParameters
+    params : cas_freq.core.parameters.LoopParameters
         One variant.
     max_order : int
         Highest Padé order, >= 1.

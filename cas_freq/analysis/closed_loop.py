@@ -18,8 +18,8 @@ import numpy as np
 from cas_freq.analysis.margins import _first_true, _maxima, phase_jumps
 from cas_freq.analysis.roots import refine_roots
 from cas_freq.analysis.scan_kernel import first_fall_below_90 as kernel
-from cas_freq.formulas import HALF_POWER
-from cas_freq.jit import compiled_for
+from cas_freq.core.formulas import HALF_POWER
+from cas_freq.core.jit import compiled_for
 
 #: Closed-loop figures, as in the JSON of ``analyze``.
 CLOSED_LOOP_FIGURES = ("dc_gain_db", "bandwidth_rad_s", "peak_db", "peak_rad_s", "phase_90_rad_s")
@@ -156,7 +156,7 @@ def first_fall_below_90(response):
     while unwrapped from the first point (the point leaves ``Re > 0 or Im >= 0``), m - 1 if
     it never does; and the first phase jump (:func:`phase_jumps`), m - 1 if none. A jump
     after the crossing is reported as m - 1 on the compiled path, which stops at the crossing
-    (:mod:`cas_freq.analysis.scan_kernel`, on large arrays: :func:`cas_freq.jit.compiled_for`);
+    (:mod:`cas_freq.analysis.scan_kernel`, on large arrays: :func:`cas_freq.core.jit.compiled_for`);
     :func:`_first_phase_90` only asks whether the jump comes after the crossing.
     """
     if compiled_for(response.size):

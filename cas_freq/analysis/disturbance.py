@@ -177,7 +177,7 @@ def disturbance_figures(params, omega, counts_per_rev=None, words=GENERIC, stabl
 
     Parameters
     ----------
-    params : cas_freq.parameters.LoopParameters
+    params : cas_freq.core.parameters.LoopParameters
         One variant.
     omega : numpy.ndarray
         The analysis grid [rad/s] (its ends bound every search and, for continuous

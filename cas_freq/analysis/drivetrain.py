@@ -94,7 +94,7 @@ def drivetrain(params, pade_order=DEFAULT_PADE_ORDER, hinge_range=True):
 
     Parameters
     ----------
-    params : cas_freq.parameters.LoopParameters
+    params : cas_freq.core.parameters.LoopParameters
         One variant.
     pade_order : int
         Padé order of the stability verdicts of the hinge-stiffness scan.
@@ -203,7 +203,7 @@ def _midpoint_tree(unstable, stable, steps):
 def drivetrain_notes(load, output="output", spring=("K_h", "N*m/rad")):
     """Plain sentences on what the drivetrain figures mean for stability (``output``: what
     they call the output, the config's ``output_label``; ``spring``: the load spring's symbol
-    and unit, :class:`cas_freq.output.OutputUnit`)."""
+    and unit, :class:`cas_freq.core.output.OutputUnit`)."""
     symbol, unit = spring
     notes = []
     own = load.hinge_stiffness_n_m_rad

@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 from cas_freq.analysis import describing
-from cas_freq.exceptions import CasFreqError
+from cas_freq.core.exceptions import CasFreqError
 from cas_freq.model.loops import PreparedResponses, Selector
 from cas_freq.model.structure import build
 
@@ -344,7 +344,7 @@ def limit_cycles(params, simulate=False, linear=False):
 
     Parameters
     ----------
-    params : cas_freq.parameters.LoopParameters
+    params : cas_freq.core.parameters.LoopParameters
         One run.
     simulate : bool
         Check each cycle with an output amplitude by a nonlinear simulation.
@@ -591,7 +591,7 @@ def _degrees(value):
 
 def text_lines(result, unit=None):
     """The ``analyze`` table's lines for ``result`` (``unit``: the output's
-    :class:`cas_freq.output.OutputUnit`, default degrees)."""
+    :class:`cas_freq.core.output.OutputUnit`, default degrees)."""
     lines = ["  limit cycles (describing functions: " + ", ".join(result.checked) + ")"]
     if not result.cycles:
         lines.append(f"    none: {result.reason}")

@@ -61,7 +61,7 @@ from cas_freq.analysis.probes import (
     near_minus_one_probes,
 )
 from cas_freq.analysis.roots import refine_maxima, refine_roots
-from cas_freq.jit import compiled_for
+from cas_freq.core.jit import compiled_for
 
 #: Phase crossings refined: those within this of the best grid estimate of their kind [dB].
 CANDIDATE_DB = 1.0
@@ -196,7 +196,7 @@ def first_turned_jumps(response, rows, quarters, width):
     k + 1, else width - 1.
 
     Compiled (:mod:`cas_freq.analysis.scan_kernel`, stopping at each row's first jump) on
-    large arrays (:func:`cas_freq.jit.compiled_for`); this numpy form is its reference.
+    large arrays (:func:`cas_freq.core.jit.compiled_for`); this numpy form is its reference.
     """
     quarters = np.asarray(quarters, dtype=float)
     if compiled_for(rows.size * width):

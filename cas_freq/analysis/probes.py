@@ -13,7 +13,7 @@ import numpy as np
 
 from cas_freq.analysis.roots import refine_maxima
 from cas_freq.analysis.scan_kernel import long_chords
-from cas_freq.jit import compiled_for
+from cas_freq.core.jit import compiled_for
 
 #: A local extremum whose second difference of ln |L|^2 over three grid samples exceeds this is
 #: not resolved by the grid (a smooth function sampled 50 times per feature width stays far

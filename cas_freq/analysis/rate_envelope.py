@@ -71,7 +71,7 @@ class RateEnvelope:
 
     Output quantities are at the output in SI: rad, rad/s, N*m at a rotary output; m, m/s, N
     at a linear one (the field names keep the rotary case, as every typed record does:
-    :mod:`cas_freq.output`).
+    :mod:`cas_freq.core.output`).
 
     Attributes
     ----------
@@ -130,7 +130,7 @@ class RateEnvelope:
                               "current", "voltage").tolist())
 
     def to_dict(self, unit):
-        """JSON-ready dict in the output's unit (:class:`cas_freq.output.OutputUnit`): a
+        """JSON-ready dict in the output's unit (:class:`cas_freq.core.output.OutputUnit`): a
         rotary output in rad/s, N*m and deg; a linear one in m/s (and mm/s), N and mm."""
         linear = unit.linear
         rate, torque, amplitude = (("m_s", "N", "mm") if linear else ("rad_s", "N_m", "deg"))
@@ -176,7 +176,7 @@ def steady_state(p, supply_voltage, supply_resistance, points=CURVE_POINTS):
 
     Parameters
     ----------
-    p : cas_freq.parameters.LoopParameters or types.SimpleNamespace
+    p : cas_freq.core.parameters.LoopParameters or types.SimpleNamespace
         One actuator (scalars or arrays of one run): R [ohm], Ke [V*s/rad], Km [N*m/A],
         mu_v [N*m*s/rad], F_c [N*m], ratio N [-], eta [-], v_max [V], i_max [A].
     supply_voltage : float
@@ -222,7 +222,7 @@ def limit_responses(params, omega):
 
     Parameters
     ----------
-    params : cas_freq.parameters.LoopParameters
+    params : cas_freq.core.parameters.LoopParameters
         One actuator with continuous controllers.
     omega : numpy.ndarray
         Frequencies [rad/s].
@@ -281,7 +281,7 @@ def rate_envelope(config, params, frequencies_rad_s, feedforward=True):
     ----------
     config : cas_freq.config.ActuatorConfig
         The validated variant (its ``supply:``).
-    params : cas_freq.parameters.LoopParameters
+    params : cas_freq.core.parameters.LoopParameters
         The same variant's loop parameters (one run).
     frequencies_rad_s : array_like
         Frequencies of the sine limits [rad/s].

@@ -22,7 +22,7 @@ It agrees with the numpy reference to ~1e-14 relative (rounding order only);
 
 import numpy as np
 
-from cas_freq.jit import cached_jit
+from cas_freq.core.jit import cached_jit
 from cas_freq.model import parts
 from cas_freq.model.loops import LoopResponses
 from cas_freq.model.structure import build

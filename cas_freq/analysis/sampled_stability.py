@@ -15,10 +15,10 @@ unit circle, marginal within :data:`cas_freq.analysis.stability.MARGINAL_TOLERAN
 import numpy as np
 
 from cas_freq.analysis.stability import MARGINAL_TOLERANCE
+from cas_freq.core.threads import one_blas_thread
 from cas_freq.model.sampled import groups
 from cas_freq.model.state_space import closings, run_groups, z_to_s
 from cas_freq.model.structure import build
-from cas_freq.threads import one_blas_thread
 
 
 def loop_poles(p):
@@ -26,7 +26,7 @@ def loop_poles(p):
 
     Parameters
     ----------
-    p : cas_freq.parameters.LoopParameters
+    p : cas_freq.core.parameters.LoopParameters
         The runs, with ``sample_rates``.
 
     Returns

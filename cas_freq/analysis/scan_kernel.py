@@ -12,7 +12,7 @@ sign of the cross product of neighbouring points where the imaginary part change
 the batches of ``benchmarks/run.py`` they replace about ten full passes over (256 x 1,601)
 arrays per loop.
 
-Each kernel has one signature (:func:`~cas_freq.jit.cached_jit`'s ``arguments``): arrays of any
+Each kernel has one signature (:func:`~cas_freq.core.jit.cached_jit`'s ``arguments``): arrays of any
 layout, so that a grid's row slice and the whole grid share one machine code.
 """
 
@@ -20,7 +20,7 @@ import math
 
 from numba import types
 
-from cas_freq.jit import array_type, cached_jit
+from cas_freq.core.jit import array_type, cached_jit
 
 #: The argument types: a batch's grid responses (n, m), read; real and index arrays.
 _GRID = array_type("complex128", 2)

@@ -68,7 +68,7 @@ def loop_polynomials(p, order=DEFAULT_PADE_ORDER):
 
     Parameters
     ----------
-    p : cas_freq.parameters.LoopParameters
+    p : cas_freq.core.parameters.LoopParameters
         The runs.
     order : int
         Padé order of every delay.
@@ -122,7 +122,7 @@ def characteristic_polynomials(p, order=DEFAULT_PADE_ORDER):
 
     Parameters
     ----------
-    p : cas_freq.parameters.LoopParameters
+    p : cas_freq.core.parameters.LoopParameters
         The runs.
     order : int
         Padé order of every delay.
@@ -164,7 +164,7 @@ def loop_verdicts(p, order=DEFAULT_PADE_ORDER):
 
     Parameters
     ----------
-    p : cas_freq.parameters.LoopParameters
+    p : cas_freq.core.parameters.LoopParameters
         The runs.
     order : int
         Padé order of every delay.
@@ -197,7 +197,7 @@ def stability_verdicts(p, order=DEFAULT_PADE_ORDER):
 
     Parameters
     ----------
-    p : cas_freq.parameters.LoopParameters
+    p : cas_freq.core.parameters.LoopParameters
         The runs.
     order : int
         Padé order of every delay.
@@ -259,7 +259,7 @@ def closed_loop_stability(params, pade_order=DEFAULT_PADE_ORDER):
 
     Parameters
     ----------
-    params : cas_freq.parameters.LoopParameters or cas_freq.config.ActuatorConfig
+    params : cas_freq.core.parameters.LoopParameters or cas_freq.config.ActuatorConfig
         One variant.
     pade_order : int
         Padé order of the delays.
@@ -287,7 +287,7 @@ def closed_loop_poles(params, pade_order):
 
     Parameters
     ----------
-    params : cas_freq.parameters.LoopParameters or cas_freq.config.ActuatorConfig
+    params : cas_freq.core.parameters.LoopParameters or cas_freq.config.ActuatorConfig
         One variant.
     pade_order : int
         Padé order n >= 1 of every delay.
@@ -312,7 +312,7 @@ def closed_loop_poles_of_runs(p, pade_order):
 
     Parameters
     ----------
-    p : cas_freq.parameters.LoopParameters
+    p : cas_freq.core.parameters.LoopParameters
         The runs.
     pade_order : int
         Padé order n >= 1 of every delay.
@@ -379,7 +379,7 @@ def current_loop_poles(params, pade_order):
 
     Parameters
     ----------
-    params : cas_freq.parameters.LoopParameters or cas_freq.config.ActuatorConfig
+    params : cas_freq.core.parameters.LoopParameters or cas_freq.config.ActuatorConfig
         One variant.
     pade_order : int
         Padé order n >= 1 of the current-loop delay.

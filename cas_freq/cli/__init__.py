@@ -17,7 +17,7 @@ terminated (SIGTERM; 129 for SIGHUP: handled as Ctrl-C, :mod:`cas_freq.cli.signa
 import sys
 
 from cas_freq import __version__
-from cas_freq.exceptions import CasFreqError
+from cas_freq.core.exceptions import CasFreqError
 
 __all__ = [
     "EXIT_BAD_INPUT", "EXIT_FAILED", "EXIT_INTERRUPTED", "EXIT_OK", "build_parser",
@@ -83,7 +83,6 @@ def main(argv=None):
     limit_blas_threads()
     command = "cas-freq"
     try:
-        from cas_freq import jit
         from cas_freq.cli.common import (
             EXIT_BAD_INPUT,
             EXIT_OK,
@@ -91,6 +90,7 @@ def main(argv=None):
             shipped_config_note,
         )
         from cas_freq.cli.signals import interrupts_not_lost, terminate_as_interrupt
+        from cas_freq.core import jit
 
         with terminate_as_interrupt(), interrupts_not_lost():
             try:
@@ -124,14 +124,14 @@ def main(argv=None):
 
 
 def _say(text):
-    """One line on stderr (the first-compilation messages of :mod:`cas_freq.jit`)."""
+    """One line on stderr (the first-compilation messages of :mod:`cas_freq.core.jit`)."""
     print(text, file=sys.stderr, flush=True)
 
 
 def _compile_summary(say=True):
     """Say how long the kernels compiled, if they did while the messages went to stderr (not
     with ``--quiet``) and ``say`` is true, and send later messages to the logger again."""
-    from cas_freq import jit
+    from cas_freq.core import jit
 
     summary = jit.compile_summary()
     if say and summary is not None and jit._SAY is _say:

@@ -9,7 +9,7 @@ from cas_freq.cli.common import (
     print_json,
     several_variants,
 )
-from cas_freq.exceptions import CasFreqError
+from cas_freq.core.exceptions import CasFreqError
 
 #: Accepted --range: within MIN_RAD_S..MAX_RAD_S, spanning at most MAX_DECADES decades.
 MIN_RAD_S, MAX_RAD_S, MAX_DECADES = 1e-6, 1e9, 12

@@ -3,7 +3,7 @@
 import argparse
 import json
 
-from cas_freq.exceptions import CasFreqError, ConfigError
+from cas_freq.core.exceptions import CasFreqError, ConfigError
 from cas_freq.report.studies import write_report
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2

@@ -10,7 +10,7 @@ from cas_freq.cli.common import (
     selected_variants,
 )
 from cas_freq.cli.report import DEFAULT_AMPLITUDES, DEFAULT_FREQUENCIES, settings_from_args
-from cas_freq.exceptions import CasFreqError
+from cas_freq.core.exceptions import CasFreqError
 from cas_freq.report.outdir import check_output_dir
 
 

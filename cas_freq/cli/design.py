@@ -7,7 +7,7 @@ Prints the page's URL, with its per-launch token, as its first line; serves unti
 import sys
 
 from cas_freq.cli.common import config_path, say_shipped_config
-from cas_freq.exceptions import CasFreqError
+from cas_freq.core.exceptions import CasFreqError
 
 
 def register(commands):

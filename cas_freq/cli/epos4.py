@@ -26,8 +26,8 @@ from cas_freq.cli.common import (
     several_variants,
     wrote,
 )
-from cas_freq.exceptions import CasFreqError
-from cas_freq.fileio import check_output_file, write_text_atomic
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.fileio import check_output_file, write_text_atomic
 
 
 def register(commands):
@@ -109,7 +109,7 @@ def run_import(args):
         config, args.variant, epos4.variant_entries(export), comment,
         {key: si for key, (_, si) in values.items()}, "the imported values", force=args.force)
     say_shipped_config(args.config)
-    from cas_freq.parameters import unit_of
+    from cas_freq.core.parameters import unit_of
 
     if output is None:
         print(new_text, end="")

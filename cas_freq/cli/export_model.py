@@ -16,8 +16,8 @@ from cas_freq.cli.sinedwell import (
     parse_amplitudes,
     parse_frequencies,
 )
-from cas_freq.exceptions import CasFreqError
-from cas_freq.fileio import check_output_file, write_text_atomic
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.fileio import check_output_file, write_text_atomic
 
 
 def register(commands):
@@ -66,7 +66,7 @@ def run(args):
         model = export_model(loaded, pade, amplitudes, frequencies,
                              feedforward=args.feedforward, progress=progress)
     except BudgetError as error:
-        from cas_freq.simulation.run import over_budget_reason
+        from cas_freq.studies.run import over_budget_reason
 
         raise CasFreqError(f"variant {loaded.variant}: "
                            f"{over_budget_reason(error, frequencies or ())}") from None

@@ -6,9 +6,9 @@ import math
 from cas_freq.cli.common import EXIT_OK, column_option, output_path, print_json
 from cas_freq.cli.fit_recordings import fit_lines, rms_line, run_recordings, step_lines
 from cas_freq.cli.fit_sweep import are_sweeps, run_sweep
-from cas_freq.exceptions import CasFreqError
-from cas_freq.fileio import json_ready
-from cas_freq.output import angle
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.fileio import json_ready
+from cas_freq.core.output import angle
 
 
 def register(commands):

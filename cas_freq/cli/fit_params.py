@@ -16,15 +16,15 @@ from cas_freq.cli.common import (
     write_and_print,
     wrote,
 )
-from cas_freq.exceptions import CasFreqError
-from cas_freq.fileio import check_output_file, json_ready, write_text_atomic
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.fileio import check_output_file, json_ready, write_text_atomic
+from cas_freq.core.output import angle
 from cas_freq.identification import read_recording
 from cas_freq.identification.free_keys import labels, parse_model_spec
 from cas_freq.identification.identifiability import UNBOUNDED
 from cas_freq.identification.physical import fit_physical
 from cas_freq.identification.probe import NOT_IDENTIFIABLE
 from cas_freq.identification.step_fit import step_size
-from cas_freq.output import angle
 from cas_freq.report.outdir import check_output_dir
 from cas_freq.report.studies import json_text
 

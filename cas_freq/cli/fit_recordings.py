@@ -3,16 +3,16 @@
 Each recording's step figures and (wn, zeta, td) with ~95 % intervals, RMS residual and
 closed-form bandwidth; with several, the joint fit and the spread between runs; beside them, the
 step figures and fit of CONFIG's base variant simulated for the same step
-(:func:`cas_freq.simulation.run.step_batch`). ``-o DIR`` writes fit.json and fit.svg.
+(:func:`cas_freq.studies.run.step_batch`). ``-o DIR`` writes fit.json and fit.svg.
 """
 
 import dataclasses
 import math
 
 from cas_freq.cli.common import column_option, refuse_linear, selected_variants, write_and_print
-from cas_freq.figures import FIGURES
-from cas_freq.fileio import json_ready
-from cas_freq.output import angle
+from cas_freq.core.figures import FIGURES
+from cas_freq.core.fileio import json_ready
+from cas_freq.core.output import angle
 from cas_freq.report.outdir import check_output_dir
 from cas_freq.report.studies import json_text
 
@@ -191,7 +191,7 @@ def run_recordings(args):
     refuse_linear(loaded, "fit")
     recordings = [read_recording(path, columns) for path in args.data]
     fits = fit_recordings(recordings, step)
-    from cas_freq.simulation.run import step_batch
+    from cas_freq.studies.run import step_batch
 
     sizes = list(dict.fromkeys(round(run.step_rad, 12) for run in fits.runs))
     model_runs = step_batch([(loaded, size) for size in sizes])

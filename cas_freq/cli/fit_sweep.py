@@ -10,8 +10,8 @@ frf.json and frf.svg.
 """
 
 from cas_freq.cli.common import column_option, refuse_linear, selected_variants, write_and_print
-from cas_freq.exceptions import CasFreqError, ConfigError
-from cas_freq.fileio import json_ready
+from cas_freq.core.exceptions import CasFreqError, ConfigError
+from cas_freq.core.fileio import json_ready
 from cas_freq.report.outdir import check_output_dir
 from cas_freq.report.studies import json_text
 
@@ -40,7 +40,7 @@ def are_sweeps(paths, columns):
 
 def _listed(values, digits=6):
     """Floats rounded to ``digits`` significant digits (JSON and figures regenerate alike)."""
-    from cas_freq.report.numbers import round_array
+    from cas_freq.core.numbers import round_array
 
     return [float(v) for v in round_array(values, digits)]
 

@@ -11,8 +11,8 @@ from cas_freq.cli.common import (
     terminal_progress,
     variant_csv,
 )
-from cas_freq.exceptions import CasFreqError
-from cas_freq.output import output_json, output_step, output_unit
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.output import output_json, output_step, output_unit
 from cas_freq.report.outdir import check_output_dir
 from cas_freq.report.studies import json_text, write_report
 from cas_freq.studies.distributed import parse_scheduler, session
@@ -111,7 +111,7 @@ def run(args):
         raise CasFreqError("--no-step and --step exclude each other")
     if args.scheduler is not None:
         parse_scheduler(args.scheduler)
-    from cas_freq.parameters import CASCADE_PARAMETERS, LINEAR_ONLY, LINEAR_PARAMETERS
+    from cas_freq.core.parameters import CASCADE_PARAMETERS, LINEAR_ONLY, LINEAR_PARAMETERS
 
     for text in args.tolerance:  # refused before any work, except a key whose unit depends on
         key = str(text).partition("=")[0].strip()  # the architecture or the output's kind

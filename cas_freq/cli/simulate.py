@@ -12,9 +12,9 @@ from cas_freq.cli.common import (
     terminal_progress,
     wrote,
 )
-from cas_freq.exceptions import CasFreqError
-from cas_freq.fileio import check_output_file, write_text_atomic
-from cas_freq.output import ANGLE, output_step, output_unit
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.fileio import check_output_file, write_text_atomic
+from cas_freq.core.output import ANGLE, output_step, output_unit
 
 
 def register(commands):
@@ -60,7 +60,7 @@ def run(args):
     if args.csv is not None:
         check_output_file(args.csv, "--csv")
     from cas_freq.report.text import command_table, step_table
-    from cas_freq.simulation.run import (
+    from cas_freq.studies.run import (
         command_run,
         command_run_dict,
         step_csv_name,
@@ -86,7 +86,7 @@ def run(args):
         to_dict, to_table = command_run_dict, command_table
     elif move is not None:
         from cas_freq.report.profile import profile_table
-        from cas_freq.simulation.profile_run import profile_run_dict, profile_runs
+        from cas_freq.studies.profile_run import profile_run_dict, profile_runs
 
         runs = profile_runs(variants, move, progress=progress)
         to_dict, to_table = profile_run_dict, profile_table
@@ -126,7 +126,7 @@ def _profile(args, variants):
     if missing:
         raise CasFreqError(f"--profile: needs {' and '.join(missing)} (e.g. --profile 10deg "
                            "--velocity 2000deg/s --acceleration 1e5deg/s^2)")
-    from cas_freq.simulation.profile_run import make_profile
+    from cas_freq.studies.profile_run import make_profile
 
     units = {output_unit(loaded.params) for loaded in variants or ()}
     if len(units) > 1:

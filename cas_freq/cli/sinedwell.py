@@ -8,8 +8,8 @@ from cas_freq.cli.common import (
     several_variants,
     terminal_progress,
 )
-from cas_freq.exceptions import CasFreqError
-from cas_freq.output import angle, output_json, output_step, output_unit
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.output import angle, output_json, output_step, output_unit
 
 #: Amplitudes when none are given: small signal, mid, and the report's 10 deg step size.
 DEFAULT_AMPLITUDES = "0.5deg,2deg,10deg"
@@ -61,7 +61,7 @@ def amplitudes_text(text, variants, default, linear_default):
 
 def parse_amplitudes(text, variants=None):
     """Comma-separated output amplitudes with units → list in SI: angles [rad], or lengths [m]
-    at a linear output of ``variants`` (:func:`cas_freq.output.output_step`)."""
+    at a linear output of ``variants`` (:func:`cas_freq.core.output.output_step`)."""
     parts = [part.strip() for part in text.split(",")]
     if not text.strip() or any(not part for part in parts):
         example = "angles such as 0.5deg,2deg,10deg"
@@ -88,9 +88,9 @@ def run(args):
     from cas_freq.analysis import analyze
     from cas_freq.config.wording import OutputWords
     from cas_freq.report.text import sinedwell_table
-    from cas_freq.simulation.run import over_budget_reason, sinedwell_run, sinedwell_run_dict
     from cas_freq.simulation.simulator import BudgetError
     from cas_freq.simulation.sinedwell import dwell_frequencies
+    from cas_freq.studies.run import over_budget_reason, sinedwell_run, sinedwell_run_dict
 
     variants = load_variants(args)
     amplitudes = parse_amplitudes(amplitudes_text(args.amplitudes, variants, DEFAULT_AMPLITUDES,

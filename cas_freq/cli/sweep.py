@@ -12,9 +12,9 @@ from cas_freq.cli.common import (
     variant_csv,
 )
 from cas_freq.cli.sinedwell import parse_frequencies
-from cas_freq.exceptions import CasFreqError
-from cas_freq.fileio import check_output_file, write_text_atomic
-from cas_freq.output import output_json, output_step, output_unit
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.fileio import check_output_file, write_text_atomic
+from cas_freq.core.output import output_json, output_step, output_unit
 from cas_freq.report.outdir import check_output_dir
 from cas_freq.report.studies import json_text, write_report
 from cas_freq.studies.distributed import parse_scheduler, session
@@ -74,8 +74,8 @@ def split_settings(settings, config=None, parse=True):
     the position gains' units). ``parse=False``, before the config is loaded: the axes of the
     keys whose unit depends on the architecture as their texts (the key checked)."""
     from cas_freq.config import parse_set_option
-    from cas_freq.parameter_keys import is_grid_spec, parse_grid_values
-    from cas_freq.parameters import CASCADE_PARAMETERS, check_key
+    from cas_freq.core.parameter_keys import is_grid_spec, parse_grid_values
+    from cas_freq.core.parameters import CASCADE_PARAMETERS, check_key
 
     fixed, axes = [], {}
     for text in settings:
@@ -148,7 +148,7 @@ def run(args):
     step = output_step(args.step, "--step", variants) if args.step else None
     sinedwell = None
     if args.sinedwell:
-        from cas_freq.simulation.run import DEFAULT_SINEDWELL_FREQUENCIES_RAD_S
+        from cas_freq.studies.run import DEFAULT_SINEDWELL_FREQUENCIES_RAD_S
 
         frequencies = (DEFAULT_SINEDWELL_FREQUENCIES_RAD_S if args.frequencies is None
                        else parse_frequencies(args.frequencies))

@@ -17,8 +17,8 @@ from cas_freq.cli.common import (
     terminal_progress,
     wrote,
 )
-from cas_freq.exceptions import CasFreqError, ConfigError
-from cas_freq.fileio import check_output_file, json_ready, write_text_atomic
+from cas_freq.core.exceptions import CasFreqError, ConfigError
+from cas_freq.core.fileio import check_output_file, json_ready, write_text_atomic
 from cas_freq.report.outdir import check_output_dir
 from cas_freq.report.studies import json_text, write_report
 from cas_freq.studies.distributed import session

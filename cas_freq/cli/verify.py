@@ -11,8 +11,8 @@ from cas_freq.cli.common import (
     output_path,
     print_json,
 )
-from cas_freq.exceptions import CasFreqError
-from cas_freq.fileio import check_output_file, write_text_atomic
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.fileio import check_output_file, write_text_atomic
 
 
 def register(commands):

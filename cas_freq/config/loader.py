@@ -32,8 +32,8 @@ from cas_freq.config.schema import (
     ActuatorConfig,
     CascadePositionLoop,
 )
-from cas_freq.exceptions import ConfigError, ConfigTypeError, listed
-from cas_freq.fileio import one_line, read_input
+from cas_freq.core.exceptions import ConfigError, ConfigTypeError, listed
+from cas_freq.core.fileio import one_line, read_input
 
 #: Keys that give the same quantity another way: setting the key removes its alternative.
 _ALTERNATIVES = {"motor.mu_v": "motor.no_load", "motor.no_load": "motor.mu_v"}
@@ -282,7 +282,7 @@ def read_config_file(path):
     Raises
     ------
     ConfigError
-        If the file cannot be read (:func:`cas_freq.fileio.read_input`: not found, not a
+        If the file cannot be read (:func:`cas_freq.core.fileio.read_input`: not found, not a
         regular file, larger than :data:`MAX_FILE_BYTES`, not UTF-8), is not valid YAML, or is
         not a mapping.
     """
@@ -488,7 +488,7 @@ def _message(error, cascade=False):
 
 def _messages(errors, cascade=False):
     """One line per problem, in pydantic's order, except that several unknown keys of one
-    section share one line: their names (the first :data:`~cas_freq.exceptions.MAX_LISTED`,
+    section share one line: their names (the first :data:`~cas_freq.core.exceptions.MAX_LISTED`,
     then a count) and, once, what the section accepts."""
     unknown = {}
     for error in errors:
@@ -532,7 +532,7 @@ def validate(data, origin):
     ------
     ConfigError, ConfigTypeError
         One message listing the problems, each with its dotted key (the first
-        :data:`~cas_freq.exceptions.MAX_LISTED`, then how many more).
+        :data:`~cas_freq.core.exceptions.MAX_LISTED`, then how many more).
     """
     try:
         return ActuatorConfig.model_validate(data)

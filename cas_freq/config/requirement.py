@@ -7,7 +7,7 @@ A requirement names a figure by its dotted key in the JSON of ``analyze``
 condition the figure needs (``step`` for step and fit figures, ``amplitude`` for the sine-dwell,
 ``profile`` -- distance, velocity, acceleration -- for a profile move). The accepted figures, their
 units and the command that measures each are those of the figure table
-(:data:`cas_freq.figures.FIGURES`, ``requirement=True``). Bounds are stored in the figure's own
+(:data:`cas_freq.core.figures.FIGURES`, ``requirement=True``). Bounds are stored in the figure's own
 unit, the one its key's suffix names (``_rad_s`` rad/s, ``_deg`` deg, ``_db`` dB, ``_pct`` %,
 ``_s`` s, ``_a`` A, ``_v`` V); a bound may be a plain number in that unit or a string with any
 unit of the same dimension.
@@ -22,15 +22,15 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 from pydantic_core import PydanticCustomError
 
 from cas_freq.config.units import has_unit, to_si
-from cas_freq.figures import FIGURES, METRICS, UNIT_LABELS, accepted_metrics
-from cas_freq.output import ANGLE, LENGTH, wrong_kind
+from cas_freq.core.figures import FIGURES, METRICS, UNIT_LABELS, accepted_metrics
+from cas_freq.core.output import ANGLE, LENGTH, wrong_kind
 
 __all__ = ["METRICS", "UNIT_LABELS", "ProfileCondition", "Requirement", "convert_bound",
            "metric_unit", "parse_frequency_spec"]
 
 
 def metric_unit(metric):
-    """Unit of a requirement's figure (:data:`cas_freq.figures.FIGURES`; pint spelling, "" for
+    """Unit of a requirement's figure (:data:`cas_freq.core.figures.FIGURES`; pint spelling, "" for
     dimensionless)."""
     figure = FIGURES.get(metric)
     if figure is None:
@@ -45,7 +45,7 @@ def convert_bound(value, metric):
     ------
     ValueError, TypeError
         For text that does not parse, or a unit of another dimension, an angle counted as one
-        (:func:`cas_freq.units.angle_problem`: ``Hz`` for an angular frequency is 2π off).
+        (:func:`cas_freq.core.units.angle_problem`: ``Hz`` for an angular frequency is 2π off).
     """
     unit = metric_unit(metric)
     if unit == "dB":

@@ -1,8 +1,8 @@
 """The validated actuator configuration, as frozen pydantic models.
 
 Every numeric field is stored in SI. Its unit, accepted range and meaning are declared once, in
-the parameter table :data:`cas_freq.parameters.PARAMETERS`; a field here names its dotted key
-with :func:`param`, and is converted by :func:`cas_freq.parameters.parse_value`'s own path. The
+the parameter table :data:`cas_freq.core.parameters.PARAMETERS`; a field here names its dotted key
+with :func:`param`, and is converted by :func:`cas_freq.core.parameters.parse_value`'s own path. The
 loader turns pydantic's errors into one message per problem that names the dotted key, the
 value and what is accepted (see :mod:`cas_freq.config.loader`).
 
@@ -25,17 +25,17 @@ from pydantic_core import PydanticCustomError
 
 from cas_freq.config.requirement import Requirement
 from cas_freq.config.wording import OUTPUT
-from cas_freq.exceptions import ConfigError
-from cas_freq.filters_config import (
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.filters_config import (
     DEFAULT_DAMPING,
     FILTER_NUMBERS,
     depth_problem,
     point_problem,
     type_problem,
 )
-from cas_freq.formulas import second_order_bandwidth
-from cas_freq.parameter_keys import parse_grid_values
-from cas_freq.parameters import (
+from cas_freq.core.formulas import second_order_bandwidth
+from cas_freq.core.parameter_keys import parse_grid_values
+from cas_freq.core.parameters import (
     CASCADE_ONLY,
     CASCADE_PARAMETERS,
     CASCADE_REFUSED,
@@ -50,7 +50,7 @@ from cas_freq.parameters import (
     filter_time_constant,
     viscous_friction,
 )
-from cas_freq.sampling_config import (
+from cas_freq.core.sampling_config import (
     DEFAULT_METHOD,
     LOOPS,
     conflict_problem,
@@ -68,8 +68,8 @@ def param(key):
     """Type of the float field of dotted config ``key``, as :data:`PARAMETERS` declares it.
 
     The value is a number in the key's SI unit or a string with a unit; it is converted and
-    checked against the key's bound by :meth:`cas_freq.parameters.Parameter.convert`, the
-    conversion :func:`cas_freq.parameters.parse_value` uses.
+    checked against the key's bound by :meth:`cas_freq.core.parameters.Parameter.convert`, the
+    conversion :func:`cas_freq.core.parameters.parse_value` uses.
     """
     return _field(PARAMETERS[key], key)
 
@@ -347,7 +347,7 @@ def _filter_field(name):
 
 
 class FilterSpec(_Section):
-    """One filter of ``filters:`` (:mod:`cas_freq.filters_config`): its point, its type and its
+    """One filter of ``filters:`` (:mod:`cas_freq.core.filters_config`): its point, its type and its
     numbers (``damping`` of a lowpass2 defaults to 0.7071; a notch needs ``width`` and
     ``depth``).
 
@@ -417,7 +417,7 @@ class FilterSpec(_Section):
 
 
 class Sampling(_Section):
-    """The controllers' sample rates and discretisation (:mod:`cas_freq.sampling_config`).
+    """The controllers' sample rates and discretisation (:mod:`cas_freq.core.sampling_config`).
 
     A rate per loop (``current_loop: 25 kHz``, ``velocity_loop`` with a velocity loop only,
     ``position_loop: 2.5 kHz``); an absent loop is continuous. When any loop is sampled the
@@ -446,7 +446,7 @@ class Sampling(_Section):
     @property
     def sample_rates(self):
         """The sampled loops as (loop name, rate [Hz]) pairs, innermost first; () when every
-        controller is continuous (:attr:`cas_freq.parameters.LoopParameters.sample_rates`)."""
+        controller is continuous (:attr:`cas_freq.core.parameters.LoopParameters.sample_rates`)."""
         return sample_rates(self.rates)
 
 
@@ -504,8 +504,8 @@ class Simulation(_Section):
 # ---- reference: measured or published results to compare against -------------------------------
 
 #: The numeric keys of the ``reference:`` section (comparison data, never model parameters), in
-#: the form of :data:`cas_freq.parameters.PARAMETERS` so that they are converted and bounded by
-#: the same :meth:`~cas_freq.parameters.Parameter.convert`.
+#: the form of :data:`cas_freq.core.parameters.PARAMETERS` so that they are converted and bounded by
+#: the same :meth:`~cas_freq.core.parameters.Parameter.convert`.
 REFERENCE_PARAMETERS = {
     p.key: p for p in (
         Parameter("reference.step_amplitude", None, "rad", 0.0, True, 3.1416,
@@ -688,7 +688,7 @@ class ActuatorConfig(_Section):
     @model_validator(mode="after")
     def _one_sampling(self):
         """Reconcile ``sampling:`` and ``simulation.controllers: sampled`` into one declaration,
-        check its rules (:func:`cas_freq.sampling_config.sampling_problem`), and make both
+        check its rules (:func:`cas_freq.core.sampling_config.sampling_problem`), and make both
         sections state it (``simulation.rates_hz`` follows ``sampling:``)."""
         declared, old = self.sampling.rates, self.simulation.rates
         given = any(rate is not None for rate in declared.values())

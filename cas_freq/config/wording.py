@@ -3,9 +3,9 @@
 Labels and text say "output" unless the config names its output (``output_name: fin`` in
 configs/qt_cas.yaml, the QT-CAS being a fin actuator). One config's name is its
 :attr:`~cas_freq.config.schema.ActuatorConfig.output_label`; the helpers here name it where
-several configs meet (compare) and in the generic text of the tables (:data:`~cas_freq.parameters.
-PARAMETERS`), which say "the output". Data keys (JSON fields, CSV columns, API attributes) never
-depend on it.
+several configs meet (compare) and in the generic text of the tables
+(:data:`~cas_freq.core.parameters.PARAMETERS`), which say "the output". Data keys (JSON
+fields, CSV columns, API attributes) never depend on it.
 
 Besides its name, the words follow the output's kind and role (:class:`OutputWords`): an angle
 (δ) or, at a linear output (``gear.screw_lead``), a position (x); the flight-control words (the

@@ -6,18 +6,19 @@ margins and the bandwidth, :func:`cas_freq.report.data.curves` for the Bode data
 curves), :func:`cas_freq.verify.evaluate.verify_variant` for the verdicts of the config's
 analyze-kind requirements (the figures ``verify`` uses),
 :func:`cas_freq.report.data.linear_steps` for the linear step (Padé model, as the report draws
-it) and :func:`cas_freq.simulation.run.step_run` (``simulate --step``) for the nonlinear step.
+it) and :func:`cas_freq.studies.run.step_run` (``simulate --step``) for the nonlinear step.
 """
 
 import math
 
 import numpy as np
 
-from cas_freq.exceptions import CasFreqError, ConfigError
-from cas_freq.figures import FIGURES
-from cas_freq.fileio import json_ready
-from cas_freq.output import output_unit, read_output
-from cas_freq.parameters import (
+from cas_freq.core.exceptions import CasFreqError, ConfigError
+from cas_freq.core.figures import FIGURES
+from cas_freq.core.fileio import json_ready
+from cas_freq.core.numbers import number
+from cas_freq.core.output import output_unit, read_output
+from cas_freq.core.parameters import (
     PARAMETERS,
     check_key,
     loop_values,
@@ -25,7 +26,6 @@ from cas_freq.parameters import (
     parse_value,
     variant_parameters,
 )
-from cas_freq.report.numbers import number
 from cas_freq.tuning.options import DEFAULT_FACTOR
 from cas_freq.tuning.space import default_free
 
@@ -120,7 +120,7 @@ def controls(loaded, keys=None):
     list of dict
         ``{"key", "group", "value" [SI], "unit", "slider", "sign", "lower", "upper", ...}``
         (the slider: :func:`_slider`, within the parameter table's range
-        (:data:`cas_freq.parameters.PARAMETERS`), which bounds the typed entry); a key of
+        (:data:`cas_freq.core.parameters.PARAMETERS`), which bounds the typed entry); a key of
         :data:`CHOICES` has ``"choices"`` and its word as ``value`` instead.
     """
     params = loaded.params
@@ -177,7 +177,7 @@ def _bode(omega, response):
     return [_finite(v) for v in magnitude], [_finite(v) for v in phase]
 
 
-#: A loop's margins the page shows (figures of :data:`cas_freq.figures.FIGURES` after the
+#: A loop's margins the page shows (figures of :data:`cas_freq.core.figures.FIGURES` after the
 #: loop's name).
 MARGINS = ("crossover_rad_s", "phase_margin_deg", "delay_margin_s", "gain_margin_db",
            "phase_crossover_rad_s", "gain_margin_low_db", "phase_crossover_low_rad_s")
@@ -236,7 +236,7 @@ def steps(loaded, analysis, amplitude, nonlinear=True):
     shown unit (deg, or mm for a linear output); ``amplitude`` [rad or m]."""
     from cas_freq.model import DEFAULT_PADE_ORDER
     from cas_freq.report.data import linear_steps
-    from cas_freq.simulation.run import step_run
+    from cas_freq.studies.run import step_run
 
     unit = output_unit(loaded.params)
     out = {"amplitude": float(unit.from_si(amplitude)), "unit": unit.shown, "figures": None}

@@ -10,7 +10,7 @@ from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, StringConstraints, ValidationError
 
-from cas_freq.exceptions import CasFreqError
+from cas_freq.core.exceptions import CasFreqError
 
 #: A session's name: the page makes one per browser tab.
 SessionName = Annotated[str, StringConstraints(min_length=1, max_length=64)]

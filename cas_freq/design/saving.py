@@ -3,9 +3,9 @@
 import re
 from pathlib import Path
 
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.fileio import check_output_file
 from cas_freq.design.guard import Refused
-from cas_freq.exceptions import CasFreqError
-from cas_freq.fileio import check_output_file
 
 #: The endings of a config file the page may write.
 SUFFIXES = (".yaml", ".yml")
@@ -39,7 +39,7 @@ def save_target(file, save_dir, config, default_name, overwrite=False):
     ------
     Refused
         403 for a file outside ``save_dir``, a folder that would have to be made, a link, a
-        folder or special file (:func:`cas_freq.fileio.check_output_file`), a name that is
+        folder or special file (:func:`cas_freq.core.fileio.check_output_file`), a name that is
         not a config file's; 409 for an existing file without ``overwrite``
         and for the input config itself.
     """

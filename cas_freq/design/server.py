@@ -44,16 +44,16 @@ from pathlib import Path
 from urllib.parse import parse_qs, urlparse
 
 from cas_freq.config import load_variant
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.fileio import json_ready, write_text_atomic
+from cas_freq.core.output import output_step, output_unit
+from cas_freq.core.parameters import base_values
 from cas_freq.design import compute
 from cas_freq.design.compute import CHOICES, check_values, controls
 from cas_freq.design.guard import LOOPBACK_ADDRESSES, Guard, Refused, new_token
 from cas_freq.design.requests import ControlRequest, SaveRequest, StateRequest, TuneRequest, parsed
 from cas_freq.design.saving import save_target
 from cas_freq.drive.variant_text import config_with_variant, si_text, variant_entries
-from cas_freq.exceptions import CasFreqError
-from cas_freq.fileio import json_ready, write_text_atomic
-from cas_freq.output import output_step, output_unit
-from cas_freq.parameters import base_values
 from cas_freq.tuning.options import GLOBAL_COUNT, ROUNDS
 
 #: Largest request body accepted [bytes].
@@ -228,7 +228,7 @@ class Design:
 
 def _sampling_values(params):
     """{key: value} of the sampling keys of ``params`` (rates [Hz] or None, the method's
-    word), which :func:`cas_freq.parameters.base_values` (the loop parameters) leaves out."""
+    word), which :func:`cas_freq.core.parameters.base_values` (the loop parameters) leaves out."""
     sampling = params.sampling
     return {f"sampling.{name}": getattr(sampling, name)
             for name in (*sampling.rates, "method")}

@@ -7,7 +7,7 @@
   keeping every comment and line of the rest.
 
 This package sits beside the config layer: it imports :mod:`cas_freq.config`,
-:mod:`cas_freq.parameters` and :mod:`cas_freq.units`, nothing above them.
+:mod:`cas_freq.core.parameters` and :mod:`cas_freq.core.units`, nothing above them.
 """
 
 from cas_freq.drive.epos4 import (

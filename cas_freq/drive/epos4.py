@@ -2,7 +2,7 @@
 
 :data:`OBJECTS` is the one table of the EPOS4 objects cas_freq reads and writes: object index
 and subindex, the name the drive gives it, the drive's unit (a pint string), the config key it
-carries (:data:`cas_freq.parameters.PARAMETERS`) and where the index and unit come from.
+carries (:data:`cas_freq.core.parameters.PARAMETERS`) and where the index and unit come from.
 
 ====================  =============================  ===================  ====================
 object                name                           drive unit           config key
@@ -35,7 +35,7 @@ page docs/epos4.md lists what was confirmed where, and what was not).
 
 The drive stores every one of these objects as a whole number (UNSIGNED32) in its unit, so a
 variant's gains are rounded to 1 unit of the drive on export, and the rounding is reported.
-Units are converted with pint (:func:`cas_freq.units.to_si`), never by hand-written factors.
+Units are converted with pint (:func:`cas_freq.core.units.to_si`), never by hand-written factors.
 
 Coordinates: the drive's gains are per radian of its position sensor. cas_freq's gains are
 per radian of the motor shaft (docs/model.md §1), the same thing when the encoder sits on the
@@ -55,9 +55,9 @@ import math
 import re
 from pathlib import Path
 
-from cas_freq.exceptions import ConfigError
-from cas_freq.fileio import read_input
-from cas_freq.units import registry, to_si
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.fileio import read_input
+from cas_freq.core.units import registry, to_si
 
 __all__ = [
     "CASCADE",
@@ -111,7 +111,7 @@ class DriveObject:
         The drive's unit of the stored whole number, as pint spells it (``"uV/A"``).
     key : str
         The config key it carries (``"current_loop.Kp"``), one of
-        :data:`cas_freq.parameters.PARAMETERS`.
+        :data:`cas_freq.core.parameters.PARAMETERS`.
     required : bool
         True if an export must hold it (the controller gains); False for the current limit.
     source : str
@@ -182,7 +182,7 @@ OBJECTS = (
 
 def architecture(params):
     """:data:`CASCADE` for a validated config with a velocity loop, else :data:`PID_ON_PI`."""
-    from cas_freq.parameters import is_cascade
+    from cas_freq.core.parameters import is_cascade
 
     return CASCADE if is_cascade(params) else PID_ON_PI
 
@@ -258,7 +258,7 @@ def _quantity(magnitude, unit):
 
 
 def _si_unit(key):
-    from cas_freq.parameters import unit_of
+    from cas_freq.core.parameters import unit_of
 
     return unit_of(key)
 
@@ -517,7 +517,7 @@ def import_values(export):
     dict of str to (str, float)
         For each object read, its config key, the value as a config string in the drive's unit
         (``"616300 uV/A"``, read by the config loader as it is) and the value in the key's SI
-        unit (:func:`cas_freq.parameters.unit_of`), converted with pint.
+        unit (:func:`cas_freq.core.parameters.unit_of`), converted with pint.
     """
     out = {}
     for read in export.values:
@@ -597,7 +597,7 @@ def settings_of(params, origin="the variant"):
         than 4294967295 in the drive's unit; the message names the key, the value and the
         range in both units.
     """
-    from cas_freq.parameters import base_values
+    from cas_freq.core.parameters import base_values
 
     values = base_values(params)
     _, low, high = DATA_TYPES[UNSIGNED32]

@@ -13,9 +13,9 @@ import re
 from cas_freq.config import load_all_variants
 from cas_freq.config.loader import MAX_FILE_BYTES, _flatten, read_config_file
 from cas_freq.config.schema import VARIANT_NAME
-from cas_freq.exceptions import CasFreqError, ConfigError
-from cas_freq.fileio import read_input
-from cas_freq.parameters import base_values, unit_of
+from cas_freq.core.exceptions import CasFreqError, ConfigError
+from cas_freq.core.fileio import read_input
+from cas_freq.core.parameters import base_values, unit_of
 
 __all__ = ["NAME_PATTERN", "config_with_variant", "insert_variant", "si_text",
            "variant_entries"]

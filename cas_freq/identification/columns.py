@@ -3,7 +3,7 @@
 A header cell names a column and, optionally, its unit: in brackets or parentheses
 (``t [s]``, ``delta (deg)``, ``time [ms]``) or as a suffix after the last underscore
 (``time_s``, ``position_deg``, ``output_angle_rad``, ``current_a``). The names are matched
-without regard to case, the units by pint (:func:`cas_freq.units.to_si`), so ``t [us]`` or
+without regard to case, the units by pint (:func:`cas_freq.core.units.to_si`), so ``t [us]`` or
 ``delta [mrad]`` work as well; a unit of another dimension than the signal's is an error. A
 column without a unit is in the role's default unit (:data:`ROLES`). Cells that name no role are
 ignored (``theta [rad]``, ``omega [rad/s]``, ... of ``cas-freq simulate --csv``).
@@ -12,8 +12,8 @@ ignored (``theta [rad]``, ``omega [rad/s]``, ... of ``cas-freq simulate --csv``)
 import dataclasses
 import re
 
-from cas_freq.exceptions import listed
-from cas_freq.units import to_si
+from cas_freq.core.exceptions import listed
+from cas_freq.core.units import to_si
 
 #: role -> (accepted names, SI unit, default unit of a column without one, required).
 ROLES = {

@@ -2,7 +2,7 @@
 
 A model to fit is written ``[NAME:] KEY[=START],KEY[=START],...`` (the ``--params`` option):
 the dotted keys that are free (any numeric key the simulation reads, as a sweep varies it:
-:data:`cas_freq.parameters.VARIABLE_KEYS`, load and drivetrain keys, the filters' numbers
+:data:`cas_freq.core.parameters.VARIABLE_KEYS`, load and drivetrain keys, the filters' numbers
 ``filters.<i>.<name>`` and the no-load point included), each starting from the variant's value
 or from ``START`` (a number in the key's SI unit or a string with a unit, as ``--set`` takes
 it). A key the variant leaves at 0 or absent (``motor.coulomb_friction``, ``gear.stiffness``)
@@ -21,8 +21,8 @@ import re
 
 import numpy as np
 
-from cas_freq.exceptions import ConfigError
-from cas_freq.parameters import (
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.parameters import (
     CASCADE_PARAMETERS,
     LINEAR_PARAMETERS,
     base_values,
@@ -183,7 +183,7 @@ def _start(key, loop, config):
 
 def free_keys(spec, loop, variant="base", config=None):
     """The :class:`FreeKey` of each key of ``spec``, started from ``loop`` (one run's
-    :class:`~cas_freq.parameters.LoopParameters`, derived values resolved) or the spec's start;
+    :class:`~cas_freq.core.parameters.LoopParameters`, derived values resolved) or the spec's start;
     ``config`` (the validated config of ``loop``), when given, refuses a key its architecture
     does not have.
 

@@ -28,8 +28,8 @@ import math
 
 import numpy as np
 
+from cas_freq.core.units import registry
 from cas_freq.identification.free_keys import labels
-from cas_freq.units import registry
 
 #: Half-widths (of a coordinate) that separate the verdicts.
 WELL = math.log(1.1)

@@ -28,7 +28,8 @@ import math
 import numpy as np
 from scipy import optimize, stats
 
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.parameters import variant_parameters
 from cas_freq.identification.free_keys import free_keys, labels
 from cas_freq.identification.identifiability import (
     UNBOUNDED,
@@ -46,7 +47,6 @@ from cas_freq.identification.probe import (
     sum_factors,
 )
 from cas_freq.identification.replay import RecordingReplayer
-from cas_freq.parameters import variant_parameters
 
 #: Central-difference step of the fit coordinates (0.1 % of a positive key).
 RELATIVE_STEP = 1e-3

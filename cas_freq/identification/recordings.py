@@ -25,8 +25,8 @@ import statistics
 
 import numpy as np
 
-from cas_freq.exceptions import ConfigError
-from cas_freq.fileio import csv_row, read_input
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.fileio import csv_row, read_input
 from cas_freq.identification.columns import find_columns
 
 #: Fewest samples from the trigger on (a fit of three parameters needs some more than three).
@@ -88,8 +88,8 @@ class Recording:
 
 def _cells(path):
     """(line number, cells) of every non-comment, non-blank line of the CSV ``path``
-    (:func:`cas_freq.fileio.read_input`: a regular file of at most
-    :data:`~cas_freq.fileio.MAX_DATA_BYTES`)."""
+    (:func:`cas_freq.core.fileio.read_input`: a regular file of at most
+    :data:`~cas_freq.core.fileio.MAX_DATA_BYTES`)."""
     text = read_input(path, "recording")
     for number, line in enumerate(text.splitlines(), start=1):
         if not line.strip() or line.lstrip().startswith("#"):

@@ -15,7 +15,7 @@ import dataclasses
 
 import numpy as np
 
-from cas_freq.parameters import variant_parameters
+from cas_freq.core.parameters import variant_parameters
 from cas_freq.simulation.commands import Recorded, Step
 from cas_freq.simulation.simulator import loop_time_step, simulate_batch
 

@@ -13,7 +13,7 @@ import dataclasses
 
 import numpy as np
 
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
 from cas_freq.simulation.second_order import (
     MAX_FIT_POINTS,
     fit_second_order,

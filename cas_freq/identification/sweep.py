@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
 from cas_freq.identification.columns import accepted_names
 from cas_freq.identification.recordings import read_columns
 

@@ -14,7 +14,7 @@ class ActuatorLoops:
 
     Parameters
     ----------
-    params : cas_freq.config.ActuatorConfig or cas_freq.parameters.LoopParameters
+    params : cas_freq.config.ActuatorConfig or cas_freq.core.parameters.LoopParameters
         Validated parameters (SI) of one variant.
     delay : DelayModel, optional
         Exact delays (default) or Padé of some order.

@@ -19,7 +19,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
 
 #: Padé order used for rational models (poles, state space) when none is given.
 DEFAULT_PADE_ORDER = 6

@@ -22,11 +22,11 @@ import types
 import numpy as np
 from scipy.linalg import expm
 
-from cas_freq.exceptions import ConfigError
-from cas_freq.filters_config import ANALOG_POINTS, Filter
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.filters_config import ANALOG_POINTS, Filter
+from cas_freq.core.threads import one_blas_thread
 from cas_freq.model import parts
 from cas_freq.model.structure import SIGNALS, build, chain_state_space, filter_block, measured
-from cas_freq.threads import one_blas_thread
 
 #: A delay within this fraction of a whole number of periods counts as that number.
 WHOLE = 1e-9

@@ -23,7 +23,7 @@ import types
 
 import numpy as np
 
-from cas_freq.filters_config import Filter
+from cas_freq.core.filters_config import Filter
 from cas_freq.model.delay import EXACT
 from cas_freq.model.structure import build
 from cas_freq.model.table import Values, at_a_time, cascade, command, references, table, walk
@@ -45,7 +45,7 @@ class Selector:
 
     Parameters
     ----------
-    params : cas_freq.parameters.LoopParameters
+    params : cas_freq.core.parameters.LoopParameters
         All runs.
     """
 

@@ -24,18 +24,18 @@ With the derivative on the measurement, the command sees only :math:`K_p + K_i/s
 
 import numpy as np
 
-from cas_freq.parameters import LoopParameters
+from cas_freq.core.parameters import LoopParameters
 
 #: Below this many frequencies the plain Horner rule is faster (less Python overhead).
 _REAL_ARITHMETIC_FROM = 512
 
 
 def one_variant(params):
-    """One variant as :class:`~cas_freq.parameters.LoopParameters` of one run.
+    """One variant as :class:`~cas_freq.core.parameters.LoopParameters` of one run.
 
     Parameters
     ----------
-    params : cas_freq.config.ActuatorConfig or cas_freq.parameters.LoopParameters
+    params : cas_freq.config.ActuatorConfig or cas_freq.core.parameters.LoopParameters
         A validated config, or loop parameters of exactly one run.
     """
     if not isinstance(params, LoopParameters):

@@ -49,8 +49,8 @@ import math
 
 import numpy as np
 
-from cas_freq.exceptions import ConfigError
-from cas_freq.filters_config import Filter
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.filters_config import Filter
 from cas_freq.model import parts
 from cas_freq.model.hold import WHOLE, PlantModes, hold_equivalent, plant_modes
 from cas_freq.model.loops import LoopResponses

@@ -1,7 +1,7 @@
 r"""The loops of the declared structure closed in state space, continuous or sampled: one
 assembly for the poles of the stability verdicts (:mod:`cas_freq.analysis.stability`,
 :mod:`cas_freq.analysis.sampled_stability`), T's matrices and zeros and the python-control
-systems (:mod:`cas_freq.model.systems`).
+systems (:mod:`cas_freq.analysis.systems`).
 
 :func:`closings` walks the loops of :func:`cas_freq.model.structure.build` from the inside out.
 It starts from the plant (input V, outputs the signals of
@@ -34,6 +34,7 @@ import dataclasses
 import numpy as np
 from scipy.linalg import expm
 
+from cas_freq.core.threads import one_blas_thread
 from cas_freq.model import parts
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, pade_realization
 from cas_freq.model.hold import measured, with_analog_filters
@@ -45,7 +46,6 @@ from cas_freq.model.structure import (
     chain_state_space,
     digital_sensor,
 )
-from cas_freq.threads import one_blas_thread
 
 #: Output row of each measured signal in the assembled systems.
 SIGNAL_ROWS = {name: row for row, name in enumerate(SIGNALS)}
@@ -95,7 +95,7 @@ def closings(p, pade_order=DEFAULT_PADE_ORDER, loops=None, n=None, sampled=False
 
     Parameters
     ----------
-    p : cas_freq.parameters.LoopParameters
+    p : cas_freq.core.parameters.LoopParameters
         One run (``n`` None) or ``n`` runs that realise alike (:func:`run_groups`).
     pade_order : int
         Padé order n >= 1 of every delay (continuous).

@@ -61,7 +61,7 @@ import dataclasses
 
 import numpy as np
 
-from cas_freq.filters_config import ANALOG_POINTS, FILTERS
+from cas_freq.core.filters_config import ANALOG_POINTS, FILTERS
 from cas_freq.model import parts
 from cas_freq.model.parts import polyadd, polymul
 
@@ -86,7 +86,7 @@ class Block:
     Characteristic polynomials use it, so no spurious pole appears.
 
     ``analog``: a filter on a measurement before it is sampled
-    (:data:`cas_freq.filters_config.ANALOG_POINTS`); continuous even where the controllers are
+    (:data:`cas_freq.core.filters_config.ANALOG_POINTS`); continuous even where the controllers are
     sampled (:mod:`cas_freq.model.sampled` puts it in the plant's hold-equivalent).
     """
 
@@ -105,7 +105,7 @@ class Loop:
     ----------
     name : str
         Figure prefix (``"current_loop"``), the group of its figures in the JSON
-        (:data:`cas_freq.figures.LOOPS`).
+        (:data:`cas_freq.core.figures.LOOPS`).
     symbol : str
         Its loop transfer function's symbol (``"L_i"``), as docs/model.md and every table,
         figure and text name it.
@@ -248,7 +248,7 @@ def pid_controller(p, n):
 
 def filter_block(item):
     """A filter of the config's ``filters:`` list as a block: its type's transfer function,
-    1 at s = 0 (:data:`cas_freq.filters_config.FILTERS`; docs/model.md, "Filters")."""
+    1 at s = 0 (:data:`cas_freq.core.filters_config.FILTERS`; docs/model.md, "Filters")."""
     kind = FILTERS[item.kind]
     numerator, denominator = kind.transfer(item)
     return Block(kind.label, numerator, denominator)
@@ -341,7 +341,7 @@ def build(p):
 
     Parameters
     ----------
-    p : cas_freq.parameters.LoopParameters or types.SimpleNamespace
+    p : cas_freq.core.parameters.LoopParameters or types.SimpleNamespace
         Parameters broadcasting over runs (arrays (n,), columns (n, 1) or scalars).
 
     Returns

@@ -2,7 +2,7 @@
 
 Each module imports matplotlib itself, so importing this package imports nothing:
 
-- :mod:`cas_freq.plots.api`: the figures of the Python API's ``plot()`` methods;
+- :mod:`cas_freq.api.figures`: the figures of the Python API's ``plot()`` methods;
 - :mod:`cas_freq.plots.report`: the design-review report's figures;
 - :mod:`cas_freq.plots.loci`: its Nyquist plots and closed-loop pole-zero map;
 - :mod:`cas_freq.plots.common`: the fixed style and layout and the deterministic SVG/PNG writer

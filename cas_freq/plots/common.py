@@ -4,7 +4,7 @@ deterministic SVG/PNG writers (only :mod:`cas_freq.plots` imports matplotlib).
 
 The SVG files must not depend on the last bits of floating point (which differ between CPUs),
 so the plotted data are rounded to 6 significant digits (:func:`rounded`, i.e.
-:func:`cas_freq.report.numbers.round_array`) before they are drawn, and :func:`svg_text` rounds
+:func:`cas_freq.core.numbers.round_array`) before they are drawn, and :func:`svg_text` rounds
 every coordinate in the SVG to 0.01 pt and renames matplotlib's content-hash ids (see
 :func:`tidy_svg`).
 """
@@ -23,7 +23,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import Locator, LogFormatterSciNotation
 
 from cas_freq.config.wording import OutputWords
-from cas_freq.report.numbers import round_array
+from cas_freq.core.numbers import round_array
 
 #: Style of every figure (and of the SVG writer): fixed, so output does not depend on a user's
 #: matplotlibrc.

@@ -9,7 +9,7 @@ Plotted data are rounded as every report figure (:func:`cas_freq.plots.common.ro
 
 import numpy as np
 
-from cas_freq.figures import FIGURES, loop_label
+from cas_freq.core.figures import FIGURES, loop_label
 from cas_freq.plots.common import Margins, figure, legend_room_right, rounded
 
 #: (figure key, legend label, panel) of the plotted series: the figure table's labels and

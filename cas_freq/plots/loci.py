@@ -19,18 +19,18 @@ the engine's, read from ``data.analysis``. What is drawn from them:
   outside of a circle; it is then not drawn (and said so).
 - **Pole-zero map**: the engine's poles of T (:attr:`cas_freq.analysis.Stability.poles`, the
   Padé model of the stability verdict) and the zeros of T of the same Padé order
-  (:func:`cas_freq.model.systems.closed_loop_zeros`, python-control's ``zeros`` of that T).
+  (:func:`cas_freq.analysis.systems.closed_loop_zeros`, python-control's ``zeros`` of that T).
 """
 
 import math
 
 import numpy as np
 
-from cas_freq.figures import FIGURES
+from cas_freq.analysis.systems import closed_loop_zeros as zeros
+from cas_freq.core.figures import FIGURES
 from cas_freq.model import parts
 from cas_freq.model.loops import Selector
 from cas_freq.model.sampled import drive_responses as responses
-from cas_freq.model.systems import closed_loop_zeros as zeros
 from cas_freq.plots.common import EXACT, Margins, legend_room_below, legend_room_right, loop_color
 from cas_freq.plots.common import figure as _figure
 from cas_freq.plots.common import rounded as _r

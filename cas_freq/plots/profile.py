@@ -18,7 +18,7 @@ def profile_figure(run, figure_class=Figure):
 
     Parameters
     ----------
-    run : cas_freq.simulation.profile_run.ProfileRun
+    run : cas_freq.studies.profile_run.ProfileRun
         The move, simulated with and without feed-forward.
     figure_class : type
         The :class:`matplotlib.figure.Figure` (sub)class to build.

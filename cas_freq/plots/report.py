@@ -7,7 +7,7 @@ are built without pyplot (no global figure registry to leak), on the Agg backend
 
 The SVG files must not depend on the last bits of floating point (which differ between CPUs),
 so the plotted data are rounded to 6 significant digits (:func:`_r`, i.e.
-:func:`cas_freq.report.numbers.round_array`) before they are drawn, and :func:`svg_text` rounds
+:func:`cas_freq.core.numbers.round_array`) before they are drawn, and :func:`svg_text` rounds
 every coordinate in the SVG to 0.01 pt and renames matplotlib's content-hash ids (both in
 :mod:`cas_freq.plots.common`, re-exported here). The Nyquist and pole-zero figures are in
 :mod:`cas_freq.plots.loci`.
@@ -23,9 +23,9 @@ from matplotlib.ticker import MultipleLocator
 from cas_freq.analysis.frequency import continuous_phase
 from cas_freq.analysis.rate_envelope import rate_envelope
 from cas_freq.config.wording import common_output_label
-from cas_freq.figures import FIGURES
-from cas_freq.output import output_unit
-from cas_freq.parameters import LoopParameters
+from cas_freq.core.figures import FIGURES
+from cas_freq.core.output import output_unit
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.plots import loci
 from cas_freq.plots.common import (  # noqa: F401  (svg_text, png_bytes, tidy_svg re-exported)
     EXACT,

@@ -9,7 +9,7 @@ import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from cas_freq.parameters import current_limit
+from cas_freq.core.parameters import current_limit
 from cas_freq.plots.common import Margins, legend_below
 from cas_freq.plots.common import figure as _figure
 from cas_freq.plots.common import output_symbol as _symbol

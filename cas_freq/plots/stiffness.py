@@ -9,10 +9,10 @@ continuous loops' (the title says so).
 import numpy as np
 
 from cas_freq.config.wording import OutputWords
+from cas_freq.core.output import output_unit
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.model.disturbance import load_response
 from cas_freq.model.loops import Selector
-from cas_freq.output import output_unit
-from cas_freq.parameters import LoopParameters
 from cas_freq.plots.common import EXACT, Margins, plain_log_labels
 from cas_freq.plots.common import figure as _figure
 from cas_freq.plots.common import rounded as _r

@@ -6,7 +6,7 @@ computed, :class:`~cas_freq.report.rendering.FigureRenderer`), lays out the cont
 (:mod:`cas_freq.report.document`) and renders them as Markdown and self-contained HTML; the
 folder is written atomically (:mod:`cas_freq.report.outdir`). The same input gives the same
 bytes in every file on one machine; every number is written at a stated precision
-(:mod:`cas_freq.report.numbers`), so other machines differ at most in a last rounded digit.
+(:mod:`cas_freq.core.numbers`), so other machines differ at most in a last rounded digit.
 """
 
 import hashlib
@@ -19,10 +19,11 @@ from pathlib import Path
 from cas_freq.analysis.limit_cycles import report_sentence
 from cas_freq.analysis.rate_envelope import envelope_lines
 from cas_freq.config.wording import OutputWords
-from cas_freq.exceptions import CasFreqError
-from cas_freq.figures import FIGURES
-from cas_freq.output import output_json, output_unit
-from cas_freq.parameters import current_limit
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.figures import FIGURES
+from cas_freq.core.numbers import JSON_DIGITS, number, rounded_json
+from cas_freq.core.output import output_json, output_unit
+from cas_freq.core.parameters import current_limit
 from cas_freq.report import html, markdown
 from cas_freq.report.data import (
     SINEDWELL_FIGURES,
@@ -43,14 +44,13 @@ from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
 from cas_freq.report.drivetrain import drivetrain_blocks
 from cas_freq.report.envelope import envelope_job, envelope_section, envelope_variants
 from cas_freq.report.nonlinear import nonlinear_elements
-from cas_freq.report.numbers import JSON_DIGITS, number, rounded_json
 from cas_freq.report.outdir import sanitise_name, write_directory_atomic
 from cas_freq.report.parameter_table import parameter_table
 from cas_freq.report.profile import profile_section
 from cas_freq.report.rendering import FIGURE_WORKERS, FigureRenderer, render_figures
 from cas_freq.report.text import pade_columns
 from cas_freq.report.workers import prepare_kernels
-from cas_freq.simulation.run import diverged_at
+from cas_freq.studies.run import diverged_at
 
 #: Folder that holds the reports by default (relative to the working directory).
 REPORTS_DIR = Path("reports")
@@ -66,8 +66,8 @@ def default_report_dir(config_name):
 
 def results_json(value):
     """Strict JSON text (no NaN), indented, ending with a newline; every float rounded to
-    :data:`~cas_freq.report.numbers.JSON_DIGITS` significant digits, 0 when numerically zero
-    (:func:`cas_freq.report.numbers.rounded_json`)."""
+    :data:`~cas_freq.core.numbers.JSON_DIGITS` significant digits, 0 when numerically zero
+    (:func:`cas_freq.core.numbers.rounded_json`)."""
     return json.dumps(rounded_json(value, JSON_DIGITS), indent=2, allow_nan=False,
                       ensure_ascii=False) + "\n"
 
@@ -219,7 +219,7 @@ def _limits_text(step):
 
 
 def analysis_loops(analysis):
-    """(key of :data:`~cas_freq.figures.LOOPS`, symbol, break point, margins) of every loop of
+    """(key of :data:`~cas_freq.core.figures.LOOPS`, symbol, break point, margins) of every loop of
     an analysis, innermost first, then each inner loop with every other loop closed. The
     symbols and break points are the loop structure's
     (:func:`cas_freq.model.structure.build`: a cascade's position loop is broken at the

@@ -4,13 +4,13 @@ First the config parameters that differ between the variants (:func:`parameter_d
 in the units the config writes them), then overlaid Bode, step and bandwidth-versus-amplitude
 figures, the requirement verdict matrix, and a table of every numeric figure per variant with
 its difference to the first (the baseline), each row a readable label in engineering units
-(the figure table, :data:`cas_freq.figures.FIGURES`); written as index.html, report.md and
+(the figure table, :data:`cas_freq.core.figures.FIGURES`); written as index.html, report.md and
 results.json (atomically, like ``report``). results.json keeps the machine-readable keys in SI
 (``analyze.current_loop.delay_margin_s``); only the human tables carry labels and display
 units.
 
 A difference is that of the two figures as results.json writes them (6 significant digits,
-:mod:`cas_freq.report.numbers`); in the table it is 0 when below the table's 5 significant
+:mod:`cas_freq.core.numbers`); in the table it is 0 when below the table's 5 significant
 digits of the figures, never the noise of their last bits.
 """
 
@@ -20,10 +20,12 @@ from pathlib import Path
 
 from cas_freq.config import read_config_file
 from cas_freq.config.wording import common_output_label, name_the_output
-from cas_freq.exceptions import CasFreqError
-from cas_freq.figures import FIGURES, LOOPS, loop_label
-from cas_freq.output import LENGTH, output_json, output_unit
-from cas_freq.parameters import PARAMETERS, parameter
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.figures import FIGURES, LOOPS, loop_label
+from cas_freq.core.numbers import JSON_DIGITS, difference, difference_value, number
+from cas_freq.core.output import LENGTH, output_json, output_unit
+from cas_freq.core.parameters import PARAMETERS, parameter
+from cas_freq.core.units import parse_unit, registry, split_quantity
 from cas_freq.report import html, markdown
 from cas_freq.report.build import REPORTS_DIR, results_json
 from cas_freq.report.data import (
@@ -35,9 +37,7 @@ from cas_freq.report.data import (
     variant_results,
 )
 from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
-from cas_freq.report.numbers import JSON_DIGITS, difference, difference_value, number
 from cas_freq.report.outdir import MAX_NAME_LENGTH, sanitise_name, write_directory_atomic
-from cas_freq.units import parse_unit, registry, split_quantity
 
 #: Keys of the analyze JSON that are identity or bookkeeping, not figures.
 _NOT_FIGURES = {"config", "config_path", "variant", "overrides", "delay_model", "notes",
@@ -201,7 +201,7 @@ def display_units(key, variants, units):
 
 def in_unit(value, key, unit, config=None):
     """An SI ``value`` [the SI unit of ``key`` in ``config``'s architecture,
-    :func:`~cas_freq.parameters.parameter`] converted to ``unit`` (text as configs write
+    :func:`~cas_freq.core.parameters.parameter`] converted to ``unit`` (text as configs write
     units)."""
     quantity = registry().Quantity(value, parameter(key, config).unit)
     return float(quantity.to(parse_unit(unit)).magnitude)

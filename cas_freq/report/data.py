@@ -2,7 +2,7 @@
 
 :func:`gather_variant` runs the frequency analysis (exact delays, with the Padé-vs-exact table),
 evaluates the loops on a plotting grid, runs **one** sine-dwell batch (which also simulates the
-nonlinear step of every amplitude, :func:`cas_freq.simulation.run.sinedwell_run`), and the
+nonlinear step of every amplitude, :func:`cas_freq.studies.run.sinedwell_run`), and the
 linear step of the Padé model. :func:`variant_results` turns it into the JSON of
 ``results.json``: the same dicts as ``analyze --json``, ``simulate --json``,
 ``sinedwell --json`` and ``verify`` (the requirement verdicts).
@@ -14,15 +14,17 @@ from pathlib import Path
 
 import numpy as np
 
-from cas_freq.exceptions import CasFreqError
-from cas_freq.figures import FIGURES
-from cas_freq.fileio import json_ready
+from cas_freq.analysis import analyze, to_dict
+from cas_freq.analysis.frequency import frequency_grid
+from cas_freq.analysis.systems import closed_loop_matrices, closed_loop_zeros
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.figures import FIGURES
+from cas_freq.core.fileio import json_ready
+from cas_freq.core.threads import one_blas_thread
 from cas_freq.model import ActuatorLoops, parts
 from cas_freq.model.loops import Selector
 from cas_freq.model.sampled import drive_responses
 from cas_freq.model.structure import build
-from cas_freq.model.systems import closed_loop_matrices, closed_loop_zeros
-from cas_freq.simulation.run import sinedwell_run, sinedwell_run_dict, step_run_dict
 
 # the sine-dwell grid rule, one for every command (re-exported)
 from cas_freq.simulation.sinedwell import (  # noqa: F401
@@ -32,7 +34,7 @@ from cas_freq.simulation.sinedwell import (  # noqa: F401
     dwell_frequencies,
 )
 from cas_freq.simulation.step_figures import step_figures
-from cas_freq.threads import one_blas_thread
+from cas_freq.studies.run import sinedwell_run, sinedwell_run_dict, step_run_dict
 from cas_freq.verify import verdict_dict, verify_variant
 
 #: Default sine-dwell amplitudes at the output [deg]: small signal (no limit acts), two
@@ -214,7 +216,7 @@ class VariantData:
     analysis : cas_freq.analysis.Analysis
         Exact-delay figures, with the Padé-vs-exact table.
     curves : Curves
-    dwell : cas_freq.simulation.run.SineDwellRun or None
+    dwell : cas_freq.studies.run.SineDwellRun or None
         Sine-dwell per amplitude and the nonlinear step of each amplitude (None in the
         frequency-domain part, :func:`gather_frequency`).
     linear_steps : tuple of numpy.ndarray
@@ -230,7 +232,7 @@ class VariantData:
         Requirement verdicts of this variant; None when they were not evaluated.
     closed_loop_zeros : numpy.ndarray or None
         Zeros of T [rad/s] with Padé delays of the stability verdict's order
-        (:func:`cas_freq.model.systems.closed_loop_zeros`), computed with the time-domain part
+        (:func:`cas_freq.analysis.systems.closed_loop_zeros`), computed with the time-domain part
         (None before it).
     """
 
@@ -302,8 +304,6 @@ def curves(params, frequency_range_rad_s, points_per_decade):
     -------
     Curves
     """
-    from cas_freq.analysis.frequency import frequency_grid
-
     loops = ActuatorLoops(params)
     omega = frequency_grid(*frequency_range_rad_s, points_per_decade, loops.total_delay)
     found = drive_responses(Selector(loops.params)(), 1j * omega, loop_at_a_time=True)
@@ -369,7 +369,7 @@ def unit_step_response(system, n_steps, dt):
 
     Parameters
     ----------
-    system : cas_freq.model.systems.ClosedLoopMatrices
+    system : cas_freq.analysis.systems.ClosedLoopMatrices
         One input and one output (``a, b, c, d``); continuous-time (``period`` None), or
         discrete-time (sampled controllers: its output samples, each held until the next, on
         the grid).
@@ -435,8 +435,8 @@ def linear_steps(params, times, amplitudes_rad, pade_order, closed=None):
         Each step's size at the output [rad].
     pade_order : int
         Padé order of both delays.
-    closed : cas_freq.model.systems.ClosedLoopMatrices, optional
-        T of ``params`` at ``pade_order`` (:func:`~cas_freq.model.systems.closed_loop_matrices`)
+    closed : cas_freq.analysis.systems.ClosedLoopMatrices, optional
+        T of ``params`` at ``pade_order`` (:func:`~cas_freq.analysis.systems.closed_loop_matrices`)
         when already built.
 
     Returns
@@ -518,8 +518,6 @@ def gather_frequency(loaded, settings=ReportSettings()):
     Padé-vs-exact table) and the loops on the plotting grid; no simulation yet (``dwell`` None,
     no linear steps, ``verdicts`` None), which :func:`gather_time` adds. Enough for the figures
     drawn from the frequency responses alone, which can be drawn meanwhile."""
-    from cas_freq.analysis import analyze
-
     analysis = analyze(loaded, pade_orders=settings.pade_order)
     curve_range = settings.curve_range_rad_s or loop_frequency_range(analysis)
     return VariantData(
@@ -700,8 +698,6 @@ def variant_results(data):
     declares one).
     """
     import dataclasses as dc
-
-    from cas_freq.analysis import to_dict
 
     shown = display_path(data.loaded.source)
     steps = data.dwell.steps

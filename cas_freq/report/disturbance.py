@@ -3,8 +3,8 @@ flight-control system sees" of a control surface): the dynamic stiffness, the co
 the encoder noise's current (docs/model.md §15) as a small table, with the stiffness figure."""
 
 from cas_freq.config.wording import OutputWords
+from cas_freq.core.numbers import number
 from cas_freq.report.document import Heading, Paragraph, Table
-from cas_freq.report.numbers import number
 
 
 def disturbance_blocks(data, figure=None):

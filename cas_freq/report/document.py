@@ -4,14 +4,14 @@ The content of a report is built once (:mod:`cas_freq.report.build`,
 :mod:`cas_freq.report.compare`) as :class:`Heading`, :class:`Paragraph`, :class:`Bullets`,
 :class:`Table` and :class:`Figure` blocks; :mod:`cas_freq.report.markdown` and
 :mod:`cas_freq.report.html` only render them, so both files always say the same. Figures are
-formatted with :func:`cas_freq.report.numbers.number` (a stated precision, 0 for numerically
+formatted with :func:`cas_freq.core.numbers.number` (a stated precision, 0 for numerically
 zero, "—" for absent).
 """
 
 import dataclasses
 import re
 
-from cas_freq.report.numbers import difference, number  # noqa: F401  (re-exported)
+from cas_freq.core.numbers import difference, number  # noqa: F401  (re-exported)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -7,10 +7,10 @@ figures beside the linear ones are read as what they are).
 
 import math
 
-from cas_freq.figures import FIGURES
-from cas_freq.output import output_unit
+from cas_freq.core.figures import FIGURES
+from cas_freq.core.numbers import number
+from cas_freq.core.output import output_unit
 from cas_freq.report.document import Paragraph, Table
-from cas_freq.report.numbers import number
 
 
 def _modes(modes):

@@ -10,11 +10,11 @@ import math
 
 import numpy as np
 
-from cas_freq.figures import FIGURES, loop_label
+from cas_freq.core.figures import FIGURES, loop_label
+from cas_freq.core.numbers import number
+from cas_freq.core.threads import result_of
 from cas_freq.report.document import Bullets, Figure, Heading, Paragraph, Table
-from cas_freq.report.numbers import number
 from cas_freq.report.outdir import sanitise_name
-from cas_freq.threads import result_of
 
 #: Most rows of an envelope table (the figure shows every grid point).
 TABLE_ROWS = 17

@@ -9,7 +9,7 @@ the Padé approximation of the delays is left.
 
 import math
 
-from cas_freq.sampling_config import rates_text
+from cas_freq.core.sampling_config import rates_text
 
 
 def nonlinear_elements(params, loaded):

@@ -25,7 +25,7 @@ import sys
 import tempfile
 from pathlib import Path, PurePosixPath
 
-from cas_freq.exceptions import CasFreqError
+from cas_freq.core.exceptions import CasFreqError
 
 #: Longest folder name made from a config name.
 MAX_NAME_LENGTH = 100
@@ -112,7 +112,7 @@ def check_output_dir(target, option="-o"):
     """Check before any work that ``target`` can be written as a report folder.
 
     Cleans up after a killed earlier run (:func:`recover`), then raises
-    :class:`~cas_freq.exceptions.CasFreqError` (one line naming ``option``, the folder and the
+    :class:`~cas_freq.core.exceptions.CasFreqError` (one line naming ``option``, the folder and the
     problem) for: a symbolic link, a file, a non-empty folder cas-freq did not write, an existing
     report with a read-only folder inside (it could not be removed), and a parent that is not a
     folder or not writable. Returns ``target`` as a Path.

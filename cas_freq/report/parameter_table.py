@@ -1,17 +1,17 @@
 """The report's parameter table: every variant's parameters, labelled and in the units of the
-parameter table (:data:`cas_freq.parameters.PARAMETERS`), in the config's architecture (a
+parameter table (:data:`cas_freq.core.parameters.PARAMETERS`), in the config's architecture (a
 cascade's position gains per second, a linear output's loads in SI lengths, the filters)."""
 
 import math
 import re
 
 from cas_freq.config.wording import name_the_output
-from cas_freq.parameters import base_values, is_cascade
-from cas_freq.parameters import parameter as record
+from cas_freq.core.numbers import number
+from cas_freq.core.parameters import base_values, is_cascade
+from cas_freq.core.parameters import parameter as record
 from cas_freq.report.document import Table
-from cas_freq.report.numbers import number
 
-#: The parameter table's config keys (:data:`~cas_freq.parameters.PARAMETERS`, whose labels
+#: The parameter table's config keys (:data:`~cas_freq.core.parameters.PARAMETERS`, whose labels
 #: and units they are shown with), in the report's order.
 _PARAMETER_KEYS = (
     "motor.R", "motor.L", "motor.Km", "motor.Ke", "motor.J", "motor.mu_v", "gear.ratio",
@@ -21,7 +21,7 @@ _PARAMETER_KEYS = (
 )
 
 #: The same for a drive with a velocity loop (P/PI position -> PI velocity -> PI current;
-#: :data:`~cas_freq.parameters.CASCADE_PARAMETERS` gives the position keys' units); the
+#: :data:`~cas_freq.core.parameters.CASCADE_PARAMETERS` gives the position keys' units); the
 #: filters' numbers follow either (:func:`_filter_rows`).
 _CASCADE_PARAMETER_KEYS = (
     "motor.R", "motor.L", "motor.Km", "motor.Ke", "motor.J", "motor.mu_v", "gear.ratio",
@@ -60,7 +60,7 @@ _EFFECTIVE = {
     "gear.backdrive_efficiency": lambda p: p.gear.backdrive,
 }
 
-#: How an SI unit of :data:`~cas_freq.parameters.PARAMETERS` is shown: (unit, factor from SI);
+#: How an SI unit of :data:`~cas_freq.core.parameters.PARAMETERS` is shown: (unit, factor from SI);
 #: a unit not listed is shown as pint spells it with ``·`` and ``²``.
 _SHOWN_UNITS = {"ohm": ("Ω", 1.0), "H": ("mH", 1e3), "s": ("ms", 1e3),
                 "rad": ("deg", 180.0 / math.pi), "dimensionless": ("-", 1.0),
@@ -76,7 +76,7 @@ _SYMBOLS = {"mu_v": "μv", "eta": "η", "eta_b": "η_b", "tau_c": "τc", "tau_p"
 
 def parameter_row_head(key, output, config=None):
     """(label, shown unit, factor from SI) of a parameter: its label and unit from
-    :data:`~cas_freq.parameters.PARAMETERS` (in ``config``'s architecture and output kind: a
+    :data:`~cas_freq.core.parameters.PARAMETERS` (in ``config``'s architecture and output kind: a
     cascade's position gains per second, a linear output's loads in SI lengths; a filter's
     numbers; ``+/-`` as ``±``), "the output" named as the config names it."""
     parameter = record(key, config)

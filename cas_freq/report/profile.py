@@ -6,13 +6,13 @@ No matplotlib here but in :func:`profile_figure_svg`, which imports it when it d
 
 import math
 
-from cas_freq.figures import FIGURES
-from cas_freq.output import output_unit
+from cas_freq.core.figures import FIGURES
+from cas_freq.core.numbers import number
+from cas_freq.core.output import output_unit
 from cas_freq.report.document import Figure, Heading, Paragraph, Table
-from cas_freq.report.numbers import number
 from cas_freq.report.outdir import sanitise_name
 from cas_freq.simulation.commands import condition_profile
-from cas_freq.simulation.profile_run import (
+from cas_freq.studies.profile_run import (
     move_dict,
     profile_condition_text,
     profile_run_dict,
@@ -34,7 +34,7 @@ def _limit(flag):
 
 
 #: The figures of the table, by their name under ``profile.`` in the figure table
-#: (:data:`~cas_freq.figures.FIGURES`, which gives their labels and units), in order.
+#: (:data:`~cas_freq.core.figures.FIGURES`, which gives their labels and units), in order.
 _ROW_FIGURES = (
     "tracking_error_max_deg", "tracking_error_max_time_s", "tracking_error_rms_deg",
     "overshoot_pct", "settling_time_s", "settling_time_5pct_s", "arrival_time_s",
@@ -91,7 +91,7 @@ def move_text(run):
 
 
 def profile_table(run):
-    """Multi-line summary of a :class:`~cas_freq.simulation.profile_run.ProfileRun`."""
+    """Multi-line summary of a :class:`~cas_freq.studies.profile_run.ProfileRun`."""
     r = run.result
     head = f"{run.config} / {run.variant}"
     if run.overrides:

@@ -6,9 +6,9 @@ The workers' life (signals, ending with this process) is :mod:`cas_freq.report.w
 
 import sys
 
+from cas_freq.core.threads import result_of
 from cas_freq.report.data import SINEDWELL_FIGURES, not_computed
 from cas_freq.report.workers import fork_pool, stop_pool
-from cas_freq.threads import result_of
 
 #: Worker processes that draw a report's figures (while the next variant is computed); 1 draws
 #: them in the calling process. Two: matplotlib draws on one core, and the project's machine has

@@ -1,15 +1,15 @@
 """Readable plain-text tables of analysis results (no matplotlib).
 
-Figures are written with :func:`cas_freq.report.numbers.number`: 4 significant digits, 0 when
+Figures are written with :func:`cas_freq.core.numbers.number`: 4 significant digits, 0 when
 numerically zero (a fitted delay of 3e-48 ms is 0 ms), "—" when absent.
 """
 
 import math
 
 from cas_freq.config.wording import GENERIC, OutputWords
-from cas_freq.figures import FIGURES
-from cas_freq.output import ANGLE, output_unit
-from cas_freq.report.numbers import number
+from cas_freq.core.figures import FIGURES
+from cas_freq.core.numbers import number
+from cas_freq.core.output import ANGLE, output_unit
 
 
 def _fmt(value, unit="", digits=4):
@@ -18,7 +18,7 @@ def _fmt(value, unit="", digits=4):
 
 def _figure_line(key, value, tail="", indent=4):
     """``    label               value unit`` of a figure of the figure table
-    (:data:`~cas_freq.figures.FIGURES`: label, shown unit and factor), then ``tail``."""
+    (:data:`~cas_freq.core.figures.FIGURES`: label, shown unit and factor), then ``tail``."""
     return f"{' ' * indent}{FIGURES[key].label:<{_WIDTH}} {shown_text(key, value)}{tail}"
 
 
@@ -37,7 +37,7 @@ def _crossover_lines(key, margins):
     """The headline gain crossover (smallest |phase margin|) with its own phase and delay margin;
     with several crossovers, each other one with its margins, then the smallest delay margin
     with the crossover it belongs to (it need not be the headline one). ``key``: the loop's
-    group of :data:`~cas_freq.figures.FIGURES`."""
+    group of :data:`~cas_freq.core.figures.FIGURES`."""
     crossovers = margins.gain_crossovers
     headline = [c for c in crossovers if c.frequency_rad_s == margins.crossover_rad_s]
     own = headline[0].delay_margin_s if headline else margins.delay_margin_s
@@ -232,7 +232,7 @@ def analysis_table(analysis):
 
 
 def _limit_text(t, active):
-    from cas_freq.simulation.run import limit_activity
+    from cas_freq.studies.run import limit_activity
 
     activity = limit_activity(t, active)
     if activity["first_s"] is None:
@@ -243,20 +243,20 @@ def _limit_text(t, active):
 
 def _sampled_controllers(result):
     """``; controllers sampled (...)`` for a run with sampled controllers, else nothing."""
-    from cas_freq.simulation.run import controllers_text
+    from cas_freq.studies.run import controllers_text
 
     text = controllers_text(result)
     return "" if text == "continuous" else f"; controllers {text}"
 
 
 def step_table(run):
-    """Multi-line summary of a :class:`cas_freq.simulation.run.StepRun`."""
+    """Multi-line summary of a :class:`cas_freq.studies.run.StepRun`."""
     step, fit, result = run.step, run.fit, run.result
     head = f"{run.config} / {run.variant}"
     if run.overrides:
         head += " with " + ", ".join(run.overrides)
     settled = "settled" if result.settled else "NOT settled"
-    from cas_freq.simulation.run import diverged_at
+    from cas_freq.studies.run import diverged_at
 
     warning = []
     diverged = diverged_at(run)
@@ -295,7 +295,7 @@ def step_table(run):
 
 def _amplitude(entry):
     """An amplitude of a sine-dwell dict as text: ``amplitude_deg``, or ``amplitude_mm`` at a
-    linear output (:func:`cas_freq.output.output_json`)."""
+    linear output (:func:`cas_freq.core.output.output_json`)."""
     if "amplitude_mm" in entry:
         return _fmt(entry["amplitude_mm"], "mm")
     return _fmt(entry["amplitude_deg"], "deg")
@@ -422,8 +422,8 @@ def _reference_line(bench):
 
 
 def command_table(run):
-    """Multi-line summary of a :class:`cas_freq.simulation.run.CommandRun`."""
-    from cas_freq.simulation.run import command_run_dict
+    """Multi-line summary of a :class:`cas_freq.studies.run.CommandRun`."""
+    from cas_freq.studies.run import command_run_dict
 
     data = command_run_dict(run)
     head = f"{run.config} / {run.variant}"

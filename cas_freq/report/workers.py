@@ -38,11 +38,11 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from cas_freq.analysis import batch_analyze
-from cas_freq.jit import use_compiled
-from cas_freq.parameters import LoopParameters
+from cas_freq.core.jit import use_compiled
+from cas_freq.core.parameters import LoopParameters
+from cas_freq.core.threads import result_of, worker_threads
 from cas_freq.report.envelope import envelope_variants
 from cas_freq.simulation.simulator import prepare_kernels as prepare_simulation
-from cas_freq.threads import result_of, worker_threads
 
 #: ``prctl`` option that sets the signal a process gets when its parent dies (linux/prctl.h).
 PR_SET_PDEATHSIG = 1

@@ -6,11 +6,11 @@
   (``simulate_batch(..., engine="reference")`` or ``CAS_FREQ_ENGINE=reference``);
 - :mod:`~cas_freq.simulation.commands`: output-angle commands (step, ramp, sine, chirp, CSV table,
   trapezoidal profile move);
-- :class:`LoopParameters` (of :mod:`cas_freq.parameters`, re-exported): loop parameters of a
+- :class:`LoopParameters` (of :mod:`cas_freq.core.parameters`, re-exported): loop parameters of a
   batch of runs;
 - :mod:`~cas_freq.simulation.simulator`: :func:`simulate` and :func:`simulate_batch`;
 - :mod:`~cas_freq.simulation.step_figures`: rise, overshoot, settling, peak, limits;
-- :mod:`~cas_freq.simulation.profile_figures` and :mod:`~cas_freq.simulation.profile_run`: a
+- :mod:`~cas_freq.simulation.profile_figures` and :mod:`~cas_freq.studies.profile_run`: a
   profile move's tracking error, overshoot, settling, with and without feed-forward;
 - :mod:`~cas_freq.simulation.second_order`: the report's §7 second-order-plus-delay fit, of one
   response or many at once.
@@ -18,7 +18,7 @@
 Nothing here imports python-control or matplotlib.
 """
 
-from cas_freq.parameters import LoopParameters
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.simulation.commands import (
     Chirp,
     Profile,

@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cas_freq.exceptions import ConfigError
-from cas_freq.fileio import csv_row, read_input
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.fileio import csv_row, read_input
 
 
 def _since(t, start):
@@ -508,7 +508,7 @@ def read_angle_series_csv(path, negative_times=False, what="CSV file"):
     negative_times : bool
         Accept times before 0 (a measured response with pre-trigger samples).
     what : str
-        What the file is, for messages (:func:`cas_freq.fileio.read_input`).
+        What the file is, for messages (:func:`cas_freq.core.fileio.read_input`).
 
     Returns
     -------

@@ -12,7 +12,7 @@ they take well under a millisecond, against ~10 ms for the per-run numpy figures
 for the numpy settling check over the whole horizon (which scans every sample; this one scans
 each run backwards from its end and stops at its first sample outside the band).
 
-Each kernel has one signature (:func:`~cas_freq.jit.cached_jit`'s ``arguments``): arrays of any
+Each kernel has one signature (:func:`~cas_freq.core.jit.cached_jit`'s ``arguments``): arrays of any
 layout, read-only or not, so that a batch's whole buffers and views of their first columns
 share one machine code.
 """
@@ -22,7 +22,7 @@ import math
 import numpy as np
 from numba import types
 
-from cas_freq.jit import array_type, cached_jit
+from cas_freq.core.jit import array_type, cached_jit
 from cas_freq.simulation.step_figures import DIVERGED
 
 #: Columns of :func:`step_figures_batch`'s table (the ``step.*`` figures of ``simulate``).

@@ -26,8 +26,8 @@ import math
 import numpy as np
 from numba import types
 
-from cas_freq.formulas import _FTOL, _LOWER, _MOVE, C_SERIES, D_SERIES, S_SERIES
-from cas_freq.jit import array_type, cached_jit
+from cas_freq.core.formulas import _FTOL, _LOWER, _MOVE, C_SERIES, D_SERIES, S_SERIES
+from cas_freq.core.jit import array_type, cached_jit
 
 try:  # numba's own helper for LAPACK's dgesv (what its np.linalg.solve calls): not public API
     from numba.np.linalg import _LAPACK, F_INT_nptype
@@ -255,7 +255,7 @@ def lm_trials(t, unit, active, p, cost, normal, gradient, damping, scale, upper,
         Each run's λ (k,).
     scale, upper : numpy.ndarray
         Scales and upper bounds of the scaled variables (k, 3); the lower bounds are
-        ``cas_freq.formulas._LOWER``.
+        ``cas_freq.core.formulas._LOWER``.
     trial, step, normal_new, gradient_new : numpy.ndarray
         Written, row a for active run a: the trial point, the step to it (n, 3), J^T J
         (n, 3, 3) and J^T r (n, 3) there.

@@ -50,7 +50,7 @@ as with the reference engine. Functions are compiled with ``cache=True``: the fi
 fresh environment compiles them (10 to 30 s on a 2-core machine); later processes load the
 machine code from numba's cache (about 0.2 s, plus 0.2 s to import numba). The cache sits next
 to this file, or in ``NUMBA_CACHE_DIR``, or, if this directory is not writable, in a per-user
-folder (:func:`cas_freq.jit.configure_cache`); where no place is writable, the functions are
+folder (:func:`cas_freq.core.jit.configure_cache`); where no place is writable, the functions are
 compiled in each process. The
 functions that advance a batch release the GIL (``nogil``): another thread of the process (the
 second-order fits of :func:`~cas_freq.studies.steps.batch_steps`) runs while they do.
@@ -62,7 +62,7 @@ import numba
 import numpy as np
 from numba import prange
 
-from cas_freq.jit import cached_jit as _jit
+from cas_freq.core.jit import cached_jit as _jit
 from cas_freq.simulation import architecture as arch
 from cas_freq.simulation import mechanics as mech
 from cas_freq.simulation.controllers import check_method, derivative_filter

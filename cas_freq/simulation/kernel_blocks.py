@@ -8,7 +8,7 @@ into the kernel's loop (``inline="always"``). Split from ``kernel.py``, which ke
 over the steps and the tables.
 """
 
-from cas_freq.jit import cached_jit as _jit
+from cas_freq.core.jit import cached_jit as _jit
 from cas_freq.simulation import architecture as arch
 from cas_freq.simulation import mechanics as mech
 

@@ -97,8 +97,8 @@ reference, the kernel's scalar code) perform these operations in this order.
 import numpy as np
 from scipy.linalg import expm
 
+from cas_freq.core.threads import one_blas_thread
 from cas_freq.model.parts import plant_matrices
-from cas_freq.threads import one_blas_thread
 
 #: Mode indices: engaged with the motor driving, engaged with the fin driving, inside the play,
 #: the motor's shaft held at rest by the gear.
@@ -134,7 +134,7 @@ def distinct_exponentials(matrices):
     A sine-dwell batch repeats one plant over hundreds of runs; scipy's expm works matrix by
     matrix, so the result is the same to the bit, and each exponential costs several BLAS
     calls, slow when BLAS threads are contended: they run on one BLAS thread
-    (:func:`cas_freq.threads.one_blas_thread`).
+    (:func:`cas_freq.core.threads.one_blas_thread`).
     """
     shape = matrices.shape
     size = shape[-1]

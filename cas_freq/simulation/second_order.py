@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from cas_freq.formulas import (
+from cas_freq.core.formulas import (
     _FTOL,
     _LOWER,
     _MOVE,
@@ -37,7 +37,7 @@ from cas_freq.formulas import (
     S_SERIES,
     second_order_bandwidth,
 )
-from cas_freq.jit import use_compiled
+from cas_freq.core.jit import use_compiled
 from cas_freq.simulation.step_figures import diverged
 
 # scipy.optimize (the cross-check only) and scipy.special are imported inside the functions that
@@ -104,7 +104,7 @@ class SecondOrderFit:
     rms_residual : float
         RMS of response - model (the response's unit).
     bandwidth_closed_form_rad_s : float
-        :func:`cas_freq.formulas.second_order_bandwidth` of (wn, zeta) [rad/s].
+        :func:`cas_freq.core.formulas.second_order_bandwidth` of (wn, zeta) [rad/s].
     success : bool
         Whether the optimiser reported convergence.
     """
@@ -366,7 +366,7 @@ def _normal_equations_at(t, unit, p, scale, rows=None):
     Computed by the compiled :func:`cas_freq.simulation.fit_kernel.normal_equations_of`, in
     one pass over the samples; ``_normal_equations(*_residuals_and_jacobian(...))`` is its
     numpy reference (the same to ~1e-15 relative), used with ``CAS_FREQ_ENGINE=reference`` or
-    without numba (:func:`cas_freq.jit.use_compiled`). Arguments as in
+    without numba (:func:`cas_freq.core.jit.use_compiled`). Arguments as in
     :func:`_residuals_and_jacobian`; with ``rows`` (k,), run i is fitted to the data of row
     ``rows[i]`` of ``t`` and ``unit`` (default: row i).
     """

@@ -66,9 +66,10 @@ import warnings
 
 import numpy as np
 
-from cas_freq.exceptions import ConfigError, ModelError
-from cas_freq.jit import ENGINE_ENV, ENGINES, engine_name, use_compiled  # noqa: F401 (re-exported)
-from cas_freq.parameters import LoopParameters
+from cas_freq.core.exceptions import ConfigError, ModelError
+from cas_freq.core.jit import ENGINE_ENV, ENGINES, engine_name, use_compiled  # noqa: F401 (re-exported)
+from cas_freq.core.parameters import LoopParameters
+from cas_freq.core.threads import result_of, worker_threads
 from cas_freq.simulation.architecture import LOOPS
 from cas_freq.simulation.commands import Step
 from cas_freq.simulation.controllers import METHODS
@@ -81,7 +82,6 @@ from cas_freq.simulation.engine import (
 from cas_freq.simulation.figure_kernel import settled_runs, step_figures_batch
 from cas_freq.simulation.recording import Recording, RecordingBuffers  # noqa: F401 (re-exported)
 from cas_freq.simulation.second_order import fit_second_order
-from cas_freq.threads import result_of, worker_threads
 
 try:  # the compiled engine needs numba; without it the reference engine runs (engine_class)
     from cas_freq.simulation.compiled import CompiledEngine
@@ -373,7 +373,7 @@ def loop_sampling(params, current_rate_hz=None, position_rate_hz=None, velocity_
 
     The one place the simulator reads this: the runs' declaration (the static fields
     ``sample_rates``, pairs of loop name and rate [Hz], and ``sampling_method`` of
-    :class:`~cas_freq.parameters.LoopParameters`) where it declares some sampled loop, else
+    :class:`~cas_freq.core.parameters.LoopParameters`) where it declares some sampled loop, else
     the rates given (the callers' ``simulation.rates_hz``: current and position loops). Rates
     given beside a declaration must agree with it.
 
@@ -703,8 +703,8 @@ def prepare_kernels(params):
     loads them from the cache (~0.4 s), as the process would anyway.
 
     The work runs in a new thread, waited for before this returns, except after an interrupt
-    (Ctrl-C), raised at once (:func:`cas_freq.threads.worker_threads`,
-    :func:`cas_freq.threads.result_of`). numba's compiler recurses deeply, and where the caller
+    (Ctrl-C), raised at once (:func:`cas_freq.core.threads.worker_threads`,
+    :func:`cas_freq.core.threads.result_of`). numba's compiler recurses deeply, and where the caller
     is itself deep in a call stack (pytest, a notebook) CPython 3.11 can keep crossing a
     boundary of its frame-stack chunks, mapping and unmapping one at every crossing: compiling
     for one test took 22.8 s of user and 15.6 s of system time there against 20.8 s and 1.7 s

@@ -57,10 +57,10 @@ import math
 
 import numpy as np
 
-from cas_freq.exceptions import ConfigError
-from cas_freq.formulas import HALF_POWER
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.formulas import HALF_POWER
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.model import ActuatorLoops
-from cas_freq.parameters import LoopParameters
 from cas_freq.simulation.commands import Sine
 from cas_freq.simulation.simulator import budget_runs, loop_sampling, loop_time_step, simulate_batch
 

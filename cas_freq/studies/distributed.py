@@ -13,7 +13,7 @@ another (up to ``distributed.scheduler.allowed-failures`` times); a chunk that r
 retried :data:`RETRIES` times before the study fails with its error. Losing every worker at
 once loses the config scattered to them (and with it every chunk still to run), as losing the
 scheduler loses every chunk: the study then ends with one line saying the cluster was lost
-(:class:`~cas_freq.exceptions.CasFreqError`, exit 2), not with dask's ``FutureCancelledError``.
+(:class:`~cas_freq.core.exceptions.CasFreqError`, exit 2), not with dask's ``FutureCancelledError``.
 
 ``ADDRESS`` is a scheduler address (``tcp://host:8786``, ``host:8786``) or ``local:N`` for a
 local cluster of N single-threaded worker processes, started and stopped with the study.
@@ -22,7 +22,7 @@ local cluster of N single-threaded worker processes, started and stopped with th
 import contextlib
 import re
 
-from cas_freq.exceptions import CasFreqError
+from cas_freq.core.exceptions import CasFreqError
 
 #: Samples per chunk sent to a worker (a multiple of the step batch, so that a chunk's steps
 #: run in the same batches as locally).

@@ -22,11 +22,11 @@ import math
 import numpy as np
 
 from cas_freq.analysis.drivetrain import stable_hinge_range
-from cas_freq.parameters import LoopParameters
+from cas_freq.core.parameters import LoopParameters
+from cas_freq.core.summary import Summary
 from cas_freq.simulation.simulator import RecordingBuffers
 from cas_freq.studies.shown import run_figures_not_shown, shown_run_figure
 from cas_freq.studies.sweep import evaluate_figures
-from cas_freq.summary import Summary
 
 KEY = "load.hinge_stiffness"
 #: Bisection steps refining a loss between two grid points (a 5 N*m/rad step to 0.005).

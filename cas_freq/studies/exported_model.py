@@ -8,12 +8,12 @@ One :class:`ExportedModel` holds
   ``control.ss(A, B, C, D)``, ``control.zpk(zeros, poles, gain)``; a transfer function's
   polynomial coefficients are not exported: for the tens of states of a Padé model they lose
   all accuracy, docs/model.md §6); with sampled controllers the discrete-time T of
-  :func:`cas_freq.model.systems.linear_model` with its period ``dt`` (z-plane poles and zeros);
+  :func:`cas_freq.analysis.systems.linear_model` with its period ``dt`` (z-plane poles and zeros);
 - how far that model is from the exact-delay loop: max |T_N(jω) − T(jω)| on the analysis grid,
   the model's own ω_BW beside ``analyze``'s, and max |y_N(t) − y(t)| of its unit step against
   the tool's linear step (the report's, Padé order :data:`~cas_freq.model.DEFAULT_PADE_ORDER`);
 - the amplitude-dependent gain and phase from the nonlinear loop's sine-dwell (amplitude ×
-  frequency, :func:`cas_freq.simulation.run.sinedwell_run`, the ``sinedwell`` command's grid
+  frequency, :func:`cas_freq.studies.run.sinedwell_run`, the ``sinedwell`` command's grid
   by default) and, per amplitude, a second-order-plus-delay fit to the nonlinear step of that
   amplitude (ωn, ζ, td, its closed-form bandwidth) with the rate limit of the envelope;
 - the rate and torque envelope (:mod:`cas_freq.analysis.rate_envelope`).
@@ -26,10 +26,10 @@ import math
 
 import numpy as np
 
-from cas_freq.exceptions import CasFreqError
-from cas_freq.fileio import json_ready
-from cas_freq.output import output_json, output_unit
-from cas_freq.parameters import LoopParameters
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.fileio import json_ready
+from cas_freq.core.output import output_json, output_unit
+from cas_freq.core.parameters import LoopParameters
 
 #: The JSON's format name (a reader checks it).
 FORMAT = "cas-freq actuator model 1"
@@ -61,7 +61,7 @@ class ExportedModel:
     accuracy : dict
         ``closed_loop_max_error``, ``bandwidth_rad_s`` (the model's), ``bandwidth_exact_rad_s``
         (``analyze``'s), ``step_max_error`` and ``step_reference``.
-    dwell : cas_freq.simulation.run.SineDwellRun
+    dwell : cas_freq.studies.run.SineDwellRun
         Sine-dwell and nonlinear steps per amplitude.
     envelope : cas_freq.analysis.rate_envelope.RateEnvelope
     feedforward : bool
@@ -219,10 +219,10 @@ def export_model(loaded, pade_order=DEFAULT_EXPORT_PADE, amplitudes_rad=None,
     """
     from cas_freq.analysis import analyze
     from cas_freq.analysis.rate_envelope import rate_envelope
+    from cas_freq.analysis.systems import linear_model
     from cas_freq.model.delay import MAX_PADE_ORDER
-    from cas_freq.model.systems import linear_model
-    from cas_freq.simulation.run import sinedwell_run
     from cas_freq.simulation.sinedwell import dwell_frequencies
+    from cas_freq.studies.run import sinedwell_run
 
     if not (isinstance(pade_order, int) and 1 <= pade_order <= MAX_PADE_ORDER):
         raise CasFreqError(f"pade: must be an integer 1..{MAX_PADE_ORDER}, got {pade_order!r}")
@@ -260,9 +260,9 @@ def _accuracy(params, system, analysis, pade_order):
     import control
 
     from cas_freq.analysis.frequency import DEFAULT_POINTS_PER_DECADE, frequency_grid
+    from cas_freq.analysis.systems import linear_model
     from cas_freq.model import DEFAULT_PADE_ORDER, ActuatorLoops
     from cas_freq.model.structure import total_delay
-    from cas_freq.model.systems import linear_model
 
     low, high = analysis.frequency_range_rad_s
     omega = frequency_grid(low, high, DEFAULT_POINTS_PER_DECADE, total_delay(params))

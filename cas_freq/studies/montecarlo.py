@@ -23,12 +23,12 @@ import re
 
 import numpy as np
 
-from cas_freq.exceptions import ConfigError
-from cas_freq.fileio import json_ready
-from cas_freq.parameters import base_values, check_key, parameter, unit_of
-from cas_freq.simulation.run import DEFAULT_SINEDWELL_FREQUENCIES_RAD_S
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.fileio import json_ready
+from cas_freq.core.parameters import base_values, check_key, parameter, unit_of
+from cas_freq.core.units import to_si
+from cas_freq.studies.run import DEFAULT_SINEDWELL_FREQUENCIES_RAD_S
 from cas_freq.studies.sweep import evaluate_figures, figure_names
-from cas_freq.units import to_si
 
 DISTRIBUTIONS = ("normal", "uniform")
 #: Percentiles reported for each figure.

@@ -14,13 +14,13 @@ import math
 
 import numpy as np
 
-from cas_freq.jit import use_compiled
+from cas_freq.core.jit import use_compiled
+from cas_freq.core.threads import result_of, worker_threads
 from cas_freq.simulation.commands import Step
 from cas_freq.simulation.figure_kernel import FIGURE_COLUMNS, step_figures_batch
 from cas_freq.simulation.second_order import fit_second_order_batch
 from cas_freq.simulation.simulator import RecordingBuffers, simulate_batch
 from cas_freq.simulation.step_figures import simulation_step_figures
-from cas_freq.threads import result_of, worker_threads
 
 #: Runs simulated together: memory is about 10 signals x 8 B x samples (up to 80,001) per run
 #: (the kernel writes only :data:`STEP_SIGNALS` of them).

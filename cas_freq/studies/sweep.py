@@ -12,10 +12,10 @@ import math
 import numpy as np
 
 from cas_freq.analysis import FIGURES, batch_analyze
-from cas_freq.exceptions import ConfigError
-from cas_freq.fileio import json_ready
-from cas_freq.parameter_keys import MAX_POINTS
-from cas_freq.parameters import unit_of, variant_parameters
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.fileio import json_ready
+from cas_freq.core.parameter_keys import MAX_POINTS
+from cas_freq.core.parameters import unit_of, variant_parameters
 from cas_freq.simulation.sinedwell import sine_dwell_bandwidths
 from cas_freq.studies.distributed import (
     CHUNK_SAMPLES,

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from cas_freq.parameters import base_values
+from cas_freq.core.parameters import base_values
 from cas_freq.studies.montecarlo import dwell_condition
 from cas_freq.studies.steps import FIT_FIGURES, STEP_FIGURES
 from cas_freq.studies.sweep import evaluate_figures

@@ -1,7 +1,7 @@
 """One tune from its options, as ``cas-freq tune`` and :meth:`cas_freq.api.Actuator.tune` give
 them."""
 
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
 from cas_freq.studies.montecarlo import parse_tolerance
 from cas_freq.tuning import search
 from cas_freq.tuning.evaluate import constraints

@@ -18,8 +18,8 @@ import itertools
 
 import numpy as np
 
-from cas_freq.exceptions import ConfigError
-from cas_freq.parameters import base_values
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.parameters import base_values
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -58,7 +58,7 @@ class Scenarios:
         free_values : dict of str to numpy.ndarray
             Free key -> (n,) candidate values [SI].
         base : dict of str to float
-            The variant's values (:func:`cas_freq.parameters.base_values`).
+            The variant's values (:func:`cas_freq.core.parameters.base_values`).
         """
         n = len(next(iter(free_values.values())))
         changes = {key: np.repeat(values, self.count) for key, values in free_values.items()}

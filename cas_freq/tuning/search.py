@@ -20,7 +20,7 @@ import dataclasses
 
 import numpy as np
 
-from cas_freq.summary import Summary
+from cas_freq.core.summary import Summary
 from cas_freq.tuning.evaluate import TRADE_OFF, evaluate, joined
 from cas_freq.tuning.options import GLOBAL_COUNT, OBJECTIVES, ROUND_COUNT, ROUNDS
 from cas_freq.tuning.space import sobol

@@ -13,8 +13,8 @@ import math
 
 import numpy as np
 
-from cas_freq.exceptions import ConfigError
-from cas_freq.parameters import (
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.parameters import (
     check_key,
     is_cascade,
     loop_values,
@@ -41,7 +41,7 @@ class TuneKey:
         Searched in ln(value) (both bounds > 0), else linearly.
     unit : str
         The key's SI unit in the config's architecture (default that of
-        :data:`~cas_freq.parameters.PARAMETERS`).
+        :data:`~cas_freq.core.parameters.PARAMETERS`).
     """
 
     key: str

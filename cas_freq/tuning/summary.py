@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from cas_freq.figures import FIGURES, UNIT_LABELS
+from cas_freq.core.figures import FIGURES, UNIT_LABELS
 from cas_freq.tuning.evaluate import MISSING_VIOLATION, TRADE_OFF
 from cas_freq.tuning.options import OBJECTIVES
 from cas_freq.verify.evaluate import bound_text

@@ -3,8 +3,8 @@
 import dataclasses
 import math
 
-from cas_freq.figures import UNIT_LABELS
-from cas_freq.fileio import json_ready
+from cas_freq.core.figures import UNIT_LABELS
+from cas_freq.core.fileio import json_ready
 from cas_freq.simulation.sinedwell import bound_meets
 from cas_freq.verify.measure import measure
 

@@ -10,22 +10,22 @@ grid, the same move) are done once.
 
 import math
 
-from cas_freq.figures import FIGURES
-from cas_freq.fileio import json_ready
-from cas_freq.output import LENGTH, output_unit
+from cas_freq.core.figures import FIGURES
+from cas_freq.core.fileio import json_ready
+from cas_freq.core.output import LENGTH, output_unit
 from cas_freq.simulation.commands import condition_profile
-from cas_freq.simulation.profile_run import profile_condition_text, profile_runs
-from cas_freq.simulation.run import dwell_parameters, over_budget_reason, step_batch
 from cas_freq.simulation.simulator import BudgetError
 from cas_freq.simulation.sinedwell import dwell_frequencies, sine_dwell
+from cas_freq.studies.profile_run import profile_condition_text, profile_runs
+from cas_freq.studies.run import dwell_parameters, over_budget_reason, step_batch
 
 
 def figure(result, metric):
     """The figure named ``metric`` (its dotted key in the command's JSON, e.g.
     ``closed_loop.bandwidth_rad_s``) of a typed result (:class:`~cas_freq.analysis.Analysis`,
-    :class:`~cas_freq.simulation.run.StepRun`): the same names, read as attributes. None where
+    :class:`~cas_freq.studies.run.StepRun`): the same names, read as attributes. None where
     the figure does not exist. A linear output's quantity (``profile.tracking_error_max_mm``)
-    is its rotary twin's attribute in mm (:mod:`cas_freq.output`); one in its own unit
+    is its rotary twin's attribute in mm (:mod:`cas_freq.core.output`); one in its own unit
     (``stiffness.min_N_per_m``) is read as it is."""
     record = FIGURES.get(metric)
     if record is not None and record.output == "length" and record.unit == "mm":
@@ -54,7 +54,7 @@ def measure(variants, requirements, known=None):
     known : sequence of dict, optional
         Per variant, results already computed by the same code (so not computed again):
         ``"analyze"``, the variant's :class:`~cas_freq.analysis.Analysis`, and ``"steps"``,
-        its :class:`~cas_freq.simulation.run.StepRun` steps; a step of the right size (to 1e-9)
+        its :class:`~cas_freq.studies.run.StepRun` steps; a step of the right size (to 1e-9)
         is used instead of a new run.
 
     Returns

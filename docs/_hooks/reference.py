@@ -2,8 +2,8 @@
 
 - ``reference/config.md``: every key of the config, from the config schema
   (:mod:`cas_freq.config.schema`) walked field by field, the numeric keys' unit, accepted range
-  and meaning read from the parameter tables (:data:`cas_freq.parameters.PARAMETERS`,
-  :data:`cas_freq.parameters.CASCADE_PARAMETERS`, :data:`cas_freq.filters_config.
+  and meaning read from the parameter tables (:data:`cas_freq.core.parameters.PARAMETERS`,
+  :data:`cas_freq.core.parameters.CASCADE_PARAMETERS`, :data:`cas_freq.core.filters_config.
   FILTER_PARAMETERS`), the very records that convert and check a config's values;
 - ``reference/cli.md``: every command and option of ``cas-freq`` with its help, from the
   argument parser (:func:`cas_freq.cli.build_parser`);
@@ -56,8 +56,8 @@ def accepted_range(record):
 def _numeric_record(key, cascade):
     """The parameter record of dotted ``key`` (``filters[].frequency`` for a filter's), or
     None for a key that is not numeric."""
-    from cas_freq.filters_config import FILTER_PARAMETERS
-    from cas_freq.parameters import CASCADE_PARAMETERS, PARAMETERS
+    from cas_freq.core.filters_config import FILTER_PARAMETERS
+    from cas_freq.core.parameters import CASCADE_PARAMETERS, PARAMETERS
 
     if key.startswith("filters[]."):
         return FILTER_PARAMETERS.get(key.rpartition(".")[2])
@@ -185,7 +185,8 @@ def config_reference():
     out = ["# Config reference", "",
            "Generated when the docs are built from the config schema "
            "(`cas_freq/config/schema.py`) and the parameter tables that convert and check "
-           "every value (`cas_freq/parameters.py`, `cas_freq/filters_config.py`): what is "
+           "every value (`cas_freq/core/parameters.py`, `cas_freq/core/filters_config.py`): "
+           "what is "
            "here is what the loader accepts. [Config format](../config.md) explains the file "
            "(units, value strings, variants, requirements). Numbers are SI, or strings with "
            "a unit (`\"0.4 ms\"`); \"0 or a..b\" means 0, or a magnitude within a..b; a "

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from cas_freq.config import load_variant
-from cas_freq.parameters import LoopParameters
+from cas_freq.core.parameters import LoopParameters
 from cas_freq.simulation import simulate
 from cas_freq.simulation.commands import Chirp
 

@@ -28,7 +28,7 @@ import tempfile
 import threading
 import time
 
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
 
 #: Environment variable choosing the engine: ``compiled`` (default) or ``reference``.
 ENGINE_ENV = "CAS_FREQ_ENGINE"

@@ -1,18 +1,18 @@
 """Short text and HTML views of the API's results, for a terminal and a notebook.
 
 A result class lists its headline figures in ``_summary()`` as ``(title, rows)``: rows of
-``(dotted key, value)`` where the key is one of :data:`cas_freq.figures.FIGURES` (its label,
+``(dotted key, value)`` where the key is one of :data:`cas_freq.core.figures.FIGURES` (its label,
 display unit and factor come from that table) or of ``(label, value, unit)`` for anything else.
 :class:`Summary` turns that into ``__repr__`` (the title and a few rows on one line each) and
 ``_repr_html_`` (a small table, which Jupyter shows for a cell's last value). Never an array.
 
-Imports only the standard library and :mod:`cas_freq.figures`.
+Imports only the standard library and :mod:`cas_freq.core.figures`.
 """
 
 import html
 import math
 
-from cas_freq.figures import FIGURES, loop_label
+from cas_freq.core.figures import FIGURES, loop_label
 
 #: Most rows ``__repr__`` prints (the HTML table shows every row).
 REPR_ROWS = 6
@@ -31,7 +31,7 @@ def _text(value):
 
 def row(entry):
     """``(label, value text, unit)`` of one summary row: ``(key, value)`` with a key of
-    :data:`~cas_freq.figures.FIGURES` (value in its JSON unit, shown scaled), or
+    :data:`~cas_freq.core.figures.FIGURES` (value in its JSON unit, shown scaled), or
     ``(label, value, unit)``."""
     if len(entry) == 3:
         label, value, unit = entry
@@ -46,7 +46,7 @@ def row(entry):
 
 def table_rows(result, group, names):
     """Summary rows ``(label, value, unit)`` of the attributes ``names`` of ``result``, with
-    the labels and units of the figures ``group.name`` of :data:`~cas_freq.figures.FIGURES`
+    the labels and units of the figures ``group.name`` of :data:`~cas_freq.core.figures.FIGURES`
     (of no particular loop: a loop's figures without its name)."""
     rows = []
     for name in names:

@@ -22,7 +22,7 @@ The two derived parameters have one rule each, used by the schema's properties a
 - :func:`filter_time_constant`: the derivative filter ``Tf = Kd / (10 Kp)`` unless ``Tf`` is
   set (0 where ``Kd`` = 0);
 - :func:`viscous_friction`: ``mu_v = Km I0 / w0`` from the motor's no-load point
-  (:func:`cas_freq.formulas.viscous_friction_from_no_load`, report §6).
+  (:func:`cas_freq.core.formulas.viscous_friction_from_no_load`, report §6).
 
 In a batch, derived quantities follow the changed ones as they would if each sample were a
 config file: ``Tf`` is derived per sample unless the base config sets ``position_loop.Tf`` or
@@ -39,12 +39,14 @@ the record of the config's architecture. :data:`CASCADE_REFUSED` and :data:`CASC
 which keys each architecture refuses and why; the filters' numbers are the keys
 ``filters.<i>.<name>`` (:data:`FILTER_PARAMETERS`).
 
-The table and the key rules live in :mod:`cas_freq.parameter_keys` (re-exported here); this
+The table and the key rules live in :mod:`cas_freq.core.parameter_keys` (re-exported here); this
 module holds :class:`LoopParameters` and the batches built from configs. It sits at the bottom
-of the package: it imports only :mod:`cas_freq.exceptions`,
-:mod:`cas_freq.formulas`, :mod:`cas_freq.parameter_record` (the :class:`Parameter` record) and
-:mod:`cas_freq.filters_config` and :mod:`cas_freq.sampling_config`, which import nothing else
-from cas_freq but :mod:`cas_freq.units`.
+of the package: it imports only :mod:`cas_freq.core.exceptions`,
+:mod:`cas_freq.core.formulas`, :mod:`cas_freq.core.parameter_record` (the :class:`Parameter`
+record) and
+:mod:`cas_freq.core.filters_config` and :mod:`cas_freq.core.sampling_config`, which import nothing
+else
+from cas_freq but :mod:`cas_freq.core.units`.
 """
 
 import dataclasses
@@ -52,16 +54,16 @@ import math
 
 import numpy as np
 
-from cas_freq.exceptions import ConfigError
-from cas_freq.filters_config import (
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.filters_config import (
     FILTER_NUMBERS,
     FILTER_PARAMETERS,
     Filter,
     depth_problem,
     number_field,
 )
-from cas_freq.formulas import viscous_friction_from_no_load as viscous_friction
-from cas_freq.parameter_keys import (
+from cas_freq.core.formulas import viscous_friction_from_no_load as viscous_friction
+from cas_freq.core.parameter_keys import (
     CASCADE_ONLY,
     CASCADE_PARAMETERS,
     CASCADE_REFUSED,
@@ -86,9 +88,9 @@ from cas_freq.parameter_keys import (
     unit_of,
     variable_keys,
 )
-from cas_freq.parameter_record import Parameter
-from cas_freq.parameter_record import indices as _indices
-from cas_freq.sampling_config import DEFAULT_METHOD, check_static
+from cas_freq.core.parameter_record import Parameter
+from cas_freq.core.parameter_record import indices as _indices
+from cas_freq.core.sampling_config import DEFAULT_METHOD, check_static
 
 __all__ = [
     "CASCADE_ONLY",
@@ -189,14 +191,14 @@ class LoopParameters:
     feedback_output : bool
         Static: True when the position loop measures the output angle (reflected to the motor,
         N*delta) instead of the motor angle.
-    filters : tuple of cas_freq.filters_config.Filter
+    filters : tuple of cas_freq.core.filters_config.Filter
         Static points and kinds of the loop's filters (their numbers per run), in series in the
         config's order; empty by default.
     sample_rates : tuple of (str, float)
         Static: the sampled loops, innermost first, as (loop name, rate [Hz]) pairs, e.g.
         ``(("current_loop", 25000.0), ("position_loop", 2500.0))``; a loop not named is
         continuous, () (the default) means every controller is continuous. The config's
-        ``sampling:`` declaration (:mod:`cas_freq.sampling_config`, whose rules it obeys).
+        ``sampling:`` declaration (:mod:`cas_freq.core.sampling_config`, whose rules it obeys).
     sampling_method : str
         Static: how the sampled controllers are discretised, ``"backward"`` (default) or
         ``"tustin"`` (``sampling.method``).

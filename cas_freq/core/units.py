@@ -1,7 +1,7 @@
 """Conversion of config values with units to SI floats, with pint.
 
 This module sits at the bottom of the package (it imports nothing from cas_freq), so the
-parameter table (:mod:`cas_freq.parameters`), the config schema and the CLI share one
+parameter table (:mod:`cas_freq.core.parameters`), the config schema and the CLI share one
 conversion.
 
 A config value is either a plain number, taken as already in SI, or a string such as
@@ -38,7 +38,7 @@ a string (``"0.4"``) is already SI. A factor ``1`` before ``/`` is pint's spelli
 reciprocal (``"40 1/s"``, ``"5 1/s^2"``).
 
 pint is imported only when a conversion needs it: the factor of each (unit text, SI unit) pair
-pint has converted before is read from a disk cache (:mod:`cas_freq.unit_cache`) and applied
+pint has converted before is read from a disk cache (:mod:`cas_freq.core.unit_cache`) and applied
 as pint applies it, so a CLI start whose units were all seen before does not import pint.
 """
 
@@ -47,7 +47,7 @@ import math
 import numbers
 import re
 
-from cas_freq import unit_cache
+from cas_freq.core import unit_cache
 
 #: Longest accepted value string.
 MAX_TEXT = 64
@@ -287,7 +287,7 @@ def to_si(value, unit):
 
 def _pint_convert(value, magnitude, unit_text, unit):
     """``magnitude`` in ``unit_text`` converted to ``unit`` by pint (``value`` for messages);
-    the factor is remembered (:mod:`cas_freq.unit_cache`) when the conversion is one."""
+    the factor is remembered (:mod:`cas_freq.core.unit_cache`) when the conversion is one."""
     import pint
 
     source = parse_unit(unit_text, value)

@@ -6,10 +6,10 @@ import math
 
 import numpy as np
 
-from cas_freq.fileio import json_ready
+from cas_freq.core.fileio import json_ready
+from cas_freq.core.output import ANGLE, OutputUnit, output_json, output_unit
+from cas_freq.core.parameters import LoopParameters, loop_structure
 from cas_freq.model import DEFAULT_PADE_ORDER, ActuatorLoops
-from cas_freq.output import ANGLE, OutputUnit, output_json, output_unit
-from cas_freq.parameters import LoopParameters, loop_structure
 from cas_freq.simulation.commands import Step
 from cas_freq.simulation.second_order import fit_second_order
 from cas_freq.simulation.simulator import BUDGET_ENV, BudgetError, loop_time_step, simulate_batch
@@ -47,7 +47,7 @@ class StepRun:
     fit: object
     linear_stability: str = "stable"
     output: str = "output"
-    #: How the output is measured and shown (:mod:`cas_freq.output`).
+    #: How the output is measured and shown (:mod:`cas_freq.core.output`).
     output_unit: OutputUnit = ANGLE
 
 
@@ -245,7 +245,7 @@ class CommandRun:
     result: object
     linear_stability: str
     output: str = "output"
-    #: How the output is measured and shown (:mod:`cas_freq.output`).
+    #: How the output is measured and shown (:mod:`cas_freq.core.output`).
     output_unit: OutputUnit = ANGLE
 
 
@@ -352,7 +352,7 @@ class SineDwellRun:
     bandwidth_requirement_rad_s: float | None = None
     reference: object = None
     output: str = "output"
-    #: How the output is measured and shown (:mod:`cas_freq.output`).
+    #: How the output is measured and shown (:mod:`cas_freq.core.output`).
     output_unit: OutputUnit = ANGLE
     frequencies_rad_s: tuple = ()
     not_computed: str | None = None

@@ -19,7 +19,7 @@ import json
 import math
 import os
 
-from cas_freq.fileio import write_text_atomic
+from cas_freq.core.fileio import write_text_atomic
 
 #: Version of the rules a stored factor passed (part of the file name): 2 since an angle must
 #: match (``min^-1`` is no longer read as ``rad/min``), 3 since a torque per current counts as

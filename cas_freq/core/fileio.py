@@ -23,7 +23,7 @@ import stat
 import tempfile
 from pathlib import Path
 
-from cas_freq.exceptions import CasFreqError, ConfigError
+from cas_freq.core.exceptions import CasFreqError, ConfigError
 
 #: Largest data file read [bytes]: a recording or command CSV (about 500,000 rows: 50 s at
 #: 10 kHz; the shipped 1 s chirp is 0.2 MB), as for an EPOS4 parameter file.
@@ -174,7 +174,7 @@ def csv_row(path, number, line):
 def check_output_file(path, option):
     """Check that ``path`` can be written as a file (by :func:`write_text_atomic`).
 
-    Raises :class:`~cas_freq.exceptions.CasFreqError` (one line naming ``option``, the path and
+    Raises :class:`~cas_freq.core.exceptions.CasFreqError` (one line naming ``option``, the path and
     the problem) for an empty path, a folder, a symbolic link, a special file (device, pipe)
     or a parent folder that does not exist and cannot be created or is not writable. A missing
     parent folder is created when the file is written.

@@ -1,6 +1,7 @@
 """Every figure of merit, declared once: its JSON key, unit, label, meaning and loop.
 
-:data:`FIGURES` is to the figures what :data:`cas_freq.parameters.PARAMETERS` is to the config's
+:data:`FIGURES` is to the figures what :data:`cas_freq.core.parameters.PARAMETERS` is to the
+config's
 parameters: one :class:`Figure` per figure, by the dotted key requirements name it with
 (``position_loop.phase_margin_deg``, ``closed_loop.bandwidth_rad_s``, ``step.overshoot_pct``,
 ``fit.zeta``, ``sinedwell.bandwidth_rad_s``, ``profile.tracking_error_max_deg``). Each record
@@ -427,7 +428,7 @@ def _length_key(key):
 
 
 #: The figures that are quantities of the output (an angle at a rotary output), with the key
-#: of their twin at a linear output (a length in mm, :mod:`cas_freq.output`).
+#: of their twin at a linear output (a length in mm, :mod:`cas_freq.core.output`).
 _OUTPUT_FIGURES = {key: _length_key(key) for key in (
     "fit.rms_residual", "sinedwell.limit_onset_amplitude_deg", "profile.tracking_error_max_deg",
     "profile.tracking_error_rms_deg", "profile.final_error_deg")}

@@ -3,7 +3,7 @@ output, ``gear.screw_lead``, shown in mm), declared once.
 
 Inside the model and the simulator the output is one variable in SI whatever its kind: rad at
 a rotary output, m at a linear one (the gear ratio is then N = 2 pi ratio / lead [rad/m],
-:func:`cas_freq.parameters.effective_ratio`). The results' typed records keep the names of the
+:func:`cas_freq.core.parameters.effective_ratio`). The results' typed records keep the names of the
 rotary case (``StepFigures.amplitude_deg`` holds ``degrees(x)`` of the output's SI value x);
 this module is where a linear output's figures get their own names and unit: every JSON dict
 and table of an output quantity goes through :func:`output_json` / :meth:`OutputUnit.show`,
@@ -11,7 +11,7 @@ which rename ``..._deg`` to ``..._mm`` (``step.amplitude_mm``) and scale the val
 output quantity a user gives (a step, an amplitude, a move) is read by :func:`read_output`,
 which refuses an angle at a linear output and a length at a rotary one, saying what to give.
 
-This module imports only :mod:`cas_freq.units` (the unit conversion) and, where it converts
+This module imports only :mod:`cas_freq.core.units` (the unit conversion) and, where it converts
 arrays, numpy.
 """
 
@@ -19,8 +19,8 @@ import dataclasses
 import math
 import re
 
-from cas_freq.exceptions import CasFreqError
-from cas_freq.units import has_unit, to_si
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.units import has_unit, to_si
 
 __all__ = ["ANGLE", "LENGTH", "OutputUnit", "output_json", "output_unit", "read_output",
            "wrong_kind"]
@@ -235,7 +235,7 @@ def angle(text, option):
 def output_step(text, option, variants):
     """A step (or move) at the output with a unit, in SI: an angle [rad] within ±90 deg at a
     rotary output ('10deg'), a length [m] within ±1 m at a linear one ('5mm'); the other kind
-    is refused naming what to give (:func:`cas_freq.output.read_output`)."""
+    is refused naming what to give (:func:`cas_freq.core.output.read_output`)."""
     units = {output_unit(loaded.params) for loaded in variants}
     if len(units) > 1:
         raise CasFreqError(f"{option}: the selected variants mix rotary and linear outputs; "

@@ -1,11 +1,11 @@
 """The table of every numeric config key and the rules that read it (the first half of
-:mod:`cas_freq.parameters`, which re-exports every public name here).
+:mod:`cas_freq.core.parameters`, which re-exports every public name here).
 
 :data:`PARAMETERS` (and :data:`CASCADE_PARAMETERS`, :data:`LINEAR_PARAMETERS` for the other
 architectures' units), the keys each architecture refuses, and the functions that resolve a key
 for a config (:func:`parameter`, :func:`unit_of`, :func:`check_key`), convert and check a value
 (:func:`parse_value`) and derive the two derived parameters (:func:`filter_time_constant`).
-Imports nothing from cas_freq but the modules :mod:`cas_freq.parameters` names as its own.
+Imports nothing from cas_freq but the modules :mod:`cas_freq.core.parameters` names as its own.
 """
 
 import dataclasses
@@ -14,14 +14,14 @@ import re
 
 import numpy as np
 
-from cas_freq.exceptions import ConfigError, ConfigTypeError
-from cas_freq.filters_config import (
+from cas_freq.core.exceptions import ConfigError, ConfigTypeError
+from cas_freq.core.filters_config import (
     FILTER_NUMBERS,
     FILTER_PARAMETERS,
     depth_problem,
     number_field,
 )
-from cas_freq.parameter_record import table as _table
+from cas_freq.core.parameter_record import table as _table
 
 #: Longest accepted transport delay of either loop [s].
 MAX_DELAY_S = 0.1
@@ -147,7 +147,7 @@ PARAMETERS = _table(
     ("supply.resistance", None, "ohm", 0.0, False, 1e6,
      "supply's source resistance in series with the winding (the voltage sags by it times "
      "the current), default 0, 0 or 1e-9..1e6 [ohm]", 1e-9),
-    # the sampled controllers (cas_freq.sampling_config): static, LoopParameters.sample_rates
+    # the sampled controllers (cas_freq.core.sampling_config): static, LoopParameters.sample_rates
     ("sampling.current_loop", None, "Hz", 1.0, False, 1e9,
      "sample rate of the current controller (absent: continuous), 1..1e9 [Hz]"),
     ("sampling.velocity_loop", None, "Hz", 1.0, False, 1e9,
@@ -407,7 +407,7 @@ MAX_POINTS = 1_000_000
 
 def parse_grid_values(key, spec, config=None):
     """Values [SI] of one grid axis: ``start:stop:count`` or ``a,b,c`` (in the unit of
-    ``config``'s architecture, :func:`cas_freq.parameters.parameter`).
+    ``config``'s architecture, :func:`cas_freq.core.parameters.parameter`).
 
     Raises
     ------

@@ -1,9 +1,9 @@
 """One numeric parameter of the actuator config: its key, unit, bounds and meaning.
 
-:class:`Parameter` is the record of every table of numeric keys (:data:`cas_freq.parameters.
+:class:`Parameter` is the record of every table of numeric keys (:data:`cas_freq.core.parameters.
 PARAMETERS`, the cascade's and the filters' records, the reference's): it converts a config value
 to SI and checks its bound, with the messages every caller shares. It imports only
-:mod:`cas_freq.exceptions` and :mod:`cas_freq.units`.
+:mod:`cas_freq.core.exceptions` and :mod:`cas_freq.core.units`.
 """
 
 import dataclasses
@@ -12,8 +12,8 @@ import numbers
 
 import numpy as np
 
-from cas_freq.exceptions import ConfigError
-from cas_freq.units import split_quantity, to_si
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.units import split_quantity, to_si
 
 __all__ = ["Parameter", "indices", "table"]
 
@@ -64,7 +64,7 @@ class Parameter:
         True for a count (an encoder's counts per revolution): only whole numbers are accepted.
 
     Units: the value's unit must have ``unit``'s dimension, an angle counted as a dimension of
-    its own (:func:`cas_freq.units.angle_problem`): a key whose unit carries ``rad`` (a speed,
+    its own (:func:`cas_freq.core.units.angle_problem`): a key whose unit carries ``rad`` (a speed,
     ``Ke``, a gain per radian) accepts rpm, rev/s or deg, never a bare 1/time such as ``Hz``
     or ``min^-1``; a key in ``Hz`` refuses ``rad/s`` and ``rpm``. One rule for every key,
     read from its unit here.

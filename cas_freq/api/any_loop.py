@@ -44,8 +44,8 @@ from cas_freq.analysis.margins import (
     loop_figures,
     margins_of_run,
 )
-from cas_freq.exceptions import CasFreqError
-from cas_freq.summary import Summary, table_rows
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.summary import Summary, table_rows
 
 #: Order of the Padé approximant of a delay used only to decide closed-loop stability.
 PADE_ORDER = 10

@@ -12,21 +12,21 @@ import math
 
 import numpy as np
 
-from cas_freq.exceptions import ConfigError
-from cas_freq.fileio import json_ready
-from cas_freq.output import ANGLE, OutputUnit, output_json, wrong_kind
-from cas_freq.parameters import LoopParameters, unit_of
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.fileio import json_ready
+from cas_freq.core.output import ANGLE, OutputUnit, output_json, wrong_kind
+from cas_freq.core.parameters import LoopParameters, unit_of
+from cas_freq.core.units import has_unit, to_si
 from cas_freq.simulation.commands import Profile
 from cas_freq.simulation.profile_figures import profile_figures
-from cas_freq.simulation.run import (
+from cas_freq.simulation.simulator import simulate_batch
+from cas_freq.studies.run import (
     _batch_key,
     _identity,
     controllers_text,
     limit_activity,
     linear_verdict,
 )
-from cas_freq.simulation.simulator import simulate_batch
-from cas_freq.units import has_unit, to_si
 
 #: rad/s -> rpm.
 _RPM = 60.0 / (2.0 * math.pi)
@@ -67,7 +67,7 @@ def make_profile(distance, velocity, acceleration, deceleration=None, names=None
     names : dict, optional
         How each of ``distance``, ``velocity``, ... is named in error messages (default
         ``profile.<name>``; the CLI names its options).
-    unit : cas_freq.output.OutputUnit
+    unit : cas_freq.core.output.OutputUnit
         The output's kind: at a linear output the move is a length (``"5 mm"``, ``"100 mm/s"``,
         ``"2000 mm/s^2"``; numbers in m, m/s, m/s^2) and an angle is refused.
 
@@ -139,7 +139,7 @@ class ProfileRun:
     without_feedforward: object
     linear_stability: str = "stable"
     output: str = "output"
-    #: How the output is measured and shown (:mod:`cas_freq.output`).
+    #: How the output is measured and shown (:mod:`cas_freq.core.output`).
     output_unit: OutputUnit = ANGLE
     ff_units: tuple = ("A*s/rad", "A*s^2/rad")
 

@@ -8,7 +8,7 @@ and python-control are imported only by :meth:`FrequencyResponse.plot`,
 :meth:`Actuator.to_control`.
 
 In a notebook every result shows a table of its headline figures (``_repr_html_``, from
-:mod:`cas_freq.summary`) and every ``plot()`` figure displays itself (a PNG, no
+:mod:`cas_freq.core.summary`) and every ``plot()`` figure displays itself (a PNG, no
 ``%matplotlib``); ``repr()`` is a few lines of the same figures.
 
 Examples
@@ -30,35 +30,35 @@ import numpy as np
 
 from cas_freq import analysis
 from cas_freq.analysis.frequency import DEFAULT_RANGE_RAD_S
-from cas_freq.config.loader import load_variant, read_config_file, variant_names
-from cas_freq.config.wording import OutputWords
-from cas_freq.exceptions import CasFreqError
-from cas_freq.model import ActuatorLoops, DelayModel
-from cas_freq.model.delay import MAX_PADE_ORDER
-from cas_freq.model.systems import (
+from cas_freq.analysis.systems import (
     POLYNOMIAL_LOG10_LIMIT,
     largest_polynomial,
     linear_model,
     margin_safe_model,
 )
-from cas_freq.output import angle, output_step, output_unit, read_output
-from cas_freq.parameters import unit_of, variant_parameters
+from cas_freq.config.loader import load_variant, read_config_file, variant_names
+from cas_freq.config.wording import OutputWords
+from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.output import angle, output_step, output_unit, read_output
+from cas_freq.core.parameters import unit_of, variant_parameters
+from cas_freq.core.summary import Summary, row, spread
+from cas_freq.core.threads import one_blas_thread
+from cas_freq.core.units import to_si
+from cas_freq.model import ActuatorLoops, DelayModel
+from cas_freq.model.delay import MAX_PADE_ORDER
 from cas_freq.report.data import described_loops
-from cas_freq.simulation.profile_run import make_profile, profile_run, profile_run_dict
-from cas_freq.simulation.run import step_run, step_run_dict
 from cas_freq.studies import exported_model
 from cas_freq.studies.envelope import load_envelope
-from cas_freq.summary import Summary, row, spread
-from cas_freq.threads import one_blas_thread
+from cas_freq.studies.profile_run import make_profile, profile_run, profile_run_dict
+from cas_freq.studies.run import step_run, step_run_dict
 from cas_freq.tuning import options
 from cas_freq.tuning.run import tune_variant
-from cas_freq.units import to_si
 from cas_freq.verify.measure import figure
 
 #: Highest default Padé order of :meth:`Actuator.to_control`. python-control's
 #: ``stability_margins`` works on the loop's polynomials, whose coefficients grow with the
 #: order (and the states): past ~1e76 its stability-margin test overflows and it raises
-#: LinAlgError (:data:`cas_freq.model.systems.POLYNOMIAL_LOG10_LIMIT`): at 6 on the loaded
+#: LinAlgError (:data:`cas_freq.analysis.systems.POLYNOMIAL_LOG10_LIMIT`): at 6 on the loaded
 #: QT-CAS variant, at 4 on the cascade axis (25 states). The default is the highest order up
 #: to this one below that limit (4 on the QT-CAS variants, 3 on the cascade axis), PM and
 #: crossover within 1e-6 of the exact-delay analysis. tests/test_notebook.py checks every
@@ -74,13 +74,13 @@ def _delay(delay):
 def _quantities(values, unit, field, output=None):
     """Numbers [``unit``] from a number, a string with its unit (``"1 deg"``, ``"2 rev/s"``) or a
     sequence of either: a number is taken as ``unit``; a string is converted
-    (:func:`cas_freq.units.to_si`), or at the output (``output``, an
-    :class:`~cas_freq.output.OutputUnit`) read as an angle or a length
-    (:func:`cas_freq.output.read_output`). A scalar gives a float, a sequence an array.
+    (:func:`cas_freq.core.units.to_si`), or at the output (``output``, an
+    :class:`~cas_freq.core.output.OutputUnit`) read as an angle or a length
+    (:func:`cas_freq.core.output.read_output`). A scalar gives a float, a sequence an array.
 
     Raises
     ------
-    cas_freq.exceptions.CasFreqError
+    cas_freq.core.exceptions.CasFreqError
         One line naming ``field``, the value and what is accepted.
     """
     single = isinstance(values, str) or np.ndim(values) == 0
@@ -131,7 +131,7 @@ def load(path=None, variant="base", set=None):  # ``set=`` mirrors ``--set``
 
     Raises
     ------
-    cas_freq.exceptions.ConfigError
+    cas_freq.core.exceptions.ConfigError
         Naming the key and the value, for an unknown variant or key or a bad value.
     """
     return Actuator(load_variant(path, variant, tuple((set or {}).items()), overrides_name="set="))
@@ -411,11 +411,11 @@ class Actuator:
 
         Returns
         -------
-        cas_freq.model.systems.LinearModel
+        cas_freq.analysis.systems.LinearModel
             ``current_loop`` (L_i), ``current_closed_loop`` (T_i), ``position_loop`` (L_p),
             ``sensitivity`` (S), ``closed_loop`` (T), ``plant``, as :class:`control.StateSpace`
             named so (``sys.name == "L_p"``, signals as
-            :data:`cas_freq.model.systems.LOOP_NAMES`).
+            :data:`cas_freq.analysis.systems.LOOP_NAMES`).
         """
         import warnings
 
@@ -488,7 +488,7 @@ class FrequencyResponse(Summary):
         -------
         matplotlib.figure.Figure
         """
-        from cas_freq.plots.api import bode_figure
+        from cas_freq.api.figures import bode_figure
 
         return bode_figure(self)
 
@@ -516,7 +516,7 @@ class Analysis(analysis.Analysis):
         if self.loaded is None:
             raise ValueError("this analysis holds no variant to plot (loaded=None); "
                              "analyze it with cas_freq.load(...).analyze()")
-        from cas_freq.plots.api import analysis_figure
+        from cas_freq.api.figures import analysis_figure
 
         return analysis_figure(self)
 
@@ -538,7 +538,7 @@ class StepResponse(Summary):
     fit : cas_freq.simulation.second_order.SecondOrderFit
         The second-order-plus-delay fit (docs/model.md §7): wn, zeta, td with 95 % intervals,
         bandwidth.
-    run : cas_freq.simulation.run.StepRun
+    run : cas_freq.studies.run.StepRun
         Everything ``cas-freq simulate`` has (limit flags, simulation settings, ...).
     output_mm, command_mm : numpy.ndarray or None
         At a linear output (``gear.screw_lead``): its position and command [mm] (else None).
@@ -557,7 +557,7 @@ class StepResponse(Summary):
 
     @classmethod
     def of(cls, run):
-        """The view of a :class:`cas_freq.simulation.run.StepRun`."""
+        """The view of a :class:`cas_freq.studies.run.StepRun`."""
         r = run.result
         if run.output_unit.linear:
             return cls(r.t, None, None, r.i, r.V, run.step, run.fit, run,
@@ -586,7 +586,7 @@ class StepResponse(Summary):
         -------
         matplotlib.figure.Figure
         """
-        from cas_freq.plots.api import step_figure
+        from cas_freq.api.figures import step_figure
 
         return step_figure(self)
 
@@ -607,7 +607,7 @@ class ProfileResponse(Summary):
         Tracking error, overshoot, settling and arrival times, largest current and voltage.
     without_feedforward : cas_freq.simulation.profile_figures.ProfileFigures
         The same figures of the move with ff_v = ff_a = 0.
-    run : cas_freq.simulation.profile_run.ProfileRun
+    run : cas_freq.studies.profile_run.ProfileRun
         Both runs and everything ``cas-freq simulate --profile`` has.
     output_mm, command_mm : numpy.ndarray or None
         At a linear output (``gear.screw_lead``): its position and command [mm] (else None).
@@ -626,7 +626,7 @@ class ProfileResponse(Summary):
 
     @classmethod
     def of(cls, run):
-        """The view of a :class:`cas_freq.simulation.profile_run.ProfileRun`."""
+        """The view of a :class:`cas_freq.studies.profile_run.ProfileRun`."""
         r = run.result
         if run.output_unit.linear:
             return cls(r.t, None, None, r.i, r.V, run.profile, run.without_feedforward, run,
@@ -665,7 +665,7 @@ class ProfileResponse(Summary):
         -------
         matplotlib.figure.Figure
         """
-        from cas_freq.plots.api import profile_figure
+        from cas_freq.api.figures import profile_figure
 
         return profile_figure(self.run)
 
@@ -680,7 +680,7 @@ class ActuatorSet(Summary):
         The variant the changes apply to.
     changes : dict of str to numpy.ndarray
         The changed keys and their values [SI].
-    loop_parameters : cas_freq.parameters.LoopParameters
+    loop_parameters : cas_freq.core.parameters.LoopParameters
         Parameters of every sample (n runs).
     """
 

@@ -18,19 +18,19 @@ parameter keys and the loop structure's :func:`cas_freq.model.structure.filter_b
 formulas: docs/model.md, "Filters").
 
 :data:`FILTER_PARAMETERS` holds the records of a filter's numbers (unit, bounds, meaning), as
-:data:`cas_freq.parameters.PARAMETERS` does for the other keys. A new kind of filter is a
+:data:`cas_freq.core.parameters.PARAMETERS` does for the other keys. A new kind of filter is a
 :class:`FilterType` in :data:`FILTERS` with the records of any new numbers (and their per-run
 fields of :class:`Filter`). :class:`Filter` carries one filter of a batch of runs: its point
 and kind are the same for the whole batch (they shape the loop), its numbers are per run.
-This module imports only :mod:`cas_freq.exceptions` and :mod:`cas_freq.parameter_record`.
+This module imports only :mod:`cas_freq.core.exceptions` and :mod:`cas_freq.core.parameter_record`.
 """
 
 import dataclasses
 
 import numpy as np
 
-from cas_freq.exceptions import ConfigError
-from cas_freq.parameter_record import Parameter
+from cas_freq.core.exceptions import ConfigError
+from cas_freq.core.parameter_record import Parameter
 
 __all__ = ["ANALOG_POINTS", "DEFAULT_DAMPING", "FILTERS", "FILTER_NUMBERS", "FILTER_PARAMETERS",
            "FILTER_POINTS", "FILTER_TYPES", "Filter", "FilterType", "depth_problem",
@@ -109,7 +109,7 @@ def number_field(name):
     """The :class:`Filter` field of a filter's number ``name`` (its config name)."""
     return _FIELDS.get(name, name)
 
-#: The numbers of a filter of ``filters:`` (:mod:`cas_freq.filters_config`), by item key;
+#: The numbers of a filter of ``filters:`` (:mod:`cas_freq.core.filters_config`), by item key;
 #: the dotted key of filter i's number is ``filters.<i>.<name>``.
 FILTER_PARAMETERS = {
     p.key.rpartition(".")[2]: p for p in (

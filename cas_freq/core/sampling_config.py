@@ -6,7 +6,7 @@ One declaration, two spellings (docs/config.md): the ``sampling:`` section (a ra
 ``simulation.current_loop_rate`` and ``position_loop_rate``. The config schema
 (:mod:`cas_freq.config.schema`) reconciles the two and checks the rules here; the loop
 parameters carry the result as the static ``sample_rates`` and ``sampling_method``
-(:class:`cas_freq.parameters.LoopParameters`), checked by the same rules.
+(:class:`cas_freq.core.parameters.LoopParameters`), checked by the same rules.
 
 The rules (:func:`sampling_problem`), each refusal one line naming the key, the value and what
 is accepted:
@@ -18,15 +18,15 @@ is accepted:
 - an inner loop is sampled at least as fast as the next outer sampled loop, and its rate is an
   integer multiple of that loop's rate (multirate must be exact: :data:`RATIO_TOLERANCE`).
 
-The bound of each rate (1..1e9 Hz) is the parameter table's (:data:`cas_freq.parameters.
+The bound of each rate (1..1e9 Hz) is the parameter table's (:data:`cas_freq.core.parameters.
 PARAMETERS`, ``sampling.<loop>``), checked where the value is converted.
 
-This module imports only :mod:`cas_freq.exceptions`.
+This module imports only :mod:`cas_freq.core.exceptions`.
 """
 
 import math
 
-from cas_freq.exceptions import ConfigError
+from cas_freq.core.exceptions import ConfigError
 
 __all__ = [
     "DEFAULT_METHOD",

@@ -111,7 +111,7 @@ def linear_model(params, pade_order=DEFAULT_PADE_ORDER):
 
     Parameters
     ----------
-    params : cas_freq.config.ActuatorConfig or cas_freq.parameters.LoopParameters
+    params : cas_freq.config.ActuatorConfig or cas_freq.core.parameters.LoopParameters
         One variant (SI).
     pade_order : int
         Padé order n >= 1 of every delay (continuous controllers).
@@ -204,7 +204,7 @@ def margin_safe_model(params, highest):
 
     Parameters
     ----------
-    params : cas_freq.config.ActuatorConfig or cas_freq.parameters.LoopParameters
+    params : cas_freq.config.ActuatorConfig or cas_freq.core.parameters.LoopParameters
         One variant (SI).
     highest : int
         The highest order tried.
@@ -251,7 +251,7 @@ def closed_loop_matrices(params, pade_order=DEFAULT_PADE_ORDER):
 
     Parameters
     ----------
-    params : cas_freq.config.ActuatorConfig or cas_freq.parameters.LoopParameters
+    params : cas_freq.config.ActuatorConfig or cas_freq.core.parameters.LoopParameters
         One variant (SI).
     pade_order : int
         Padé order n >= 1 of every delay (continuous controllers).

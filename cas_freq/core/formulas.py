@@ -1,7 +1,8 @@
 """Closed-form relations quoted by ARL-TR-9136, as plain functions of SI values.
 
 This module sits at the bottom of the package: it imports nothing from cas_freq, so both the
-parameter table (:mod:`cas_freq.parameters`, which derives the viscous friction for a config and
+parameter table (:mod:`cas_freq.core.parameters`, which derives the viscous friction for a config
+and
 for a batch of samples alike) and the analysis layer (which reports the second-order bandwidth)
 can use it.
 """
