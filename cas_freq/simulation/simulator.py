@@ -83,12 +83,6 @@ from cas_freq.simulation.figure_kernel import settled_runs, step_figures_batch
 from cas_freq.simulation.recording import Recording, RecordingBuffers  # noqa: F401 (re-exported)
 from cas_freq.simulation.second_order import fit_second_order
 
-try:  # the compiled engine needs numba; without it the reference engine runs (engine_class)
-    from cas_freq.simulation.compiled import CompiledEngine
-    _NO_COMPILED = None
-except ImportError as _exc:  # pragma: no cover (numba is a dependency)
-    CompiledEngine, _NO_COMPILED = None, _exc
-
 #: Largest default step [s].
 MAX_DEFAULT_STEP_S = 20e-6
 #: Default step bound relative to the current loop's speed: dt <= this / omega_i.
@@ -326,10 +320,12 @@ def engine_class(requested=None):
     """
     if engine_name(requested) == "reference":
         return Engine
-    if CompiledEngine is None:
-        warnings.warn(f"simulation: the compiled engine is unavailable ({_NO_COMPILED}); "
-                      f"running the numpy reference engine instead (set {ENGINE_ENV}=reference "
-                      "to choose it)", stacklevel=3)
+    try:
+        from cas_freq.simulation.compiled import CompiledEngine
+    except ImportError as exc:
+        warnings.warn(f"simulation: the compiled engine is unavailable ({exc}); running the "
+                      f"numpy reference engine instead (set {ENGINE_ENV}=reference to choose "
+                      "it)", stacklevel=3)
         return Engine
     return CompiledEngine
 
