@@ -364,7 +364,7 @@ class FilterSpec(_Section):
 
     at: str
     type: str
-    frequency: _filter_field("frequency")
+    frequency: _filter_field("frequency") | None = None
     damping: _filter_field("damping") | None = None
     width: _filter_field("width") | None = None
     depth: _filter_field("depth") | None = None

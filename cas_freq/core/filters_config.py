@@ -57,8 +57,8 @@ class FilterType:
     label : str
         Its block's name in the loop structure.
     numbers : tuple of str
-        The config names of the numbers it takes, ``frequency`` first (their records, unit and
-        bounds, in :data:`FILTER_PARAMETERS`; their per-run fields :func:`number_field`).
+        The config names of the numbers it takes (their records, unit and bounds, in
+        :data:`FILTER_PARAMETERS`; their per-run fields :func:`number_field`).
     transfer : callable
         ``transfer(item) -> (numerator, denominator)``: its transfer function, 1 at s = 0, as
         polynomials in s (tuples, highest power first) of the item's per-run numbers
@@ -168,8 +168,8 @@ class Filter:
         Its point, one of :data:`FILTER_POINTS`.
     kind : str
         Its type, one of :data:`FILTER_TYPES`.
-    frequency : array_like
-        ω0 per run [rad/s] (every kind has one).
+    frequency : array_like, optional
+        ω0 per run [rad/s], for the kinds that take one.
     **numbers : array_like
         Its other numbers per run, by field (:func:`number_field` of their config names:
         ``damping`` [-], ``width`` [rad/s], ``depth_db`` [dB], ...; the records of
@@ -182,7 +182,7 @@ class Filter:
     #: The per-run fields, in order: one per record of :data:`FILTER_PARAMETERS`.
     NUMBERS = tuple(number_field(name) for name in FILTER_PARAMETERS)
 
-    def __init__(self, at, kind, frequency, **numbers):
+    def __init__(self, at, kind, frequency=np.nan, **numbers):
         for problem in (point_problem(at), type_problem(kind)):
             if problem:
                 raise ConfigError(f"simulation parameters: filter: {problem}")
@@ -230,7 +230,7 @@ class Filter:
     @property
     def n_runs(self):
         """Number of runs."""
-        return self.frequency.shape[0]
+        return getattr(self, self.NUMBERS[0]).shape[0]
 
     @property
     def notch_damping(self):
