@@ -19,10 +19,12 @@ formulas: docs/model.md, "Filters").
 
 :data:`FILTER_PARAMETERS` holds the records of a filter's numbers (unit, bounds, meaning), as
 :data:`cas_freq.core.parameters.PARAMETERS` does for the other keys. A new kind of filter is a
-:class:`FilterType` in :data:`FILTERS` with the records of any new numbers (and their per-run
-fields of :class:`Filter`). :class:`Filter` carries one filter of a batch of runs: its point
-and kind are the same for the whole batch (they shape the loop), its numbers are per run.
-This module imports only :mod:`cas_freq.core.exceptions` and :mod:`cas_freq.core.parameter_record`.
+:class:`FilterType` in :data:`FILTERS` with the records of any new numbers (each record is a
+per-run field of :class:`Filter`, and a field of the config schema's filter item).
+:class:`Filter` carries one filter of a batch of runs: its point and kind are the same for the
+whole batch (they shape the loop), its numbers are per run.
+This module imports only :mod:`cas_freq.core.exceptions` and
+:mod:`cas_freq.core.parameter_record`.
 """
 
 import dataclasses
@@ -92,11 +94,17 @@ def _notch(item):
             (1.0 / (w0 * w0), 2.0 * zeta / w0, 1.0))
 
 
+def _leadlag(item):
+    """(1 + s/w_z)/(1 + s/w_p): a lead where the zero is below the pole, a lag above."""
+    return (1.0 / item.zero, 1.0), (1.0 / item.pole, 1.0)
+
+
 #: The kinds of filter, by ``type:``.
 FILTERS = {kind.name: kind for kind in (
     FilterType("lowpass1", "low-pass", ("frequency",), _lowpass1),
     FilterType("lowpass2", "low-pass", ("frequency", "damping"), _lowpass2),
     FilterType("notch", "notch", ("frequency", "width", "depth"), _notch),
+    FilterType("leadlag", "lead-lag", ("zero", "pole"), _leadlag),
 )}
 #: The kinds of filter, each with the numbers it takes (config names; ``frequency`` first).
 FILTER_NUMBERS = {name: kind.numbers for name, kind in FILTERS.items()}
@@ -122,6 +130,10 @@ FILTER_PARAMETERS = {
                   "width of a notch filter, > 0..1e9 [rad/s]"),
         Parameter("filters.N.depth", None, "dB", -300.0, False, None,
                   "depth of a notch filter at its frequency, below 0 dB, >= -300 [dB]"),
+        Parameter("filters.N.zero", None, "rad/s", 0.0, True, 1e9,
+                  "zero frequency w_z of a leadlag filter, > 0..1e9 [rad/s]"),
+        Parameter("filters.N.pole", None, "rad/s", 0.0, True, 1e9,
+                  "pole frequency w_p of a leadlag filter, > 0..1e9 [rad/s]"),
     )
 }
 
