@@ -359,15 +359,17 @@ class FilterSpec(_Section):
         (on the measured current) or position_feedback (on the position loop's measured
         angle). The last two are analog: before the sampler of a sampled drive (anti-aliasing).
     type : str
-        lowpass1, lowpass2 or notch.
+        lowpass1, lowpass2, notch or leadlag (``zero`` and ``pole`` [rad/s]).
     """
 
     at: str
     type: str
-    frequency: _filter_field("frequency")
+    frequency: _filter_field("frequency") | None = None
     damping: _filter_field("damping") | None = None
     width: _filter_field("width") | None = None
     depth: _filter_field("depth") | None = None
+    zero: _filter_field("zero") | None = None
+    pole: _filter_field("pole") | None = None
 
     @field_validator("at")
     @classmethod

@@ -19,10 +19,12 @@ formulas: docs/model.md, "Filters").
 
 :data:`FILTER_PARAMETERS` holds the records of a filter's numbers (unit, bounds, meaning), as
 :data:`cas_freq.core.parameters.PARAMETERS` does for the other keys. A new kind of filter is a
-:class:`FilterType` in :data:`FILTERS` with the records of any new numbers (and their per-run
-fields of :class:`Filter`). :class:`Filter` carries one filter of a batch of runs: its point
-and kind are the same for the whole batch (they shape the loop), its numbers are per run.
-This module imports only :mod:`cas_freq.core.exceptions` and :mod:`cas_freq.core.parameter_record`.
+:class:`FilterType` in :data:`FILTERS` with the records of any new numbers (each record is a
+per-run field of :class:`Filter`, and a field of the config schema's filter item).
+:class:`Filter` carries one filter of a batch of runs: its point and kind are the same for the
+whole batch (they shape the loop), its numbers are per run.
+This module imports only :mod:`cas_freq.core.exceptions` and
+:mod:`cas_freq.core.parameter_record`.
 """
 
 import dataclasses
@@ -57,8 +59,8 @@ class FilterType:
     label : str
         Its block's name in the loop structure.
     numbers : tuple of str
-        The config names of the numbers it takes, ``frequency`` first (their records, unit and
-        bounds, in :data:`FILTER_PARAMETERS`; their per-run fields :func:`number_field`).
+        The config names of the numbers it takes (their records, unit and bounds, in
+        :data:`FILTER_PARAMETERS`; their per-run fields :func:`number_field`).
     transfer : callable
         ``transfer(item) -> (numerator, denominator)``: its transfer function, 1 at s = 0, as
         polynomials in s (tuples, highest power first) of the item's per-run numbers
@@ -92,11 +94,17 @@ def _notch(item):
             (1.0 / (w0 * w0), 2.0 * zeta / w0, 1.0))
 
 
+def _leadlag(item):
+    """(1 + s/w_z)/(1 + s/w_p): a lead where the zero is below the pole, a lag above."""
+    return (1.0 / item.zero, 1.0), (1.0 / item.pole, 1.0)
+
+
 #: The kinds of filter, by ``type:``.
 FILTERS = {kind.name: kind for kind in (
     FilterType("lowpass1", "low-pass", ("frequency",), _lowpass1),
     FilterType("lowpass2", "low-pass", ("frequency", "damping"), _lowpass2),
     FilterType("notch", "notch", ("frequency", "width", "depth"), _notch),
+    FilterType("leadlag", "lead-lag", ("zero", "pole"), _leadlag),
 )}
 #: The kinds of filter, each with the numbers it takes (config names; ``frequency`` first).
 FILTER_NUMBERS = {name: kind.numbers for name, kind in FILTERS.items()}
@@ -122,6 +130,10 @@ FILTER_PARAMETERS = {
                   "width of a notch filter, > 0..1e9 [rad/s]"),
         Parameter("filters.N.depth", None, "dB", -300.0, False, None,
                   "depth of a notch filter at its frequency, below 0 dB, >= -300 [dB]"),
+        Parameter("filters.N.zero", None, "rad/s", 0.0, True, 1e9,
+                  "zero frequency w_z of a leadlag filter, > 0..1e9 [rad/s]"),
+        Parameter("filters.N.pole", None, "rad/s", 0.0, True, 1e9,
+                  "pole frequency w_p of a leadlag filter, > 0..1e9 [rad/s]"),
     )
 }
 
@@ -168,8 +180,8 @@ class Filter:
         Its point, one of :data:`FILTER_POINTS`.
     kind : str
         Its type, one of :data:`FILTER_TYPES`.
-    frequency : array_like
-        ω0 per run [rad/s] (every kind has one).
+    frequency : array_like, optional
+        ω0 per run [rad/s], for the kinds that take one.
     **numbers : array_like
         Its other numbers per run, by field (:func:`number_field` of their config names:
         ``damping`` [-], ``width`` [rad/s], ``depth_db`` [dB], ...; the records of
@@ -182,7 +194,7 @@ class Filter:
     #: The per-run fields, in order: one per record of :data:`FILTER_PARAMETERS`.
     NUMBERS = tuple(number_field(name) for name in FILTER_PARAMETERS)
 
-    def __init__(self, at, kind, frequency, **numbers):
+    def __init__(self, at, kind, frequency=np.nan, **numbers):
         for problem in (point_problem(at), type_problem(kind)):
             if problem:
                 raise ConfigError(f"simulation parameters: filter: {problem}")
@@ -230,7 +242,7 @@ class Filter:
     @property
     def n_runs(self):
         """Number of runs."""
-        return self.frequency.shape[0]
+        return getattr(self, self.NUMBERS[0]).shape[0]
 
     @property
     def notch_damping(self):
