@@ -236,8 +236,9 @@ def as_pid(raw):
     ({**_NOTCH, "depth": 0}, "filters.0.depth: a notch's depth is below 0 dB, got 0 dB"),
     ({**_NOTCH, "depth": "3 dB"}, "filters.0.depth: a notch's depth is below 0 dB, got 3 dB"),
     ({**_NOTCH, "type": "bandpass"},
-     "filters.0.type: 'bandpass' is not a filter type; use lowpass1, lowpass2 or notch"),
-    ({"at": "current_command", "type": "lowpass1"}, "filters.0.frequency: required key is missing"),
+     "filters.0.type: 'bandpass' is not a filter type; use lowpass1, lowpass2, notch or "
+     "leadlag"),
+    ({"at": "current_command", "type": "lowpass1"}, "filters.0: a lowpass1 filter needs frequency"),
     ({**_NOTCH, "q": 3}, "filters.0.q: unknown key (value 3); filters.0 accepts at, type, "
                          "frequency, damping, width, depth"),
     ({**_NOTCH, "type": "lowpass1"},
