@@ -18,7 +18,8 @@ import os
 
 import numpy as np
 
-from cas_freq.analysis import response_kernel, sampled_stability
+import cas_freq.analysis.response_kernel as response_kernel
+import cas_freq.analysis.sampled_stability as sampled_stability
 from cas_freq.analysis.closed_loop import (
     CLOSED_LOOP_FIGURES,
     ClosedLoopFigures,

@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from cas_freq.analysis import describing
+import cas_freq.analysis.describing as describing
 from cas_freq.core.exceptions import CasFreqError
 from cas_freq.model.loops import PreparedResponses, Selector
 from cas_freq.model.structure import build

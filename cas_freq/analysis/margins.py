@@ -54,7 +54,7 @@ import math
 
 import numpy as np
 
-from cas_freq.analysis import scan_kernel
+import cas_freq.analysis.scan_kernel as scan_kernel
 from cas_freq.analysis.probes import (
     Probes,
     extremum_probes,

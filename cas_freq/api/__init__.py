@@ -28,7 +28,7 @@ import types
 
 import numpy as np
 
-from cas_freq import analysis
+import cas_freq.analysis as analysis
 from cas_freq.analysis.frequency import DEFAULT_RANGE_RAD_S
 from cas_freq.analysis.systems import (
     POLYNOMIAL_LOG10_LIMIT,

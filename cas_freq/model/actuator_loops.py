@@ -3,7 +3,8 @@ sampled (:mod:`cas_freq.model.sampled`), as its config declares."""
 
 import numpy as np
 
-from cas_freq.model import parts, sampled
+import cas_freq.model.parts as parts
+import cas_freq.model.sampled as sampled
 from cas_freq.model.delay import EXACT
 from cas_freq.model.loops import Selector, current_loop, responses
 from cas_freq.model.structure import total_delay

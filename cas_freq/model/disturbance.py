@@ -23,7 +23,7 @@ derived from it, 0 where it does not enter). Delays exact or Padé as in
 
 import numpy as np
 
-from cas_freq.model import parts
+import cas_freq.model.parts as parts
 from cas_freq.model.delay import EXACT
 from cas_freq.model.structure import build
 from cas_freq.model.table import Values, entering, table, walk

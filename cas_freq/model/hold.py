@@ -22,10 +22,10 @@ import types
 import numpy as np
 from scipy.linalg import expm
 
+import cas_freq.model.parts as parts
 from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.filters_config import ANALOG_POINTS, Filter
 from cas_freq.core.threads import one_blas_thread
-from cas_freq.model import parts
 from cas_freq.model.structure import SIGNALS, build, chain_state_space, filter_block, measured
 
 #: A delay within this fraction of a whole number of periods counts as that number.

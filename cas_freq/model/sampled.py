@@ -49,9 +49,9 @@ import math
 
 import numpy as np
 
+import cas_freq.model.parts as parts
 from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.filters_config import Filter
-from cas_freq.model import parts
 from cas_freq.model.hold import WHOLE, PlantModes, hold_equivalent, plant_modes
 from cas_freq.model.loops import LoopResponses
 from cas_freq.model.loops import responses as continuous

@@ -34,8 +34,8 @@ import dataclasses
 import numpy as np
 from scipy.linalg import expm
 
+import cas_freq.model.parts as parts
 from cas_freq.core.threads import one_blas_thread
-from cas_freq.model import parts
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, pade_realization
 from cas_freq.model.hold import measured, with_analog_filters
 from cas_freq.model.sampled import groups

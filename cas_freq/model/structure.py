@@ -61,8 +61,8 @@ import dataclasses
 
 import numpy as np
 
+import cas_freq.model.parts as parts
 from cas_freq.core.filters_config import ANALOG_POINTS, FILTERS
-from cas_freq.model import parts
 from cas_freq.model.parts import polyadd, polymul
 
 #: The plant signals a loop can measure: name -> meaning [unit per volt].

@@ -24,7 +24,7 @@ import dataclasses
 
 import numpy as np
 
-from cas_freq.model import parts
+import cas_freq.model.parts as parts
 from cas_freq.model.delay import pade_denominator
 from cas_freq.model.parts import polyadd, polymul, product
 from cas_freq.model.structure import digital_sensor, measured

@@ -12,8 +12,9 @@ import threading
 import numba
 import numpy as np
 
-from cas_freq.simulation import architecture, kernel
-from cas_freq.simulation import mechanics as mech
+import cas_freq.simulation.architecture as architecture
+import cas_freq.simulation.kernel as kernel
+import cas_freq.simulation.mechanics as mech
 from cas_freq.simulation.delay_line import ring_size
 from cas_freq.simulation.engine import LOAD_SIGNALS, SIGNALS, recorded_rows
 

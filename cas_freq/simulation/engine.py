@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from cas_freq.simulation import architecture
+import cas_freq.simulation.architecture as architecture
 from cas_freq.simulation.commands import Step, fin_limits
 from cas_freq.simulation.controllers import Controller
 from cas_freq.simulation.delay_line import DelayLine

@@ -62,9 +62,9 @@ import numba
 import numpy as np
 from numba import prange
 
+import cas_freq.simulation.architecture as arch
+import cas_freq.simulation.mechanics as mech
 from cas_freq.core.jit import cached_jit as _jit
-from cas_freq.simulation import architecture as arch
-from cas_freq.simulation import mechanics as mech
 from cas_freq.simulation.controllers import check_method, derivative_filter
 from cas_freq.simulation.delay_line import delay_steps, ring_size
 from cas_freq.simulation.engine import (

@@ -8,9 +8,9 @@ into the kernel's loop (``inline="always"``). Split from ``kernel.py``, which ke
 over the steps and the tables.
 """
 
+import cas_freq.simulation.architecture as arch
+import cas_freq.simulation.mechanics as mech
 from cas_freq.core.jit import cached_jit as _jit
-from cas_freq.simulation import architecture as arch
-from cas_freq.simulation import mechanics as mech
 
 # Columns of the parameter table ``p`` (n_runs, _NP), one row per run.
 _PHI = 0  # Phi, row-major, 9 columns
