@@ -29,23 +29,24 @@ WARM_UP_FROM = 200
 
 @pytest.fixture(scope="session", autouse=True)
 def _kernels_prepared_first(_no_compile_messages_in_process, request):
-    """The numba kernels of every shipped config's variants loaded, or compiled where numba's
-    cache has none, at the session's start, before any test runs them: the simulation's
-    (:func:`~cas_freq.simulation.simulator.prepare_kernels`) and the frequency-domain batch's
-    (:func:`~cas_freq.report.workers.prepare_frequency_kernels`), each compiled in a thread of
-    its own, not deep in pytest's call stack (see their docstrings). With a warm cache this loads
-    the machine code, about 1 s. A session of fewer than :data:`WARM_UP_FROM` tests (one file,
-    one test) compiles only what it runs.
+    """The numba kernels, which serve every shipped config's variants, loaded (or compiled
+    where numba's cache has none) at the session's start, before any test runs them: the
+    simulation's (:func:`~cas_freq.simulation.simulator.prepare_kernels`) and the
+    frequency-domain batch's (:func:`~cas_freq.report.workers.prepare_frequency_kernels`),
+    each compiled in a thread of its own, not deep in pytest's call stack (see their
+    docstrings). With a warm cache this loads the machine code, about 1 s. A session of fewer
+    than :data:`WARM_UP_FROM` tests (one file, one test) compiles only what it runs.
     """
     if len(request.session.items) >= WARM_UP_FROM:
-        from cas_freq.config import load_all_variants
+        from cas_freq.config import load_variant
         from cas_freq.report.workers import prepare_frequency_kernels
         from cas_freq.simulation.simulator import prepare_kernels
 
-        for path in sorted(default_config_path().parent.glob("*.yaml")):
-            for loaded in load_all_variants(path):
-                prepare_kernels(loaded.params)
-                prepare_frequency_kernels(loaded.params)
+        # the kernels take the architecture, sampling and load as data: one variant (with
+        # continuous controllers, which the frequency-domain kernels evaluate) serves them all
+        params = load_variant(default_config_path()).params
+        prepare_kernels(params)
+        prepare_frequency_kernels(params)
     yield
 
 

@@ -68,8 +68,10 @@ def prepare_kernels(variants):
     (:func:`cas_freq.analysis.batch_analyze` of two runs, without and with a load spring, on a
     short grid: a batch analysis runs them at any size; the grid scans of
     :mod:`cas_freq.analysis.scan_kernel` run only on larger arrays than an envelope's).
-    Kernels that take the loop table as data are compiled for the first variant and found
-    compiled for the others. Nothing with the reference engine.
+    The kernels take the architecture, the sampling and the load as data, so one variant
+    prepares them for every other: the first enveloped one (and, for the frequency-domain
+    kernels, the first with continuous controllers: sampled loops are evaluated in numpy).
+    Nothing with the reference engine.
 
     Parameters
     ----------
@@ -79,10 +81,14 @@ def prepare_kernels(variants):
     if not use_compiled() or not variants or variants[0].params.load_envelope is None:
         return
     wanted = envelope_variants(variants[0].params)
-    for loaded in variants:
-        if wanted is None or loaded.variant in wanted:
-            prepare_simulation(loaded.params)
-            prepare_frequency_kernels(loaded.params)
+    enveloped = [loaded for loaded in variants if wanted is None or loaded.variant in wanted]
+    if not enveloped:
+        return
+    prepare_simulation(enveloped[0].params)
+    continuous = next((loaded for loaded in enveloped
+                       if not loaded.params.sampling.sample_rates), None)
+    if continuous is not None:
+        prepare_frequency_kernels(continuous.params)
 
 
 def prepare_frequency_kernels(params):
