@@ -57,7 +57,8 @@ cases = {
     "cascade_sampled": (lambda: lp(cas), dict(current_rate_hz=20000.0, velocity_rate_hz=10000.0,
                                               position_rate_hz=2500.0)),
     "cascade_sampled_v": (lambda: lp(cas), dict(velocity_rate_hz=10000.0)),
-    "cascade_sampled_cv": (lambda: lp(cas), dict(current_rate_hz=20000.0, velocity_rate_hz=10000.0)),
+    "cascade_sampled_cv": (lambda: lp(cas),
+                           dict(current_rate_hz=20000.0, velocity_rate_hz=10000.0)),
     "cascade_sampled_p": (lambda: lp(cas), dict(position_rate_hz=2500.0)),
 }
 
