@@ -88,6 +88,9 @@ class Block:
     ``analog``: a filter on a measurement before it is sampled
     (:data:`cas_freq.core.filters_config.ANALOG_POINTS`); continuous even where the controllers are
     sampled (:mod:`cas_freq.model.sampled` puts it in the plant's hold-equivalent).
+
+    ``gains``: a controller's (Kp, Ki, Kd, Tf) as the simulators step it (the PID of
+    docs/model.md; a PI's Kd is 0 and Tf 1 [s]), None for a filter.
     """
 
     name: str
@@ -95,6 +98,7 @@ class Block:
     denominator: tuple = (1.0,)
     minimal: object = None
     analog: bool = False
+    gains: tuple | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -131,6 +135,9 @@ class Loop:
         (feed-forward of the command's rate and acceleration), None for none.
     signals : (str, str)
         Names of its error and its measured signal (python-control systems).
+    limit : float or numpy.ndarray or None
+        The clamp of its controller's output, in the unit of the command it gives (v_max [V],
+        i_max [A], omega_max [rad/s]); not linear, so only the simulators read it.
     """
 
     name: str
@@ -145,6 +152,7 @@ class Loop:
     reference: tuple | None = None
     feedforward: tuple | None = None
     signals: tuple = ("e", "y")
+    limit: object = None
 
     @property
     def label(self):
@@ -223,7 +231,7 @@ def pi_controller(name, kp, ki, n):
         return (_where(ki_on, _rows((kp, ki), n), _rows((kp,), n)),
                 _where(ki_on, _rows((1.0, 0.0), n), _rows((1.0,), n)))
 
-    return Block(name, (kp, ki), (1.0, 0.0), minimal)
+    return Block(name, (kp, ki), (1.0, 0.0), minimal, gains=(kp, ki, 0.0, 1.0))
 
 
 def pid_controller(p, n):
@@ -243,7 +251,7 @@ def pid_controller(p, n):
         return numerator, denominator
 
     return Block("position PID", parts.position_controller(p),
-                 polymul(parts.position_filter(p), (1.0, 0.0)), minimal)
+                 polymul(parts.position_filter(p), (1.0, 0.0)), minimal, gains=(kp, ki, kd, tf))
 
 
 def filter_block(item):
@@ -352,7 +360,7 @@ def build(p):
     current = Loop(
         "current_loop", "L_i", "the voltage", "V",
         pi_controller("current PI", p.ci_Kp, p.ci_Ki, n), (), p.tau_c, "current",
-        _filters(p, "current_feedback"), signals=("e_i", "i"),
+        _filters(p, "current_feedback"), signals=("e_i", "i"), limit=getattr(p, "v_max", None),
     )
     at_current_command = _filters(p, "current_command")
     position_feedback = ("output_angle" if getattr(p, "feedback_output", False)
@@ -371,6 +379,7 @@ def build(p):
             at_current_command, p.tau_p, position_feedback,
             _filters(p, "position_feedback"), reference=reference,
             feedforward=(p.ff_a, p.ff_v, 0.0), signals=position_signals,
+            limit=getattr(p, "i_max", None),
         )
         return Structure(plant(p), (current, position))
     sensor = _filters(p, "velocity_feedback")
@@ -381,11 +390,13 @@ def build(p):
         "velocity_loop", "L_v", "the current command", "i_cmd",
         pi_controller("velocity PI", p.cv_Kp, p.cv_Ki, n), at_current_command, p.tau_v,
         "motor_velocity", sensor, feedforward=(p.ff_a, 0.0, 0.0), signals=("e_v", "omega"),
+        limit=getattr(p, "i_max", None),
     )
     position = Loop(
         "position_loop", "L_p", "the velocity command", "ω_cmd",
         pi_controller("position PI", p.cp_Kp, p.cp_Ki, n), (), p.tau_p, position_feedback,
         _filters(p, "position_feedback"), feedforward=(p.ff_v, 0.0), signals=position_signals,
+        limit=getattr(p, "omega_max", None),
     )
     return Structure(plant(p), (current, velocity, position))
 

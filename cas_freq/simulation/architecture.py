@@ -167,17 +167,19 @@ def _per_run(value, n):
     return np.broadcast_to(np.asarray(value, dtype=float), (n,)).astype(float)
 
 
+def controller(loop, n):
+    """A loop's controller as the engines step it: (Kp, Ki, Kd, Tf, limit) per run, from the
+    structure (:attr:`~cas_freq.model.structure.Block.gains`,
+    :attr:`~cas_freq.model.structure.Loop.limit`)."""
+    return tuple(_per_run(value, n) for value in (*loop.controller.gains, loop.limit))
+
+
 def position(params):
     """The position controller of ``params`` (:class:`Position`), from the structure."""
-    p = params
-    n = p.n_runs
-    loop = loop_structure.build(p).loops[-1]
+    n = params.n_runs
+    loop = loop_structure.build(params).loops[-1]
     ff_v, ff_a = _feedforward(loop, n)
-    if p.cascade:
-        kp, ki = (_per_run(c, n) for c in loop.controller.numerator)
-        return Position(kp, ki, np.zeros(n), np.ones(n), _per_run(p.omega_max, n), ff_v, ff_a,
-                        loop.delay)
-    return Position(p.cp_Kp, p.cp_Ki, p.cp_Kd, p.Tf, p.i_max, ff_v, ff_a, loop.delay)
+    return Position(*controller(loop, n), ff_v, ff_a, loop.delay)
 
 
 def _discretised(a, b, c, d, period, alpha):
@@ -234,10 +236,10 @@ def inner_blocks(params, dt, every=None, method="backward"):
     if not p.cascade:
         return Inner(False, output_feedback, path=path, commander_every=commander_every,
                      **measurements)
-    kp, ki = (_per_run(c, n) for c in commanding.controller.numerator)
+    kp, ki, _, _, limit = controller(commanding, n)
     _, ff_a = _feedforward(commanding, n)
     return Inner(True, output_feedback, velocity_kp=kp, velocity_ki=ki,
-                 velocity_limit=_per_run(p.i_max, n), velocity_ff_a=ff_a,
+                 velocity_limit=limit, velocity_ff_a=ff_a,
                  velocity_delay=commanding.delay, path=path,
                  sensor=filter_chain(digital_sensor(commanding), n, dt, commander_every, method),
                  commander_every=commander_every, **measurements)

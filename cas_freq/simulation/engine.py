@@ -32,6 +32,7 @@ import math
 import numpy as np
 
 import cas_freq.simulation.architecture as architecture
+from cas_freq.model import structure as loop_structure
 from cas_freq.simulation.commands import Step, fin_limits
 from cas_freq.simulation.controllers import Controller
 from cas_freq.simulation.delay_line import DelayLine
@@ -214,10 +215,9 @@ class Engine:
         self.current_every, self.position_every = current_every, position_every
         self.velocity_every = every.get("velocity_loop") if p.cascade else None
         self.method = method
-        self.current = Controller(
-            p.ci_Kp, p.ci_Ki, np.zeros_like(p.ci_Kp), p.Tf, p.v_max, dt * (current_every or 1),
-            sampled=current_every is not None, method=method,
-        )
+        kp, ki, kd, tf, limit = architecture.controller(loop_structure.build(p).loops[0], n)
+        self.current = Controller(kp, ki, kd, tf, limit, dt * (current_every or 1),
+                                  sampled=current_every is not None, method=method)
         # the blocks between the position and the current controller (velocity loop,
         # filters) and the position loop's measurement, read from the declared structure
         # (architecture.py)
