@@ -174,6 +174,12 @@ def controller(loop, n):
     return tuple(_per_run(value, n) for value in (*loop.controller.gains, loop.limit))
 
 
+def current(params):
+    """The current controller of ``params``: (Kp, Ki, Kd, Tf, v_max) per run, from the
+    structure."""
+    return controller(loop_structure.build(params).loops[0], params.n_runs)
+
+
 def position(params):
     """The position controller of ``params`` (:class:`Position`), from the structure."""
     n = params.n_runs

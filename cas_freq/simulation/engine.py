@@ -32,7 +32,6 @@ import math
 import numpy as np
 
 import cas_freq.simulation.architecture as architecture
-from cas_freq.model import structure as loop_structure
 from cas_freq.simulation.commands import Step, fin_limits
 from cas_freq.simulation.controllers import Controller
 from cas_freq.simulation.delay_line import DelayLine
@@ -215,7 +214,7 @@ class Engine:
         self.current_every, self.position_every = current_every, position_every
         self.velocity_every = every.get("velocity_loop") if p.cascade else None
         self.method = method
-        kp, ki, kd, tf, limit = architecture.controller(loop_structure.build(p).loops[0], n)
+        kp, ki, kd, tf, limit = architecture.current(p)
         self.current = Controller(kp, ki, kd, tf, limit, dt * (current_every or 1),
                                   sampled=current_every is not None, method=method)
         # the blocks between the position and the current controller (velocity loop,

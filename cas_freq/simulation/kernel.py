@@ -65,7 +65,6 @@ from numba import prange
 import cas_freq.simulation.architecture as arch
 import cas_freq.simulation.mechanics as mech
 from cas_freq.core.jit import cached_jit as _jit
-from cas_freq.model import structure as loop_structure
 from cas_freq.simulation.controllers import check_method, derivative_filter
 from cas_freq.simulation.delay_line import delay_steps, ring_size
 from cas_freq.simulation.engine import (
@@ -696,7 +695,7 @@ def parameter_table(params, dt, position_every, inner, method="backward"):
     position = arch.position(pr)
     p[:, _RATIO], p[:, _FF_V], p[:, _FF_A] = pr.ratio, position.ff_v, position.ff_a
     p[:, _CP_KP], p[:, _CP_KI], p[:, _I_MAX] = position.kp, position.ki, position.limit
-    ci_kp, ci_ki, _, _, v_max = arch.controller(loop_structure.build(pr).loops[0], n)
+    ci_kp, ci_ki, _, _, v_max = arch.current(pr)
     p[:, _CI_KP], p[:, _CI_KI], p[:, _V_MAX] = ci_kp, ci_ki, v_max
     p[:, _ON_MEASUREMENT] = pr.derivative_on_measurement
     p[:, _BACKWARD] = check_method(method) == "backward"
