@@ -172,6 +172,11 @@ class CommandSet:
 class Engine:
     """State of a batch of runs, advanced step by step.
 
+    The loops are the rows of :func:`~cas_freq.simulation.architecture.loop_steps`, innermost
+    first; each step, after the plant, every loop due is updated from the outermost in, each
+    reading the delayed output of the loop outside it (the outermost the command), and each
+    loop's output is pushed into the delay line after it (the innermost's drives the plant).
+
     Per step the work is a few numpy operations on arrays of shape (n_runs,), so for small
     batches their fixed cost dominates: the engine takes the commands' rows a chunk of steps at
     a time, computes the feed-forward for the chunk at once, and tells the controllers where the
@@ -196,8 +201,6 @@ class Engine:
     def __init__(self, params, commands, dt, every=None, method="backward"):
         p = params
         n = p.n_runs
-        every = every or {}
-        current_every, position_every = every.get("current_loop"), every.get("position_loop")
         self.dt = dt
         self.commands = commands
         # a batch with some loaded run: the 5-state plant of mechanics.py for every run
@@ -211,122 +214,100 @@ class Engine:
         self._next = np.empty((n, 3))
         self._inputs = np.empty((n, 3))
         self._volts = np.empty((n, 3))
-        self.current_every, self.position_every = current_every, position_every
-        self.velocity_every = every.get("velocity_loop") if p.cascade else None
-        self.method = method
-        kp, ki, kd, tf, limit = architecture.current(p)
-        self.current = Controller(kp, ki, kd, tf, limit, dt * (current_every or 1),
-                                  sampled=current_every is not None, method=method)
-        # the blocks between the position and the current controller (velocity loop,
-        # filters) and the position loop's measurement, read from the declared structure
-        # (architecture.py)
-        self.inner = inner = architecture.inner_blocks(p, dt, every, method)
-        position = architecture.position(p)
-        self.position = Controller(
-            position.kp, position.ki, position.kd, position.tf, position.limit,
-            dt * (position_every or 1), sampled=position_every is not None, method=method,
-        )
-        self.cp_Ki, self.ff_v, self.ff_a = position.ki, position.ff_v, position.ff_a
-        #: The controller whose output is the current command (its clamp is current_limited).
-        self.commander = self.position
-        #: The analog filters on the measured current and angle (None: none), stepped at
-        #: every step before the controllers read them (:meth:`_measure`).
-        self.current_sensor = self.angle_sensor = None
-        self._setup_inner(p, dt, position.delay)
-        self.on_measurement = p.derivative_on_measurement
+        self.ratio, self.loaded = p.ratio, p.loaded
+        #: The loops, innermost first (architecture.loop_steps), and per loop its controller,
+        #: the delay line after it and the states of its filters (None: none).
+        self.loops = loops = architecture.loop_steps(p, dt, every, method)
+        self.controllers = [
+            Controller(loop.kp, loop.ki, loop.kd, loop.tf, loop.limit,
+                       dt * (loop.every or 1), sampled=loop.sampled, method=method)
+            for loop in loops]
+        self.lines = [DelayLine(loop.delay, dt, hold=loop.sampled) for loop in loops]
+        self.analog, self.sensor, self.path = (
+            [None if chain is None else architecture.FilterState(chain) for chain in chains]
+            for chains in zip(*((loop.analog, loop.sensor, loop.path) for loop in loops),
+                              strict=True))
+        top = loops[-1]
+        on = top.on_measurement
         # Derivative input: the error everywhere (None), -theta everywhere (True), or mixed.
-        on = self.on_measurement
         self._derivative_on = None if not on.any() else (True if on.all() else on)
-        self.voltage_line = DelayLine(p.tau_c, dt, hold=current_every is not None)
-        if not inner.cascade:
-            self.current_line = DelayLine(p.tau_p, dt, hold=position_every is not None)
-        #: Update period in steps of the controller that commands the current (None:
-        #: continuous); its output, and the filters after it, are held in between.
-        self.commander_every = self.velocity_every if p.cascade else position_every
+        #: Per loop: its outputs' left and right limits, where its right one was clamped, the
+        #: reference it read at its last update and its measurement at this step.
+        self.out_left, self.out = [None] * len(loops), [None] * len(loops)
+        self.limited = [None] * len(loops)
+        self.reference, self.measured = [None] * len(loops), [None] * len(loops)
+        #: The controller whose output is the current command (its clamp is current_limited).
+        self.commander = self.controllers[1]
         self.k = 0
 
-    def _setup_inner(self, p, dt, position_delay):
-        """The velocity loop, the filters and the measured angle of :attr:`inner`."""
-        inner = self.inner
-        self.ratio, self.loaded = p.ratio, p.loaded
-        self.path = None if inner.path is None else architecture.FilterState(inner.path)
-        self.sensor = None if inner.sensor is None else architecture.FilterState(inner.sensor)
-        if inner.current_sensor is not None:
-            self.current_sensor = architecture.FilterState(inner.current_sensor)
-        if inner.angle_sensor is not None:
-            self.angle_sensor = architecture.FilterState(inner.angle_sensor)
-        if inner.cascade:
-            n = p.n_runs
-            self.velocity = Controller(
-                inner.velocity_kp, inner.velocity_ki, np.zeros(n), np.ones(n),
-                inner.velocity_limit, dt * (self.velocity_every or 1),
-                sampled=self.velocity_every is not None, method=self.method,
-            )
-            self.commander = self.velocity
-            self.velocity_ff_a = inner.velocity_ff_a
-            # position controller -> tau_p -> velocity controller -> tau_v -> current loop
-            self.velocity_line = DelayLine(np.broadcast_to(position_delay, (n,)), dt,
-                                           hold=self.position_every is not None)
-            self.current_line = DelayLine(np.broadcast_to(inner.velocity_delay, (n,)), dt,
-                                          hold=self.velocity_every is not None)
-
-    def _measured_angle(self):
-        """The angle the position loop measures: the motor angle, or with output feedback the
-        output angle on the motor's scale N*delta (a rigid, unloaded run's is theta)."""
+    def _signal(self, name):
+        """The plant signal a loop measures (structure.SIGNALS); the output angle on the
+        motor's scale N*delta (a rigid, unloaded run's is theta)."""
+        if name == "current":
+            return self.x[:, 0]
+        if name == "motor_velocity":
+            return self.x[:, 1]
         theta = self.x[:, 2]
-        if not self.inner.output_feedback or self.drivetrain is None:
+        if name == "motor_angle" or self.drivetrain is None:
             return theta
         return np.where(self.loaded, self.ratio * self.x[:, 4], theta)
 
     def _measure(self, start=False):
-        """The measurements the controllers read at this step (``i_meas``, ``theta_meas``):
-        the current and the position loop's angle, each through its analog filters (if any),
-        stepped exactly for a measurement linear over the step."""
-        self.i_meas, self.theta_meas = self.x[:, 0], self._measured_angle()
-        if self.current_sensor is not None:
-            step = self.current_sensor.start if start else self.current_sensor.step
-            self.i_meas = step(self.i_meas, self.i_meas)[1]
-        if self.angle_sensor is not None:
-            step = self.angle_sensor.start if start else self.angle_sensor.step
-            self.theta_meas = step(self.theta_meas, self.theta_meas)[1]
+        """Each loop's measurement at this step, through its analog filters (if any), stepped
+        exactly for a measurement linear over the step."""
+        for j, loop in enumerate(self.loops):
+            measured = self._signal(loop.signal)
+            chain = self.analog[j]
+            if chain is not None:
+                measured = (chain.start if start else chain.step)(measured, measured)[1]
+            self.measured[j] = measured
 
-    def _inner_update(self, k, left, right, start=False):
-        """The blocks between the position controller and the current loop at step ``k``:
-        the position controller's output (``u_p_left``, ``u_p``) becomes the current command
-        (``u_left``, ``u_cmd``), held between the updates of a sampled commander."""
-        u_left, u_right = self.u_p_left, self.u_p
-        if self.inner.cascade:
-            self.velocity_line.push(k, u_right, u_left)
-        if not (start or self.commander_every is None or k % self.commander_every == 0):
-            return  # a sampled commander's output (and the filters after it) held
-        if self.inner.cascade:
-            if self.position_every is None and self.velocity_every is None:
-                w_cmd, w_cmd_left = self.velocity_line.read_limits(k)
-            else:  # a sampler sees the command from now on
-                w_cmd = w_cmd_left = self.velocity_line.read(k)
-            w = self.x[:, 1]
-            if self.sensor is not None:
-                w = (self.sensor.start if start else self.sensor.step)(w, w)[1]
-            ff_right = self.velocity_ff_a * right[2]
-            ff_left = (ff_right if left is right or self.velocity_every is not None
-                       else self.velocity_ff_a * left[2])
-            step = self.velocity.start if start else self.velocity.update
-            u_left, u_right, self.current_limited = step(w_cmd_left - w, w_cmd - w, None, None,
-                                                         ff_left, ff_right)
-        if self.path is not None:
-            u_left, u_right = (self.path.start if start else self.path.step)(u_left, u_right)
-        self.u_left, self.u_cmd = u_left, u_right
+    def _due(self, j, k):
+        every = self.loops[j].every
+        return every is None or k % every == 0
 
-    def _errors(self, theta_cmd):
-        """Position error and the derivative's input (the error, or -theta)."""
-        theta = self.theta_meas
-        e = theta_cmd - theta
-        on = self._derivative_on
-        if on is None:
-            return e, e
-        if on is True:
-            return e, -theta
-        return e, np.where(on, -theta, e)
+    def _update(self, j, k, left, right, start=False):
+        """Loop ``j``'s controller at step ``k``: its reference (the command, or the delayed
+        output of loop j + 1), its measurement through its digital filters, its output
+        through the filters in its path."""
+        loop, controller = self.loops[j], self.controllers[j]
+        top = j == len(self.loops) - 1
+        if top:
+            reference, reference_left = right[0], left[0]
+        elif loop.sampled:  # a sampler sees the reference from now on
+            reference = reference_left = self.lines[j + 1].read(k)
+        else:
+            reference, reference_left = self.lines[j + 1].read_limits(k)
+        self.reference[j] = reference
+        measured = self.measured[j]
+        if self.sensor[j] is not None:
+            chain = self.sensor[j]
+            measured = (chain.start if start else chain.step)(measured, measured)[1]
+        e_r = reference - measured
+        e_l = e_r if reference_left is reference else reference_left - measured
+        y_r = y_l = None
+        if top and self._derivative_on is not None:
+            on = self._derivative_on
+            y_r = -measured if on is True else np.where(on, -measured, e_r)
+            y_l = y_r if e_l is e_r else (-measured if on is True else np.where(on, -measured, e_l))
+        ff_r, ff_l = right[1][j], left[1][j]
+        if loop.sampled:  # a sampler sees the values from now on
+            ff_l = ff_r
+        step = controller.start if start else controller.update
+        u_left, u_right, self.limited[j] = step(e_l, e_r, y_l, y_r, ff_l, ff_r)
+        if loop.sampled:  # held: no jump within an update
+            u_left = u_right
+        if self.path[j] is not None:
+            chain = self.path[j]
+            u_left, u_right = (chain.start if start else chain.step)(u_left, u_right)
+        self.out_left[j], self.out[j] = u_left, u_right
+
+    def _loops(self, k, left, right, start=False):
+        """Every loop due at step ``k``, outermost first, each output into its delay line."""
+        for j in range(len(self.loops) - 1, -1, -1):
+            if start or self._due(j, k):
+                self._update(j, k, left, right, start)
+            self.lines[j].push(k, self.out[j], self.out_left[j])
 
     def _command_rows(self, times):
         """The commands at ``times``: right and left limits, and where they differ.
@@ -334,47 +315,35 @@ class Engine:
         Returns
         -------
         tuple
-            Per limit (right, left): motor angle [rad] (len(times), n_runs) and feed-forward
-            current [A] (same shape, or None where it is 0 throughout); and per time, whether
-            the limits differ (a list of bool).
+            Per limit (right, left): the motor angle [rad] (len(times), n_runs) and per loop
+            its feed-forward (same shape, or None where it is 0 throughout); and per time,
+            whether the limits differ (a list of bool).
         """
-        limits = [(angle, self.ff_v * rate + self.ff_a * accel)
-                  for angle, rate, accel in self.commands.motor_limits(times)]
-        (angle, ff), (angle_left, ff_left) = limits
-        if self.position_every is not None:  # a sampler sees the values from now on
-            angle_left, ff_left = angle, ff
-        jumps = np.any(angle != angle_left, axis=1) | np.any(ff != ff_left, axis=1)
-        if not (np.count_nonzero(ff) or np.count_nonzero(ff_left)):
+        (angle, rate, accel), (angle_left, rate_left, accel_left) = (
+            self.commands.motor_limits(times))
+        if self.loops[-1].sampled:  # a sampler sees the values from now on
+            angle_left, rate_left, accel_left = angle, rate, accel
+        jumps = np.any(angle != angle_left, axis=1)
+        ffs, ffs_left = [], []
+        for loop in self.loops:
             ff = ff_left = None
-        if self.inner.cascade:  # the acceleration, for ff_a
-            (_, _, accel), (_, _, accel_left) = self.commands.motor_limits(times)
-            if self.position_every is not None:
-                accel_left = accel
-            jumps = jumps | np.any(accel != accel_left, axis=1)
-            return (angle, ff, accel), (angle_left, ff_left, accel_left), jumps.tolist()
-        return (angle, ff), (angle_left, ff_left), jumps.tolist()
+            if np.any(loop.ff_v != 0) or np.any(loop.ff_a != 0):
+                ff = loop.ff_v * rate + loop.ff_a * accel
+                ff_left = loop.ff_v * rate_left + loop.ff_a * accel_left
+                if not (np.count_nonzero(ff) or np.count_nonzero(ff_left)):
+                    ff = ff_left = None
+                else:
+                    jumps |= np.any(ff != ff_left, axis=1)
+            ffs.append(ff)
+            ffs_left.append(ff_left)
+        return (angle, ffs), (angle_left, ffs_left), jumps.tolist()
 
-    def _position_update(self, left, right, start=False):
-        step = self.position.start if start else self.position.update
-        e_r, y_r = self._errors(right[0])
-        e_l, y_l = (e_r, y_r) if left is right else self._errors(left[0])
-        self.u_p_left, self.u_p, limited = step(e_l, e_r, y_l, y_r, left[1], right[1])
-        if self.commander is self.position:
-            self.current_limited = limited
-
-    def _current_update(self, start=False):
-        step = self.current.start if start else self.current.update
-        i = self.i_meas
-        if self.current_every is None:
-            self.i_cmd, i_left = self.current_line.read_limits(self.k)
-            e_r = self.i_cmd - i
-            e_l = e_r if i_left is self.i_cmd else i_left - i
-            self.v_left, self.v_c, self.voltage_limited = step(e_l, e_r)
-        else:
-            self.i_cmd = self.current_line.read(self.k)
-            e = self.i_cmd - i
-            _, self.v_c, self.voltage_limited = step(e, e)
-            self.v_left = self.v_c
+    @staticmethod
+    def _row(rows, j):
+        """Row ``j`` of a limit of :meth:`_command_rows`: (angle, per loop feed-forward or
+        None)."""
+        angle, ffs = rows
+        return angle[j], tuple(None if ff is None else ff[j] for ff in ffs)
 
     def start(self):
         """Controller outputs at t = 0 (plant at rest, nothing before), then the sample at 0."""
@@ -382,29 +351,19 @@ class Engine:
         right, left = self._row(rows, 0), self._row(rows_left, 0)
         self.theta_cmd = right[0]
         self._measure(start=True)
-        self._position_update(left, right, start=True)
-        self._inner_update(0, left, right, start=True)
-        self.current_line.push(0, self.u_cmd, self.u_left)
-        self._current_update(start=True)
-        self.voltage_line.push(0, self.v_c, self.v_left)
-        self.v = self.voltage_line.read(0)
+        self._loops(0, left, right, start=True)
+        self.v = self.lines[0].read(0)
         return tuple(np.array(value) for value in self.sample())
-
-    @staticmethod
-    def _row(rows, j):
-        """Row ``j`` of a limit of :meth:`_command_rows`: (angle, feed-forward or None[,
-        acceleration])."""
-        angle, ff = rows[0][j], None if rows[1] is None else rows[1][j]
-        return (angle, ff) if len(rows) == 2 else (angle, ff, rows[2][j])
 
     def sample(self):
         """The recorded signals at the present step, in the order of :attr:`signals`.
 
         Some are views of the engine's state, valid until the next step.
         """
+        top = self.controllers[-1]
         values = (
-            self.x[:, 2], self.x[:, 1], self.x[:, 0], self.v, self.theta_cmd, self.i_cmd,
-            self.cp_Ki * self.position.integral, self.current_limited, self.voltage_limited,
+            self.x[:, 2], self.x[:, 1], self.x[:, 0], self.v, self.theta_cmd,
+            self.reference[0], top.ki * top.integral, self.limited[1], self.limited[0],
         )
         if self.drivetrain is None:
             return values
@@ -452,7 +411,7 @@ class Engine:
         states = np.empty((kept.size, n, nx))
         volts, theta_cmd, i_cmd, integral = (np.empty((kept.size, n)) for _ in range(4))
         limited = np.zeros((2, kept.size, n), dtype=bool)
-        position, current, commander = self.position, self.current, self.commander
+        top, current, commander = self.controllers[-1], self.controllers[0], self.commander
         row = 0
         for chunk in range(first, first + n_steps, _CHUNK):
             stop = min(chunk + _CHUNK, first + n_steps)
@@ -466,16 +425,16 @@ class Engine:
                 if record:
                     states[row] = self.x
                     volts[row] = self.v
-                    i_cmd[row] = self.i_cmd
-                    integral[row] = position.integral
+                    i_cmd[row] = self.reference[0]
+                    integral[row] = top.integral
                     if commander.clamped:  # else current_limited is False throughout
-                        limited[0, row] = self.current_limited
+                        limited[0, row] = self.limited[1]
                     if current.clamped:
-                        limited[1, row] = self.voltage_limited
+                        limited[1, row] = self.limited[0]
                     row += 1
         out = dict(
             theta=states[:, :, 2], omega=states[:, :, 1], i=states[:, :, 0], V=volts,
-            theta_cmd=theta_cmd, current_command=i_cmd, position_integral=self.cp_Ki * integral,
+            theta_cmd=theta_cmd, current_command=i_cmd, position_integral=top.ki * integral,
             current_limited=limited[0], voltage_limited=limited[1],
         )
         if self.drivetrain is not None:
@@ -485,11 +444,11 @@ class Engine:
     def _step(self, left, right):
         """One step: the plant over [t_k, t_k+1], then the controllers at t_k+1.
 
-        ``left`` and ``right`` are the command's (motor angle, feed-forward) at t_k+1; the same
+        ``left`` and ``right`` are the command's rows (:meth:`_row`) at t_k+1; the same
         tuple where it does not jump there.
         """
         k = self.k
-        line = self.voltage_line
+        line = self.lines[0]
         v_a = self.v if line.reads_past else line.read(k)  # self.v: line.read(k) at step k-1
         if line.hold:
             v_next, v_b = line.read(k + 1), v_a
@@ -499,32 +458,21 @@ class Engine:
             x = self.drivetrain.step(self.x, self.omega_before, v_a, v_b)
             self.omega_before = self.x[:, 1]
             self.x = x
-            self._controllers(k, v_next, left, right)
-            return
-        # x <- Phi x + G_a V_a + G_b V_b, in place and in this order (the rounding of the
-        # clamp flags where an output rests exactly at its limit depends on it). Each voltage
-        # is first copied into every column: a product without broadcasting is cheaper.
-        x, inputs, volts = self._next, self._inputs, self._volts
-        np.einsum("rij,rj->ri", self.phi, self.x, out=x)
-        volts[...] = v_a[:, None]
-        x += np.multiply(self.g_a, volts, out=inputs)
-        if v_b is not v_a:
-            volts[...] = v_b[:, None]
-        x += np.multiply(self.g_b, volts, out=inputs)
-        self._next, self.x = self.x, x
-        self._controllers(k, v_next, left, right)
-
-    def _controllers(self, k, v_next, left, right):
-        """The controllers at t_k+1 after the plant's step from t_k (:meth:`_step`)."""
-        line = self.voltage_line
+        else:
+            # x <- Phi x + G_a V_a + G_b V_b, in place and in this order (the rounding of
+            # the clamp flags where an output rests exactly at its limit depends on it). Each
+            # voltage is first copied into every column: a product without broadcasting is
+            # cheaper.
+            x, inputs, volts = self._next, self._inputs, self._volts
+            np.einsum("rij,rj->ri", self.phi, self.x, out=x)
+            volts[...] = v_a[:, None]
+            x += np.multiply(self.g_a, volts, out=inputs)
+            if v_b is not v_a:
+                volts[...] = v_b[:, None]
+            x += np.multiply(self.g_b, volts, out=inputs)
+            self._next, self.x = self.x, x
         self.k = k = k + 1
         self.v = v_next
         self.theta_cmd = right[0]
         self._measure()
-        if self.position_every is None or k % self.position_every == 0:
-            self._position_update(left, right)
-        self._inner_update(k, left, right)
-        self.current_line.push(k, self.u_cmd, self.u_left)
-        if self.current_every is None or k % self.current_every == 0:
-            self._current_update()
-        line.push(k, self.v_c, self.v_left)
+        self._loops(k, left, right)
