@@ -109,12 +109,6 @@ def controller(loop, n):
     return tuple(_per_run(value, n) for value in (*loop.controller.gains, loop.limit))
 
 
-def current(params):
-    """The current controller of ``params``: (Kp, Ki, Kd, Tf, v_max) per run, from the
-    structure."""
-    return controller(loop_structure.build(params).loops[0], params.n_runs)
-
-
 @dataclasses.dataclass(frozen=True)
 class LoopStep:
     """One loop of the structure as the engines step it (per run: arrays of shape (n_runs,)).

@@ -1,7 +1,7 @@
 """The batch engine of the compiled kernel: the interface of the reference Engine, its state in
 numpy arrays between calls to the numba functions of :mod:`cas_freq.simulation.kernel`.
 
-The engine builds the kernel's tables once (:func:`~cas_freq.simulation.kernel.parameter_table`
+The engine builds the kernel's tables once (:func:`~cas_freq.simulation.kernel.tables`
 and, for a batch with a loaded run, :func:`cas_freq.simulation.mechanics.table`), evaluates the
 commands a block of steps at a time, and runs the parallel kernel unless another thread is
 running it (the workqueue threading layer allows one at a time).
@@ -12,10 +12,8 @@ import threading
 import numba
 import numpy as np
 
-import cas_freq.simulation.architecture as architecture
 import cas_freq.simulation.kernel as kernel
 import cas_freq.simulation.mechanics as mech
-from cas_freq.simulation.delay_line import ring_size
 from cas_freq.simulation.engine import LOAD_SIGNALS, SIGNALS, recorded_rows
 
 #: Command values per kernel call, about (steps x columns) (memory of the command rows).
@@ -48,19 +46,10 @@ class CompiledEngine:
         n = params.n_runs
         self.dt = dt
         self.commands = commands
-        every = every or {}
-        position_every = every.get("position_loop")
-        self.every_c, self.every_p = every.get("current_loop") or 0, position_every or 0
-        # the blocks between the position and the current controller, from the declared
-        # structure; every argument of the kernels has the same type whatever the
-        # architecture, so that one compilation serves them all
-        self.inner = inner = architecture.inner_blocks(params, dt, every, method)
-        self.p, self.m, self.has_derivative, (slots_c, slots_p) = kernel.parameter_table(
-            params, dt, position_every, inner, method)
-        table, state, steps = architecture.kernel_tables(
-            inner, n, dt, architecture.position(params).delay, method == "backward")
-        slots = 1 << (ring_size(steps) - 1).bit_length()
-        self.ext = (table, state, steps, np.zeros((n, slots)), np.zeros((n, slots)))
+        # the loop table from the declared structure; every argument of the kernels has the
+        # same type whatever the architecture, so that one compilation serves them all
+        (self.p, self.loops, self.s, self.g, self.chains, self.z, *self.rings) = kernel.tables(
+            params, dt, every, method)
         # the loaded plant's table (mechanics.py), and 5 states where some run is loaded (an
         # unloaded run's row says so: the kernel steps it with the 3-state plant)
         self.loaded = loaded = bool(np.any(params.loaded))
@@ -68,10 +57,6 @@ class CompiledEngine:
         #: Names of the signals of :meth:`sample` and :meth:`advance`.
         self.signals = SIGNALS + LOAD_SIGNALS if loaded else SIGNALS
         self.x = np.zeros((n, mech.NX if loaded else 3))
-        self.s = kernel.controller_state(n)
-        # ring buffers of the delay lines, right and left limits (delay_line.py)
-        self.voltage = (np.zeros((n, slots_c)), np.zeros((n, slots_c)))
-        self.current = (np.zeros((n, slots_p)), np.zeros((n, slots_p)))
         self.k = 0
         self.record = kernel.record_mask(None, loaded)
         self.active = np.ones(n, dtype=np.bool_)
@@ -98,22 +83,17 @@ class CompiledEngine:
         return tuple(rows)
 
     def _args(self):
-        return (self.p, self.m, self.x, self.s, *self.voltage, *self.current)
+        return (self.p, self.loops, self.s, self.g, self.x, self.chains, self.z, *self.rings)
 
     def start(self):
         """Controller outputs at t = 0, then the sample at 0 (as Engine.start)."""
         right, left = self._rows(np.zeros(1))
-        kernel.start_batch(*self._args(), right, left, self.every_c, self.every_p,
-                           self.has_derivative, self.dt, self.ext)
+        kernel.start_batch(*self._args(), right, left, self.dt)
         return tuple(np.array(value) for value in self.sample())
 
     def sample(self):
         """The recorded signals at the present step, in the order of :attr:`signals`."""
-        values = kernel.sample(self.p, self.x, self.s, self.loaded)
-        if self.inner.cascade:  # the velocity controller's clamp
-            limited = self.ext[1][:, architecture.S_LIMITED] != 0
-            values = values[:7] + (limited,) + values[8:]
-        return values
+        return kernel.sample(self.p, self.loops, self.s, self.g, self.x, self.loaded)
 
     def recorded_rows(self, n_steps, record_every=1):
         """How many samples the next ``n_steps`` steps record."""
@@ -160,8 +140,7 @@ class CompiledEngine:
                 right, left = self._rows(times)
                 # the kernel writes sample j of this call at column j - (base - offset)
                 advance(*self._args(), right, left, start - 1, record_every, base - offset,
-                        floats, flags, self.every_c, self.every_p, self.has_derivative,
-                        self.dt, q, self.ext, self.record, self.active, stop - start)
+                        floats, flags, self.dt, q, self.record, self.active, stop - start)
                 self.k = stop - 1
         finally:
             if parallel:

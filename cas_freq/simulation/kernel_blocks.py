@@ -1,5 +1,5 @@
 """The building blocks of the compiled loop (:mod:`cas_freq.simulation.kernel`): the columns of
-its tables, the delay lines, the controllers and the inner blocks, as scalar numba functions.
+its tables, the delay lines, the controllers and the filter chains, as scalar numba functions.
 
 Each is the scalar form of its numpy reference (:mod:`~cas_freq.simulation.delay_line`,
 :mod:`~cas_freq.simulation.controllers`, :mod:`~cas_freq.simulation.architecture`,
@@ -8,53 +8,46 @@ into the kernel's loop (``inline="always"``). Split from ``kernel.py``, which ke
 over the steps and the tables.
 """
 
-import cas_freq.simulation.architecture as arch
 import cas_freq.simulation.mechanics as mech
 from cas_freq.core.jit import cached_jit as _jit
 
-# Columns of the parameter table ``p`` (n_runs, _NP), one row per run.
+# Columns of the parameter table ``p`` (n_runs, _NP), one row per run: the plant.
 _PHI = 0  # Phi, row-major, 9 columns
 _GA = 9  # G_a, 3 columns
 _GB = 12  # G_b, 3 columns
 _RATIO = 15  # gear ratio N [-]
-_FF_V = 16  # feed-forward of the command rate [A*s/rad]
-_FF_A = 17  # feed-forward of the command acceleration [A*s^2/rad]
-_CP_KP = 18  # position loop Kp [A/rad]
-_CP_KI = 19  # position loop Ki [A/(rad*s)]
-_CP_GD = 20  # derivative gain Kd/Tf [A/rad] (0 without derivative)
-_CP_A = 21  # derivative filter coefficients a, b, c (controllers.py)
-_CP_B = 22
-_CP_C = 23
-_I_MAX = 24  # current command limit [A]
-_CI_KP = 25  # current loop Kp [V/A]
-_CI_KI = 26  # current loop Ki [V/(A*s)]
-_V_MAX = 27  # voltage limit [V]
-_F_C = 28  # fractional part of tau_c / dt
-_F_P = 29  # fractional part of tau_p / dt
-_ON_MEASUREMENT = 30  # 1.0 where the derivative acts on -theta
-_BACKWARD = 31  # 1.0 where sampled controllers integrate by the backward difference
-_NP = 32
+_NP = 16
 
-# Columns of the controller state ``s`` (n_runs, _NS).
-_P_INT = 0  # position controller: integral of the error [rad*s]
-_P_FILTER = 1  # derivative filter state x_f [rad]
-_P_E = 2  # error at the last update (right limit) [rad]
-_P_Y = 3  # derivative input at the last update (right limit) [rad]
-_P_REST = 4  # output without the integral term at the last update (right limit) [A]
-_P_U_LEFT = 5  # output (current command), left and right limits [A]
-_P_U = 6
-_P_LIMITED = 7  # 1.0 where the right-limit output was clamped
-_C_INT = 8  # current controller: integral of the error [A*s]
-_C_E = 9  # error at the last update [A]
-_C_REST = 10  # output without the integral term at the last update [V]
-_C_V_LEFT = 11  # output (voltage command), left and right limits [V]
-_C_V = 12
-_C_LIMITED = 13  # 1.0 where the right-limit output was clamped
-_I_CMD = 14  # current command read at the current controller [A]
-_V = 15  # voltage at the motor terminals at the present step (right limit) [V]
-_THETA_CMD = 16  # motor-angle command at the present step [rad]
-_W_BEFORE = 17  # motor speed one step earlier [rad/s] (loaded runs)
-_NS = 18
+# Columns of the loop table (n_runs, n_loops, _NL), one row per loop, innermost first
+# (architecture.loop_steps): its controller (gains, derivative filter coefficients of
+# controllers.derivative_filter, clamp), feed-forward of the motor-angle command's rate and
+# acceleration, derivative on the measurement, update period in steps (0: continuous), the
+# backward difference of a sampled loop, the signal it measures (:data:`SIGNAL_CODES`), the delay
+# after it (whole steps and fraction), whether some run of the batch has a derivative term or a
+# feed-forward, and per filter chain (analog measurement, digital measurement, path) its order
+# (0: none), its first column in the chain table and its states' first column in the chain state.
+(_L_KP, _L_KI, _L_GD, _L_A, _L_B, _L_C, _L_LIMIT, _L_FF_V, _L_FF_A, _L_ON_MEASUREMENT,
+ _L_EVERY, _L_BACKWARD, _L_SIGNAL, _L_M, _L_F, _L_HAS_D, _L_HAS_FF) = range(17)
+_L_ANALOG, _L_SENSOR, _L_PATH = 17, 20, 23  # each: order, first column, first state column
+_NL = 26
+
+#: The code of each measured signal in the loop table (structure.SIGNALS).
+SIGNAL_CODES = {"current": 0, "motor_velocity": 1, "motor_angle": 2, "output_angle": 3}
+
+# Columns of the loop state (n_runs, n_loops, _NS): the controller (integral, derivative filter
+# state, error, derivative input and output without the integral at the last update, right
+# limits), its output's left and right limits (after the path filters), 1.0 where its right one
+# was clamped, the reference read at its last update, its measurement through the analog filters
+# at this step, and the last input of each filter chain.
+(_S_INT, _S_FILTER, _S_E, _S_Y, _S_REST, _S_OUT_LEFT, _S_OUT, _S_LIMITED, _S_REF, _S_MEASURED,
+ _S_ANALOG_U, _S_SENSOR_U, _S_PATH_U) = range(13)
+_NS = 13
+
+# Columns of the run state (n_runs, _NG).
+_G_V = 0  # voltage at the motor terminals at the present step (right limit) [V]
+_G_THETA_CMD = 1  # motor-angle command at the present step [rad]
+_G_W_BEFORE = 2  # motor speed one step earlier [rad/s] (loaded runs)
+_NG = 3
 
 # The loaded plant's table (mechanics.table): per mode, the matrices; then the run's constants.
 _PER_MODE = mech._PER_MODE
@@ -68,40 +61,26 @@ _FORWARD, _BACKDRIVE, _GAP, _HELD = mech.FORWARD, mech.BACKDRIVE, mech.GAP, mech
 
 # --- delay lines (delay_line.py) --------------------------------------------------------------
 
-@_jit(inline="always")  # numba-level: array arguments cost a call
-def _sample(buffer, r, j):
-    """Sample ``j`` of run ``r`` from a ring buffer of 2**n slots (0 before t = 0)."""
-    if j < 0:
-        return 0.0
-    return buffer[r, j & (buffer.shape[1] - 1)]
-
-
-@_jit(inline="always")  # numba-level: array arguments cost a call
-def _read(right, left, r, m, f, q, latest, want_left, hold):
-    """Delayed signal at t_q, delay (m + f) dt, newest sample ``latest`` (DelayLine.read).
+@_jit()  # start_batch only
+def _read(right, left, r, line, m, f, q, latest, want_left, hold):
+    """Delayed signal at t_q of delay line ``line``, delay (m + f) dt, newest sample ``latest``
+    (DelayLine.read), from ring buffers (n_runs, n_lines, 2**n slots), 0 before t = 0.
 
     Interpolating line: ``(1 - f) u^-[q - m] + f u^+[q - m - 1]`` (for f = 0 the right or left
-    limit of sample q - m); a read ahead of the newest sample holds it. Holding line:
-    ``u[q - m - 1]`` if f > 0 or for the left limit, else ``u[q - m]``.
+    limit of sample q - m). Holding line: ``u[q - m - 1]`` if f > 0 or for the left limit,
+    else ``u[q - m]``.
     """
+    mask = right.shape[2] - 1
     if hold:
-        shift = 1 if (want_left or f > 0.0) else 0
-        return _sample(right, r, min(q - m - shift, latest))
+        j = min(q - m - (1 if (want_left or f > 0.0) else 0), latest)
+        return right[r, line, j & mask] if j >= 0 else 0.0
     j = q - m
-    if j > latest:  # ahead of the newest sample (a delay below one step): hold it
-        return _sample(right, r, latest)
     if f == 0.0:
-        return _sample(left if want_left else right, r, j)
-    return (1.0 - f) * _sample(left, r, j) + f * _sample(right, r, j - 1)
-
-
-@_jit(inline="always")  # numba-level: array arguments cost a call
-def _push(right, left, r, k, u_right, u_left, hold):
-    """Store sample ``k`` of run ``r``: right and left limits (DelayLine.push)."""
-    slot = k & (right.shape[1] - 1)
-    right[r, slot] = u_right
-    if not hold:
-        left[r, slot] = u_left
+        if j < 0:
+            return 0.0
+        return left[r, line, j & mask] if want_left else right[r, line, j & mask]
+    return ((1.0 - f) * (left[r, line, j & mask] if j >= 0 else 0.0)
+            + f * (right[r, line, (j - 1) & mask] if j >= 1 else 0.0))
 
 
 # --- controllers (controllers.py) -------------------------------------------------------------
@@ -259,7 +238,7 @@ def _controller_update(
     return integral, state, e_right, y_before, rest_right, u_left, u_right, limited
 
 
-# --- the inner blocks: velocity loop and filters (architecture.py) ----------------------------
+# --- filters (architecture.py) ---------------------------------------------------------------
 
 @_jit(inline="always")  # numba-level: array arguments cost a call
 def _chain(g, gs, r, start, m, z, u_a, u_b):
@@ -279,153 +258,3 @@ def _chain(g, gs, r, start, m, z, u_a, u_b):
         gs[r, z + i] = gs[r, z + m + i]
         y += g[r, c + i] * gs[r, z + i]
     return y
-
-
-@_jit(inline="always")  # numba-level: array arguments cost a call
-def _inner(ext, r, k, ratio, w, u_left, u_right, acc_left, acc_right, p_due, hold_p, dt,
-           first):
-    """The blocks between the position controller and the current loop at step ``k``
-    (Engine._inner_update): the position controller's output limits (``u_left``,
-    ``u_right``) through the velocity loop (a cascade: delay line tau_p, PI on the filtered
-    motor speed ``w`` with its feed-forward of the command's acceleration ``acc`` [rad/s^2 at
-    the output]) and the filters at the current command. ``p_due``: the position controller
-    updated at this step; ``hold_p``: it is sampled (the velocity line holds). A sampled
-    commander (the velocity controller, or the position controller without one) and the
-    filters after it update every ``g[r, COMMANDER_EVERY]`` steps and hold in between.
-    ``first``: the outputs at t = 0.
-
-    Returns
-    -------
-    tuple of float
-        The current command's left and right limits [A], and 1.0 where the velocity
-        controller's right-limit output was clamped (else the value passed in the state).
-    """
-    g, gs, m_v, line_right, line_left = ext
-    m_path, m_sensor = int(g[r, arch.PATH_ORDER]), int(g[r, arch.SENSOR_ORDER])
-    cascade = g[r, arch.CASCADE] != 0.0
-    if cascade:
-        _push(line_right, line_left, r, k, u_right, u_left, hold_p)
-    every = int(g[r, arch.COMMANDER_EVERY])  # the commander's period (0: continuous)
-    if cascade:
-        due = every == 0 or k % every == 0
-    else:
-        due = p_due
-    if not (first or due):  # a sampled commander's output (and the filters after it) held
-        return gs[r, arch.S_CMD_LEFT], gs[r, arch.S_CMD], gs[r, arch.S_LIMITED]
-    if cascade:
-        f_v = g[r, arch.V_FRACTION]
-        sampled_v = every > 0
-        w_cmd = _read(line_right, line_left, r, m_v[r], f_v, k, k, False, hold_p)
-        w_cmd_left = w_cmd
-        if not (hold_p or sampled_v):
-            w_cmd_left = _read(line_right, line_left, r, m_v[r], f_v, k, k, True, hold_p)
-        measured = w
-        if m_sensor > 0:
-            start = arch.PATH + m_path * m_path + 3 * m_path + 1  # arch.chain_columns
-            d = g[r, start + m_sensor * m_sensor + 3 * m_sensor]
-            y = 0.0
-            if not first:
-                y = _chain(g, gs, r, start, m_sensor, arch.S_PATH + 2 * m_path,
-                           gs[r, arch.S_SENSOR_U], w)
-            gs[r, arch.S_SENSOR_U] = w
-            measured = y + d * w
-        ff_a = g[r, arch.V_FF_A]
-        if sampled_v:  # a sampler sees the values from now on
-            acc_left = acc_right
-        (gs[r, arch.S_INT], _, gs[r, arch.S_E], _, gs[r, arch.S_REST], u_left, u_right,
-         gs[r, arch.S_LIMITED]) = _controller_update(
-            gs[r, arch.S_INT], 0.0, gs[r, arch.S_E], 0.0, gs[r, arch.S_REST],
-            w_cmd_left - measured, w_cmd - measured, 0.0, 0.0, ff_a * (ratio * acc_left),
-            ff_a * (ratio * acc_right), (not first) or sampled_v, g[r, arch.V_KP],
-            g[r, arch.V_KI], 0.0, 0.0, 0.0, 0.0, False, g[r, arch.V_LIMIT],
-            dt * max(every, 1), not sampled_v, sampled_v and g[r, arch.V_BACKWARD] != 0.0,
-        )
-        if sampled_v:  # held: no jump within an update
-            u_left = u_right
-    if m_path > 0:
-        d = g[r, arch.PATH + m_path * m_path + 3 * m_path]
-        y = 0.0
-        if not first:
-            y = _chain(g, gs, r, arch.PATH, m_path, arch.S_PATH, gs[r, arch.S_PATH_U], u_left)
-        gs[r, arch.S_PATH_U] = u_right
-        u_left, u_right = y + d * u_left, y + d * u_right
-    gs[r, arch.S_CMD_LEFT], gs[r, arch.S_CMD] = u_left, u_right
-    return u_left, u_right, gs[r, arch.S_LIMITED]
-
-
-
-@_jit()  # start_batch only, once per batch: a call (inlining costs compile time)
-def _position_update(p, r, theta, angle_left, angle_right, ff_left, ff_right, integral, state,
-                     e_before, y_before, rest_before, advance, has_derivative, period, locate,
-                     backward):
-    """Position controller of run ``r`` on the motor angle ``theta`` (docs/model.md §4).
-
-    Returns the outputs of :func:`_controller_update` (the output is the current command [A]).
-    """
-    e_right = angle_right - theta
-    e_left = angle_left - theta
-    if p[r, _ON_MEASUREMENT] != 0.0:  # derivative on the measurement: acts on -theta
-        y_left = y_right = -theta
-    else:
-        y_left, y_right = e_left, e_right
-    return _controller_update(
-        integral, state, e_before, y_before, rest_before,
-        e_left, e_right, y_left, y_right, ff_left, ff_right, advance,
-        p[r, _CP_KP], p[r, _CP_KI], p[r, _CP_GD], p[r, _CP_A], p[r, _CP_B], p[r, _CP_C],
-        has_derivative, p[r, _I_MAX], period, locate, backward,
-    )
-
-
-@_jit()  # start_batch only, once per batch: a call (inlining costs compile time)
-def _current_update(p, r, i, k, current_right, current_left, m_p, hold_p, sampled, integral,
-                    e_before, rest_before, advance, period, backward):
-    """Current controller of run ``r`` on the command delayed by tau_p (docs/model.md §3).
-
-    Returns
-    -------
-    tuple of float
-        integral, error and rest (for the next update), the output's left and right limits
-        [V], 1.0 if clamped, and the current command read [A].
-    """
-    f_p = p[r, _F_P]
-    i_cmd = _read(current_right, current_left, r, m_p, f_p, k, k, False, hold_p)
-    e_right = i_cmd - i
-    e_left = e_right
-    if not sampled:
-        e_left = _read(current_right, current_left, r, m_p, f_p, k, k, True, hold_p) - i
-    integral, _, e, _, rest, v_left, v_right, limited = _controller_update(
-        integral, 0.0, e_before, 0.0, rest_before, e_left, e_right, 0.0, 0.0, 0.0, 0.0,
-        advance, p[r, _CI_KP], p[r, _CI_KI], 0.0, 0.0, 0.0, 0.0, False, p[r, _V_MAX], period,
-        not sampled, backward,
-    )
-    if sampled:  # held: no jump within an update
-        v_left = v_right
-    return integral, e, rest, v_left, v_right, limited, i_cmd
-
-
-@_jit(inline="always")  # numba-level: array arguments cost a call
-def _command(p, commands, r, row):
-    """Motor-angle command and feed-forward [rad], [A] of run ``r`` from a row of fin values.
-
-    ``commands[row]`` holds the fin angle, rate and acceleration (one column for every run, or
-    one per run) [rad], [rad/s], [rad/s^2]; feed-forward i_ff = FFv d(theta_cmd)/dt +
-    FFa d2(theta_cmd)/dt2 (docs/model.md §4).
-    """
-    col = 0
-    if commands.shape[2] > 1:
-        col = r
-    ratio = p[r, _RATIO]
-    angle = ratio * commands[row, 0, col]
-    ff = p[r, _FF_V] * (ratio * commands[row, 1, col]) + p[r, _FF_A] * (
-        ratio * commands[row, 2, col]
-    )
-    return angle, ff
-
-
-# --- the inner blocks as a call, for start_batch -------------------------------------------------
-# numba's inline="always" copies a block's IR into every caller, and typing and lowering that
-# copy is most of a caller's compile time. In the step loop it saves a call (and the reference
-# counts of its array arguments) every step; :func:`cas_freq.simulation.kernel.start_batch` runs
-# once per batch, so it calls this twin, compiled once as a function of its own: the same code
-# and numbers.
-_inner_call = _jit()(_inner.py_func)
