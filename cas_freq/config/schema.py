@@ -29,6 +29,7 @@ from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.filters_config import (
     DEFAULT_DAMPING,
     FILTER_NUMBERS,
+    VELOCITY_POINTS,
     depth_problem,
     point_problem,
     type_problem,
@@ -355,7 +356,9 @@ class FilterSpec(_Section):
     ----------
     at : str
         Its point: current_command (after the controller that commands the current),
-        velocity_feedback (on the measured velocity; needs a velocity loop), current_feedback
+        velocity_command (after the position controller, before the velocity loop; needs a
+        velocity loop), velocity_feedback (on the measured velocity; needs a velocity loop),
+        current_feedback
         (on the measured current) or position_feedback (on the position loop's measured
         angle). The last two are analog: before the sampler of a sampled drive (anti-aliasing).
     type : str
@@ -712,9 +715,9 @@ class ActuatorConfig(_Section):
     @model_validator(mode="after")
     def _filter_points(self):
         for index, item in enumerate(self.filters):
-            if item.at == "velocity_feedback" and self.velocity_loop is None:
+            if item.at in VELOCITY_POINTS and self.velocity_loop is None:
                 raise PydanticCustomError(
-                    "cas_value", f"filters.{index}.at: velocity_feedback needs a velocity loop "
+                    "cas_value", f"filters.{index}.at: {item.at} needs a velocity loop "
                     "(a velocity_loop section); use current_command")
         return self
 

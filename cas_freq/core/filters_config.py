@@ -3,12 +3,14 @@
 Each filter sits in series at one point of the loop, ``at``:
 
 - ``current_command``: after the velocity or position controller, before the current loop;
+- ``velocity_command``: after the position controller, before the velocity loop's error (needs
+  a velocity loop);
 - ``velocity_feedback``: on the measured velocity (needs a velocity loop);
 - ``current_feedback``: on the measured current (the current loop's sensor);
 - ``position_feedback``: on the measured angle of the position loop (the motor's or, with
   ``position_loop.feedback: output``, the output's).
 
-The first two act on the controllers' signals: they are digital where the drive is sampled
+The first three act on the controllers' signals: they are digital where the drive is sampled
 (discretised with their loop's controller). The measurement filters (:data:`ANALOG_POINTS`) act
 on the continuous measurement before the sampler (anti-aliasing): analog whatever the drive.
 
@@ -35,12 +37,14 @@ from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.parameter_record import Parameter
 
 __all__ = ["ANALOG_POINTS", "DEFAULT_DAMPING", "FILTERS", "FILTER_NUMBERS", "FILTER_PARAMETERS",
-           "FILTER_POINTS", "FILTER_TYPES", "Filter", "FilterType", "depth_problem",
-           "number_field", "point_problem", "type_problem"]
+           "FILTER_POINTS", "FILTER_TYPES", "VELOCITY_POINTS", "Filter", "FilterType",
+           "depth_problem", "number_field", "point_problem", "type_problem"]
 
 #: Where a filter may sit.
-FILTER_POINTS = ("current_command", "velocity_feedback", "current_feedback",
-                 "position_feedback")
+FILTER_POINTS = ("current_command", "velocity_command", "velocity_feedback",
+                 "current_feedback", "position_feedback")
+#: The points of a velocity loop (a drive without one refuses them).
+VELOCITY_POINTS = ("velocity_command", "velocity_feedback")
 #: The points on a measurement before it is sampled (analog filters, continuous even where the
 #: controllers are sampled): point -> the loop whose measurement it filters.
 ANALOG_POINTS = {"current_feedback": "current_loop", "position_feedback": "position_loop"}

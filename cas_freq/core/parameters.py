@@ -58,6 +58,7 @@ from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.filters_config import (
     FILTER_NUMBERS,
     FILTER_PARAMETERS,
+    VELOCITY_POINTS,
     Filter,
     depth_problem,
     number_field,
@@ -291,9 +292,10 @@ class LoopParameters:
         filters = tuple(self.filters)
         if not all(isinstance(f, Filter) for f in filters):
             raise ConfigError("simulation parameters: filters: must be a tuple of Filter")
-        if not self.cascade and any(f.at == "velocity_feedback" for f in filters):
-            raise ConfigError("simulation parameters: filters: a velocity_feedback filter "
-                              "needs a velocity loop (cascade)")
+        points = sorted({f.at for f in filters} & set(VELOCITY_POINTS))
+        if not self.cascade and points:
+            raise ConfigError(f"simulation parameters: filters: a {points[0]} filter needs a "
+                              "velocity loop (cascade)")
         try:
             filters = tuple(f.broadcast(self.n_runs) for f in filters)
         except ValueError:

@@ -341,7 +341,8 @@ def build(p):
     The report's EPOS4 drive (docs/model.md): a PID position loop around a PI current loop.
     With a velocity loop (``p.cascade``): a P/PI position loop commanding the motor speed,
     a PI velocity loop commanding the current, a PI current loop. Filters at the current
-    command sit after the controller that commands the current; those on the velocity
+    command sit after the controller that commands the current, those at the velocity command
+    after the position controller of a cascade; those on the velocity
     feedback (and the first-order feedback filter) on the velocity loop's measurement. The
     position loop measures the motor angle, or the output angle on the motor's scale with
     ``p.feedback_output``. Filters on the measured current (``current_feedback``) and angle
@@ -394,7 +395,8 @@ def build(p):
     )
     position = Loop(
         "position_loop", "L_p", "the velocity command", "ω_cmd",
-        pi_controller("position PI", p.cp_Kp, p.cp_Ki, n), (), p.tau_p, position_feedback,
+        pi_controller("position PI", p.cp_Kp, p.cp_Ki, n), _filters(p, "velocity_command"),
+        p.tau_p, position_feedback,
         _filters(p, "position_feedback"), feedforward=(p.ff_v, 0.0), signals=position_signals,
         limit=getattr(p, "omega_max", None),
     )
