@@ -199,9 +199,12 @@ def start_batch(p, loops, s, g, x, chains, z, ring_right, ring_left, right, left
     floats = np.zeros((9, n, 1))
     flags = np.zeros((2, n, 1), dtype=np.bool_)
     q = np.zeros((n, mech.COLUMNS))
+    # numpy scalars, not literals: a literal argument would type (and compile) another
+    # _advance_run than advance_serial's
+    zero, one, first = np.int64(0), np.int64(1), np.bool_(True)
     for r in range(n):
-        _advance_run(r, p, loops, s, g, x, chains, z, ring_right, ring_left, right, left, 0,
-                     1, 0, floats, flags, dt, q, 0, 1, True)
+        _advance_run(r, p, loops, s, g, x, chains, z, ring_right, ring_left, right, left, zero,
+                     one, zero, floats, flags, dt, q, zero, one, first)
         sampled = loops[r, 0, _L_EVERY] > 0.0
         g[r, _G_V] = _read(ring_right, ring_left, r, 0, int(loops[r, 0, _L_M]),
                            loops[r, 0, _L_F], 0, 0, False, sampled)
@@ -216,7 +219,7 @@ def advance_parallel(p, loops, s, g, x, chains, z, ring_right, ring_left, right,
             continue
         _advance_run(np.int64(run), p, loops, s, g, x, chains, z, ring_right, ring_left, right,
                      left, k0, record_every, record_base, floats, flags, dt, q, record,
-                     n_steps, False)
+                     n_steps, np.bool_(False))
 
 
 @_jit(nogil=True)
@@ -259,7 +262,8 @@ def advance_serial(p, loops, s, g, x, chains, z, ring_right, ring_left, right, l
         if not active[r]:
             continue
         _advance_run(r, p, loops, s, g, x, chains, z, ring_right, ring_left, right, left, k0,
-                     record_every, record_base, floats, flags, dt, q, record, n_steps, False)
+                     record_every, record_base, floats, flags, dt, q, record, n_steps,
+                     np.bool_(False))
 
 
 @_jit()
