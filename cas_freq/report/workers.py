@@ -23,11 +23,13 @@ workers at once instead of waiting for the figures they are drawing.
 Linux only: elsewhere the report draws in its own process and nothing is forked.
 
 The workers never compile: :func:`prepare_kernels` has the kernels they run in the report's
-process before it forks them (on a first run each worker compiled the envelope's again).
+process before it forks them (on a first run each worker compiled the envelope's again); it
+compiles the frequency-domain ones in a forked helper meanwhile, into numba's cache.
 """
 
 import ctypes
 import dataclasses
+import functools
 import multiprocessing
 import os
 import signal
@@ -71,7 +73,9 @@ def prepare_kernels(variants):
     The kernels take the architecture, the sampling and the load as data, so one variant
     prepares them for every other: the first enveloped one (and, for the frequency-domain
     kernels, the first with continuous controllers: sampled loops are evaluated in numpy).
-    Nothing with the reference engine.
+    Nothing with the reference engine. The frequency-domain kernels are compiled (or loaded) in
+    a forked helper process at the same time as the simulation's here, then loaded here from
+    numba's cache (compiled here where the helper could not).
 
     Parameters
     ----------
@@ -84,9 +88,22 @@ def prepare_kernels(variants):
     enveloped = [loaded for loaded in variants if wanted is None or loaded.variant in wanted]
     if not enveloped:
         return
-    prepare_simulation(enveloped[0].params)
     continuous = next((loaded for loaded in enveloped
                        if not loaded.params.sampling.sample_rates), None)
+    helper = None
+    if continuous is not None:
+        # the frequency-domain kernels compile in a forked helper while this process compiles
+        # the simulation's (numba compiles one function at a time per process: on a first run
+        # this takes the longer of the two instead of their sum); afterwards this process
+        # loads the helper's from numba's cache
+        helper = fork_pool(1, functools.partial(_prepare_frequency_kernels, continuous.params))
+    try:
+        prepare_simulation(enveloped[0].params)
+        if helper is not None:
+            helper[1][0].exception()  # waited for; if it failed, this process compiles them
+    finally:
+        if helper is not None:
+            stop_pool(helper[0], kill=True)
     if continuous is not None:
         prepare_frequency_kernels(continuous.params)
 
