@@ -110,7 +110,8 @@ def test_the_config_accepts_the_measurement_points():
 def test_a_bad_point_names_every_accepted_point():
     raw = [{"at": "angle_feedback", "type": "lowpass1", "frequency": "1000 rad/s"}]
     with pytest.raises(ConfigError, match="filters.0.at: 'angle_feedback' is not a filter "
-                       "point; use current_command, velocity_feedback, current_feedback or "
+                       "point; use current_command, velocity_command, velocity_feedback, "
+                       "current_feedback or "
                        "position_feedback"):
         load_variant(QT_CAS, "base", overrides=[("filters", raw)])
 
