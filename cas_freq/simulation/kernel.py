@@ -299,6 +299,13 @@ def _advance_run(r, p, loops, s, g, x, chains, z, ring_right, ring_left, right, 
     mask = ring_right.shape[2] - 1
     lines_right, lines_left = ring_right[r], ring_left[r]  # the run's delay lines
     state, table = s[r], loops[r]
+    # the table's whole numbers as integers, converted once: each loop's period, the whole
+    # steps of the delay after it, and per filter chain its order, first column and states
+    whole = np.empty((n_loops, 11), dtype=np.int64)
+    for j in range(n_loops):
+        whole[j, 0], whole[j, 1] = int(table[j, _L_EVERY]), int(table[j, _L_M])
+        for c in range(9):
+            whole[j, 2 + c] = int(table[j, _L_ANALOG + c])
     i, w, th = x[r, 0], x[r, 1], x[r, 2]
     v, angle = g[r, _G_V], g[r, _G_THETA_CMD]
     # the next step at which to record (a counter, not a division per step)
@@ -455,18 +462,17 @@ def _advance_run(r, p, loops, s, g, x, chains, z, ring_right, ring_left, right, 
         # 3. the measurements at t_k+1 through the loops' analog filters (Engine._measure)
         output = ratio * d_l if loaded else th  # the output angle on the motor's scale
         for j in range(n_loops):
-            order = int(table[j, _L_ANALOG])
+            order = whole[j, 2]
             if order == 0:
                 continue
             code = table[j, _L_SIGNAL]
             u = i if code == 0.0 else (w if code == 1.0 else (th if code == 2.0 else output))
-            at = int(table[j, _L_ANALOG + 1])
+            at = whole[j, 3]
             d = chains[r, at + order * order + 3 * order]
             if first:
                 state[j, _S_MEASURED] = d * u
             else:
-                y = _chain(chains, z, r, at, order, int(table[j, _L_ANALOG + 2]),
-                           state[j, _S_ANALOG_U], u)
+                y = _chain(chains, z, r, at, order, whole[j, 4], state[j, _S_ANALOG_U], u)
                 state[j, _S_MEASURED] = y + d * u
             state[j, _S_ANALOG_U] = u
         # 4. the command at t_k+1: motor angle, rate and acceleration, right and left limits
@@ -481,13 +487,13 @@ def _advance_run(r, p, loops, s, g, x, chains, z, ring_right, ring_left, right, 
         #    filters, its controller (§3, §4), its path filters; its output into the delay
         #    line after it
         for j in range(top, -1, -1):
-            every = int(table[j, _L_EVERY])
+            every = whole[j, 0]
             sampled = every > 0
             if first or not sampled or k % every == 0:
                 if j == top:
                     reference, reference_left = angle, angle_left
                 else:  # the delay line after loop j + 1, read at t_k (its newest sample k)
-                    m, f = int(table[j + 1, _L_M]), table[j + 1, _L_F]
+                    m, f = whole[j + 1, 1], table[j + 1, _L_F]
                     hold = table[j + 1, _L_EVERY] > 0.0
                     at = k - m
                     if hold:
@@ -507,19 +513,19 @@ def _advance_run(r, p, loops, s, g, x, chains, z, ring_right, ring_left, right, 
                         elif f == 0.0:
                             reference_left = lines_left[j + 1, at & mask] if at >= 0 else 0.0
                 state[j, _S_REF] = reference
-                if table[j, _L_ANALOG] > 0.0:
+                if whole[j, 2] > 0:
                     measured = state[j, _S_MEASURED]
                 else:
                     code = table[j, _L_SIGNAL]
                     measured = (i if code == 0.0 else
                                 (w if code == 1.0 else (th if code == 2.0 else output)))
-                order = int(table[j, _L_SENSOR])
+                order = whole[j, 5]
                 if order > 0:
-                    at = int(table[j, _L_SENSOR + 1])
+                    at = whole[j, 6]
                     d = chains[r, at + order * order + 3 * order]
                     y = 0.0
                     if not first:
-                        y = _chain(chains, z, r, at, order, int(table[j, _L_SENSOR + 2]),
+                        y = _chain(chains, z, r, at, order, whole[j, 7],
                                    state[j, _S_SENSOR_U], measured)
                     state[j, _S_SENSOR_U] = measured
                     measured = y + d * measured
@@ -545,13 +551,13 @@ def _advance_run(r, p, loops, s, g, x, chains, z, ring_right, ring_left, right, 
                 )
                 if sampled:  # held: no jump within an update
                     u_left = u_right
-                order = int(table[j, _L_PATH])
+                order = whole[j, 8]
                 if order > 0:
-                    at = int(table[j, _L_PATH + 1])
+                    at = whole[j, 9]
                     d = chains[r, at + order * order + 3 * order]
                     y = 0.0
                     if not first:
-                        y = _chain(chains, z, r, at, order, int(table[j, _L_PATH + 2]),
+                        y = _chain(chains, z, r, at, order, whole[j, 10],
                                    state[j, _S_PATH_U], u_left)
                     state[j, _S_PATH_U] = u_right
                     u_left, u_right = y + d * u_left, y + d * u_right
