@@ -327,6 +327,7 @@ def _advance_run(r, p, loops, s, g, x, chains, z, ring_right, ring_left, right, 
     half = k_g = c_g = tau_h = j_l = b_l = k_h = coulomb = e_forward = e_back = 0.0
     rec_delta, rec_omega_l = rec_theta, rec_omega
     loaded = q[r, _Q_LOADED] != 0.0
+    loaded_next = np.empty(mech.NX)  # the loaded plant's next states
     if loaded:
         w_l, d_l, w_before = x[r, 3], x[r, 4], g[r, _G_W_BEFORE]
         compliant = q[r, _Q_COMPLIANT] != 0.0
@@ -427,37 +428,17 @@ def _advance_run(r, p, loops, s, g, x, chains, z, ring_right, ring_left, right, 
                         w_l = 0.0
                 # x <- Phi x + G_a V_a + G_b V_b + H (tau_m, tau_L), as the reference's sums
                 at, ga, gb, h = base + _M_PHI, base + _M_GA, base + _M_GB, base + _M_H
-                x0 = (q[r, at] * i + q[r, at + 1] * w + q[r, at + 2] * th
-                      + q[r, at + 3] * w_l + q[r, at + 4] * d_l)
-                x0 += q[r, ga] * v_a
-                x0 += q[r, gb] * v_b
-                x0 += q[r, h] * tau_m
-                x0 += q[r, h + 1] * tau_l
-                x1 = (q[r, at + 5] * i + q[r, at + 6] * w + q[r, at + 7] * th
-                      + q[r, at + 8] * w_l + q[r, at + 9] * d_l)
-                x1 += q[r, ga + 1] * v_a
-                x1 += q[r, gb + 1] * v_b
-                x1 += q[r, h + 2] * tau_m
-                x1 += q[r, h + 3] * tau_l
-                x2 = (q[r, at + 10] * i + q[r, at + 11] * w + q[r, at + 12] * th
-                      + q[r, at + 13] * w_l + q[r, at + 14] * d_l)
-                x2 += q[r, ga + 2] * v_a
-                x2 += q[r, gb + 2] * v_b
-                x2 += q[r, h + 4] * tau_m
-                x2 += q[r, h + 5] * tau_l
-                x3 = (q[r, at + 15] * i + q[r, at + 16] * w + q[r, at + 17] * th
-                      + q[r, at + 18] * w_l + q[r, at + 19] * d_l)
-                x3 += q[r, ga + 3] * v_a
-                x3 += q[r, gb + 3] * v_b
-                x3 += q[r, h + 6] * tau_m
-                x3 += q[r, h + 7] * tau_l
-                x4 = (q[r, at + 20] * i + q[r, at + 21] * w + q[r, at + 22] * th
-                      + q[r, at + 23] * w_l + q[r, at + 24] * d_l)
-                x4 += q[r, ga + 4] * v_a
-                x4 += q[r, gb + 4] * v_b
-                x4 += q[r, h + 8] * tau_m
-                x4 += q[r, h + 9] * tau_l
-                i, w, th, w_l, d_l = x0, x1, x2, x3, x4
+                for row_x in range(mech.NX):  # each state's sum in the reference's order
+                    a_x = at + mech.NX * row_x
+                    acc_x = (q[r, a_x] * i + q[r, a_x + 1] * w + q[r, a_x + 2] * th
+                             + q[r, a_x + 3] * w_l + q[r, a_x + 4] * d_l)
+                    acc_x += q[r, ga + row_x] * v_a
+                    acc_x += q[r, gb + row_x] * v_b
+                    acc_x += q[r, h + 2 * row_x] * tau_m
+                    acc_x += q[r, h + 2 * row_x + 1] * tau_l
+                    loaded_next[row_x] = acc_x
+                i, w, th = loaded_next[0], loaded_next[1], loaded_next[2]
+                w_l, d_l = loaded_next[3], loaded_next[4]
             k += 1
         # 3. the measurements at t_k+1 through the loops' analog filters (Engine._measure)
         output = ratio * d_l if loaded else th  # the output angle on the motor's scale
