@@ -45,6 +45,7 @@ from cas_freq.analysis.margins import (
     margins_of_run,
 )
 from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.figures import FIGURES
 from cas_freq.core.summary import Summary, table_rows
 
 #: Order of the Padé approximant of a delay used only to decide closed-loop stability.
@@ -389,18 +390,20 @@ class LoopMarginResult(Summary):
         """
         fig, magnitude, phase = _bode(self, "L", points)
         magnitude.axhline(0.0, color="grey", lw=0.8)
+        pm_name, gm_name = (FIGURES[f"position_loop.{name}"].short  # the figure table's names
+                            for name in ("phase_margin_deg", "gain_margin_db"))
         for c in self.gain_crossovers:
             magnitude.plot(c.frequency_rad_s, 0.0, "o", color="C1")
             phase.plot(c.frequency_rad_s, c.phase_deg, "o", color="C1")
-            phase.annotate(f"PM {c.phase_margin_deg:.1f}°", (c.frequency_rad_s, c.phase_deg),
-                           fontsize=8)
+            phase.annotate(f"{pm_name} {c.phase_margin_deg:.1f}°",
+                           (c.frequency_rad_s, c.phase_deg), fontsize=8)
         for c in self.phase_crossovers:
             magnitude.plot(c.frequency_rad_s, -c.gain_margin_db, "s", color="C2")
-            magnitude.annotate(f"GM {c.gain_margin_db:.1f} dB",
+            magnitude.annotate(f"{gm_name} {c.gain_margin_db:.1f} dB",
                                (c.frequency_rad_s, -c.gain_margin_db), fontsize=8)
         pm = "none" if self.phase_margin_deg is None else f"{self.phase_margin_deg:.2f}°"
         gm = "none" if self.gain_margin_db is None else f"{self.gain_margin_db:.2f} dB"
-        magnitude.set_title(f"loop: PM {pm}, GM {gm}")
+        magnitude.set_title(f"loop: {pm_name} {pm}, {gm_name} {gm}")
         magnitude.set_ylabel("magnitude [dB]")
         phase.set_ylabel("phase [deg]")
         phase.set_xlabel("frequency ω [rad/s]")

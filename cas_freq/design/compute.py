@@ -182,11 +182,14 @@ def _bode(omega, response):
 MARGINS = ("crossover_rad_s", "phase_margin_deg", "delay_margin_s", "gain_margin_db",
            "phase_crossover_rad_s", "gain_margin_low_db", "phase_crossover_low_rad_s")
 
-#: The columns of the page's margin table (view, figure and heading: the figure table's
-#: label and unit): each loop's own margins, then those with every other loop closed.
+#: The columns of the page's margin table (view, figure, heading: the figure table's label and
+#: unit, and its short name for the plots' labels): each loop's own margins, then those with
+#: every other loop closed.
 MARGIN_COLUMNS = [{"view": view, "name": name, "heading": (
     "every other loop closed: " if view == "loop_at_a_time" else "")
-    + FIGURES[f"position_loop.{name}"].heading} for view, names in (
+    + FIGURES[f"position_loop.{name}"].heading,
+    "short": FIGURES[f"position_loop.{name}"].short or FIGURES[f"position_loop.{name}"].label}
+    for view, names in (
         ("margins", ("crossover_rad_s", "phase_margin_deg", "gain_margin_db",
                      "gain_margin_low_db", "delay_margin_s")),
         ("loop_at_a_time", ("phase_margin_deg", "gain_margin_db", "crossover_rad_s")))

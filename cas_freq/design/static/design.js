@@ -339,10 +339,13 @@
       // bar (the phase margin from -180 deg at the gain crossover, the gain margin below
       // 0 dB at the phase crossover)
       const m = loop.margins || {}, t = m.text || {};
+      // the figures' short names from the figure table (s.margin_columns)
+      const short = (name) => s.margin_columns.find((c) => c.name === name).short;
       vm.push({x: m.crossover_rad_s, color, row: k,
-               label: `${loop.symbol} ωc ${text(t.crossover_rad_s)}, PM ${text(t.phase_margin_deg)}°`});
+               label: `${loop.symbol} ${short("crossover_rad_s")} ${text(t.crossover_rad_s)}, ` +
+                      `${short("phase_margin_deg")} ${text(t.phase_margin_deg)}°`});
       vp.push({x: m.phase_crossover_rad_s, color, row: k,
-               label: `${loop.symbol} GM ${text(t.gain_margin_db)} dB`});
+               label: `${loop.symbol} ${short("gain_margin_db")} ${text(t.gain_margin_db)} dB`});
       if (finite(m.crossover_rad_s) && finite(m.phase_margin_deg)) {
         sp.push({x: m.crossover_rad_s, y0: -180, y1: -180 + m.phase_margin_deg, color});
       }
