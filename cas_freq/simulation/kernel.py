@@ -448,13 +448,9 @@ def _advance_run(r, p, loops, s, g, x, chains, z, ring_right, ring_left, right, 
                 continue
             code = table[j, _L_SIGNAL]
             u = i if code == 0.0 else (w if code == 1.0 else (th if code == 2.0 else output))
-            at = whole[j, 3]
-            d = chains[r, at + order * order + 3 * order]
-            if first:
-                state[j, _S_MEASURED] = d * u
-            else:
-                y = _chain(chains, z, r, at, order, whole[j, 4], state[j, _S_ANALOG_U], u)
-                state[j, _S_MEASURED] = y + d * u
+            y, d = _chain(chains, z, r, whole[j, 3], order, whole[j, 4],
+                          state[j, _S_ANALOG_U], u, first)
+            state[j, _S_MEASURED] = y + d * u
             state[j, _S_ANALOG_U] = u
         # 4. the command at t_k+1: motor angle, rate and acceleration, right and left limits
         angle = ratio * right[c_row, 0, col]
@@ -502,12 +498,8 @@ def _advance_run(r, p, loops, s, g, x, chains, z, ring_right, ring_left, right, 
                                 (w if code == 1.0 else (th if code == 2.0 else output)))
                 order = whole[j, 5]
                 if order > 0:
-                    at = whole[j, 6]
-                    d = chains[r, at + order * order + 3 * order]
-                    y = 0.0
-                    if not first:
-                        y = _chain(chains, z, r, at, order, whole[j, 7],
-                                   state[j, _S_SENSOR_U], measured)
+                    y, d = _chain(chains, z, r, whole[j, 6], order, whole[j, 7],
+                                  state[j, _S_SENSOR_U], measured, first)
                     state[j, _S_SENSOR_U] = measured
                     measured = y + d * measured
                 e_right = reference - measured
@@ -534,12 +526,8 @@ def _advance_run(r, p, loops, s, g, x, chains, z, ring_right, ring_left, right, 
                     u_left = u_right
                 order = whole[j, 8]
                 if order > 0:
-                    at = whole[j, 9]
-                    d = chains[r, at + order * order + 3 * order]
-                    y = 0.0
-                    if not first:
-                        y = _chain(chains, z, r, at, order, whole[j, 10],
-                                   state[j, _S_PATH_U], u_left)
+                    y, d = _chain(chains, z, r, whole[j, 9], order, whole[j, 10],
+                                  state[j, _S_PATH_U], u_left, first)
                     state[j, _S_PATH_U] = u_right
                     u_left, u_right = y + d * u_left, y + d * u_right
                 state[j, _S_OUT_LEFT], state[j, _S_OUT] = u_left, u_right

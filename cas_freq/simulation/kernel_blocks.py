@@ -241,10 +241,15 @@ def _controller_update(
 # --- filters (architecture.py) ---------------------------------------------------------------
 
 @_jit(inline="always")  # numba-level: array arguments cost a call
-def _chain(g, gs, r, start, m, z, u_a, u_b):
+def _chain(g, gs, r, start, m, z, u_a, u_b, first):
     """Step the filter chain of order ``m`` whose table starts at column ``start`` of ``g``
     (its states at columns ``z`` .. ``z + m`` of ``gs``, scratch after them) over one step
-    for an input linear from ``u_a`` to ``u_b`` (FilterState.step); returns C z_k+1."""
+    for an input linear from ``u_a`` to ``u_b`` (FilterState.step); returns C z_k+1 and the
+    direct term D (the output is ``C z + D u``). ``first``: the outputs at t = 0 from rest
+    (C z = 0, no step)."""
+    d = g[r, start + m * m + 3 * m]
+    if first:
+        return 0.0, d
     g_a, g_b, c = start + m * m, start + m * m + m, start + m * m + 2 * m
     for i in range(m):
         acc = 0.0
@@ -257,4 +262,4 @@ def _chain(g, gs, r, start, m, z, u_a, u_b):
     for i in range(m):
         gs[r, z + i] = gs[r, z + m + i]
         y += g[r, c + i] * gs[r, z + i]
-    return y
+    return y, d
