@@ -8,11 +8,13 @@ Plant (docs/model.md, report Fig. 5), states :math:`x = (i, \omega, \theta)`:
 
 It is linear, so each step of length dt is integrated exactly (:func:`plant_step_matrices`) for a
 terminal voltage that is linear over the step (first-order hold; constant for a sampled current
-controller). That voltage is the current controller's output delayed by :math:`\tau_c`, so it
-is known before the step: both delays make the scheme explicit. After each plant step the
-position controller (on :math:`\theta`), then the current controller (on :math:`i` and the
-current command delayed by :math:`\tau_p`) are updated (:mod:`~cas_freq.simulation.controllers`)
-and their outputs pushed into the delay lines (:mod:`~cas_freq.simulation.delay_line`).
+controller). That voltage is the innermost (current) controller's output delayed by
+:math:`\tau_c`, so it is known before the step: the delays make the scheme explicit. After each
+plant step the loops of :func:`~cas_freq.simulation.architecture.loop_steps` are updated from
+the outermost in (the position controller on the measured angle, then any velocity controller,
+then the current controller, each on the delayed output of the one outside it;
+:mod:`~cas_freq.simulation.controllers`) and their outputs pushed into the delay lines after
+them (:mod:`~cas_freq.simulation.delay_line`).
 
 Where some run of the batch has a load or drivetrain term, every run of the batch steps the
 5-state loaded plant of :mod:`~cas_freq.simulation.mechanics` instead (mode and torques decided
