@@ -287,11 +287,10 @@ class Engine:
             measured = (chain.start if start else chain.step)(measured, measured)[1]
         e_r = reference - measured
         e_l = e_r if reference_left is reference else reference_left - measured
-        y_r = y_l = None
+        y_r = y_l = None  # the derivative's input: the error, or -measured where it says so
         if top and self._derivative_on is not None:
-            on = self._derivative_on
-            y_r = -measured if on is True else np.where(on, -measured, e_r)
-            y_l = y_r if e_l is e_r else (-measured if on is True else np.where(on, -measured, e_l))
+            y_r = self._derivative_input(e_r, measured)
+            y_l = y_r if e_l is e_r else self._derivative_input(e_l, measured)
         ff_r, ff_l = right[1][j], left[1][j]
         if loop.sampled:  # a sampler sees the values from now on
             ff_l = ff_r
@@ -303,6 +302,11 @@ class Engine:
             chain = self.path[j]
             u_left, u_right = (chain.start if start else chain.step)(u_left, u_right)
         self.out_left[j], self.out[j] = u_left, u_right
+
+    def _derivative_input(self, e, measured):
+        """-``measured`` where the derivative acts on the measurement, else the error ``e``."""
+        on = self._derivative_on
+        return -measured if on is True else np.where(on, -measured, e)
 
     def _loops(self, k, left, right, start=False):
         """Every loop due at step ``k``, outermost first, each output into its delay line."""
