@@ -358,9 +358,9 @@ class FilterSpec(_Section):
         Its point: current_command (after the controller that commands the current),
         velocity_command (after the position controller, before the velocity loop; needs a
         velocity loop), velocity_feedback (on the measured velocity; needs a velocity loop),
-        current_feedback
-        (on the measured current) or position_feedback (on the position loop's measured
-        angle). The last two are analog: before the sampler of a sampled drive (anti-aliasing).
+        current_feedback (on the measured current) or position_feedback (on the position
+        loop's measured angle). The last two are analog: before the sampler of a sampled drive
+        (anti-aliasing).
     type : str
         lowpass1, lowpass2, notch or leadlag (``zero`` and ``pole`` [rad/s]).
     """

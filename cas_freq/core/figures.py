@@ -139,9 +139,14 @@ class Figure:
         return f"{self.label} [{self.shown_unit}]" if self.shown_unit else self.label
 
     @property
+    def short_name(self):
+        """:attr:`short`, else the label (``"PM"``, ``"delay margin"``)."""
+        return self.short or self.label
+
+    @property
     def short_heading(self):
-        """:attr:`short` (else the label) and the shown unit: ``"PM [deg]"``."""
-        name = self.short or self.label
+        """:attr:`short_name` and the shown unit: ``"PM [deg]"``."""
+        name = self.short_name
         return f"{name} [{self.shown_unit}]" if self.shown_unit else name
 
     def shown(self, value):

@@ -292,8 +292,8 @@ class LoopParameters:
         filters = tuple(self.filters)
         if not all(isinstance(f, Filter) for f in filters):
             raise ConfigError("simulation parameters: filters: must be a tuple of Filter")
-        points = sorted({f.at for f in filters} & set(VELOCITY_POINTS))
-        if not self.cascade and points:
+        points = [f.at for f in filters if f.at in VELOCITY_POINTS]
+        if points and not self.cascade:
             raise ConfigError(f"simulation parameters: filters: a {points[0]} filter needs a "
                               "velocity loop (cascade)")
         try:

@@ -188,7 +188,7 @@ MARGINS = ("crossover_rad_s", "phase_margin_deg", "delay_margin_s", "gain_margin
 MARGIN_COLUMNS = [{"view": view, "name": name, "heading": (
     "every other loop closed: " if view == "loop_at_a_time" else "")
     + FIGURES[f"position_loop.{name}"].heading,
-    "short": FIGURES[f"position_loop.{name}"].short or FIGURES[f"position_loop.{name}"].label}
+    "short": FIGURES[f"position_loop.{name}"].short_name}
     for view, names in (
         ("margins", ("crossover_rad_s", "phase_margin_deg", "gain_margin_db",
                      "gain_margin_low_db", "delay_margin_s")),

@@ -90,22 +90,21 @@ def prepare_kernels(variants):
         return
     continuous = next((loaded for loaded in enveloped
                        if not loaded.params.sampling.sample_rates), None)
-    helper = None
-    if continuous is not None:
-        # the frequency-domain kernels compile in a forked helper while this process compiles
-        # the simulation's (numba compiles one function at a time per process: on a first run
-        # this takes the longer of the two instead of their sum); afterwards this process
-        # loads the helper's from numba's cache
-        helper = fork_pool(1, functools.partial(_prepare_frequency_kernels, continuous.params))
+    if continuous is None:
+        prepare_simulation(enveloped[0].params)
+        return
+    # the frequency-domain kernels compile in a forked helper while this process compiles the
+    # simulation's (numba compiles one function at a time per process: on a first run this
+    # takes the longer of the two instead of their sum); afterwards this process loads the
+    # helper's from numba's cache
+    helper, (prepared,) = fork_pool(
+        1, functools.partial(_prepare_frequency_kernels, continuous.params))
     try:
         prepare_simulation(enveloped[0].params)
-        if helper is not None:
-            helper[1][0].exception()  # waited for; if it failed, this process compiles them
+        prepared.exception()  # waited for; where it failed, this process compiles them below
     finally:
-        if helper is not None:
-            stop_pool(helper[0], kill=True)
-    if continuous is not None:
-        prepare_frequency_kernels(continuous.params)
+        stop_pool(helper, kill=True)
+    prepare_frequency_kernels(continuous.params)
 
 
 def prepare_frequency_kernels(params):

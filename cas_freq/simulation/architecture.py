@@ -155,6 +155,11 @@ class LoopStep:
         """The controller is sampled."""
         return self.every is not None
 
+    @property
+    def has_feedforward(self):
+        """Some run has a feed-forward into this loop's output."""
+        return bool(np.any(self.ff_v != 0) or np.any(self.ff_a != 0))
+
 
 def loop_steps(params, dt, every=None, method="backward"):
     """The loops of ``params`` innermost first (tuple of :class:`LoopStep`), from the

@@ -93,7 +93,7 @@ class CompiledEngine:
 
     def sample(self):
         """The recorded signals at the present step, in the order of :attr:`signals`."""
-        return kernel.sample(self.p, self.loops, self.s, self.g, self.x, self.loaded)
+        return kernel.sample(self.loops, self.s, self.g, self.x, self.loaded)
 
     def recorded_rows(self, n_steps, record_every=1):
         """How many samples the next ``n_steps`` steps record."""

@@ -333,7 +333,7 @@ class Engine:
         ffs, ffs_left = [], []
         for loop in self.loops:
             ff = ff_left = None
-            if np.any(loop.ff_v != 0) or np.any(loop.ff_a != 0):
+            if loop.has_feedforward:
                 ff = loop.ff_v * rate + loop.ff_a * accel
                 ff_left = loop.ff_v * rate_left + loop.ff_a * accel_left
                 if not (np.count_nonzero(ff) or np.count_nonzero(ff_left)):

@@ -569,8 +569,8 @@ def _advance_run(r, p, loops, s, g, x, chains, z, ring_right, ring_left, right, 
 
 def _chain_columns(chain):
     """Columns of a filter chain in the chain table (Phi row-major, G_a, G_b, C, D)."""
-    m = 0 if chain is None else chain.order
-    return m * m + 3 * m + 1 if m else 0
+    m = chain.order
+    return m * m + 3 * m + 1
 
 
 def _put_chain(table, start, chain):
@@ -639,7 +639,7 @@ def tables(params, dt, every=None, method="backward"):
             row[:, _L_GD], row[:, _L_A], row[:, _L_B], row[:, _L_C] = derivative_filter(
                 loop.kd, loop.tf, dt * (loop.every or 1), sampled=loop.sampled, method=method)
         row[:, _L_FF_V], row[:, _L_FF_A] = loop.ff_v, loop.ff_a
-        row[:, _L_HAS_FF] = bool(np.any(loop.ff_v != 0) or np.any(loop.ff_a != 0))
+        row[:, _L_HAS_FF] = loop.has_feedforward
         row[:, _L_ON_MEASUREMENT] = loop.on_measurement
         row[:, _L_EVERY] = loop.every or 0
         row[:, _L_BACKWARD] = loop.sampled and backward
@@ -653,7 +653,7 @@ def tables(params, dt, every=None, method="backward"):
             np.zeros((n, len(steps), slots)), np.zeros((n, len(steps), slots)))
 
 
-def sample(p, loops, s, g, x, loaded):
+def sample(loops, s, g, x, loaded):
     """The recorded signals at the present step (SIGNALS, then LOAD_SIGNALS if ``loaded``)."""
     top = loops.shape[1] - 1
     values = (
