@@ -26,7 +26,7 @@ from cas_freq.core.jit import cached_jit
 from cas_freq.model import parts
 from cas_freq.model.loops import LoopResponses
 from cas_freq.model.structure import build
-from cas_freq.model.table import table
+from cas_freq.model.table import Values, shaped, table
 
 
 @cached_jit(inline="always")
@@ -264,5 +264,5 @@ def grid_responses(p, omega, n, delay, closed=True, feedforward=False, loop_at_a
     names = rows.names
     cascade = {name: loops[k, 0] if fill[k] == 1 else loops[k] for k, name in enumerate(names)}
     return LoopResponses(
-        cascade, t if closed else None,
+        cascade, shaped(t, rows, Values(1j * omega)) if closed else None,
         {name: aat[k] for k, name in enumerate(names)} if loop_at_a_time else None)

@@ -246,7 +246,8 @@ def closed_loop_matrices(params, pade_order=DEFAULT_PADE_ORDER):
     """T's state-space matrices with Padé delays of ``pade_order`` (numpy only).
 
     The declared structure closed (:func:`cas_freq.model.state_space.closings`), read at the
-    output: continuous controllers with Padé delays, or sampled ones as the outermost loop's
+    output, behind the command's shaping (:func:`~cas_freq.model.state_space.command_shaping`):
+    continuous controllers with Padé delays, or sampled ones as the outermost loop's
     closed discrete-time system at its period (delays exact).
 
     Parameters
@@ -262,10 +263,15 @@ def closed_loop_matrices(params, pade_order=DEFAULT_PADE_ORDER):
     """
     p = parts.one_variant(params)
     structure = build(p)
-    top = state_space.closings(p, pade_order, sampled=is_sampled(p))[structure.names[-1]]
+    sampled = is_sampled(p)
+    top = state_space.closings(p, pade_order, sampled=sampled)[structure.names[-1]]
     a, b, c, d = top.closed
     output = state_space.SIGNAL_ROWS[structure.output]
-    return ClosedLoopMatrices(a, b, c[output:output + 1], d[output:output + 1], top.period)
+    system = (a, b, c[output:output + 1], d[output:output + 1])
+    shaping = state_space.command_shaping(p, sampled)
+    if shaping is not None:
+        system = state_space.series(shaping, system)
+    return ClosedLoopMatrices(*system, top.period)
 
 
 def transmission_zeros(a, b, c, d):

@@ -36,10 +36,13 @@ import numpy as np
 from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.parameter_record import Parameter
 
-__all__ = ["ANALOG_POINTS", "DEFAULT_DAMPING", "FILTERS", "FILTER_NUMBERS", "FILTER_PARAMETERS",
-           "FILTER_POINTS", "FILTER_TYPES", "VELOCITY_POINTS", "Filter", "FilterType",
-           "depth_problem", "number_field", "point_problem", "type_problem"]
+__all__ = ["ANALOG_POINTS", "COMMAND_POINT", "DEFAULT_DAMPING", "FILTERS", "FILTER_NUMBERS",
+           "FILTER_PARAMETERS", "FILTER_POINTS", "FILTER_TYPES", "VELOCITY_POINTS", "Filter",
+           "FilterType", "depth_problem", "number_field", "point_problem", "type_problem"]
 
+#: The point on the command before every loop (the shaping of the reference; not yet a point
+#: a config may name).
+COMMAND_POINT = "position_command"
 #: Where a filter may sit.
 FILTER_POINTS = ("current_command", "velocity_command", "velocity_feedback",
                  "current_feedback", "position_feedback")

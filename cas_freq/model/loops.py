@@ -26,7 +26,16 @@ import numpy as np
 from cas_freq.core.filters_config import Filter
 from cas_freq.model.delay import EXACT
 from cas_freq.model.structure import build
-from cas_freq.model.table import Values, at_a_time, cascade, command, references, table, walk
+from cas_freq.model.table import (
+    Values,
+    at_a_time,
+    cascade,
+    command,
+    references,
+    shaped,
+    table,
+    walk,
+)
 
 #: LoopParameters fields the frequency responses use (where the parameters have them).
 RESPONSE_FIELDS = (
@@ -153,6 +162,7 @@ def evaluate(rows, values, closed=True, loop_at_a_time=False, count=None):
     if closed:
         numerator = command(found.steps, references(rows, values), values)
         t = numerator * found.sensed * values.poly(rows.seen) / found.e
+        t = shaped(t, rows, values)
     return LoopResponses(cascade(found.steps), t,
                          at_a_time(found.steps) if loop_at_a_time else None)
 

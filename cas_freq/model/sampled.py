@@ -5,10 +5,11 @@ position loop at 2.5 kHz). ``sampling:`` (docs/config.md) declares them; the loo
 declared structure (:mod:`cas_freq.model.structure`) are then evaluated as the drive runs them
 (docs/model.md, "Sampled controllers"):
 
-- every controller, path filter, digital feedback filter and command path is the continuous
-  block with :math:`s` replaced by :math:`(1 - z^{-1})/T` (``backward``) or
-  :math:`\frac{2}{T}\frac{z - 1}{z + 1}` (``tustin``), :math:`z = e^{j\omega T}`, T the period
-  of the loop it belongs to;
+- every controller, path filter, digital feedback filter and command path, and the command's
+  shaping (``position_command``, at the outermost loop's period), is the continuous block
+  with :math:`s` replaced by :math:`(1 - z^{-1})/T` (``backward``) or
+  :math:`\frac{2}{T}\frac{z - 1}{z + 1}` (``tustin``), :math:`z = e^{j\omega T}`, T the
+  period of the loop it belongs to;
 - the current controller's output is held (zero-order hold) and reaches the motor after the
   current loop's delay :math:`\tau_c = mT + \varepsilon` (:math:`0 \le \varepsilon < T`): the
   plant's hold-equivalent (modified z-transform, :mod:`cas_freq.model.hold`) is exact, from
@@ -56,7 +57,7 @@ from cas_freq.model.hold import WHOLE, PlantModes, hold_equivalent, plant_modes
 from cas_freq.model.loops import LoopResponses
 from cas_freq.model.loops import responses as continuous
 from cas_freq.model.structure import build
-from cas_freq.model.table import Values, command, table, walk
+from cas_freq.model.table import Values, command, shaped, table, walk
 from cas_freq.model.table import at_a_time as table_at_a_time
 from cas_freq.model.table import cascade as table_cascade
 
@@ -312,6 +313,7 @@ def _evaluate(prepared, s, closed, loop_at_a_time, output, feedforward, through)
                 entering = [_entering(row, values, nu, feedforward) for row in group_rows.rows]
                 t = (command(found.steps, entering, values) * found.sensed * signals[seen]
                      / found.e)
+                t = shaped(t, rows, values)  # the command's shaping at the outermost rate
             break
         # what the next (slower) group's loops see: held, delayed, sampled
         outer = plan[g + 1]

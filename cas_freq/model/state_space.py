@@ -139,6 +139,21 @@ def closings(p, pade_order=DEFAULT_PADE_ORDER, loops=None, n=None, sampled=False
     return {name: _one(closing) for name, closing in out.items()} if one else out
 
 
+def command_shaping(p, sampled=False):
+    """The shaping of the command before every loop (the blocks of
+    :attr:`~cas_freq.model.structure.Structure.command`) in state space, one run: continuous,
+    or ``sampled`` discretised at the outermost loop's period as its controller is; None for
+    none. In series in front of the outermost loop's closing it gives T; the closing's poles
+    stay the loops' own."""
+    structure = build(p)
+    if not structure.command:
+        return None
+    form = _Sampling(p, structure) if sampled else _Continuous(DEFAULT_PADE_ORDER)
+    discrete = form.discretiser(len(structure.loops) - 1)
+    shaping = chain([discrete(_realize_block(block, 1)) for block in structure.command])
+    return tuple(m[0] if m.ndim == 3 else m for m in shaping)
+
+
 def run_groups(p, sampled=False):
     """The runs of ``p`` grouped by what sets their state counts (a compliant gear, a hinge
     stiffness, each realised denominator's leading zeros, each delay's samples or being zero):

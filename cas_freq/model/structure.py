@@ -46,7 +46,9 @@ and every figure is a ratio of these terms:
   controller's output (:math:`\Phi_k`, per unit command):
   :math:`T = \tilde F_{top} K_m n_{out} \sum_k A_{k-1} \varphi_k \prod_{m > k} b_m / E_{top}`
   with :math:`\varphi_k = (\rho_k + \Phi_k\, b^c_k)\, a^{path}_k e^{-s\tau_k}` (:math:`b^c_k` the
-  controller's denominator, :math:`a^{path}_k` the filters' numerators);
+  controller's denominator, :math:`a^{path}_k` the filters' numerators), times the shaping
+  :math:`W = a^{cmd}/b^{cmd}` of the command before every loop (:attr:`Structure.command`;
+  continuous, or at the outermost loop's equivalent s where it is sampled);
 - the characteristic polynomial of the whole loop is :math:`E_{top}` with Padé delays, and
   :math:`E_k` that of loops 0..k alone;
 - a load torque :math:`M` at the output (:attr:`Plant.load`, :attr:`Plant.coupling`) and a
@@ -62,7 +64,7 @@ import dataclasses
 import numpy as np
 
 import cas_freq.model.parts as parts
-from cas_freq.core.filters_config import ANALOG_POINTS, FILTERS
+from cas_freq.core.filters_config import ANALOG_POINTS, COMMAND_POINT, FILTERS
 from cas_freq.model.parts import polyadd, polymul
 
 #: The plant signals a loop can measure: name -> meaning [unit per volt].
@@ -190,12 +192,15 @@ class Plant:
 class Structure:
     """The loops of a batch of runs, innermost first, around their plant.
 
-    ``output`` is the plant signal the closed loop T reads (the output angle).
+    ``output`` is the plant signal the closed loop T reads (the output angle). ``command``:
+    blocks in series on the command before the outermost loop (the reference's shaping, at
+    ``position_command``): they multiply T and change no loop.
     """
 
     plant: Plant
     loops: tuple
     output: str = "output_angle"
+    command: tuple = ()
 
     @property
     def names(self):
@@ -343,7 +348,8 @@ def build(p):
     a PI velocity loop commanding the current, a PI current loop. Filters at the current
     command sit after the controller that commands the current, those at the velocity command
     after the position controller of a cascade; those on the velocity
-    feedback (and the first-order feedback filter) on the velocity loop's measurement. The
+    feedback (and the first-order feedback filter) on the velocity loop's measurement, those at
+    the position command on the command before every loop (:attr:`Structure.command`). The
     position loop measures the motor angle, or the output angle on the motor's scale with
     ``p.feedback_output``. Filters on the measured current (``current_feedback``) and angle
     (``position_feedback``) are those loops' sensors (analog blocks, :attr:`Block.analog`).
@@ -382,7 +388,7 @@ def build(p):
             feedforward=(p.ff_a, p.ff_v, 0.0), signals=position_signals,
             limit=getattr(p, "i_max", None),
         )
-        return Structure(plant(p), (current, position))
+        return Structure(plant(p), (current, position), command=_filters(p, COMMAND_POINT))
     sensor = _filters(p, "velocity_feedback")
     tau_vf = np.asarray(p.tau_vf)
     if np.any(tau_vf > 0):
@@ -400,7 +406,8 @@ def build(p):
         _filters(p, "position_feedback"), feedforward=(p.ff_v, 0.0), signals=position_signals,
         limit=getattr(p, "omega_max", None),
     )
-    return Structure(plant(p), (current, velocity, position))
+    return Structure(plant(p), (current, velocity, position),
+                     command=_filters(p, COMMAND_POINT))
 
 
 # --- the filters in state space (the simulator and the sampled plant) ---------------------

@@ -87,12 +87,14 @@ class Row:
 class Table:
     """The loops of a batch of runs, innermost first, over the plant's denominator
     :math:`\\Delta`, with the numerator per volt (``seen``) of the plant signal T reads
-    (``output``)."""
+    (``output``) and the shaping of the command before every loop, (numerator, denominator)
+    polynomials of :attr:`~cas_freq.model.structure.Structure.command` (None: no shaping)."""
 
     rows: tuple
     denominator: tuple
     seen: tuple
     output: str
+    shaping: tuple | None = None
 
     @property
     def names(self):
@@ -132,7 +134,12 @@ def _mapped(table, function, where, count=None):
         if where((row.tau,)):
             changes["tau"] = function((row.tau,))[0]
         rows.append(dataclasses.replace(row, **changes) if changes else row)
-    return Table(tuple(rows), function(table.denominator), function(table.seen), table.output)
+    shaping = table.shaping
+    if shaping is not None:
+        shaping = tuple(function(polynomial) if where(polynomial) else polynomial
+                        for polynomial in shaping)
+    return Table(tuple(rows), function(table.denominator), function(table.seen), table.output,
+                 shaping)
 
 
 def _arrays(polynomial):
@@ -188,8 +195,21 @@ def table(structure, feedforward=False, minimal=False, output=None):
             path_numerator=path_num,
         ))
     output = output or structure.output
+    shaping = None
+    if structure.command:
+        shaping = (product(block.numerator for block in structure.command),
+                   product(block.denominator for block in structure.command))
     return Table(tuple(rows), structure.plant.denominator, structure.plant.signals[output],
-                 output)
+                 output, shaping)
+
+
+def shaped(t, table, algebra):
+    """T times the command's shaping :math:`W = a^{cmd}/b^{cmd}` (``table.shaping``) in the
+    algebra's values (T itself where there is none)."""
+    if table.shaping is None:
+        return t
+    numerator, denominator = table.shaping
+    return t * algebra.poly(numerator) / algebra.poly(denominator)
 
 
 # --- the algebras ----------------------------------------------------------------------------

@@ -67,9 +67,11 @@ import warnings
 import numpy as np
 
 from cas_freq.core.exceptions import ConfigError, ModelError
+from cas_freq.core.filters_config import COMMAND_POINT
 from cas_freq.core.jit import ENGINE_ENV, ENGINES, engine_name, use_compiled  # noqa: F401 (re-exported)
 from cas_freq.core.parameters import LoopParameters
 from cas_freq.core.threads import result_of, worker_threads
+from cas_freq.model.structure import build
 from cas_freq.simulation.architecture import LOOPS
 from cas_freq.simulation.commands import Step
 from cas_freq.simulation.controllers import METHODS
@@ -82,6 +84,7 @@ from cas_freq.simulation.engine import (
 from cas_freq.simulation.figure_kernel import settled_runs, step_figures_batch
 from cas_freq.simulation.recording import Recording, RecordingBuffers  # noqa: F401 (re-exported)
 from cas_freq.simulation.second_order import fit_second_order
+from cas_freq.simulation.shaping import ShapedCommands
 
 #: Largest default step [s].
 MAX_DEFAULT_STEP_S = 20e-6
@@ -153,7 +156,7 @@ class SimulationResult(_Signals):
     V : numpy.ndarray
         Voltage at the motor terminals (the current controller's output delayed by tau_c) [V].
     command : numpy.ndarray
-        Fin-angle command [rad].
+        Fin-angle command [rad], as given (before any filter at ``position_command``).
     current_command : numpy.ndarray
         Current command at the current controller (delayed by tau_p) [A].
     position_integral : numpy.ndarray
@@ -608,7 +611,12 @@ def simulate_batch(
     check_budget(n, int(round(t_end / dt)), dt, record_every, max_delay)
     cap = min(cap, max(t_end, budget_steps(n, dt, record_every, max_delay) * dt))
 
-    command_set = CommandSet(commands, p.ratio)
+    given = command_set = CommandSet(commands, p.ratio)
+    shaped = any(item.at == COMMAND_POINT for item in p.filters)
+    if shaped:  # the loops read the command through the filters before every loop
+        structure = build(p)
+        command_set = ShapedCommands(given, structure.command, dt,
+                                     every.get(structure.loops[-1].name), method)
     engine = engine_class(engine)(p, command_set, dt, every, method)
     names = engine.signals  # SIGNALS, and LOAD_SIGNALS where some run is loaded
     kept = _kept_signals(names, signals)
@@ -637,6 +645,8 @@ def simulate_batch(
             delta = np.where(compliant, signals["delta"], delta)
             omega_l = np.where(compliant, signals["omega_L"], signals["omega"] / ratio)
         command = signals["theta_cmd"] / ratio
+        if shaped:  # the command as given, not as the filters before the loops shaped it
+            command = np.broadcast_to(given.fin(t)[0].T, delta.shape)
         settled = None
         if settles:
             settled = _settled(t, delta, command, final, max(0.5 * horizon, last_change),
