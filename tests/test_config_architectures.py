@@ -229,7 +229,8 @@ def as_pid(raw):
 @pytest.mark.parametrize(("item", "expected"), [
     ({**_NOTCH, "at": "velocity"},
      "filters.0.at: 'velocity' is not a filter point; use current_command, "
-     "velocity_command, velocity_feedback, current_feedback or position_feedback"),
+     "velocity_command, velocity_feedback, current_feedback, position_feedback or "
+     "position_command"),
     ({**_NOTCH, "at": "velocity_feedback"},
      "filters.0.at: velocity_feedback needs a velocity loop (a velocity_loop section); use "
      "current_command"),

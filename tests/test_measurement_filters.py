@@ -111,8 +111,8 @@ def test_a_bad_point_names_every_accepted_point():
     raw = [{"at": "angle_feedback", "type": "lowpass1", "frequency": "1000 rad/s"}]
     with pytest.raises(ConfigError, match="filters.0.at: 'angle_feedback' is not a filter "
                        "point; use current_command, velocity_command, velocity_feedback, "
-                       "current_feedback or "
-                       "position_feedback"):
+                       "current_feedback, position_feedback or "
+                       "position_command"):
         load_variant(QT_CAS, "base", overrides=[("filters", raw)])
 
 

@@ -359,8 +359,9 @@ class FilterSpec(_Section):
         velocity_command (after the position controller, before the velocity loop; needs a
         velocity loop), velocity_feedback (on the measured velocity; needs a velocity loop),
         current_feedback (on the measured current) or position_feedback (on the position
-        loop's measured angle). The last two are analog: before the sampler of a sampled drive
-        (anti-aliasing).
+        loop's measured angle); the last two are analog: before the sampler of a sampled drive
+        (anti-aliasing). position_command: on the command before every loop (a set-point
+        filter: T changes, no margin does).
     type : str
         lowpass1, lowpass2, notch or leadlag (``zero`` and ``pole`` [rad/s]).
     """

@@ -2,6 +2,8 @@
 
 Each filter sits in series at one point of the loop, ``at``:
 
+- ``position_command``: on the command, before every loop (it shapes the reference: it
+  multiplies T and changes no loop's margins);
 - ``current_command``: after the velocity or position controller, before the current loop;
 - ``velocity_command``: after the position controller, before the velocity loop's error (needs
   a velocity loop);
@@ -10,9 +12,10 @@ Each filter sits in series at one point of the loop, ``at``:
 - ``position_feedback``: on the measured angle of the position loop (the motor's or, with
   ``position_loop.feedback: output``, the output's).
 
-The first three act on the controllers' signals: they are digital where the drive is sampled
-(discretised with their loop's controller). The measurement filters (:data:`ANALOG_POINTS`) act
-on the continuous measurement before the sampler (anti-aliasing): analog whatever the drive.
+The first four act on the controllers' signals: they are digital where the drive is sampled
+(discretised with their loop's controller; the position command's with the outermost loop's).
+The measurement filters (:data:`ANALOG_POINTS`) act on the continuous measurement before the
+sampler (anti-aliasing): analog whatever the drive.
 
 Each filter is of one kind, ``type``, declared once in :data:`FILTERS` (a
 :class:`FilterType`: its numbers and its transfer function, read by the config schema, the
@@ -40,12 +43,11 @@ __all__ = ["ANALOG_POINTS", "COMMAND_POINT", "DEFAULT_DAMPING", "FILTERS", "FILT
            "FILTER_PARAMETERS", "FILTER_POINTS", "FILTER_TYPES", "VELOCITY_POINTS", "Filter",
            "FilterType", "depth_problem", "number_field", "point_problem", "type_problem"]
 
-#: The point on the command before every loop (the shaping of the reference; not yet a point
-#: a config may name).
+#: The point on the command before every loop (the shaping of the reference).
 COMMAND_POINT = "position_command"
 #: Where a filter may sit.
 FILTER_POINTS = ("current_command", "velocity_command", "velocity_feedback",
-                 "current_feedback", "position_feedback")
+                 "current_feedback", "position_feedback", COMMAND_POINT)
 #: The points of a velocity loop (a drive without one refuses them).
 VELOCITY_POINTS = ("velocity_command", "velocity_feedback")
 #: The points on a measurement before it is sampled (analog filters, continuous even where the
