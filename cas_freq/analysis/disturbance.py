@@ -14,8 +14,8 @@ import dataclasses
 import math
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
+from cas_freq.analysis.roots import refine_maxima
 from cas_freq.config.wording import GENERIC
 from cas_freq.model.delay import EXACT
 from cas_freq.model.disturbance import encoder_weights, load_response, noise_current
@@ -118,14 +118,15 @@ class Noise:
 
 
 def _refined(fun, omega, values, index):
-    """The extremum ``values[index]`` (a minimum of ``fun``) refined between the grid points
-    around it: (frequency, value)."""
+    """The extremum ``values[index]`` (a minimum of ``fun``, frequencies [rad/s] -> values)
+    refined between the grid points around it (:func:`~cas_freq.analysis.roots.refine_maxima`
+    of -``fun`` in log frequency): (frequency, value)."""
     if 0 < index < omega.size - 1:
-        result = minimize_scalar(lambda x: float(fun(np.exp(x))),
-                                 bounds=(math.log(omega[index - 1]), math.log(omega[index + 1])),
-                                 method="bounded", options={"xatol": 1e-10})
-        if result.fun < values[index]:
-            return float(np.exp(result.x)), float(result.fun)
+        x = np.log(omega[index - 1:index + 2])
+        at, value = refine_maxima(lambda v, _: -fun(np.exp(v)), x[:1], x[2:],
+                                  *(-values[index - 1:index + 2, None]), mid=x[1:2])
+        if -value[0] < values[index]:
+            return float(at[0]), float(-value[0])
     return float(omega[index]), float(values[index])
 
 
@@ -137,7 +138,7 @@ def stiffness(p, omega, linear=False, delay=EXACT):
 
     values = fun(omega)
     index = int(np.argmin(values))
-    at, value = _refined(lambda w: fun(w)[0], omega, values, index)
+    at, value = _refined(fun, omega, values, index)
     return Stiffness(value, at, linear, index in (0, omega.size - 1))
 
 
@@ -149,7 +150,7 @@ def effort(p, omega, linear=False, delay=EXACT):
 
     values = fun(omega)
     index = int(np.argmin(values))
-    at, value = _refined(lambda w: fun(w)[0], omega, values, index)
+    at, value = _refined(fun, omega, values, index)
     note = "" if 0 < index < omega.size - 1 else "the peak lies at an end of the analysed range"
     return Effort(-value, at, linear, note)
 

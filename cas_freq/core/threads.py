@@ -8,7 +8,8 @@ matrices, 3 x 3 solves), where BLAS's threads only contend: on a loaded machine 
 ``*_NUM_THREADS`` variables before numpy loads (:func:`cas_freq.cli.limit_blas_threads`); the
 Python API cannot (numpy is loaded already), so its entry points and the simulator's
 exponentials run inside :func:`one_blas_thread`, which limits every loaded BLAS library with
-threadpoolctl and restores the caller's thread counts on exit.
+threadpoolctl and restores the caller's thread counts on exit. :func:`expm` is the toolbox's
+matrix exponential, on one BLAS thread.
 """
 
 import concurrent.futures
@@ -112,3 +113,13 @@ def result_of(future):
     while not future.done():
         concurrent.futures.wait((future,), timeout=WAIT_SLICE_S)
     return future.result()
+
+
+def expm(matrices):
+    """``scipy.linalg.expm`` of a matrix or a stack (..., m, m) on one BLAS thread
+    (:func:`one_blas_thread`); scipy.linalg is imported at the first call, not with the
+    toolbox (about 0.3 s of a process's start that a continuous analysis does not need)."""
+    from scipy.linalg import expm as exponential
+
+    with one_blas_thread():
+        return exponential(matrices)

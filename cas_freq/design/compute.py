@@ -26,6 +26,7 @@ from cas_freq.core.parameters import (
     parse_value,
     variant_parameters,
 )
+from cas_freq.model import DEFAULT_PADE_ORDER
 from cas_freq.tuning.options import DEFAULT_FACTOR
 from cas_freq.tuning.space import default_free
 
@@ -237,7 +238,6 @@ def limited_spans(t, flags):
 def steps(loaded, analysis, amplitude, nonlinear=True):
     """The linear and (with ``nonlinear``) the nonlinear step at the output, in the output's
     shown unit (deg, or mm for a linear output); ``amplitude`` [rad or m]."""
-    from cas_freq.model import DEFAULT_PADE_ORDER
     from cas_freq.report.data import linear_steps
     from cas_freq.studies.run import step_run
 

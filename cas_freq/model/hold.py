@@ -20,12 +20,11 @@ import dataclasses
 import types
 
 import numpy as np
-from scipy.linalg import expm
 
 import cas_freq.model.parts as parts
 from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.filters_config import ANALOG_POINTS, Filter
-from cas_freq.core.threads import one_blas_thread
+from cas_freq.core.threads import expm
 from cas_freq.model.structure import SIGNALS, build, chain_state_space, filter_block, measured
 
 #: A delay within this fraction of a whole number of periods counts as that number.
@@ -224,8 +223,7 @@ def _analog_hold(part, shape, fraction, period, lead):
         m = np.zeros((a.shape[0], 2 * order, 2 * order))
         m[:, :order, :order] = a * h[:, None, None]
         m[:, :order, order:] = np.eye(order) * h[:, None, None]
-        with one_blas_thread():
-            e = expm(m)
+        e = expm(m)
         return e[:, :order, :order], e[:, :order, order:]
 
     phi_rest, g1 = integral(rest)

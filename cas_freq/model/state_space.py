@@ -32,10 +32,9 @@ numbers as each run's own matrices.
 import dataclasses
 
 import numpy as np
-from scipy.linalg import expm
 
 import cas_freq.model.parts as parts
-from cas_freq.core.threads import one_blas_thread
+from cas_freq.core.threads import expm
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, pade_realization
 from cas_freq.model.hold import measured, with_analog_filters
 from cas_freq.model.sampled import groups
@@ -354,8 +353,7 @@ def hold_equivalent(a, b, tau, period):
         m = np.zeros((n, states + 1, states + 1))
         m[:, :states, :states] = a * h
         m[:, :states, states:] = b * h
-        with one_blas_thread():
-            e = expm(m)
+        e = expm(m)
         return e[:, :states, :states], e[:, :states, states:]
 
     phi_1, gamma_1 = integral(period - fraction)

@@ -95,9 +95,8 @@ reference, the kernel's scalar code) perform these operations in this order.
 
 
 import numpy as np
-from scipy.linalg import expm
 
-from cas_freq.core.threads import one_blas_thread
+from cas_freq.core.threads import expm
 from cas_freq.model.parts import plant_matrices
 
 #: Mode indices: engaged with the motor driving, engaged with the fin driving, inside the play,
@@ -143,8 +142,7 @@ def distinct_exponentials(matrices):
         unique, inverse = flat, np.zeros(1, dtype=int)
     else:
         unique, inverse = np.unique(flat, axis=0, return_inverse=True)
-    with one_blas_thread():
-        exponentials = expm(unique.reshape(-1, size, size))
+    exponentials = expm(unique.reshape(-1, size, size))
     return exponentials[inverse.reshape(-1)].reshape(shape)
 
 

@@ -30,6 +30,9 @@ from cas_freq.core.exceptions import CasFreqError
 from cas_freq.core.fileio import json_ready
 from cas_freq.core.output import output_json, output_unit
 from cas_freq.core.parameters import LoopParameters
+from cas_freq.model import DEFAULT_PADE_ORDER, ActuatorLoops
+from cas_freq.model.delay import MAX_PADE_ORDER
+from cas_freq.model.structure import total_delay
 
 #: The JSON's format name (a reader checks it).
 FORMAT = "cas-freq actuator model 1"
@@ -220,7 +223,6 @@ def export_model(loaded, pade_order=DEFAULT_EXPORT_PADE, amplitudes_rad=None,
     from cas_freq.analysis import analyze
     from cas_freq.analysis.rate_envelope import rate_envelope
     from cas_freq.analysis.systems import linear_model
-    from cas_freq.model.delay import MAX_PADE_ORDER
     from cas_freq.simulation.sinedwell import dwell_frequencies
     from cas_freq.studies.run import sinedwell_run
 
@@ -261,8 +263,6 @@ def _accuracy(params, system, analysis, pade_order):
 
     from cas_freq.analysis.frequency import DEFAULT_POINTS_PER_DECADE, frequency_grid
     from cas_freq.analysis.systems import linear_model
-    from cas_freq.model import DEFAULT_PADE_ORDER, ActuatorLoops
-    from cas_freq.model.structure import total_delay
 
     low, high = analysis.frequency_range_rad_s
     omega = frequency_grid(low, high, DEFAULT_POINTS_PER_DECADE, total_delay(params))
