@@ -8,6 +8,7 @@ caller's count set to 2 first (so that "1 inside" cannot be the caller's own set
 """
 
 import numpy as np
+import scipy.linalg
 from threadpoolctl import threadpool_info, threadpool_limits
 
 import cas_freq as cf
@@ -44,8 +45,9 @@ def test_api_call_runs_on_one_blas_thread_and_restores_the_callers_count(monkeyp
 
 
 def test_the_simulators_exponentials_run_on_one_blas_thread(monkeypatch):
+    # scipy's expm as the toolbox's exponential (cas_freq.core.threads.expm) calls it
     seen = []
-    monkeypatch.setattr(mechanics, "expm", _spy(seen, mechanics.expm))
+    monkeypatch.setattr(scipy.linalg, "expm", _spy(seen, scipy.linalg.expm))
     matrices = np.array([[[0.0, 1.0], [-1.0, 0.0]]] * 3)  # three copies of one rotation
     with threadpool_limits(limits=CALLER_THREADS, user_api="blas"):
         before = _blas_threads()
