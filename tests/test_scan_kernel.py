@@ -26,7 +26,7 @@ from cas_freq.analysis.margins import (
     magnitudes,
     quarter_turn,
 )
-from cas_freq.analysis.probes import _long_chords
+from cas_freq.analysis.probes import LOG_SHARP, _log_corners, _long_chords, extremum_probes
 from cas_freq.config import load_variant
 from cas_freq.core.jit import use_compiled
 from cas_freq.core.parameters import variant_parameters
@@ -168,3 +168,45 @@ def test_magnitudes_and_long_chords_equal_numpy_to_the_bit(monkeypatch, index):
     np.testing.assert_array_equal(got_k, k)
     if index in (1, 2, 6):  # loops of the shipped actuator and spirals that pass near -1
         assert rows.size > 0
+
+
+def _log_inputs(index):
+    """A response of :func:`_arrays`, the analysis grid's first columns for it (log rad/s; not
+    uniform: the delay's linear part merged in) and ln |L|^2 (-inf where L is 0)."""
+    response = _arrays()[index]
+    omega = frequency_grid(*DEFAULT_RANGE_RAD_S, DEFAULT_POINTS_PER_DECADE, 0.001)
+    omega = omega[:response.shape[1]] if index == 6 else omega
+    with np.errstate(divide="ignore"):
+        log_squared = np.log(response.real ** 2 + response.imag ** 2)
+    return np.log(omega), response, log_squared
+
+
+@pytest.mark.parametrize("index", range(7))
+def test_log_corners_equal_numpy_to_the_bit(index):
+    pytest.importorskip("numba")
+    from cas_freq.analysis.scan_kernel import log_corners
+
+    log_w, response, log_squared = _log_inputs(index)
+    expected, expected_size = _log_corners(log_w, response, log_squared)
+    corner = np.empty(expected.shape, dtype=bool)
+    size = np.empty(expected.shape)
+    with np.errstate(invalid="ignore"):
+        log_corners(log_w, response, log_squared, LOG_SHARP, corner, size)
+    np.testing.assert_array_equal(corner, expected)
+    np.testing.assert_array_equal(size, expected_size)
+    if index == 1:  # the shipped actuator's position loop: corners where the grid is coarse
+        assert expected.any()
+
+
+@pytest.mark.parametrize("index", [1, 4])
+def test_extremum_probes_are_the_same_on_both_paths(monkeypatch, index):
+    log_w, response, _ = _log_inputs(index)
+    omega = np.exp(log_w)
+
+    def evaluate(runs, w):  # a stand-in loop between the samples: the nearest sample's value
+        return response[runs, np.clip(np.searchsorted(omega, w), 0, omega.size - 1)]
+
+    expected = _reference(monkeypatch, extremum_probes, evaluate, omega, response)
+    got = _compiled(monkeypatch, extremum_probes, evaluate, omega, response)
+    np.testing.assert_array_equal(got.runs, expected.runs)
+    np.testing.assert_array_equal(got.log_w, expected.log_w)

@@ -12,7 +12,7 @@ import math
 import numpy as np
 
 from cas_freq.analysis.roots import refine_maxima
-from cas_freq.analysis.scan_kernel import long_chords
+from cas_freq.analysis.scan_kernel import log_corners, long_chords
 from cas_freq.core.jit import compiled_for
 
 #: A local extremum whose second difference of ln |L|^2 over three grid samples exceeds this is
@@ -106,7 +106,13 @@ def extremum_probes(evaluate, omega, response, squared=None):
     refined = (maximum & (inner < 1.0)) | (minimum & (inner > 1.0))
     with np.errstate(divide="ignore"):
         log_squared = np.log(squared)
-    log_corner, log_size = _log_corners(log_w, response, log_squared)
+    if compiled_for(response.size):  # the same in one pass (analysis/scan_kernel.py)
+        log_corner = np.empty((response.shape[0], omega.size - 4), dtype=bool)
+        log_size = np.empty(log_corner.shape)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            log_corners(log_w, response, log_squared, LOG_SHARP, log_corner, log_size)
+    else:
+        log_corner, log_size = _log_corners(log_w, response, log_squared)
     corners = (_corners(log_w, squared, log_squared) & ~refined) | log_corner
     runs, k = np.nonzero(corners)
     # a corner of |L| alone is followed by its own test, not by the ratio of ln L's (inf)

@@ -18,6 +18,7 @@ layout, so that a grid's row slice and the whole grid share one machine code.
 
 import math
 
+import numpy as np
 from numba import types
 
 from cas_freq.core.jit import array_type, cached_jit
@@ -121,3 +122,55 @@ def long_chords(inner, distance2, rows, columns):
                     rows[count], columns[count] = i, k
                 count += 1
     return count
+
+
+@cached_jit(inline="always")
+def _angle_step(re0, im0, re1, im1, log_squared0, log_squared1):
+    """:func:`~cas_freq.analysis.probes._angle_steps` of one pair of samples."""
+    cross = re0 * im1 - im0 * re1
+    dot = re0 * re1 + im0 * im1
+    sine = cross * math.exp(-0.5 * (log_squared0 + log_squared1))
+    if dot >= 0.0:
+        return sine
+    sign = 1.0 if cross > 0.0 else (-1.0 if cross < 0.0 else 0.0)
+    return sign * (2.0 - abs(sine))
+
+
+@cached_jit((array_type("float64", 1), _GRID, _REAL, types.float64,
+             array_type("bool_", 2, written=True), _REAL_OUT), nogil=True)
+def log_corners(log_w, response, log_squared, sharp, corner, size):
+    """:func:`~cas_freq.analysis.probes._log_corners` a row at a time: ``corner`` (its size
+    and its bend above ``sharp``) and ``size`` (n, m - 4) at the samples k = 2 .. m - 3, the
+    same arithmetic in the same order."""
+    n, m = response.shape
+    steps = np.empty((2, m - 1))  # per row: the steps of ln |L| and of the phase
+    divided = np.empty((2, m - 2))  # and their divided second differences
+    for i in range(n):
+        for q in range(m - 1):
+            steps[0, q] = 0.5 * (log_squared[i, q + 1] - log_squared[i, q])
+            a, b = response[i, q], response[i, q + 1]
+            steps[1, q] = _angle_step(a.real, a.imag, b.real, b.imag, log_squared[i, q],
+                                      log_squared[i, q + 1])
+        for q in range(m - 2):
+            h0, h1 = log_w[q + 1] - log_w[q], log_w[q + 2] - log_w[q + 1]
+            span = log_w[q + 2] - log_w[q]
+            divided[0, q] = (steps[0, q + 1] - steps[0, q] * (h1 / h0)) / (h1 * span)
+            change = 2.0 - np.mod(2.0 - (steps[1, q + 1] - steps[1, q] * (h1 / h0)), 4.0)
+            divided[1, q] = change / (h1 * span)
+        for j in range(m - 4):
+            c0 = (log_w[j] + log_w[j + 1] + log_w[j + 2]) / 3.0
+            c1 = (log_w[j + 1] + log_w[j + 2] + log_w[j + 3]) / 3.0
+            c2 = (log_w[j + 2] + log_w[j + 3] + log_w[j + 4]) / 3.0
+            before, after = c1 - c0, c2 - c1
+            weight = after / (before + after)
+            span = log_w[j + 3] - log_w[j + 1]
+            scale = 0.5 * span ** 2
+            size2 = 0.0
+            bend2 = 0.0
+            for number in range(2):
+                middle = divided[number, j + 1]
+                between = divided[number, j] * weight + divided[number, j + 2] * (1.0 - weight)
+                size2 = size2 + (middle * scale) ** 2
+                bend2 = bend2 + ((middle - between) * scale) ** 2
+            size[i, j] = math.sqrt(size2)
+            corner[i, j] = size[i, j] > sharp and math.sqrt(bend2) > sharp
