@@ -250,7 +250,7 @@ def test_the_scan_figure_and_fit_kernels_have_one_machine_code_for_any_array_lay
                for name, function in vars(module).items()
                if isinstance(function, CPUDispatcher)
                and function.targetoptions.get("inline") != "always"}
-    assert len(kernels) == 17
+    assert len(kernels) == 18
     rng = np.random.default_rng(3)
     grid = rng.standard_normal((3, 40)) + 1j * rng.standard_normal((3, 40))
     read_only = grid.copy()
