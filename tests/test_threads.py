@@ -80,19 +80,3 @@ def test_where_blas_runs_one_thread_already_nothing_is_limited_or_restored(monke
             assert set(_blas_threads().values()) == {1}
         assert set(_blas_threads().values()) == {CALLER_THREADS}
 
-
-def test_idle_cores_follow_the_load(monkeypatch):
-    # the 1-minute load counts this process: 2 cores at load 1 (it alone) leave 2 for its
-    # threads, at load 2 (another process busy) 1, never fewer than 1 nor more than the cores
-    from cas_freq.core import threads
-
-    monkeypatch.setattr(threads.os, "cpu_count", lambda: 2)
-    for load, expected in ((0.0, 2), (1.0, 2), (1.4, 2), (1.6, 1), (2.0, 1), (7.5, 1)):
-        monkeypatch.setattr(threads.os, "getloadavg", lambda load=load: (load, load, load))
-        assert threads.idle_cores() == expected, load
-
-    def unavailable():
-        raise OSError("no load average")
-
-    monkeypatch.setattr(threads.os, "getloadavg", unavailable)
-    assert threads.idle_cores() == 2

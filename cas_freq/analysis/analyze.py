@@ -14,6 +14,7 @@ variants at the default chunk of 256 (``benchmarks/run.py``).
 """
 
 import dataclasses
+import os
 
 import numpy as np
 
@@ -54,7 +55,7 @@ from cas_freq.core.jit import compiled_for, use_compiled
 from cas_freq.core.output import output_json, output_unit
 from cas_freq.core.parameters import LoopParameters
 from cas_freq.core.summary import Summary
-from cas_freq.core.threads import idle_cores, result_of, worker_threads
+from cas_freq.core.threads import result_of, worker_threads
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, EXACT, DelayModel
 from cas_freq.model.loops import PreparedResponses, Selector, responses
 from cas_freq.model.sampled import PreparedSampled, is_sampled, nyquist_frequencies
@@ -339,9 +340,10 @@ def batch_analyze(
     progress : callable, optional
         ``progress(done, total)`` after each chunk.
     workers : int, optional
-        Threads evaluating chunks side by side (default: the cores the machine's load leaves
-        idle, :func:`~cas_freq.core.threads.idle_cores`). The figures do not depend on it:
-        each chunk is computed alone and put in its place.
+        Threads evaluating chunks side by side (default: the CPU count; on the shared 2-core
+        machine two threads beat one at every load measured, one or two other busy processes
+        included). The figures do not depend on it: each chunk is computed alone and put in
+        its place.
     delay : DelayModel
         Exact delays (default) or Padé of some order in every frequency response.
     loop_at_a_time : bool
@@ -382,7 +384,7 @@ def batch_analyze(
 
 
 def _workers(requested, chunks):
-    count = idle_cores() if requested is None else requested
+    count = (os.cpu_count() or 1) if requested is None else requested
     if not (isinstance(count, int) and count >= 1):
         raise ValueError(f"workers: need an integer >= 1, got {requested!r}")
     return max(1, min(count, chunks))

@@ -1,6 +1,6 @@
 """Threads: one BLAS thread around the toolbox's small dense linear algebra, the caller's
 setting kept; and worker threads that an interrupt does not wait for (:func:`worker_threads`,
-:func:`result_of`), as many as the machine's load leaves cores for (:func:`idle_cores`).
+:func:`result_of`).
 
 The toolbox's linear algebra is many small matrices (5 x 5 exponentials, eigenvalues of loop
 matrices, 3 x 3 solves), where BLAS's threads only contend: on a loaded machine a 5 x 5
@@ -14,7 +14,6 @@ matrix exponential, on one BLAS thread.
 
 import concurrent.futures
 import contextlib
-import os
 
 _CONTROLLER = None
 
@@ -125,18 +124,3 @@ def expm(matrices):
     with one_blas_thread():
         return exponential(matrices)
 
-
-def idle_cores():
-    """The worker threads worth starting: the cores the 1-minute load average leaves idle,
-    this process counted as one of the running tasks, at least 1 and at most the CPU count.
-
-    On the shared 2-core machine, at a load of 2 or more (another process on one core) two
-    threads of ``batch_analyze`` were slower than one (372 against 292 us per variant); idle,
-    two were faster. Load 1 (this process alone) gives 2, load 2 gives 1.
-    """
-    cores = os.cpu_count() or 1
-    try:
-        load = os.getloadavg()[0]
-    except OSError:  # no load average on this system: every core
-        return cores
-    return max(1, min(cores, round(cores - load + 1.0)))
