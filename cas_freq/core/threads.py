@@ -123,4 +123,3 @@ def expm(matrices):
 
     with one_blas_thread():
         return exponential(matrices)
-
