@@ -76,11 +76,12 @@ def step_run(loaded, amplitude_rad):
     return step_runs([loaded], amplitude_rad)[0]
 
 
-def _batch_key(params):
+def _batch_key(params, p=None):
     """Variants with equal keys can share a batch and get exactly their solo results: the same
-    controller rates, time step and loop structure (a batch has one structure)."""
+    controller rates, time step and loop structure (a batch has one structure). ``p``: the
+    variant's :class:`~cas_freq.core.parameters.LoopParameters`, if built already."""
     rates = params.simulation.rates_hz
-    p = LoopParameters.from_config(params)
+    p = LoopParameters.from_config(params) if p is None else p
     periods = [1.0 / rate for rate in rates if rate]
     return rates, loop_time_step(p, periods), loop_structure(params)
 
@@ -118,15 +119,18 @@ def step_batch(items, verdicts=None, progress=None):
     list of StepRun
         In the order of ``items``.
     """
-    groups, verdicts = {}, dict(verdicts or {})
+    groups, verdicts, tables = {}, dict(verdicts or {}), {}
     for index, (loaded, _) in enumerate(items):
-        groups.setdefault(_batch_key(loaded.params), []).append(index)
-        if id(loaded) not in verdicts:  # once per variant, however many step sizes
+        if id(loaded) not in tables:  # once per variant, however many step sizes
+            tables[id(loaded)] = LoopParameters.from_config(loaded.params)
+        groups.setdefault(_batch_key(loaded.params, tables[id(loaded)]), []).append(index)
+        if id(loaded) not in verdicts:
             verdicts[id(loaded)] = linear_verdict(loaded.params)
     runs = [None] * len(items)
     for ((current_rate_hz, position_rate_hz), dt, _), members in groups.items():
+        variants = [items[index][0] for index in members]
         batch = simulate_batch(
-            [items[index][0].params for index in members],
+            tables[id(variants[0])] if len(variants) == 1 else [v.params for v in variants],
             [Step(items[index][1]) for index in members], dt=dt,
             current_rate_hz=current_rate_hz, position_rate_hz=position_rate_hz,
             progress=progress,
