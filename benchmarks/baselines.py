@@ -35,6 +35,21 @@ import numpy as np
 HALF_POWER_DB = 20 * math.log10(1 / math.sqrt(2))
 
 
+def variant_values(params, changes, index):
+    """The values of variant ``index`` (``changes``: key -> array; the others the config's):
+    (Km, J, mu_v, current Kp, current Ki, position Kp, Ki, Kd, Tf)."""
+    def value(key, default):
+        return float(changes[key][index]) if key in changes else default
+
+    motor, cur, pos = params.motor, params.current_loop, params.position_loop
+    km, j = value("motor.Km", motor.Km), value("motor.J", motor.J)
+    mu = motor.viscous_friction * km / motor.Km if motor.mu_v is None else motor.mu_v
+    kp, ki, kd = (value("position_loop.Kp", pos.Kp), value("position_loop.Ki", pos.Ki),
+                  value("position_loop.Kd", pos.Kd))
+    tf = pos.Tf if pos.Tf is not None else kd / (10 * kp)
+    return km, j, mu, value("current_loop.Kp", cur.Kp), cur.Ki, kp, ki, kd, tf
+
+
 def _pade(delay, order):
     import control
 
@@ -81,17 +96,9 @@ class ImprovedBaseline:
         """PM of both loops [deg], the position crossover [rad/s] and the bandwidth [rad/s]."""
         import control
 
-        def value(key, default):
-            return float(changes[key][index]) if key in changes else default
-
-        motor, cur, pos = self.params.motor, self.params.current_loop, self.params.position_loop
-        km, j = value("motor.Km", motor.Km), value("motor.J", motor.J)
-        mu = motor.viscous_friction * km / motor.Km if motor.mu_v is None else motor.mu_v
-        ti_num, ti_den, pm_i = self._current_loop(value("current_loop.Kp", cur.Kp), cur.Ki,
-                                                  km, j, mu)
-        kp, ki, kd = (value("position_loop.Kp", pos.Kp), value("position_loop.Ki", pos.Ki),
-                      value("position_loop.Kd", pos.Kd))
-        tf = pos.Tf if pos.Tf is not None else kd / (10 * kp)
+        km, j, mu, kp_i, ki_i, kp, ki, kd, tf = variant_values(self.params, changes, index)
+        ti_num, ti_den, pm_i = self._current_loop(kp_i, ki_i, km, j, mu)
+        pos = self.params.position_loop
         # C_p = (Kp s (Tf s + 1) + Ki (Tf s + 1) + Kd s^2) / (s (Tf s + 1)); M = Km / (s (J s + mu))
         c_num = np.polyadd(np.polyadd(np.polymul([kp, 0.0], [tf, 1.0]), ki * np.array([tf, 1.0])),
                            [kd, 0.0, 0.0])
@@ -181,18 +188,11 @@ class CarefulBaseline:
 
     def figures(self, changes, index):
         """PM of both loops [deg], the position crossover [rad/s] and the bandwidth [rad/s]."""
-        def value(key, default):
-            return float(changes[key][index]) if key in changes else default
-
         import control
 
-        motor, cur, pos = self.params.motor, self.params.current_loop, self.params.position_loop
-        km, j = value("motor.Km", motor.Km), value("motor.J", motor.J)
-        mu = motor.viscous_friction * km / motor.Km if motor.mu_v is None else motor.mu_v
-        t_i, pm_i = self._current_loop(value("current_loop.Kp", cur.Kp), cur.Ki, km, j, mu)
-        kp, ki, kd = (value("position_loop.Kp", pos.Kp), value("position_loop.Ki", pos.Ki),
-                      value("position_loop.Kd", pos.Kd))
-        tf = pos.Tf if pos.Tf is not None else kd / (10 * kp)
+        km, j, mu, kp_i, ki_i, kp, ki, kd, tf = variant_values(self.params, changes, index)
+        t_i, pm_i = self._current_loop(kp_i, ki_i, km, j, mu)
+        pos = self.params.position_loop
         # C_p M = (Kp s (Tf s + 1) + Ki (Tf s + 1) + Kd s^2) Km / (s (Tf s + 1) s (J s + mu)),
         # multiplied out in numpy (python-control's transfer-function arithmetic costs ~10 ms)
         c_num = np.polyadd(np.polyadd(np.polymul([kp, 0.0], [tf, 1.0]), ki * np.array([tf, 1.0])),

@@ -1,4 +1,7 @@
-"""Config data of the drive architectures for the config tests (made-up numbers)."""
+"""Config data of the drive architectures for the config tests (made-up numbers), and a shipped
+config with one filter more (:func:`with_filter`)."""
+
+from cas_freq.config.loader import shipped_configs_dir
 
 
 def as_cascade(raw):
@@ -13,3 +16,16 @@ def as_cascade(raw):
     raw.pop("variants", None)
     raw.pop("load_envelope", None)
     return raw
+
+
+def with_filter(tmp_path, name, item):
+    """A copy in ``tmp_path`` of the shipped config ``name`` with the filter ``item`` (YAML flow
+    text, ``{at: ..., type: ...}``) first in its ``filters:`` list: its path."""
+    text = (shipped_configs_dir() / name).read_text()
+    if "\nfilters:\n" in text:
+        text = text.replace("\nfilters:\n", f"\nfilters:\n  - {item}\n", 1)
+    else:
+        text += f"\nfilters:\n  - {item}\n"
+    path = tmp_path / name
+    path.write_text(text)
+    return path

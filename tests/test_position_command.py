@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 import pytest
+from architectures import with_filter
 
 from cas_freq.config.loader import load_variant, shipped_configs_dir
 from cas_freq.core.filters_config import Filter
@@ -225,14 +226,8 @@ def test_both_engines_read_the_shaped_command_alike(name, sampled):
 
 @pytest.mark.parametrize("name", CONFIGS)
 def test_the_config_takes_a_position_command_filter(tmp_path, name):
-    text = (shipped_configs_dir() / name).read_text()
-    item = "{at: position_command, type: lowpass2, frequency: 300 rad/s, damping: 0.5}"
-    if "\nfilters:\n" in text:
-        text = text.replace("\nfilters:\n", f"\nfilters:\n  - {item}\n", 1)
-    else:
-        text += f"\nfilters:\n  - {item}\n"
-    path = tmp_path / name
-    path.write_text(text)
+    path = with_filter(tmp_path, name, "{at: position_command, type: lowpass2, "
+                                        "frequency: 300 rad/s, damping: 0.5}")
     p = LoopParameters.from_config(load_variant(path).params)
     (shaping,) = [f for f in p.filters if f.at == "position_command"]
     assert (shaping.kind, float(shaping.frequency[0])) == ("lowpass2", CORNER)

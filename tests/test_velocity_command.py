@@ -23,6 +23,7 @@ import math
 
 import numpy as np
 import pytest
+from architectures import with_filter
 
 from cas_freq.config.loader import load_variant, shipped_configs_dir
 from cas_freq.core.exceptions import ConfigError
@@ -117,26 +118,15 @@ def test_both_engines_step_the_filter_alike(rates):
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-9 * np.max(np.abs(b)))
 
 
-def _config(tmp_path, name, item):
-    text = (shipped_configs_dir() / name).read_text()
-    if "\nfilters:\n" in text:
-        text = text.replace("\nfilters:\n", f"\nfilters:\n  - {item}\n", 1)
-    else:
-        text += f"\nfilters:\n  - {item}\n"
-    path = tmp_path / name
-    path.write_text(text)
-    return path
-
-
 def test_the_config_takes_a_velocity_command_filter_on_a_cascade(tmp_path):
-    path = _config(tmp_path, "cascade_axis.yaml",
+    path = with_filter(tmp_path, "cascade_axis.yaml",
                    "{at: velocity_command, type: lowpass1, frequency: 150 rad/s}")
     p = LoopParameters.from_config(load_variant(path).params)
     assert [f.at for f in p.filters].count("velocity_command") == 1
 
 
 def test_a_velocity_command_filter_needs_a_velocity_loop(tmp_path):
-    path = _config(tmp_path, "qt_cas.yaml",
+    path = with_filter(tmp_path, "qt_cas.yaml",
                    "{at: velocity_command, type: lowpass1, frequency: 150 rad/s}")
     with pytest.raises(ConfigError, match="velocity_command needs a velocity loop"):
         load_variant(path)
