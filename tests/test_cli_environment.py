@@ -1,11 +1,11 @@
-"""The CLI's process settings (issue 12): BLAS thread pools limited to one thread unless the
-user chose otherwise, set before numpy loads."""
+"""The CLI's process settings (issue 12): BLAS thread pools limited to one thread and numpy's
+huge pages off, unless the user chose otherwise, set before numpy loads."""
 
 import os
 import subprocess
 import sys
 
-from cas_freq.cli import BLAS_THREAD_VARIABLES, limit_blas_threads
+from cas_freq.cli import BLAS_THREAD_VARIABLES, HUGE_PAGES_VARIABLE, limit_blas_threads
 
 
 def test_unset_blas_threads_become_one_and_a_users_choice_is_kept():
@@ -13,6 +13,10 @@ def test_unset_blas_threads_become_one_and_a_users_choice_is_kept():
     limit_blas_threads(environ)
     assert environ["OPENBLAS_NUM_THREADS"] == "4"
     assert all(environ[name] == "1" for name in BLAS_THREAD_VARIABLES[1:])
+    assert environ[HUGE_PAGES_VARIABLE] == "0"
+    environ = {HUGE_PAGES_VARIABLE: "1"}
+    limit_blas_threads(environ)
+    assert environ[HUGE_PAGES_VARIABLE] == "1"
 
 
 def test_the_cli_process_sets_them_before_numpy_is_imported():
@@ -23,8 +27,11 @@ def test_the_cli_process_sets_them_before_numpy_is_imported():
               "assert 'numpy' not in sys.modules\n"
               "with contextlib.redirect_stdout(io.StringIO()):\n"
               "    assert main(['analyze', '-q']) == 0\n"
-              "print(os.environ['OPENBLAS_NUM_THREADS'])\n")
-    environ = {k: v for k, v in os.environ.items() if k not in BLAS_THREAD_VARIABLES}
+              "import numpy\n"
+              "print(os.environ['OPENBLAS_NUM_THREADS'],\n"
+              "      numpy._core.multiarray._get_madvise_hugepage())\n")
+    environ = {k: v for k, v in os.environ.items()
+               if k not in (*BLAS_THREAD_VARIABLES, HUGE_PAGES_VARIABLE)}
     out = subprocess.run([sys.executable, "-c", script], env=environ, capture_output=True,
                          text=True, check=True).stdout
-    assert out.strip() == "1"
+    assert out.split() == ["1", "False"]  # numpy read the variable when it loaded
