@@ -231,3 +231,23 @@ def test_the_config_takes_a_position_command_filter(tmp_path, name):
     p = LoopParameters.from_config(load_variant(path).params)
     (shaping,) = [f for f in p.filters if f.at == "position_command"]
     assert (shaping.kind, float(shaping.frequency[0])) == ("lowpass2", CORNER)
+
+
+def test_a_batch_with_a_filter_number_per_run_gives_each_run_its_solo_step():
+    # the lead-lag's pole shared and its zero per run: its state matrix is the same in every
+    # run, its output row is not (the shaped command then has a column per run)
+    pytest.importorskip("numba")
+    from cas_freq.core.parameters import variant_parameters
+
+    zeros = np.array([100.0, 200.0, 300.0])  # [rad/s]
+    loaded = load_variant(shipped_configs_dir() / "qt_cas.yaml")
+    kp = loaded.params.position_loop.Kp
+    three = variant_parameters(loaded.params, {"position_loop.Kp": np.full(3, kp)})
+    batch = _step(dataclasses.replace(three, filters=(*three.filters, Filter(
+        "position_command", "leadlag", zero=zeros, pole=np.full(3, 400.0)))), "compiled")
+    for r, zero in enumerate(zeros):
+        solo = _step(_params("qt_cas.yaml", [Filter("position_command", "leadlag", zero=zero,
+                                                    pole=400.0)]), "compiled")
+        np.testing.assert_allclose(batch.delta[r], solo.delta[0], rtol=0,
+                                   atol=1e-12 * np.max(np.abs(solo.delta)))
+    assert np.max(np.abs(batch.delta[0] - batch.delta[2])) > 1e-3 * np.max(batch.delta)

@@ -69,11 +69,15 @@ class ShapedCommands:
         self.phi, self.g_a, self.g_b = (_shared(m) for m in (chain.phi, chain.g_a, chain.g_b))
         self.c, self.d = _shared(chain.c), _shared(chain.d)
         if every is None:  # the rows of the rate and the acceleration (module notes)
-            a, b, c, d = (_shared(m) for m in chain_state_space(blocks, n))
+            a, b, c, _ = (_shared(m) for m in chain_state_space(blocks, n))
             ca = np.einsum("ri,rij->rj", c, a)
             self.ca, self.caa = ca, np.einsum("ri,rij->rj", ca, a)
             self.cb, self.cab = (np.einsum("ri,ri->r", row, b) for row in (c, ca))
-        self._columns = max(commands.columns, self.phi.shape[0])
+        per_run = [self.phi, self.g_a, self.g_b, self.c, self.d]
+        if every is None:
+            per_run += [self.ca, self.caa, self.cb, self.cab]
+        # n_runs columns where any number of the filters differs between runs
+        self._columns = max(commands.columns, *(m.shape[0] for m in per_run))
         self._next = 0
         self._last = None
 
