@@ -120,10 +120,14 @@ class Sine:
         return self._fin(tau, *self._sine_cosine(tau), left)
 
     def fin_limits(self, t):
-        """``(fin(t), fin(t, left=True))``, the sine and cosine computed once for both."""
+        """``(fin(t), fin(t, left=True))``, the sine and cosine computed once for both; the
+        same arrays for both where no time is the start (the limits differ only there)."""
         tau = _since(t, self.start_s)
         sine, cosine = self._sine_cosine(tau)
-        return tuple(self._fin(tau, sine, cosine, left) for left in (False, True))
+        right = self._fin(tau, sine, cosine, False)
+        if not np.any(tau == 0.0):
+            return right, right
+        return right, self._fin(tau, sine, cosine, True)
 
     def _sine_cosine(self, tau):
         phase = self.frequency_rad_s * np.maximum(tau, 0.0)

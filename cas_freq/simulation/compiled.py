@@ -74,9 +74,14 @@ class CompiledEngine:
         self.active &= ~np.asarray(runs, dtype=bool)
 
     def _rows(self, times):
-        """Fin command rows at ``times``: right and left limits, each (len(t), 3, columns)."""
+        """Fin command rows at ``times``: right and left limits, each (len(t), 3, columns);
+        one array for both where the command gives the same arrays for both (a sine away from
+        its start: the kernel only reads them)."""
+        right, left = self.commands.fin_limits(times)
         rows = []
-        for limit in self.commands.fin_limits(times):
+        for limit in (right, left):
+            if rows and all(a is b for a, b in zip(limit, right, strict=True)):
+                return rows[0], rows[0]
             row = np.empty((times.shape[0], 3, limit[0].shape[1]))
             row[:, 0], row[:, 1], row[:, 2] = limit
             rows.append(row)
