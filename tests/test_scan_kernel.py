@@ -190,8 +190,7 @@ def test_log_corners_equal_numpy_to_the_bit(index):
     expected, expected_size = _log_corners(log_w, response, log_squared)
     corner = np.empty(expected.shape, dtype=bool)
     size = np.empty(expected.shape)
-    with np.errstate(invalid="ignore"):
-        log_corners(log_w, response, log_squared, LOG_SHARP, corner, size)
+    log_corners(log_w, response, log_squared, LOG_SHARP, corner, size)
     np.testing.assert_array_equal(corner, expected)
     np.testing.assert_array_equal(size, expected_size)
     if index == 1:  # the shipped actuator's position loop: corners where the grid is coarse

@@ -109,8 +109,7 @@ def extremum_probes(evaluate, omega, response, squared=None):
     if compiled_for(response.size):  # the same in one pass (analysis/scan_kernel.py)
         log_corner = np.empty((response.shape[0], omega.size - 4), dtype=bool)
         log_size = np.empty(log_corner.shape)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            log_corners(log_w, response, log_squared, LOG_SHARP, log_corner, log_size)
+        log_corners(log_w, response, log_squared, LOG_SHARP, log_corner, log_size)
     else:
         log_corner, log_size = _log_corners(log_w, response, log_squared)
     corners = (_corners(log_w, squared, log_squared) & ~refined) | log_corner

@@ -268,7 +268,7 @@ def closed_loop_matrices(params, pade_order=DEFAULT_PADE_ORDER):
     a, b, c, d = top.closed
     output = state_space.SIGNAL_ROWS[structure.output]
     system = (a, b, c[output:output + 1], d[output:output + 1])
-    shaping = state_space.command_shaping(p, sampled)
+    shaping = state_space.command_shaping(p, structure, sampled)
     if shaping is not None:
         system = state_space.series(shaping, system)
     return ClosedLoopMatrices(*system, top.period)

@@ -138,13 +138,12 @@ def closings(p, pade_order=DEFAULT_PADE_ORDER, loops=None, n=None, sampled=False
     return {name: _one(closing) for name, closing in out.items()} if one else out
 
 
-def command_shaping(p, sampled=False):
+def command_shaping(p, structure, sampled=False):
     """The shaping of the command before every loop (the blocks of
-    :attr:`~cas_freq.model.structure.Structure.command`) in state space, one run: continuous,
-    or ``sampled`` discretised at the outermost loop's period as its controller is; None for
-    none. In series in front of the outermost loop's closing it gives T; the closing's poles
-    stay the loops' own."""
-    structure = build(p)
+    :attr:`~cas_freq.model.structure.Structure.command`, ``structure`` the runs' ``build(p)``)
+    in state space, one run: continuous, or ``sampled`` discretised at the outermost loop's
+    period as its controller is; None for none. In series in front of the outermost loop's
+    closing it gives T; the closing's poles stay the loops' own."""
     if not structure.command:
         return None
     form = _Sampling(p, structure) if sampled else _Continuous(DEFAULT_PADE_ORDER)

@@ -91,10 +91,6 @@ class ShapedCommands:
         """A shaped command never holds its value exactly: inf."""
         return np.inf
 
-    def fin(self, t, left=False):
-        """The shaped command at the steps ``t`` (:meth:`fin_limits`), one limit."""
-        return self.fin_limits(t)[1 if left else 0]
-
     def fin_limits(self, t):
         """Right and left limits of the shaped (angle [rad], rate [rad/s], acceleration
         [rad/s^2]) at the steps ``t`` [s], each (len(t), columns): the next steps in order
