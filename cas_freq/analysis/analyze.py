@@ -26,7 +26,7 @@ from cas_freq.analysis.closed_loop import (
     closed_loop_figures,
     figures_of_run,
 )
-from cas_freq.analysis.disturbance import disturbance_figures
+from cas_freq.analysis.disturbance import disturbance_figures, position_encoder_counts
 from cas_freq.analysis.drivetrain import drivetrain, drivetrain_notes
 from cas_freq.analysis.frequency import (
     DEFAULT_POINTS_PER_DECADE,
@@ -619,7 +619,7 @@ def analyze(
         notes.extend(drivetrain_notes(load, loaded.params.output_label,
                                       (unit.spring, unit.spring_unit)))
     stiff, push, noise = disturbance_figures(
-        params, omega, getattr(getattr(loaded.params, "sensors", None), "counts_per_rev", None),
+        params, omega, position_encoder_counts(loaded.params),
         OutputWords.of(loaded.params), stability.stable, delay)
     rows = pade_study(params, pade_orders, omega) if pade_orders > 0 else ()
     closed_figures = figures_of_run(_loop(figures, "closed_loop"))

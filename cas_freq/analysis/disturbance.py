@@ -209,14 +209,25 @@ def disturbance_figures(params, omega, counts_per_rev=None, words=GENERIC, stabl
     return stiff, push, _noise(p, params, omega, counts_per_rev, rates, linear, delay)
 
 
+def position_encoder_counts(config):
+    """Counts per revolution of the encoder a validated config's position loop reads: the
+    output's (``sensors.output_counts_per_rev``) with ``position_loop.feedback: output``, else
+    the motor's (``sensors.counts_per_rev``); None if not given."""
+    sensors = config.sensors
+    if config.position_loop.feedback == "output":
+        return sensors.output_counts_per_rev
+    return sensors.counts_per_rev
+
+
 def _noise(p, params, omega, counts_per_rev, rates, linear, delay):
-    if counts_per_rev is None:
-        return Noise(None, note="no sensors.counts_per_rev in the config")
     structure = build(p)
-    if linear and structure.loops[-1].feedback == "output_angle":
-        return Noise(None, counts_per_rev, note=(
-            "counts_per_rev is per revolution; the position loop reads a linear output "
-            "encoder, whose resolution is not modelled"))
+    on_output = structure.loops[-1].feedback == "output_angle"
+    if linear and on_output:
+        return Noise(None, note=("the position loop reads a linear output's encoder, whose "
+                                 "resolution is not modelled"))
+    if counts_per_rev is None:
+        key = "sensors.output_counts_per_rev" if on_output else "sensors.counts_per_rev"
+        return Noise(None, note=f"no {key} in the config (the encoder the position loop reads)")
     if "position_loop" in rates:
         band = math.pi * rates["position_loop"]
         where = (f"white up to the position loop's Nyquist frequency pi*f_s = {band:.6g} "

@@ -457,14 +457,18 @@ class Sampling(_Section):
 
 
 class Sensors(_Section):
-    """The sensors' resolution (docs/model.md §15, "Disturbance and noise").
+    """The encoders' resolution (docs/model.md, "Encoder quantisation", and §15,
+    "Disturbance and noise").
 
-    ``counts_per_rev``: counts per revolution of the encoder the position loop reads (the
-    motor's, or the output's with ``position_loop.feedback: output``); its quantisation noise
-    gives analyze's ``noise.current_rms_A``. Absent: no noise figure.
+    ``counts_per_rev``: counts per revolution of the motor's encoder (after its decoding, e.g.
+    x4 in quadrature); ``output_counts_per_rev``: of the output's encoder (a rotary output).
+    In the simulation every loop that reads an angle reads it quantised to its encoder's
+    count; the quantisation noise of the encoder the position loop reads gives analyze's
+    ``noise.current_rms_A``. Absent: not quantised, no noise figure.
     """
 
     counts_per_rev: param("sensors.counts_per_rev") | None = None
+    output_counts_per_rev: param("sensors.output_counts_per_rev") | None = None
 
 
 class Supply(_Section):
@@ -676,6 +680,11 @@ class ActuatorConfig(_Section):
             raise PydanticCustomError(
                 "cas_value", "reference.step_amplitude: an angle; this version reads no "
                 "reference step of a linear output (gear.screw_lead): remove the key")
+        if self.sensors.output_counts_per_rev is not None:
+            raise PydanticCustomError(
+                "cas_value", "sensors.output_counts_per_rev: counts per revolution of a rotary "
+                "output's encoder; a linear output's (gear.screw_lead) is not modelled: remove "
+                "the key")
         return self
 
     @property

@@ -154,11 +154,15 @@ PARAMETERS = _table(
      "sample rate of the velocity controller of a cascade (absent: continuous), 1..1e9 [Hz]"),
     ("sampling.position_loop", None, "Hz", 1.0, False, 1e9,
      "sample rate of the position controller (absent: continuous), 1..1e9 [Hz]"),
-    # the sensors (docs/model.md §15, "Disturbance and noise"): read by analyze's noise figure
+    # the encoders (docs/model.md, "Encoder quantisation"): static, read by the simulation
+    # (LoopParameters.counts_per_rev) and by analyze's noise figure
     ("sensors.counts_per_rev", None, "dimensionless", 1.0, False, 1e12,
-     "counts per revolution of the encoder the position loop reads (the motor's, or the "
-     "output's with position_loop.feedback: output), a whole number, default none, 1..1e12 "
-     "[dimensionless]", None, {"integer": True}),
+     "counts per revolution of the motor's encoder as the drive decodes it (x4 in "
+     "quadrature), a whole number, default none (not quantised), 1..1e12 [dimensionless]",
+     None, {"integer": True}),
+    ("sensors.output_counts_per_rev", None, "dimensionless", 1.0, False, 1e12,
+     "counts per revolution of the output's encoder (a rotary output), a whole number, "
+     "default none (not quantised), 1..1e12 [dimensionless]", None, {"integer": True}),
 )
 
 #: Keys a sweep or a Monte Carlo run can change per sample: every key that reaches the loop

@@ -133,8 +133,8 @@ class LoopParameters:
 
     Every attribute is a read-only float array of shape (n_runs,), except
     ``derivative_on_measurement`` (bool array) and the static fields ``cascade``,
-    ``feedback_output``, ``filters``, ``sample_rates`` and ``sampling_method``
-    (:data:`STATIC_FIELDS`), which are the same for every run of a batch: they choose the loop's
+    ``feedback_output``, ``filters``, ``sample_rates``, ``sampling_method`` and the encoders'
+    ``counts_per_rev``, ``output_counts_per_rev`` (:data:`STATIC_FIELDS`), which are the same for every run of a batch: they choose the loop's
     structure. Each float field carries one key of
     :data:`PARAMETERS` (or of :data:`CASCADE_PARAMETERS`). The keys' accepted ranges are
     checked where a value enters (the config schema, :func:`variant_parameters`), not here: an
@@ -203,6 +203,11 @@ class LoopParameters:
     sampling_method : str
         Static: how the sampled controllers are discretised, ``"backward"`` (default) or
         ``"tustin"`` (``sampling.method``).
+    counts_per_rev, output_counts_per_rev : float or None
+        Static: counts per revolution of the motor's encoder and of the output's
+        (``sensors.counts_per_rev``, ``sensors.output_counts_per_rev``); None (the default):
+        not quantised. In the simulation every loop that reads an angle reads it quantised to
+        its encoder's count (docs/model.md, "Encoder quantisation").
     """
 
     R: np.ndarray
@@ -245,6 +250,8 @@ class LoopParameters:
     filters: tuple = ()
     sample_rates: tuple = ()
     sampling_method: str = DEFAULT_METHOD
+    counts_per_rev: float | None = None
+    output_counts_per_rev: float | None = None
 
     def __post_init__(self):
         names = _array_fields(self)
@@ -304,6 +311,13 @@ class LoopParameters:
         object.__setattr__(self, "filters", filters)
         object.__setattr__(self, "sample_rates",
                            check_static(self.sample_rates, self.sampling_method, self.cascade))
+        for name in ("counts_per_rev", "output_counts_per_rev"):
+            counts = getattr(self, name)
+            if counts is not None and not (isinstance(counts, (int, float, np.number))
+                                           and math.isfinite(counts) and counts >= 1):
+                raise ConfigError(f"simulation parameters: {name}: must be None or a count "
+                                  f">= 1 per revolution (static), got {counts!r}")
+            object.__setattr__(self, name, None if counts is None else float(counts))
 
     @property
     def compliant(self):
@@ -338,7 +352,8 @@ class LoopParameters:
                         for group in zip(*(_filters(config) for config in configs), strict=True))
         return cls(**{key: np.array([row[key] for row in rows]) for key in rows[0]},
                    cascade=structure[0], feedback_output=structure[1], filters=filters,
-                   sample_rates=structure[3], sampling_method=structure[4])
+                   sample_rates=structure[3], sampling_method=structure[4],
+                   counts_per_rev=structure[5], output_counts_per_rev=structure[6])
 
     @classmethod
     def from_config(cls, config):
@@ -370,7 +385,8 @@ class LoopParameters:
 
 
 #: LoopParameters fields that are the same for the whole batch (not arrays).
-STATIC_FIELDS = ("cascade", "feedback_output", "filters", "sample_rates", "sampling_method")
+STATIC_FIELDS = ("cascade", "feedback_output", "filters", "sample_rates", "sampling_method",
+                 "counts_per_rev", "output_counts_per_rev")
 
 
 def _array_fields(params):
@@ -422,10 +438,13 @@ def _which(where, bad):
 
 def loop_structure(config):
     """The static fields of a validated config: (cascade, feedback_output, the filters' points
-    and types, sample_rates, sampling_method). Runs of one batch share them."""
+    and types, sample_rates, sampling_method, the motor's and the output's encoder counts per
+    revolution). Runs of one batch share them."""
+    sensors = config.sensors
     return (is_cascade(config), config.position_loop.feedback == "output",
             tuple((item.at, item.type) for item in config.filters),
-            config.sampling.sample_rates, config.sampling.method)
+            config.sampling.sample_rates, config.sampling.method,
+            sensors.counts_per_rev, sensors.output_counts_per_rev)
 
 
 def _filters(config, numbers=None):
@@ -545,6 +564,7 @@ def variant_parameters(params, changes, n=None):
         cascade=cascade, feedback_output=structure[1],
         filters=tuple(f.broadcast(n) for f in _filters(params, full)),
         sample_rates=structure[3], sampling_method=structure[4],
+        counts_per_rev=structure[5], output_counts_per_rev=structure[6],
     )
 
 

@@ -132,6 +132,9 @@ class LoopStep:
     analog, sensor, path : FilterChain or None
         Its analog measurement filters (continuous, stepped every step), its digital ones
         (at its rate) and the filters after its controller (at its rate).
+    quantum : numpy.ndarray or None
+        One count of the encoder it reads, on the scale of its measured signal [rad of the
+        motor] (:func:`encoder_quantum`); None where it reads no quantised angle.
     """
 
     name: str
@@ -149,6 +152,7 @@ class LoopStep:
     analog: FilterChain | None = None
     sensor: FilterChain | None = None
     path: FilterChain | None = None
+    quantum: np.ndarray | None = None
 
     @property
     def sampled(self):
@@ -159,6 +163,30 @@ class LoopStep:
     def has_feedforward(self):
         """Some run has a feed-forward into this loop's output."""
         return bool(np.any(self.ff_v != 0) or np.any(self.ff_a != 0))
+
+
+def encoder_quantum(params, signal):
+    r"""One count of the encoder that measures ``signal`` (a loop's measured signal,
+    :data:`~cas_freq.model.structure.SIGNALS`) on that signal's scale, per run [rad of the
+    motor], or None where it is not quantised.
+
+    The motor's encoder of C counts per revolution reads the motor angle in steps of
+    :math:`q = 2\pi/C`; the output's of C_o counts reads the output angle in steps of
+    :math:`2\pi/C_o`, which the loops see on the motor's scale (N delta) as
+    :math:`N \cdot 2\pi/C_o` (docs/model.md, "Encoder quantisation").
+    """
+    counts = {"motor_angle": params.counts_per_rev,
+              "output_angle": params.output_counts_per_rev}.get(signal)
+    if counts is None:
+        return None
+    quantum = _per_run(2.0 * np.pi / counts, params.n_runs)
+    return quantum * params.ratio if signal == "output_angle" else quantum
+
+
+def quantised(value, quantum):
+    """``value`` rounded to a whole number of counts ``quantum`` (ties up: the same operation
+    in both engines, so they agree to the bit)."""
+    return quantum * np.floor(value / quantum + 0.5)
 
 
 def loop_steps(params, dt, every=None, method="backward"):
@@ -183,6 +211,7 @@ def loop_steps(params, dt, every=None, method="backward"):
             analog=filter_chain(analog_sensor(loop), n, dt),
             sensor=filter_chain(digital_sensor(loop), n, dt, period, method),
             path=filter_chain(loop.path, n, dt, period, method),
+            quantum=encoder_quantum(params, loop.feedback),
         ))
     return tuple(steps)
 

@@ -255,10 +255,13 @@ class Engine:
         return np.where(self.loaded, self.ratio * self.x[:, 4], theta)
 
     def _measure(self, start=False):
-        """Each loop's measurement at this step, through its analog filters (if any), stepped
-        exactly for a measurement linear over the step."""
+        """Each loop's measurement at this step: its signal, quantised to its encoder's count
+        where it reads one, through its analog filters (if any), stepped exactly for a
+        measurement linear over the step."""
         for j, loop in enumerate(self.loops):
             measured = self._signal(loop.signal)
+            if loop.quantum is not None:  # the encoder's count
+                measured = architecture.quantised(measured, loop.quantum)
             chain = self.analog[j]
             if chain is not None:
                 measured = (chain.start if start else chain.step)(measured, measured)[1]

@@ -15,7 +15,8 @@ one machine-code loop, ``prange`` over the runs. Per step :math:`t_k \to t_{k+1}
    :func:`~cas_freq.simulation.mechanics.table`); an unloaded run (its row of that table
    says so, a batch without a load passes a table of zeros) keeps the 3-state step, a branch
    taken per run (one machine code for both).
-3. **Measurements**: each loop's measured signal through its analog filters, stepped exactly.
+3. **Measurements**: each loop's measured signal, quantised to its encoder's count where it
+   reads one, through its analog filters, stepped exactly.
 4. **The loops**, one row each of the loop table (:func:`tables`, from
    :func:`~cas_freq.simulation.architecture.loop_steps`), outermost first: a loop due at this
    step reads its reference (the command, or the delayed output of the loop outside it), its
@@ -93,6 +94,7 @@ from cas_freq.simulation.kernel_blocks import (
     _L_M,
     _L_ON_MEASUREMENT,
     _L_PATH,
+    _L_QUANTUM,
     _L_SENSOR,
     _L_SIGNAL,
     _M_A1,
@@ -448,6 +450,9 @@ def _advance_run(r, p, loops, s, g, x, chains, z, ring_right, ring_left, right, 
                 continue
             code = table[j, _L_SIGNAL]
             u = i if code == 0.0 else (w if code == 1.0 else (th if code == 2.0 else output))
+            quantum = table[j, _L_QUANTUM]
+            if quantum > 0.0:  # the encoder's count (architecture.quantised)
+                u = quantum * np.floor(u / quantum + 0.5)
             y, d = _chain(chains, z, r, whole[j, 3], order, whole[j, 4],
                           state[j, _S_ANALOG_U], u, first)
             state[j, _S_MEASURED] = y + d * u
@@ -496,6 +501,9 @@ def _advance_run(r, p, loops, s, g, x, chains, z, ring_right, ring_left, right, 
                     code = table[j, _L_SIGNAL]
                     measured = (i if code == 0.0 else
                                 (w if code == 1.0 else (th if code == 2.0 else output)))
+                    quantum = table[j, _L_QUANTUM]
+                    if quantum > 0.0:
+                        measured = quantum * np.floor(measured / quantum + 0.5)
                 order = whole[j, 5]
                 if order > 0:
                     y, d = _chain(chains, z, r, whole[j, 6], order, whole[j, 7],
@@ -644,6 +652,8 @@ def tables(params, dt, every=None, method="backward"):
         row[:, _L_EVERY] = loop.every or 0
         row[:, _L_BACKWARD] = loop.sampled and backward
         row[:, _L_SIGNAL] = SIGNAL_CODES[loop.signal]
+        if loop.quantum is not None:
+            row[:, _L_QUANTUM] = loop.quantum
         m, row[:, _L_F] = delay_steps(loop.delay, dt)
         row[:, _L_M] = m
         m_max = max(m_max, ring_size(m))

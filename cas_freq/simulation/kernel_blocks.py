@@ -25,11 +25,13 @@ _NP = 16
 # backward difference of a sampled loop, the signal it measures (:data:`SIGNAL_CODES`), the delay
 # after it (whole steps and fraction), whether some run of the batch has a derivative term or a
 # feed-forward, and per filter chain (analog measurement, digital measurement, path) its order
-# (0: none), its first column in the chain table and its states' first column in the chain state.
+# (0: none), its first column in the chain table and its states' first column in the chain state,
+# and one count of the encoder it reads (0: not quantised).
 (_L_KP, _L_KI, _L_GD, _L_A, _L_B, _L_C, _L_LIMIT, _L_FF_V, _L_FF_A, _L_ON_MEASUREMENT,
  _L_EVERY, _L_BACKWARD, _L_SIGNAL, _L_M, _L_F, _L_HAS_D, _L_HAS_FF) = range(17)
 _L_ANALOG, _L_SENSOR, _L_PATH = 17, 20, 23  # each: order, first column, first state column
-_NL = 26
+_L_QUANTUM = 26
+_NL = 27
 
 #: The code of each measured signal in the loop table (structure.SIGNALS).
 SIGNAL_CODES = {"current": 0, "motor_velocity": 1, "motor_angle": 2, "output_angle": 3}
