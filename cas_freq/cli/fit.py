@@ -64,6 +64,14 @@ def register(commands):
         "motor.coulomb_friction=1mN*m) through the nonlinear simulator, with 95 %% intervals, "
         "correlations and identifiability; give it again for alternative models, compared by "
         "AICc and BIC")
+    parser.add_argument(
+        "--candidates", metavar="FILE.yaml",
+        help="with --data: candidate structures (YAML: each a name, the source that justifies "
+        "it, --set overrides and free keys with start, bounds and the plausible range a "
+        "datasheet or the report gives), each fitted to the recordings and ranked: estimates "
+        "with intervals, identifiability, residual, AICc/BIC, plausibility, the step figures "
+        "and second-order fit beside the bench's (docs/identification.md); -o DIR writes "
+        "candidates.json and candidates.svg")
     parser.add_argument("--channels", metavar="position[,current]",
                         help="with --params: the recorded signals fitted (default: position, "
                         "and current where every recording has a current column)")
@@ -85,6 +93,12 @@ def register(commands):
 
 def run(args):
     """``fit --data FILE...`` (:mod:`cas_freq.cli.fit_recordings`) or ``fit FILE --step``."""
+    if args.candidates is not None:
+        if not args.data:
+            raise CasFreqError("--candidates needs --data FILE... (the recordings to fit)")
+        from cas_freq.cli.fit_candidates import run_candidates
+
+        return run_candidates(args)
     if args.data and args.params:
         from cas_freq.cli.fit_params import run_params
 

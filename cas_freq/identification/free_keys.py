@@ -52,11 +52,16 @@ class ModelSpec:
         Key -> start value [SI] where the option gives one; for a key whose unit depends on
         the architecture (a cascade's position gains, a linear output's loads) the text as
         given, read in the config's unit by :func:`free_keys`.
+    bounds : dict
+        Key -> (lower, upper) of its search [SI] where one is given (a candidates file,
+        :mod:`~cas_freq.identification.candidates`); else the key's accepted range within
+        :data:`SEARCH_FACTOR` of the start.
     """
 
     name: str
     keys: tuple
     starts: dict
+    bounds: dict = dataclasses.field(default_factory=dict)
 
 
 def parse_model_spec(text, number=1):
@@ -222,9 +227,29 @@ def free_keys(spec, loop, variant="base", config=None):
                 f"...,{key}=VALUE (in {record.unit} or with a unit)")
         scale = 1.0 if nonnegative else (abs(start) or 1.0)
         low, high = _bounds(record, start, nonnegative, scale)
+        if key in spec.bounds:
+            low, high = _given_bounds(key, spec.bounds[key], start, nonnegative, scale,
+                                      (low, high))
         free.append(FreeKey(key=key, start=start, log=nonnegative, scale=scale,
                             lower=low, upper=high, unit=record.unit))
     return free
+
+
+def _given_bounds(key, bounds, start, log, scale, accepted):
+    """The coordinate bounds of a search range ``bounds`` [SI] given for ``key``, within the
+    ``accepted`` coordinates of the key's range; the start must lie inside."""
+    lower, upper = (float(value) for value in bounds)
+    if not lower < upper:
+        raise ConfigError(f"{key}: bounds: the lower bound {lower:g} must be below the upper "
+                          f"{upper:g}")
+    if not lower <= start <= upper:
+        raise ConfigError(f"{key}: bounds [{lower:g}, {upper:g}]: the start {start:g} lies "
+                          "outside them")
+    if log and not lower > 0:
+        raise ConfigError(f"{key}: bounds [{lower:g}, {upper:g}]: a key that cannot be "
+                          "negative is searched in ratios: its lower bound must be above 0")
+    low, high = (math.log(lower), math.log(upper)) if log else (lower / scale, upper / scale)
+    return max(low, accepted[0]), min(high, accepted[1])
 
 
 def labels(free):

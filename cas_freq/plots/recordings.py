@@ -113,3 +113,47 @@ def physical_fit_figure(recordings, fits, best, output="output"):
     residual.set_ylabel(f"data − fit {best!r} [deg]")
     residual.set_xlabel("time from the trigger [ms]")
     return fig
+
+
+def candidates_figure(recordings, fits, best, output="output"):
+    """Candidate structures fitted to the same recordings (``fit --candidates``): each
+    candidate's fitted step overlaid on the data, and each one's residual below.
+
+    Parameters
+    ----------
+    recordings : sequence of Recording
+    fits : sequence of PhysicalFit
+        One per candidate, in the ranking's order (each from its own structure and start).
+    best : str
+        Name of the best plausible candidate (or the best one): drawn thickest.
+    output : str
+        What the labels call the output.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Output angle [deg] over time [ms] and the residuals (data less each fit) [deg].
+    """
+    fig, axes = figure(2, 1, (7.0, 5.2), sharex=True, height_ratios=[2, 1])
+    position, residual = axes[0, 0], axes[1, 0]
+    for number, r in enumerate(recordings):
+        samples = fits[0].masks[number]
+        t_ms = rounded(r.time_s[samples] * 1e3)
+        name = r.source.rsplit("/", 1)[-1]
+        position.plot(t_ms, rounded(np.degrees(r.position_rad[samples])), ".", color="0.35",
+                      markersize=2, alpha=0.5, label=f"{name} (data)")
+        for rank, fit in enumerate(fits):
+            colour = f"C{rank % 10}"
+            model = fit.fitted_response.position[number][0]
+            solid = fit.name == best
+            label = f"{rank + 1}. {fit.name}" if number == 0 else None
+            position.plot(t_ms, rounded(np.degrees(model)), "-" if solid else "--",
+                          color=colour, linewidth=1.6 if solid else 0.9, label=label)
+            residual.plot(t_ms, rounded(np.degrees(r.position_rad[samples] - model)), "-",
+                          color=colour, linewidth=1.1 if solid else 0.6)
+    position.set_ylabel(f"{output} angle [deg]")
+    position.set_title("Candidates fitted to the recording (ranked by AICc)")
+    position.legend(loc="lower right", fontsize="small")
+    residual.set_ylabel("data − fit [deg]")
+    residual.set_xlabel("time from the trigger [ms]")
+    return fig
