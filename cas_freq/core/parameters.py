@@ -137,12 +137,12 @@ class LoopParameters:
     ``counts_per_rev``, ``output_counts_per_rev`` (:data:`STATIC_FIELDS`), which are the same
     for every run of a batch: they choose the loop's structure and its sensors. Each float
     field carries one key of :data:`PARAMETERS` (or of :data:`CASCADE_PARAMETERS`). The keys'
-    accepted ranges are checked where a value enters (the config schema, :func:`variant_parameters`), not here: an
-    internal scan (the stable range of the hinge stiffness, :mod:`cas_freq.analysis.drivetrain`)
-    may go past them, and a user must never see an error about a key they did not set. Here
-    every value must be finite (``omega_max`` may be +inf), ``Tf`` > 0 where ``cp_Kd`` > 0,
-    ``cp_Kd`` = 0 in a cascade, and the drivetrain fields consistent
-    (:func:`drivetrain_problem`).
+    accepted ranges are checked where a value enters (the config schema,
+    :func:`variant_parameters`), not here: an internal scan (the stable range of the hinge
+    stiffness, :mod:`cas_freq.analysis.drivetrain`) may go past them, and a user must never see
+    an error about a key they did not set. Here every value must be finite (``omega_max`` may
+    be +inf), ``Tf`` > 0 where ``cp_Kd`` > 0, ``cp_Kd`` = 0 in a cascade, and the drivetrain
+    fields consistent (:func:`drivetrain_problem`).
 
     Attributes
     ----------
