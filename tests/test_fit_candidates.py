@@ -177,3 +177,17 @@ def test_candidates_need_data(files):
     _, candidates = files
     code, _, err = run_cli(["fit", QT, "--candidates", str(candidates)])
     assert code == 2 and "--data" in err
+
+
+def test_the_api_gives_the_cli_s_ranking(files, ranked):
+    recording, candidates = files
+    result = cf.load(QT).rank_candidates(recording, candidates)
+    cli = ranked[0]
+    assert [row["name"] for row in result.rows] == [row["name"] for row in cli["ranking"]]
+    assert result.best == cli["best_plausible"]
+    for ours, theirs in zip(result.rows, cli["ranking"], strict=True):
+        assert ours["aicc"] == pytest.approx(theirs["aicc"], rel=1e-12)
+    assert "best plausible, determined candidate: filter_and_inertia" in result.text
+    assert "filter_and_inertia" in repr(result)
+    figure = result.plot()
+    assert len(figure.axes) == 2

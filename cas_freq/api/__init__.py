@@ -49,6 +49,7 @@ from cas_freq.model import ActuatorLoops, DelayModel
 from cas_freq.model.delay import MAX_PADE_ORDER
 from cas_freq.report.data import described_loops
 from cas_freq.studies import exported_model
+from cas_freq.studies.candidates import rank_candidates, ranking_text
 from cas_freq.studies.envelope import load_envelope
 from cas_freq.studies.profile_run import make_profile, profile_run, profile_run_dict
 from cas_freq.studies.run import linear_verdict, step_batch, step_run_dict
@@ -311,6 +312,35 @@ class Actuator:
         step_rad = None if step is None else angle(str(step), "step")
         stiffness = _quantities(hinge_stiffness, "N*m/rad", "hinge_stiffness")
         return load_envelope(self.loaded, np.asarray(stiffness, dtype=float), step_rad)
+
+    @one_blas_thread()
+    def rank_candidates(self, data, candidates, step=None, channels=None, columns=None):
+        """Candidate structures fitted to step recordings and ranked, as ``cas-freq fit --data
+        FILE... --candidates FILE`` (:mod:`cas_freq.studies.candidates`).
+
+        Parameters
+        ----------
+        data : str or Path or sequence of them
+            Step recordings (CSV with a header naming columns and units).
+        candidates : str or Path
+            The candidates file (YAML: each a name, a source, ``set`` overrides and ``free``
+            keys with start, bounds and plausible range; docs/identification.md).
+        step : str, optional
+            The commanded step (``"10 deg"``) for recordings without a command column.
+        channels : str, optional
+            ``"position"`` or ``"position,current"``.
+        columns : dict, optional
+            ``role -> header cell`` naming recording columns outright.
+
+        Returns
+        -------
+        CandidateRanking
+        """
+        paths = [data] if isinstance(data, (str, bytes)) or hasattr(data, "__fspath__") \
+            else list(data)
+        step_rad = None if step is None else angle(str(step), "step")
+        return CandidateRanking(rank_candidates(self.loaded, candidates, paths, columns,
+                                                step_rad, channels))
 
     @one_blas_thread()
     def tune(self, free=None, objective="max-bandwidth", robust=None, tolerances=(),
@@ -597,6 +627,58 @@ class StepResponse(Summary):
         from cas_freq.api.figures import step_figure
 
         return step_figure(self)
+
+
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class CandidateRanking(Summary):
+    """Candidate structures fitted to recordings and ranked
+    (:meth:`Actuator.rank_candidates`).
+
+    Attributes
+    ----------
+    ranking : cas_freq.studies.candidates.Ranking
+        The fits (``ranking.fits``, best first), the recordings and the JSON-ready data.
+    """
+
+    ranking: object
+
+    @property
+    def rows(self):
+        """One dict per candidate, best first: ``name``, ``rank``, ``plausibility``,
+        ``flagged``, ``aicc``, ``delta_aicc``, ``rms_position_deg``, ``step`` figures, ..."""
+        return self.ranking.data["ranking"]
+
+    @property
+    def best(self):
+        """The best plausible, determined candidate's name, or None."""
+        return self.ranking.best
+
+    @property
+    def text(self):
+        """The table ``cas-freq fit --candidates`` prints."""
+        return ranking_text(self.ranking.data)
+
+    def _summary(self):
+        rows = [(f"{row['rank']}. {row['name']}",
+                 f"dAICc {row['delta_aicc']:.4g}, {row['plausibility']}"
+                 + (", flagged" if row["flagged"] else ""), "") for row in self.rows]
+        return f"{len(self.rows)} candidates; best plausible: {self.best or 'none'}", rows
+
+    def to_dict(self):
+        """JSON-ready dict: the JSON of ``cas-freq fit --candidates ... --json``."""
+        return self.ranking.data
+
+    def plot(self):
+        """Each candidate's fitted step overlaid on the recordings, and the residuals.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from cas_freq.plots.recordings import candidates_figure
+
+        r = self.ranking
+        return candidates_figure(r.recordings, r.fits, r.best or r.fits[0].name, r.output)
 
 
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)

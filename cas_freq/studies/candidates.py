@@ -32,6 +32,9 @@ from cas_freq.studies.run import step_runs
 #: Identifiability verdicts that flag a candidate: the data do not determine one of its keys.
 FLAGGED = (NOT_IDENTIFIABLE, "not determined")
 
+#: A residual this many times the pre-trigger noise is a misfit (as ``fit --params`` says).
+MISFIT = 2.0
+
 #: The verdict of a candidate whose values are all within their plausible ranges.
 PLAUSIBLE = "plausible"
 
@@ -179,6 +182,8 @@ def rank_candidates(base, candidates_path, recording_paths, columns=None, step=N
             "source": candidate.source, "set": list(candidate.overrides),
             "plausibility": verdict, "implausible": reasons, "flagged": bool(unknown),
             "not_determined": unknown, "step": _step_dict(run.step, run.fit),
+            "residual_over_noise": max((item["ratio"] for item in model["residual_over_noise"]),
+                                       default=None),
             "linear_stability": run.linear_stability,
         })
     rows = rank(rows)
@@ -241,6 +246,10 @@ def ranking_text(data):
             interval = "—" if low is None else f"[{low:.4g}, {high:.4g}]"
             lines.append(f"     {key['key']:<26} {key['estimate']:.5g} {key['unit']}  95 % "
                          f"{interval}  {key['verdict']}")
+        ratio = row["residual_over_noise"]
+        if ratio is not None and ratio > MISFIT:
+            lines.append(f"     MISFIT: its residual is {ratio:.3g}x the noise before the "
+                         "trigger: it does not follow the recording's shape")
         lines += [f"     not plausible: {reason}" for reason in row["implausible"]]
         if row["linear_stability"] != "stable":
             lines.append(f"     its linear closed loop is {row['linear_stability']}")
