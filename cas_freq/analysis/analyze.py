@@ -27,7 +27,7 @@ from cas_freq.analysis.closed_loop import (
     figures_of_run,
 )
 from cas_freq.analysis.disturbance import disturbance_figures, position_encoder_counts
-from cas_freq.analysis.drivetrain import drivetrain, drivetrain_notes
+from cas_freq.analysis.drivetrain import derived_load_notes, drivetrain, drivetrain_notes
 from cas_freq.analysis.frequency import (
     DEFAULT_POINTS_PER_DECADE,
     DEFAULT_RANGE_RAD_S,
@@ -618,6 +618,7 @@ def analyze(
         unit = output_unit(loaded.params)
         notes.extend(drivetrain_notes(load, loaded.params.output_label,
                                       (unit.spring, unit.spring_unit)))
+    notes.extend(derived_load_notes(loaded.params))
     stiff, push, noise = disturbance_figures(
         params, omega, position_encoder_counts(loaded.params),
         OutputWords.of(loaded.params), stability.stable, delay)

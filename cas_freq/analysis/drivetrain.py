@@ -16,6 +16,7 @@ r"""Figures of the load and drivetrain of one variant (docs/model.md, "Load and 
 """
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -230,4 +231,27 @@ def drivetrain_notes(load, output="output", spring=("K_h", "N*m/rad")):
     else:
         notes.append(f"closed loop unstable at this load spring {symbol} ({own:.4g} {unit}); "
                      f"the nearest stable range is {span}")
+    return notes
+
+
+def derived_load_notes(config):
+    """Sentences on the load values a validated config derives from a description: the load
+    inertia from an inertia simulant's geometry, the efficiencies from a worm's."""
+    notes = []
+    simulant = getattr(config.load, "simulant", None)
+    if simulant is not None:
+        bore = f", bore {1e3 * simulant.bore:g} mm" if simulant.bore else ""
+        notes.append(f"load inertia J_L = {simulant.inertia:.4g} kg*m^2 at the "
+                     f"{config.output_label}: the {simulant.name}, a disc of "
+                     f"{1e3 * simulant.diameter:g} mm diameter and {1e3 * simulant.thickness:g} "
+                     f"mm thickness{bore}, {simulant.density:g} kg/m^3")
+    worm = getattr(config.gear, "worm", None)
+    if worm is not None:
+        locking = " (self-locking)" if config.gear.backdrive == 0 else ""
+        notes.append(f"gear efficiencies from the worm (lead angle "
+                     f"{math.degrees(worm.lead_angle):.4g} deg, friction "
+                     f"{worm.friction_coefficient:g}, pressure angle "
+                     f"{math.degrees(worm.pressure_angle):.4g} deg): forward "
+                     f"{config.gear.efficiency:.4g}, backdrive {config.gear.backdrive:.4g}"
+                     f"{locking}")
     return notes

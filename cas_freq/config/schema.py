@@ -9,6 +9,7 @@ value and what is accepted (see :mod:`cas_freq.config.loader`).
 Keys follow docs/model.md and the report's symbols (``Kp``, ``Ki``, ``Kd``, ``Tf``, ``mu_v``, ...).
 """
 
+import math
 import re
 from typing import Annotated, Any, Literal
 
@@ -34,7 +35,7 @@ from cas_freq.core.filters_config import (
     point_problem,
     type_problem,
 )
-from cas_freq.core.formulas import second_order_bandwidth
+from cas_freq.core.formulas import disc_inertia, second_order_bandwidth, worm_efficiencies
 from cas_freq.core.parameter_keys import parse_grid_values
 from cas_freq.core.parameters import (
     CASCADE_ONLY,
@@ -174,9 +175,74 @@ class Motor(_Section):
         return viscous_friction(self.Km, self.no_load.speed, self.no_load.current)
 
 
+#: The numeric keys of a worm's geometry (``gear.worm``) and of an inertia simulant
+#: (``load.simulant``): static descriptions from which the config derives ``gear.efficiency``,
+#: ``gear.backdrive_efficiency`` and ``load.inertia`` (those are the keys a sweep varies).
+DERIVING_PARAMETERS = {
+    p.key: p for p in (
+        Parameter("gear.worm.lead_angle", None, "rad", 0.0, True, 1.5533,
+                  "lead angle of the worm, (0, 89] deg [rad]"),
+        Parameter("gear.worm.friction_coefficient", None, "dimensionless", 0.0, False, 1.0,
+                  "friction coefficient of the worm's mesh, 0..1 [dimensionless]"),
+        Parameter("gear.worm.pressure_angle", None, "rad", 0.0, False, 0.7854,
+                  "normal pressure angle of the worm, 0..45 deg, default 20 deg [rad]"),
+        Parameter("load.simulant.diameter", None, "m", 0.0, True, 10.0,
+                  "outer diameter of the simulant disc, (0, 10] [m]"),
+        Parameter("load.simulant.thickness", None, "m", 0.0, True, 10.0,
+                  "thickness of the simulant disc, (0, 10] [m]"),
+        Parameter("load.simulant.bore", None, "m", 0.0, False, 10.0,
+                  "bore of the simulant disc, 0 (solid) .. its diameter [m]"),
+        Parameter("load.simulant.density", None, "kg/m^3", 0.0, True, 1e5,
+                  "density of the simulant, default 7850 (steel), (0, 1e5] [kg/m^3]"),
+    )
+}
+
+
+def deriving_param(key):
+    """Type of a float field of ``gear.worm`` or ``load.simulant`` (like :func:`param`)."""
+    return _field(DERIVING_PARAMETERS[key], key)
+
+
+class Worm(_Section):
+    """A worm gear's geometry: its efficiencies follow (docs/model.md §5, "Worm gear")."""
+
+    lead_angle: deriving_param("gear.worm.lead_angle")
+    friction_coefficient: deriving_param("gear.worm.friction_coefficient")
+    pressure_angle: deriving_param("gear.worm.pressure_angle") = math.radians(20.0)
+
+    @property
+    def efficiencies(self):
+        """(forward, backdrive) efficiency [-]
+        (:func:`cas_freq.core.formulas.worm_efficiencies`)."""
+        return worm_efficiencies(self.lead_angle, self.friction_coefficient,
+                                 self.pressure_angle)
+
+
+def _worm_efficiencies(gear):
+    """Set a gear's efficiencies from its worm's geometry (refused beside given ones)."""
+    if gear.worm is None:
+        return gear
+    given = sorted({"efficiency", "backdrive_efficiency"} & gear.model_fields_set)
+    if given:
+        raise PydanticCustomError(
+            "cas_value", f"worm: the worm's geometry gives the efficiencies; remove "
+            f"gear.{given[0]} (or gear.worm)")
+    forward, back = gear.worm.efficiencies
+    if not forward > 0:
+        raise PydanticCustomError(
+            "cas_value", "worm: the worm cannot drive the wheel with this friction and "
+            "lead angle (forward efficiency 0): a friction_coefficient below "
+            f"{math.cos(gear.worm.pressure_angle) / math.tan(gear.worm.lead_angle):.3g} is "
+            "needed")
+    object.__setattr__(gear, "efficiency", forward)
+    object.__setattr__(gear, "backdrive_efficiency", back)
+    return gear
+
+
 class Gear(_Section):
     """Gear between motor and fin: fin angle = motor angle / ratio; rigid unless ``stiffness``
-    is given (docs/model.md, "Load and drivetrain")."""
+    is given (docs/model.md, "Load and drivetrain"). A ``worm`` (lead angle, friction) gives
+    the two efficiencies instead of ``efficiency`` and ``backdrive_efficiency``."""
 
     ratio: param("gear.ratio")
     efficiency: param("gear.efficiency") = 1.0
@@ -184,6 +250,11 @@ class Gear(_Section):
     stiffness: param("gear.stiffness") = 0.0
     damping: param("gear.damping") = 0.0
     backlash: param("gear.backlash") = 0.0
+    worm: Worm | None = None
+
+    @model_validator(mode="after")
+    def _worm(self):
+        return _worm_efficiencies(self)
 
     @property
     def backdrive(self):
@@ -209,17 +280,56 @@ class LinearGear(_Section):
     backdrive = Gear.backdrive
 
 
+class Simulant(_Section):
+    """An inertia simulant on the output (report §3: "a steel inertia simulant ... to emulate
+    the control-surface inertia"): a disc, optionally bored, of a given material. Its inertia
+    about the output's axis becomes ``load.inertia`` (docs/model.md §5, "Inertia simulant")."""
+
+    name: Annotated[str, Field(min_length=1, max_length=80)] = "inertia simulant"
+    diameter: deriving_param("load.simulant.diameter")
+    thickness: deriving_param("load.simulant.thickness")
+    bore: deriving_param("load.simulant.bore") = 0.0
+    density: deriving_param("load.simulant.density") = 7850.0
+
+    @model_validator(mode="after")
+    def _bore_inside(self):
+        if not self.bore < self.diameter:
+            raise PydanticCustomError(
+                "cas_value", f"bore: {self.bore:g} m must be below the diameter "
+                f"{self.diameter:g} m")
+        return self
+
+    @property
+    def inertia(self):
+        """Its inertia about the output's axis [kg*m^2]
+        (:func:`cas_freq.core.formulas.disc_inertia`)."""
+        return disc_inertia(self.diameter, self.thickness, self.density, self.bore)
+
+
 class Load(_Section):
     """What the fin carries, at the fin (docs/model.md, "Load and drivetrain"); all absent
-    (0) by default: the report's unloaded bench."""
+    (0) by default: the report's unloaded bench. A ``simulant`` gives ``inertia`` from its
+    geometry."""
 
     inertia: param("load.inertia") = 0.0
+    simulant: Simulant | None = None
     damping: param("load.damping") = 0.0
     hinge_stiffness: param("load.hinge_stiffness") = 0.0
     hinge_bias: param("load.hinge_bias") = 0.0
     mass: refused(LINEAR_ONLY["load.mass"], quote=True) = None
     stiffness: refused(LINEAR_ONLY["load.stiffness"], quote=True) = None
     bias: refused(LINEAR_ONLY["load.bias"], quote=True) = None
+
+    @model_validator(mode="after")
+    def _simulant(self):
+        if self.simulant is None:
+            return self
+        if "inertia" in self.model_fields_set:
+            raise PydanticCustomError(
+                "cas_value", "simulant: the simulant's geometry gives the load inertia; "
+                "remove load.inertia (or load.simulant)")
+        object.__setattr__(self, "inertia", self.simulant.inertia)
+        return self
 
     @property
     def rotary_inertia(self):

@@ -45,6 +45,63 @@ def viscous_friction_from_no_load(torque_constant, no_load_speed, no_load_curren
     return torque_constant * no_load_current / no_load_speed
 
 
+def worm_efficiencies(lead_angle, friction_coefficient, pressure_angle):
+    r"""Forward and backdrive efficiencies of a worm gear from its geometry and friction.
+
+    With the lead angle :math:`\lambda`, the normal pressure angle :math:`\phi_n` and the
+    friction coefficient :math:`f` of the mesh (Shigley's Mechanical Engineering Design, the
+    worm-gear efficiency), the worm driving the wheel and the wheel driving the worm give
+
+    .. math::
+        \eta = \frac{\cos\phi_n - f \tan\lambda}{\cos\phi_n + f \cot\lambda}, \qquad
+        \eta_b = \frac{\cos\phi_n - f \cot\lambda}{\cos\phi_n + f \tan\lambda}
+
+    and a worm whose :math:`\eta_b \le 0` is self-locking: the wheel cannot drive it
+    (:math:`\eta_b` = 0 then).
+
+    Parameters
+    ----------
+    lead_angle : float
+        Lead angle :math:`\lambda` of the worm [rad], in (0, pi/2).
+    friction_coefficient : float
+        Friction coefficient :math:`f` of the mesh [-], >= 0.
+    pressure_angle : float
+        Normal pressure angle :math:`\phi_n` [rad], in [0, pi/2).
+
+    Returns
+    -------
+    tuple of float
+        (:math:`\eta`, :math:`\eta_b`) [-], each in [0, 1].
+    """
+    cos_n, tan_l = math.cos(pressure_angle), math.tan(lead_angle)
+    f = friction_coefficient
+    forward = (cos_n - f * tan_l) / (cos_n + f / tan_l)
+    back = (cos_n - f / tan_l) / (cos_n + f * tan_l)
+    return max(forward, 0.0), max(back, 0.0)
+
+
+def disc_inertia(diameter, thickness, density, bore=0.0):
+    r"""Moment of inertia of a solid disc (a cylinder, optionally bored) about its axis.
+
+    .. math:: J = \frac{\pi \rho t}{32} (D^4 - d^4)
+
+    (:math:`\frac{1}{2} m (R^2 + r^2)` with :math:`m = \rho \pi t (R^2 - r^2)`).
+
+    Parameters
+    ----------
+    diameter, thickness, bore : float
+        Outer diameter D, thickness t and bore d [m].
+    density : float
+        Density :math:`\rho` [kg/m^3].
+
+    Returns
+    -------
+    float
+        J [kg*m^2].
+    """
+    return math.pi * density * thickness * (diameter**4 - bore**4) / 32.0
+
+
 def second_order_bandwidth(natural_frequency, damping_ratio):
     r"""-3 dB bandwidth of the standard second-order closed loop.
 
