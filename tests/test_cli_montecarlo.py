@@ -8,7 +8,8 @@ import pytest
 from cas_freq.cli import main
 from cas_freq.config import load_variant
 from cas_freq.core.exceptions import ConfigError
-from cas_freq.studies.montecarlo import draw, parse_tolerance
+from cas_freq.core.tolerances import parse_tolerance
+from cas_freq.studies.montecarlo import draw
 
 ARGS = ["montecarlo", "--samples", "40", "--tolerance", "motor.Km=10%",
         "--tolerance", "current_loop.delay=0.01 ms", "--seed", "7", "--no-step"]

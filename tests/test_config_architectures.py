@@ -362,7 +362,7 @@ def test_set_and_variants_reach_a_filter_number(shipped_raw):
 
 def test_sweep_tolerance_and_tune_read_the_cascade_units(shipped_raw):
     from cas_freq.core.parameter_keys import parse_grid_values
-    from cas_freq.studies.montecarlo import parse_tolerance
+    from cas_freq.core.tolerances import parse_tolerance
     from cas_freq.tuning.space import parse_bounds, parse_free, tune_keys
 
     config = _filtered_cascade(shipped_raw)

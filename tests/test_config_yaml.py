@@ -9,7 +9,7 @@ import yaml
 from cas_freq.config import load_variant, parse_set_option, read_config_file
 from cas_freq.config.loader import default_config_path
 from cas_freq.core.exceptions import ConfigError
-from cas_freq.studies.montecarlo import parse_tolerance
+from cas_freq.core.tolerances import parse_tolerance
 
 
 def _shipped_with(old, new):

@@ -21,8 +21,9 @@ import pytest
 
 from cas_freq.config import load_variant
 from cas_freq.core.exceptions import CasFreqError
+from cas_freq.core.tolerances import parse_tolerance
 from cas_freq.studies.distributed import chunk_slices, parse_scheduler
-from cas_freq.studies.montecarlo import draw, parse_tolerance
+from cas_freq.studies.montecarlo import draw
 from cas_freq.studies.sweep import evaluate_figures, evaluate_figures_distributed
 
 distributed = pytest.importorskip("distributed", reason="the 'distributed' extra is not installed")

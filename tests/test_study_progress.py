@@ -13,7 +13,8 @@ import re
 
 from cas_freq.cli.common import _PeriodicProgress, _Progress
 from cas_freq.config import load_variant
-from cas_freq.studies.montecarlo import parse_tolerance, run_montecarlo
+from cas_freq.core.tolerances import parse_tolerance
+from cas_freq.studies.montecarlo import run_montecarlo
 
 SAMPLES = 11  # not a divisor of the stages' weights, so a fraction would show
 

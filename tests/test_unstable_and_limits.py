@@ -15,7 +15,8 @@ from clirun import run_cli
 
 from cas_freq.config import load_variant
 from cas_freq.core.exceptions import ConfigError
-from cas_freq.studies.montecarlo import draw, parse_tolerance, requirement_results, run_montecarlo
+from cas_freq.core.tolerances import parse_tolerance
+from cas_freq.studies.montecarlo import draw, requirement_results, run_montecarlo
 from cas_freq.studies.run import sinedwell_run, step_run
 
 UNSTABLE = [("position_loop.Kd", "0.5 A*s/rad")]

@@ -44,15 +44,18 @@ from cas_freq.core.output import angle, output_step, output_unit, read_output
 from cas_freq.core.parameters import unit_of, variant_parameters
 from cas_freq.core.summary import Summary, row, spread
 from cas_freq.core.threads import one_blas_thread
+from cas_freq.core.tolerances import parse_tolerance
 from cas_freq.core.units import to_si
 from cas_freq.model import ActuatorLoops, DelayModel
 from cas_freq.model.delay import MAX_PADE_ORDER
 from cas_freq.report.data import described_loops
 from cas_freq.studies import exported_model
 from cas_freq.studies.candidates import rank_candidates, ranking_text
+from cas_freq.studies.distributed import session
 from cas_freq.studies.envelope import load_envelope
 from cas_freq.studies.profile_run import make_profile, profile_run, profile_run_dict
 from cas_freq.studies.run import linear_verdict, step_batch, step_run_dict
+from cas_freq.studies.worstcase import worst_case, worst_case_text
 from cas_freq.tuning import options
 from cas_freq.tuning.run import tune_variant
 from cas_freq.verify.measure import figure
@@ -312,6 +315,36 @@ class Actuator:
         step_rad = None if step is None else angle(str(step), "step")
         stiffness = _quantities(hinge_stiffness, "N*m/rad", "hinge_stiffness")
         return load_envelope(self.loaded, np.asarray(stiffness, dtype=float), step_rad)
+
+    @one_blas_thread()
+    def worst_case(self, tolerances=None, samples=256, seed=0, resolution=1e-3,
+                   scheduler=None):
+        """The worst case of every requirement's figure over the tolerance box, as
+        ``cas-freq worstcase`` (:mod:`cas_freq.studies.worstcase`).
+
+        Parameters
+        ----------
+        tolerances : sequence of str, optional
+            ``"KEY=TOL"`` as ``--tolerance`` (``"motor.Km=10%"``, ``"motor.R=±0.036 ohm"``);
+            default the config's ``tolerances:``.
+        samples : int
+            Uniform samples of the box besides its corners.
+        seed : int
+            Seed of the samples.
+        resolution : float
+            The local search stops below this share of each key's width.
+        scheduler : str, optional
+            Run the evaluations on a dask cluster (``local:N`` or an address).
+
+        Returns
+        -------
+        WorstCase
+        """
+        parsed = None if tolerances is None else [
+            parse_tolerance(text, self.params) for text in tolerances]
+        with session(scheduler):
+            return WorstCase(worst_case(self.loaded, parsed, samples=samples, seed=seed,
+                                        resolution=resolution, scheduler=scheduler))
 
     @one_blas_thread()
     def rank_candidates(self, data, candidates, step=None, channels=None, columns=None):
@@ -627,6 +660,42 @@ class StepResponse(Summary):
         from cas_freq.api.figures import step_figure
 
         return step_figure(self)
+
+
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
+class WorstCase(Summary):
+    """The worst case of each requirement's figure over the tolerance box
+    (:meth:`Actuator.worst_case`).
+
+    Attributes
+    ----------
+    data : dict
+        The JSON of ``cas-freq worstcase --json``: ``box``, ``requirements`` (per requirement
+        ``nominal``, ``worst``, ``at``, ``at_corner``, ``found_by``, ``worst_fails``),
+        ``stability``, ``stability_margins``, ``search`` (the evaluations counted).
+    """
+
+    data: dict
+
+    @property
+    def requirements(self):
+        """One dict per requirement searched, in the config's order."""
+        return self.data["requirements"]
+
+    @property
+    def text(self):
+        """The text ``cas-freq worstcase`` prints."""
+        return worst_case_text(self.data)
+
+    def _summary(self):
+        rows = [(f"{r['id']} {r['metric']}",
+                 ("not stable" if r["not_stable_or_missing"] else f"{r['worst']:.4g}")
+                 + (" FAILS" if r["worst_fails"] else ""), "") for r in self.requirements]
+        return f"worst found over {len(self.data['box'])} toleranced keys", rows
+
+    def to_dict(self):
+        """JSON-ready dict: the JSON of ``cas-freq worstcase --json``."""
+        return self.data
 
 
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)

@@ -31,7 +31,7 @@ EXIT_INTERRUPTED = 130
 #: The commands, in the order ``--help`` lists them; each lives in the module of its name
 #: (``-`` spelt ``_``: ``export-model`` in ``cas_freq.cli.export_model``).
 COMMANDS = ("analyze", "simulate", "sinedwell", "fit", "verify", "report", "compare", "sweep",
-            "montecarlo", "tune", "epos4", "export-model", "design")
+            "montecarlo", "worstcase", "tune", "epos4", "export-model", "design")
 
 
 def __getattr__(name):

@@ -97,11 +97,11 @@ def summary(data):
 
 def run(args):
     """Run the Monte Carlo of each selected variant; print text or JSON, write the report."""
+    from cas_freq.core.tolerances import parse_tolerance
     from cas_freq.studies.montecarlo import (
         fresh_seed,
         montecarlo_dict,
         montecarlo_samples_csv,
-        parse_tolerance,
         run_montecarlo,
     )
 
@@ -129,7 +129,8 @@ def run(args):
             label = "montecarlo" if len(variants) == 1 else f"montecarlo {loaded.variant}"
             progress = terminal_progress(label, unit="sample")
             # an absolute width in the units of this variant's architecture
-            tolerances = [parse_tolerance(text, loaded.params) for text in args.tolerance]
+            tolerances = ([parse_tolerance(text, loaded.params) for text in args.tolerance]
+                          or list(loaded.params.tolerance_list))
             results.append(run_montecarlo(loaded, tolerances, args.samples,
                                           distribution=args.distribution, seed=seed,
                                           step_rad=step, simulate=not args.no_step,

@@ -45,7 +45,7 @@ def verdict_table(config_name, verdicts):
         rows.append((
             f"{v.id} {v.metric}", v.variant,
             (f"{v.bound} {_number(v.bound_value, v.unit)}" if v.bound is not None
-             else _number(v.value, v.unit)),
+             else _number(v.value, v.unit) + (" (worst case)" if v.worst_case else "")),
             bound_text(v.min, v.max, v.unit), _number(v.margin, v.unit),
             v.status if v.severity == "required" or v.status != "PASS" else "PASS (advisory)",
         ))
@@ -63,6 +63,8 @@ def verdict_table(config_name, verdicts):
         f"{len(failed)} required FAIL, {len(advisory)} advisory not met"
     )
     lines += [f"  FAIL {v.id} ({v.variant}): {v.message}" for v in failed]
+    lines += [f"  worst case {v.id} ({v.variant}): {v.condition}" for v in verdicts
+              if v.worst_case and v not in failed]
     return "\n".join(lines)
 
 

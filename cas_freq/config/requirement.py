@@ -200,6 +200,9 @@ class Requirement(BaseModel):
         ``deceleration``, each with a unit) the ``profile.*`` figures are measured on.
     description : str
         Free text shown beside the verdict.
+    worst_case : bool
+        ``verify`` checks the figure at its worst case over the config's ``tolerances:`` box
+        (:mod:`cas_freq.studies.worstcase`) instead of at the nominal point.
     """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
@@ -215,6 +218,7 @@ class Requirement(BaseModel):
     frequencies: tuple[float, ...] | None = None
     profile: ProfileCondition | None = None
     description: str = ""
+    worst_case: bool = False
 
     @field_validator("metric")
     @classmethod

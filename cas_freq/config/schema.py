@@ -59,6 +59,7 @@ from cas_freq.core.sampling_config import (
     sample_rates,
     sampling_problem,
 )
+from cas_freq.core.tolerances import parse_tolerance
 
 BASE_VARIANT = "base"
 #: A variant's name: a plain YAML key that is also safe in a file name (``out.<name>.csv``):
@@ -741,6 +742,7 @@ class ActuatorConfig(_Section):
     simulation: Simulation = Simulation()
     supply: Supply = Supply()
     requirements: tuple[Requirement, ...] = ()
+    tolerances: dict[str, str | float] = {}
     reference: Reference | None = None
     load_envelope: LoadEnvelopeSpec | None = None
     variants: dict[str, dict[str, Any] | None] = {}
@@ -884,6 +886,23 @@ class ActuatorConfig(_Section):
         if problem:
             raise PydanticCustomError("cas_value", problem)
         return self
+
+    @model_validator(mode="after")
+    def _tolerances(self):
+        for key, value in self.tolerances.items():
+            try:
+                parse_tolerance(f"{key}={value}", self)
+            except ConfigError as exc:
+                message = str(exc).replace("--tolerance ", "", 1)
+                raise PydanticCustomError("cas_value", f"tolerances: {message}") from None
+        return self
+
+    @property
+    def tolerance_list(self):
+        """The ``tolerances:`` section as :class:`~cas_freq.core.tolerances.Tolerance` records,
+        in the file's order (the box the worst case searches, the Monte Carlo's default)."""
+        return tuple(parse_tolerance(f"{key}={value}", self)
+                     for key, value in self.tolerances.items())
 
     @model_validator(mode="after")
     def _unique_requirement_ids(self):

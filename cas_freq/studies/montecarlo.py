@@ -19,14 +19,12 @@ other requirements are listed as not evaluated.
 
 import dataclasses
 import math
-import re
 
 import numpy as np
 
 from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.fileio import json_ready
-from cas_freq.core.parameters import base_values, check_key, parameter, unit_of
-from cas_freq.core.units import to_si
+from cas_freq.core.parameters import base_values, unit_of
 from cas_freq.studies.run import DEFAULT_SINEDWELL_FREQUENCIES_RAD_S
 from cas_freq.studies.sweep import evaluate_figures, figure_names
 
@@ -37,51 +35,8 @@ PERCENTILES = (1, 5, 25, 50, 75, 95, 99)
 WORST_COUNT = 5
 
 
-@dataclasses.dataclass(frozen=True)
-class Tolerance:
-    """One toleranced key: ``relative`` (fraction) or ``absolute`` [SI]."""
-
-    key: str
-    relative: float | None
-    absolute: float | None
-
-    def half_width(self, base):
-        """Half-width of the band around ``base`` [SI]."""
-        return abs(base) * self.relative if self.relative is not None else self.absolute
-
-
 #: Most samples of one Monte Carlo run (checked before anything is allocated).
 MAX_SAMPLES = 1_000_000
-
-
-def parse_tolerance(text, config=None):
-    """``KEY=10%`` or ``KEY=0.02 ms`` (or a plain number in SI) → :class:`Tolerance`; an
-    absolute width in the key's unit in ``config``'s architecture (a velocity loop changes the
-    position gains' units)."""
-    key, sep, value = str(text).partition("=")
-    key, value = key.strip(), value.strip()
-    accepted = (f"--tolerance {text!r}: expected KEY=PERCENT% or KEY=ABSOLUTE (a number in the "
-                f"key's SI unit or with a unit), e.g. motor.Km=10% or current_loop.delay=0.02ms")
-    if not sep or not key or not value:
-        raise ConfigError(accepted)
-    check_key(key, config)
-    match = re.fullmatch(r"([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*%", value)
-    if match:
-        relative = float(match.group(1)) / 100.0
-        if not (math.isfinite(relative) and relative >= 0):
-            raise ConfigError(accepted)
-        return Tolerance(key, relative, None)
-    # a width, not a value of the key: in the key's unit, but its bound is >= 0, not the key's
-    unit = unit_of(key, config)
-    try:
-        parameter(key, config).check_has_unit(value)
-        absolute = to_si(value, unit)
-    except (TypeError, ValueError, OverflowError) as exc:
-        raise ConfigError(f"--tolerance {key}: cannot read {value!r} as a width in {unit} "
-                          f"({exc})") from None
-    if not (math.isfinite(absolute) and absolute >= 0):
-        raise ConfigError(f"--tolerance {key}: must be >= 0 {unit}, got {value!r}")
-    return Tolerance(key, None, absolute)
 
 
 def fresh_seed():

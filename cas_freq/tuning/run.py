@@ -2,7 +2,7 @@
 them."""
 
 from cas_freq.core.exceptions import ConfigError
-from cas_freq.studies.montecarlo import parse_tolerance
+from cas_freq.core.tolerances import parse_tolerance
 from cas_freq.tuning import search
 from cas_freq.tuning.evaluate import constraints
 from cas_freq.tuning.options import GLOBAL_COUNT, ROUNDS

@@ -87,7 +87,7 @@ def scenarios(params, robust=None, tolerances=(), yield_pct=99.0, seed=0, load_c
     robust : str, optional
         None (nominal), ``"corners"`` or ``"montecarlo:N"``.
     tolerances : sequence of Tolerance
-        From :func:`cas_freq.studies.montecarlo.parse_tolerance` (required when robust).
+        From :func:`cas_freq.core.tolerances.parse_tolerance` (required when robust).
     yield_pct : float
         The share of counted scenarios that must pass [%] (corners: always 100).
     seed : int

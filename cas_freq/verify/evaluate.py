@@ -3,9 +3,11 @@
 import dataclasses
 import math
 
+from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.figures import UNIT_LABELS
 from cas_freq.core.fileio import json_ready
 from cas_freq.simulation.sinedwell import bound_meets
+from cas_freq.studies.worstcase import point_text, worst_case
 from cas_freq.verify.measure import measure
 
 PASS, FAIL, ADVISORY = "PASS", "FAIL", "ADVISORY"
@@ -42,6 +44,10 @@ class Verdict:
         outside its grid; ``value`` None), else None.
     bound_value : float or None
         The bound's edge in ``unit`` (the grid's top or bottom frequency).
+    worst_case : dict or None
+        For a requirement with ``worst_case: true``: its worst case over the tolerance box
+        (the nominal value, the point that reaches the worst, how it was found); ``value`` is
+        then the worst found.
     """
 
     id: str
@@ -60,6 +66,7 @@ class Verdict:
     message: str
     bound: str | None = None
     bound_value: float | None = None
+    worst_case: dict | None = None
 
 
 def bound_text(minimum, maximum, unit):
@@ -137,15 +144,53 @@ def verify_variants(variants, requirements=None, known=None):
     requirements = variants[0].params.requirements if requirements is None else requirements
     if not requirements:
         return {loaded.variant: [] for loaded in variants}
-    measured = measure(variants, requirements, known)
-    return {
-        loaded.variant: [
+    nominal = [r for r in requirements if not r.worst_case]
+    worst = [r for r in requirements if r.worst_case]
+    measured = (measure(variants, nominal, known) if nominal
+                else [({}, {}, True, {}) for _ in variants])
+    verdicts = {}
+    for loaded, (values, context, stable, bounds) in zip(variants, measured, strict=True):
+        found = _worst_cases(loaded, worst) if worst else {}
+        verdicts[loaded.variant] = [
+            found[requirement.id] if requirement.worst_case else
             _verdict(requirement, loaded.variant, values[requirement.id],
                      context[requirement.id], stable, bounds.get(requirement.id))
             for requirement in requirements
         ]
-        for loaded, (values, context, stable, bounds) in zip(variants, measured, strict=True)
-    }
+    return verdicts
+
+
+def _worst_cases(loaded, requirements):
+    """Verdicts of the ``worst_case: true`` requirements of one variant: each at its worst
+    case over the config's tolerance box."""
+    if not loaded.params.tolerances:
+        ids = ", ".join(r.id for r in requirements)
+        raise ConfigError(f"requirements {ids}: worst_case: true needs a 'tolerances:' section "
+                          "in the config (e.g. motor.Km: 10%), the box the worst case searches")
+    data = worst_case(loaded, requirements=requirements)
+    search = data["search"]
+    rows = {row["id"]: row for row in data["requirements"]}
+    out = {}
+    for item in data["not_evaluated"]:
+        requirement = next(r for r in requirements if r.id == item["id"])
+        out[requirement.id] = _verdict(requirement, loaded.variant, None,
+                                       f"worst case not evaluated: {item['reason']}")
+    for requirement in requirements:
+        if requirement.id not in rows:
+            continue
+        row = rows[requirement.id]
+        where = "a corner" if row["at_corner"] else "inside the box"
+        condition = (f"worst case over the tolerances ({len(data['box'])} keys, "
+                     f"{search['evaluations']['analyze']} evaluations) at {where}: "
+                     f"{point_text(row['at'])}; nominal "
+                     + ("—" if row["nominal"] is None else f"{row['nominal']:.4g}")
+                     + "; worst found, no guaranteed bound")
+        verdict = _verdict(requirement, loaded.variant, row["worst"], condition,
+                           stable=row["worst_verdict"] == "stable")
+        out[requirement.id] = dataclasses.replace(verdict, worst_case={
+            "nominal": row["nominal"], "at": row["at"], "at_corner": row["at_corner"],
+            "found_by": row["found_by"], "verdict": row["worst_verdict"]})
+    return out
 
 
 def verify_variant(loaded, requirements=None, known=None):
@@ -165,4 +210,6 @@ def verdict_dict(verdict):
     data = dataclasses.asdict(verdict)
     if verdict.bound is None:  # only a figure known as a bound carries the two keys
         del data["bound"], data["bound_value"]
+    if verdict.worst_case is None:
+        del data["worst_case"]
     return json_ready(data)
