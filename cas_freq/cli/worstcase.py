@@ -1,7 +1,13 @@
 """``cas-freq worstcase``: the worst case of every requirement's figure over the tolerance box
 (:mod:`cas_freq.studies.worstcase`)."""
 
-from cas_freq.cli.common import EXIT_OK, add_config_arguments, load_variants, print_json
+from cas_freq.cli.common import (
+    EXIT_OK,
+    add_config_arguments,
+    load_variants,
+    output_path,
+    print_json,
+)
 from cas_freq.report.outdir import check_output_dir
 from cas_freq.report.studies import json_text, write_report
 from cas_freq.studies.distributed import parse_scheduler, session
@@ -35,7 +41,7 @@ def register(commands):
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="run the evaluations on a dask.distributed cluster: local:N or a "
                         "scheduler address (same numbers as a local run)")
-    parser.add_argument("-o", "--output", metavar="DIR",
+    parser.add_argument("-o", "--output", metavar="DIR", type=output_path,
                         help="write worstcase.json into DIR (replaced as a whole)")
     parser.set_defaults(handler=run)
 
