@@ -7,8 +7,8 @@ The search's worst is checked against a brute-force grid over the box:
   here from docs/model.md's equations with exact delays (L_p of the PID-on-PI written out,
   its phase margin at each gain crossover found on a log grid of 4000 frequencies and
   interpolated; T = L_p/(1 + L_p) and its -3 dB point likewise). In this box the worst phase
-  margin lies inside (the current loop's Ki has a phase-margin minimum near 1700 V/(A*s)),
-  the worst bandwidth at a corner. The search must reach the grid's worst: within 0.02 deg and
+  margin lies inside (the current loop's Ki has a phase-margin minimum near 1850 V/(A*s) at
+  the upper Km), the worst bandwidth at a corner. The search must reach the grid's worst: within 0.02 deg and
   0.05 % of it (the compass search ends at 1e-3 of each width, finer than the grid's 1/40),
   and never be better than it by more than the grid's cells can hide (0.1 deg);
 * the cascade axis over three keys (J ±5 %, the velocity loop's Kp ±10 %, Km ±5 %: all
