@@ -8,14 +8,15 @@ The search's worst is checked against a brute-force grid over the box:
   its phase margin at each gain crossover found on a log grid of 4000 frequencies and
   interpolated; T = L_p/(1 + L_p) and its -3 dB point likewise). In this box the worst phase
   margin lies inside (the current loop's Ki has a phase-margin minimum near 1850 V/(A*s) at
-  the upper Km), the worst bandwidth at a corner. The search must reach the grid's worst: within 0.02 deg and
-  0.05 % of it (the compass search ends at 1e-3 of each width, finer than the grid's 1/40),
-  and never be better than it by more than the grid's cells can hide (0.1 deg);
+  the upper Km), the worst bandwidth at a corner. The search must reach the grid's worst:
+  within 0.02 deg and 0.05 % of it (the compass search ends at 1e-3 of each width, finer
+  than the grid's 1/40), and never be better than it by more than the grid's cells can hide
+  (0.1 deg);
 * the cascade axis over three keys (J ±5 %, the velocity loop's Kp ±10 %, Km ±5 %: all
-  stable; at J ±20 % some are not, and the search finds them): the grid (9 x 9 x 9) is the batch engine's own figures
-  (tested against an independent build elsewhere, tests/test_architecture_oracle.py), so this
-  checks the search, not the evaluation: no grid point is worse than the search's worst by
-  more than 1e-9;
+  stable; at J ±20 % some are not, and the search finds them): the grid (9 x 9 x 9) is the
+  batch engine's own figures (tested against an independent build elsewhere,
+  tests/test_architecture_oracle.py), so this checks the search, not the evaluation: no grid
+  point is worse than the search's worst by more than 1e-9;
 * a box that holds unstable variants (the QT-CAS's rotor inertia ±75 %) is found unstable,
   with where.
 """
