@@ -60,16 +60,16 @@ def _loop(omega, km, ci_ki, c=CATALOG):
 def _grid_figures(km, ci_ki):
     """(phase margin [deg], bandwidth [rad/s]) per grid point, from the equations."""
     omega = np.geomspace(100.0, 1e4, 4000)
-    l = _loop(omega[None, :], km[:, None], ci_ki[:, None])
-    gain = np.log(np.abs(l))
+    loop = _loop(omega[None, :], km[:, None], ci_ki[:, None])
+    gain = np.log(np.abs(loop))
     margins = np.full(km.size, np.inf)
     for row in range(km.size):
         cross = np.flatnonzero((gain[row, :-1] > 0) & (gain[row, 1:] <= 0))
         for k in cross:
             share = gain[row, k] / (gain[row, k] - gain[row, k + 1])
-            phase = np.angle(l[row, k]) + share * np.angle(l[row, k + 1] / l[row, k])
+            phase = np.angle(loop[row, k]) + share * np.angle(loop[row, k + 1] / loop[row, k])
             margins[row] = min(margins[row], 180.0 + math.degrees(phase))
-    t = np.abs(l / (1.0 + l))
+    t = np.abs(loop / (1.0 + loop))
     low = 1.0 / math.sqrt(2.0)
     bandwidth = np.empty(km.size)
     for row in range(km.size):
