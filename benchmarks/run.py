@@ -37,6 +37,7 @@ Options: ``--quick`` (fewer variants, for a smoke run), ``--skip-memory``, ``--o
 
 import argparse
 import dataclasses
+import json
 import math
 import os
 import platform
@@ -487,6 +488,26 @@ def bench_montecarlo(rows, samples):
                     load=load.text, headline=True))
 
 
+#: The 6-key box of the worst-case row (issue 42's benchmark).
+WORST_CASE_BOX = ("motor.Km=10%", "motor.R=20%", "motor.J=10%", "motor.L=20%",
+                  "current_loop.delay=0.01ms", "position_loop.Kp=5%")
+
+
+def bench_worstcase(rows):
+    """The worst case of every requirement of the shipped config over a 6-key box (corners,
+    256 samples, the compass search), whole process, with the evaluations it counted."""
+    argv = [*cas_freq_command(), "worstcase", "--json", "-q"]
+    for text in WORST_CASE_BOX:
+        argv += ["--tolerance", text]
+    with Load() as load:
+        times = process_times(argv)
+        counted = json.loads(subprocess.run(argv, capture_output=True, text=True,
+                                            check=True).stdout)["search"]["evaluations"]
+    rows.append(Row(f"`cas-freq worstcase`, 6-key box ({counted['analyze']} loop evaluations, "
+                    f"{counted['step']} steps; whole process)", _process_text(times),
+                    goal="≤ 30 s", load=load.text, headline=True))
+
+
 def bench_report(rows):
     """Headline row 2: ``cas-freq report`` of the shipped config (every variant, the load
     envelopes), whole process, wall and CPU; and of base, fitted and relaxed."""
@@ -554,7 +575,8 @@ def write_docs(rows, heading, paths=DOCS):
         path.write_text(new, encoding="utf-8")
 
 
-CASES = ("headline", "margins", "step", "sinedwell", "verify", "montecarlo", "report")
+CASES = ("headline", "margins", "step", "sinedwell", "verify", "montecarlo", "report",
+         "worstcase")
 
 
 def main(argv=None):
@@ -594,6 +616,8 @@ def main(argv=None):
         bench_step(params, 16 if args.quick else 256, rows, notes)
     if "verify" in chosen:
         bench_verify(rows)
+    if "worstcase" in chosen:
+        bench_worstcase(rows)
     text = table(rows)
     print(f"machine: {machine()}; {started}; BLAS at one thread")
     print()
