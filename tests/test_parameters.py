@@ -89,11 +89,13 @@ def _inside(parameter, base):
 
 
 def test_table_covers_every_numeric_schema_field():
-    from cas_freq.config.schema import REFERENCE_PARAMETERS
+    from cas_freq.config.schema import DERIVING_PARAMETERS, REFERENCE_PARAMETERS
 
     # the reference: section (comparison data, not model parameters) has its own table of the
     # same Parameter rows
-    table = {**PARAMETERS, **REFERENCE_PARAMETERS}
+    # the worm's geometry and the simulant's are static descriptions the config derives
+    # gear.efficiency and load.inertia from, declared in the same rows (DERIVING_PARAMETERS)
+    table = {**PARAMETERS, **REFERENCE_PARAMETERS, **DERIVING_PARAMETERS}
     fields = _numeric_schema_fields(ActuatorConfig)
     # the load envelope's step is a test condition (a fin angle checked as a requirement's
     # step is), not a parameter of the actuator
