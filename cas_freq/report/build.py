@@ -49,6 +49,7 @@ from cas_freq.report.parameter_table import parameter_table
 from cas_freq.report.profile import profile_section
 from cas_freq.report.rendering import FIGURE_WORKERS, FigureRenderer, render_figures
 from cas_freq.report.text import pade_columns
+from cas_freq.report.tolerances import tolerance_section
 from cas_freq.report.workers import prepare_kernels
 from cas_freq.studies.run import diverged_at
 
@@ -605,8 +606,9 @@ def report_files(datas, settings, *, png=False, command=None, rendered=None, env
     profile = yield from profile_section(datas, png)  # nothing without a profile requirement
     # nothing without a load_envelope:
     envelope = yield from envelope_section(datas, png, envelopes)
+    tolerance = yield from tolerance_section(datas, png)  # nothing without tolerances:
     blocks = report_blocks(datas, figure_blocks, settings, command,
-                           (*profile.blocks, *envelope.blocks))
+                           (*profile.blocks, *envelope.blocks, *tolerance.blocks))
     params = datas[0].loaded.params
     yield "results.json", results_json(output_json({
         "config": params.name,
@@ -619,6 +621,7 @@ def report_files(datas, settings, *, png=False, command=None, rendered=None, env
         "variants": [variant_results(d) for d in datas],
         **profile.results,
         **envelope.results,
+        **tolerance.results,
         "figures": {d.loaded.variant: sorted(b.path for b in f.values()
                                              if isinstance(b, Figure))
                     for d, f in zip(datas, figure_blocks, strict=True)},
