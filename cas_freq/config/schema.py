@@ -437,7 +437,10 @@ class CascadePositionLoop(_Section):
 
 class VelocityLoop(_Section):
     """PI velocity controller of a cascade, between the position and the current loops, with
-    its current-command limit, delay, feedback low-pass and acceleration feed-forward."""
+    its current-command limit, delay, feedback low-pass and acceleration feed-forward.
+    ``feedback``: ``speed`` (default) reads the motor's speed; ``encoder`` the speed the drive
+    estimates from the motor encoder's counts, their difference over one velocity-loop period
+    through the feedback low-pass (a sampled velocity loop only)."""
 
     Kp: param("velocity_loop.Kp")
     Ki: param("velocity_loop.Ki")
@@ -445,11 +448,21 @@ class VelocityLoop(_Section):
     delay: param("velocity_loop.delay") = 0.0
     feedback_filter: param("velocity_loop.feedback_filter") = 0.0
     ff_a: param("velocity_loop.ff_a") = 0.0
+    feedback: Literal["speed", "encoder"] = "speed"
 
     @model_validator(mode="after")
     def _some_gain(self):
         if self.Kp == 0 and self.Ki == 0:
             raise PydanticCustomError("cas_value", "Kp and Ki are both 0: no velocity loop")
+        return self
+
+    @model_validator(mode="after")
+    def _estimate_filtered(self):
+        if self.feedback == "encoder" and not self.feedback_filter > 0:
+            raise PydanticCustomError(
+                "cas_value", "feedback: encoder (the speed as the drive estimates it from the "
+                "motor encoder's counts, docs/model.md §14) needs feedback_filter > 0 s, the "
+                "estimate's first-order low-pass, e.g. 0.2 ms")
         return self
 
 
@@ -832,6 +845,17 @@ class ActuatorConfig(_Section):
             object.__setattr__(self, "simulation", self.simulation.model_copy(update={
                 "controllers": "sampled", "current_loop_rate": rates["current_loop"],
                 "position_loop_rate": rates.get("position_loop")}))
+        return self
+
+    @model_validator(mode="after")
+    def _encoder_velocity_sampled(self):
+        velocity = self.velocity_loop
+        if velocity is not None and velocity.feedback == "encoder" \
+                and self.sampling.rates.get("velocity_loop") is None:
+            raise PydanticCustomError(
+                "cas_value", "velocity_loop.feedback: encoder estimates the speed from the "
+                "counts over one sample period of the velocity loop, so the velocity loop must "
+                "be sampled: give sampling.velocity_loop (e.g. 2.5 kHz), or feedback: speed")
         return self
 
     @model_validator(mode="after")

@@ -203,6 +203,10 @@ class LoopParameters:
     sampling_method : str
         Static: how the sampled controllers are discretised, ``"backward"`` (default) or
         ``"tustin"`` (``sampling.method``).
+    velocity_from_encoder : bool
+        Static: a cascade's velocity loop reads the speed estimated from the motor encoder's
+        counts (``velocity_loop.feedback: encoder``: their difference over one period through
+        the feedback low-pass ``tau_vf``), not the motor's speed.
     counts_per_rev, output_counts_per_rev : float or None
         Static: counts per revolution of the motor's encoder and of the output's
         (``sensors.counts_per_rev``, ``sensors.output_counts_per_rev``); None (the default):
@@ -252,6 +256,7 @@ class LoopParameters:
     sampling_method: str = DEFAULT_METHOD
     counts_per_rev: float | None = None
     output_counts_per_rev: float | None = None
+    velocity_from_encoder: bool = False
 
     def __post_init__(self):
         names = _array_fields(self)
@@ -311,6 +316,12 @@ class LoopParameters:
         object.__setattr__(self, "filters", filters)
         object.__setattr__(self, "sample_rates",
                            check_static(self.sample_rates, self.sampling_method, self.cascade))
+        encoder = bool(self.velocity_from_encoder)
+        object.__setattr__(self, "velocity_from_encoder", encoder)
+        if encoder and not (self.cascade and np.all(self.tau_vf > 0)):
+            raise ConfigError("simulation parameters: velocity_from_encoder: needs a velocity "
+                              "loop (cascade) and tau_vf > 0 in every run (the estimate's "
+                              f"low-pass; runs {_indices(~(self.tau_vf > 0))})")
         for name in ("counts_per_rev", "output_counts_per_rev"):
             counts = getattr(self, name)
             if counts is not None and not (isinstance(counts, (int, float, np.number))
@@ -353,7 +364,8 @@ class LoopParameters:
         return cls(**{key: np.array([row[key] for row in rows]) for key in rows[0]},
                    cascade=structure[0], feedback_output=structure[1], filters=filters,
                    sample_rates=structure[3], sampling_method=structure[4],
-                   counts_per_rev=structure[5], output_counts_per_rev=structure[6])
+                   counts_per_rev=structure[5], output_counts_per_rev=structure[6],
+                   velocity_from_encoder=structure[7])
 
     @classmethod
     def from_config(cls, config):
@@ -386,7 +398,7 @@ class LoopParameters:
 
 #: LoopParameters fields that are the same for the whole batch (not arrays).
 STATIC_FIELDS = ("cascade", "feedback_output", "filters", "sample_rates", "sampling_method",
-                 "counts_per_rev", "output_counts_per_rev")
+                 "counts_per_rev", "output_counts_per_rev", "velocity_from_encoder")
 
 
 def _array_fields(params):
@@ -439,12 +451,14 @@ def _which(where, bad):
 def loop_structure(config):
     """The static fields of a validated config: (cascade, feedback_output, the filters' points
     and types, sample_rates, sampling_method, the motor's and the output's encoder counts per
-    revolution). Runs of one batch share them."""
+    revolution, the velocity loop read from the encoder). Runs of one batch share them."""
     sensors = config.sensors
+    velocity = getattr(config, "velocity_loop", None)
     return (is_cascade(config), config.position_loop.feedback == "output",
             tuple((item.at, item.type) for item in config.filters),
             config.sampling.sample_rates, config.sampling.method,
-            sensors.counts_per_rev, sensors.output_counts_per_rev)
+            sensors.counts_per_rev, sensors.output_counts_per_rev,
+            velocity is not None and velocity.feedback == "encoder")
 
 
 def _filters(config, numbers=None):
@@ -565,6 +579,7 @@ def variant_parameters(params, changes, n=None):
         filters=tuple(f.broadcast(n) for f in _filters(params, full)),
         sample_rates=structure[3], sampling_method=structure[4],
         counts_per_rev=structure[5], output_counts_per_rev=structure[6],
+        velocity_from_encoder=structure[7],
     )
 
 

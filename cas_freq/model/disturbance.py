@@ -111,4 +111,6 @@ def encoder_weights(p, structure=None):
     for loop in structure.loops[:-1]:
         if on_motor and loop.feedback == "motor_velocity":
             weights[loop.name] = (1.0, 0.0)
+        elif on_motor and loop.feedback == "motor_angle":  # the speed from the counts
+            weights[loop.name] = (1.0,)
     return weights

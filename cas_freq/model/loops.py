@@ -46,7 +46,8 @@ RESPONSE_FIELDS = (
 )
 
 #: Fields the whole batch shares (the architecture, the sampling), passed on as they are.
-STATIC_FIELDS = ("cascade", "feedback_output", "sample_rates", "sampling_method")
+STATIC_FIELDS = ("cascade", "feedback_output", "sample_rates", "sampling_method",
+                 "velocity_from_encoder")
 
 
 class Selector:

@@ -391,12 +391,19 @@ def build(p):
         return Structure(plant(p), (current, position), command=_filters(p, COMMAND_POINT))
     sensor = _filters(p, "velocity_feedback")
     tau_vf = np.asarray(p.tau_vf)
-    if np.any(tau_vf > 0):
+    velocity_feedback = "motor_velocity"
+    if getattr(p, "velocity_from_encoder", False):
+        # the speed the drive estimates from the encoder's counts: the motor angle through
+        # s/(tau_vf s + 1), digital at the velocity loop's rate, which the backward difference
+        # makes the counts' difference over one period through the low-pass (docs/model.md §14)
+        velocity_feedback = "motor_angle"
+        sensor = (Block("velocity estimate", (1.0, 0.0), (p.tau_vf, 1.0)), *sensor)
+    elif np.any(tau_vf > 0):
         sensor = (Block("velocity filter", (1.0,), (p.tau_vf, 1.0)), *sensor)
     velocity = Loop(
         "velocity_loop", "L_v", "the current command", "i_cmd",
         pi_controller("velocity PI", p.cv_Kp, p.cv_Ki, n), at_current_command, p.tau_v,
-        "motor_velocity", sensor, feedforward=(p.ff_a, 0.0, 0.0), signals=("e_v", "omega"),
+        velocity_feedback, sensor, feedforward=(p.ff_a, 0.0, 0.0), signals=("e_v", "omega"),
         limit=getattr(p, "i_max", None),
     )
     position = Loop(
