@@ -101,7 +101,7 @@ def step_runs(variants, amplitude_rad, progress=None):
     return step_batch([(loaded, amplitude_rad) for loaded in variants], progress=progress)
 
 
-def step_batch(items, verdicts=None, progress=None):
+def step_batch(items, verdicts=None, progress=None, parameters=None):
     """Step runs of (variant, step size [rad]) pairs, batched as :func:`step_runs` does.
 
     Parameters
@@ -113,13 +113,16 @@ def step_batch(items, verdicts=None, progress=None):
         :class:`~cas_freq.analysis.Analysis`); the others are computed once per variant.
     progress : callable, optional
         ``progress(steps_done, steps_planned)`` of each batch (:func:`simulate_batch`).
+    parameters : dict, optional
+        ``id(loaded) -> LoopParameters`` already built (the API's actuator keeps its own);
+        the others are built once per variant.
 
     Returns
     -------
     list of StepRun
         In the order of ``items``.
     """
-    groups, verdicts, tables = {}, dict(verdicts or {}), {}
+    groups, verdicts, tables = {}, dict(verdicts or {}), dict(parameters or {})
     for index, (loaded, _) in enumerate(items):
         if id(loaded) not in tables:  # once per variant, however many step sizes
             tables[id(loaded)] = LoopParameters.from_config(loaded.params)
