@@ -191,3 +191,23 @@ def test_the_api_gives_the_cli_s_ranking(files, ranked):
     assert "filter_and_inertia" in repr(result)
     figure = result.plot()
     assert len(figure.axes) == 2
+
+
+def test_an_undetermined_estimate_outside_its_range_is_not_plausible():
+    """A key the data do not determine has no interval (NaN ends): its estimate alone is
+    checked against the range (a fit that ran to a search bound is not plausible)."""
+    import types
+
+    from cas_freq.identification.candidates import Candidate, plausibility
+    from cas_freq.identification.free_keys import FreeKey, ModelSpec
+
+    free = [FreeKey("motor.Km", 0.0105, True, 1.0, -5.0, 0.0, "N*m/A")]
+    candidate = Candidate("c", "s", (), ModelSpec("c", ("motor.Km",), {}),
+                          {"motor.Km": (0.00945, 0.01155)}, {"motor.Km": "catalog"})
+    nan = float("nan")
+    outside = types.SimpleNamespace(free=free, estimate=np.array([0.02]),
+                                    interval=np.array([[nan, nan]]))
+    inside = types.SimpleNamespace(free=free, estimate=np.array([0.0101]),
+                                   interval=np.array([[nan, nan]]))
+    assert plausibility(candidate, outside)[0] == "needs values no datasheet gives"
+    assert plausibility(candidate, inside)[0] == "plausible"

@@ -23,6 +23,7 @@ determine is **flagged** (its information criterion already charges the extra pa
 """
 
 import dataclasses
+import math
 import re
 
 from cas_freq.config.loader import read_config_file
@@ -166,8 +167,9 @@ def plausibility(candidate, fit):
         if allowed is None:
             reasons.append(f"{free.key}: no datasheet or report range given")
             continue
-        low = estimate if low is None else low
-        high = estimate if high is None else high
+        # an interval the data do not give (None or not finite): the estimate alone
+        low = estimate if low is None or not math.isfinite(low) else low
+        high = estimate if high is None or not math.isfinite(high) else high
         if high < allowed[0] or low > allowed[1]:
             reasons.append(f"{free.key} = {estimate:.4g} {free.unit}, outside "
                            f"[{allowed[0]:.4g}, {allowed[1]:.4g}] "
