@@ -22,7 +22,9 @@ def register(commands):
         "relative, 0.02ms or ±0.036ohm absolute), the parameter combination that reaches it "
         "and how it was found: the nominal, every corner and uniform samples of the box, "
         "then a compass search from each figure's worst corner and sample. The worst found "
-        "is printed; no guaranteed bound over the box is established (the output says so). "
+        "is printed; for the position loop's phase and gain margins of a continuous "
+        "PID-on-PI also a bound guaranteed over the whole box (interval branch and bound) and "
+        "whether stability over the whole box is proved. "
         "Stability is checked at every point evaluated, and the position loop's margins are "
         "searched even where no requirement names them. Exit 0 (a failing worst case is a "
         "result; `verify` with 'worst_case: true' on a requirement gates on it).",

@@ -75,8 +75,10 @@ def tolerance_section(datas, png=False):
     blocks = [Heading(2, "Tolerances: nominal, worst case and yield"), Paragraph(
         f"The config's tolerances ({keys}) span a box around each variant. For every "
         "requirement: its nominal value, the worst found over the box (every corner, 256 "
-        "uniform samples, then a compass search from the worst corner and sample; no "
-        "guaranteed bound is established) with the point that reaches it (each key's offset "
+        "uniform samples, then a compass search from the worst corner and sample), the "
+        "guaranteed bound over the whole box where one is established (the position loop's "
+        "phase and gain margins of a continuous PID-on-PI: interval branch and bound), with "
+        "the point that reaches the worst (each key's offset "
         f"as a share of its half-width), and the yield of {YIELD_SAMPLES} Monte Carlo samples "
         "uniform on the box (seed 0). `cas-freq worstcase` prints the search.")]
     rows, results = [], []
@@ -93,6 +95,7 @@ def tolerance_section(datas, png=False):
                 _shown(row["nominal"]),
                 ("not stable" if row["worst_verdict"] != "stable" else _shown(row["worst"]))
                 + (" FAILS" if row["worst_fails"] else ""),
+                "—" if row.get("bound") is None else f"≥ {_shown(row['bound'])}",
                 ("a corner: " if row["at_corner"] else "inside: ") + point_text(row["at"]),
                 (f"{share['yield_pct']:.1f} %" if share.get("evaluated") else "—"),
             ))
@@ -109,7 +112,8 @@ def tolerance_section(datas, png=False):
         blocks.append(Figure(f"{stem}.svg", f"The worst point of {shown['id']} beside the "
                              f"nominal: |T| and the {math.degrees(step_rad):g}° step — "
                              f"{params.name} / {loaded.variant}", svg))
-    blocks.insert(2, Table(("requirement", "variant", "unit", "nominal", "worst found", "at",
-                            "yield"), tuple(rows), "tolerances: nominal, worst case over the "
-                           "box and Monte Carlo yield"))
+    header = ("requirement", "variant", "unit", "nominal", "worst found", "guaranteed", "at",
+              "yield")
+    blocks.insert(2, Table(header, tuple(rows), "tolerances: nominal, worst case over the box "
+                           "and Monte Carlo yield"))
     return ToleranceSection(blocks, results)

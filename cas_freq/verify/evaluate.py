@@ -184,7 +184,8 @@ def _worst_cases(loaded, requirements):
                      f"{search['evaluations']['analyze']} evaluations) at {where}: "
                      f"{point_text(row['at'])}; nominal "
                      + ("—" if row["nominal"] is None else f"{row['nominal']:.4g}")
-                     + "; worst found, no guaranteed bound")
+                     + ("; worst found, no guaranteed bound" if row.get("bound") is None
+                        else f"; guaranteed >= {row['bound']:.4g} over the whole box"))
         verdict = _verdict(requirement, loaded.variant, row["worst"], condition,
                            stable=row["worst_verdict"] == "stable")
         out[requirement.id] = dataclasses.replace(verdict, worst_case={

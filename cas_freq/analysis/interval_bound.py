@@ -1,0 +1,369 @@
+r"""Guaranteed bounds over a parameter box for the PID-on-PI's position loop: a phase-margin
+and a gain-margin lower bound, and stability of every point of the box (docs/model.md,
+"Tolerances and the worst case").
+
+The loop of docs/model.md §3-4, L_p = C_p e^{-sτ_p} T_i M with T_i = L_i/(1 + L_i),
+L_i = C_i e^{-sτ_c} Y, Y = (Js + μ_v)/((Ls + R)(Js + μ_v) + K_e K_m), M = K_m/(s(Js + μ_v)),
+is evaluated in **complex interval arithmetic** (rectangles: real and imaginary intervals) over
+cells, each a sub-box of the parameters times an interval of frequency. Every operation
+encloses its exact result, so the rectangle of a cell holds L_p(jω, p) for every ω and p of
+the cell (outward-widened by 1e-9 of its size for the rounding of floating point):
+
+- **phase margin**: where a rectangle can hold a point of modulus 1, the smallest angle between
+  it and the negative real axis is a lower bound of the phase margin at any crossover in the
+  cell (the argument of a convex set without the origin spans the arguments of its corners);
+- **gain margin** (upper, at the phase crossovers where |L| < 1): where a rectangle reaches
+  the negative real axis inside the unit circle, -20 log10 of the largest |Re| it reaches there;
+- **stability** (the zero-exclusion principle): if no rectangle holds -1, neither for L_p nor
+  for the current loop's L_i, then 1 + L(jω, p) is never 0 on the frequency axis, so no
+  closed-loop pole crosses it anywhere in the box; with the nominal point stable (and the
+  open loop's poles, the integrators and T_i's, fixed in the left half-plane and at 0), every
+  point of the box is stable.
+
+A branch and bound refines the cells whose bound is below the worst found (bisecting the
+parameter or the frequency interval that is widest in its own scale) until the bound meets
+it or the cell budget runs out; the bound holds whenever it stops, the gap says how close it
+got. The frequencies covered are 1e-9 .. 1e12 rad/s (the analysed range and far beyond it).
+Where the loop is not a continuous PID-on-PI with a rigid, unloaded gear and no filters, or a
+toleranced key does not enter L_p, there is no bound (:func:`supported` says why).
+"""
+
+import math
+
+import numpy as np
+
+#: The keys a box may tolerance for a bound, and the LoopParameters field each sets.
+FIELDS = {
+    "motor.R": "R", "motor.L": "L", "motor.Km": "Km", "motor.Ke": "Ke", "motor.J": "J",
+    "motor.mu_v": "mu_v", "current_loop.Kp": "ci_Kp", "current_loop.Ki": "ci_Ki",
+    "current_loop.delay": "tau_c", "position_loop.Kp": "cp_Kp", "position_loop.Ki": "cp_Ki",
+    "position_loop.Kd": "cp_Kd", "position_loop.Tf": "Tf", "position_loop.delay": "tau_p",
+}
+#: Frequencies the cells cover [rad/s] and the first cells per decade.
+OMEGA_RANGE = (1e-9, 1e12)
+FIRST_CELLS_PER_DECADE = 8
+#: Most cells evaluated by one bound.
+MAX_CELLS = 2_000_000
+#: Relative outward widening of every rectangle (floating-point rounding).
+WIDEN = 1e-9
+
+
+def supported(params, keys):
+    """None if a bound can be established for ``params`` (one run of LoopParameters) over
+    ``keys``, else why not."""
+    if params.cascade:
+        return "the bound is established for the PID-on-PI only (this is a cascade)"
+    if params.feedback_output or params.filters or params.sample_rates:
+        return ("the bound is established for a continuous PID-on-PI on the motor encoder "
+                "without filters")
+    if bool(np.any(params.loaded)):
+        return "the bound is established for a rigid, unloaded gear"
+    other = [key for key in keys if key not in FIELDS and key not in (
+        "motor.no_load.current", "motor.no_load.speed")]
+    if other:
+        return f"{', '.join(other)}: not a key of the position loop's L_p (no bound)"
+    return None
+
+
+# --- interval arithmetic: a real interval is (low, high), a complex one (re, im) -----------
+
+def _mul(a, b):
+    products = (a[0] * b[0], a[0] * b[1], a[1] * b[0], a[1] * b[1])
+    return np.minimum.reduce(products), np.maximum.reduce(products)
+
+
+def _add(a, b):
+    return a[0] + b[0], a[1] + b[1]
+
+
+def _sub(a, b):
+    return a[0] - b[1], a[1] - b[0]
+
+
+def _square(a):
+    low, high = a[0] * a[0], a[1] * a[1]
+    inside = (a[0] <= 0) & (a[1] >= 0)
+    return np.where(inside, 0.0, np.minimum(low, high)), np.maximum(low, high)
+
+
+def _cmul(z, w):
+    (a, b), (c, d) = z, w
+    return _sub(_mul(a, c), _mul(b, d)), _add(_mul(a, d), _mul(b, c))
+
+
+def _cadd(z, w):
+    return _add(z[0], w[0]), _add(z[1], w[1])
+
+
+def _cdiv(z, w):
+    """z / w, w's rectangle away from 0 (else an unbounded rectangle)."""
+    c, d = w
+    modulus = _add(_square(c), _square(d))
+    positive = modulus[0] > 0
+    low = np.where(positive, modulus[0], 1.0)
+    inverse = (1.0 / modulus[1], 1.0 / low)
+    conjugate = (c, (-d[1], -d[0]))
+    re, im = _cmul(z, conjugate)
+    re, im = _mul(re, inverse), _mul(im, inverse)
+    infinite = np.where(positive, 0.0, np.inf)
+    return (re[0] - infinite, re[1] + infinite), (im[0] - infinite, im[1] + infinite)
+
+
+def _meet(z, w):
+    """The intersection of two rectangles that both hold the same value (each may be
+    unbounded)."""
+    # fmax/fmin: an end that is NaN (inf - inf in an unbounded form) is no end
+    return ((np.fmax(z[0][0], w[0][0]), np.fmin(z[0][1], w[0][1])),
+            (np.fmax(z[1][0], w[1][0]), np.fmin(z[1][1], w[1][1])))
+
+
+def _real(a):
+    return a, (np.zeros_like(a[0]), np.zeros_like(a[0]))
+
+
+def _cos_range(low, high):
+    """Range of cos over [low, high] (arrays)."""
+    values = np.stack([np.cos(low), np.cos(high)])
+    top = np.minimum.reduce(values), np.maximum.reduce(values)
+    has_max = np.floor(high / (2 * math.pi)) >= np.ceil(low / (2 * math.pi))
+    has_min = np.floor((high - math.pi) / (2 * math.pi)) >= np.ceil((low - math.pi) /
+                                                                    (2 * math.pi))
+    return np.where(has_min, -1.0, top[0]), np.where(has_max, 1.0, top[1])
+
+
+def _exp_minus_j(theta):
+    """e^{-jθ} for θ in an interval: (cos θ, -sin θ) ranges."""
+    cos = _cos_range(*theta)
+    sin = _cos_range(theta[0] - math.pi / 2, theta[1] - math.pi / 2)
+    return cos, (-sin[1], -sin[0])
+
+
+def _widen(z):
+    (a, b), (c, d) = z
+    size = np.maximum.reduce([np.abs(a), np.abs(b), np.abs(c), np.abs(d)]) * WIDEN
+    return (a - size, b + size), (c - size, d + size)
+
+
+def loop_enclosures(values, omega):
+    """Rectangles holding L_i(jω) and L_p(jω) over cells.
+
+    Parameters
+    ----------
+    values : dict of str to (numpy.ndarray, numpy.ndarray)
+        Each LoopParameters field of the PID-on-PI (:data:`FIELDS`' values) as an interval
+        (low, high) per cell (a point: low = high).
+    omega : (numpy.ndarray, numpy.ndarray)
+        The cells' frequency intervals [rad/s], > 0.
+
+    Returns
+    -------
+    (L_i, L_p)
+        Each ((re low, re high), (im low, im high)) per cell.
+    """
+    # a divisor whose interval reaches 0 gives an unbounded rectangle, and inf - inf or
+    # 0 * inf a NaN end: both are handled (NaN ends are no ends, :func:`_meet`; a rectangle
+    # that is not finite holds anything, :func:`bounds`), so numpy need not warn of them
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        return _enclosures(values, omega)
+
+
+def _enclosures(values, omega):
+    v = values
+    jw = (np.zeros_like(omega[0]), np.zeros_like(omega[0])), omega
+    inverse_w = (1.0 / omega[1], 1.0 / omega[0])
+    over_jw = (np.zeros_like(omega[0]), np.zeros_like(omega[0])), (-inverse_w[1], -inverse_w[0])
+    # two forms each, their rectangles intersected (both hold the exact value): interval
+    # arithmetic widens every repeated occurrence of an interval, so Y = 1/(Ls + R +
+    # Ke Km/(Js + mu_v)) and T_i = 1/(1 + 1/L_i), where each enters once, are tight where
+    # they are finite, and the plain forms hold where those divide by an interval through 0
+    one = _real((np.ones_like(omega[0]), np.ones_like(omega[0])))
+    mechanical = _cadd(_cmul(_real(v["J"]), jw), _real(v["mu_v"]))  # J s + mu_v
+    electrical = _cadd(_cmul(_real(v["L"]), jw), _real(v["R"]))  # L s + R
+    coupling = _real(_mul(v["Ke"], v["Km"]))
+    y = _meet(_cdiv(one, _cadd(electrical, _cdiv(coupling, mechanical))),
+              _cdiv(mechanical, _cadd(_cmul(electrical, mechanical), coupling)))
+    c_i = _cadd(_real(v["ci_Kp"]), _cmul(_real(v["ci_Ki"]), over_jw))
+    l_i = _widen(_cmul(_cmul(c_i, _exp_minus_j(_mul(omega, v["tau_c"]))), y))
+    t_i = _meet(_cdiv(one, _cadd(one, _cdiv(one, l_i))), _cdiv(l_i, _cadd(one, l_i)))
+    m = _cdiv(_real(v["Km"]), _cmul(jw, mechanical))
+    derivative = _cdiv(_cmul(_real(v["cp_Kd"]), jw), _cadd(one, _cmul(_real(v["Tf"]), jw)))
+    c_p = _cadd(_cadd(_real(v["cp_Kp"]), _cmul(_real(v["cp_Ki"]), over_jw)), derivative)
+    l_p = _cmul(_cmul(_cmul(c_p, _exp_minus_j(_mul(omega, v["tau_p"]))), t_i), m)
+    return l_i, _widen(l_p)
+
+
+# --- what a rectangle says ---------------------------------------------------------------
+
+def _corner_moduli(z):
+    (a, b), (c, d) = z
+    corners = np.stack([np.hypot(a, c), np.hypot(a, d), np.hypot(b, c), np.hypot(b, d)])
+    # the nearest point to the origin: clamp 0 into each interval
+    near_re = np.where((a <= 0) & (b >= 0), 0.0, np.minimum(np.abs(a), np.abs(b)))
+    near_im = np.where((c <= 0) & (d >= 0), 0.0, np.minimum(np.abs(c), np.abs(d)))
+    return np.hypot(near_re, near_im), np.maximum.reduce(corners)
+
+
+def phase_margin_bound(z):
+    """Per cell: a lower bound of the phase margin [deg] at any crossover the cell can hold
+    (+inf where it holds none: its moduli exclude 1)."""
+    (a, b), (c, d) = z
+    nearest, farthest = _corner_moduli(z)
+    relevant = (nearest <= 1.0) & (farthest >= 1.0)
+    # the negative real axis is reached: 0; else the corners' angles from it
+    on_axis = (c <= 0) & (d >= 0) & (a <= 0)
+    angles = np.stack([np.abs(np.angle(-(x + 1j * y))) for x in (a, b) for y in (c, d)])
+    bound = np.where(on_axis, 0.0, np.degrees(np.min(angles, axis=0)))
+    return np.where(relevant, bound, np.inf)
+
+
+def gain_margin_bound(z):
+    """Per cell: a lower bound of the (upper) gain margin [dB] at any phase crossover inside
+    the unit circle the cell can hold (+inf where it holds none): the largest |Re| it reaches
+    on the negative real axis there is at most -Re's low end (and 1)."""
+    (a, b), (c, d) = z
+    inside = (c <= 0) & (d >= 0) & (a < 0) & (b > -1.0)
+    with np.errstate(divide="ignore"):
+        bound = -20.0 * np.log10(np.minimum(-np.minimum(a, 0.0), 1.0))
+    return np.where(inside, bound, np.inf)
+
+
+def _finite(z):
+    (a, b), (c, d) = z
+    return np.isfinite(a) & np.isfinite(b) & np.isfinite(c) & np.isfinite(d)
+
+
+def holds_minus_one(z):
+    """Per cell: the rectangle holds -1."""
+    (a, b), (c, d) = z
+    return (a <= -1.0) & (b >= -1.0) & (c <= 0.0) & (d >= 0.0)
+
+
+# --- the branch and bound -----------------------------------------------------------------
+
+def _values(base, keys, low, high):
+    """Each field's interval per cell: the toleranced keys' from the cells, the others the
+    base run's point; mu_v follows Km where the config derives it (``base['derive_mu']``)."""
+    out = {}
+    for field in set(FIELDS.values()):
+        value = np.full(low.shape[0], float(base[field]))
+        out[field] = (value, value.copy())
+    for j, key in enumerate(keys):
+        if key in FIELDS:
+            out[FIELDS[key]] = (low[:, j], high[:, j])
+    if base.get("derive_tf"):  # Tf = Kd / (10 Kp), each of them possibly toleranced
+        kp = out["cp_Kp"]
+        out["Tf"] = _mul(out["cp_Kd"], (1.0 / (10.0 * kp[1]), 1.0 / (10.0 * kp[0])))
+    derive = base.get("derive_mu")
+    if derive is not None:  # mu_v = Km I0 / w0, each of them possibly toleranced
+        current, speed = derive
+        i0 = (np.full(low.shape[0], current), np.full(low.shape[0], current))
+        w0 = (np.full(low.shape[0], speed), np.full(low.shape[0], speed))
+        for j, key in enumerate(keys):
+            if key == "motor.no_load.current":
+                i0 = (low[:, j], high[:, j])
+            elif key == "motor.no_load.speed":
+                w0 = (low[:, j], high[:, j])
+        out["mu_v"] = _mul(_mul(out["Km"], i0), (1.0 / w0[1], 1.0 / w0[0]))
+    return out
+
+
+def bounds(base, keys, low, high, targets, max_cells=MAX_CELLS):
+    """Guaranteed lower bounds of the position loop's phase and gain margins and the
+    stability verdict over a box.
+
+    Parameters
+    ----------
+    base : dict
+        The nominal run's fields (:data:`FIELDS`' values), ``derive_mu`` (None, or the
+        no-load current [A] and speed [rad/s] that mu_v = Km I0/w0 follows) and
+        ``derive_tf`` (True where Tf = Kd/(10 Kp) follows the gains).
+    keys : sequence of str
+        The toleranced keys.
+    low, high : numpy.ndarray
+        The box [SI] per key.
+    targets : dict
+        ``phase_margin_deg``, ``gain_margin_db``: the worst found, the level the refinement
+        aims at.
+    max_cells : int
+        Most cells evaluated.
+
+    Returns
+    -------
+    dict
+        ``phase_margin_deg``, ``gain_margin_db``: the bound (-inf if none); ``stable``: True
+        when no cell holds -1 (False: not proved, with the cells' count); ``cells``: evaluated.
+    """
+    d = len(keys)
+    decades = math.log10(OMEGA_RANGE[1] / OMEGA_RANGE[0])
+    count = int(math.ceil(decades * FIRST_CELLS_PER_DECADE))
+    edges = np.geomspace(*OMEGA_RANGE, count + 1)
+    # cells: parameter sub-boxes (unit coordinates) and log-frequency intervals
+    cell_low = np.zeros((count, d))
+    cell_high = np.ones((count, d))
+    w_low, w_high = edges[:-1].copy(), edges[1:].copy()
+    span = high - low
+    evaluated = 0
+    # the smallest bounds of the cells retired (not refined further), and whether a cell that
+    # may hold -1 is left
+    floor_pm = floor_gm = math.inf
+    while True:
+        p_low, p_high = low + cell_low * span, low + cell_high * span
+        l_i, l_p = loop_enclosures(_values(base, keys, p_low, p_high), (w_low, w_high))
+        evaluated += w_low.size
+        with np.errstate(invalid="ignore", divide="ignore"):
+            pm, gm = phase_margin_bound(l_p), gain_margin_bound(l_p)
+        # a rectangle that is not finite (a divisor's interval reached 0) holds anything
+        lost = ~(_finite(l_p) & _finite(l_i))
+        pm, gm = np.where(lost | np.isnan(pm), 0.0, pm), np.where(lost | np.isnan(gm), 0.0, gm)
+        minus_one = holds_minus_one(l_p) | holds_minus_one(l_i) | lost
+        refine = ((pm < targets["phase_margin_deg"] - 1e-3)
+                  | (gm < targets["gain_margin_db"] - 1e-4) | minus_one)
+        if (~refine).any():
+            floor_pm = min(floor_pm, float(np.min(pm[~refine])))
+            floor_gm = min(floor_gm, float(np.min(gm[~refine])))
+        if not refine.any() or evaluated + 2 * int(refine.sum()) > max_cells:
+            left = refine
+            return {
+                "phase_margin_deg": min(floor_pm, float(np.min(pm[left])) if left.any()
+                                        else math.inf),
+                "gain_margin_db": min(floor_gm, float(np.min(gm[left])) if left.any()
+                                      else math.inf),
+                "stable": not bool(minus_one[left].any()),
+                "cells": evaluated,
+            }
+        cell_low, cell_high = cell_low[refine], cell_high[refine]
+        w_low, w_high = w_low[refine], w_high[refine]
+        # split each cell along its widest dimension: a key in unit width, or the frequency
+        # in decades (one unit = a tenth of a decade)
+        widths = np.concatenate([cell_high - cell_low,
+                                 (np.log10(w_high / w_low) * 10.0)[:, None]], axis=1)
+        along = np.argmax(widths, axis=1)
+        new_low_p, new_high_p = np.repeat(cell_low, 2, axis=0), np.repeat(cell_high, 2, axis=0)
+        new_low_w, new_high_w = np.repeat(w_low, 2), np.repeat(w_high, 2)
+        first = np.arange(0, 2 * along.size, 2)
+        on_key = along < d
+        rows = np.flatnonzero(on_key)
+        middle = 0.5 * (cell_low[rows, along[rows]] + cell_high[rows, along[rows]])
+        new_high_p[first[rows], along[rows]] = middle
+        new_low_p[first[rows] + 1, along[rows]] = middle
+        rows = np.flatnonzero(~on_key)
+        middle = np.sqrt(w_low[rows] * w_high[rows])
+        new_high_w[first[rows]] = middle
+        new_low_w[first[rows] + 1] = middle
+        cell_low, cell_high, w_low, w_high = new_low_p, new_high_p, new_low_w, new_high_w
+
+
+def box_bounds(config, params, keys, low, high, targets, max_cells=MAX_CELLS):
+    """:func:`bounds` of a validated config's nominal run ``params`` (LoopParameters, one
+    run) over the box of ``keys`` (its derived mu_v and Tf following their keys), or None
+    with the reason where no bound is established (:func:`supported`)."""
+    reason = supported(params, keys)
+    if reason:
+        return None, reason
+    base = {field: float(getattr(params, field)[0]) for field in set(FIELDS.values())}
+    motor = config.motor
+    base["derive_mu"] = ((motor.no_load.current, motor.no_load.speed)
+                         if motor.mu_v is None else None)
+    base["derive_tf"] = config.position_loop.Tf is None
+    return bounds(base, keys, np.asarray(low, float), np.asarray(high, float), targets,
+                  max_cells), None
