@@ -326,7 +326,8 @@ def worst_case(loaded, tolerances=None, requirements=None, *, samples=DEFAULT_SA
                 str(verdict_worst[index]))
         for index, (objective, (point, margin, how)) in enumerate(
             zip(objectives, worst, strict=True))]
-    guaranteed, why = _guaranteed(params, box, results, figures)
+    guaranteed, why = ((None, "none: the nominal point is not stable") if not stable[0]
+                       else _guaranteed(params, box, results, figures))
     return json_ready({
         "config": params.name, "config_path": loaded.source, "variant": loaded.variant,
         "overrides": [f"{k}={v}" for k, v in loaded.overrides],
@@ -449,7 +450,8 @@ def worst_case_text(data):
     stability = data["stability"]
     if stability["proved"]:
         lines.append("  stability PROVED over the whole box: 1 + L never 0 on the frequency "
-                     "axis (zero exclusion, interval enclosures of L_p and L_i)")
+                     "axis from 1e-9 to 1e12 rad/s (zero exclusion, interval enclosures of "
+                     "L_p and L_i), the nominal stable")
     elif stability["proved"] is False:
         lines.append("  stability over the whole box NOT proved: some cell's enclosure holds -1")
     if stability["not_stable"]:
