@@ -128,16 +128,34 @@ def test_every_required_figure_is_searched_and_counted(qt_box):
 
 def test_the_guaranteed_bounds_hold_on_the_grid_and_meet_the_worst_found(qt_box):
     """The interval bound of the position loop's margins: no grid point (the equations
-    written here, 41 x 41) is below it, and it is within 0.6 deg and 0.07 dB of the search's
-    worst (measured: 0.58 deg, 0.062 dB with the default cell budget)."""
+    written here, 41 x 41) is below it, and it is within 0.9 deg, 0.1 dB and 3 % of the
+    search's worst (measured: 0.85 deg, 0.08 dB, 24 rad/s with the default cell budget shared
+    by the three)."""
     _, _, data = qt_box
     km, ki = np.meshgrid(np.linspace(0.00945, 0.01155, 41), np.linspace(1134.12, 4536.48, 41))
     margins, _ = _grid_figures(km.ravel(), ki.ravel())
     row = _row(data, "position_loop.phase_margin_deg")
     assert row["bound"] <= margins.min() and row["bound"] <= row["worst"]
-    assert row["gap"] < 0.6
+    assert row["gap"] < 0.9
     gain = _row(data, "position_loop.gain_margin_db")
-    assert gain["bound"] <= gain["worst"] and gain["gap"] < 0.07
+    assert gain["bound"] <= gain["worst"] and gain["gap"] < 0.1
+    _, bandwidth = _grid_figures(km.ravel(), ki.ravel())
+    band = _row(data, "closed_loop.bandwidth_rad_s")
+    assert band["bound"] <= bandwidth.min() and band["gap"] < 0.03 * band["worst"]
+
+
+def test_a_narrow_box_s_bounds_meet_the_worst_found():
+    """Km ±10 %, J ±10 %: every bound within a hair of the worst found (the worst at a
+    corner; measured gaps 0.001 deg, 1e-4 dB, 0.11 rad/s)."""
+    loaded = load_variant(QT)
+    data = worst_case(loaded, [parse_tolerance(t, loaded.params)
+                               for t in ("motor.Km=10%", "motor.J=10%")], samples=8)
+    for metric, gap in (("position_loop.phase_margin_deg", 0.01),
+                        ("position_loop.gain_margin_db", 0.001),
+                        ("closed_loop.bandwidth_rad_s", 0.5)):
+        row = _row(data, metric)
+        assert 0.0 <= row["gap"] < gap, (metric, row["gap"])
+    assert data["stability"]["proved"] is True
 
 
 def test_the_enclosures_hold_the_loop_at_random_points_of_their_cells():

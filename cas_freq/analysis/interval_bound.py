@@ -1,6 +1,6 @@
-r"""Guaranteed bounds over a parameter box for the PID-on-PI's position loop: a phase-margin
-and a gain-margin lower bound, and stability of every point of the box (docs/model.md,
-"Tolerances and the worst case").
+r"""Guaranteed bounds over a parameter box for the PID-on-PI's position loop: lower bounds of
+its phase and gain margins and of the closed-loop bandwidth, and stability of every point of
+the box (docs/model.md, "Tolerances and the worst case").
 
 The loop of docs/model.md §3-4, L_p = C_p e^{-sτ_p} T_i M with T_i = L_i/(1 + L_i),
 L_i = C_i e^{-sτ_c} Y, Y = (Js + μ_v)/((Ls + R)(Js + μ_v) + K_e K_m), M = K_m/(s(Js + μ_v)),
@@ -14,6 +14,9 @@ the cell (outward-widened by 1e-9 of its size for the rounding of floating point
   cell (the argument of a convex set without the origin spans the arguments of its corners);
 - **gain margin** (upper, at the phase crossovers where |L| < 1): where a rectangle reaches
   the negative real axis inside the unit circle, -20 log10 of the largest |Re| it reaches there;
+- **bandwidth**: T = L_p/(1 + L_p) (no feed-forward), enclosed in two forms intersected;
+  the lowest frequency of a cell whose rectangle can reach |T| <= 1/sqrt(2) bounds ω_BW from
+  below (T(0) = 1, so ω_BW is the first frequency where |T| falls to it);
 - **stability** (the zero-exclusion principle): if no rectangle holds -1, neither for L_p nor
   for the current loop's L_i, then 1 + L(jω, p) is never 0 on the frequency axis, so no
   closed-loop pole crosses it anywhere in the box; with the nominal point stable (and the
@@ -46,6 +49,8 @@ FIRST_CELLS_PER_DECADE = 8
 MAX_CELLS = 2_000_000
 #: Relative outward widening of every rectangle (floating-point rounding).
 WIDEN = 1e-9
+#: |T| at the bandwidth: 1/sqrt(2), 3.01 dB below T(0) = 1 (docs/model.md §7).
+HALF_POWER = 1.0 / math.sqrt(2.0)
 
 
 def supported(params, keys):
@@ -227,6 +232,29 @@ def gain_margin_bound(z):
     return np.where(inside, bound, np.inf)
 
 
+def _smallest(values, where):
+    """The smallest of ``values`` where ``where`` holds (+inf where it holds nowhere)."""
+    return float(np.min(values[where])) if where.any() else math.inf
+
+
+def closed_loop_enclosure(l_p):
+    """Rectangles holding T = L_p/(1 + L_p) (no feed-forward: the T of ω_BW), in both forms
+    intersected."""
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        ones = np.ones_like(l_p[0][0])
+        one = (ones, ones), (np.zeros_like(ones), np.zeros_like(ones))
+        return _meet(_cdiv(one, _cadd(one, _cdiv(one, l_p))), _cdiv(l_p, _cadd(one, l_p)))
+
+
+def bandwidth_bound(t, w_low):
+    """Per cell: a lower bound of ω_BW that the cell allows: the cell's lowest frequency where
+    its rectangle of T can reach |T| <= 1/sqrt(2) (T(0) = 1), else +inf; a rectangle that is
+    not finite reaches it anywhere."""
+    nearest, _ = _corner_moduli(t)
+    reach = ~_finite(t) | ~(nearest > HALF_POWER)
+    return np.where(reach, w_low, np.inf)
+
+
 def _finite(z):
     (a, b), (c, d) = z
     return np.isfinite(a) & np.isfinite(b) & np.isfinite(c) & np.isfinite(d)
@@ -305,7 +333,7 @@ def bounds(base, keys, low, high, targets, max_cells=MAX_CELLS):
     evaluated = 0
     # the smallest bounds of the cells retired (not refined further), and whether a cell that
     # may hold -1 is left
-    floor_pm = floor_gm = math.inf
+    floor_pm = floor_gm = floor_bw = math.inf
     while True:
         p_low, p_high = low + cell_low * span, low + cell_high * span
         l_i, l_p = loop_enclosures(_values(base, keys, p_low, p_high), (w_low, w_high))
@@ -316,19 +344,20 @@ def bounds(base, keys, low, high, targets, max_cells=MAX_CELLS):
         lost = ~(_finite(l_p) & _finite(l_i))
         pm, gm = np.where(lost | np.isnan(pm), 0.0, pm), np.where(lost | np.isnan(gm), 0.0, gm)
         minus_one = holds_minus_one(l_p) | holds_minus_one(l_i) | lost
+        bw = np.where(lost, 0.0, bandwidth_bound(closed_loop_enclosure(l_p), w_low))
         refine = ((pm < targets["phase_margin_deg"] - 1e-3)
-                  | (gm < targets["gain_margin_db"] - 1e-4) | minus_one)
+                  | (gm < targets["gain_margin_db"] - 1e-4) | minus_one
+                  | (bw < targets.get("bandwidth_rad_s", -math.inf) * (1.0 - 1e-4)))
         if (~refine).any():
             floor_pm = min(floor_pm, float(np.min(pm[~refine])))
             floor_gm = min(floor_gm, float(np.min(gm[~refine])))
+            floor_bw = min(floor_bw, float(np.min(bw[~refine])))
         if not refine.any() or evaluated + 2 * int(refine.sum()) > max_cells:
-            left = refine
             return {
-                "phase_margin_deg": min(floor_pm, float(np.min(pm[left])) if left.any()
-                                        else math.inf),
-                "gain_margin_db": min(floor_gm, float(np.min(gm[left])) if left.any()
-                                      else math.inf),
-                "stable": not bool(minus_one[left].any()),
+                "phase_margin_deg": min(floor_pm, _smallest(pm, refine)),
+                "gain_margin_db": min(floor_gm, _smallest(gm, refine)),
+                "bandwidth_rad_s": min(floor_bw, _smallest(bw, refine)),
+                "stable": not bool(minus_one[refine].any()),
                 "cells": evaluated,
             }
         cell_low, cell_high = cell_low[refine], cell_high[refine]
