@@ -1,6 +1,6 @@
-r"""Guaranteed bounds over a parameter box for the PID-on-PI's position loop: lower bounds of
-its phase and gain margins and of the closed-loop bandwidth, and stability of every point of
-the box (docs/model.md, "Tolerances and the worst case").
+r"""Guaranteed bounds over a parameter box for the PID-on-PI: lower bounds of the position
+loop's and the current loop's phase and gain margins and of the closed-loop bandwidth, and
+stability of every point of the box (docs/model.md, "Tolerances and the worst case").
 
 The loop of docs/model.md §3-4, L_p = C_p e^{-sτ_p} T_i M with T_i = L_i/(1 + L_i),
 L_i = C_i e^{-sτ_c} Y, Y = (Js + μ_v)/((Ls + R)(Js + μ_v) + K_e K_m), M = K_m/(s(Js + μ_v)),
@@ -45,8 +45,15 @@ FIELDS = {
 #: Frequencies the cells cover [rad/s] and the first cells per decade.
 OMEGA_RANGE = (1e-9, 1e12)
 FIRST_CELLS_PER_DECADE = 8
-#: Most cells evaluated by one bound.
-MAX_CELLS = 2_000_000
+#: Most cells evaluated by one bound, and the cells evaluated at once (memory: ~300 bytes
+#: per cell and interval, a few hundred MB per chunk).
+MAX_CELLS = 4_000_000
+CHUNK = 250_000
+#: The figures bounded: the position loop's margins, the current loop's (alone and with the
+#: position loop closed), the closed-loop bandwidth.
+FIGURES = ("phase_margin_deg", "gain_margin_db", "current_phase_margin_deg",
+           "current_gain_margin_db", "current_aat_phase_margin_deg",
+           "current_aat_gain_margin_db", "bandwidth_rad_s")
 #: Relative outward widening of every rectangle (floating-point rounding).
 WIDEN = 1e-9
 #: |T| at the bandwidth: 1/sqrt(2), 3.01 dB below T(0) = 1 (docs/model.md §7).
@@ -66,7 +73,7 @@ def supported(params, keys):
     other = [key for key in keys if key not in FIELDS and key not in (
         "motor.no_load.current", "motor.no_load.speed")]
     if other:
-        return f"{', '.join(other)}: not a key of the position loop's L_p (no bound)"
+        return f"{', '.join(other)}: not a key of the position loop (no bound)"
     return None
 
 
@@ -162,8 +169,9 @@ def loop_enclosures(values, omega):
 
     Returns
     -------
-    (L_i, L_p)
-        Each ((re low, re high), (im low, im high)) per cell.
+    (L_i, L_p, L_i_aat)
+        Each ((re low, re high), (im low, im high)) per cell: the current loop (the position
+        loop open), the position loop, the current loop with the position loop closed.
     """
     # a divisor whose interval reaches 0 gives an unbounded rectangle, and inf - inf or
     # 0 * inf a NaN end: both are handled (NaN ends are no ends, :func:`_meet`; a rectangle
@@ -193,8 +201,12 @@ def _enclosures(values, omega):
     m = _cdiv(_real(v["Km"]), _cmul(jw, mechanical))
     derivative = _cdiv(_cmul(_real(v["cp_Kd"]), jw), _cadd(one, _cmul(_real(v["Tf"]), jw)))
     c_p = _cadd(_cadd(_real(v["cp_Kp"]), _cmul(_real(v["cp_Ki"]), over_jw)), derivative)
-    l_p = _cmul(_cmul(_cmul(c_p, _exp_minus_j(_mul(omega, v["tau_p"]))), t_i), m)
-    return l_i, _widen(l_p)
+    outer = _cmul(_cmul(c_p, _exp_minus_j(_mul(omega, v["tau_p"]))), m)  # C_p e^{-sτp} M
+    l_p = _cmul(outer, t_i)
+    # the current loop broken at the voltage with the position loop closed (docs/model.md §7):
+    # L_i,aat = C_i e^{-sτc} Y (1 + C_p e^{-sτp} M)
+    l_aat = _cmul(l_i, _cadd(one, outer))
+    return l_i, _widen(l_p), _widen(l_aat)
 
 
 # --- what a rectangle says ---------------------------------------------------------------
@@ -295,6 +307,26 @@ def _values(base, keys, low, high):
     return out
 
 
+def _cell_bounds(base, keys, p_low, p_high, w_low, w_high):
+    """Each figure's bound per cell, and whether the cell may hold -1 (of L_p or L_i)."""
+    l_i, l_p, l_aat = loop_enclosures(_values(base, keys, p_low, p_high), (w_low, w_high))
+    # a rectangle that is not finite (a divisor's interval reached 0) holds anything
+    lost = ~(_finite(l_p) & _finite(l_i) & _finite(l_aat))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        found = {
+            "phase_margin_deg": phase_margin_bound(l_p),
+            "gain_margin_db": gain_margin_bound(l_p),
+            "current_phase_margin_deg": phase_margin_bound(l_i),
+            "current_gain_margin_db": gain_margin_bound(l_i),
+            "current_aat_phase_margin_deg": phase_margin_bound(l_aat),
+            "current_aat_gain_margin_db": gain_margin_bound(l_aat),
+            "bandwidth_rad_s": bandwidth_bound(closed_loop_enclosure(l_p), w_low),
+        }
+    found = {name: np.where(lost | np.isnan(values), 0.0, values)
+             for name, values in found.items()}
+    return found, holds_minus_one(l_p) | holds_minus_one(l_i) | lost
+
+
 def bounds(base, keys, low, high, targets, max_cells=MAX_CELLS):
     """Guaranteed lower bounds of the position loop's phase and gain margins and the
     stability verdict over a box.
@@ -310,16 +342,16 @@ def bounds(base, keys, low, high, targets, max_cells=MAX_CELLS):
     low, high : numpy.ndarray
         The box [SI] per key.
     targets : dict
-        ``phase_margin_deg``, ``gain_margin_db``: the worst found, the level the refinement
-        aims at.
+        Figure (:data:`FIGURES`) -> the worst found, the level the refinement aims at (the
+        figures without a target are bounded by the cells as they end up).
     max_cells : int
         Most cells evaluated.
 
     Returns
     -------
     dict
-        ``phase_margin_deg``, ``gain_margin_db``: the bound (-inf if none); ``stable``: True
-        when no cell holds -1 (False: not proved, with the cells' count); ``cells``: evaluated.
+        Each figure of :data:`FIGURES` -> its bound; ``stable``: True when no cell holds -1
+        (False: not proved); ``cells``: evaluated.
     """
     d = len(keys)
     decades = math.log10(OMEGA_RANGE[1] / OMEGA_RANGE[0])
@@ -331,35 +363,27 @@ def bounds(base, keys, low, high, targets, max_cells=MAX_CELLS):
     w_low, w_high = edges[:-1].copy(), edges[1:].copy()
     span = high - low
     evaluated = 0
-    # the smallest bounds of the cells retired (not refined further), and whether a cell that
-    # may hold -1 is left
-    floor_pm = floor_gm = floor_bw = math.inf
+    # the smallest bound of the cells retired (not refined further), per figure
+    floors = dict.fromkeys(FIGURES, math.inf)
     while True:
-        p_low, p_high = low + cell_low * span, low + cell_high * span
-        l_i, l_p = loop_enclosures(_values(base, keys, p_low, p_high), (w_low, w_high))
+        parts = [_cell_bounds(base, keys, low + cell_low[k:k + CHUNK] * span,
+                              low + cell_high[k:k + CHUNK] * span, w_low[k:k + CHUNK],
+                              w_high[k:k + CHUNK])
+                 for k in range(0, w_low.size, CHUNK)]
         evaluated += w_low.size
-        with np.errstate(invalid="ignore", divide="ignore"):
-            pm, gm = phase_margin_bound(l_p), gain_margin_bound(l_p)
-        # a rectangle that is not finite (a divisor's interval reached 0) holds anything
-        lost = ~(_finite(l_p) & _finite(l_i))
-        pm, gm = np.where(lost | np.isnan(pm), 0.0, pm), np.where(lost | np.isnan(gm), 0.0, gm)
-        minus_one = holds_minus_one(l_p) | holds_minus_one(l_i) | lost
-        bw = np.where(lost, 0.0, bandwidth_bound(closed_loop_enclosure(l_p), w_low))
-        refine = ((pm < targets["phase_margin_deg"] - 1e-3)
-                  | (gm < targets["gain_margin_db"] - 1e-4) | minus_one
-                  | (bw < targets.get("bandwidth_rad_s", -math.inf) * (1.0 - 1e-4)))
+        found = {name: np.concatenate([part[0][name] for part in parts]) for name in FIGURES}
+        minus_one = np.concatenate([part[1] for part in parts])
+        refine = minus_one.copy()
+        for name, target in targets.items():
+            tolerance = 1e-4 * abs(target) if name == "bandwidth_rad_s" else 1e-3
+            refine |= found[name] < target - tolerance
         if (~refine).any():
-            floor_pm = min(floor_pm, float(np.min(pm[~refine])))
-            floor_gm = min(floor_gm, float(np.min(gm[~refine])))
-            floor_bw = min(floor_bw, float(np.min(bw[~refine])))
+            for name, values in found.items():
+                floors[name] = min(floors[name], float(np.min(values[~refine])))
         if not refine.any() or evaluated + 2 * int(refine.sum()) > max_cells:
-            return {
-                "phase_margin_deg": min(floor_pm, _smallest(pm, refine)),
-                "gain_margin_db": min(floor_gm, _smallest(gm, refine)),
-                "bandwidth_rad_s": min(floor_bw, _smallest(bw, refine)),
-                "stable": not bool(minus_one[refine].any()),
-                "cells": evaluated,
-            }
+            out = {name: min(floors[name], _smallest(values, refine))
+                   for name, values in found.items()}
+            return {**out, "stable": not bool(minus_one[refine].any()), "cells": evaluated}
         cell_low, cell_high = cell_low[refine], cell_high[refine]
         w_low, w_high = w_low[refine], w_high[refine]
         # split each cell along its widest dimension: a key in unit width, or the frequency

@@ -325,7 +325,7 @@ class Actuator:
 
     @one_blas_thread()
     def worst_case(self, tolerances=None, samples=256, seed=0, resolution=1e-3,
-                   scheduler=None):
+                   scheduler=None, bound_cells=4_000_000):
         """The worst case of every requirement's figure over the tolerance box, as
         ``cas-freq worstcase`` (:mod:`cas_freq.studies.worstcase`).
 
@@ -342,6 +342,8 @@ class Actuator:
             The local search stops below this share of each key's width.
         scheduler : str, optional
             Run the evaluations on a dask cluster (``local:N`` or an address).
+        bound_cells : int
+            Most cells of the guaranteed bound's branch and bound (0: no bound).
 
         Returns
         -------
@@ -351,7 +353,8 @@ class Actuator:
             parse_tolerance(text, self.params) for text in tolerances]
         with session(scheduler):
             return WorstCase(worst_case(self.loaded, parsed, samples=samples, seed=seed,
-                                        resolution=resolution, scheduler=scheduler))
+                                        resolution=resolution, scheduler=scheduler,
+                                        bound_cells=bound_cells))
 
     @one_blas_thread()
     def rank_candidates(self, data, candidates, step=None, channels=None, columns=None):

@@ -39,6 +39,9 @@ def register(commands):
     parser.add_argument("--resolution", type=float, default=1e-3, metavar="SHARE",
                         help="the local search stops below this share of each key's width "
                         "(default 0.001)")
+    parser.add_argument("--bound-cells", type=int, default=4_000_000, metavar="N",
+                        help="most cells of the guaranteed bound's branch and bound (about 2 s "
+                        "per million; default 4000000; 0: no bound)")
     parser.add_argument("--json", action="store_true", help="print JSON instead of text")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="run the evaluations on a dask.distributed cluster: local:N or a "
@@ -65,7 +68,8 @@ def run(args):
                           or None)
             results.append(worst_case(loaded, tolerances, samples=args.samples,
                                       seed=args.seed, resolution=args.resolution,
-                                      scheduler=args.scheduler))
+                                      scheduler=args.scheduler,
+                                      bound_cells=args.bound_cells))
     data = results if len(results) > 1 else results[0]
     if args.output is not None:
         write_report(args.output, {"worstcase.json": json_text(data)})

@@ -35,7 +35,7 @@ import time
 
 import numpy as np
 
-from cas_freq.analysis.interval_bound import box_bounds, supported
+from cas_freq.analysis.interval_bound import MAX_CELLS, box_bounds, supported
 from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.fileio import json_ready
 from cas_freq.core.parameters import LoopParameters, base_values, unit_of
@@ -257,7 +257,8 @@ def _search(evaluate, box, objectives, starts, resolution, max_rounds):
 
 
 def worst_case(loaded, tolerances=None, requirements=None, *, samples=DEFAULT_SAMPLES, seed=0,
-               resolution=DEFAULT_RESOLUTION, scheduler=None, max_rounds=MAX_ROUNDS):
+               resolution=DEFAULT_RESOLUTION, scheduler=None, max_rounds=MAX_ROUNDS,
+               bound_cells=MAX_CELLS):
     """The worst case of every requirement's figure over the tolerance box.
 
     Parameters
@@ -276,6 +277,9 @@ def worst_case(loaded, tolerances=None, requirements=None, *, samples=DEFAULT_SA
         The local search stops when every step is below this share of its key's width.
     scheduler : str, optional
         Run the evaluations on a dask cluster (``local:N`` or an address).
+    bound_cells : int
+        Most cells of the guaranteed bound's branch and bound
+        (:mod:`cas_freq.analysis.interval_bound`; about 2 s per million); 0: no bound.
 
     Returns
     -------
@@ -326,8 +330,12 @@ def worst_case(loaded, tolerances=None, requirements=None, *, samples=DEFAULT_SA
                 str(verdict_worst[index]))
         for index, (objective, (point, margin, how)) in enumerate(
             zip(objectives, worst, strict=True))]
-    guaranteed, why = ((None, "none: the nominal point is not stable") if not stable[0]
-                       else _guaranteed(params, box, results, figures))
+    if isinstance(bound_cells, bool) or not (isinstance(bound_cells, int) and bound_cells >= 0):
+        raise ConfigError(f"--bound-cells: must be an integer >= 0, got {bound_cells!r}")
+    guaranteed, why = (
+        (None, "none: not asked for (--bound-cells 0)") if bound_cells == 0 else
+        (None, "none: the nominal point is not stable") if not stable[0] else
+        _guaranteed(params, box, results, figures, bound_cells))
     return json_ready({
         "config": params.name, "config_path": loaded.source, "variant": loaded.variant,
         "overrides": [f"{k}={v}" for k, v in loaded.overrides],
@@ -341,8 +349,8 @@ def worst_case(loaded, tolerances=None, requirements=None, *, samples=DEFAULT_SA
                    "evaluations": dict(evaluate.count),
                    "seconds": time.perf_counter() - started},
         "bound": (why if guaranteed is None else
-                  f"guaranteed for the position loop's phase and gain margins and the "
-                  f"bandwidth over the whole box (interval branch and bound, "
+                  f"guaranteed for the position and current loops' phase and gain margins "
+                  f"and the bandwidth over the whole box (interval branch and bound, "
                   f"{guaranteed['cells']} cells); the other figures: the worst found by the "
                   "search"),
         "stability": {
@@ -366,10 +374,14 @@ BOUNDED = {"position_loop.phase_margin_deg": "phase_margin_deg",
            "position_loop.loop_at_a_time.phase_margin_deg": "phase_margin_deg",
            "position_loop.gain_margin_db": "gain_margin_db",
            "position_loop.loop_at_a_time.gain_margin_db": "gain_margin_db",
+           "current_loop.phase_margin_deg": "current_phase_margin_deg",
+           "current_loop.gain_margin_db": "current_gain_margin_db",
+           "current_loop.loop_at_a_time.phase_margin_deg": "current_aat_phase_margin_deg",
+           "current_loop.loop_at_a_time.gain_margin_db": "current_aat_gain_margin_db",
            "closed_loop.bandwidth_rad_s": "bandwidth_rad_s"}
 
 
-def _guaranteed(params, box, results, figures):
+def _guaranteed(params, box, results, figures, cells):
     """The interval bounds of the position loop's margins over the box
     (:func:`cas_freq.analysis.interval_bound.box_bounds`), written into the result rows
     (``bound``, ``gap``); (bounds, None) or (None, why there are none)."""
@@ -385,12 +397,13 @@ def _guaranteed(params, box, results, figures):
     if "phase_margin_deg" not in targets or "gain_margin_db" not in targets:
         return None, ("none: the worst found by the search (no bound without a stable worst "
                       "phase and gain margin of the position loop)")
-    counts = figures.get("position_loop.gain_crossover_count")
-    if counts is not None and np.unique(counts[np.isfinite(counts)]).size > 1:
-        return None, ("none: the worst found by the search (the number of gain crossovers "
-                      "changes over the box, where the bound on each crossover's margin does "
-                      "not give the figure's sign)")
-    found, why = box_bounds(params, nominal, box.keys, box.low, box.high, targets)
+    for loop in ("position_loop", "current_loop", "current_loop.loop_at_a_time"):
+        counts = figures.get(f"{loop}.gain_crossover_count")
+        if counts is not None and np.unique(counts[np.isfinite(counts)]).size > 1:
+            return None, (f"none: the worst found by the search (the number of {loop}'s gain "
+                          "crossovers changes over the box, where the bound on each "
+                          "crossover's margin does not give the figure's sign)")
+    found, why = box_bounds(params, nominal, box.keys, box.low, box.high, targets, cells)
     if found is None:
         return None, f"none: the worst found by the search ({why})"
     for row in results:
@@ -453,7 +466,7 @@ def worst_case_text(data):
     if stability["proved"]:
         lines.append("  stability PROVED over the whole box: 1 + L never 0 on the frequency "
                      "axis from 1e-9 to 1e12 rad/s (zero exclusion, interval enclosures of "
-                     "L_p and L_i), the nominal stable")
+                     "the position and current loops), the nominal stable")
     elif stability["proved"] is False:
         lines.append("  stability over the whole box NOT proved: some cell's enclosure holds -1")
     if stability["not_stable"]:
