@@ -37,6 +37,7 @@ from cas_freq.analysis.systems import (
     linear_model,
     margin_safe_model,
 )
+from cas_freq.api.studies import CandidateRanking, WorstCase
 from cas_freq.config.loader import load_variant, read_config_file, variant_names
 from cas_freq.config.wording import OutputWords
 from cas_freq.core.exceptions import CasFreqError
@@ -50,12 +51,12 @@ from cas_freq.model import ActuatorLoops, DelayModel
 from cas_freq.model.delay import MAX_PADE_ORDER
 from cas_freq.report.data import described_loops
 from cas_freq.studies import exported_model
-from cas_freq.studies.candidates import rank_candidates, ranking_text
+from cas_freq.studies.candidates import rank_candidates
 from cas_freq.studies.distributed import session
 from cas_freq.studies.envelope import load_envelope
 from cas_freq.studies.profile_run import make_profile, profile_run, profile_run_dict
 from cas_freq.studies.run import linear_verdict, step_batch, step_run_dict
-from cas_freq.studies.worstcase import worst_case, worst_case_text
+from cas_freq.studies.worstcase import worst_case
 from cas_freq.tuning import options
 from cas_freq.tuning.run import tune_variant
 from cas_freq.verify.measure import figure
@@ -670,94 +671,6 @@ class StepResponse(Summary):
         from cas_freq.api.figures import step_figure
 
         return step_figure(self)
-
-
-@dataclasses.dataclass(frozen=True, eq=False, repr=False)
-class WorstCase(Summary):
-    """The worst case of each requirement's figure over the tolerance box
-    (:meth:`Actuator.worst_case`).
-
-    Attributes
-    ----------
-    data : dict
-        The JSON of ``cas-freq worstcase --json``: ``box``, ``requirements`` (per requirement
-        ``nominal``, ``worst``, ``at``, ``at_corner``, ``found_by``, ``worst_fails``),
-        ``stability``, ``stability_margins``, ``search`` (the evaluations counted).
-    """
-
-    data: dict
-
-    @property
-    def requirements(self):
-        """One dict per requirement searched, in the config's order."""
-        return self.data["requirements"]
-
-    @property
-    def text(self):
-        """The text ``cas-freq worstcase`` prints."""
-        return worst_case_text(self.data)
-
-    def _summary(self):
-        rows = [(f"{r['id']} {r['metric']}",
-                 ("not stable" if r["not_stable_or_missing"] else f"{r['worst']:.4g}")
-                 + (" FAILS" if r["worst_fails"] else ""), "") for r in self.requirements]
-        return f"worst found over {len(self.data['box'])} toleranced keys", rows
-
-    def to_dict(self):
-        """JSON-ready dict: the JSON of ``cas-freq worstcase --json``."""
-        return self.data
-
-
-@dataclasses.dataclass(frozen=True, eq=False, repr=False)
-class CandidateRanking(Summary):
-    """Candidate structures fitted to recordings and ranked
-    (:meth:`Actuator.rank_candidates`).
-
-    Attributes
-    ----------
-    ranking : cas_freq.studies.candidates.Ranking
-        The fits (``ranking.fits``, best first), the recordings and the JSON-ready data.
-    """
-
-    ranking: object
-
-    @property
-    def rows(self):
-        """One dict per candidate, best first: ``name``, ``rank``, ``plausibility``,
-        ``flagged``, ``aicc``, ``delta_aicc``, ``rms_position_deg``, ``step`` figures, ..."""
-        return self.ranking.data["ranking"]
-
-    @property
-    def best(self):
-        """The best plausible, determined candidate's name, or None."""
-        return self.ranking.best
-
-    @property
-    def text(self):
-        """The table ``cas-freq fit --candidates`` prints."""
-        return ranking_text(self.ranking.data)
-
-    def _summary(self):
-        rows = [(f"{row['rank']}. {row['name']}",
-                 f"dAICc {row['delta_aicc']:.4g}, {row['plausibility']}"
-                 + (", flagged" if row["flagged"] else ""), "") for row in self.rows]
-        return f"{len(self.rows)} candidates; best plausible: {self.best or 'none'}", rows
-
-    def to_dict(self):
-        """JSON-ready dict: the JSON of ``cas-freq fit --candidates ... --json``."""
-        return self.ranking.data
-
-    def plot(self):
-        """Each candidate's fitted step overlaid on the recordings, and the residuals.
-
-        Returns
-        -------
-        matplotlib.figure.Figure
-        """
-        from cas_freq.plots.recordings import candidates_figure
-
-        r = self.ranking
-        return candidates_figure(r.recordings, r.fits, r.best or r.fits[0].name, r.output)
 
 
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)
