@@ -9,14 +9,11 @@ value and what is accepted (see :mod:`cas_freq.config.loader`).
 Keys follow docs/model.md and the report's symbols (``Kp``, ``Ki``, ``Kd``, ``Tf``, ``mu_v``, ...).
 """
 
-import math
 import re
 from typing import Annotated, Any, Literal
 
 from pydantic import (
-    BaseModel,
     BeforeValidator,
-    ConfigDict,
     Field,
     ValidatorFunctionWrapHandler,
     field_validator,
@@ -24,7 +21,9 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError
 
+from cas_freq.config.descriptions import Simulant, Worm, worm_efficiencies_of
 from cas_freq.config.requirement import Requirement
+from cas_freq.config.sections import Section, field_type
 from cas_freq.config.wording import OUTPUT
 from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.filters_config import (
@@ -35,7 +34,7 @@ from cas_freq.core.filters_config import (
     point_problem,
     type_problem,
 )
-from cas_freq.core.formulas import disc_inertia, second_order_bandwidth, worm_efficiencies
+from cas_freq.core.formulas import second_order_bandwidth
 from cas_freq.core.parameter_keys import parse_grid_values
 from cas_freq.core.parameters import (
     CASCADE_ONLY,
@@ -74,19 +73,19 @@ def param(key):
     checked against the key's bound by :meth:`cas_freq.core.parameters.Parameter.convert`, the
     conversion :func:`cas_freq.core.parameters.parse_value` uses.
     """
-    return _field(PARAMETERS[key], key)
+    return field_type(PARAMETERS[key], key)
 
 
 def cascade_param(key):
     """Type of the float field of dotted config ``key`` in a cascade (a velocity loop), as
     :data:`CASCADE_PARAMETERS` declares it."""
-    return _field(CASCADE_PARAMETERS[key], key)
+    return field_type(CASCADE_PARAMETERS[key], key)
 
 
 def linear_param(key):
     """Type of the float field of dotted config ``key`` at a linear output, as
     :data:`LINEAR_PARAMETERS` declares it."""
-    return _field(LINEAR_PARAMETERS[key], key)
+    return field_type(LINEAR_PARAMETERS[key], key)
 
 
 def refused(why, quote=False):
@@ -114,36 +113,14 @@ def _feedback(value):
 Feedback = Annotated[str, BeforeValidator(_feedback)]
 
 
-def _field(parameter, key):
-    """Annotated float type converting and checking a value as ``parameter`` declares."""
-
-    def convert(value):
-        try:
-            return parameter.convert(value)
-        except TypeError as exc:
-            raise PydanticCustomError("cas_type", str(exc)) from None
-        except ValueError as exc:
-            raise PydanticCustomError("cas_value", str(exc)) from None
-
-    return Annotated[
-        float, BeforeValidator(convert),
-        Field(description=parameter.meaning, json_schema_extra={"key": key,
-                                                                "unit": parameter.unit}),
-    ]
-
-
-class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
-
-
-class NoLoad(_Section):
+class NoLoad(Section):
     """Motor no-load point, from which the viscous friction is derived (report §6)."""
 
     speed: param("motor.no_load.speed")
     current: param("motor.no_load.current")
 
 
-class Motor(_Section):
+class Motor(Section):
     """Motor constants (report Table 3), and either ``mu_v`` or ``no_load``."""
 
     R: param("motor.R")
@@ -176,71 +153,7 @@ class Motor(_Section):
         return viscous_friction(self.Km, self.no_load.speed, self.no_load.current)
 
 
-#: The numeric keys of a worm's geometry (``gear.worm``) and of an inertia simulant
-#: (``load.simulant``): static descriptions from which the config derives ``gear.efficiency``,
-#: ``gear.backdrive_efficiency`` and ``load.inertia`` (those are the keys a sweep varies).
-DERIVING_PARAMETERS = {
-    p.key: p for p in (
-        Parameter("gear.worm.lead_angle", None, "rad", 0.0, True, 1.5533,
-                  "lead angle of the worm, (0, 89] deg [rad]"),
-        Parameter("gear.worm.friction_coefficient", None, "dimensionless", 0.0, False, 1.0,
-                  "friction coefficient of the worm's mesh, 0..1 [dimensionless]"),
-        Parameter("gear.worm.pressure_angle", None, "rad", 0.0, False, 0.7854,
-                  "normal pressure angle of the worm, 0..45 deg, default 20 deg [rad]"),
-        Parameter("load.simulant.diameter", None, "m", 0.0, True, 10.0,
-                  "outer diameter of the simulant disc, (0, 10] [m]"),
-        Parameter("load.simulant.thickness", None, "m", 0.0, True, 10.0,
-                  "thickness of the simulant disc, (0, 10] [m]"),
-        Parameter("load.simulant.bore", None, "m", 0.0, False, 10.0,
-                  "bore of the simulant disc, 0 (solid) .. its diameter [m]"),
-        Parameter("load.simulant.density", None, "kg/m^3", 0.0, True, 1e5,
-                  "density of the simulant, default 7850 (steel), (0, 1e5] [kg/m^3]"),
-    )
-}
-
-
-def deriving_param(key):
-    """Type of a float field of ``gear.worm`` or ``load.simulant`` (like :func:`param`)."""
-    return _field(DERIVING_PARAMETERS[key], key)
-
-
-class Worm(_Section):
-    """A worm gear's geometry: its efficiencies follow (docs/model.md §5, "Worm gear")."""
-
-    lead_angle: deriving_param("gear.worm.lead_angle")
-    friction_coefficient: deriving_param("gear.worm.friction_coefficient")
-    pressure_angle: deriving_param("gear.worm.pressure_angle") = math.radians(20.0)
-
-    @property
-    def efficiencies(self):
-        """(forward, backdrive) efficiency [-]
-        (:func:`cas_freq.core.formulas.worm_efficiencies`)."""
-        return worm_efficiencies(self.lead_angle, self.friction_coefficient,
-                                 self.pressure_angle)
-
-
-def _worm_efficiencies(gear):
-    """Set a gear's efficiencies from its worm's geometry (refused beside given ones)."""
-    if gear.worm is None:
-        return gear
-    given = sorted({"efficiency", "backdrive_efficiency"} & gear.model_fields_set)
-    if given:
-        raise PydanticCustomError(
-            "cas_value", f"worm: the worm's geometry gives the efficiencies; remove "
-            f"gear.{given[0]} (or gear.worm)")
-    forward, back = gear.worm.efficiencies
-    if not forward > 0:
-        raise PydanticCustomError(
-            "cas_value", "worm: the worm cannot drive the wheel with this friction and "
-            "lead angle (forward efficiency 0): a friction_coefficient below "
-            f"{math.cos(gear.worm.pressure_angle) / math.tan(gear.worm.lead_angle):.3g} is "
-            "needed")
-    object.__setattr__(gear, "efficiency", forward)
-    object.__setattr__(gear, "backdrive_efficiency", back)
-    return gear
-
-
-class Gear(_Section):
+class Gear(Section):
     """Gear between motor and fin: fin angle = motor angle / ratio; rigid unless ``stiffness``
     is given (docs/model.md, "Load and drivetrain"). A ``worm`` (lead angle, friction) gives
     the two efficiencies instead of ``efficiency`` and ``backdrive_efficiency``."""
@@ -255,7 +168,7 @@ class Gear(_Section):
 
     @model_validator(mode="after")
     def _worm(self):
-        return _worm_efficiencies(self)
+        return worm_efficiencies_of(self)
 
     @property
     def backdrive(self):
@@ -265,7 +178,7 @@ class Gear(_Section):
         return self.backdrive_efficiency
 
 
-class LinearGear(_Section):
+class LinearGear(Section):
     """Reduction and screw of a linear output: output x = motor angle * screw_lead / (2 pi
     ratio) [m] (docs/model.md, "Linear output"); stiffness, damping and play are axial, at the
     output."""
@@ -281,33 +194,7 @@ class LinearGear(_Section):
     backdrive = Gear.backdrive
 
 
-class Simulant(_Section):
-    """An inertia simulant on the output (report §3: "a steel inertia simulant ... to emulate
-    the control-surface inertia"): a disc, optionally bored, of a given material. Its inertia
-    about the output's axis becomes ``load.inertia`` (docs/model.md §5, "Inertia simulant")."""
-
-    name: Annotated[str, Field(min_length=1, max_length=80)] = "inertia simulant"
-    diameter: deriving_param("load.simulant.diameter")
-    thickness: deriving_param("load.simulant.thickness")
-    bore: deriving_param("load.simulant.bore") = 0.0
-    density: deriving_param("load.simulant.density") = 7850.0
-
-    @model_validator(mode="after")
-    def _bore_inside(self):
-        if not self.bore < self.diameter:
-            raise PydanticCustomError(
-                "cas_value", f"bore: {self.bore:g} m must be below the diameter "
-                f"{self.diameter:g} m")
-        return self
-
-    @property
-    def inertia(self):
-        """Its inertia about the output's axis [kg*m^2]
-        (:func:`cas_freq.core.formulas.disc_inertia`)."""
-        return disc_inertia(self.diameter, self.thickness, self.density, self.bore)
-
-
-class Load(_Section):
+class Load(Section):
     """What the fin carries, at the fin (docs/model.md, "Load and drivetrain"); all absent
     (0) by default: the report's unloaded bench. A ``simulant`` gives ``inertia`` from its
     geometry."""
@@ -338,7 +225,7 @@ class Load(_Section):
         return self.inertia
 
 
-class LinearLoad(_Section):
+class LinearLoad(Section):
     """What a linear output moves, at the output: a mass, a damper, a spring (-K*x) and a
     constant force; all absent (0) by default."""
 
@@ -357,7 +244,7 @@ class LinearLoad(_Section):
         return self.mass
 
 
-class CurrentLoop(_Section):
+class CurrentLoop(Section):
     """PI current controller (report Table 1) and its transport delay."""
 
     Kp: param("current_loop.Kp")
@@ -372,7 +259,7 @@ class CurrentLoop(_Section):
         return self
 
 
-class PositionLoop(_Section):
+class PositionLoop(Section):
     """PID position controller with filtered derivative (report Table 2) and its delay."""
 
     Kp: param("position_loop.Kp")
@@ -407,7 +294,7 @@ class PositionLoop(_Section):
         return filter_time_constant(self.Kp, self.Kd, self.Tf)
 
 
-class CascadePositionLoop(_Section):
+class CascadePositionLoop(Section):
     """P or PI position controller of a cascade: its output is the velocity command
     [rad/s, motor] of the velocity loop (docs/config.md)."""
 
@@ -435,7 +322,7 @@ class CascadePositionLoop(_Section):
         return 0.0
 
 
-class VelocityLoop(_Section):
+class VelocityLoop(Section):
     """PI velocity controller of a cascade, between the position and the current loops, with
     its current-command limit, delay, feedback low-pass and acceleration feed-forward.
     ``feedback``: ``speed`` (default) reads the motor's speed; ``encoder`` the speed the drive
@@ -468,10 +355,10 @@ class VelocityLoop(_Section):
 
 def _filter_field(name):
     """Type of a filter's number ``name`` (:data:`FILTER_PARAMETERS`)."""
-    return _field(FILTER_PARAMETERS[name], f"filters.N.{name}")
+    return field_type(FILTER_PARAMETERS[name], f"filters.N.{name}")
 
 
-class FilterSpec(_Section):
+class FilterSpec(Section):
     """One filter of ``filters:`` (:mod:`cas_freq.core.filters_config`): its point, its type and its
     numbers (``damping`` of a lowpass2 defaults to 0.7071; a notch needs ``width`` and
     ``depth``).
@@ -546,7 +433,7 @@ class FilterSpec(_Section):
         return self
 
 
-class Sampling(_Section):
+class Sampling(Section):
     """The controllers' sample rates and discretisation (:mod:`cas_freq.core.sampling_config`).
 
     A rate per loop (``current_loop: 25 kHz``, ``velocity_loop`` with a velocity loop only,
@@ -580,7 +467,7 @@ class Sampling(_Section):
         return sample_rates(self.rates)
 
 
-class Sensors(_Section):
+class Sensors(Section):
     """The encoders' resolution (docs/model.md, "Encoder quantisation", and §15,
     "Disturbance and noise").
 
@@ -595,7 +482,7 @@ class Sensors(_Section):
     output_counts_per_rev: param("sensors.output_counts_per_rev") | None = None
 
 
-class Supply(_Section):
+class Supply(Section):
     """The supply behind the drive, for the rate and torque envelope
     (:mod:`cas_freq.analysis.rate_envelope`): its voltage (default ``current_loop.v_max``)
     and its source resistance (default 0), which the winding current flows through."""
@@ -604,7 +491,7 @@ class Supply(_Section):
     resistance: param("supply.resistance") = 0.0
 
 
-class Simulation(_Section):
+class Simulation(Section):
     """The older spelling of ``sampling:``, for the current and position loops.
 
     ``controllers: continuous`` (default) declares nothing: the controllers are continuous
@@ -665,10 +552,10 @@ REFERENCE_PARAMETERS = {
 
 def reference_param(key):
     """Type of a float field of the ``reference:`` section (like :func:`param`)."""
-    return _field(REFERENCE_PARAMETERS[key], key)
+    return field_type(REFERENCE_PARAMETERS[key], key)
 
 
-class ReferenceFit(_Section):
+class ReferenceFit(Section):
     """A second-order-plus-delay fit of the reference step (ARL-TR-9136 §7 form)."""
 
     wn: reference_param("reference.fit.wn") | None = None
@@ -686,7 +573,7 @@ class ReferenceFit(_Section):
         return None
 
 
-class Reference(_Section):
+class Reference(Section):
     """Measured or published results to compare the model with (shown by the report only when
     declared; never used by the model). Every figure is optional."""
 
@@ -698,7 +585,7 @@ class Reference(_Section):
     fit: ReferenceFit | None = None
 
 
-class LoadEnvelopeSpec(_Section):
+class LoadEnvelopeSpec(Section):
     """What the report's load envelope sweeps (:mod:`cas_freq.studies.envelope`).
 
     ``hinge_stiffness``: the grid of ``load.hinge_stiffness`` at the fin, ``MIN:MAX:N`` (N
@@ -727,7 +614,7 @@ class LoadEnvelopeSpec(_Section):
     _step_angle = field_validator("step", mode="before")(Requirement._angle.__func__)
 
 
-class ActuatorConfig(_Section):
+class ActuatorConfig(Section):
     """A whole actuator: motor, gear, both loops, and the named variants of the file.
 
     ``output_name`` names what the actuator moves (``fin``) in labels and text; without it they
