@@ -232,18 +232,18 @@ def _search(evaluate, box, objectives, starts, resolution, max_rounds):
         points, owners = np.array(candidates), np.array(owners)
         # the candidates of the frequency-domain figures apart from those that need a step
         # (or a sine dwell): a simulation only where a figure needs one
-        outcome = {}
-        for kind in sorted({objectives[pairs[n][0]].kind for n in set(owners.tolist())}):
-            rows = np.flatnonzero([objectives[pairs[n][0]].kind == kind for n in owners])
+        objective_of = np.array([pairs[n][0] for n in owners])
+        candidate_margin = np.empty(owners.size)
+        for kind in sorted({objectives[index].kind for index in set(objective_of.tolist())}):
+            rows = np.flatnonzero([objectives[index].kind == kind for index in objective_of])
             figures, stable, _ = evaluate(points[rows], {kind})
-            for row_number, row in enumerate(rows):
-                outcome[row] = (figures, stable, row_number)
+            for index in set(objective_of[rows].tolist()):  # each objective's margins once
+                mine = objective_of[rows] == index
+                candidate_margin[rows[mine]] = objectives[index].margins(figures, stable)[mine]
         for number in set(owners.tolist()):
             index, point, margin = pairs[number]
             mine = np.flatnonzero(owners == number)
-            margins = np.array([
-                objectives[index].margins(outcome[row][0], outcome[row][1])[outcome[row][2]]
-                for row in mine])
+            margins = candidate_margin[mine]
             best = int(np.argmin(margins))
             if margins[best] < margin - 1e-12 * max(1.0, abs(margin)):
                 pairs[number] = (index, points[mine[best]], float(margins[best]))
