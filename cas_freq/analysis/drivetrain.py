@@ -160,8 +160,10 @@ def stable_hinge_range(p, pade_order=DEFAULT_PADE_ORDER):
 
 
 def _stable(p, hinge, pade_order):
-    """Bool per hinge stiffness: the closed loop is stable (Padé model)."""
-    batch = p.take(np.zeros(len(hinge), dtype=int)).replace(K_h=np.asarray(hinge, float))
+    """Bool per hinge stiffness: the closed loop is stable (Padé model of the loops run
+    continuously, sampled or not)."""
+    batch = p.take(np.zeros(len(hinge), dtype=int)).replace(K_h=np.asarray(hinge, float),
+                                                            sample_rates=())
     return stability_verdicts(batch, pade_order)[0] == "stable"
 
 

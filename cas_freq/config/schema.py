@@ -326,8 +326,8 @@ class VelocityLoop(Section):
     """PI velocity controller of a cascade, between the position and the current loops, with
     its current-command limit, delay, feedback low-pass and acceleration feed-forward.
     ``feedback``: ``speed`` (default) reads the motor's speed; ``encoder`` the speed the drive
-    estimates from the motor encoder's counts, their difference over one velocity-loop period
-    through the feedback low-pass (a sampled velocity loop only)."""
+    estimates from the motor encoder's counts, their difference over ``window`` velocity-loop
+    periods (default 1) through the feedback low-pass (a sampled velocity loop only)."""
 
     Kp: param("velocity_loop.Kp")
     Ki: param("velocity_loop.Ki")
@@ -336,6 +336,7 @@ class VelocityLoop(Section):
     feedback_filter: param("velocity_loop.feedback_filter") = 0.0
     ff_a: param("velocity_loop.ff_a") = 0.0
     feedback: Literal["speed", "encoder"] = "speed"
+    window: param("velocity_loop.window") = 1
 
     @model_validator(mode="after")
     def _some_gain(self):
@@ -350,6 +351,11 @@ class VelocityLoop(Section):
                 "cas_value", "feedback: encoder (the speed as the drive estimates it from the "
                 "motor encoder's counts, docs/model.md §14) needs feedback_filter > 0 s, the "
                 "estimate's first-order low-pass, e.g. 0.2 ms")
+        if self.window != 1 and self.feedback != "encoder":
+            raise PydanticCustomError(
+                "cas_value", f"window: {self.window:g} periods is the speed estimate's "
+                "(feedback: encoder); feedback: speed reads the speed itself, so window must "
+                "stay 1")
         return self
 
 

@@ -27,6 +27,8 @@ from cas_freq.core.parameter_record import table as _table
 MAX_DELAY_S = 0.1
 #: Lowest accepted forward gear efficiency [-] (the least efficient worm gears are ~0.2).
 MIN_EFFICIENCY = 0.01
+#: Most velocity-loop periods a speed estimate from the encoder's counts may span.
+MAX_WINDOW = 64
 
 
 #: Every numeric parameter of the config, by dotted key, in the config's order.
@@ -123,6 +125,11 @@ PARAMETERS = _table(
     ("velocity_loop.ff_a", "ff_a", "A*s^2/rad", -1e9, False, 1e9,
      "feed-forward of the motor-angle command acceleration into the current command, 0 or "
      "|ff_a| 1e-12..1e9 [A*s^2/rad]", 1e-12),
+    # static (LoopParameters.velocity_window), with feedback: encoder (docs/model.md §14)
+    ("velocity_loop.window", None, "dimensionless", 1.0, False, MAX_WINDOW,
+     "velocity-loop periods the speed estimate of feedback: encoder differences the counts "
+     f"over, a whole number, default 1, 1..{MAX_WINDOW} [dimensionless]", None,
+     {"integer": True}),
     # a linear output (docs/model.md, "Linear output"): the screw, and the load in kg, N/m, N
     ("gear.screw_lead", None, "m", 1e-6, False, 1.0,
      "lead of the output's screw (travel per screw revolution); makes the output linear, "

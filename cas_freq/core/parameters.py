@@ -72,6 +72,7 @@ from cas_freq.core.parameter_keys import (
     LINEAR_PARAMETERS,
     LINEAR_REFUSED,
     MAX_DELAY_S,
+    MAX_WINDOW,
     MIN_EFFICIENCY,
     PARAMETERS,
     VARIABLE_KEYS,
@@ -205,8 +206,12 @@ class LoopParameters:
         ``"tustin"`` (``sampling.method``).
     velocity_from_encoder : bool
         Static: a cascade's velocity loop reads the speed estimated from the motor encoder's
-        counts (``velocity_loop.feedback: encoder``: their difference over one period through
-        the feedback low-pass ``tau_vf``), not the motor's speed.
+        counts (``velocity_loop.feedback: encoder``: their difference over
+        ``velocity_window`` periods through the feedback low-pass ``tau_vf``), not the motor's
+        speed.
+    velocity_window : int
+        Static: the velocity-loop periods that estimate differences the counts over
+        (``velocity_loop.window``, default 1; above 1 only with ``velocity_from_encoder``).
     counts_per_rev, output_counts_per_rev : float or None
         Static: counts per revolution of the motor's encoder and of the output's
         (``sensors.counts_per_rev``, ``sensors.output_counts_per_rev``); None (the default):
@@ -257,6 +262,7 @@ class LoopParameters:
     counts_per_rev: float | None = None
     output_counts_per_rev: float | None = None
     velocity_from_encoder: bool = False
+    velocity_window: int = 1
 
     def __post_init__(self):
         names = _array_fields(self)
@@ -322,6 +328,13 @@ class LoopParameters:
             raise ConfigError("simulation parameters: velocity_from_encoder: needs a velocity "
                               "loop (cascade) and tau_vf > 0 in every run (the estimate's "
                               f"low-pass; runs {_indices(~(self.tau_vf > 0))})")
+        window = self.velocity_window
+        if not (isinstance(window, (int, np.integer)) and 1 <= window <= MAX_WINDOW
+                and (encoder or window == 1)):
+            raise ConfigError(f"simulation parameters: velocity_window: must be a whole number "
+                              f"of periods 1..{MAX_WINDOW} (above 1 only with "
+                              f"velocity_from_encoder), got {window!r}")
+        object.__setattr__(self, "velocity_window", int(window))
         for name in ("counts_per_rev", "output_counts_per_rev"):
             counts = getattr(self, name)
             if counts is not None and not (isinstance(counts, (int, float, np.number))
@@ -365,7 +378,7 @@ class LoopParameters:
                    cascade=structure[0], feedback_output=structure[1], filters=filters,
                    sample_rates=structure[3], sampling_method=structure[4],
                    counts_per_rev=structure[5], output_counts_per_rev=structure[6],
-                   velocity_from_encoder=structure[7])
+                   velocity_from_encoder=structure[7], velocity_window=structure[8])
 
     @classmethod
     def from_config(cls, config):
@@ -398,7 +411,8 @@ class LoopParameters:
 
 #: LoopParameters fields that are the same for the whole batch (not arrays).
 STATIC_FIELDS = ("cascade", "feedback_output", "filters", "sample_rates", "sampling_method",
-                 "counts_per_rev", "output_counts_per_rev", "velocity_from_encoder")
+                 "counts_per_rev", "output_counts_per_rev", "velocity_from_encoder",
+                 "velocity_window")
 
 
 def _array_fields(params):
@@ -451,14 +465,16 @@ def _which(where, bad):
 def loop_structure(config):
     """The static fields of a validated config: (cascade, feedback_output, the filters' points
     and types, sample_rates, sampling_method, the motor's and the output's encoder counts per
-    revolution, the velocity loop read from the encoder). Runs of one batch share them."""
+    revolution, the velocity loop read from the encoder and over how many periods). Runs of
+    one batch share them."""
     sensors = config.sensors
     velocity = getattr(config, "velocity_loop", None)
     return (is_cascade(config), config.position_loop.feedback == "output",
             tuple((item.at, item.type) for item in config.filters),
             config.sampling.sample_rates, config.sampling.method,
             sensors.counts_per_rev, sensors.output_counts_per_rev,
-            velocity is not None and velocity.feedback == "encoder")
+            velocity is not None and velocity.feedback == "encoder",
+            int(velocity.window) if velocity is not None else 1)
 
 
 def _filters(config, numbers=None):
@@ -579,7 +595,7 @@ def variant_parameters(params, changes, n=None):
         filters=tuple(f.broadcast(n) for f in _filters(params, full)),
         sample_rates=structure[3], sampling_method=structure[4],
         counts_per_rev=structure[5], output_counts_per_rev=structure[6],
-        velocity_from_encoder=structure[7],
+        velocity_from_encoder=structure[7], velocity_window=structure[8],
     )
 
 

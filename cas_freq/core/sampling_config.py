@@ -43,8 +43,11 @@ __all__ = [
 
 #: The loops that can be sampled, innermost first (the order of ``sample_rates``).
 LOOPS = ("current_loop", "velocity_loop", "position_loop")
-#: How a sampled controller is discretised: s -> (1 - z^-1)/T or (2/T)(z - 1)/(z + 1).
-METHODS = ("backward", "tustin")
+#: How a sampled controller is discretised, and the weight alpha of the generalised bilinear
+#: transform s -> (z - 1)/(T (alpha z + 1 - alpha)) each is: s -> (1 - z^-1)/T (backward
+#: difference, alpha 1) or (2/T)(z - 1)/(z + 1) (Tustin, alpha 1/2).
+ALPHA = {"backward": 1.0, "tustin": 0.5}
+METHODS = tuple(ALPHA)
 #: ``sampling.method`` when not given.
 DEFAULT_METHOD = "backward"
 #: Largest relative distance of a rate ratio from an integer still taken as that integer: a

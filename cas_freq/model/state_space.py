@@ -34,6 +34,7 @@ import dataclasses
 import numpy as np
 
 import cas_freq.model.parts as parts
+from cas_freq.core.sampling_config import ALPHA
 from cas_freq.core.threads import expm
 from cas_freq.model.delay import DEFAULT_PADE_ORDER, pade_realization
 from cas_freq.model.hold import measured, with_analog_filters
@@ -44,13 +45,11 @@ from cas_freq.model.structure import (
     build,
     chain_state_space,
     digital_sensor,
+    fir_state_space,
 )
 
 #: Output row of each measured signal in the assembled systems.
 SIGNAL_ROWS = {name: row for row, name in enumerate(SIGNALS)}
-
-#: The generalised bilinear transform's alpha of each method.
-ALPHA = {"backward": 1.0, "tustin": 0.5}
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -127,12 +126,12 @@ def closings(p, pade_order=DEFAULT_PADE_ORDER, loops=None, n=None, sampled=False
         system = form.entering(k, structure, system, n)
         discrete = form.discretiser(k)
         own = command and k == len(chosen) - 1 and loop.reference is not None
-        path = chain([discrete(_realize_block(block, n)) for block in loop.path]
+        path = chain([_block(block, n, discrete) for block in loop.path]
                      + [form.delay(k, loop, n)])
         opened = series(series(_controller(loop, own, n, discrete), path), system)
         row = row_of[form.signal(loop)]
         blocks = form.sensor(loop)
-        sensor = chain([discrete(_realize_block(block, n)) for block in blocks]) if blocks else None
+        sensor = chain([_block(block, n, discrete) for block in blocks]) if blocks else None
         system = feedback(opened, row, sensor)
         out[loop.name] = Closing(opened, row, sensor, system, form.period(k))
     return {name: _one(closing) for name, closing in out.items()} if one else out
@@ -148,7 +147,7 @@ def command_shaping(p, structure, sampled=False):
         return None
     form = _Sampling(p, structure) if sampled else _Continuous(DEFAULT_PADE_ORDER)
     discrete = form.discretiser(len(structure.loops) - 1)
-    shaping = chain([discrete(_realize_block(block, 1)) for block in structure.command])
+    shaping = chain([_block(block, 1, discrete) for block in structure.command])
     return tuple(m[0] if m.ndim == 3 else m for m in shaping)
 
 
@@ -389,8 +388,16 @@ def _controller(loop, own, n, discrete):
     return a, concatenate([b] * 2, -1), c, concatenate([d] * 2, -1)
 
 
-def _realize_block(block, n):
-    return realize(parts.stacked(block.numerator, n), parts.stacked(block.denominator, n))
+def _block(block, n, discrete):
+    """A block in state space: a digital FIR (:attr:`~cas_freq.model.structure.Block.fir`) as
+    it is, any other realised and passed through ``discrete``."""
+    if block.fir:
+        if discrete is _unchanged:
+            raise ValueError(f"{block.name}: a digital block in a continuous loop")
+        a, b, c, d = fir_state_space(block, n)
+        return a, b[:, :, None], c[:, None, :], d[:, None, None]
+    return discrete(realize(parts.stacked(block.numerator, n),
+                            parts.stacked(block.denominator, n)))
 
 
 def _pade(delay, pade_order, n):

@@ -65,6 +65,7 @@ import numpy as np
 
 import cas_freq.model.parts as parts
 from cas_freq.core.filters_config import ANALOG_POINTS, COMMAND_POINT, FILTERS
+from cas_freq.core.sampling_config import ALPHA
 from cas_freq.model.parts import polyadd, polymul
 
 #: The plant signals a loop can measure: name -> meaning [unit per volt].
@@ -93,6 +94,13 @@ class Block:
 
     ``gains``: a controller's (Kp, Ki, Kd, Tf) as the simulators step it (the PID of
     docs/model.md; a PI's Kd is 0 and Tf 1 [s]), None for a filter.
+
+    ``fir``: a digital block of a sampled loop that is a finite impulse response in the
+    samples, its coefficients (c_0, ..., c_m) of z^0 ... z^-m at the loop's period
+    (:func:`counts_difference`); the state-space assemblies and the simulators realise it from
+    them (:func:`fir_state_space`), and ``numerator``/``denominator`` are the same function in
+    s under the loop's discretisation, for the evaluations at the equivalent s. None for a
+    block given in s.
     """
 
     name: str
@@ -101,6 +109,7 @@ class Block:
     minimal: object = None
     analog: bool = False
     gains: tuple | None = None
+    fir: tuple | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -391,12 +400,18 @@ def build(p):
         return Structure(plant(p), (current, position), command=_filters(p, COMMAND_POINT))
     sensor = _filters(p, "velocity_feedback")
     tau_vf = np.asarray(p.tau_vf)
-    velocity_feedback = "motor_velocity"
-    if getattr(p, "velocity_from_encoder", False):
-        # the speed the drive estimates from the encoder's counts: the motor angle through
-        # s/(tau_vf s + 1), digital at the velocity loop's rate, which the backward difference
-        # makes the counts' difference over one period through the low-pass (docs/model.md §14)
-        velocity_feedback = "motor_angle"
+    velocity_feedback = "motor_angle" if getattr(p, "velocity_from_encoder", False) else (
+        "motor_velocity")
+    rate = dict(getattr(p, "sample_rates", ())).get("velocity_loop")
+    if velocity_feedback == "motor_angle" and rate:
+        # the speed the drive estimates from the encoder's counts at the velocity loop's
+        # rate: their difference over m periods through the low-pass (docs/model.md §14)
+        difference = counts_difference(getattr(p, "velocity_window", 1), 1.0 / rate,
+                                       getattr(p, "sampling_method", "backward"))
+        sensor = (difference,
+                  Block("velocity filter", (1.0,), (p.tau_vf, 1.0)), *sensor)
+    elif velocity_feedback == "motor_angle":
+        # run continuously (the cost of sampling): the difference's limit, s
         sensor = (Block("velocity estimate", (1.0, 0.0), (p.tau_vf, 1.0)), *sensor)
     elif np.any(tau_vf > 0):
         sensor = (Block("velocity filter", (1.0,), (p.tau_vf, 1.0)), *sensor)
@@ -415,6 +430,43 @@ def build(p):
     )
     return Structure(plant(p), (current, velocity, position),
                      command=_filters(p, COMMAND_POINT))
+
+
+def counts_difference(window, period, method):
+    r"""The counts' difference over ``window`` periods of ``period`` [s], per second: the
+    digital block :math:`(1 - z^{-m})/(m T)` (:attr:`Block.fir`) of a loop discretised by
+    ``method``.
+
+    In s it is the same function under the generalised bilinear transform of weight
+    :math:`\alpha` (:data:`~cas_freq.core.sampling_config.ALPHA`),
+    :math:`z^{-1} = (1 - \alpha sT)/(1 + (1 - \alpha) sT)`: with :math:`x = sT`,
+    :math:`((1 + (1-\alpha)x)^m - (1 - \alpha x)^m) / (m T (1 + (1-\alpha)x)^m)` (s itself
+    for m = 1 with the backward difference), exact at the loop's equivalent s.
+    """
+    alpha = ALPHA[method]
+    m = int(window)
+    right = np.polynomial.polynomial.polypow([1.0, 1.0 - alpha], m)  # in x, lowest power first
+    left = np.polynomial.polynomial.polypow([1.0, -alpha], m)
+    numerator = np.polynomial.polynomial.polysub(right, left)
+    scale = period ** np.arange(m + 1)  # x^j = T^j s^j
+    numerator = np.trim_zeros(numerator * scale[:numerator.size] / (m * period), "b")
+    denominator = np.trim_zeros(right * scale[:right.size], "b")
+    taps = np.zeros(m + 1)
+    taps[0], taps[m] = 1.0 / (m * period), -1.0 / (m * period)
+    return Block(f"counts difference over {m} period{'s' if m > 1 else ''}",
+                 tuple(numerator[::-1]), tuple(denominator[::-1]), fir=tuple(taps))
+
+
+def fir_state_space(block, n):
+    """A digital FIR block (:attr:`Block.fir`) in discrete state space per run: the last m
+    inputs as states (x_1 the latest), (A (n, m, m), B (n, m), C (n, m), D (n,))."""
+    taps = np.asarray(block.fir, dtype=float)
+    m = taps.size - 1
+    a = np.zeros((n, m, m))
+    a[:, 1:, :-1] = np.eye(m - 1)
+    b = np.zeros((n, m))
+    b[:, 0] = 1.0
+    return a, b, np.broadcast_to(taps[1:], (n, m)).copy(), np.full(n, taps[0])
 
 
 # --- the filters in state space (the simulator and the sampled plant) ---------------------

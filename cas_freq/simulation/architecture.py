@@ -217,15 +217,30 @@ def loop_steps(params, dt, every=None, method="backward"):
 
 
 def _discretised(a, b, c, d, period, alpha):
-    """A chain's realisation discretised over ``period`` [s] by the generalised bilinear
-    transform of weight ``alpha`` (module notes), as a :class:`FilterChain` (G_b = 0)."""
-    n, m = a.shape[:2]
+    """A continuous realisation (per run) discretised over ``period`` [s] by the generalised
+    bilinear transform of weight ``alpha`` (module notes): (A_d, B_d, C_d, D_d)."""
+    m = a.shape[1]
     ima = np.eye(m) - alpha * period * a
     a_d = np.linalg.solve(ima, np.eye(m) + (1.0 - alpha) * period * a)
     b_d = np.linalg.solve(ima, period * b[:, :, None])[:, :, 0]
     c_d = np.linalg.solve(np.swapaxes(ima, 1, 2), c[:, :, None])[:, :, 0]
-    d_d = d + alpha * np.einsum("ri,ri->r", c, b_d)
-    return FilterChain(np.ascontiguousarray(a_d), b_d, np.zeros((n, m)), c_d, d_d)
+    return a_d, b_d, c_d, d + alpha * np.einsum("ri,ri->r", c, b_d)
+
+
+def _digital_chain(blocks, n, period, alpha):
+    """A sampled chain discretised over ``period`` [s] (:class:`FilterChain`, G_b = 0): the
+    whole chain at once, or, with a digital FIR block (:attr:`Block.fir`) in it, each block
+    (the FIR as it is) in series."""
+    if not any(block.fir for block in blocks):
+        spaces = [_discretised(*loop_structure.chain_state_space(blocks, n), period, alpha)]
+    else:
+        spaces = [loop_structure.fir_state_space(block, n) if block.fir else
+                  _discretised(*loop_structure.block_state_space(block, n), period, alpha)
+                  for block in blocks]
+    a, b, c, d = spaces[0]
+    for space in spaces[1:]:
+        a, b, c, d = loop_structure.series_state_space((a, b, c, d), space)
+    return FilterChain(np.ascontiguousarray(a), b, np.zeros(b.shape), c, d)
 
 
 def filter_chain(blocks, n, dt, every=None, method="backward"):
@@ -237,9 +252,9 @@ def filter_chain(blocks, n, dt, every=None, method="backward"):
     """
     if not blocks:
         return None
-    a, b, c, d = loop_structure.chain_state_space(blocks, n)
     if every is not None:
-        return _discretised(a, b, c, d, every * dt, METHODS[check_method(method)])
+        return _digital_chain(blocks, n, every * dt, METHODS[check_method(method)])
+    a, b, c, d = loop_structure.chain_state_space(blocks, n)
     m = a.shape[1]
     augmented = np.zeros((n, m + 2, m + 2))
     augmented[:, :m, :m] = a

@@ -34,6 +34,8 @@ left limits :math:`(e^+, y^+)` now (they differ where a step passes through):
 
 import numpy as np
 
+from cas_freq.core.sampling_config import ALPHA
+
 
 def integrate_with_anti_windup(
     integral, e_start, e_end, rest_start, rest_end, ki, limit, period, locate=True,
@@ -117,9 +119,8 @@ def integrate_with_anti_windup(
 
 
 #: The methods that discretise a sampled controller, and the weight alpha of the generalised
-#: bilinear transform s -> (z - 1)/(T (alpha z + 1 - alpha)) each is (1: backward difference,
-#: 1/2: Tustin).
-METHODS = {"backward": 1.0, "tustin": 0.5}
+#: bilinear transform each is (:data:`cas_freq.core.sampling_config.ALPHA`).
+METHODS = ALPHA
 
 
 def check_method(method):
