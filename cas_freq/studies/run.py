@@ -33,8 +33,8 @@ CSV_COLUMNS = (
 class StepRun:
     """A simulated output step of one variant, with its figures and second-order fit.
 
-    ``linear_stability`` is the verdict of the linear closed loop (Padé-model poles, as
-    ``analyze`` gives it): when it is not ``"stable"`` the step's figures describe a loop that
+    ``linear_stability`` is the verdict of the linear closed loop (Padé-model poles, or the
+    discrete-time poles of sampled loops, as ``analyze`` gives it): when it is not ``"stable"`` the step's figures describe a loop that
     only the limits keep bounded, if anything.
     """
 
@@ -52,10 +52,12 @@ class StepRun:
 
 
 def linear_verdict(params):
-    """Stability verdict of the linear closed loop, as ``analyze`` reports it."""
-    from cas_freq.analysis.stability import closed_loop_stability
+    """Stability verdict of the linear closed loop, as ``analyze`` reports it: from the Padé
+    model's poles, or for sampled loops from the discrete-time poles."""
+    from cas_freq.analysis.analyze import every_loop_verdict
 
-    return closed_loop_stability(params, DEFAULT_PADE_ORDER).verdict
+    p = params if isinstance(params, LoopParameters) else LoopParameters.from_config(params)
+    return str(list(every_loop_verdict(p, DEFAULT_PADE_ORDER).values())[-1][0])
 
 
 def _identity(loaded):
