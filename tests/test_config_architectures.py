@@ -386,7 +386,7 @@ def test_an_unknown_key_lists_what_the_architecture_accepts(shipped_raw):
         validate(shipped_raw, "test")
     assert str(info.value) == (
         "test: position_loop.bogus: unknown key (value 1); position_loop accepts Kp, Ki, Kd, "
-        "Tf, ff_v, ff_a, i_max, delay, derivative_on, feedback")
+        "Tf, ff_v, ff_a, i_max, delay, derivative_on, derivative_window, feedback")
     raw = as_cascade(shipped_raw)
     with pytest.raises(ConfigError) as info:
         validate(raw, "test")

@@ -17,6 +17,7 @@ not hang on the last digits. The checks follow from how it was made:
   candidate plausible, one that does not says which key is outside.
 """
 
+import dataclasses
 import json
 
 import numpy as np
@@ -164,6 +165,8 @@ def test_text_table(files):
      "  - {name: a, source: s, free: {motor.J: {start: 1e-6}}}\n", "two candidates"),
     ("candidates:\n  - {name: a, source: s, set: {motor.R: -1}, free: {motor.J: {}}}\n",
      "motor.R"),
+    ("candidates:\n  - {name: a, source: s, set: {motor.R: 1}, assumed: [motor.L], "
+     "free: {motor.J: {start: 1e-6}}}\n", "assumed: expected a list of keys of its set"),
 ])
 def test_bad_candidates_exit_2_naming_the_field(files, tmp_path, text, message):
     recording, _ = files
@@ -211,3 +214,25 @@ def test_an_undetermined_estimate_outside_its_range_is_not_plausible():
                                    interval=np.array([[nan, nan]]))
     assert plausibility(candidate, outside)[0] == "needs values no datasheet gives"
     assert plausibility(candidate, inside)[0] == "plausible"
+
+
+def test_an_assumed_setting_makes_a_candidate_need_a_value_no_document_gives():
+    """A key of ``set:`` marked ``assumed`` (a value no datasheet or report gives, such as the
+    EPOS4's undocumented derivative window) makes the candidate not plausible, however well
+    its free keys sit in their ranges."""
+    import types
+
+    from cas_freq.identification.candidates import Candidate, plausibility
+    from cas_freq.identification.free_keys import FreeKey, ModelSpec
+
+    free = [FreeKey("motor.Km", 0.0105, True, 1.0, -5.0, 0.0, "N*m/A")]
+    fit = types.SimpleNamespace(free=free, estimate=np.array([0.0101]),
+                                interval=np.array([[0.0100, 0.0102]]))
+    plain = Candidate("c", "s", ("position_loop.derivative_window=3",),
+                      ModelSpec("c", ("motor.Km",), {}), {"motor.Km": (0.00945, 0.01155)},
+                      {"motor.Km": "catalog"})
+    assumed = dataclasses.replace(plain, assumed=("position_loop.derivative_window=3",))
+    assert plausibility(plain, fit) == ("plausible", [])
+    verdict, reasons = plausibility(assumed, fit)
+    assert verdict == "needs values no datasheet gives"
+    assert reasons == ["position_loop.derivative_window=3: set, no datasheet or report gives it"]

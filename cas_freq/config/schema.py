@@ -271,6 +271,7 @@ class PositionLoop(Section):
     i_max: param("position_loop.i_max")
     delay: param("position_loop.delay")
     derivative_on: Literal["error", "measurement"] = "error"
+    derivative_window: param("position_loop.derivative_window") = 1
     feedback: Feedback = "motor"
     omega_max: refused(CASCADE_ONLY["position_loop.omega_max"]) = None
 
@@ -283,6 +284,10 @@ class PositionLoop(Section):
             )
         if self.Kp == 0 and self.Ki == 0 and self.Kd == 0:
             raise PydanticCustomError("cas_value", "Kp, Ki and Kd are all 0: no position loop")
+        if self.derivative_window != 1 and self.Kd == 0:
+            raise PydanticCustomError("cas_value", f"derivative_window: "
+                                      f"{self.derivative_window:g} periods of a derivative term, "
+                                      "but Kd = 0: give Kd > 0, or leave the window at 1")
         problem = derived_problem("position_loop.Tf", self.filter_time_constant)
         if problem:
             raise PydanticCustomError("cas_value", problem)
@@ -307,6 +312,7 @@ class CascadePositionLoop(Section):
     Kd: refused(CASCADE_REFUSED["position_loop.Kd"]) = None
     Tf: refused(CASCADE_REFUSED["position_loop.Tf"]) = None
     derivative_on: refused(CASCADE_REFUSED["position_loop.derivative_on"]) = None
+    derivative_window: refused(CASCADE_REFUSED["position_loop.derivative_window"]) = None
     i_max: refused(CASCADE_REFUSED["position_loop.i_max"]) = None
     ff_a: refused(CASCADE_REFUSED["position_loop.ff_a"]) = None
 
@@ -749,6 +755,12 @@ class ActuatorConfig(Section):
                 "cas_value", "velocity_loop.feedback: encoder estimates the speed from the "
                 "counts over one sample period of the velocity loop, so the velocity loop must "
                 "be sampled: give sampling.velocity_loop (e.g. 2.5 kHz), or feedback: speed")
+        window = getattr(self.position_loop, "derivative_window", None) or 1
+        if window != 1 and self.sampling.rates.get("position_loop") is None:
+            raise PydanticCustomError(
+                "cas_value", f"position_loop.derivative_window: {window:g} periods of the "
+                "position loop's samples, so the position loop must be sampled: give "
+                "sampling.position_loop (e.g. 2.5 kHz), or leave the window at 1")
         return self
 
     @model_validator(mode="after")

@@ -69,6 +69,11 @@ PARAMETERS = _table(
      "position-loop derivative gain (numerator Kd*s), 0 or 1e-9..1e9 [A*s/rad]", 1e-9),
     ("position_loop.Tf", "Tf", "s", 1e-9, False, 1.0,
      "derivative filter time constant Tf, default Kd/(10*Kp), 1e-9..1 [s]"),
+    # static (LoopParameters.derivative_window), with a sampled position loop (docs/model.md §14)
+    ("position_loop.derivative_window", None, "dimensionless", 1.0, False, MAX_WINDOW,
+     "position-loop periods the derivative term's difference spans (the mean of the last m "
+     f"samples differenced), a whole number, default 1, 1..{MAX_WINDOW} [dimensionless]", None,
+     {"integer": True}),
     ("position_loop.ff_v", "ff_v", "A*s/rad", -1e9, False, 1e9,
      "feed-forward of the motor-angle command rate, 0 or |ff_v| 1e-12..1e9 [A*s/rad]", 1e-12),
     ("position_loop.ff_a", "ff_a", "A*s^2/rad", -1e9, False, 1e9,
@@ -241,6 +246,8 @@ CASCADE_REFUSED = {
     "position_loop.Tf": "not used with a velocity loop (the position controller is P or PI)",
     "position_loop.derivative_on": "not used with a velocity loop (the position controller is P "
                                    "or PI)",
+    "position_loop.derivative_window": "not used with a velocity loop (the position controller "
+                                       "is P or PI)",
     "position_loop.i_max": "not used with a velocity loop: the current command's limit is "
                            "velocity_loop.i_max",
     "position_loop.ff_a": "not used with a velocity loop: the acceleration feed-forward is "

@@ -212,6 +212,11 @@ class LoopParameters:
     velocity_window : int
         Static: the velocity-loop periods that estimate differences the counts over
         (``velocity_loop.window``, default 1; above 1 only with ``velocity_from_encoder``).
+    derivative_window : int
+        Static: the position-loop periods the PID's derivative term differences over, the mean
+        of the last m samples of its input (``position_loop.derivative_window``, default 1;
+        above 1 only for a PID-on-PI position loop with Kd > 0; a continuous one runs the
+        derivative itself, the window's limit).
     counts_per_rev, output_counts_per_rev : float or None
         Static: counts per revolution of the motor's encoder and of the output's
         (``sensors.counts_per_rev``, ``sensors.output_counts_per_rev``); None (the default):
@@ -263,6 +268,7 @@ class LoopParameters:
     output_counts_per_rev: float | None = None
     velocity_from_encoder: bool = False
     velocity_window: int = 1
+    derivative_window: int = 1
 
     def __post_init__(self):
         names = _array_fields(self)
@@ -335,6 +341,13 @@ class LoopParameters:
                               f"of periods 1..{MAX_WINDOW} (above 1 only with "
                               f"velocity_from_encoder), got {window!r}")
         object.__setattr__(self, "velocity_window", int(window))
+        window = self.derivative_window  # a continuous position loop ignores it (its limit)
+        if not (isinstance(window, (int, np.integer)) and 1 <= window <= MAX_WINDOW and (
+                window == 1 or (not self.cascade and np.all(self.cp_Kd > 0)))):
+            raise ConfigError(f"simulation parameters: derivative_window: must be a whole "
+                              f"number of periods 1..{MAX_WINDOW} (above 1 only for a PID-on-PI "
+                              f"position loop with cp_Kd > 0 in every run), got {window!r}")
+        object.__setattr__(self, "derivative_window", int(window))
         for name in ("counts_per_rev", "output_counts_per_rev"):
             counts = getattr(self, name)
             if counts is not None and not (isinstance(counts, (int, float, np.number))
@@ -378,7 +391,8 @@ class LoopParameters:
                    cascade=structure[0], feedback_output=structure[1], filters=filters,
                    sample_rates=structure[3], sampling_method=structure[4],
                    counts_per_rev=structure[5], output_counts_per_rev=structure[6],
-                   velocity_from_encoder=structure[7], velocity_window=structure[8])
+                   velocity_from_encoder=structure[7], velocity_window=structure[8],
+                   derivative_window=structure[9])
 
     @classmethod
     def from_config(cls, config):
@@ -412,7 +426,7 @@ class LoopParameters:
 #: LoopParameters fields that are the same for the whole batch (not arrays).
 STATIC_FIELDS = ("cascade", "feedback_output", "filters", "sample_rates", "sampling_method",
                  "counts_per_rev", "output_counts_per_rev", "velocity_from_encoder",
-                 "velocity_window")
+                 "velocity_window", "derivative_window")
 
 
 def _array_fields(params):
@@ -465,8 +479,8 @@ def _which(where, bad):
 def loop_structure(config):
     """The static fields of a validated config: (cascade, feedback_output, the filters' points
     and types, sample_rates, sampling_method, the motor's and the output's encoder counts per
-    revolution, the velocity loop read from the encoder and over how many periods). Runs of
-    one batch share them."""
+    revolution, the velocity loop read from the encoder and over how many periods, the
+    derivative's window). Runs of one batch share them."""
     sensors = config.sensors
     velocity = getattr(config, "velocity_loop", None)
     return (is_cascade(config), config.position_loop.feedback == "output",
@@ -474,7 +488,8 @@ def loop_structure(config):
             config.sampling.sample_rates, config.sampling.method,
             sensors.counts_per_rev, sensors.output_counts_per_rev,
             velocity is not None and velocity.feedback == "encoder",
-            int(velocity.window) if velocity is not None else 1)
+            int(velocity.window) if velocity is not None else 1,
+            int(getattr(config.position_loop, "derivative_window", None) or 1))
 
 
 def _filters(config, numbers=None):
@@ -596,6 +611,7 @@ def variant_parameters(params, changes, n=None):
         sample_rates=structure[3], sampling_method=structure[4],
         counts_per_rev=structure[5], output_counts_per_rev=structure[6],
         velocity_from_encoder=structure[7], velocity_window=structure[8],
+        derivative_window=structure[9],
     )
 
 

@@ -15,10 +15,12 @@ A candidates file is YAML (read safely, as a config is)::
             bounds: [0.005 A*s/rad, 0.1 A*s/rad]   # the search (optional)
             plausible: [0.0381 A*s/rad, 0.0381 A*s/rad]  # what a datasheet or the report
             evidence: report Table 2                # allows, and where it says so (optional)
+        assumed: [sensors.counts_per_rev]  # keys of set: that no document gives (optional)
 
 A candidate is **plausible** when every free key has a ``plausible`` range (what a datasheet,
-the report or a measurement allows) and its fitted 95 % interval reaches into it; a key without
-one needs a value no datasheet or report gives. A candidate with a key that the data cannot
+the report or a measurement allows) and its fitted 95 % interval reaches into it, and no key of
+its ``set:`` is ``assumed``; a key without a range, or an assumed one, needs a value no
+datasheet or report gives. A candidate with a key that the data cannot
 determine is **flagged** (its information criterion already charges the extra parameter).
 """
 
@@ -33,7 +35,7 @@ from cas_freq.identification.free_keys import ModelSpec
 
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_-]{0,63}")
 _FREE_FIELDS = {"start", "bounds", "plausible", "evidence"}
-_FIELDS = {"name", "source", "set", "free"}
+_FIELDS = {"name", "source", "set", "free", "assumed"}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,6 +56,8 @@ class Candidate:
         Free key -> (lower, upper) [SI] that a datasheet or the report allows.
     evidence : dict
         Free key -> where that range comes from.
+    assumed : tuple of str
+        ``KEY=VALUE`` texts of the overrides that no datasheet or report gives.
     """
 
     name: str
@@ -62,6 +66,7 @@ class Candidate:
     spec: ModelSpec
     plausible: dict
     evidence: dict
+    assumed: tuple = ()
 
 
 def _pair(value, key, field, where, config):
@@ -147,19 +152,24 @@ def read_candidates(path, config=None):
             raise ConfigError(f"{where}: set: expected a mapping KEY: VALUE, got "
                               f"{overrides!r}")
         spec, plausible, evidence = _free(item.get("free"), where, config)
+        assumed = item.get("assumed") or []
+        if not (isinstance(assumed, list) and set(assumed) <= set(overrides)):
+            raise ConfigError(f"{where}: assumed: expected a list of keys of its set: "
+                              f"({', '.join(overrides) or 'none'}), got {assumed!r}")
         candidates.append(Candidate(
             name=name, source=source.strip(),
             overrides=tuple(f"{key}={value}" for key, value in overrides.items()),
             spec=dataclasses.replace(spec, name=name), plausible=plausible,
-            evidence=evidence))
+            evidence=evidence,
+            assumed=tuple(f"{key}={overrides[key]}" for key in assumed)))
     return candidates
 
 
 def plausibility(candidate, fit):
     """(verdict, reasons) of a fitted candidate: ``"plausible"`` when every free key's 95 %
     interval reaches into its plausible range, else ``"needs values no datasheet gives"``
-    with the keys that do not."""
-    reasons = []
+    with the keys that do not (and the assumed ones of its ``set:``)."""
+    reasons = [f"{text}: set, no datasheet or report gives it" for text in candidate.assumed]
     for index, free in enumerate(fit.free):
         low, high = fit.interval[index]
         estimate = fit.estimate[index]

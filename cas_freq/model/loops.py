@@ -47,7 +47,8 @@ RESPONSE_FIELDS = (
 
 #: Fields the whole batch shares (the architecture, the sampling), passed on as they are.
 STATIC_FIELDS = ("cascade", "feedback_output", "sample_rates", "sampling_method",
-                 "velocity_from_encoder", "velocity_window")
+                 "velocity_from_encoder", "velocity_window",
+                 "derivative_window")
 
 
 class Selector:

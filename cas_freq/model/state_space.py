@@ -128,7 +128,11 @@ def closings(p, pade_order=DEFAULT_PADE_ORDER, loops=None, n=None, sampled=False
         own = command and k == len(chosen) - 1 and loop.reference is not None
         path = chain([_block(block, n, discrete) for block in loop.path]
                      + [form.delay(k, loop, n)])
-        opened = series(series(_controller(loop, own, n, discrete), path), system)
+        if loop.derivative:  # realised in z from its gains (no realisation of it in s)
+            controller = _windowed_controller(loop, own, n, form.period(k), form.method)
+        else:
+            controller = _controller(loop, own, n, discrete)
+        opened = series(series(controller, path), system)
         row = row_of[form.signal(loop)]
         blocks = form.sensor(loop)
         sensor = chain([_block(block, n, discrete) for block in blocks]) if blocks else None
@@ -386,6 +390,48 @@ def _controller(loop, own, n, discrete):
                                parts.stacked(controller.denominator, n)))
     a, b, c, d = discrete(realize(numerator, denominator))
     return a, concatenate([b] * 2, -1), c, concatenate([d] * 2, -1)
+
+
+def _windowed_controller(loop, own, n, period, method):
+    r"""A sampled PID whose derivative reads the mean of its input's last m samples
+    (:attr:`~cas_freq.model.structure.Loop.derivative`), in discrete state space with the
+    two input columns of :func:`_controller`.
+
+    With :math:`s \to (1 - z^{-1})/(T(\alpha + (1 - \alpha) z^{-1}))`, Q = 1 − z⁻¹,
+    :math:`F = (T_f + \alpha T) - (T_f - (1 - \alpha) T) z^{-1}`, the integral's
+    :math:`K_i T (\alpha + (1 - \alpha) z^{-1})/Q` and the window A(z):
+    :math:`C = K_p + K_i T (\alpha + (1-\alpha) z^{-1})/Q + K_d Q A/F` over Q F (F alone
+    where K_i = 0), the command's path without the derivative term. Runs without an
+    integrator get poles and zeros at z = 0 to share the state count (deadbeat, unseen).
+    """
+    alpha = ALPHA[method]
+    kp, ki, kd, tf = (np.broadcast_to(np.asarray(g, dtype=float), (n,))
+                      for g in loop.controller.gains)
+    average = np.asarray(loop.derivative[0].fir, dtype=float)
+    width = average.size + 2  # the numerator's terms in z^-1: Q Q A
+    ones = np.ones(n)
+
+    def poly(*coefficients):  # per run, ascending powers of z^-1, padded to ``width``
+        out = np.zeros((n, width))
+        out[:, :len(coefficients)] = np.column_stack(coefficients)
+        return out
+
+    def times(a, b):
+        return np.stack([np.convolve(x, y)[:width] for x, y in zip(a, b, strict=True)])
+
+    q = poly(ones, -ones)
+    f = poly(tf + alpha * period, -(tf - (1.0 - alpha) * period))
+    integral = poly(ki * period * alpha, ki * period * (1.0 - alpha))
+    derivative = times(poly(*(kd[:, None] * average).T), times(q, q))  # K_d Q Q A
+    has_i = (ki > 0)[:, None]
+    command = np.where(has_i, times(kp[:, None] * q + integral, f), kp[:, None] * f)
+    error = command + np.where(has_i, derivative, times(poly(*(kd[:, None] * average).T), q))
+    denominator = np.where(has_i, times(q, f), f)
+    a, b, c, d = realize(error, denominator)
+    if not own:
+        return a, concatenate([b] * 2, -1), c, concatenate([d] * 2, -1)
+    reference = realize(command, denominator)
+    return a, np.concatenate([b, reference[1]], -1), c, np.concatenate([d, reference[3]], -1)
 
 
 def _block(block, n, discrete):

@@ -149,6 +149,11 @@ class Loop:
     limit : float or numpy.ndarray or None
         The clamp of its controller's output, in the unit of the command it gives (v_max [V],
         i_max [A], omega_max [rad/s]); not linear, so only the simulators read it.
+    derivative : tuple of Block
+        Digital blocks on the input of its controller's derivative term alone (its window,
+        :func:`moving_average`): ``controller`` holds them already (its numerator and
+        denominator in s); the simulators step them on the derivative's input, the state-space
+        assembly realises the controller from its gains and them.
     """
 
     name: str
@@ -164,6 +169,7 @@ class Loop:
     feedforward: tuple | None = None
     signals: tuple = ("e", "y")
     limit: object = None
+    derivative: tuple = ()
 
     @property
     def label(self):
@@ -248,10 +254,19 @@ def pi_controller(name, kp, ki, n):
     return Block(name, (kp, ki), (1.0, 0.0), minimal, gains=(kp, ki, 0.0, 1.0))
 
 
-def pid_controller(p, n):
+def pid_controller(p, n, window=None):
     """C_p = Kp + Ki/s + Kd s/(Tf s + 1) over s (Tf s + 1) (docs/model.md), without the
-    integrator where Ki = 0 and the filter where Kd = 0."""
+    integrator where Ki = 0 and the filter where Kd = 0; with a derivative ``window`` (the
+    :func:`moving_average` block A = a/b of a sampled loop) Kp + Ki/s + Kd s A/(Tf s + 1) over
+    s (Tf s + 1) b."""
     kp, ki, kd, tf = p.cp_Kp, p.cp_Ki, p.cp_Kd, p.Tf
+    if window is not None:
+        numerator = polyadd(polymul(polymul(parts.reference_path(p), parts.position_filter(p)),
+                                    window.denominator),
+                            polymul((kd, 0.0, 0.0), window.numerator))
+        return Block("position PID", numerator,
+                     polymul(polymul(parts.position_filter(p), (1.0, 0.0)), window.denominator),
+                     gains=(kp, ki, kd, tf))
 
     def minimal():
         has_i = np.broadcast_to(np.asarray(ki) > 0, (n,))
@@ -384,18 +399,23 @@ def build(p):
     # the position loop's error and what it measures: the output (delta) on an output encoder
     position_signals = ("e", "delta" if position_feedback == "output_angle" else "theta")
     if not getattr(p, "cascade", False):
+        window = _derivative_window(p)
+        controller = pid_controller(p, n, window)
         reference = None
         if np.any(p.derivative_on_measurement):
-            # the command sees Kp + Ki/s: (Kp s + Ki)(Tf s + 1) over s (Tf s + 1)
+            # the command sees Kp + Ki/s: (Kp s + Ki)(Tf s + 1) over s (Tf s + 1) (times the
+            # window's denominator)
             measured = polymul(parts.reference_path(p), parts.position_filter(p))
+            if window is not None:
+                measured = polymul(measured, window.denominator)
             reference = tuple(np.where(p.derivative_on_measurement, m, c) for m, c in zip(
-                measured, parts.position_controller(p), strict=True))
+                *_padded(measured, controller.numerator), strict=True))
         position = Loop(
-            "position_loop", "L_p", "the current command", "i_cmd", pid_controller(p, n),
+            "position_loop", "L_p", "the current command", "i_cmd", controller,
             at_current_command, p.tau_p, position_feedback,
             _filters(p, "position_feedback"), reference=reference,
             feedforward=(p.ff_a, p.ff_v, 0.0), signals=position_signals,
-            limit=getattr(p, "i_max", None),
+            limit=getattr(p, "i_max", None), derivative=() if window is None else (window,),
         )
         return Structure(plant(p), (current, position), command=_filters(p, COMMAND_POINT))
     sensor = _filters(p, "velocity_feedback")
@@ -432,29 +452,67 @@ def build(p):
                      command=_filters(p, COMMAND_POINT))
 
 
-def counts_difference(window, period, method):
-    r"""The counts' difference over ``window`` periods of ``period`` [s], per second: the
-    digital block :math:`(1 - z^{-m})/(m T)` (:attr:`Block.fir`) of a loop discretised by
-    ``method``.
+def _fir_block(name, taps, gain, period, method):
+    r"""The digital block :math:`g \sum_k c_k z^{-k}` (:attr:`Block.fir`; ``taps`` the
+    :math:`c_k`, ``gain`` g) of a loop of ``period`` [s] discretised by ``method``.
 
     In s it is the same function under the generalised bilinear transform of weight
-    :math:`\alpha` (:data:`~cas_freq.core.sampling_config.ALPHA`),
-    :math:`z^{-1} = (1 - \alpha sT)/(1 + (1 - \alpha) sT)`: with :math:`x = sT`,
-    :math:`((1 + (1-\alpha)x)^m - (1 - \alpha x)^m) / (m T (1 + (1-\alpha)x)^m)` (s itself
-    for m = 1 with the backward difference), exact at the loop's equivalent s.
+    :math:`lpha` (:data:`~cas_freq.core.sampling_config.ALPHA`),
+    :math:`z^{-1} = (1 - lpha sT)/(1 + (1 - lpha) sT)`: with :math:`x = sT` and M the
+    last tap, :math:`g \sum_k c_k (1 - lpha x)^k (1 + (1-lpha) x)^{M-k} /
+    (1 + (1-lpha) x)^M`, exact at the loop's equivalent s.
     """
     alpha = ALPHA[method]
+    last = len(taps) - 1
+
+    def power(root, k):  # (1 + root x)^k, lowest power first, last + 1 coefficients
+        out = np.zeros(last + 1)
+        out[0] = 1.0
+        for _ in range(k):
+            out[1:] = out[1:] + root * out[:-1]
+        return out
+
+    numerator = sum(tap * np.convolve(power(-alpha, k), power(1.0 - alpha, last - k))[:last + 1]
+                    for k, tap in enumerate(taps))
+    scale = period ** np.arange(last + 1)  # x^j = T^j s^j
+    numerator = np.trim_zeros(numerator * scale * gain, "b")
+    denominator = np.trim_zeros(power(1.0 - alpha, last) * scale, "b")
+    return Block(name, tuple(numerator[::-1]), tuple(denominator[::-1]),
+                 fir=tuple(gain * np.asarray(taps, dtype=float)))
+
+
+def _padded(*polynomials):
+    """The polynomials with leading zeros to a common width."""
+    width = max(len(q) for q in polynomials)
+    return tuple((0.0,) * (width - len(q)) + tuple(q) for q in polynomials)
+
+
+def _derivative_window(p):
+    """The PID's derivative window (:func:`moving_average`) of a sampled position loop over
+    ``p.derivative_window`` > 1 periods, else None (one period, or continuous: its limit)."""
+    window = getattr(p, "derivative_window", 1)
+    rate = dict(getattr(p, "sample_rates", ())).get("position_loop")
+    if window == 1 or not rate:
+        return None
+    return moving_average(window, 1.0 / rate, getattr(p, "sampling_method", "backward"))
+
+
+def counts_difference(window, period, method):
+    """The counts' difference over ``window`` periods of ``period`` [s], per second:
+    :math:`(1 - z^{-m})/(m T)` (:func:`_fir_block`; s itself for m = 1 with the backward
+    difference)."""
     m = int(window)
-    right = np.polynomial.polynomial.polypow([1.0, 1.0 - alpha], m)  # in x, lowest power first
-    left = np.polynomial.polynomial.polypow([1.0, -alpha], m)
-    numerator = np.polynomial.polynomial.polysub(right, left)
-    scale = period ** np.arange(m + 1)  # x^j = T^j s^j
-    numerator = np.trim_zeros(numerator * scale[:numerator.size] / (m * period), "b")
-    denominator = np.trim_zeros(right * scale[:right.size], "b")
     taps = np.zeros(m + 1)
-    taps[0], taps[m] = 1.0 / (m * period), -1.0 / (m * period)
-    return Block(f"counts difference over {m} period{'s' if m > 1 else ''}",
-                 tuple(numerator[::-1]), tuple(denominator[::-1]), fir=tuple(taps))
+    taps[0], taps[m] = 1.0, -1.0
+    return _fir_block(f"counts difference over {m} period{'s' if m > 1 else ''}", taps,
+                      1.0 / (m * period), period, method)
+
+
+def moving_average(window, period, method):
+    r"""The mean of the last ``window`` samples, :math:`A_m(z) = (1/m) \sum_{k<m} z^{-k}`
+    (:func:`_fir_block`): before a difference over one period, the difference over m."""
+    m = int(window)
+    return _fir_block(f"mean of {m} samples", np.ones(m), 1.0 / m, period, method)
 
 
 def fir_state_space(block, n):

@@ -132,6 +132,9 @@ class LoopStep:
     analog, sensor, path : FilterChain or None
         Its analog measurement filters (continuous, stepped every step), its digital ones
         (at its rate) and the filters after its controller (at its rate).
+    derivative : FilterChain or None
+        The digital blocks on its derivative term's input alone (the window of
+        :attr:`~cas_freq.model.structure.Loop.derivative`, at its rate).
     quantum : numpy.ndarray or None
         One count of the encoder it reads, on the scale of its measured signal [rad of the
         motor] (:func:`encoder_quantum`); None where it reads no quantised angle.
@@ -153,6 +156,7 @@ class LoopStep:
     sensor: FilterChain | None = None
     path: FilterChain | None = None
     quantum: np.ndarray | None = None
+    derivative: FilterChain | None = None
 
     @property
     def sampled(self):
@@ -212,6 +216,7 @@ def loop_steps(params, dt, every=None, method="backward"):
             sensor=filter_chain(digital_sensor(loop), n, dt, period, method),
             path=filter_chain(loop.path, n, dt, period, method),
             quantum=encoder_quantum(params, loop.feedback),
+            derivative=filter_chain(loop.derivative, n, dt, period, method),
         ))
     return tuple(steps)
 

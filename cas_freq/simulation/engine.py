@@ -225,10 +225,10 @@ class Engine:
                        dt * (loop.every or 1), sampled=loop.sampled, method=method)
             for loop in loops]
         self.lines = [DelayLine(loop.delay, dt, hold=loop.sampled) for loop in loops]
-        self.analog, self.sensor, self.path = (
+        self.analog, self.sensor, self.path, self.derivative = (
             [None if chain is None else architecture.FilterState(chain) for chain in chains]
-            for chains in zip(*((loop.analog, loop.sensor, loop.path) for loop in loops),
-                              strict=True))
+            for chains in zip(*((loop.analog, loop.sensor, loop.path, loop.derivative)
+                                for loop in loops), strict=True))
         top = loops[-1]
         on = top.on_measurement
         # Derivative input: the error everywhere (None), -theta everywhere (True), or mixed.
@@ -294,6 +294,12 @@ class Engine:
         if top and self._derivative_on is not None:
             y_r = self._derivative_input(e_r, measured)
             y_l = y_r if e_l is e_r else self._derivative_input(e_l, measured)
+        if self.derivative[j] is not None:  # through its window
+            chain = self.derivative[j]
+            y_l, y_r = (e_l, e_r) if y_r is None else (y_l, y_r)
+            same = y_l is y_r
+            y_l, y_r = (chain.start if start else chain.step)(y_l, y_r)
+            y_l = y_r if same else y_l
         ff_r, ff_l = right[1][j], left[1][j]
         if loop.sampled:  # a sampler sees the values from now on
             ff_l = ff_r

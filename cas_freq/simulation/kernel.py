@@ -81,6 +81,7 @@ from cas_freq.simulation.kernel_blocks import (
     _L_B,
     _L_BACKWARD,
     _L_C,
+    _L_DERIVATIVE,
     _L_EVERY,
     _L_F,
     _L_FF_A,
@@ -123,6 +124,7 @@ from cas_freq.simulation.kernel_blocks import (
     _Q_TAU_H,
     _RATIO,
     _S_ANALOG_U,
+    _S_DERIVATIVE_U,
     _S_E,
     _S_FILTER,
     _S_INT,
@@ -303,11 +305,13 @@ def _advance_run(r, p, loops, s, g, x, chains, z, ring_right, ring_left, right, 
     state, table = s[r], loops[r]
     # the table's whole numbers as integers, converted once: each loop's period, the whole
     # steps of the delay after it, and per filter chain its order, first column and states
-    whole = np.empty((n_loops, 11), dtype=np.int64)
+    whole = np.empty((n_loops, 14), dtype=np.int64)
     for j in range(n_loops):
         whole[j, 0], whole[j, 1] = int(table[j, _L_EVERY]), int(table[j, _L_M])
         for c in range(9):
             whole[j, 2 + c] = int(table[j, _L_ANALOG + c])
+        for c in range(3):
+            whole[j, 11 + c] = int(table[j, _L_DERIVATIVE + c])
     i, w, th = x[r, 0], x[r, 1], x[r, 2]
     v, angle = g[r, _G_V], g[r, _G_THETA_CMD]
     # the next step at which to record (a counter, not a division per step)
@@ -516,6 +520,12 @@ def _advance_run(r, p, loops, s, g, x, chains, z, ring_right, ring_left, right, 
                     y_left = y_right = -measured
                 else:
                     y_left, y_right = e_left, e_right
+                order = whole[j, 11]
+                if order > 0:  # the derivative's input through its window
+                    y, d = _chain(chains, z, r, whole[j, 12], order, whole[j, 13],
+                                  state[j, _S_DERIVATIVE_U], y_left, first)
+                    state[j, _S_DERIVATIVE_U] = y_right
+                    y_left, y_right = y + d * y_left, y + d * y_right
                 ff_left = ff_right = 0.0
                 if table[j, _L_HAS_FF] != 0.0:
                     ff_v, ff_a = table[j, _L_FF_V], table[j, _L_FF_A]
@@ -629,7 +639,8 @@ def tables(params, dt, every=None, method="backward"):
     backward = check_method(method) == "backward"
     chain_list = [(j, at, chain) for j, loop in enumerate(steps)
                   for at, chain in ((_L_ANALOG, loop.analog), (_L_SENSOR, loop.sensor),
-                                    (_L_PATH, loop.path)) if chain is not None]
+                                    (_L_PATH, loop.path), (_L_DERIVATIVE, loop.derivative))
+                  if chain is not None]
     chains = np.zeros((n, 1 + sum(_chain_columns(chain) for _, _, chain in chain_list)))
     column = state_column = 0
     for j, at, chain in chain_list:

@@ -24,14 +24,15 @@ _NP = 16
 # acceleration, derivative on the measurement, update period in steps (0: continuous), the
 # backward difference of a sampled loop, the signal it measures (:data:`SIGNAL_CODES`), the delay
 # after it (whole steps and fraction), whether some run of the batch has a derivative term or a
-# feed-forward, and per filter chain (analog measurement, digital measurement, path) its order
-# (0: none), its first column in the chain table and its states' first column in the chain state,
-# and one count of the encoder it reads (0: not quantised).
+# feed-forward, and per filter chain (analog measurement, digital measurement, path, the
+# derivative's input) its order (0: none), its first column in the chain table and its states'
+# first column in the chain state, and one count of the encoder it reads (0: not quantised).
 (_L_KP, _L_KI, _L_GD, _L_A, _L_B, _L_C, _L_LIMIT, _L_FF_V, _L_FF_A, _L_ON_MEASUREMENT,
  _L_EVERY, _L_BACKWARD, _L_SIGNAL, _L_M, _L_F, _L_HAS_D, _L_HAS_FF) = range(17)
 _L_ANALOG, _L_SENSOR, _L_PATH = 17, 20, 23  # each: order, first column, first state column
 _L_QUANTUM = 26
-_NL = 27
+_L_DERIVATIVE = 27  # order, first column, first state column
+_NL = 30
 
 #: The code of each measured signal in the loop table (structure.SIGNALS).
 SIGNAL_CODES = {"current": 0, "motor_velocity": 1, "motor_angle": 2, "output_angle": 3}
@@ -42,8 +43,8 @@ SIGNAL_CODES = {"current": 0, "motor_velocity": 1, "motor_angle": 2, "output_ang
 # was clamped, the reference read at its last update, its measurement through the analog filters
 # at this step, and the last input of each filter chain.
 (_S_INT, _S_FILTER, _S_E, _S_Y, _S_REST, _S_OUT_LEFT, _S_OUT, _S_LIMITED, _S_REF, _S_MEASURED,
- _S_ANALOG_U, _S_SENSOR_U, _S_PATH_U) = range(13)
-_NS = 13
+ _S_ANALOG_U, _S_SENSOR_U, _S_PATH_U, _S_DERIVATIVE_U) = range(14)
+_NS = 14
 
 # Columns of the run state (n_runs, _NG).
 _G_V = 0  # voltage at the motor terminals at the present step (right limit) [V]

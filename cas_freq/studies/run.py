@@ -34,8 +34,9 @@ class StepRun:
     """A simulated output step of one variant, with its figures and second-order fit.
 
     ``linear_stability`` is the verdict of the linear closed loop (Padé-model poles, or the
-    discrete-time poles of sampled loops, as ``analyze`` gives it): when it is not ``"stable"`` the step's figures describe a loop that
-    only the limits keep bounded, if anything.
+    discrete-time poles of sampled loops, as ``analyze`` gives it): when it is not
+    ``"stable"`` the step's figures describe a loop that only the limits keep bounded, if
+    anything.
     """
 
     config: str

@@ -96,7 +96,9 @@ print("Flagged (keys the data do not determine): " + (", ".join(flagged) or "non
 # values no datasheet or report gives, so this is the structure the stand-in favours, with the
 # confidence its AICc lead gives over the others, not a proof. Its residual is still above the
 # noise: part of the shape (the second-order stand-in's own, which no servo loop follows
-# exactly) is left unexplained. Two measurements on the bench decide between the remaining
+# exactly) is left unexplained. A derivative that differences the counts over three periods
+# (the window the EPOS4 uses is not documented) lags the same way, but with the inertia fitted
+# it loses its overshoot and fits far worse. Two measurements on the bench decide between the remaining
 # candidates: the EPOS4's derivative filter as the drive holds it (EPOS Studio's parameter
 # export), and the simulant's inertia (its mass and dimensions, or a swing test). With those
 # fixed, a refit of the rest either closes the gap or shows that the missing effect is
