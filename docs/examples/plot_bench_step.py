@@ -98,8 +98,8 @@ print("Flagged (keys the data do not determine): " + (", ".join(flagged) or "non
 # noise: part of the shape (the second-order stand-in's own, which no servo loop follows
 # exactly) is left unexplained. A derivative that differences the counts over three periods
 # (the window the EPOS4 uses is not documented) lags the same way, but with the inertia fitted
-# it loses its overshoot and fits far worse. Two measurements on the bench decide between the remaining
-# candidates: the EPOS4's derivative filter as the drive holds it (EPOS Studio's parameter
-# export), and the simulant's inertia (its mass and dimensions, or a swing test). With those
-# fixed, a refit of the rest either closes the gap or shows that the missing effect is
-# elsewhere (the gear's friction and efficiency, the drive's velocity estimate).
+# it loses its overshoot and fits far worse. Two measurements on the bench decide between the
+# remaining candidates: the EPOS4's derivative filter and window as the drive holds them (EPOS
+# Studio's parameter export), and the simulant's inertia (its mass and dimensions, or a swing
+# test). With those fixed, a refit of the rest either closes the gap or shows that the missing
+# effect is elsewhere (the gear's friction and efficiency, the drive's velocity estimate).
