@@ -624,7 +624,11 @@ def simulate_batch(
     first = dict(zip(names, engine.start(), strict=True))
     # every signal (n_runs, n_samples): the engines record run by run
     columns = [1 + int(round(end / dt)) // record_every + 1 for end in (t_end, cap)]
-    recording = Recording(names, n, columns[0], buffers, limit=columns[1])
+    # where the horizon can extend, the buffers are sized for its cap from the start: the
+    # operating system maps their pages as they are first written (the cap is within the
+    # memory budget), so the unused columns cost nothing and no extension copies the samples
+    recording = Recording(names, n, columns[1] if extend and settles else columns[0], buffers,
+                          limit=columns[1])
     recording.append([0.0], {name: value[:, None] for name, value in first.items()})
     steps_done, horizon = 0, t_end
     extended = False
