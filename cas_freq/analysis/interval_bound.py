@@ -25,8 +25,9 @@ the cell (outward-widened by 1e-9 of its size for the rounding of floating point
 
 A branch and bound refines the cells whose bound is below the worst found (bisecting the
 parameter or the frequency interval that is widest in its own scale) until the bound meets
-it or the cell budget runs out; the bound holds whenever it stops, the gap says how close it
-got. The frequencies covered are 1e-9 .. 1e12 rad/s (the analysed range and far beyond it).
+it or the cell budget runs out, best first: each round splits, for each figure, an equal share
+of the cells lowest below its target (and every cell that may hold -1), the others waiting in
+the pool with their bounds. The bound holds whenever it stops, the gap says how close it got. The frequencies covered are 1e-9 .. 1e12 rad/s (the analysed range and far beyond it).
 Where the loop is not a continuous PID-on-PI with a rigid, unloaded gear and no filters, or a
 toleranced key does not enter L_p, there is no bound (:func:`supported` says why).
 """
@@ -358,52 +359,117 @@ def bounds(base, keys, low, high, targets, max_cells=MAX_CELLS):
     count = int(math.ceil(decades * FIRST_CELLS_PER_DECADE))
     edges = np.geomspace(*OMEGA_RANGE, count + 1)
     # cells: parameter sub-boxes (unit coordinates) and log-frequency intervals
-    cell_low = np.zeros((count, d))
-    cell_high = np.ones((count, d))
-    w_low, w_high = edges[:-1].copy(), edges[1:].copy()
+    cells = (np.zeros((count, d)), np.ones((count, d)), edges[:-1].copy(), edges[1:].copy())
     span = high - low
     evaluated = 0
     # the smallest bound of the cells retired (not refined further), per figure
     floors = dict.fromkeys(FIGURES, math.inf)
+    # the open cells (their bounds still count) and how far each falls short of the targets
+    pool = _no_cells(d)
     while True:
-        parts = [_cell_bounds(base, keys, low + cell_low[k:k + CHUNK] * span,
-                              low + cell_high[k:k + CHUNK] * span, w_low[k:k + CHUNK],
-                              w_high[k:k + CHUNK])
-                 for k in range(0, w_low.size, CHUNK)]
-        evaluated += w_low.size
-        found = {name: np.concatenate([part[0][name] for part in parts]) for name in FIGURES}
-        minus_one = np.concatenate([part[1] for part in parts])
-        refine = minus_one.copy()
+        found, minus_one = _evaluate(base, keys, low, span, cells)
+        evaluated += cells[2].size
+        shortfall = np.where(minus_one, np.inf, 0.0)
         for name, target in targets.items():
-            tolerance = 1e-4 * abs(target) if name == "bandwidth_rad_s" else 1e-3
-            refine |= found[name] < target - tolerance
-        if (~refine).any():
-            for name, values in found.items():
-                floors[name] = min(floors[name], float(np.min(values[~refine])))
-        if not refine.any() or evaluated + 2 * int(refine.sum()) > max_cells:
-            out = {name: min(floors[name], _smallest(values, refine))
-                   for name, values in found.items()}
-            return {**out, "stable": not bool(minus_one[refine].any()), "cells": evaluated}
-        cell_low, cell_high = cell_low[refine], cell_high[refine]
-        w_low, w_high = w_low[refine], w_high[refine]
-        # split each cell along its widest dimension: a key in unit width, or the frequency
-        # in decades (one unit = a tenth of a decade)
-        widths = np.concatenate([cell_high - cell_low,
-                                 (np.log10(w_high / w_low) * 10.0)[:, None]], axis=1)
-        along = np.argmax(widths, axis=1)
-        new_low_p, new_high_p = np.repeat(cell_low, 2, axis=0), np.repeat(cell_high, 2, axis=0)
-        new_low_w, new_high_w = np.repeat(w_low, 2), np.repeat(w_high, 2)
-        first = np.arange(0, 2 * along.size, 2)
-        on_key = along < d
-        rows = np.flatnonzero(on_key)
-        middle = 0.5 * (cell_low[rows, along[rows]] + cell_high[rows, along[rows]])
-        new_high_p[first[rows], along[rows]] = middle
-        new_low_p[first[rows] + 1, along[rows]] = middle
-        rows = np.flatnonzero(~on_key)
-        middle = np.sqrt(w_low[rows] * w_high[rows])
-        new_high_w[first[rows]] = middle
-        new_low_w[first[rows] + 1] = middle
-        cell_low, cell_high, w_low, w_high = new_low_p, new_high_p, new_low_w, new_high_w
+            short = (_level(name, target) - found[name]) / max(abs(target), 1.0)
+            shortfall = np.maximum(shortfall, np.where(short > 0, short, 0.0))
+        retired = shortfall == 0
+        for name, values in found.items():
+            if retired.any():
+                floors[name] = min(floors[name], float(np.min(values[retired])))
+        kept = ~retired
+        pool = _joined(pool, (*(part[kept] for part in cells), shortfall[kept],
+                              {name: values[kept] for name, values in found.items()},
+                              minus_one[kept]))
+        size = pool[2].size
+        if not size or evaluated + 2 * min(size, REFINED) > max_cells:
+            out = {name: min(floors[name], _smallest(pool[5][name], np.ones(size, bool)))
+                   for name in FIGURES}
+            return {**out, "stable": not bool(pool[6].any()), "cells": evaluated}
+        # best first: the cells furthest below each figure's target are split, the rest wait
+        # in the pool
+        chosen = _chosen(pool, targets, REFINED)
+        waiting = np.ones(size, bool)
+        waiting[chosen] = False
+        cells = _split(*(part[chosen] for part in pool[:4]), d)
+        pool = _taken(pool, waiting)
+
+
+def _level(name, target):
+    """The level a figure's bound must reach: its target, less 1e-4 of it for the bandwidth
+    or 1e-3 deg or dB for a margin."""
+    return target - (1e-4 * abs(target) if name == "bandwidth_rad_s" else 1e-3)
+
+
+def _chosen(pool, targets, count):
+    """The pool's cells to split: every one that may hold -1, and for each figure an equal
+    share of the cells whose bounds are lowest below its target (at most ``count``, those
+    furthest short first)."""
+    bounds, minus_one, shortfall = pool[5], pool[6], pool[4]
+    share = max(1, count // max(len(targets), 1))
+    picks = [np.flatnonzero(minus_one)]
+    for name, target in targets.items():
+        below = np.flatnonzero(bounds[name] < _level(name, target))
+        picks.append(below[np.argsort(bounds[name][below], kind="stable")[:share]])
+    chosen = np.unique(np.concatenate(picks))
+    if chosen.size > count:
+        chosen = chosen[np.argsort(-shortfall[chosen], kind="stable")[:count]]
+    return chosen
+
+
+#: Cells split per round of the branch and bound, the ones that fall furthest short of the
+#: worst found first (each gives two: one chunk of cells evaluated per round).
+REFINED = CHUNK // 2
+
+
+def _evaluate(base, keys, low, span, cells):
+    """Each figure's bound per cell and whether the cell may hold -1 (in chunks)."""
+    cell_low, cell_high, w_low, w_high = cells
+    parts = [_cell_bounds(base, keys, low + cell_low[k:k + CHUNK] * span,
+                          low + cell_high[k:k + CHUNK] * span, w_low[k:k + CHUNK],
+                          w_high[k:k + CHUNK])
+             for k in range(0, w_low.size, CHUNK)]
+    return ({name: np.concatenate([part[0][name] for part in parts]) for name in FIGURES},
+            np.concatenate([part[1] for part in parts]))
+
+
+def _no_cells(d):
+    empty = np.zeros(0)
+    return (np.zeros((0, d)), np.zeros((0, d)), empty, empty, empty,
+            dict.fromkeys(FIGURES, empty), np.zeros(0, bool))
+
+
+def _joined(a, b):
+    """Two pools of cells (low, high, w_low, w_high, shortfall, bounds, minus_one) as one."""
+    return (*(np.concatenate([x, y]) for x, y in zip(a[:5], b[:5], strict=True)),
+            {name: np.concatenate([a[5][name], b[5][name]]) for name in FIGURES},
+            np.concatenate([a[6], b[6]]))
+
+
+def _taken(pool, rows):
+    return (*(part[rows] for part in pool[:5]),
+            {name: values[rows] for name, values in pool[5].items()}, pool[6][rows])
+
+
+def _split(cell_low, cell_high, w_low, w_high, d):
+    """Each cell split in two along its widest dimension: a key in unit width, or the
+    frequency in decades (one unit = a tenth of a decade)."""
+    widths = np.concatenate([cell_high - cell_low,
+                             (np.log10(w_high / w_low) * 10.0)[:, None]], axis=1)
+    along = np.argmax(widths, axis=1)
+    new_low_p, new_high_p = np.repeat(cell_low, 2, axis=0), np.repeat(cell_high, 2, axis=0)
+    new_low_w, new_high_w = np.repeat(w_low, 2), np.repeat(w_high, 2)
+    first = np.arange(0, 2 * along.size, 2)
+    on_key = along < d
+    rows = np.flatnonzero(on_key)
+    middle = 0.5 * (cell_low[rows, along[rows]] + cell_high[rows, along[rows]])
+    new_high_p[first[rows], along[rows]] = middle
+    new_low_p[first[rows] + 1, along[rows]] = middle
+    rows = np.flatnonzero(~on_key)
+    middle = np.sqrt(w_low[rows] * w_high[rows])
+    new_high_w[first[rows]] = middle
+    new_low_w[first[rows] + 1] = middle
+    return new_low_p, new_high_p, new_low_w, new_high_w
 
 
 def box_bounds(config, params, keys, low, high, targets, max_cells=MAX_CELLS):
