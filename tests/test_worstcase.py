@@ -195,9 +195,9 @@ def test_a_narrow_box_s_bounds_meet_the_worst_found():
 
 
 def test_the_enclosures_hold_the_loop_at_random_points_of_their_cells():
-    """Each rectangle of :func:`loop_enclosures` holds L_p(jw, p) for points drawn in its
+    """Each rectangle of :func:`enclosures` holds L_p(jw, p) for points drawn in its
     cell (the equations written here, mu_v following Km)."""
-    from cas_freq.analysis.interval_bound import loop_enclosures
+    from cas_freq.analysis.interval_bound import enclosures
 
     rng = np.random.default_rng(5)
     n = 400
@@ -212,7 +212,7 @@ def test_the_enclosures_hold_the_loop_at_random_points_of_their_cells():
         ("Tf", c["Kd"] / (10 * c["Kp"])), ("tau_p", c["tau_p"]))}
     mu = (km_low * c["I0"] / c["n0"], km_high * c["I0"] / c["n0"])
     values = {**point, "Km": (km_low, km_high), "ci_Ki": (ki_low, ki_high), "mu_v": mu}
-    _, (re, im), _ = loop_enclosures(values, (w_low, w_high))
+    re, im = enclosures(values, (w_low, w_high))["position"]
     for _ in range(5):
         share = rng.random((3, n))
         loop = _loop(w_low + share[0] * (w_high - w_low), km_low + share[1] * (km_high - km_low),
@@ -243,6 +243,88 @@ def test_the_cascade_axis_search_is_never_beaten_by_a_dense_grid():
             assert row["worst"] >= grid_worst - 1e-9 * abs(grid_worst), row["id"]
 
 
+@pytest.mark.parametrize("path, changes", [
+    (AXIS, {}),  # a cascade, compliant gear with a spring load, a notch and a low-pass
+    (QT, {"load.inertia": "2e-4 kg*m^2", "load.hinge_stiffness": "1 N*m/rad"}),  # rigid load
+    (QT, {"position_loop.derivative_on": "measurement"}),
+])
+def test_the_enclosures_hold_the_package_s_own_loops(path, changes):
+    """At point parameters and frequencies the rectangles of :func:`enclosures` hold the loop
+    table's walk (a second evaluation: cas_freq.model.loops.responses) and shrink onto it
+    (1e-12); over a cell of parameters and frequencies they hold it at random points."""
+    from cas_freq.analysis.interval_bound import FIELDS, enclosures, shape_of
+    from cas_freq.core.parameters import LoopParameters
+    from cas_freq.model.loops import Selector, responses
+
+    p = LoopParameters.from_config(load_variant(path, overrides=tuple(changes.items())).params)
+    shape = shape_of(p)
+    names = {"current": "current_loop", "position": "position_loop"}
+    if p.cascade:
+        names["velocity"] = "velocity_loop"
+
+    def exact(params, omega):
+        found = responses(Selector(params)(), 1j * omega, loop_at_a_time=True)
+        out = {ours: found.loops[theirs] for ours, theirs in names.items()}
+        out.update({f"{ours}_aat": found.loop_at_a_time[theirs] for ours, theirs in
+                    names.items() if ours != "position"}, closed=found.closed_loop)
+        return {name: np.asarray(value).reshape(-1) for name, value in out.items()}
+
+    def point(field):
+        return float(np.asarray(getattr(p, field)).reshape(-1)[0])
+
+    omega = np.geomspace(1.0, 1e5, 60)
+    values = {f: (np.full(omega.size, point(f)),) * 2 for f in set(FIELDS.values())}
+    boxes = enclosures(values, (omega, omega), shape)
+    for name, value in exact(p, omega).items():
+        (a, b), (c, d) = boxes[name]
+        assert np.all((a <= value.real) & (value.real <= b) & (c <= value.imag)
+                      & (value.imag <= d)), name
+        middle = 0.5 * (a + b) + 0.5j * (c + d)
+        assert np.max(np.abs(middle / value - 1.0)) < 1e-12, name
+    # a cell: R and J +-2 %, a frequency interval of 1 %, twenty random points inside
+    rng = np.random.default_rng(3)
+    low_w = np.geomspace(10.0, 1e4, 30)
+    cell = {**values}
+    for field in ("R", "J"):
+        cell[field] = (np.full(low_w.size, 0.98 * point(field)),
+                       np.full(low_w.size, 1.02 * point(field)))
+    cell = {f: (v[0][:low_w.size], v[1][:low_w.size]) for f, v in cell.items()}
+    boxes = enclosures(cell, (low_w, 1.01 * low_w), shape)
+    for _ in range(20):
+        u = rng.uniform(size=3)
+        drawn = p.replace(R=np.array([point("R") * (0.98 + 0.04 * u[0])]),
+                          J=np.array([point("J") * (0.98 + 0.04 * u[1])]))
+        for name, value in exact(drawn, low_w * (1.0 + 0.01 * u[2])).items():
+            (a, b), (c, d) = boxes[name]
+            # a rectangle that is not finite (near the axis's resonance, T's) holds anything
+            unbounded = ~np.isfinite(np.stack([a, b, c, d])).all(axis=0)
+            inside = unbounded | ((a <= value.real) & (value.real <= b)
+                                  & (c <= value.imag) & (value.imag <= d))
+            assert inside.all(), (name, low_w[~inside])
+
+
+def test_a_cascade_box_s_bound_holds_on_a_grid():
+    """The cascade axis (compliant gear, spring load, notch, low-pass) over motor.R +-3 %:
+    stability proved over the box, and no point of a 41-point grid of the batch engine is
+    below the bounds (the velocity loop's PM: gap 0.36 deg with 2 million cells, 0.006 deg with
+    the default 4 million)."""
+    loaded = load_variant(AXIS)
+    tolerances = [parse_tolerance("motor.R=3%", loaded.params)]
+    data = worst_case(loaded, tolerances, samples=16, bound_cells=2_000_000)
+    assert data["stability"]["proved"] is True
+    box = tolerance_box(loaded.params, tolerances)
+    grid = np.linspace(box.low[0], box.high[0], 41)
+    figures, stability = evaluate_figures(loaded.params, {"motor.R": grid}, fit=False)
+    assert np.all(stability == "stable")
+    bounded = [r for r in data["requirements"] if r.get("bound") is not None]
+    assert {r["metric"] for r in bounded} >= {"velocity_loop.phase_margin_deg",
+                                              "closed_loop.bandwidth_rad_s"}
+    for row in bounded:
+        assert row["bound"] <= figures[row["metric"]].min() and row["bound"] <= row["worst"]
+    velocity = _row(data, "velocity_loop.phase_margin_deg")
+    assert velocity["gap"] < 0.5
+
+
 def test_a_cascade_box_with_unstable_variants_says_so_and_where():
     # the cascade axis is sensitive: 20 % on J with 30 % on the velocity gain leave 75 of a
     # 9 x 9 x 9 grid unstable (the batch engine), e.g. at J -100 %, Km +75 %
@@ -250,7 +332,7 @@ def test_a_cascade_box_with_unstable_variants_says_so_and_where():
     texts = ("motor.J=20%", "velocity_loop.Kp=30%", "motor.Km=10%")
     data = worst_case(loaded, [parse_tolerance(t, loaded.params) for t in texts], samples=32)
     assert data["stability"]["not_stable"] > 0
-    assert data["bound"].startswith("none") and "PID-on-PI" in data["bound"]
+    assert data["bound"].startswith("none")
     first = {item["key"]: item["relative"] for item in data["stability"]["first_not_stable"][
         "point"]}
     assert first["motor.J"] < 0

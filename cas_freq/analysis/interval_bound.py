@@ -1,9 +1,14 @@
-r"""Guaranteed bounds over a parameter box for the PID-on-PI: lower bounds of the position
-loop's and the current loop's phase and gain margins and of the closed-loop bandwidth, and
-stability of every point of the box (docs/model.md, "Tolerances and the worst case").
+r"""Guaranteed bounds over a parameter box: lower bounds of each loop's phase and gain margins
+(the position loop's, the current loop's alone and with the outer loops closed, a cascade's
+velocity loop's alike) and of the closed-loop bandwidth, and stability of every point of the
+box (docs/model.md, "Tolerances and the worst case").
 
-The loop of docs/model.md §3-4, L_p = C_p e^{-sτ_p} T_i M with T_i = L_i/(1 + L_i),
-L_i = C_i e^{-sτ_c} Y, Y = (Js + μ_v)/((Ls + R)(Js + μ_v) + K_e K_m), M = K_m/(s(Js + μ_v)),
+The loops of docs/model.md §3-4: the PID-on-PI's L_p = C_p e^{-sτ_p} F_c T_i M F_p with
+T_i = C_i e^{-sτ_c} Y/(1 + L_i), L_i = C_i e^{-sτ_c} Y F_i,
+Y = (Js + μ_v)/((Ls + R)(Js + μ_v) + K_e K_m), M = K_m/(s(Js + μ_v)) and the filters F at
+their points (fixed: their numbers are the nominal's); a cascade's L_v = C_v e^{-sτ_v} F_c T_i
+(K_m/(Js + μ_v)) F_v (F_v the feedback low-pass τ_vf and the velocity filters) and
+L_p = C_p e^{-sτ_p} F_vc T_v F_p / s with T_v = L_v/(F_v (1 + L_v)),
 is evaluated in **complex interval arithmetic** (rectangles: real and imaginary intervals) over
 cells, each a sub-box of the parameters times an interval of frequency. Every operation
 encloses its exact result, so the rectangle of a cell holds L_p(jω, p) for every ω and p of
@@ -14,27 +19,33 @@ the cell (outward-widened by 1e-9 of its size for the rounding of floating point
   cell (the argument of a convex set without the origin spans the arguments of its corners);
 - **gain margin** (upper, at the phase crossovers where |L| < 1): where a rectangle reaches
   the negative real axis inside the unit circle, -20 log10 of the largest |Re| it reaches there;
-- **bandwidth**: T = L_p/(1 + L_p) (no feed-forward), enclosed in two forms intersected;
-  the lowest frequency of a cell whose rectangle can reach |T| <= 1/sqrt(2) bounds ω_BW from
-  below (T(0) = 1, so ω_BW is the first frequency where |T| falls to it);
-- **stability** (the zero-exclusion principle): if no rectangle holds -1, neither for L_p nor
-  for the current loop's L_i, then 1 + L(jω, p) is never 0 on the frequency axis, so no
-  closed-loop pole crosses it anywhere in the box; with the nominal point stable (and the
-  open loop's poles, the integrators and T_i's, fixed in the left half-plane and at 0), every
-  point of the box is stable.
+- **bandwidth**: T = W L_p/(F_p (1 + L_p)) (no feed-forward; the command's path of a
+  derivative on the measurement), enclosed in two forms intersected; the lowest frequency of
+  a cell whose rectangle can reach |T| <= 1/sqrt(2) bounds ω_BW from below (T(0) = 1, so ω_BW
+  is the first frequency where |T| falls to it);
+- **stability** (the zero-exclusion principle): if no rectangle holds -1, for none of the
+  loops (current, velocity, position: each with the loops inside it closed), then
+  1 + L(jω, p) is never 0 on the frequency axis, so no closed-loop pole crosses it anywhere in
+  the box; with the nominal point stable (and the open loops' poles, the integrators, the
+  filters' and the inner closed loops', fixed in the left half-plane and at 0), every point of
+  the box is stable, loop by loop from the inside out.
 
 A branch and bound refines the cells whose bound is below the worst found (bisecting the
 parameter or the frequency interval that is widest in its own scale) until the bound meets
 it or the cell budget runs out, best first: each round splits, for each figure, an equal share
 of the cells lowest below its target (and every cell that may hold -1), the others waiting in
-the pool with their bounds. The bound holds whenever it stops, the gap says how close it got. The frequencies covered are 1e-9 .. 1e12 rad/s (the analysed range and far beyond it).
-Where the loop is not a continuous PID-on-PI with a rigid, unloaded gear and no filters, or a
-toleranced key does not enter L_p, there is no bound (:func:`supported` says why).
+the pool with their bounds. The bound holds whenever it stops, the gap says how close it got.
+The frequencies covered are 1e-9 .. 1e12 rad/s (the analysed range and far beyond it). Where
+the loops are not continuous on the motor encoder with a rigid, unloaded gear, or a toleranced
+key is not one of the loops' (:data:`FIELDS`), there is no bound (:func:`supported` says why).
 """
 
+import dataclasses
 import math
 
 import numpy as np
+
+from cas_freq.model.structure import build
 
 #: The keys a box may tolerance for a bound, and the LoopParameters field each sets.
 FIELDS = {
@@ -42,6 +53,10 @@ FIELDS = {
     "motor.mu_v": "mu_v", "current_loop.Kp": "ci_Kp", "current_loop.Ki": "ci_Ki",
     "current_loop.delay": "tau_c", "position_loop.Kp": "cp_Kp", "position_loop.Ki": "cp_Ki",
     "position_loop.Kd": "cp_Kd", "position_loop.Tf": "Tf", "position_loop.delay": "tau_p",
+    "velocity_loop.Kp": "cv_Kp", "velocity_loop.Ki": "cv_Ki", "velocity_loop.delay": "tau_v",
+    "velocity_loop.feedback_filter": "tau_vf", "gear.ratio": "ratio", "gear.efficiency": "eta",
+    "gear.stiffness": "K_g", "gear.damping": "c_g", "load.inertia": "J_L",
+    "load.damping": "b_L", "load.hinge_stiffness": "K_h",
 }
 #: Frequencies the cells cover [rad/s] and the first cells per decade.
 OMEGA_RANGE = (1e-9, 1e12)
@@ -51,10 +66,14 @@ FIRST_CELLS_PER_DECADE = 8
 MAX_CELLS = 4_000_000
 CHUNK = 250_000
 #: The figures bounded: the position loop's margins, the current loop's (alone and with the
-#: position loop closed), the closed-loop bandwidth.
+#: outer loops closed), a cascade's velocity loop's (alike), the closed-loop bandwidth.
 FIGURES = ("phase_margin_deg", "gain_margin_db", "current_phase_margin_deg",
            "current_gain_margin_db", "current_aat_phase_margin_deg",
-           "current_aat_gain_margin_db", "bandwidth_rad_s")
+           "current_aat_gain_margin_db", "velocity_phase_margin_deg", "velocity_gain_margin_db",
+           "velocity_aat_phase_margin_deg", "velocity_aat_gain_margin_db", "bandwidth_rad_s")
+#: The points of fixed filters the enclosures take (docs/model.md, "Filters").
+FILTER_POINTS = ("current_feedback", "current_command", "velocity_feedback",
+                 "velocity_command", "position_feedback", "position_command")
 #: Relative outward widening of every rectangle (floating-point rounding).
 WIDEN = 1e-9
 #: |T| at the bandwidth: 1/sqrt(2), 3.01 dB below T(0) = 1 (docs/model.md §7).
@@ -64,13 +83,8 @@ HALF_POWER = 1.0 / math.sqrt(2.0)
 def supported(params, keys):
     """None if a bound can be established for ``params`` (one run of LoopParameters) over
     ``keys``, else why not."""
-    if params.cascade:
-        return "the bound is established for the PID-on-PI only (this is a cascade)"
-    if params.feedback_output or params.filters or params.sample_rates:
-        return ("the bound is established for a continuous PID-on-PI on the motor encoder "
-                "without filters")
-    if bool(np.any(params.loaded)):
-        return "the bound is established for a rigid, unloaded gear"
+    if params.feedback_output or params.sample_rates:
+        return "the bound is established for continuous loops on the motor encoder"
     other = [key for key in keys if key not in FIELDS and key not in (
         "motor.no_load.current", "motor.no_load.speed")]
     if other:
@@ -157,57 +171,212 @@ def _widen(z):
     return (a - size, b + size), (c - size, d + size)
 
 
-def loop_enclosures(values, omega):
-    """Rectangles holding L_i(jω) and L_p(jω) over cells.
+@dataclasses.dataclass(frozen=True)
+class Shape:
+    """What of the loop is fixed over a box: its architecture, where the position loop's
+    derivative acts, and its filters with their numbers (the nominal's: a filter's numbers are
+    not toleranced), per point (:data:`FILTER_POINTS`) a tuple of (numerator, denominator)
+    coefficient tuples, highest power first."""
+
+    cascade: bool = False
+    on_measurement: bool = False
+    filters: tuple = ()
+    loaded: bool = False
+    compliant: bool = False
+
+    def blocks(self, point):
+        return dict(self.filters).get(point, ())
+
+
+def shape_of(params):
+    """The :class:`Shape` of one run of LoopParameters, from its structure
+    (:func:`cas_freq.model.structure.build`); the velocity loop's low-pass tau_vf is not among
+    the filters (it is a key)."""
+    loops = build(params).loops
+    by_point = {"current_feedback": loops[0].sensor, "position_feedback": loops[-1].sensor,
+                "position_command": build(params).command}
+    if params.cascade:
+        by_point.update(current_command=loops[1].path, velocity_command=loops[2].path,
+                        velocity_feedback=tuple(block for block in loops[1].sensor
+                                                if block.name != "velocity filter"))
+    else:
+        by_point["current_command"] = loops[1].path
+
+    def numbers(block):
+        return tuple(tuple(float(np.asarray(c).reshape(-1)[0]) for c in polynomial)
+                     for polynomial in (block.numerator, block.denominator))
+
+    linear_load = any(float(np.asarray(getattr(params, name)).reshape(-1)[0]) != 0.0
+                      for name in ("J_L", "b_L", "K_h", "K_g"))
+    return Shape(bool(params.cascade), bool(np.asarray(params.derivative_on_measurement)
+                                            .reshape(-1)[0]),
+                 tuple((point, tuple(numbers(block) for block in blocks))
+                       for point, blocks in by_point.items() if blocks),
+                 loaded=linear_load, compliant=bool(np.asarray(params.K_g).reshape(-1)[0] > 0))
+
+
+def enclosures(values, omega, shape=Shape()):
+    """Rectangles holding each loop's L(jω) and T(jω) over cells.
 
     Parameters
     ----------
     values : dict of str to (numpy.ndarray, numpy.ndarray)
-        Each LoopParameters field of the PID-on-PI (:data:`FIELDS`' values) as an interval
-        (low, high) per cell (a point: low = high).
+        Each LoopParameters field (:data:`FIELDS`' values) as an interval (low, high) per
+        cell (a point: low = high).
     omega : (numpy.ndarray, numpy.ndarray)
         The cells' frequency intervals [rad/s], > 0.
+    shape : Shape
+        The architecture and the fixed filters.
 
     Returns
     -------
-    (L_i, L_p, L_i_aat)
-        Each ((re low, re high), (im low, im high)) per cell: the current loop (the position
-        loop open), the position loop, the current loop with the position loop closed.
+    dict
+        Each ((re low, re high), (im low, im high)) per cell: ``current`` (the outer loops
+        open), ``current_aat`` (the outer loops closed), ``velocity`` and ``velocity_aat`` (a
+        cascade's), ``position``, and ``closed`` (T, no feed-forward).
     """
     # a divisor whose interval reaches 0 gives an unbounded rectangle, and inf - inf or
     # 0 * inf a NaN end: both are handled (NaN ends are no ends, :func:`_meet`; a rectangle
     # that is not finite holds anything, :func:`bounds`), so numpy need not warn of them
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        return _enclosures(values, omega)
+        return _enclosures(values, omega, shape)
 
 
-def _enclosures(values, omega):
+def _polynomial(coefficients, omega):
+    """A real polynomial (highest power first) at s = jω for ω in an interval (> 0)."""
+    zero = np.zeros_like(omega[0])
+    re, im = (zero, zero), (zero, zero)
+    for power, c in enumerate(reversed(coefficients)):
+        if c == 0.0:
+            continue
+        # c (jω)^k: real for even k, imaginary for odd, with the sign of j^k
+        term = _mul((np.full_like(zero, c), np.full_like(zero, c)),
+                    (omega[0] ** power, omega[1] ** power))
+        if power % 4 in (2, 3):
+            term = (-term[1], -term[0])
+        re, im = (_add(re, term), im) if power % 2 == 0 else (re, _add(im, term))
+    return re, im
+
+
+def _filters(shape, point, omega):
+    """The fixed filters at ``point`` in series (None for none)."""
+    out = None
+    for numerator, denominator in shape.blocks(point):
+        block = _cdiv(_polynomial(numerator, omega), _polynomial(denominator, omega))
+        out = block if out is None else _cmul(out, block)
+    return out
+
+
+def _times(z, w):
+    """z w, w None meaning 1."""
+    return z if w is None else _cmul(z, w)
+
+
+def _enclosures(values, omega, shape):
     v = values
-    jw = (np.zeros_like(omega[0]), np.zeros_like(omega[0])), omega
-    inverse_w = (1.0 / omega[1], 1.0 / omega[0])
-    over_jw = (np.zeros_like(omega[0]), np.zeros_like(omega[0])), (-inverse_w[1], -inverse_w[0])
+    zero = np.zeros_like(omega[0])
+    jw = (zero, zero), omega
+    over_jw = (zero, zero), (-1.0 / omega[0], -1.0 / omega[1])
     # two forms each, their rectangles intersected (both hold the exact value): interval
     # arithmetic widens every repeated occurrence of an interval, so Y = 1/(Ls + R +
-    # Ke Km/(Js + mu_v)) and T_i = 1/(1 + 1/L_i), where each enters once, are tight where
+    # Ke Km/(Js + mu_v)) and T_i = 1/(1/(C_i Y) + F), where each enters once, are tight where
     # they are finite, and the plain forms hold where those divide by an interval through 0
-    one = _real((np.ones_like(omega[0]), np.ones_like(omega[0])))
-    mechanical = _cadd(_cmul(_real(v["J"]), jw), _real(v["mu_v"]))  # J s + mu_v
+    one = _real((np.ones_like(zero), np.ones_like(zero)))
+    filters = {point: _filters(shape, point, omega) for point in FILTER_POINTS}
+    # J s + mu_v, and a load's torque per motor speed reflected through the gear
+    mechanical, output = _mechanics(v, jw, over_jw, one, shape)
     electrical = _cadd(_cmul(_real(v["L"]), jw), _real(v["R"]))  # L s + R
     coupling = _real(_mul(v["Ke"], v["Km"]))
     y = _meet(_cdiv(one, _cadd(electrical, _cdiv(coupling, mechanical))),
               _cdiv(mechanical, _cadd(_cmul(electrical, mechanical), coupling)))
     c_i = _cadd(_real(v["ci_Kp"]), _cmul(_real(v["ci_Ki"]), over_jw))
-    l_i = _widen(_cmul(_cmul(c_i, _exp_minus_j(_mul(omega, v["tau_c"]))), y))
-    t_i = _meet(_cdiv(one, _cadd(one, _cdiv(one, l_i))), _cdiv(l_i, _cadd(one, l_i)))
-    m = _cdiv(_real(v["Km"]), _cmul(jw, mechanical))
-    derivative = _cdiv(_cmul(_real(v["cp_Kd"]), jw), _cadd(one, _cmul(_real(v["Tf"]), jw)))
-    c_p = _cadd(_cadd(_real(v["cp_Kp"]), _cmul(_real(v["cp_Ki"]), over_jw)), derivative)
-    outer = _cmul(_cmul(c_p, _exp_minus_j(_mul(omega, v["tau_p"]))), m)  # C_p e^{-sτp} M
-    l_p = _cmul(outer, t_i)
-    # the current loop broken at the voltage with the position loop closed (docs/model.md §7):
-    # L_i,aat = C_i e^{-sτc} Y (1 + C_p e^{-sτp} M)
-    l_aat = _cmul(l_i, _cadd(one, outer))
-    return l_i, _widen(l_p), _widen(l_aat)
+    forward_i = _widen(_cmul(_cmul(c_i, _exp_minus_j(_mul(omega, v["tau_c"]))), y))
+    sensor_i = filters["current_feedback"]
+    l_i = forward_i if sensor_i is None else _widen(_cmul(forward_i, sensor_i))
+    t_i = _closed(forward_i, l_i, sensor_i, one)  # i / i_cmd
+    path = filters["current_command"]
+    sensor_p = filters["position_feedback"]
+    if shape.cascade:
+        speed = _cdiv(_real(v["Km"]), mechanical)  # omega / i
+        c_v = _cadd(_real(v["cv_Kp"]), _cmul(_real(v["cv_Ki"]), over_jw))
+        outer_v = _times(_cmul(c_v, _exp_minus_j(_mul(omega, v["tau_v"]))), path)
+        sensor_v = _times(_low_pass(v["tau_vf"], jw, one), filters["velocity_feedback"])
+        forward_v = _cmul(_cmul(outer_v, t_i), speed)
+        l_v = _widen(_times(forward_v, sensor_v))
+        t_v = _closed(forward_v, l_v, sensor_v, one)  # omega / omega_cmd
+        c_p = _cadd(_real(v["cp_Kp"]), _cmul(_real(v["cp_Ki"]), over_jw))
+        outer = _times(_cmul(_cmul(c_p, _exp_minus_j(_mul(omega, v["tau_p"]))), over_jw),
+                       filters["velocity_command"])  # C_p e^{-sτp} F / s
+        forward = _cmul(outer, t_v)
+        # broken at the voltage, or at the current command, with the outer loops closed
+        # (docs/model.md §7): the speed's and the angle's paths back to the current command
+        back = _cmul(speed, _cadd(_one_or(sensor_v, one), _times(outer, sensor_p)))
+        current_back = _cmul(outer_v, back)
+        velocity = {"velocity": l_v, "velocity_aat": _widen(_cmul(_cmul(outer_v, t_i), back))}
+        reference = forward
+    else:
+        derivative = _cdiv(_cmul(_real(v["cp_Kd"]), jw), _cadd(one, _cmul(_real(v["Tf"]), jw)))
+        proportional_integral = _cadd(_real(v["cp_Kp"]), _cmul(_real(v["cp_Ki"]), over_jw))
+        delay_p = _exp_minus_j(_mul(omega, v["tau_p"]))
+        m = _cdiv(_real(v["Km"]), _cmul(jw, mechanical))  # theta / i
+        outer = _times(_cmul(_cmul(_cadd(proportional_integral, derivative), delay_p), m),
+                       path)  # C_p e^{-sτp} F M
+        forward = _cmul(outer, t_i)
+        current_back = _times(outer, sensor_p)
+        velocity = {}
+        reference = forward
+        if shape.on_measurement:  # the command sees Kp + Ki/s (docs/model.md §3)
+            reference = _cmul(_times(_cmul(_cmul(proportional_integral, delay_p), m), path),
+                              t_i)
+    l_p = _widen(_times(forward, sensor_p))
+    # the current loop broken at the voltage with the outer loops closed (docs/model.md §7):
+    # L_i,aat = C_i e^{-sτc} Y (F_i + the outer loops' path back)
+    l_aat = _widen(_cmul(forward_i, _cadd(_one_or(sensor_i, one), current_back)))
+    closed = (_closed(forward, l_p, sensor_p, one) if reference is forward
+              else _cdiv(reference, _cadd(one, l_p)))
+    return {"current": l_i, "current_aat": l_aat, **velocity, "position": l_p,
+            "closed": _times(_times(closed, output), filters["position_command"])}
+
+
+def _mechanics(v, jw, over_jw, one, shape):
+    r"""The motor's torque per speed with the load reflected, :math:`D/s` of docs/model.md
+    §5 (:func:`cas_freq.model.parts.mechanics`): :math:`J s + \mu_v + (e/N^2) Q/s` with
+    :math:`P_L = J_L s^2 + b_L s + K_h`, Q = P_L on a rigid gear and
+    :math:`Q = 1/(1/G + 1/P_L)` (G = K_g + c_g s, both forms intersected) on a compliant one;
+    and the output on the motor's scale per motor angle, :math:`N\delta/\theta = G/(P_L + G)`
+    (None: 1)."""
+    mechanical = _cadd(_cmul(_real(v["J"]), jw), _real(v["mu_v"]))
+    if not shape.loaded:
+        return mechanical, None
+    load = _cadd(_cmul(_cadd(_cmul(_real(v["J_L"]), jw), _real(v["b_L"])), jw), _real(v["K_h"]))
+    reflection = _real(_mul((1.0 / v["eta"][1], 1.0 / v["eta"][0]),
+                            (1.0 / v["ratio"][1] ** 2, 1.0 / v["ratio"][0] ** 2)))
+    if not shape.compliant:
+        return _cadd(mechanical, _cmul(_cmul(reflection, load), over_jw)), None
+    gear = _cadd(_real(v["K_g"]), _cmul(_real(v["c_g"]), jw))
+    coupled = _meet(_cdiv(one, _cadd(_cdiv(one, gear), _cdiv(one, load))),
+                    _cdiv(_cmul(gear, load), _cadd(gear, load)))
+    output = _meet(_cdiv(one, _cadd(one, _cdiv(load, gear))),
+                   _cdiv(gear, _cadd(load, gear)))
+    return _cadd(mechanical, _cmul(_cmul(reflection, coupled), over_jw)), output
+
+
+def _one_or(z, one):
+    return one if z is None else z
+
+
+def _low_pass(tau, jw, one):
+    """1/(τ s + 1) over an interval of τ (None where τ is 0 throughout)."""
+    if not np.any(tau[1] > 0):
+        return None
+    return _cdiv(one, _cadd(one, _cmul(_real(tau), jw)))
+
+
+def _closed(forward, loop, sensor, one):
+    """forward / (1 + loop) with loop = forward * sensor, in two forms intersected: as it
+    stands and 1 / (1/forward + sensor)."""
+    return _meet(_cdiv(forward, _cadd(one, loop)),
+                 _cdiv(one, _cadd(_cdiv(one, forward), _one_or(sensor, one))))
 
 
 # --- what a rectangle says ---------------------------------------------------------------
@@ -248,15 +417,6 @@ def gain_margin_bound(z):
 def _smallest(values, where):
     """The smallest of ``values`` where ``where`` holds (+inf where it holds nowhere)."""
     return float(np.min(values[where])) if where.any() else math.inf
-
-
-def closed_loop_enclosure(l_p):
-    """Rectangles holding T = L_p/(1 + L_p) (no feed-forward: the T of ω_BW), in both forms
-    intersected."""
-    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        ones = np.ones_like(l_p[0][0])
-        one = (ones, ones), (np.zeros_like(ones), np.zeros_like(ones))
-        return _meet(_cdiv(one, _cadd(one, _cdiv(one, l_p))), _cdiv(l_p, _cadd(one, l_p)))
 
 
 def bandwidth_bound(t, w_low):
@@ -308,27 +468,28 @@ def _values(base, keys, low, high):
     return out
 
 
-def _cell_bounds(base, keys, p_low, p_high, w_low, w_high):
-    """Each figure's bound per cell, and whether the cell may hold -1 (of L_p or L_i)."""
-    l_i, l_p, l_aat = loop_enclosures(_values(base, keys, p_low, p_high), (w_low, w_high))
+def _cell_bounds(base, keys, shape, p_low, p_high, w_low, w_high):
+    """Each figure's bound per cell, and whether the cell may hold -1 (of any loop's L)."""
+    loops = enclosures(_values(base, keys, p_low, p_high), (w_low, w_high), shape)
     # a rectangle that is not finite (a divisor's interval reached 0) holds anything
-    lost = ~(_finite(l_p) & _finite(l_i) & _finite(l_aat))
+    lost = ~np.logical_and.reduce([_finite(z) for z in loops.values()])
+    none = np.full(w_low.shape, np.inf)
+    found = {"bandwidth_rad_s": bandwidth_bound(loops["closed"], w_low)}
     with np.errstate(invalid="ignore", divide="ignore"):
-        found = {
-            "phase_margin_deg": phase_margin_bound(l_p),
-            "gain_margin_db": gain_margin_bound(l_p),
-            "current_phase_margin_deg": phase_margin_bound(l_i),
-            "current_gain_margin_db": gain_margin_bound(l_i),
-            "current_aat_phase_margin_deg": phase_margin_bound(l_aat),
-            "current_aat_gain_margin_db": gain_margin_bound(l_aat),
-            "bandwidth_rad_s": bandwidth_bound(closed_loop_enclosure(l_p), w_low),
-        }
+        for prefix, loop in (("", "position"), ("current_", "current"),
+                             ("current_aat_", "current_aat"), ("velocity_", "velocity"),
+                             ("velocity_aat_", "velocity_aat")):
+            z = loops.get(loop)
+            found[f"{prefix}phase_margin_deg"] = none if z is None else phase_margin_bound(z)
+            found[f"{prefix}gain_margin_db"] = none if z is None else gain_margin_bound(z)
     found = {name: np.where(lost | np.isnan(values), 0.0, values)
              for name, values in found.items()}
-    return found, holds_minus_one(l_p) | holds_minus_one(l_i) | lost
+    minus_one = np.logical_or.reduce([holds_minus_one(loops[name]) for name in
+                                      ("current", "velocity", "position") if name in loops])
+    return found, minus_one | lost
 
 
-def bounds(base, keys, low, high, targets, max_cells=MAX_CELLS):
+def bounds(base, keys, low, high, targets, max_cells=MAX_CELLS, shape=Shape()):
     """Guaranteed lower bounds of the position loop's phase and gain margins and the
     stability verdict over a box.
 
@@ -347,6 +508,8 @@ def bounds(base, keys, low, high, targets, max_cells=MAX_CELLS):
         figures without a target are bounded by the cells as they end up).
     max_cells : int
         Most cells evaluated.
+    shape : Shape
+        The loop's architecture and fixed filters (:func:`shape_of`).
 
     Returns
     -------
@@ -367,7 +530,7 @@ def bounds(base, keys, low, high, targets, max_cells=MAX_CELLS):
     # the open cells (their bounds still count) and how far each falls short of the targets
     pool = _no_cells(d)
     while True:
-        found, minus_one = _evaluate(base, keys, low, span, cells)
+        found, minus_one = _evaluate(base, keys, shape, low, span, cells)
         evaluated += cells[2].size
         shortfall = np.where(minus_one, np.inf, 0.0)
         for name, target in targets.items():
@@ -422,10 +585,10 @@ def _chosen(pool, targets, count):
 REFINED = CHUNK // 2
 
 
-def _evaluate(base, keys, low, span, cells):
+def _evaluate(base, keys, shape, low, span, cells):
     """Each figure's bound per cell and whether the cell may hold -1 (in chunks)."""
     cell_low, cell_high, w_low, w_high = cells
-    parts = [_cell_bounds(base, keys, low + cell_low[k:k + CHUNK] * span,
+    parts = [_cell_bounds(base, keys, shape, low + cell_low[k:k + CHUNK] * span,
                           low + cell_high[k:k + CHUNK] * span, w_low[k:k + CHUNK],
                           w_high[k:k + CHUNK])
              for k in range(0, w_low.size, CHUNK)]
@@ -485,4 +648,4 @@ def box_bounds(config, params, keys, low, high, targets, max_cells=MAX_CELLS):
                          if motor.mu_v is None else None)
     base["derive_tf"] = config.position_loop.Tf is None
     return bounds(base, keys, np.asarray(low, float), np.asarray(high, float), targets,
-                  max_cells), None
+                  max_cells, shape_of(params)), None

@@ -76,8 +76,8 @@ def tolerance_section(datas, png=False):
         f"The config's tolerances ({keys}) span a box around each variant. For every "
         "requirement: its nominal value, the worst found over the box (every corner, 256 "
         "uniform samples, then a compass search from the worst corner and sample), the "
-        "guaranteed bound over the whole box where one is established (the position loop's "
-        "phase and gain margins of a continuous PID-on-PI: interval branch and bound), with "
+        "guaranteed bound over the whole box where one is established (the loops' phase and "
+        "gain margins and the bandwidth of continuous loops: interval branch and bound), with "
         "the point that reaches the worst (each key's offset "
         f"as a share of its half-width), and the yield of {YIELD_SAMPLES} Monte Carlo samples "
         "uniform on the box (seed 0). `cas-freq worstcase` prints the search.")]

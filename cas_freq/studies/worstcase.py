@@ -19,10 +19,11 @@ scheduler is given, with the same numbers):
    its key's width. Each round evaluates the candidates of every requirement at once.
 
 The result is the **worst found**, with the point that reaches it and the search that found
-it. For the position loop's phase and gain margins of a continuous PID-on-PI, a **guaranteed
-bound** over the whole box and a proof of stability over it come from interval enclosures of
-the loop (:mod:`cas_freq.analysis.interval_bound`), with the gap to the worst found; for the
-other figures and architectures the output says "bound: none" (a worst inside the box that
+it. For every loop's phase and gain margins and the bandwidth of continuous loops on the
+motor encoder (PID-on-PI or cascade, with their filters and a rigid or compliant load), a
+**guaranteed bound** over the whole box and a proof of stability over it come from interval
+enclosures of the loops (:mod:`cas_freq.analysis.interval_bound`), with the gap to the worst
+found; for the other figures and drives the output says "bound: none" (a worst inside the box that
 no corner, sample or compass step reaches would be missed). Stability is also checked at
 every point evaluated (a point that is not stable is reported, with where), and the
 outermost loop's phase and gain margins are searched as the "stability" objective even
@@ -349,8 +350,9 @@ def worst_case(loaded, tolerances=None, requirements=None, *, samples=DEFAULT_SA
                    "evaluations": dict(evaluate.count),
                    "seconds": time.perf_counter() - started},
         "bound": (why if guaranteed is None else
-                  f"guaranteed for the position and current loops' phase and gain margins "
-                  f"and the bandwidth over the whole box (interval branch and bound, "
+                  f"guaranteed for every loop's phase and gain margins (the current and "
+                  f"velocity loops' also with the outer loops closed) and the bandwidth over "
+                  f"the whole box (interval branch and bound, "
                   f"{guaranteed['cells']} cells); the other figures: the worst found by the "
                   "search"),
         "stability": {
@@ -378,6 +380,10 @@ BOUNDED = {"position_loop.phase_margin_deg": "phase_margin_deg",
            "current_loop.gain_margin_db": "current_gain_margin_db",
            "current_loop.loop_at_a_time.phase_margin_deg": "current_aat_phase_margin_deg",
            "current_loop.loop_at_a_time.gain_margin_db": "current_aat_gain_margin_db",
+           "velocity_loop.phase_margin_deg": "velocity_phase_margin_deg",
+           "velocity_loop.gain_margin_db": "velocity_gain_margin_db",
+           "velocity_loop.loop_at_a_time.phase_margin_deg": "velocity_aat_phase_margin_deg",
+           "velocity_loop.loop_at_a_time.gain_margin_db": "velocity_aat_gain_margin_db",
            "closed_loop.bandwidth_rad_s": "bandwidth_rad_s"}
 
 
@@ -397,7 +403,8 @@ def _guaranteed(params, box, results, figures, cells):
     if "phase_margin_deg" not in targets or "gain_margin_db" not in targets:
         return None, ("none: the worst found by the search (no bound without a stable worst "
                       "phase and gain margin of the position loop)")
-    for loop in ("position_loop", "current_loop", "current_loop.loop_at_a_time"):
+    for loop in ("position_loop", "current_loop", "current_loop.loop_at_a_time",
+                 "velocity_loop", "velocity_loop.loop_at_a_time"):
         counts = figures.get(f"{loop}.gain_crossover_count")
         if counts is not None and np.unique(counts[np.isfinite(counts)]).size > 1:
             return None, (f"none: the worst found by the search (the number of {loop}'s gain "
@@ -466,7 +473,7 @@ def worst_case_text(data):
     if stability["proved"]:
         lines.append("  stability PROVED over the whole box: 1 + L never 0 on the frequency "
                      "axis from 1e-9 to 1e12 rad/s (zero exclusion, interval enclosures of "
-                     "the position and current loops), the nominal stable")
+                     "every loop), the nominal stable")
     elif stability["proved"] is False:
         lines.append("  stability over the whole box NOT proved: some cell's enclosure holds -1")
     if stability["not_stable"]:
