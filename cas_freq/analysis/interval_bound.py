@@ -65,12 +65,17 @@ FIRST_CELLS_PER_DECADE = 8
 #: per cell and interval, a few hundred MB per chunk).
 MAX_CELLS = 4_000_000
 CHUNK = 250_000
-#: The figures bounded: the position loop's margins, the current loop's (alone and with the
-#: outer loops closed), a cascade's velocity loop's (alike), the closed-loop bandwidth.
-FIGURES = ("phase_margin_deg", "gain_margin_db", "current_phase_margin_deg",
-           "current_gain_margin_db", "current_aat_phase_margin_deg",
-           "current_aat_gain_margin_db", "velocity_phase_margin_deg", "velocity_gain_margin_db",
-           "velocity_aat_phase_margin_deg", "velocity_aat_gain_margin_db", "bandwidth_rad_s")
+#: The loops bounded, by the prefix of their figures: the position loop (""), the current
+#: loop alone and with the outer loops closed, a cascade's velocity loop alike.
+LOOP_PREFIXES = {"": "position", "current_": "current", "current_aat_": "current_aat",
+                 "velocity_": "velocity", "velocity_aat_": "velocity_aat"}
+#: The figures bounded from below, per loop: its phase, gain and delay margins and the negative
+#: of its sensitivity peak (a lower bound of -Ms is an upper bound of Ms); and the closed
+#: loop's bandwidth and the negative of its resonance peak.
+LOOP_FIGURES = ("phase_margin_deg", "gain_margin_db", "delay_margin_s",
+                "negative_sensitivity_peak_db")
+FIGURES = (*(prefix + name for prefix in LOOP_PREFIXES for name in LOOP_FIGURES),
+           "bandwidth_rad_s", "negative_peak_db")
 #: The points of fixed filters the enclosures take (docs/model.md, "Filters").
 FILTER_POINTS = ("current_feedback", "current_command", "velocity_feedback",
                  "velocity_command", "position_feedback", "position_command")
@@ -474,14 +479,23 @@ def _cell_bounds(base, keys, shape, p_low, p_high, w_low, w_high):
     # a rectangle that is not finite (a divisor's interval reached 0) holds anything
     lost = ~np.logical_and.reduce([_finite(z) for z in loops.values()])
     none = np.full(w_low.shape, np.inf)
-    found = {"bandwidth_rad_s": bandwidth_bound(loops["closed"], w_low)}
     with np.errstate(invalid="ignore", divide="ignore"):
-        for prefix, loop in (("", "position"), ("current_", "current"),
-                             ("current_aat_", "current_aat"), ("velocity_", "velocity"),
-                             ("velocity_aat_", "velocity_aat")):
+        found = {"bandwidth_rad_s": bandwidth_bound(loops["closed"], w_low),
+                 # |T| <= the farthest corner's modulus, T(0) = 1
+                 "negative_peak_db": -20.0 * np.log10(_corner_moduli(loops["closed"])[1])}
+        for prefix, loop in LOOP_PREFIXES.items():
             z = loops.get(loop)
-            found[f"{prefix}phase_margin_deg"] = none if z is None else phase_margin_bound(z)
-            found[f"{prefix}gain_margin_db"] = none if z is None else gain_margin_bound(z)
+            if z is None:
+                found.update({prefix + name: none for name in LOOP_FIGURES})
+                continue
+            phase = phase_margin_bound(z)
+            found[prefix + "phase_margin_deg"] = phase
+            found[prefix + "gain_margin_db"] = gain_margin_bound(z)
+            # at a crossover in the cell, the margin's angle over a frequency below its top
+            found[prefix + "delay_margin_s"] = np.radians(phase) / w_high
+            # |1 + L| >= the distance from -1 to the rectangle
+            found[prefix + "negative_sensitivity_peak_db"] = 20.0 * np.log10(
+                _corner_moduli(_cadd(z, _real((np.ones_like(w_low), np.ones_like(w_low)))))[0])
     found = {name: np.where(lost | np.isnan(values), 0.0, values)
              for name, values in found.items()}
     minus_one = np.logical_or.reduce([holds_minus_one(loops[name]) for name in
@@ -534,7 +548,7 @@ def bounds(base, keys, low, high, targets, max_cells=MAX_CELLS, shape=Shape()):
         evaluated += cells[2].size
         shortfall = np.where(minus_one, np.inf, 0.0)
         for name, target in targets.items():
-            short = (_level(name, target) - found[name]) / max(abs(target), 1.0)
+            short = (_level(name, target) - found[name]) / (abs(target) or 1.0)
             shortfall = np.maximum(shortfall, np.where(short > 0, short, 0.0))
         retired = shortfall == 0
         for name, values in found.items():
@@ -560,8 +574,9 @@ def bounds(base, keys, low, high, targets, max_cells=MAX_CELLS, shape=Shape()):
 
 def _level(name, target):
     """The level a figure's bound must reach: its target, less 1e-4 of it for the bandwidth
-    or 1e-3 deg or dB for a margin."""
-    return target - (1e-4 * abs(target) if name == "bandwidth_rad_s" else 1e-3)
+    and a delay margin, or 1e-3 deg or dB for the others."""
+    relative = name == "bandwidth_rad_s" or name.endswith("_s")
+    return target - (1e-4 * abs(target) if relative else 1e-3)
 
 
 def _chosen(pool, targets, count):

@@ -95,7 +95,8 @@ def tolerance_section(datas, png=False):
                 _shown(row["nominal"]),
                 ("not stable" if row["worst_verdict"] != "stable" else _shown(row["worst"]))
                 + (" FAILS" if row["worst_fails"] else ""),
-                "—" if row.get("bound") is None else f"≥ {_shown(row['bound'])}",
+                "—" if row.get("bound") is None else
+                f"{'≤' if row.get('bound_above') else '≥'} {_shown(row['bound'])}",
                 ("a corner: " if row["at_corner"] else "inside: ") + point_text(row["at"]),
                 (f"{share['yield_pct']:.1f} %" if share.get("evaluated") else "—"),
             ))

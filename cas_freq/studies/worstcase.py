@@ -350,9 +350,9 @@ def worst_case(loaded, tolerances=None, requirements=None, *, samples=DEFAULT_SA
                    "evaluations": dict(evaluate.count),
                    "seconds": time.perf_counter() - started},
         "bound": (why if guaranteed is None else
-                  f"guaranteed for every loop's phase and gain margins (the current and "
-                  f"velocity loops' also with the outer loops closed) and the bandwidth over "
-                  f"the whole box (interval branch and bound, "
+                  f"guaranteed for every loop's phase, gain and delay margins and "
+                  f"sensitivity peak (the current and velocity loops' also with the outer "
+                  f"loops closed), the bandwidth and the resonance peak over the whole box (interval branch and bound, "
                   f"{guaranteed['cells']} cells); the other figures: the worst found by the "
                   "search"),
         "stability": {
@@ -371,20 +371,18 @@ def worst_case(loaded, tolerances=None, requirements=None, *, samples=DEFAULT_SA
 
 
 #: The figures the interval bound covers, by the bound's key (the outermost loop's two
-#: views agree, docs/model.md §7).
-BOUNDED = {"position_loop.phase_margin_deg": "phase_margin_deg",
-           "position_loop.loop_at_a_time.phase_margin_deg": "phase_margin_deg",
-           "position_loop.gain_margin_db": "gain_margin_db",
-           "position_loop.loop_at_a_time.gain_margin_db": "gain_margin_db",
-           "current_loop.phase_margin_deg": "current_phase_margin_deg",
-           "current_loop.gain_margin_db": "current_gain_margin_db",
-           "current_loop.loop_at_a_time.phase_margin_deg": "current_aat_phase_margin_deg",
-           "current_loop.loop_at_a_time.gain_margin_db": "current_aat_gain_margin_db",
-           "velocity_loop.phase_margin_deg": "velocity_phase_margin_deg",
-           "velocity_loop.gain_margin_db": "velocity_gain_margin_db",
-           "velocity_loop.loop_at_a_time.phase_margin_deg": "velocity_aat_phase_margin_deg",
-           "velocity_loop.loop_at_a_time.gain_margin_db": "velocity_aat_gain_margin_db",
-           "closed_loop.bandwidth_rad_s": "bandwidth_rad_s"}
+#: views agree, docs/model.md §7), and those it bounds from above (the negative's lower bound).
+_LOOP_VIEWS = {"position_loop": "", "position_loop.loop_at_a_time": "",
+               "current_loop": "current_", "current_loop.loop_at_a_time": "current_aat_",
+               "velocity_loop": "velocity_", "velocity_loop.loop_at_a_time": "velocity_aat_"}
+BOUNDED = {**{f"{view}.{figure}": f"{prefix}{figure}" for view, prefix in _LOOP_VIEWS.items()
+              for figure in ("phase_margin_deg", "gain_margin_db", "delay_margin_s")},
+           **{f"{view}.sensitivity_peak_db": f"{prefix}negative_sensitivity_peak_db"
+              for view, prefix in _LOOP_VIEWS.items()},
+           "closed_loop.bandwidth_rad_s": "bandwidth_rad_s",
+           "closed_loop.peak_db": "negative_peak_db"}
+NEGATED = {name for name in BOUNDED.values() if name.startswith("negative_")
+           or "_negative_" in name}
 
 
 def _guaranteed(params, box, results, figures, cells):
@@ -399,7 +397,8 @@ def _guaranteed(params, box, results, figures, cells):
     for row in results:
         name = BOUNDED.get(row["metric"])
         if name is not None and row["worst"] is not None:
-            targets[name] = min(targets.get(name, math.inf), row["worst"])
+            worst = -row["worst"] if name in NEGATED else row["worst"]
+            targets[name] = min(targets.get(name, math.inf), worst)
     if "phase_margin_deg" not in targets or "gain_margin_db" not in targets:
         return None, ("none: the worst found by the search (no bound without a stable worst "
                       "phase and gain margin of the position loop)")
@@ -416,8 +415,10 @@ def _guaranteed(params, box, results, figures, cells):
     for row in results:
         name = BOUNDED.get(row["metric"])
         if name is not None and row["worst"] is not None:
-            row["bound"] = found[name]
-            row["gap"] = row["worst"] - found[name]
+            # a figure bounded from above (a peak): the bound is at or above the worst found
+            row["bound_above"] = name in NEGATED
+            row["bound"] = -found[name] if row["bound_above"] else found[name]
+            row["gap"] = abs(row["worst"] - row["bound"])
     return found, None
 
 
@@ -497,7 +498,8 @@ def worst_case_text(data):
                      f"{worst:>12}  {where}: {point_text(r['at'])} (found by "
                      f"{_FOUND.get(r['found_by'], r['found_by'])}){flag}")
         if r.get("bound") is not None:
-            lines.append(f"  {'':<52} {'':>10} {'≥ ' + _g(r['bound']):>12}  guaranteed over "
+            side = "≤ " if r.get("bound_above") else "≥ "
+            lines.append(f"  {'':<52} {'':>10} {side + _g(r['bound']):>12}  guaranteed over "
                          f"the whole box (gap {r['gap']:.2g})")
     for item in data["not_evaluated"]:
         lines.append(f"  {item['id']} {item['metric']}: not evaluated: {item['reason']}")
