@@ -350,11 +350,11 @@ def worst_case(loaded, tolerances=None, requirements=None, *, samples=DEFAULT_SA
                    "evaluations": dict(evaluate.count),
                    "seconds": time.perf_counter() - started},
         "bound": (why if guaranteed is None else
-                  f"guaranteed for every loop's phase, gain and delay margins and "
-                  f"sensitivity peak (the current and velocity loops' also with the outer "
-                  f"loops closed), the bandwidth and the resonance peak over the whole box (interval branch and bound, "
-                  f"{guaranteed['cells']} cells); the other figures: the worst found by the "
-                  "search"),
+                  "guaranteed for every loop's phase, gain and delay margins and "
+                  "sensitivity peak (the current and velocity loops' also with the outer "
+                  "loops closed), the bandwidth and the resonance peak over the whole box "
+                  f"(interval branch and bound, {guaranteed['cells']} cells); the other "
+                  "figures: the worst found by the search"),
         "stability": {
             "proved": None if guaranteed is None else guaranteed["stable"],
             "points": evaluate.count["analyze"],
