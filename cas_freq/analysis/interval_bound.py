@@ -76,6 +76,10 @@ LOOP_FIGURES = ("phase_margin_deg", "gain_margin_db", "delay_margin_s",
                 "negative_sensitivity_peak_db")
 FIGURES = (*(prefix + name for prefix in LOOP_PREFIXES for name in LOOP_FIGURES),
            "bandwidth_rad_s", "negative_peak_db")
+#: Each figure's bound where a cell's rectangle is not finite (it holds anything): a phase
+#: margin -180 deg, a peak no bound (-inf on its negative), the others 0.
+UNKNOWN = {name: -180.0 if name.endswith("phase_margin_deg") else
+           -math.inf if "negative_" in name else 0.0 for name in FIGURES}
 #: The points of fixed filters the enclosures take (docs/model.md, "Filters").
 FILTER_POINTS = ("current_feedback", "current_command", "velocity_feedback",
                  "velocity_command", "position_feedback", "position_command")
@@ -395,17 +399,30 @@ def _corner_moduli(z):
     return np.hypot(near_re, near_im), np.maximum.reduce(corners)
 
 
+def _angles(a, b, c, d):
+    """The angles [rad] from the negative real axis of a rectangle's four corners."""
+    return np.stack([np.abs(np.angle(-(x + 1j * y))) for x in (a, b) for y in (c, d)])
+
+
 def phase_margin_bound(z):
-    """Per cell: a lower bound of the phase margin [deg] at any crossover the cell can hold
-    (+inf where it holds none: its moduli exclude 1)."""
+    """Per cell: lower bounds [deg] of the phase margin, signed, and of its magnitude, at
+    any crossover the cell can hold (+inf where it holds none: its moduli exclude 1).
+
+    PM = 180 deg + angle(L) in (-180, 180] is positive below the real axis and negative
+    above it. Below, the rectangle's smallest angle from the negative real axis bounds it;
+    a rectangle that reaches the upper half plane is bounded by minus its upper part's
+    largest angle (-180 deg where it reaches the positive real axis or the origin).
+    """
     (a, b), (c, d) = z
     nearest, farthest = _corner_moduli(z)
     relevant = (nearest <= 1.0) & (farthest >= 1.0)
     # the negative real axis is reached: 0; else the corners' angles from it
     on_axis = (c <= 0) & (d >= 0) & (a <= 0)
-    angles = np.stack([np.abs(np.angle(-(x + 1j * y))) for x in (a, b) for y in (c, d)])
-    bound = np.where(on_axis, 0.0, np.degrees(np.min(angles, axis=0)))
-    return np.where(relevant, bound, np.inf)
+    magnitude = np.where(on_axis, 0.0, np.degrees(np.min(_angles(a, b, c, d), axis=0)))
+    upper = np.degrees(np.max(_angles(a, b, np.maximum(c, 0.0), d), axis=0))
+    upper = np.where((b >= 0) & (c <= 0), 180.0, upper)
+    signed = np.where(d < 0, magnitude, -upper)
+    return np.where(relevant, signed, np.inf), np.where(relevant, magnitude, np.inf)
 
 
 def gain_margin_bound(z):
@@ -473,8 +490,24 @@ def _values(base, keys, low, high):
     return out
 
 
+def _size(loops):
+    """Per cell and loop (:data:`SIZED`): its rectangle's diagonal relative to 1 + the
+    modulus of its middle (inf where it is not finite); and ``size``, the largest."""
+    sizes = {}
+    for name in SIZED:
+        if name not in loops:  # a PID-on-PI's velocity loop
+            sizes[f"size_{name}"] = np.zeros_like(loops["closed"][0][0])
+            continue
+        (a, b), (c, d) = loops[name]
+        with np.errstate(invalid="ignore"):
+            size = np.hypot(b - a, d - c) / (1.0 + np.hypot(0.5 * (a + b), 0.5 * (c + d)))
+        sizes[f"size_{name}"] = np.where(np.isnan(size), np.inf, size)
+    return {**sizes, "size": np.maximum.reduce(list(sizes.values()))}
+
+
 def _cell_bounds(base, keys, shape, p_low, p_high, w_low, w_high):
-    """Each figure's bound per cell, and whether the cell may hold -1 (of any loop's L)."""
+    """Each figure's bound per cell, whether the cell may hold -1 (of any loop's L), and its
+    rectangles' size (:func:`_size`)."""
     loops = enclosures(_values(base, keys, p_low, p_high), (w_low, w_high), shape)
     # a rectangle that is not finite (a divisor's interval reached 0) holds anything
     lost = ~np.logical_and.reduce([_finite(z) for z in loops.values()])
@@ -488,19 +521,20 @@ def _cell_bounds(base, keys, shape, p_low, p_high, w_low, w_high):
             if z is None:
                 found.update({prefix + name: none for name in LOOP_FIGURES})
                 continue
-            phase = phase_margin_bound(z)
+            phase, magnitude = phase_margin_bound(z)
             found[prefix + "phase_margin_deg"] = phase
             found[prefix + "gain_margin_db"] = gain_margin_bound(z)
             # at a crossover in the cell, the margin's angle over a frequency below its top
-            found[prefix + "delay_margin_s"] = np.radians(phase) / w_high
+            # (PM/w_c, or (360 deg - |PM|)/w_c for a negative PM: at least |PM|/w_c)
+            found[prefix + "delay_margin_s"] = np.radians(magnitude) / w_high
             # |1 + L| >= the distance from -1 to the rectangle
             found[prefix + "negative_sensitivity_peak_db"] = 20.0 * np.log10(
                 _corner_moduli(_cadd(z, _real((np.ones_like(w_low), np.ones_like(w_low)))))[0])
-    found = {name: np.where(lost | np.isnan(values), 0.0, values)
+    found = {name: np.where(lost | np.isnan(values), UNKNOWN[name], values)
              for name, values in found.items()}
     minus_one = np.logical_or.reduce([holds_minus_one(loops[name]) for name in
                                       ("current", "velocity", "position") if name in loops])
-    return found, minus_one | lost
+    return found, minus_one | lost, _size(loops)
 
 
 def bounds(base, keys, low, high, targets, max_cells=MAX_CELLS, shape=Shape()):
@@ -535,17 +569,21 @@ def bounds(base, keys, low, high, targets, max_cells=MAX_CELLS, shape=Shape()):
     decades = math.log10(OMEGA_RANGE[1] / OMEGA_RANGE[0])
     count = int(math.ceil(decades * FIRST_CELLS_PER_DECADE))
     edges = np.geomspace(*OMEGA_RANGE, count + 1)
-    # cells: parameter sub-boxes (unit coordinates) and log-frequency intervals
-    cells = (np.zeros((count, d)), np.ones((count, d)), edges[:-1].copy(), edges[1:].copy())
+    # cells: parameter sub-boxes (unit coordinates), log-frequency intervals, and their
+    # parent's size and split (none yet)
+    cells = {"low": np.zeros((count, d)), "high": np.ones((count, d)),
+             "w_low": edges[:-1].copy(), "w_high": edges[1:].copy(),
+             **{f"parent_{name}": np.full(count, np.inf) for name in SIZES},
+             "split": np.full(count, NO_SPLIT)}
     span = high - low
     evaluated = 0
     # the smallest bound of the cells retired (not refined further), per figure
     floors = dict.fromkeys(FIGURES, math.inf)
     # the open cells (their bounds still count) and how far each falls short of the targets
-    pool = _no_cells(d)
+    pool = None
     while True:
-        found, minus_one = _evaluate(base, keys, shape, low, span, cells)
-        evaluated += cells[2].size
+        found, minus_one, size = _evaluate(base, keys, shape, low, span, cells)
+        evaluated += cells["w_low"].size
         shortfall = np.where(minus_one, np.inf, 0.0)
         for name, target in targets.items():
             short = (_level(name, target) - found[name]) / (abs(target) or 1.0)
@@ -554,22 +592,36 @@ def bounds(base, keys, low, high, targets, max_cells=MAX_CELLS, shape=Shape()):
         for name, values in found.items():
             if retired.any():
                 floors[name] = min(floors[name], float(np.min(values[retired])))
-        kept = ~retired
-        pool = _joined(pool, (*(part[kept] for part in cells), shortfall[kept],
-                              {name: values[kept] for name, values in found.items()},
-                              minus_one[kept]))
-        size = pool[2].size
-        if not size or evaluated + 2 * min(size, REFINED) > max_cells:
-            out = {name: min(floors[name], _smallest(pool[5][name], np.ones(size, bool)))
+        cells.update(found, **size, shortfall=shortfall, minus_one=minus_one)
+        pool = _joined(pool, _taken(cells, ~retired))
+        count = pool["w_low"].size
+        if not count or evaluated + 2 * min(count, REFINED) > max_cells:
+            out = {name: min(floors[name], _smallest(pool[name], np.ones(count, bool)))
                    for name in FIGURES}
-            return {**out, "stable": not bool(pool[6].any()), "cells": evaluated}
+            return {**out, "stable": not bool(pool["minus_one"].any()), "cells": evaluated}
         # best first: the cells furthest below each figure's target are split, the rest wait
         # in the pool
-        chosen = _chosen(pool, targets, REFINED)
-        waiting = np.ones(size, bool)
-        waiting[chosen] = False
-        cells = _split(*(part[chosen] for part in pool[:4]), d)
-        pool = _taken(pool, waiting)
+        chosen = np.zeros(count, bool)
+        chosen[_chosen(pool, targets, REFINED)] = True
+        cells = _taken(pool, chosen)
+        pool = _taken(pool, ~chosen)
+        # a cell with a rectangle that is not finite: its size at its middle frequency
+        # (the keys' share) says whether the frequency interval made it so (not for the
+        # figures whose splits are not steered)
+        probed = ~np.isfinite(cells["size"]) & ~_governing(cells, targets)[2]
+        if evaluated + 2 * probed.size + np.count_nonzero(probed) > max_cells:
+            probed[:] = False  # the budget's last round: no probe
+        middle = np.sqrt(cells["w_low"][probed] * cells["w_high"][probed])
+        tight_at_middle = np.zeros(probed.size, bool)
+        if probed.any():
+            at_middle = _evaluate(base, keys, shape, low, span, {
+                "low": cells["low"][probed], "high": cells["high"][probed], "w_low": middle,
+                "w_high": middle})[2]
+            tight_at_middle[probed] = np.logical_or.reduce([
+                ~np.isfinite(cells[f"size_{loop}"][probed]) & (at_middle[f"size_{loop}"] < TIGHT)
+                for loop in SIZED])
+            evaluated += middle.size
+        cells = _split(cells, tight_at_middle, targets)
 
 
 def _level(name, target):
@@ -583,71 +635,133 @@ def _chosen(pool, targets, count):
     """The pool's cells to split: every one that may hold -1, and for each figure an equal
     share of the cells whose bounds are lowest below its target (at most ``count``, those
     furthest short first)."""
-    bounds, minus_one, shortfall = pool[5], pool[6], pool[4]
     share = max(1, count // max(len(targets), 1))
-    picks = [np.flatnonzero(minus_one)]
+    picks = [np.flatnonzero(pool["minus_one"])]
     for name, target in targets.items():
-        below = np.flatnonzero(bounds[name] < _level(name, target))
-        picks.append(below[np.argsort(bounds[name][below], kind="stable")[:share]])
+        below = np.flatnonzero(pool[name] < _level(name, target))
+        picks.append(below[np.argsort(pool[name][below], kind="stable")[:share]])
     chosen = np.unique(np.concatenate(picks))
     if chosen.size > count:
-        chosen = chosen[np.argsort(-shortfall[chosen], kind="stable")[:count]]
+        chosen = chosen[np.argsort(-pool["shortfall"][chosen], kind="stable")[:count]]
     return chosen
 
 
 #: Cells split per round of the branch and bound, the ones that fall furthest short of the
 #: worst found first (each gives two: one chunk of cells evaluated per round).
 REFINED = CHUNK // 2
+#: The frequency's share of a rectangle's size above which its cell splits the frequency
+#: (:func:`_split_frequency`).
+FREQUENCY_BOUND = 0.95
+#: The size at a cell's middle frequency below which a cell whose rectangles are not finite
+#: splits its frequency (the keys alone give a tight rectangle, :func:`_split_frequency`).
+TIGHT = 0.1
+#: The figures whose cells split their widest dimension, unsteered by the sizes (and every
+#: loop's sensitivity peak).
+UNSTEERED = ("bandwidth_rad_s", "negative_peak_db")
+#: The loops whose rectangles' sizes steer the splits (:func:`_size`), and the loop of each
+#: figure.
+SIZED = ("current", "current_aat", "velocity", "velocity_aat", "position", "closed")
+SIZES = (*(f"size_{name}" for name in SIZED), "size")
+FIGURE_LOOPS = {**{prefix + name: loop for prefix, loop in LOOP_PREFIXES.items()
+                   for name in LOOP_FIGURES},
+                "bandwidth_rad_s": "closed", "negative_peak_db": "closed"}
+#: A cell's last split: none (a first cell), along a key, along the frequency.
+NO_SPLIT, KEY_SPLIT, FREQUENCY_SPLIT = -1, 0, 1
 
 
 def _evaluate(base, keys, shape, low, span, cells):
-    """Each figure's bound per cell and whether the cell may hold -1 (in chunks)."""
-    cell_low, cell_high, w_low, w_high = cells
-    parts = [_cell_bounds(base, keys, shape, low + cell_low[k:k + CHUNK] * span,
-                          low + cell_high[k:k + CHUNK] * span, w_low[k:k + CHUNK],
-                          w_high[k:k + CHUNK])
-             for k in range(0, w_low.size, CHUNK)]
+    """Each figure's bound per cell, whether the cell may hold -1 and its rectangles' size
+    (in chunks)."""
+    parts = [_cell_bounds(base, keys, shape, low + cells["low"][k:k + CHUNK] * span,
+                          low + cells["high"][k:k + CHUNK] * span,
+                          cells["w_low"][k:k + CHUNK], cells["w_high"][k:k + CHUNK])
+             for k in range(0, cells["w_low"].size, CHUNK)]
     return ({name: np.concatenate([part[0][name] for part in parts]) for name in FIGURES},
-            np.concatenate([part[1] for part in parts]))
-
-
-def _no_cells(d):
-    empty = np.zeros(0)
-    return (np.zeros((0, d)), np.zeros((0, d)), empty, empty, empty,
-            dict.fromkeys(FIGURES, empty), np.zeros(0, bool))
+            np.concatenate([part[1] for part in parts]),
+            {name: np.concatenate([part[2][name] for part in parts]) for name in parts[0][2]})
 
 
 def _joined(a, b):
-    """Two pools of cells (low, high, w_low, w_high, shortfall, bounds, minus_one) as one."""
-    return (*(np.concatenate([x, y]) for x, y in zip(a[:5], b[:5], strict=True)),
-            {name: np.concatenate([a[5][name], b[5][name]]) for name in FIGURES},
-            np.concatenate([a[6], b[6]]))
+    """Two pools of cells (dicts of arrays by cell, a None: none) as one."""
+    return b if a is None else {name: np.concatenate([a[name], b[name]]) for name in a}
 
 
-def _taken(pool, rows):
-    return (*(part[rows] for part in pool[:5]),
-            {name: values[rows] for name, values in pool[5].items()}, pool[6][rows])
+def _taken(cells, rows):
+    return {name: values[rows] for name, values in cells.items()}
 
 
-def _split(cell_low, cell_high, w_low, w_high, d):
-    """Each cell split in two along its widest dimension: a key in unit width, or the
-    frequency in decades (one unit = a tenth of a decade)."""
-    widths = np.concatenate([cell_high - cell_low,
-                             (np.log10(w_high / w_low) * 10.0)[:, None]], axis=1)
-    along = np.argmax(widths, axis=1)
-    new_low_p, new_high_p = np.repeat(cell_low, 2, axis=0), np.repeat(cell_high, 2, axis=0)
-    new_low_w, new_high_w = np.repeat(w_low, 2), np.repeat(w_high, 2)
+def _governing(cells, targets):
+    """Per cell: its rectangles' size and its parent's (:func:`_size`) of the loop whose
+    figure falls furthest short of its target (of every loop where the cell may hold -1),
+    and whether that figure is the bandwidth or a peak (:data:`UNSTEERED`)."""
+    names = [name for name in targets]
+    size, parent = cells["size"].copy(), cells["parent_size"].copy()
+    if not names:
+        return size, parent, np.zeros(size.size, bool)
+    short = np.stack([(_level(name, targets[name]) - cells[name]) / (abs(targets[name]) or 1.0)
+                      for name in names])
+    worst = np.argmax(short, axis=0)
+    bandwidth = np.zeros(size.size, bool)
+    for k, name in enumerate(names):
+        rows = (worst == k) & ~cells["minus_one"]
+        loop = FIGURE_LOOPS[name]
+        size[rows], parent[rows] = cells[f"size_{loop}"][rows], cells[f"parent_size_{loop}"][rows]
+        bandwidth |= rows & (name in UNSTEERED or name.endswith("sensitivity_peak_db"))
+    return size, parent, bandwidth
+
+
+def _split_frequency(cells, tight_at_middle, targets):
+    """Per cell: whether its frequency interval is split (else its widest key in unit width).
+
+    The widest dimension in its own scale is split (a key in unit width, the frequency in
+    tenths of a decade), except where the frequency makes most of the rectangle: the size
+    (:func:`_size`) of the rectangle of the loop whose figure falls furthest short
+    (:func:`_governing`) is taken as the sum of a share of the frequency's and one of the
+    keys'. The last split halved its dimension's share, so the share it keeps is what the
+    split took off (``parent_size - size``); where the frequency's share is above
+    :data:`FREQUENCY_BOUND` of the size (near a lightly damped mode the keys' is a
+    thousandth), the frequency is split. A cell whose size is not finite splits its
+    frequency where ``tight_at_middle``: a loop's rectangle that is not finite over the cell
+    is tight (size below :data:`TIGHT`) at its middle frequency. A cell short of the
+    bandwidth (whose bound is its lowest frequency) or of a peak splits its widest dimension
+    (measured: steered, the QT-CAS's sensitivity peak's gap over Km x Ki grows from 0.25 to
+    6.3 dB)."""
+    key_widths = cells["high"] - cells["low"]
+    tenths = np.log10(cells["w_high"] / cells["w_low"]) * 10.0
+    widest = tenths > np.max(key_widths, axis=1, initial=0.0)
+    size, parent, bandwidth = _governing(cells, targets)
+    informed = np.isfinite(size) & np.isfinite(parent) & (parent > 0) & (
+        cells["split"] != NO_SPLIT) & ~bandwidth
+    # the share of the dimension last split (halved: parent - size), the rest the other's
+    with np.errstate(invalid="ignore"):
+        last = np.clip(parent - size, 0.0, size)
+    frequency_share = np.where(cells["split"] == FREQUENCY_SPLIT, last, size - last)
+    steered = informed & (frequency_share > FREQUENCY_BOUND * size)
+    probed = tight_at_middle
+    return widest | steered | (probed & ~bandwidth)
+
+
+def _split(cells, tight_at_middle, targets):
+    """Each cell split in two halves (:func:`_split_frequency`): along its frequency (in
+    decades) or along its widest key."""
+    d = cells["low"].shape[1]
+    frequency = _split_frequency(cells, tight_at_middle, targets) | (d == 0)
+    along = np.where(frequency, d, np.argmax(cells["high"] - cells["low"], axis=1)
+                     if d else 0)
+    new_low_p, new_high_p = (np.repeat(cells[name], 2, axis=0) for name in ("low", "high"))
+    new_low_w, new_high_w = (np.repeat(cells[name], 2) for name in ("w_low", "w_high"))
     first = np.arange(0, 2 * along.size, 2)
-    on_key = along < d
-    rows = np.flatnonzero(on_key)
-    middle = 0.5 * (cell_low[rows, along[rows]] + cell_high[rows, along[rows]])
+    rows = np.flatnonzero(~frequency)
+    middle = 0.5 * (cells["low"][rows, along[rows]] + cells["high"][rows, along[rows]])
     new_high_p[first[rows], along[rows]] = middle
     new_low_p[first[rows] + 1, along[rows]] = middle
-    rows = np.flatnonzero(~on_key)
-    middle = np.sqrt(w_low[rows] * w_high[rows])
+    rows = np.flatnonzero(frequency)
+    middle = np.sqrt(cells["w_low"][rows] * cells["w_high"][rows])
     new_high_w[first[rows]] = middle
     new_low_w[first[rows] + 1] = middle
-    return new_low_p, new_high_p, new_low_w, new_high_w
+    return {"low": new_low_p, "high": new_high_p, "w_low": new_low_w, "w_high": new_high_w,
+            **{f"parent_{name}": np.repeat(cells[name], 2) for name in SIZES},
+            "split": np.repeat(np.where(frequency, FREQUENCY_SPLIT, KEY_SPLIT), 2)}
 
 
 def box_bounds(config, params, keys, low, high, targets, max_cells=MAX_CELLS):

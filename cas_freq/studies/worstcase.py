@@ -336,7 +336,8 @@ def worst_case(loaded, tolerances=None, requirements=None, *, samples=DEFAULT_SA
     guaranteed, why = (
         (None, "none: not asked for (--bound-cells 0)") if bound_cells == 0 else
         (None, "none: the nominal point is not stable") if not stable[0] else
-        _guaranteed(params, box, results, figures, bound_cells))
+        (None, "none: the search found points of the box that are not stable")
+        if evaluate.not_stable else _guaranteed(params, box, results, bound_cells))
     return json_ready({
         "config": params.name, "config_path": loaded.source, "variant": loaded.variant,
         "overrides": [f"{k}={v}" for k, v in loaded.overrides],
@@ -385,7 +386,7 @@ NEGATED = {name for name in BOUNDED.values() if name.startswith("negative_")
            or "_negative_" in name}
 
 
-def _guaranteed(params, box, results, figures, cells):
+def _guaranteed(params, box, results, cells):
     """The interval bounds of the position loop's margins over the box
     (:func:`cas_freq.analysis.interval_bound.box_bounds`), written into the result rows
     (``bound``, ``gap``); (bounds, None) or (None, why there are none)."""
@@ -402,13 +403,6 @@ def _guaranteed(params, box, results, figures, cells):
     if "phase_margin_deg" not in targets or "gain_margin_db" not in targets:
         return None, ("none: the worst found by the search (no bound without a stable worst "
                       "phase and gain margin of the position loop)")
-    for loop in ("position_loop", "current_loop", "current_loop.loop_at_a_time",
-                 "velocity_loop", "velocity_loop.loop_at_a_time"):
-        counts = figures.get(f"{loop}.gain_crossover_count")
-        if counts is not None and np.unique(counts[np.isfinite(counts)]).size > 1:
-            return None, (f"none: the worst found by the search (the number of {loop}'s gain "
-                          "crossovers changes over the box, where the bound on each "
-                          "crossover's margin does not give the figure's sign)")
     found, why = box_bounds(params, nominal, box.keys, box.low, box.high, targets, cells)
     if found is None:
         return None, f"none: the worst found by the search ({why})"
