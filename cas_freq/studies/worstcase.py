@@ -293,6 +293,7 @@ def worst_case(loaded, tolerances=None, requirements=None, *, samples=DEFAULT_SA
     params = loaded.params
     tolerances = params.tolerance_list if tolerances is None else tolerances
     box = tolerance_box(params, tolerances)
+    units = [unit_of(key, params) for key in box.keys]
     if isinstance(samples, bool) or not (isinstance(samples, int) and 0 <= samples <= 100_000):
         raise ConfigError(f"--samples: must be an integer 0..100000, got {samples!r}")
     if not (isinstance(resolution, float | int) and 0 < resolution < 0.5):
@@ -327,8 +328,8 @@ def worst_case(loaded, tolerances=None, requirements=None, *, samples=DEFAULT_SA
     # the figures at each worst point, evaluated once more together (their values and verdicts)
     at_worst, stable_worst, verdict_worst = evaluate(np.array([w[0] for w in worst]), kinds)
     results = [
-        _result(box, objective, point, margin, how, figures, at_worst, index, resolution,
-                str(verdict_worst[index]))
+        _result(box, units, objective, point, margin, how, figures, at_worst, index,
+                resolution, str(verdict_worst[index]))
         for index, (objective, (point, margin, how)) in enumerate(
             zip(objectives, worst, strict=True))]
     if isinstance(bound_cells, bool) or not (isinstance(bound_cells, int) and bound_cells >= 0):
@@ -338,31 +339,33 @@ def worst_case(loaded, tolerances=None, requirements=None, *, samples=DEFAULT_SA
         (None, "none: the nominal point is not stable") if not stable[0] else
         (None, "none: the search found points of the box that are not stable")
         if evaluate.not_stable else _guaranteed(params, box, results, bound_cells))
+    proved = None if guaranteed is None else guaranteed["stable"]
     return json_ready({
         "config": params.name, "config_path": loaded.source, "variant": loaded.variant,
         "overrides": [f"{k}={v}" for k, v in loaded.overrides],
-        "box": [{"key": key, "unit": unit_of(key, params), "nominal": float(n),
-                 "low": float(lo), "high": float(hi)}
-                for key, n, lo, hi in zip(box.keys, box.nominal, box.low, box.high,
-                                          strict=True)],
+        "box": [{"key": key, "unit": unit, "nominal": float(n), "low": float(lo),
+                 "high": float(hi)}
+                for key, unit, n, lo, hi in zip(box.keys, units, box.nominal, box.low,
+                                                box.high, strict=True)],
         "step_deg": None if step_rad is None else math.degrees(step_rad),
         "search": {"corners": len(corners), "samples": samples, "seed": seed,
                    "resolution": resolution, "local_rounds": rounds,
                    "evaluations": dict(evaluate.count),
                    "seconds": time.perf_counter() - started},
-        "bound": (why if guaranteed is None else
+        "bound": (why if why is not None else
                   "guaranteed for every loop's phase, gain and delay margins and "
                   "sensitivity peak (the current and velocity loops' also with the outer "
                   "loops closed), the bandwidth and the resonance peak over the whole box "
                   f"(interval branch and bound, {guaranteed['cells']} cells); the other "
                   "figures: the worst found by the search"),
         "stability": {
-            "proved": None if guaranteed is None else guaranteed["stable"],
+            "proved": proved,
             "points": evaluate.count["analyze"],
             "not_stable": evaluate.not_stable,
             "first_not_stable": (None if evaluate.first_not_stable is None else
                                  {"verdict": evaluate.first_not_stable[1],
-                                  "point": _point(box, evaluate.first_not_stable[0])}),
+                                  "point": _point(box, evaluate.first_not_stable[0],
+                                                 units)}),
         },
         "requirements": [r for r in results if r["severity"] != "stability"],
         "stability_margins": [r for r in results if r["severity"] == "stability"],
@@ -389,7 +392,8 @@ NEGATED = {name for name in BOUNDED.values() if name.startswith("negative_")
 def _guaranteed(params, box, results, cells):
     """The interval bounds of the position loop's margins over the box
     (:func:`cas_freq.analysis.interval_bound.box_bounds`), written into the result rows
-    (``bound``, ``gap``); (bounds, None) or (None, why there are none)."""
+    (``bound``, ``gap``): (bounds, None); (None, why there are none); or, where stability
+    over the box is not proved, (bounds, why) with no row bounded."""
     nominal = LoopParameters.from_config(params)
     reason = supported(nominal, box.keys)
     if reason:
@@ -406,6 +410,11 @@ def _guaranteed(params, box, results, cells):
     found, why = box_bounds(params, nominal, box.keys, box.low, box.high, targets, cells)
     if found is None:
         return None, f"none: the worst found by the search ({why})"
+    if not found["stable"]:
+        # a margin's bound means nothing where a variant of the box may be unstable
+        return found, (f"none: stability over the whole box not proved (some of the "
+                       f"{found['cells']} cells' enclosures hold -1; more with --bound-cells), "
+                       "so the worst found by the search")
     for row in results:
         name = BOUNDED.get(row["metric"])
         if name is not None and row["worst"] is not None:
@@ -416,13 +425,17 @@ def _guaranteed(params, box, results, cells):
     return found, None
 
 
-def _point(box, point):
-    """A point of the box: per key its value [SI] and its offset as a share of the half-width."""
-    return [{"key": key, "value": float(value), "relative": float(share)}
-            for key, value, share in zip(box.keys, point, box.relative(point), strict=True)]
+def _point(box, point, units):
+    """A point of the box: per key its value [SI] with its unit, its offset as a share of the
+    half-width (``relative``, -1 .. 1) and its change from the nominal (``change``, a
+    fraction; None where the nominal is 0)."""
+    return [{"key": key, "value": float(value), "unit": unit, "relative": float(share),
+             "change": float(value / nominal - 1.0) if nominal != 0 else None}
+            for key, value, share, nominal, unit in zip(
+                box.keys, point, box.relative(point), box.nominal, units, strict=True)]
 
 
-def _result(box, objective, point, margin, how, figures, at_worst, index, resolution,
+def _result(box, units, objective, point, margin, how, figures, at_worst, index, resolution,
             verdict):
     """One objective's worst found, with its point and the nominal (point 0 of ``figures``)
     beside it."""
@@ -438,15 +451,18 @@ def _result(box, objective, point, margin, how, figures, at_worst, index, resolu
         "worst_margin": None if margin == -np.inf else margin,
         "worst_fails": not margin >= 0, "worst_verdict": verdict,
         "not_stable_or_missing": margin == -np.inf,
-        "at": _point(box, point), "at_corner": box.at_corner(point, resolution),
+        "at": _point(box, point, units), "at_corner": box.at_corner(point, resolution),
         "found_by": how,
     }
 
 
 def point_text(point):
-    """``motor.Km=+10 %, motor.J=-5 %`` of a point's relative offsets (share of the
-    half-width: +100 % is the upper end)."""
-    return ", ".join(f"{item['key']}={100 * item['relative']:+.3g} %" for item in point)
+    """``motor.Km=0.0209 N*m/A (+10 %), motor.J=9.5e-06 kg*m^2 (-5 %)``: each key's value
+    with its unit and its change from the nominal."""
+    return ", ".join(
+        f"{item['key']}={item['value']:.5g}" + (f" {item['unit']}" if item["unit"] else "")
+        + ("" if item["change"] is None else f" ({100 * item['change']:+.3g} %)")
+        for item in point)
 
 
 def worst_case_text(data):
