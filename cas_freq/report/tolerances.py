@@ -76,10 +76,11 @@ def tolerance_section(datas, png=False):
         f"The config's tolerances ({keys}) span a box around each variant. For every "
         "requirement: its nominal value, the worst found over the box (every corner, 256 "
         "uniform samples, then a compass search from the worst corner and sample), the "
-        "guaranteed bound over the whole box where one is established (the loops' phase and "
-        "gain margins and the bandwidth of continuous loops: interval branch and bound), with "
-        "the point that reaches the worst (each key's offset "
-        f"as a share of its half-width), and the yield of {YIELD_SAMPLES} Monte Carlo samples "
+        "guaranteed bound over the whole box where one is established (every loop's margins "
+        "and sensitivity peak, the bandwidth and the resonance peak of continuous loops, where "
+        "stability over the box is proved: interval branch and bound), with the point that "
+        "reaches the worst (each key's value and its change from the nominal), and the yield "
+        f"of {YIELD_SAMPLES} Monte Carlo samples "
         "uniform on the box (seed 0). `cas-freq worstcase` prints the search.")]
     rows, results = [], []
     for data in datas:
