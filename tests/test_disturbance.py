@@ -27,6 +27,7 @@ from scipy.integrate import quad
 
 import cas_freq as cf
 from cas_freq.analysis.disturbance import disturbance_figures, noise
+from cas_freq.config import load_variant
 from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.parameters import LoopParameters
 from cas_freq.model import parts
@@ -34,9 +35,11 @@ from cas_freq.model.actuator_loops import ActuatorLoops
 from cas_freq.model.disturbance import encoder_weights, load_response, noise_current
 from cas_freq.model.loops import Selector
 from cas_freq.model.structure import build
+from cas_freq.studies.sweep import evaluate_figures
 
 QT = "configs/qt_cas.yaml"
 AXIS = "configs/cascade_axis.yaml"
+BALL = "configs/ball_screw.yaml"
 W = np.geomspace(0.1, 1e5, 301)
 
 
@@ -256,3 +259,54 @@ def test_analyze_prints_and_refuses_on_the_command_line():
     assert data["noise"]["current_rms_A"] is None
     code, _, err = run_cli(["analyze", QT, "--set", "sensors.counts_per_rev=0.5"])
     assert code == 2 and "sensors.counts_per_rev" in err and "0.5" in err
+
+
+@pytest.mark.parametrize("path, variant, changes", [
+    # the cascade (compliant gear, spring load, notch): two keys of its loops
+    (AXIS, "base", {"motor.J": [9.5e-5, 1e-4, 1.05e-4], "velocity_loop.Kp": [1.17, 1.3, 1.43]}),
+    # the QT-CAS sampled, with its current loop's delay varied: each variant alone has a grid of
+    # its own delay, the batch one of the largest
+    (QT, "sampled", {"motor.Km": [0.0095, 0.0105, 0.0115],
+                     "current_loop.delay": [4e-5, 6e-5, 8e-5]}),
+    (BALL, "base", {"motor.J": [0.9, 1.0, 1.1]}),  # a linear output: per m
+])
+def test_a_batch_s_figures_are_each_variant_s_own(path, variant, changes):
+    """evaluate_figures(disturbance=True) (every run at once:
+    batch_disturbance_figures) against analyze of each variant alone. The extrema are refined
+    to 1e-9 in log frequency on each one's grid, so the values agree to ~1e-12 (a smooth
+    extremum's value is second order in the frequency's error) and the frequencies to 1e-6;
+    the noise integral's grid is the same for both (1e-12)."""
+    loaded = load_variant(path, variant, overrides=[("sensors.counts_per_rev", 2048)])
+    if path == BALL:
+        changes = {"motor.J": loaded.params.motor.J * np.array(changes["motor.J"])}
+    figures, stability = evaluate_figures(loaded.params, {k: np.asarray(v, dtype=float) for
+                                                          k, v in changes.items()},
+                                          fit=False, disturbance=True)
+    assert np.all(stability == "stable")
+    for run in range(3):
+        alone = cf.load(path, variant, set={"sensors.counts_per_rev": 2048, **{
+            key: float(values[run]) for key, values in changes.items()}}).analyze().to_dict()
+        for section, names in (("stiffness", ("min_N_m_per_rad", "min_N_per_m")),
+                               ("effort", ("peak_A_per_rad", "peak_A_per_m"))):
+            name = next(n for n in names if n in alone[section])
+            assert figures[f"{section}.{name}"][run] == pytest.approx(
+                alone[section][name], rel=1e-12)
+        assert figures["stiffness.min_at_rad_s"][run] == pytest.approx(
+            alone["stiffness"]["min_at_rad_s"], rel=1e-6)
+        assert figures["effort.peak_at_rad_s"][run] == pytest.approx(
+            alone["effort"]["peak_at_rad_s"], rel=1e-6)
+        if alone["noise"]["current_rms_A"] is None:  # a linear output's encoder on the output
+            assert math.isnan(figures["noise.current_rms_A"][run])
+        else:
+            assert figures["noise.current_rms_A"][run] == pytest.approx(
+                alone["noise"]["current_rms_A"], rel=1e-12)
+
+
+def test_a_batch_gives_no_figures_where_a_run_is_not_stable():
+    loaded = load_variant(AXIS)
+    figures, stability = evaluate_figures(loaded.params, {"motor.J": np.array([1e-4, 2e-5])},
+                                          fit=False, disturbance=True)
+    assert list(stability.astype(str) == "stable") == [True, False]
+    assert np.isfinite(figures["stiffness.min_N_m_per_rad"][0])
+    assert np.isnan(figures["stiffness.min_N_m_per_rad"][1])
+    assert np.isnan(figures["effort.peak_A_per_rad"][1])

@@ -35,6 +35,7 @@ import cas_freq as cf
 from cas_freq.config import load_variant
 from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.tolerances import parse_tolerance
+from cas_freq.studies.montecarlo import requirement_results, run_montecarlo
 from cas_freq.studies.sweep import evaluate_figures
 from cas_freq.studies.worstcase import tolerance_box, worst_case, worst_case_text
 
@@ -465,6 +466,49 @@ def test_a_box_with_unstable_variants_says_so_and_where():
     bandwidth = _row(data, "closed_loop.bandwidth_rad_s")
     assert bandwidth["worst_fails"] and bandwidth["worst_verdict"] != "stable"
     assert data["stability"]["proved"] is not True  # no bound and no proof in an unstable box
+
+
+def test_the_dynamic_stiffness_and_the_effort_are_searched(tmp_path):
+    """A stiffness floor and an effort ceiling on the cascade axis over motor.J +-5 % and
+    velocity_loop.Kp +-10 %: both are searched (not "not evaluated"), the worst found is what
+    analyze gives at its point (1e-9), and no point of a 3 x 3 grid of analyze (each variant
+    alone) is worse."""
+    data = yaml.safe_load(open(AXIS))
+    data["requirements"] += [
+        {"id": "K-1", "metric": "stiffness.min_N_m_per_rad", "min": "300 N*m/rad",
+         "severity": "required", "source": "test"},
+        {"id": "E-1", "metric": "effort.peak_A_per_rad", "max": "2500 A/rad",
+         "severity": "advisory", "source": "test"}]
+    data.pop("variants")
+    path = tmp_path / "stiff.yaml"
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    loaded = load_variant(str(path))
+    texts = ("motor.J=5%", "velocity_loop.Kp=10%")
+    tolerances = [parse_tolerance(t, loaded.params) for t in texts]
+    result = worst_case(loaded, tolerances, samples=16, bound_cells=0)
+    assert not result["not_evaluated"]
+    stiffness, effort = _row(result, "stiffness.min_N_m_per_rad"), _row(result,
+                                                                        "effort.peak_A_per_rad")
+    box = tolerance_box(loaded.params, tolerances)
+    grid = []
+    for j in np.linspace(box.low[0], box.high[0], 3):
+        for kp in np.linspace(box.low[1], box.high[1], 3):
+            figures = cf.load(str(path), set={"motor.J": j, "velocity_loop.Kp": kp}).analyze()
+            grid.append((figures.stiffness.minimum, figures.effort.peak))
+    grid = np.array(grid)
+    assert stiffness["worst"] <= grid[:, 0].min() * (1 + 1e-12)
+    assert effort["worst"] >= grid[:, 1].max() * (1 - 1e-12)
+    for row, section, name in ((stiffness, "stiffness", "min_N_m_per_rad"),
+                               (effort, "effort", "peak_A_per_rad")):
+        at = {item["key"]: item["value"] for item in row["at"]}
+        there = cf.load(str(path), set=at).analyze().to_dict()[section][name]
+        assert row["worst"] == pytest.approx(there, rel=1e-9)
+    assert stiffness["worst_fails"]  # 264 N*m/rad at J +5 %, Kp -10 %
+    # the Monte Carlo's yield of the same requirements: evaluated, never below the worst found
+    mc = run_montecarlo(loaded, tolerances, 32, distribution="uniform", seed=0, simulate=False)
+    rows = {row["id"]: row for row in requirement_results(mc)}
+    assert rows["K-1"]["evaluated"] and rows["E-1"]["evaluated"]
+    assert np.nanmin(mc.figures["stiffness.min_N_m_per_rad"]) >= stiffness["worst"]
 
 
 @pytest.fixture

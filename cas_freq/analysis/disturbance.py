@@ -22,6 +22,10 @@ from cas_freq.model.disturbance import encoder_weights, load_response, noise_cur
 from cas_freq.model.loops import Selector, responses
 from cas_freq.model.structure import build
 
+#: The prefixes of the figures computed here (cas_freq.core.figures): a study computes them
+#: (:func:`batch_disturbance_figures`) where a requirement names one.
+PREFIXES = ("stiffness.", "effort.", "noise.")
+
 #: Grid density of the noise integral [points per decade].
 NOISE_POINTS_PER_DECADE = 400
 
@@ -117,42 +121,83 @@ class Noise:
         return dataclasses.asdict(self)
 
 
-def _refined(fun, omega, values, index):
-    """The extremum ``values[index]`` (a minimum of ``fun``, frequencies [rad/s] -> values)
-    refined between the grid points around it (:func:`~cas_freq.analysis.roots.refine_maxima`
-    of -``fun`` in log frequency): (frequency, value)."""
-    if 0 < index < omega.size - 1:
-        x = np.log(omega[index - 1:index + 2])
-        at, value = refine_maxima(lambda v, _: -fun(np.exp(v)), x[:1], x[2:],
-                                  *(-values[index - 1:index + 2, None]), mid=x[1:2])
-        if -value[0] < values[index]:
-            return float(at[0]), float(-value[0])
-    return float(omega[index]), float(values[index])
+def _least(fun, omega, n):
+    """Each of ``n`` runs' least value of ``fun`` on the grid ``omega`` [rad/s], refined between
+    the grid points around it (:func:`~cas_freq.analysis.roots.refine_maxima` of -``fun`` in
+    log frequency) where it is not at an end of the grid.
+
+    ``fun(which, w)``: the values of runs ``which`` (int array) at frequencies ``w`` [rad/s],
+    shaped (len(which), m) on the grid or (len(which),) one per run.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray, numpy.ndarray)
+        Frequency [rad/s], value and whether it lies at an end of the grid, each (n,).
+    """
+    every = np.arange(n)
+    values = fun(every, np.broadcast_to(omega, (n, omega.size)))
+    index = np.argmin(values, axis=1)
+    at, least = omega[index].astype(float), values[every, index].astype(float)
+    inner = np.flatnonzero((index > 0) & (index < omega.size - 1))
+    if inner.size:
+        x, i = np.log(omega), index[inner]
+        found_at, found = refine_maxima(
+            lambda v, which: -fun(inner[which], np.exp(v)), x[i - 1], x[i + 1],
+            -values[inner, i - 1], -values[inner, i], -values[inner, i + 1], mid=x[i])
+        better = -found < least[inner]
+        at[inner[better]], least[inner[better]] = found_at[better], -found[better]
+    return at, least, (index == 0) | (index == omega.size - 1)
+
+
+def _stiffness_values(runs, delay):
+    """``fun`` of :func:`_least` for the dynamic stiffness 1/|delta/M| (``runs(which, column)``:
+    the runs' parameters, shaped (k, 1) with ``column``)."""
+    def fun(which, w):
+        p = runs(which, np.ndim(w) == 2)
+        return 1.0 / np.abs(load_response(p, 1j * w, delay))
+    return fun
+
+
+def _effort_values(runs, delay):
+    """``fun`` of :func:`_least` for minus the control effort |N i/delta_cmd| (no
+    feed-forward)."""
+    def fun(which, w):
+        p = runs(which, np.ndim(w) == 2)
+        current = responses(p, 1j * w, delay=delay, output="current")
+        return -np.abs(p.ratio * current.closed_loop)
+    return fun
+
+
+def _one(p):
+    """One run's parameters as ``runs(which, column)`` of :func:`_stiffness_values`."""
+    return lambda which, column: p
 
 
 def stiffness(p, omega, linear=False, delay=EXACT):
     """The :class:`Stiffness` of one run ``p`` (a :class:`~cas_freq.model.loops.Selector`'s
     call) on the grid ``omega`` [rad/s]."""
-    def fun(w):
-        return 1.0 / np.abs(load_response(p, 1j * np.atleast_1d(w), delay))
-
-    values = fun(omega)
-    index = int(np.argmin(values))
-    at, value = _refined(fun, omega, values, index)
-    return Stiffness(value, at, linear, index in (0, omega.size - 1))
+    at, value, edge = _least(_stiffness_values(_one(p), delay), omega, 1)
+    return Stiffness(float(value[0]), float(at[0]), linear, bool(edge[0]))
 
 
 def effort(p, omega, linear=False, delay=EXACT):
     """The :class:`Effort` of one run ``p`` on the grid ``omega`` [rad/s]."""
-    def fun(w):
-        current = responses(p, 1j * np.atleast_1d(w), delay=delay, output="current")
-        return -np.abs(p.ratio * current.closed_loop)
+    at, value, edge = _least(_effort_values(_one(p), delay), omega, 1)
+    note = "the peak lies at an end of the analysed range" if edge[0] else ""
+    return Effort(float(-value[0]), float(at[0]), linear, note)
 
-    values = fun(omega)
-    index = int(np.argmin(values))
-    at, value = _refined(fun, omega, values, index)
-    note = "" if 0 < index < omega.size - 1 else "the peak lies at an end of the analysed range"
-    return Effort(-value, at, linear, note)
+
+def _noise_rms(p, low, band, counts_per_rev, delay=EXACT):
+    r"""RMS current [A] of the quantisation noise of :func:`noise`, of every run of ``p``
+    (parameters shaped (k, 1), or one run's scalars): shape (k,) or ()."""
+    weights = encoder_weights(p)
+    quantum = 2.0 * math.pi / counts_per_rev
+    points = max(int(NOISE_POINTS_PER_DECADE * math.log10(band / low)), 2) + 1
+    w = np.geomspace(low, band, points)
+    power = np.abs(noise_current(p, 1j * w, weights, delay)) ** 2
+    integral = power[..., 0] * low + np.sum(0.5 * (power[..., 1:] + power[..., :-1])
+                                            * np.diff(w), axis=-1)
+    return quantum / math.sqrt(12.0) * np.sqrt(integral / band)
 
 
 def noise(p, low, band, counts_per_rev, delay=EXACT):
@@ -162,14 +207,8 @@ def noise(p, low, band, counts_per_rev, delay=EXACT):
     :math:`i_{rms}^2 = \frac{q^2}{12\,\omega_b} \int_0^{\omega_b} |i/\nu(j\omega)|^2 d\omega`,
     by the trapezoid rule on a log grid from ``low`` (below it |i/nu| is taken as at ``low``).
     """
-    weights = encoder_weights(p)
-    quantum = 2.0 * math.pi / counts_per_rev
-    points = max(int(NOISE_POINTS_PER_DECADE * math.log10(band / low)), 2) + 1
-    w = np.geomspace(low, band, points)
-    power = np.abs(noise_current(p, 1j * w, weights, delay)) ** 2
-    integral = power[0] * low + float(np.sum(0.5 * (power[1:] + power[:-1]) * np.diff(w)))
-    rms = quantum / math.sqrt(12.0) * math.sqrt(integral / band)
-    return Noise(rms, float(counts_per_rev), quantum, float(band))
+    rms = float(_noise_rms(p, low, band, counts_per_rev, delay))
+    return Noise(rms, float(counts_per_rev), 2.0 * math.pi / counts_per_rev, float(band))
 
 
 def disturbance_figures(params, omega, counts_per_rev=None, words=GENERIC, stable=True,
@@ -207,6 +246,60 @@ def disturbance_figures(params, omega, counts_per_rev=None, words=GENERIC, stabl
     push = dataclasses.replace(push, note=(push.note + "; " if push.note else "")
                                + f"{words.effort} without feed-forward{suffix}")
     return stiff, push, _noise(p, params, omega, counts_per_rev, rates, linear, delay)
+
+
+def batch_disturbance_figures(params, omega, counts_per_rev=None, linear=False, stable=None,
+                              delay=EXACT):
+    """The stiffness, effort and noise figures of every run of a batch, as
+    :func:`disturbance_figures` gives them for one (the continuous loops'; NaN where a run is
+    not stable, the noise NaN where it has no figure).
+
+    Parameters
+    ----------
+    params : cas_freq.core.parameters.LoopParameters
+        The runs (n).
+    omega : numpy.ndarray
+        The analysis grid [rad/s].
+    counts_per_rev : float or None
+        Counts per revolution of the encoder the position loop reads.
+    linear : bool
+        A linear output: the figures per m (``stiffness.min_N_per_m``, ``effort.peak_A_per_m``).
+    stable : numpy.ndarray, optional
+        Bool (n,): the runs whose closed loop is stable (default every run).
+    delay : DelayModel
+        Exact (default) or Padé delays.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        Figure name (``stiffness.*``, ``effort.*``, ``noise.current_rms_A``) -> (n,) values.
+    """
+    n = params.n_runs
+    stable = np.ones(n, dtype=bool) if stable is None else np.asarray(stable, dtype=bool)
+    selector = Selector(params)
+    rates = dict(selector.scalars.get("sample_rates", ()) or ())
+    selector.scalars["sample_rates"] = ()  # the continuous loops' figures
+    kept = np.flatnonzero(stable)
+
+    def runs(which, column):
+        return selector(kept[which], column)
+
+    suffix = "m" if linear else "rad"
+    names = (f"stiffness.min_N_{'per_m' if linear else 'm_per_rad'}", "stiffness.min_at_rad_s",
+             f"effort.peak_A_per_{suffix}", "effort.peak_at_rad_s", "noise.current_rms_A")
+    out = {name: np.full(n, np.nan) for name in names}
+    if kept.size == 0:
+        return out
+    at, value, _ = _least(_stiffness_values(runs, delay), omega, kept.size)
+    out[names[0]][kept], out[names[1]][kept] = value, at
+    at, value, _ = _least(_effort_values(runs, delay), omega, kept.size)
+    out[names[2]][kept], out[names[3]][kept] = -value, at
+    every = runs(np.arange(kept.size), True)
+    on_output = build(every).loops[-1].feedback == "output_angle"
+    if counts_per_rev is not None and not (linear and on_output):
+        band = math.pi * rates["position_loop"] if "position_loop" in rates else float(omega[-1])
+        out[names[4]][kept] = _noise_rms(every, float(omega[0]), band, counts_per_rev, delay)
+    return out
 
 
 def position_encoder_counts(config):

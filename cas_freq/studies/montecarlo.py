@@ -12,7 +12,8 @@ value and sample, never silently clipped. Draws use ``numpy.random.default_rng(s
 key after the other in the order given, so a seed reproduces every sample.
 
 Yield: the fraction of samples that pass each requirement of the config whose figure the batch
-computes (analyze figures always; step and fit figures when a step is simulated, at the
+computes (analyze figures always, the stiffness, effort and noise figures where a requirement
+names one; step and fit figures when a step is simulated, at the
 requirement's own step size), sine-dwell requirements at the first one's amplitude and grid;
 other requirements are listed as not evaluated.
 """
@@ -22,6 +23,7 @@ import math
 
 import numpy as np
 
+from cas_freq.analysis.disturbance import PREFIXES as DISTURBANCE
 from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.fileio import json_ready
 from cas_freq.core.parameters import base_values, unit_of
@@ -132,9 +134,12 @@ def run_montecarlo(loaded, tolerances, samples, *, distribution="normal", seed=N
         if dwelt:
             sinedwell = dwell_condition(dwelt[0])
     values, seed = draw(loaded.params, tolerances, samples, distribution, seed)
+    disturbance = any(r.metric.startswith(DISTURBANCE)
+                      for r in requirements)
     figures, stability = evaluate_figures(loaded.params, values, step_rad=step_rad,
                                           fit=fit_needed, sinedwell=sinedwell,
-                                          progress=progress, scheduler=scheduler)
+                                          disturbance=disturbance, progress=progress,
+                                          scheduler=scheduler)
     return MonteCarlo(
         config=loaded.params.name, config_path=loaded.source, variant=loaded.variant,
         overrides=tuple(f"{k}={v}" for k, v in loaded.overrides), tolerances=tuple(tolerances),

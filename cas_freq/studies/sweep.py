@@ -12,10 +12,18 @@ import math
 import numpy as np
 
 from cas_freq.analysis import FIGURES, batch_analyze
+from cas_freq.analysis.disturbance import batch_disturbance_figures, position_encoder_counts
+from cas_freq.analysis.frequency import (
+    DEFAULT_POINTS_PER_DECADE,
+    DEFAULT_RANGE_RAD_S,
+    frequency_grid,
+)
+from cas_freq.config.wording import OutputWords
 from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.fileio import json_ready
 from cas_freq.core.parameter_keys import MAX_POINTS
 from cas_freq.core.parameters import unit_of, variant_parameters
+from cas_freq.model.structure import total_delay
 from cas_freq.simulation.sinedwell import sine_dwell_bandwidths
 from cas_freq.studies.distributed import (
     CHUNK_SAMPLES,
@@ -41,7 +49,7 @@ def grid(axes):
 
 
 def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None,
-                     progress=None, scheduler=None, buffers=None):
+                     disturbance=False, progress=None, scheduler=None, buffers=None):
     """Every figure of each sample: the batch analysis, the step's if ``step_rad``, and the
     sine-dwell bandwidth if ``sinedwell``.
 
@@ -59,6 +67,11 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None
         (amplitude [rad], frequencies [rad/s]) of a sine-dwell of each sample, as
         ``cas-freq sinedwell`` runs it (feed-forward off): adds ``sinedwell.bandwidth_rad_s``
         (NaN without a crossing in the grid).
+    disturbance : bool
+        Also the dynamic stiffness, the control effort and the encoder noise's current of
+        each sample (``stiffness.*``, ``effort.*``, ``noise.current_rms_A``:
+        :func:`~cas_freq.analysis.disturbance.batch_disturbance_figures`, NaN where a sample
+        is not stable).
     progress : callable, optional
         ``progress(done, total)`` in whole samples (ints): the work done so far, each stage
         (analysis, steps, sine dwell) weighted by its rough cost, in samples' worth.
@@ -77,7 +90,8 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None
     """
     if scheduler is not None:
         return evaluate_figures_distributed(params, changes, scheduler, progress=progress,
-                                            step_rad=step_rad, fit=fit, sinedwell=sinedwell)
+                                            step_rad=step_rad, fit=fit, sinedwell=sinedwell,
+                                            disturbance=disturbance)
     loop = variant_parameters(params, changes)
     n = loop.n_runs
     # share of the progress bar per stage, by their rough cost
@@ -99,6 +113,11 @@ def evaluate_figures(params, changes, *, step_rad=None, fit=True, sinedwell=None
     analysis = batch_analyze(loop, progress=stage_progress("analysis"),
                              loop_at_a_time=wants_loop_at_a_time(params))
     figures = dict(analysis.figures)
+    if disturbance:
+        omega = frequency_grid(*DEFAULT_RANGE_RAD_S, DEFAULT_POINTS_PER_DECADE, total_delay(loop))
+        figures.update(batch_disturbance_figures(
+            loop, omega, position_encoder_counts(params), OutputWords.of(params).linear,
+            analysis.stability.astype(str) == "stable"))
     if step_rad is not None:
         figures.update(batch_steps(loop, step_rad, fit=fit, rates_hz=params.simulation.rates_hz,
                                    progress=stage_progress("step"), buffers=buffers))

@@ -36,6 +36,7 @@ import time
 
 import numpy as np
 
+from cas_freq.analysis.disturbance import PREFIXES as DISTURBANCE
 from cas_freq.analysis.interval_bound import MAX_CELLS, box_bounds, supported
 from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.fileio import json_ready
@@ -126,6 +127,12 @@ class _Objective:
     kind: str
     severity: str = "required"
 
+    @property
+    def needs(self):
+        """What its points' evaluation needs: "analyze", "step", "sinedwell" or, for the
+        stiffness, effort and noise figures, "disturbance"."""
+        return "disturbance" if self.metric.startswith(DISTURBANCE) else self.kind
+
     def margins(self, figures, stable):
         """The margin of every point (-inf where not stable or missing: it fails)."""
         values = figures.get(self.metric)
@@ -154,13 +161,16 @@ class _Evaluator:
 
     def __call__(self, points, kinds):
         """Figures and stability (bool) of ``points`` (n, d); ``kinds``: the set of what the
-        objectives need ("analyze", "step", "sinedwell")."""
+        objectives need ("analyze", "step", "sinedwell", "disturbance":
+        :attr:`_Objective.needs`)."""
         changes = {key: points[:, j] for j, key in enumerate(self.box.keys)}
         step = self.step_rad if "step" in kinds else None
         dwell = self.sinedwell if "sinedwell" in kinds else None
         figures, stability = evaluate_figures(self.params, changes, step_rad=step,
                                               fit=self.fit and step is not None,
-                                              sinedwell=dwell, scheduler=self.scheduler)
+                                              sinedwell=dwell,
+                                              disturbance="disturbance" in kinds,
+                                              scheduler=self.scheduler)
         self.count["analyze"] += len(points)
         self.count["step"] += len(points) if step is not None else 0
         self.count["sinedwell"] += len(points) if dwell is not None else 0
@@ -190,8 +200,7 @@ def _objectives(params, requirements):
                                f"the first step requirement's {math.degrees(step_rad):g} deg"))
         elif r.kind == "sinedwell" and dwell_condition(r) != sinedwell:
             skipped.append((r, "only the first sine-dwell condition is evaluated"))
-        elif r.kind == "analyze" and r.metric.startswith(("stiffness.", "effort.", "noise.",
-                                                          "envelope.")):
+        elif r.kind == "analyze" and r.metric.startswith("envelope."):
             skipped.append((r, "figure not computed by the batch engine"))
         else:
             objectives.append(_Objective(r.id, r.metric, r.min, r.max, r.kind, r.severity))
@@ -235,8 +244,8 @@ def _search(evaluate, box, objectives, starts, resolution, max_rounds):
         # (or a sine dwell): a simulation only where a figure needs one
         objective_of = np.array([pairs[n][0] for n in owners])
         candidate_margin = np.empty(owners.size)
-        for kind in sorted({objectives[index].kind for index in set(objective_of.tolist())}):
-            rows = np.flatnonzero([objectives[index].kind == kind for index in objective_of])
+        for kind in sorted({objectives[index].needs for index in set(objective_of.tolist())}):
+            rows = np.flatnonzero([objectives[index].needs == kind for index in objective_of])
             figures, stable, _ = evaluate(points[rows], {kind})
             for index in set(objective_of[rows].tolist()):  # each objective's margins once
                 mine = objective_of[rows] == index
@@ -305,7 +314,7 @@ def worst_case(loaded, tolerances=None, requirements=None, *, samples=DEFAULT_SA
     drawn = box.low + rng.random((samples, len(box.keys))) * box.width
     points = np.vstack([box.nominal[None, :], corners, drawn])
     origin = ["nominal"] + ["corner"] * len(corners) + ["sample"] * samples
-    kinds = {o.kind for o in objectives}
+    kinds = {o.needs for o in objectives}
     figures, stable, verdicts = evaluate(points, kinds)
     starts, first = [], {}
     for index, objective in enumerate(objectives):
