@@ -586,3 +586,22 @@ def test_dask_gives_the_same_worst_case():
                              bound_cells=0)
     assert [r["worst"] for r in distributed["requirements"]] == pytest.approx(
         [r["worst"] for r in local["requirements"]], rel=1e-12)
+
+
+def test_a_view_a_slower_sampled_loop_makes_time_varying_is_not_evaluated():
+    """The QT-CAS's sampled variant (current loop 25 kHz inside a 2.5 kHz position loop): the
+    current loop's view with the position loop closed has no figures (analyze: "not
+    defined"), so the worst case and the Monte Carlo say so instead of failing its
+    requirements with a yield of 0 %."""
+    loaded = load_variant(QT, "sampled")
+    tolerances = [parse_tolerance("motor.J=5%", loaded.params)]
+    data = worst_case(loaded, tolerances, samples=0, bound_cells=0)
+    skipped = {item["id"]: item["reason"] for item in data["not_evaluated"]}
+    assert set(skipped) == {"GM-I", "PM-I"}
+    assert all(reason.startswith("not defined: a slower sampled loop") for reason in
+               skipped.values())
+    assert {row["id"] for row in data["requirements"]} >= {"PM-P", "GM-P", "BW-1"}
+    mc = run_montecarlo(loaded, tolerances, 8, seed=0, simulate=False)
+    rows = {row["id"]: row for row in requirement_results(mc)}
+    assert not rows["PM-I"]["evaluated"] and "not defined" in rows["PM-I"]["reason"]
+    assert rows["PM-P"]["evaluated"]

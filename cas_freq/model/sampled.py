@@ -89,6 +89,19 @@ def is_sampled(p):
     return bool(getattr(p, "sample_rates", ()))
 
 
+#: Why a loop inside a slower sampled loop has no loop-at-a-time figures (not defined: ...).
+TIME_VARYING = "a slower sampled loop around it makes it periodically time-varying"
+
+
+def time_varying_views(p):
+    """The loops whose loop-at-a-time view has no figures (:data:`TIME_VARYING`): those
+    inside a slower sampled loop, every loop but the slowest rate's (none when continuous)."""
+    if not is_sampled(p):
+        return ()
+    names = build(p).names
+    return tuple(names[k] for group in groups(names, p.sample_rates)[:-1] for k in group.loops)
+
+
 def groups(names, sample_rates):
     """The loops grouped by rate, innermost first.
 

@@ -10,6 +10,7 @@ from cas_freq.config.wording import GENERIC, OutputWords
 from cas_freq.core.figures import FIGURES
 from cas_freq.core.numbers import number
 from cas_freq.core.output import ANGLE, output_unit
+from cas_freq.model.sampled import TIME_VARYING
 
 
 def _fmt(value, unit="", digits=4):
@@ -182,8 +183,7 @@ def analysis_table(analysis):
         if k < len(loops) - 1 and margins.loop_at_a_time is not None:
             if analysis.sampling and margins.loop_at_a_time.crossover_rad_s is None \
                     and margins.loop_at_a_time.gain_margin_db is None:
-                lines.append("    every other loop closed: not defined (a slower sampled loop "
-                             "around it makes it periodically time-varying)")
+                lines.append(f"    every other loop closed: not defined ({TIME_VARYING})")
                 continue
             lines += _at_a_time_lines(loop.name, margins.loop_at_a_time)
     words = OutputWords.of(analysis.loaded.params)

@@ -26,7 +26,8 @@ import numpy as np
 from cas_freq.analysis.disturbance import PREFIXES as DISTURBANCE
 from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.fileio import json_ready
-from cas_freq.core.parameters import base_values, unit_of
+from cas_freq.core.parameters import LoopParameters, base_values, unit_of
+from cas_freq.model.sampled import TIME_VARYING, time_varying_views
 from cas_freq.studies.run import DEFAULT_SINEDWELL_FREQUENCIES_RAD_S
 from cas_freq.studies.sweep import evaluate_figures, figure_names
 
@@ -103,6 +104,9 @@ class MonteCarlo:
     requirements: tuple
     sinedwell: tuple | None = None
     units: dict = dataclasses.field(default_factory=dict)
+    #: The loops whose loop-at-a-time figures are not defined (a slower sampled loop is
+    #: around them: cas_freq.model.sampled.time_varying_views).
+    time_varying: tuple = ()
 
     def unit(self, key):
         """SI unit of toleranced ``key`` in the config's architecture."""
@@ -147,6 +151,7 @@ def run_montecarlo(loaded, tolerances, samples, *, distribution="normal", seed=N
         stability=stability, step_deg=None if step_rad is None else math.degrees(step_rad),
         requirements=requirements, sinedwell=sinedwell,
         units={t.key: unit_of(t.key, loaded.params) for t in tolerances},
+        time_varying=time_varying_views(LoopParameters.from_config(loaded.params)),
     )
 
 
@@ -167,7 +172,10 @@ def requirement_results(mc):
         step = requirement.step
         values = mc.figures.get(requirement.metric)
         reason = None
-        if kind == "sinedwell" and mc.sinedwell != dwell_condition(requirement):
+        if requirement.metric.startswith(tuple(f"{loop}.loop_at_a_time."
+                                               for loop in mc.time_varying)):
+            reason = f"not defined: {TIME_VARYING}"
+        elif kind == "sinedwell" and mc.sinedwell != dwell_condition(requirement):
             reason = ("sine-dwell not simulated" if mc.sinedwell is None else
                       "only the first sine-dwell condition of the requirements is simulated")
         elif values is None and requirement.metric.startswith("fit.") and mc.step_deg:
