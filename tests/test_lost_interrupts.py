@@ -45,6 +45,16 @@ TICKS = 500
 TICKS_ALLOWED = 50
 
 
+@pytest.fixture(autouse=True)
+def sigint_as_from_a_terminal():
+    """Python's own SIGINT handler during each test, as in a terminal: a suite started as a
+    script's background job (``pytest &``) inherits SIGINT ignored, where no Ctrl-C arrives
+    (and cas-freq rightly keeps it so); the handler it had is put back after the test."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
 def _in_llvmlite_callback(signum):
     """Compile a tiny LLVM module with llvmlite's MCJIT; the signal is raised inside its
     object-cache notification, the ctypes callback numba's compiler goes through."""
