@@ -31,6 +31,7 @@ def report(tmp_path_factory):
     return config, out
 
 
+@pytest.mark.slow
 def test_the_section_shows_nominal_worst_and_yield(report):
     config, out = report
     text = (out / "report.md").read_text()

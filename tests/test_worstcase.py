@@ -154,6 +154,7 @@ def test_the_guaranteed_bounds_hold_on_the_grid_and_meet_the_worst_found(qt_box)
         assert 0.0 <= current["gap"] < gap, (metric, current["gap"])
 
 
+@pytest.mark.slow
 def test_delay_margin_sensitivity_and_resonance_peaks_are_bounded(tmp_path):
     """The delay margin from below, the sensitivity peak Ms and the resonance peak from above:
     on the Km x Ki box, the 41 x 41 grid of the equations (its delay margin PM/omega_c at the
@@ -259,6 +260,7 @@ def test_the_enclosures_hold_the_loop_at_random_points_of_their_cells():
         assert np.all((im[0] <= loop.imag) & (loop.imag <= im[1]))
 
 
+@pytest.mark.slow
 def test_the_cascade_axis_search_is_never_beaten_by_a_dense_grid():
     loaded = load_variant(AXIS)
     texts = ("motor.J=5%", "velocity_loop.Kp=10%", "motor.Km=5%")
@@ -341,6 +343,7 @@ def test_the_enclosures_hold_the_package_s_own_loops(path, changes):
             assert inside.all(), (name, low_w[~inside])
 
 
+@pytest.mark.slow
 def test_a_cascade_box_s_bound_holds_on_a_grid():
     """The cascade axis (compliant gear, spring load, notch, low-pass) over motor.R +-3 %:
     stability proved over the box, and no point of a 41-point grid of the batch engine is
@@ -468,6 +471,7 @@ def test_a_box_with_unstable_variants_says_so_and_where():
     assert data["stability"]["proved"] is not True  # no bound and no proof in an unstable box
 
 
+@pytest.mark.slow
 def test_the_dynamic_stiffness_and_the_effort_are_searched(tmp_path):
     """A stiffness floor and an effort ceiling on the cascade axis over motor.J +-5 % and
     velocity_loop.Kp +-10 %: both are searched (not "not evaluated"), the worst found is what
