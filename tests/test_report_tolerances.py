@@ -1,6 +1,6 @@
 """The report's tolerance section (issue 42): a config with ``tolerances:`` shows each
 requirement's nominal value, its worst case over the box and its Monte Carlo yield side by
-side, and the worst point's |T| and step beside the nominal; tried on the DC servo (not the
+side, and the worst point's Bode of T and step beside the nominal; tried on the DC servo (not the
 QT-CAS). The worst values are those of ``cas-freq worstcase`` (the same search), the yields
 those of ``cas-freq montecarlo --distribution uniform --seed 0``; without ``tolerances:``
 there is no section (the shipped reports are unchanged)."""
@@ -55,3 +55,22 @@ def test_no_section_without_tolerances(tmp_path):
     assert code == 0, err
     assert "Tolerances:" not in (out / "report.md").read_text()
     assert "tolerances" not in json.loads((out / "results.json").read_text())
+
+
+@pytest.mark.slow
+def test_a_linear_output_s_worst_point_steps_in_millimetres(tmp_path):
+    """The ball screw (a linear output) with tolerances: the worst point's figure steps the
+    output's example step, 5 mm (not 10 deg read as 0.17 m), shown in mm."""
+    data = yaml.safe_load(open("configs/ball_screw.yaml"))
+    data["tolerances"] = {"motor.R": "5%", "motor.J": "5%"}
+    data.pop("variants", None)
+    config = tmp_path / "ball.yaml"
+    config.write_text(yaml.safe_dump(data, sort_keys=False))
+    out = tmp_path / "report"
+    code, _, err = run_cli(["report", str(config), "-o", str(out), "-q"])
+    assert code == 0, err
+    text = (out / "report.md").read_text()
+    section = text.split("## Tolerances")[1].split("\n## ")[0]
+    assert "T's Bode and the 5 mm step" in section and "°" not in section
+    svg = (out / "figures" / "base" / "worst_case.svg").read_text()
+    assert "position [mm]" in svg and "∠T [deg]" in svg

@@ -9,6 +9,7 @@ import numpy as np
 
 from cas_freq.core.figures import FIGURES, UNIT_LABELS
 from cas_freq.core.numbers import number
+from cas_freq.core.output import output_unit, read_output
 from cas_freq.core.parameters import variant_parameters
 from cas_freq.model import ActuatorLoops
 from cas_freq.report.document import Figure, Heading, Paragraph, Table
@@ -46,7 +47,7 @@ def _worst_point(data):
 
 
 def _draw(loaded, found, row, step_rad, png):
-    """(SVG, PNG or None) of the worst point's |T| and step beside the nominal."""
+    """(SVG, PNG or None) of the worst point's Bode of T and step beside the nominal."""
     from cas_freq.plots.common import png_bytes, svg_text
     from cas_freq.plots.tolerances import worst_corner_figure
 
@@ -59,7 +60,7 @@ def _draw(loaded, found, row, step_rad, png):
     run = simulate_batch(loops, Step(step_rad), signals=("theta",))
     label = f"worst {row['id']}: {point_text(row['at'])}"
     fig = worst_corner_figure(OMEGA, np.ravel(t[0]), np.ravel(t[1]), run.t, run.delta[0],
-                              run.delta[1], label, params.output_label)
+                              run.delta[1], label, params.output_label, output_unit(params))
     return svg_text(fig), png_bytes(fig) if png else None
 
 
@@ -104,15 +105,19 @@ def tolerance_section(datas, png=False):
         results.append({"variant": loaded.variant, "worst_case": found,
                         "yield": list(yields.values())})
         shown = _worst_point(found)
+        unit = output_unit(params)
+        # the search's step (its SI value in degrees, as every typed record keeps it), else
+        # the output's example step (10 deg, 5 mm)
         step_rad = (math.radians(found["step_deg"]) if found["step_deg"] is not None
-                    else math.radians(10.0))
+                    else read_output(unit.example, unit, "step"))
         svg, png_data = _draw(loaded, found, shown, step_rad, png)
         stem = f"figures/{sanitise_name(loaded.variant, fallback='variant')}/worst_case"
         yield f"{stem}.svg", svg
         if png:
             yield f"{stem}.png", png_data
         blocks.append(Figure(f"{stem}.svg", f"The worst point of {shown['id']} beside the "
-                             f"nominal: |T| and the {math.degrees(step_rad):g}° step — "
+                             f"nominal: T's Bode and the "
+                             f"{unit.symbol(math.degrees(step_rad))} step — "
                              f"{params.name} / {loaded.variant}", svg))
     header = ("requirement", "variant", "unit", "nominal", "worst found", "guaranteed", "at",
               "yield")
