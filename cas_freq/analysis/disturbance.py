@@ -26,6 +26,10 @@ from cas_freq.model.structure import build
 #: (:func:`batch_disturbance_figures`) where a requirement names one.
 PREFIXES = ("stiffness.", "effort.", "noise.")
 
+#: Runs evaluated together by :func:`batch_disturbance_figures` (bounds its memory: a few
+#: complex arrays of runs x grid points, ~10 MB each on the analysis grid).
+CHUNK = 256
+
 #: Grid density of the noise integral [points per decade].
 NOISE_POINTS_PER_DECADE = 400
 
@@ -279,26 +283,29 @@ def batch_disturbance_figures(params, omega, counts_per_rev=None, linear=False, 
     selector = Selector(params)
     rates = dict(selector.scalars.get("sample_rates", ()) or ())
     selector.scalars["sample_rates"] = ()  # the continuous loops' figures
-    kept = np.flatnonzero(stable)
-
-    def runs(which, column):
-        return selector(kept[which], column)
-
     suffix = "m" if linear else "rad"
     names = (f"stiffness.min_N_{'per_m' if linear else 'm_per_rad'}", "stiffness.min_at_rad_s",
              f"effort.peak_A_per_{suffix}", "effort.peak_at_rad_s", "noise.current_rms_A")
     out = {name: np.full(n, np.nan) for name in names}
-    if kept.size == 0:
-        return out
-    at, value, _ = _least(_stiffness_values(runs, delay), omega, kept.size)
-    out[names[0]][kept], out[names[1]][kept] = value, at
-    at, value, _ = _least(_effort_values(runs, delay), omega, kept.size)
-    out[names[2]][kept], out[names[3]][kept] = -value, at
-    every = runs(np.arange(kept.size), True)
-    on_output = build(every).loops[-1].feedback == "output_angle"
-    if counts_per_rev is not None and not (linear and on_output):
-        band = math.pi * rates["position_loop"] if "position_loop" in rates else float(omega[-1])
-        out[names[4]][kept] = _noise_rms(every, float(omega[0]), band, counts_per_rev, delay)
+    stable_runs = np.flatnonzero(stable)
+    # in chunks of runs: a chunk's responses on the grid are (chunk, grid) complex arrays
+    for start in range(0, stable_runs.size, CHUNK):
+        kept = stable_runs[start:start + CHUNK]
+
+        def runs(which, column, kept=kept):
+            return selector(kept[which], column)
+
+        at, value, _ = _least(_stiffness_values(runs, delay), omega, kept.size)
+        out[names[0]][kept], out[names[1]][kept] = value, at
+        at, value, _ = _least(_effort_values(runs, delay), omega, kept.size)
+        out[names[2]][kept], out[names[3]][kept] = -value, at
+        every = runs(np.arange(kept.size), True)
+        on_output = build(every).loops[-1].feedback == "output_angle"
+        if counts_per_rev is not None and not (linear and on_output):
+            band = (math.pi * rates["position_loop"] if "position_loop" in rates
+                    else float(omega[-1]))
+            out[names[4]][kept] = _noise_rms(every, float(omega[0]), band, counts_per_rev,
+                                             delay)
     return out
 
 

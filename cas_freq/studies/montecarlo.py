@@ -161,6 +161,15 @@ def dwell_condition(requirement):
             tuple(requirement.frequencies or DEFAULT_SINEDWELL_FREQUENCIES_RAD_S))
 
 
+def not_defined(metric, time_varying):
+    """Why ``metric`` does not exist for a drive whose loops ``time_varying`` sit inside a
+    slower sampled loop (:func:`cas_freq.model.sampled.time_varying_views`): their
+    loop-at-a-time figures; None for every other figure."""
+    if metric.startswith(tuple(f"{loop}.loop_at_a_time." for loop in time_varying)):
+        return f"not defined: {TIME_VARYING}"
+    return None
+
+
 def requirement_results(mc):
     """Per requirement: evaluated or not (and why), yield, and the worst samples."""
     out = []
@@ -172,9 +181,9 @@ def requirement_results(mc):
         step = requirement.step
         values = mc.figures.get(requirement.metric)
         reason = None
-        if requirement.metric.startswith(tuple(f"{loop}.loop_at_a_time."
-                                               for loop in mc.time_varying)):
-            reason = f"not defined: {TIME_VARYING}"
+        undefined = not_defined(requirement.metric, mc.time_varying)
+        if undefined:
+            reason = undefined
         elif kind == "sinedwell" and mc.sinedwell != dwell_condition(requirement):
             reason = ("sine-dwell not simulated" if mc.sinedwell is None else
                       "only the first sine-dwell condition of the requirements is simulated")

@@ -41,8 +41,8 @@ from cas_freq.analysis.interval_bound import MAX_CELLS, box_bounds, supported
 from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.fileio import json_ready
 from cas_freq.core.parameters import LoopParameters, base_values, unit_of
-from cas_freq.model.sampled import TIME_VARYING, time_varying_views
-from cas_freq.studies.montecarlo import dwell_condition
+from cas_freq.model.sampled import time_varying_views
+from cas_freq.studies.montecarlo import dwell_condition, not_defined
 from cas_freq.studies.sweep import evaluate_figures
 
 #: Most toleranced keys: their corners are all evaluated (2^12 = 4096).
@@ -195,8 +195,8 @@ def _objectives(params, requirements):
     objectives, skipped = [], []
     time_varying = time_varying_views(LoopParameters.from_config(params))
     for r in requirements:
-        if r.metric.startswith(tuple(f"{loop}.loop_at_a_time." for loop in time_varying)):
-            skipped.append((r, f"not defined: {TIME_VARYING}"))
+        if not_defined(r.metric, time_varying):
+            skipped.append((r, not_defined(r.metric, time_varying)))
         elif r.kind == "profile":
             skipped.append((r, "a profile move is not evaluated over the box"))
         elif r.kind == "step" and not math.isclose(r.step, step_rad):
