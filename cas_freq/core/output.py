@@ -91,6 +91,11 @@ class OutputUnit:
 
         return np.degrees(values) if self.kind == "angle" else np.asarray(values) * self.scale
 
+    @property
+    def example_step(self):
+        """:attr:`example` in SI [rad or m]: the step a study takes when none is given."""
+        return to_si(self.example, self.si)
+
     def show(self, value_deg):
         """A typed record's ``_deg`` value as text in this unit: ``"10 deg"``, ``"5 mm"``."""
         return f"{self.value(value_deg):g} {self.shown}"

@@ -17,7 +17,7 @@ from cas_freq.core.exceptions import CasFreqError, ConfigError
 from cas_freq.core.figures import FIGURES
 from cas_freq.core.fileio import json_ready
 from cas_freq.core.numbers import number
-from cas_freq.core.output import output_unit, read_output
+from cas_freq.core.output import output_unit
 from cas_freq.core.parameters import (
     PARAMETERS,
     check_key,
@@ -268,8 +268,7 @@ def steps(loaded, analysis, amplitude, nonlinear=True):
 
 def default_step(loaded):
     """The step the page starts with [rad or m]: the output's example (``5deg``... ``5mm``)."""
-    unit = output_unit(loaded.params)
-    return read_output(unit.example, unit, "step")
+    return output_unit(loaded.params).example_step
 
 
 def design_state(loaded, step_rad=None, nonlinear=True):

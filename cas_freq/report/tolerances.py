@@ -9,7 +9,7 @@ import numpy as np
 
 from cas_freq.core.figures import FIGURES, UNIT_LABELS
 from cas_freq.core.numbers import number
-from cas_freq.core.output import output_unit, read_output
+from cas_freq.core.output import output_unit
 from cas_freq.core.parameters import variant_parameters
 from cas_freq.model import ActuatorLoops
 from cas_freq.report.document import Figure, Heading, Paragraph, Table
@@ -109,7 +109,7 @@ def tolerance_section(datas, png=False):
         # the search's step (its SI value in degrees, as every typed record keeps it), else
         # the output's example step (10 deg, 5 mm)
         step_rad = (math.radians(found["step_deg"]) if found["step_deg"] is not None
-                    else read_output(unit.example, unit, "step"))
+                    else unit.example_step)
         svg, png_data = _draw(loaded, found, shown, step_rad, png)
         stem = f"figures/{sanitise_name(loaded.variant, fallback='variant')}/worst_case"
         yield f"{stem}.svg", svg
