@@ -37,7 +37,7 @@ from cas_freq.core.exceptions import ConfigError
 from cas_freq.core.tolerances import parse_tolerance
 from cas_freq.studies.montecarlo import requirement_results, run_montecarlo
 from cas_freq.studies.sweep import evaluate_figures
-from cas_freq.studies.worstcase import tolerance_box, worst_case, worst_case_text
+from cas_freq.studies.worstcase import point_text, tolerance_box, worst_case, worst_case_text
 
 QT = "configs/qt_cas.yaml"
 AXIS = "configs/cascade_axis.yaml"
@@ -609,3 +609,10 @@ def test_a_view_a_slower_sampled_loop_makes_time_varying_is_not_evaluated():
     rows = {row["id"]: row for row in requirement_results(mc)}
     assert not rows["PM-I"]["evaluated"] and "not defined" in rows["PM-I"]["reason"]
     assert rows["PM-P"]["evaluated"]
+
+
+def test_a_point_of_a_key_whose_nominal_is_zero_reads_without_a_change():
+    point = [{"key": "position_loop.ff_a", "value": 2e-6, "unit": "A*s^2/rad", "relative": 1.0,
+              "change": None},
+             {"key": "motor.R", "value": 0.4, "unit": "ohm", "relative": -1.0, "change": -0.2}]
+    assert point_text(point) == "position_loop.ff_a=2e-06 A*s^2/rad, motor.R=0.4 ohm (-20 %)"
