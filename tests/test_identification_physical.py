@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from clirun import run_cli
 
 from cas_freq.config import load_variant
 from cas_freq.core.exceptions import ConfigError
@@ -220,9 +221,9 @@ def test_cli_directory_output_and_comparison(tmp_path):
       "bogus"], "--columns: expected ROLE=NAME"),
 ])
 def test_cli_bad_input_exits_2(args, message):
-    result = _cli("fit", *args)
-    assert result.returncode == 2
-    assert message in result.stderr
+    code, _, err = run_cli(["fit", *args])  # in-process: the same main() as `cas-freq fit`
+    assert code == 2
+    assert message in err
 
 
 def test_recorded_command_rate_and_acceleration():
