@@ -17,18 +17,24 @@ from cas_freq.studies.worstcase import worst_case
 DC = "configs/dc_servo.yaml"
 
 
-@pytest.fixture(scope="module")
-def report(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("tolerances")
-    data = yaml.safe_load(open(DC))
-    data["tolerances"] = {"motor.R": "15%", "motor.J": "10%"}
+def _toleranced_report(folder, source, tolerances):
+    """(config, report folder) of ``cas-freq report`` on ``source``'s base variant with
+    ``tolerances:`` added, written in ``folder``."""
+    data = yaml.safe_load(open(source))
+    data["tolerances"] = tolerances
     data.pop("variants", None)
-    config = folder / "dc.yaml"
+    config = folder / "toleranced.yaml"
     config.write_text(yaml.safe_dump(data, sort_keys=False))
     out = folder / "report"
     code, _, err = run_cli(["report", str(config), "-o", str(out), "-q"])
     assert code == 0, err
     return config, out
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    return _toleranced_report(tmp_path_factory.mktemp("tolerances"), DC,
+                              {"motor.R": "15%", "motor.J": "10%"})
 
 
 @pytest.mark.slow
@@ -61,14 +67,8 @@ def test_no_section_without_tolerances(tmp_path):
 def test_a_linear_output_s_worst_point_steps_in_millimetres(tmp_path):
     """The ball screw (a linear output) with tolerances: the worst point's figure steps the
     output's example step, 5 mm (not 10 deg read as 0.17 m), shown in mm."""
-    data = yaml.safe_load(open("configs/ball_screw.yaml"))
-    data["tolerances"] = {"motor.R": "5%", "motor.J": "5%"}
-    data.pop("variants", None)
-    config = tmp_path / "ball.yaml"
-    config.write_text(yaml.safe_dump(data, sort_keys=False))
-    out = tmp_path / "report"
-    code, _, err = run_cli(["report", str(config), "-o", str(out), "-q"])
-    assert code == 0, err
+    _, out = _toleranced_report(tmp_path, "configs/ball_screw.yaml",
+                                {"motor.R": "5%", "motor.J": "5%"})
     text = (out / "report.md").read_text()
     section = text.split("## Tolerances")[1].split("\n## ")[0]
     assert "T's Bode and the 5 mm step" in section and "°" not in section

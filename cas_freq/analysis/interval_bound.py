@@ -694,20 +694,20 @@ def _governing(cells, targets):
     """Per cell: its rectangles' size and its parent's (:func:`_size`) of the loop whose
     figure falls furthest short of its target (of every loop where the cell may hold -1),
     and whether that figure is the bandwidth or a peak (:data:`UNSTEERED`)."""
-    names = [name for name in targets]
+    names = list(targets)
     size, parent = cells["size"].copy(), cells["parent_size"].copy()
     if not names:
         return size, parent, np.zeros(size.size, bool)
     short = np.stack([(_level(name, targets[name]) - cells[name]) / (abs(targets[name]) or 1.0)
                       for name in names])
     worst = np.argmax(short, axis=0)
-    bandwidth = np.zeros(size.size, bool)
+    unsteered = np.zeros(size.size, bool)
     for k, name in enumerate(names):
         rows = (worst == k) & ~cells["minus_one"]
         loop = FIGURE_LOOPS[name]
         size[rows], parent[rows] = cells[f"size_{loop}"][rows], cells[f"parent_size_{loop}"][rows]
-        bandwidth |= rows & (name in UNSTEERED or name.endswith("sensitivity_peak_db"))
-    return size, parent, bandwidth
+        unsteered |= rows & (name in UNSTEERED or name.endswith("sensitivity_peak_db"))
+    return size, parent, unsteered
 
 
 def _split_frequency(cells, tight_at_middle, targets):

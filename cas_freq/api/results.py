@@ -99,6 +99,15 @@ class Analysis(analysis.Analysis):
         return analysis_figure(self)
 
 
+def _traces(run):
+    """A simulated run's output and command: ((angle, command) [deg], (None, None)) at a
+    rotary output, ((None, None), (position, command) [mm]) at a linear one."""
+    r, unit = run.result, run.output_unit
+    if unit.linear:
+        return (None, None), (unit.from_si(r.delta), unit.from_si(r.command))
+    return (np.degrees(r.delta), np.degrees(r.command)), (None, None)
+
+
 @dataclasses.dataclass(frozen=True, eq=False, repr=False)
 class StepResponse(Summary):
     """A simulated nonlinear output step.
@@ -136,12 +145,9 @@ class StepResponse(Summary):
     @classmethod
     def of(cls, run):
         """The view of a :class:`cas_freq.studies.run.StepRun`."""
-        r = run.result
-        if run.output_unit.linear:
-            return cls(r.t, None, None, r.i, r.V, run.step, run.fit, run,
-                       run.output_unit.from_si(r.delta), run.output_unit.from_si(r.command))
-        return cls(r.t, np.degrees(r.delta), np.degrees(r.command), r.i, r.V, run.step, run.fit,
-                   run)
+        angles, lengths = _traces(run)
+        return cls(run.result.t, *angles, run.result.i, run.result.V, run.step, run.fit, run,
+                   *lengths)
 
     def _summary(self):
         step, fit = self.step, self.fit
@@ -205,12 +211,9 @@ class ProfileResponse(Summary):
     @classmethod
     def of(cls, run):
         """The view of a :class:`cas_freq.studies.profile_run.ProfileRun`."""
-        r = run.result
-        if run.output_unit.linear:
-            return cls(r.t, None, None, r.i, r.V, run.profile, run.without_feedforward, run,
-                       run.output_unit.from_si(r.delta), run.output_unit.from_si(r.command))
-        return cls(r.t, np.degrees(r.delta), np.degrees(r.command), r.i, r.V, run.profile,
-                   run.without_feedforward, run)
+        angles, lengths = _traces(run)
+        return cls(run.result.t, *angles, run.result.i, run.result.V, run.profile,
+                   run.without_feedforward, run, *lengths)
 
     def _summary(self):
         unit = self.run.output_unit

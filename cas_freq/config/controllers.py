@@ -194,26 +194,12 @@ class FilterSpec(Section):
     zero: _filter_field("zero") | None = None
     pole: _filter_field("pole") | None = None
 
-    @field_validator("at")
+    @field_validator("at", "type", "depth")
     @classmethod
-    def _point(cls, value):
-        problem = point_problem(value)
-        if problem:
-            raise PydanticCustomError("cas_value", problem)
-        return value
-
-    @field_validator("type")
-    @classmethod
-    def _type(cls, value):
-        problem = type_problem(value)
-        if problem:
-            raise PydanticCustomError("cas_value", problem)
-        return value
-
-    @field_validator("depth")
-    @classmethod
-    def _depth(cls, value):
-        problem = depth_problem(value) if value is not None else None
+    def _checked(cls, value, info):
+        """The point, the type and the depth, each by its check of filters_config."""
+        check = {"at": point_problem, "type": type_problem, "depth": depth_problem}
+        problem = check[info.field_name](value) if value is not None else None
         if problem:
             raise PydanticCustomError("cas_value", problem)
         return value

@@ -93,13 +93,20 @@ def is_sampled(p):
 TIME_VARYING = "a slower sampled loop around it makes it periodically time-varying"
 
 
-def time_varying_views(p):
+def time_varying_views(sample_rates):
     """The loops whose loop-at-a-time view has no figures (:data:`TIME_VARYING`): those
-    inside a slower sampled loop, every loop but the slowest rate's (none when continuous)."""
-    if not is_sampled(p):
-        return ()
-    names = build(p).names
-    return tuple(names[k] for group in groups(names, p.sample_rates)[:-1] for k in group.loops)
+    inside a slower sampled loop, every loop faster than the slowest (none when continuous).
+
+    Parameters
+    ----------
+    sample_rates : tuple of (str, float) or dict of str to float
+        The sampled loops and their rates [Hz] (``LoopParameters.sample_rates``, or analyze's
+        ``sampling["rates_hz"]``).
+    """
+    rates = dict(sample_rates)
+    slowest = min(rates.values(), default=None)
+    return tuple(loop for loop, rate in rates.items()
+                 if not math.isclose(rate, slowest, rel_tol=WHOLE))
 
 
 def groups(names, sample_rates):

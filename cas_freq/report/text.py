@@ -10,7 +10,7 @@ from cas_freq.config.wording import GENERIC, OutputWords
 from cas_freq.core.figures import FIGURES
 from cas_freq.core.numbers import number
 from cas_freq.core.output import ANGLE, output_unit
-from cas_freq.model.sampled import TIME_VARYING
+from cas_freq.model.sampled import TIME_VARYING, time_varying_views
 
 
 def _fmt(value, unit="", digits=4):
@@ -181,8 +181,8 @@ def analysis_table(analysis):
         lines += _loop_lines(f"{loop.words} {loop.symbol} (broken at {loop.breaks_at})",
                              loop.name, margins)
         if k < len(loops) - 1 and margins.loop_at_a_time is not None:
-            if analysis.sampling and margins.loop_at_a_time.crossover_rad_s is None \
-                    and margins.loop_at_a_time.gain_margin_db is None:
+            if analysis.sampling and loop.name in time_varying_views(
+                    analysis.sampling["rates_hz"]):
                 lines.append(f"    every other loop closed: not defined ({TIME_VARYING})")
                 continue
             lines += _at_a_time_lines(loop.name, margins.loop_at_a_time)

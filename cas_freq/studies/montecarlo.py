@@ -151,7 +151,7 @@ def run_montecarlo(loaded, tolerances, samples, *, distribution="normal", seed=N
         stability=stability, step_deg=None if step_rad is None else math.degrees(step_rad),
         requirements=requirements, sinedwell=sinedwell,
         units={t.key: unit_of(t.key, loaded.params) for t in tolerances},
-        time_varying=time_varying_views(LoopParameters.from_config(loaded.params)),
+        time_varying=time_varying_views(LoopParameters.from_config(loaded.params).sample_rates),
     )
 
 

@@ -193,7 +193,7 @@ def _objectives(params, requirements):
     dwelt = [r for r in requirements if r.kind == "sinedwell"]
     sinedwell = dwell_condition(dwelt[0]) if dwelt else None
     objectives, skipped = [], []
-    time_varying = time_varying_views(LoopParameters.from_config(params))
+    time_varying = time_varying_views(LoopParameters.from_config(params).sample_rates)
     for r in requirements:
         if not_defined(r.metric, time_varying):
             skipped.append((r, not_defined(r.metric, time_varying)))

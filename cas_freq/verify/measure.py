@@ -13,6 +13,7 @@ import math
 from cas_freq.core.figures import FIGURES
 from cas_freq.core.fileio import json_ready
 from cas_freq.core.output import LENGTH, output_unit
+from cas_freq.model.sampled import time_varying_views
 from cas_freq.simulation.commands import condition_profile
 from cas_freq.simulation.simulator import BudgetError
 from cas_freq.simulation.sinedwell import dwell_frequencies, sine_dwell
@@ -126,11 +127,10 @@ def _linear_condition(analysis, metric):
         return "linear, exact delays"
     words = "linear, sampled controllers, exact delays"
     loop = metric.split(".")[0]
-    if ".loop_at_a_time." in metric and figure(analysis, metric) is None:
-        rates = analysis.sampling["rates_hz"]
-        if rates.get(loop) != min(rates.values()):
-            words += (f"; not defined: with the slower loops closed the {loop.replace('_', ' ')}"
-                      " is periodically time-varying")
+    if (".loop_at_a_time." in metric and figure(analysis, metric) is None
+            and loop in time_varying_views(analysis.sampling["rates_hz"])):
+        words += (f"; not defined: with the slower loops closed the {loop.replace('_', ' ')}"
+                  " is periodically time-varying")
     return words
 
 
